@@ -1,0 +1,49 @@
+#include <cstdio>
+
+#include "app/commands.hpp"
+#include "io/deck.hpp"
+#include "run/progress.hpp"
+#include "run/runner.hpp"
+
+namespace celldem::app {
+
+Command add_run_command(CLI::App& app) {
+  struct Args {
+    std::string deck;
+    RunOptions options;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand("run", "Run a deck: prepare a sample (or load one) and run its tests");
+  cmd->add_option("deck", args->deck, "Deck file (JSON)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out", args->options.out_dir, "Run directory for results")->required();
+  cmd->add_option("--threads", args->options.threads, "Worker threads (default: all cores)")
+      ->check(CLI::Range(1, 1024));
+  cmd->add_flag("--force", args->options.force, "Overwrite results already in the run directory");
+  cmd->add_flag("--resume", args->options.resume, "Continue an interrupted run from its last checkpoint");
+  cmd->add_flag("--quiet", args->options.quiet, "No progress or stage messages");
+  return [cmd, args]() -> int {
+    if (!cmd->parsed()) return -1;
+    if (args->options.force && args->options.resume)
+      throw CLI::ValidationError("--force and --resume exclude each other");
+    const Deck deck = read_deck(args->deck);
+    args->options.progress = !args->options.quiet && stderr_is_terminal();
+    install_stop_handlers();
+    run_deck(deck, args->options);
+    return 0;
+  };
+}
+
+Command add_check_command(CLI::App& app) {
+  auto path = std::make_shared<std::string>();
+  CLI::App* cmd = app.add_subcommand("check", "Validate a deck without running it");
+  cmd->add_option("deck", *path, "Deck file (JSON)")->required()->check(CLI::ExistingFile);
+  return [cmd, path]() -> int {
+    if (!cmd->parsed()) return -1;
+    const Deck deck = read_deck(*path);
+    std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s)\n", path->c_str(),
+                deck.sample.count, deck.tests.size(), critical_time_step(deck.sample, deck.contact.kn));
+    return 0;
+  };
+}
+
+}  // namespace celldem::app

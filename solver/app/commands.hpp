@@ -1,0 +1,14 @@
+// Each subcommand lives in its own file and registers itself on the CLI11 app. The returned function runs
+// the subcommand when it was chosen; it returns the exit code and lets exceptions reach main().
+#pragma once
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace celldem::app {
+
+using Command = std::function<int()>;
+
+Command add_run_command(CLI::App& app);    // celldem run
+Command add_check_command(CLI::App& app);  // celldem check
+
+}  // namespace celldem::app

@@ -1,0 +1,91 @@
+// The mutable state of a simulation: periodic cell, particles, contacts (with history) and control memory.
+// Everything here goes into the state file; everything else is derived from it and the Model.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/types.hpp"
+
+namespace celldem {
+
+// The periodic cell: columns of h are the cell vectors [m]. Positions are stored scaled (s = h^-1 x), so a
+// change of h deforms every particle position and every periodic image exactly (the affine field).
+struct Cell {
+  Mat3 h = Mat3::Identity();      // [m]
+  Mat3 velocity_gradient = Mat3::Zero();  // L [1/s] of the last step: xdot_affine = L x
+  double volume() const { return h.determinant(); }
+  // Distance between opposite faces of the cell, per cell vector [m]: what limits the cutoff.
+  Vec3 face_widths() const;
+};
+
+// Per-particle arrays (structure of arrays), all of length N, indexed by particle id.
+struct Particles {
+  std::vector<double> radius;    // [m]
+  std::vector<Vec3> scaled;      // s, dimensionless, x = h s; never wrapped (the pair image absorbs whole
+                                 // cells), so rebuilding the list never changes the arithmetic of a step
+  std::vector<Vec3> velocity;    // v' [m/s], fluctuation about the affine field, at the half step
+  std::vector<Vec3> spin;        // omega [rad/s], at the half step
+  std::vector<Vec3> force;       // [N] net contact force of the last force evaluation
+  std::vector<Vec3> torque;      // [N m] net contact moment of the last force evaluation
+  std::size_t size() const { return radius.size(); }
+  void resize(std::size_t n);
+};
+
+// Pair flags.
+enum PairFlag : std::uint8_t { kTouching = 1, kSliding = 2 };
+
+// Half neighbour list in CSR form, pair p = (i, neighbor[p]) for p in [first[i], first[i+1]), sorted by j,
+// each pair with its periodic image and the history of its contact. Pairs not touching have zero history.
+struct PairList {
+  std::vector<Index> first;                      // (N+1) offsets into the pair arrays
+  std::vector<Index> owner;                      // (P) i of each pair
+  std::vector<Index> neighbor;                   // (P) j of each pair, j > i or an image of a lower id
+  std::vector<std::array<std::int32_t, 3>> image; // (P) integer shift n: branch = h (s_j - s_i + n)
+  std::vector<Vec3> tangential;                  // (P) xi [m], stored tangential spring displacement
+  std::vector<std::uint8_t> flags;               // (P) PairFlag bits of the last force evaluation
+  // Per-pair results of the last force evaluation (read by the particle gather and by measurements).
+  std::vector<Vec3> force;                       // (P) [N] force on j by i
+  std::vector<Vec3> torque_i;                    // (P) [N m] moment on i
+  std::vector<Vec3> torque_j;                    // (P) [N m] moment on j
+  // Reverse index for the gather: pairs in which a particle is the neighbour, CSR by j.
+  std::vector<Index> incoming_first;             // (N+1)
+  std::vector<Index> incoming;                   // (P) pair ids, ascending
+  // Positions and cell at the last build, for the rebuild criterion.
+  std::vector<Vec3> scaled_at_build;             // (N)
+  Mat3 h_at_build = Mat3::Identity();
+  double skin = 0.0;                             // [m] extra cutoff beyond contact
+  std::size_t size() const { return neighbor.size(); }
+};
+
+// One stored contact (the history that must survive a neighbour rebuild or a restart).
+struct StoredContact {
+  Index i, j;
+  Vec3 tangential;
+  std::uint8_t flags;
+};
+
+// Mixed control memory: what the loading stage needs to continue exactly.
+struct ControlState {
+  std::int64_t step = 0;                 // steps done in the current phase of the stage
+  std::int32_t phase = 0;                // stage-specific (preparation: 0 fast, 1 servo)
+  std::int64_t stage_step = 0;           // steps done in the current stage
+  Vec3 reference_lengths = Vec3::Ones(); // [m] diagonal of h at the start of the stage
+  double reference_volume = 1.0;         // [m^3]
+  Vec3 servo_integral = Vec3::Zero();    // [Pa] accumulated stress error per axis
+};
+
+struct State {
+  Cell cell;
+  Particles particles;
+  PairList pairs;
+  ControlState control;
+  double time = 0.0;            // [s]
+  std::int64_t total_steps = 0; // steps since the sample was made
+  // Measured in the last force evaluation; the servo reads them on the next step.
+  Mat3 stress = Mat3::Zero();   // [Pa] contact stress, compression positive, symmetric part
+  Vec3 axis_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ii)/d(e_ii) from the normal springs
+  std::int64_t touching = 0;    // contacts in the last force evaluation
+};
+
+}  // namespace celldem

@@ -1,0 +1,12 @@
+// Small fixed-size linear algebra used everywhere. Eigen's fixed types compile to plain arithmetic.
+#pragma once
+#include <Eigen/Dense>
+#include <cstdint>
+
+namespace celldem {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+using Index = std::int32_t;  // particle and contact indices (ids, not pointers)
+
+}  // namespace celldem

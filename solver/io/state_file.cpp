@@ -1,0 +1,226 @@
+#include "io/state_file.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "neighbor/neighbor_list.hpp"
+
+namespace celldem {
+namespace {
+
+constexpr char kMagic[8] = {'C', 'E', 'L', 'L', 'D', 'E', 'M', 'S'};
+
+std::uint64_t fnv1a(const char* data, std::size_t size) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (std::size_t k = 0; k < size; ++k) h = (h ^ static_cast<unsigned char>(data[k])) * 1099511628211ULL;
+  return h;
+}
+
+class Writer {
+ public:
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out_.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  void put(const Vec3& v) { for (int k = 0; k < 3; ++k) put(v[k]); }
+  void put(const Mat3& m) { for (int k = 0; k < 9; ++k) put(m.data()[k]); }
+  void put_string(const std::string& s) {
+    put(static_cast<std::uint32_t>(s.size()));
+    out_ += s;
+  }
+  std::string& bytes() { return out_; }
+
+ private:
+  std::string out_;
+};
+
+class Reader {
+ public:
+  Reader(const char* data, std::size_t size) : data_(data), size_(size) {}
+  template <class T>
+  T get() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    need(sizeof(T));
+    T v;
+    std::memcpy(&v, data_ + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  double finite() {
+    const double x = get<double>();
+    if (!std::isfinite(x)) throw StateFileError("state file holds a non-finite number");
+    return x;
+  }
+  Vec3 vec() {
+    Vec3 v;  // one by one: the order of evaluation of constructor arguments is unspecified
+    for (int k = 0; k < 3; ++k) v[k] = finite();
+    return v;
+  }
+  Mat3 mat() {
+    Mat3 m;
+    for (int k = 0; k < 9; ++k) m.data()[k] = finite();
+    return m;
+  }
+  std::string string(std::size_t max) {
+    const auto n = get<std::uint32_t>();
+    if (n > max) throw StateFileError("state file holds an over-long string");
+    need(n);
+    std::string s(data_ + pos_, n);
+    pos_ += n;
+    return s;
+  }
+  std::size_t remaining() const { return size_ - pos_; }
+  void need(std::size_t n) const {
+    if (n > size_ - pos_) throw StateFileError("state file is truncated");
+  }
+
+ private:
+  const char* data_;
+  std::size_t size_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace
+
+std::string serialize_state(const State& s, const std::string& label) {
+  Writer w;
+  const std::vector<StoredContact> contacts = stored_contacts(s);
+  w.put_string(label);
+  w.put(static_cast<std::uint64_t>(s.particles.size()));
+  w.put(static_cast<std::uint64_t>(contacts.size()));
+  w.put(s.time);
+  w.put(s.total_steps);
+  w.put(s.cell.h);
+  w.put(s.cell.velocity_gradient);
+  w.put(s.control.step);
+  w.put(s.control.phase);
+  w.put(s.control.stage_step);
+  w.put(s.control.reference_lengths);
+  w.put(s.control.reference_volume);
+  w.put(s.control.servo_integral);
+  w.put(s.stress);
+  w.put(s.axis_stiffness);
+  w.put(s.touching);
+  w.put(s.pairs.skin);
+  const Particles& p = s.particles;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    w.put(p.radius[i]);
+    w.put(p.scaled[i]);
+    w.put(p.velocity[i]);
+    w.put(p.spin[i]);
+  }
+  for (const StoredContact& c : contacts) {
+    w.put(c.i);
+    w.put(c.j);
+    w.put(c.tangential);
+    w.put(c.flags);
+  }
+  std::string payload = std::move(w.bytes());
+  Writer file;
+  file.bytes().append(kMagic, sizeof kMagic);
+  file.put(kStateFormatVersion);
+  file.put(static_cast<std::uint64_t>(payload.size()));
+  file.bytes() += payload;
+  file.put(fnv1a(payload.data(), payload.size()));
+  return std::move(file.bytes());
+}
+
+State parse_state(const std::string& bytes, std::string* label) {
+  Reader head(bytes.data(), bytes.size());
+  head.need(sizeof kMagic);
+  if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) throw StateFileError("not a celldem state file");
+  for (std::size_t k = 0; k < sizeof kMagic; ++k) (void)head.get<char>();
+  const auto version = head.get<std::uint32_t>();
+  if (version != kStateFormatVersion)
+    throw StateFileError("state file format " + std::to_string(version) + " is not the supported " +
+                         std::to_string(kStateFormatVersion));
+  const auto payload_size = head.get<std::uint64_t>();
+  if (payload_size + sizeof(std::uint64_t) != head.remaining())
+    throw StateFileError("state file is truncated or has trailing bytes");
+  const char* payload = bytes.data() + (bytes.size() - head.remaining());
+  std::uint64_t stored_sum;
+  std::memcpy(&stored_sum, payload + payload_size, sizeof stored_sum);
+  if (fnv1a(payload, payload_size) != stored_sum) throw StateFileError("state file checksum mismatch (corrupted)");
+
+  Reader r(payload, payload_size);
+  State s;
+  const std::string text = r.string(4096);
+  if (label) *label = text;
+  const auto n = r.get<std::uint64_t>();
+  const auto nc = r.get<std::uint64_t>();
+  constexpr std::size_t kParticleBytes = 10 * sizeof(double), kContactBytes = 8 + 3 * sizeof(double) + 1;
+  if (n == 0 || n > r.remaining() / kParticleBytes || nc > r.remaining() / kContactBytes)
+    throw StateFileError("state file particle or contact count does not match its size");
+  s.time = r.finite();
+  s.total_steps = r.get<std::int64_t>();
+  s.cell.h = r.mat();
+  s.cell.velocity_gradient = r.mat();
+  s.control.step = r.get<std::int64_t>();
+  s.control.phase = r.get<std::int32_t>();
+  s.control.stage_step = r.get<std::int64_t>();
+  s.control.reference_lengths = r.vec();
+  s.control.reference_volume = r.finite();
+  s.control.servo_integral = r.vec();
+  s.stress = r.mat();
+  s.axis_stiffness = r.vec();
+  s.touching = r.get<std::int64_t>();
+  s.pairs.skin = r.finite();
+  if (!(s.cell.volume() > 0.0)) throw StateFileError("state file cell has no positive volume");
+  if (s.pairs.skin < 0.0 || s.total_steps < 0 || s.control.step < 0 || s.control.stage_step < 0)
+    throw StateFileError("state file holds a negative step count or skin");
+  s.particles.resize(n);
+  Particles& p = s.particles;
+  for (std::size_t i = 0; i < n; ++i) {
+    p.radius[i] = r.finite();
+    if (!(p.radius[i] > 0.0)) throw StateFileError("state file holds a non-positive radius");
+    p.scaled[i] = r.vec();
+    p.velocity[i] = r.vec();
+    p.spin[i] = r.vec();
+  }
+  std::vector<StoredContact> contacts(nc);
+  for (std::size_t c = 0; c < nc; ++c) {
+    StoredContact& k = contacts[c];
+    k.i = r.get<Index>();
+    k.j = r.get<Index>();
+    k.tangential = r.vec();
+    k.flags = r.get<std::uint8_t>();
+    const bool ordered = c == 0 || contacts[c - 1].i < k.i || (contacts[c - 1].i == k.i && contacts[c - 1].j < k.j);
+    if (k.i < 0 || k.j <= k.i || static_cast<std::uint64_t>(k.j) >= n || !ordered)
+      throw StateFileError("state file contact list is invalid (indices out of range or unsorted)");
+  }
+  if (r.remaining() != 0) throw StateFileError("state file has trailing bytes in its payload");
+  set_stored_contacts(s, contacts);
+  return s;
+}
+
+void write_state(const std::string& path, const State& state, const std::string& label) {
+  const std::string bytes = serialize_state(state, label);
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw StateFileError(tmp + ": cannot write");
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) throw StateFileError(tmp + ": write failed");
+  }
+  std::filesystem::rename(tmp, path);  // atomic on POSIX: readers see the old or the new file, whole
+}
+
+State read_state(const std::string& path, std::string* label) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw StateFileError(path + ": cannot open the state file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  try {
+    return parse_state(text.str(), label);
+  } catch (const StateFileError& e) {
+    throw StateFileError(path + ": " + e.what());
+  }
+}
+
+}  // namespace celldem

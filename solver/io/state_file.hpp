@@ -1,0 +1,26 @@
+// State files: the exact simulation state (cell, particles, contact history, control memory), binary,
+// versioned and checksummed, written atomically (temporary file, then rename).
+#pragma once
+#include <stdexcept>
+#include <string>
+
+#include "core/state.hpp"
+
+namespace celldem {
+
+struct StateFileError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+inline constexpr std::uint32_t kStateFormatVersion = 1;
+
+// label says what the state is (e.g. "prepared", "checkpoint:ttc"); it is stored and returned.
+void write_state(const std::string& path, const State& state, const std::string& label);
+
+// Reads and validates a state file; the pair list holds only the stored contacts until the next rebuild.
+// Throws StateFileError with the reason (truncated, corrupted, wrong version, invalid values).
+State read_state(const std::string& path, std::string* label = nullptr);
+State parse_state(const std::string& bytes, std::string* label = nullptr);
+std::string serialize_state(const State& state, const std::string& label);
+
+}  // namespace celldem

@@ -1,0 +1,160 @@
+#include "measure/micro.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace celldem {
+namespace {
+
+Vec3 branch_of(const State& state, std::size_t q) {
+  const PairList& pl = state.pairs;
+  const auto& img = pl.image[q];
+  const Vec3 ds = state.particles.scaled[pl.neighbor[q]] - state.particles.scaled[pl.owner[q]] +
+                  Vec3(img[0], img[1], img[2]);
+  return state.cell.h * ds;
+}
+
+}  // namespace
+
+Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& normal_forces) {
+  Fabric f;
+  const std::size_t nc = normals.size();
+  f.contacts = static_cast<std::int64_t>(nc);
+  if (nc == 0) return f;
+  double mean = 0.0;
+  for (double fn : normal_forces) mean += fn;
+  mean /= static_cast<double>(nc);
+  std::int64_t weak = 0;
+  for (std::size_t c = 0; c < nc; ++c) {
+    const Mat3 nn = normals[c] * normals[c].transpose();
+    f.all += nn;
+    if (normal_forces[c] > mean) {
+      f.strong += nn;
+      ++f.strong_contacts;
+    } else {
+      f.weak += nn;
+      ++weak;
+    }
+  }
+  f.all /= static_cast<double>(nc);
+  if (f.strong_contacts) f.strong /= static_cast<double>(f.strong_contacts);
+  if (weak) f.weak /= static_cast<double>(weak);
+  return f;
+}
+
+Fabric contact_fabric(const Model&, const State& state) {
+  const PairList& pl = state.pairs;
+  std::vector<Vec3> normals;
+  std::vector<double> forces;
+  normals.reserve(state.touching);
+  forces.reserve(state.touching);
+  for (std::size_t q = 0; q < pl.size(); ++q) {
+    if (!(pl.flags[q] & kTouching)) continue;
+    const Vec3 n = branch_of(state, q).normalized();
+    normals.push_back(n);
+    forces.push_back(pl.force[q].dot(n));
+  }
+  return fabric_of(normals, forces);
+}
+
+Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts) {
+  Coordination c;
+  if (n == 0) return c;
+  c.z = 2.0 * static_cast<double>(contacts.size()) / static_cast<double>(n);
+  // Adjacency in CSR form; removing a rattler lowers its neighbours' degrees, which may make them
+  // rattlers in turn: a work queue reaches the fixpoint in O(n + contacts).
+  std::vector<int> degree(n, 0);
+  std::vector<Index> first(n + 1, 0), adjacent(2 * contacts.size());
+  for (const auto& [i, j] : contacts) ++first[i + 1], ++first[j + 1];
+  for (std::size_t k = 0; k < n; ++k) first[k + 1] += first[k];
+  {
+    std::vector<Index> fill(first.begin(), first.end() - 1);
+    for (const auto& [i, j] : contacts) adjacent[fill[i]++] = j, adjacent[fill[j]++] = i;
+  }
+  for (std::size_t k = 0; k < n; ++k) degree[k] = first[k + 1] - first[k];
+  std::vector<char> rattler(n, 0);
+  std::vector<Index> queue;
+  for (std::size_t k = 0; k < n; ++k)
+    if (degree[k] < 2) rattler[k] = 1, queue.push_back(static_cast<Index>(k));
+  while (!queue.empty()) {
+    const Index k = queue.back();
+    queue.pop_back();
+    for (Index a = first[k]; a < first[k + 1]; ++a) {
+      const Index m = adjacent[a];
+      if (!rattler[m] && --degree[m] < 2) rattler[m] = 1, queue.push_back(m);
+    }
+  }
+  std::int64_t kept_contacts = 0, kept_particles = 0;
+  for (const auto& [i, j] : contacts) kept_contacts += (!rattler[i] && !rattler[j]);
+  for (std::size_t i = 0; i < n; ++i) kept_particles += !rattler[i];
+  c.rattlers = static_cast<std::int64_t>(n) - kept_particles;
+  c.z_mechanical = kept_particles ? 2.0 * static_cast<double>(kept_contacts) / static_cast<double>(kept_particles) : 0.0;
+  return c;
+}
+
+Coordination coordination(const State& state) {
+  const PairList& pl = state.pairs;
+  std::vector<std::pair<Index, Index>> contacts;
+  contacts.reserve(state.touching);
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    if (pl.flags[q] & kTouching) contacts.emplace_back(pl.owner[q], pl.neighbor[q]);
+  return coordination_of(state.particles.size(), contacts);
+}
+
+double sliding_fraction(const State& state) {
+  const PairList& pl = state.pairs;
+  std::int64_t touching = 0, sliding = 0;
+  for (std::size_t q = 0; q < pl.size(); ++q) {
+    touching += (pl.flags[q] & kTouching) != 0;
+    sliding += (pl.flags[q] & kTouching) && (pl.flags[q] & kSliding);
+  }
+  return touching ? static_cast<double>(sliding) / static_cast<double>(touching) : 0.0;
+}
+
+double kinetic_energy(const Model& model, const State& state) {
+  const Particles& p = state.particles;
+  double e = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double r = p.radius[i];
+    e += 0.5 * model.mass[i] * (p.velocity[i].squaredNorm() + 0.4 * r * r * p.spin[i].squaredNorm());
+  }
+  return e;
+}
+
+double unbalanced_force_ratio(const Model& model, const State& state) {
+  const Particles& p = state.particles;
+  const PairList& pl = state.pairs;
+  double net = 0.0, normal = 0.0;
+  std::int64_t touching = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) net += p.force[i].norm();
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    if (pl.flags[q] & kTouching) {
+      normal += pl.force[q].dot(branch_of(state, q).normalized());
+      ++touching;
+    }
+  (void)model;
+  if (touching == 0 || normal <= 0.0) return 0.0;
+  return (net / static_cast<double>(p.size())) / (normal / static_cast<double>(touching));
+}
+
+double void_ratio(const Model& model, const State& state) {
+  return state.cell.volume() / model.solid_volume - 1.0;
+}
+
+StressInvariants stress_invariants(const Mat3& s) {
+  StressInvariants out;
+  out.p = s.trace() / 3.0;
+  const Mat3 dev = s - out.p * Mat3::Identity();
+  out.q = std::sqrt(1.5 * dev.cwiseProduct(dev).sum());
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(s, Eigen::EigenvaluesOnly);
+  const double s1 = eig.eigenvalues()[2], s3 = eig.eigenvalues()[0];
+  out.sin_phi = (s1 + s3) != 0.0 ? (s1 - s3) / (s1 + s3) : 0.0;
+  return out;
+}
+
+double b_value(double s11, double s22, double s33) {
+  const double den = s11 - s33;
+  return den != 0.0 ? (s22 - s33) / den : std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace celldem

@@ -1,0 +1,44 @@
+// Macro and micro measurements: pure functions of the state, computed only when a row is written.
+#pragma once
+#include "core/model.hpp"
+#include "core/state.hpp"
+
+namespace celldem {
+
+struct Fabric {
+  Mat3 all = Mat3::Zero();     // (1/Nc) sum n (x) n over all contacts
+  Mat3 strong = Mat3::Zero();  // contacts with normal force above the mean
+  Mat3 weak = Mat3::Zero();    // contacts with normal force at or below the mean
+  std::int64_t contacts = 0, strong_contacts = 0;
+};
+
+// Contact normals from the stored pair list (the last force evaluation); normal force = kn * overlap.
+Fabric contact_fabric(const Model& model, const State& state);
+
+// Fabric of an explicit set of unit normals and normal forces (the definition, for tests and reuse).
+Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& normal_forces);
+
+struct Coordination {
+  double z = 0.0;          // 2 contacts / particles (the paper's definition)
+  double z_mechanical = 0.0;  // the same without rattlers (fewer than 2 contacts, removed iteratively)
+  std::int64_t rattlers = 0;
+};
+Coordination coordination(const State& state);
+
+// Mechanical coordination of an explicit contact list over n particles (for tests and reuse).
+Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts);
+
+double sliding_fraction(const State& state);  // contacts at the Coulomb limit / contacts
+double kinetic_energy(const Model& model, const State& state);  // [J] fluctuating translation + rotation
+// Mean |net contact force| over particles / mean contact normal force (0 when nothing touches).
+double unbalanced_force_ratio(const Model& model, const State& state);
+double void_ratio(const Model& model, const State& state);
+
+struct StressInvariants {
+  double p = 0.0, q = 0.0, sin_phi = 0.0;  // [Pa], [Pa], [-]
+};
+StressInvariants stress_invariants(const Mat3& stress);
+// b = (s2 - s3) / (s1 - s3) from the axis stresses s11, s22, s33 (NaN when s1 == s3).
+double b_value(double s11, double s22, double s33);
+
+}  // namespace celldem

@@ -1,0 +1,213 @@
+#include "neighbor/neighbor_list.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace celldem {
+
+Vec3 Cell::face_widths() const {
+  const double v = std::abs(volume());
+  Vec3 w;
+  for (int k = 0; k < 3; ++k) w[k] = v / h.col((k + 1) % 3).cross(h.col((k + 2) % 3)).norm();
+  return w;
+}
+
+namespace {
+
+struct Candidate {
+  Index j;
+  std::array<std::int32_t, 3> image;
+};
+
+// Lists, for each particle, the neighbours j > i (any image) within r_i + r_j + skin.
+void find_candidates(const State& state, double skin, double max_radius,
+                     std::vector<std::vector<Candidate>>& out) {
+  const Particles& p = state.particles;
+  const Mat3& h = state.cell.h;
+  const std::size_t n = p.size();
+  const double reach_max = 2.0 * max_radius + skin;
+  const Vec3 widths = state.cell.face_widths();
+  for (int k = 0; k < 3; ++k)
+    if (widths[k] <= 2.0 * reach_max)
+      throw std::runtime_error("the periodic cell (face width " + std::to_string(widths[k]) +
+                               " m) is too small for its particles: it must exceed twice the largest "
+                               "diameter plus skin (" + std::to_string(2.0 * reach_max) + " m)");
+
+  std::array<int, 3> bins;
+  for (int k = 0; k < 3; ++k) bins[k] = std::max(1, static_cast<int>(std::floor(widths[k] / reach_max)));
+  const bool use_bins = bins[0] >= 3 && bins[1] >= 3 && bins[2] >= 3;
+  if (!use_bins) bins = {1, 1, 1};
+
+  // Counting sort of particles into bins (CSR), particle order kept within a bin.
+  const int nbins = bins[0] * bins[1] * bins[2];
+  std::vector<int> bin_of(n);
+  std::vector<std::array<std::int32_t, 3>> cell_of(n);  // floor of the unwrapped scaled position
+  std::vector<Index> bin_first(nbins + 1, 0), bin_members(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    int b[3];
+    for (int k = 0; k < 3; ++k) {
+      const double whole = std::floor(p.scaled[i][k]);
+      cell_of[i][k] = static_cast<std::int32_t>(whole);
+      b[k] = std::clamp(static_cast<int>((p.scaled[i][k] - whole) * bins[k]), 0, bins[k] - 1);
+    }
+    bin_of[i] = (b[2] * bins[1] + b[1]) * bins[0] + b[0];
+    ++bin_first[bin_of[i] + 1];
+  }
+  for (int b = 0; b < nbins; ++b) bin_first[b + 1] += bin_first[b];
+  {
+    std::vector<Index> fill(bin_first.begin(), bin_first.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) bin_members[fill[bin_of[i]]++] = static_cast<Index>(i);
+  }
+
+  out.assign(n, {});
+  for (std::size_t i = 0; i < n; ++i) {
+    const int bi = bin_of[i];
+    const int b[3] = {bi % bins[0], (bi / bins[0]) % bins[1], bi / (bins[0] * bins[1])};
+    const double ri = p.radius[i];
+    // img is the shift between wrapped positions; the stored image adds back the whole cells that the
+    // unwrapped positions carry, so that s_j - s_i + n is the same vector.
+    auto consider = [&](Index j, const std::array<std::int32_t, 3>& img) {
+      std::array<std::int32_t, 3> n;
+      for (int k = 0; k < 3; ++k) n[k] = img[k] + cell_of[i][k] - cell_of[j][k];
+      const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(n[0], n[1], n[2]);
+      const double reach = ri + p.radius[j] + skin;
+      if ((h * ds).squaredNorm() < reach * reach) out[i].push_back({j, n});
+    };
+    if (use_bins) {
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int u[3] = {b[0] + dx, b[1] + dy, b[2] + dz};
+            std::array<std::int32_t, 3> img{0, 0, 0};
+            int w[3];
+            for (int k = 0; k < 3; ++k) {
+              img[k] = u[k] < 0 ? -1 : (u[k] >= bins[k] ? 1 : 0);
+              w[k] = u[k] - img[k] * bins[k];
+            }
+            const int nb = (w[2] * bins[1] + w[1]) * bins[0] + w[0];
+            for (Index q = bin_first[nb]; q < bin_first[nb + 1]; ++q) {
+              const Index j = bin_members[q];
+              if (j > static_cast<Index>(i)) consider(j, img);
+            }
+          }
+    } else {
+      // Few bins: try every image of every pair. The width check above allows at most one in reach.
+      for (Index j = static_cast<Index>(i) + 1; j < static_cast<Index>(n); ++j)
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx)
+              consider(j, {dx, dy, dz});
+    }
+    std::sort(out[i].begin(), out[i].end(), [](const Candidate& a, const Candidate& b) { return a.j < b.j; });
+  }
+}
+
+void build_incoming_index(PairList& pl, std::size_t n) {
+  pl.incoming_first.assign(n + 1, 0);
+  for (Index j : pl.neighbor) ++pl.incoming_first[j + 1];
+  for (std::size_t k = 0; k < n; ++k) pl.incoming_first[k + 1] += pl.incoming_first[k];
+  pl.incoming.resize(pl.neighbor.size());
+  std::vector<Index> fill(pl.incoming_first.begin(), pl.incoming_first.end() - 1);
+  for (std::size_t q = 0; q < pl.neighbor.size(); ++q) pl.incoming[fill[pl.neighbor[q]]++] = static_cast<Index>(q);
+}
+
+}  // namespace
+
+void rebuild_pairs(const Model& model, State& state) {
+  Particles& p = state.particles;
+  PairList& pl = state.pairs;
+  const std::size_t n = p.size();
+  std::vector<std::vector<Candidate>> candidates;
+  find_candidates(state, pl.skin, model.max_radius, candidates);
+
+  PairList next;
+  next.skin = pl.skin;
+  next.first.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) next.first[i + 1] = next.first[i] + static_cast<Index>(candidates[i].size());
+  const std::size_t count = next.first[n];
+  next.owner.resize(count);
+  next.neighbor.resize(count);
+  next.image.resize(count);
+  next.tangential.assign(count, Vec3::Zero());
+  next.flags.assign(count, 0);
+  next.force.assign(count, Vec3::Zero());
+  next.torque_i.assign(count, Vec3::Zero());
+  next.torque_j.assign(count, Vec3::Zero());
+
+  const bool have_old = pl.first.size() == n + 1;
+  for (std::size_t i = 0; i < n; ++i) {
+    // Both lists are sorted by j within i: a merge finds the persisting contacts.
+    Index q_old = have_old ? pl.first[i] : 0;
+    const Index q_old_end = have_old ? pl.first[i + 1] : 0;
+    for (std::size_t c = 0; c < candidates[i].size(); ++c) {
+      const Index q = next.first[i] + static_cast<Index>(c);
+      const Index j = candidates[i][c].j;
+      next.owner[q] = static_cast<Index>(i);
+      next.neighbor[q] = j;
+      next.image[q] = candidates[i][c].image;
+      while (q_old < q_old_end && pl.neighbor[q_old] < j) ++q_old;
+      if (q_old < q_old_end && pl.neighbor[q_old] == j) {
+        next.tangential[q] = pl.tangential[q_old];
+        next.flags[q] = pl.flags[q_old];
+      }
+    }
+  }
+  build_incoming_index(next, n);
+  next.scaled_at_build = p.scaled;
+  next.h_at_build = state.cell.h;
+  pl = std::move(next);
+}
+
+bool pairs_need_rebuild(const Model& model, const State& state) {
+  const PairList& pl = state.pairs;
+  const Particles& p = state.particles;
+  if (pl.first.size() != p.size() + 1) return true;
+  // A pair left out at the build was at least r_i + r_j + skin apart. Since then its branch has been
+  // mapped by F = h h_build^-1 and each end moved by at most max_disp, so it is still apart while
+  // (1 - |F - I|) (r_i + r_j + skin) - 2 max_disp > r_i + r_j, hardest for the largest pair.
+  const Mat3& h = state.cell.h;
+  const double strain = (h * pl.h_at_build.inverse() - Mat3::Identity()).norm();  // Frobenius >= spectral
+  double max_disp2 = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Vec3 ds = p.scaled[i] - pl.scaled_at_build[i];
+    max_disp2 = std::max(max_disp2, (h * ds).squaredNorm());
+  }
+  const double reach = 2.0 * model.max_radius;
+  return (1.0 - strain) * (reach + pl.skin) - 2.0 * std::sqrt(max_disp2) <= reach;
+}
+
+void set_stored_contacts(State& state, const std::vector<StoredContact>& contacts) {
+  const std::size_t n = state.particles.size();
+  PairList& pl = state.pairs;
+  const double skin = pl.skin;
+  pl = PairList{};
+  pl.skin = skin;
+  pl.first.assign(n + 1, 0);
+  for (const auto& c : contacts) ++pl.first[c.i + 1];
+  for (std::size_t k = 0; k < n; ++k) pl.first[k + 1] += pl.first[k];
+  pl.owner.resize(contacts.size());
+  pl.neighbor.resize(contacts.size());
+  pl.tangential.resize(contacts.size());
+  pl.flags.resize(contacts.size());
+  pl.image.assign(contacts.size(), {0, 0, 0});
+  std::vector<Index> fill(pl.first.begin(), pl.first.end() - 1);
+  for (const auto& c : contacts) {  // contacts arrive sorted by (i, j), so each row stays sorted
+    const Index q = fill[c.i]++;
+    pl.owner[q] = c.i;
+    pl.neighbor[q] = c.j;
+    pl.tangential[q] = c.tangential;
+    pl.flags[q] = c.flags;
+  }
+}
+
+std::vector<StoredContact> stored_contacts(const State& state) {
+  const PairList& pl = state.pairs;
+  std::vector<StoredContact> out;
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    if (pl.flags[q] & kTouching) out.push_back({pl.owner[q], pl.neighbor[q], pl.tangential[q], pl.flags[q]});
+  return out;
+}
+
+}  // namespace celldem

@@ -1,0 +1,24 @@
+// Half neighbour list with periodic images, built in the cell's scaled coordinates with a skin, and the
+// criterion that says when it must be rebuilt (particle motion and cell deformation together).
+#pragma once
+#include "core/model.hpp"
+#include "core/state.hpp"
+
+namespace celldem {
+
+// Rebuilds state.pairs for the current positions: lists every pair closer than r_i + r_j + skin and
+// carries over the contact history of pairs that persist.
+// Throws std::runtime_error if the cell has become too small for its particles (a pair would touch twice).
+void rebuild_pairs(const Model& model, State& state);
+
+// True when a pair outside the list could have come into contact since the last build.
+bool pairs_need_rebuild(const Model& model, const State& state);
+
+// Replace the list with exactly the given contacts (history only), e.g. after reading a state file.
+// The next rebuild_pairs() call merges them into the full list.
+void set_stored_contacts(State& state, const std::vector<StoredContact>& contacts);
+
+// The touching pairs with their history, in (i, j) order: what a state file keeps.
+std::vector<StoredContact> stored_contacts(const State& state);
+
+}  // namespace celldem

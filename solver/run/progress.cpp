@@ -1,0 +1,41 @@
+#include "run/progress.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+namespace celldem {
+
+bool stderr_is_terminal() { return isatty(fileno(stderr)) != 0; }
+
+Progress::Progress(std::string stage, bool enabled)
+    : stage_(std::move(stage)), enabled_(enabled), start_(std::chrono::steady_clock::now()), last_(start_) {}
+
+void Progress::update(std::int64_t step, double fraction, const std::string& extra) {
+  if (!enabled_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (first_step_ < 0) first_step_ = step;
+  if (now - last_ < std::chrono::milliseconds(500)) return;
+  last_ = now;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  const double rate = elapsed > 0 ? (step - first_step_) / elapsed : 0.0;
+  char line[256];
+  if (fraction >= 0.0 && fraction > 0.0 && rate > 0) {
+    const double eta = elapsed * (1.0 - fraction) / std::max(1e-9, fraction - 0.0);
+    std::snprintf(line, sizeof line, "\r[%s] %5.1f%%  step %lld  %.0f steps/s  ETA %dm%02ds  %s\x1b[K",
+                  stage_.c_str(), 100.0 * fraction, static_cast<long long>(step), rate,
+                  static_cast<int>(eta) / 60, static_cast<int>(eta) % 60, extra.c_str());
+  } else {
+    std::snprintf(line, sizeof line, "\r[%s] step %lld  %.0f steps/s  %s\x1b[K", stage_.c_str(),
+                  static_cast<long long>(step), rate, extra.c_str());
+  }
+  std::fputs(line, stderr);
+  printed_ = true;
+}
+
+void Progress::finish() {
+  if (enabled_ && printed_) std::fputs("\n", stderr);
+  printed_ = false;
+}
+
+}  // namespace celldem

@@ -1,0 +1,470 @@
+#include "run/runner.hpp"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "contact/contact_forces.hpp"
+#include "core/model.hpp"
+#include "io/state_file.hpp"
+#include "measure/micro.hpp"
+#include "measure/series_row.hpp"
+#include "neighbor/neighbor_list.hpp"
+#include "run/progress.hpp"
+#include "run/sample.hpp"
+#include "step.hpp"
+
+namespace celldem {
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+volatile std::sig_atomic_t g_stop_requested = 0;
+void on_stop_signal(int) { g_stop_requested = 1; }
+
+constexpr double kDilatancyWindow = 0.0025;  // DI fitted over the last 0.25 % of e1
+constexpr const char* kCheckpoint = "checkpoint.state";
+constexpr const char* kPrepared = "prepared.state";
+constexpr const char* kProgress = "progress.json";
+constexpr const char* kSummary = "summary.json";
+
+void write_text_atomic(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out.flush()) throw RunError(tmp.string() + ": cannot write");
+  }
+  fs::rename(tmp, path);
+}
+
+Json read_json(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw RunError(path.string() + ": cannot read");
+  try {
+    return Json::parse(in);
+  } catch (const Json::exception& e) {
+    throw RunError(path.string() + ": not valid JSON (" + e.what() + ")");
+  }
+}
+
+// Reads a series.csv into its header and rows of numbers (for summaries and for resuming).
+struct SeriesTable {
+  std::vector<std::string> columns;
+  std::vector<std::vector<double>> rows;
+  int column(const std::string& name) const {
+    for (std::size_t k = 0; k < columns.size(); ++k)
+      if (columns[k] == name) return static_cast<int>(k);
+    throw RunError("series has no column " + name);
+  }
+};
+
+// Keeps only complete rows (a row cut by a kill is dropped) with step <= max_step.
+SeriesTable read_series(const fs::path& path, std::int64_t max_step, std::string* kept_text = nullptr) {
+  SeriesTable t;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw RunError(path.string() + ": cannot read");
+  std::string line;
+  if (!std::getline(in, line) || in.eof()) throw RunError(path.string() + ": no header");
+  {
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) t.columns.push_back(c);
+  }
+  if (kept_text) *kept_text = line + "\n";
+  while (std::getline(in, line)) {
+    if (in.eof()) break;  // no newline: the row was cut short
+    std::vector<double> row;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) row.push_back(std::strtod(c.c_str(), nullptr));
+    if (row.size() != t.columns.size() || row[0] > static_cast<double>(max_step)) break;
+    t.rows.push_back(std::move(row));
+    if (kept_text) *kept_text += line + "\n";
+  }
+  return t;
+}
+
+// One stage's files and bookkeeping: series rows, checkpoints, stop requests, progress.
+class StageOutput {
+ public:
+  StageOutput(const Deck& deck, const RunOptions& options, const Model& model, const std::string& stage,
+              std::int64_t output_interval, double elapsed_before)
+      : deck_(deck), options_(options), model_(model), stage_(stage), dir_(fs::path(options.out_dir) / stage),
+        output_interval_(output_interval), di_(kDilatancyWindow),
+        progress_(stage, options.progress), elapsed_before_(elapsed_before),
+        start_(std::chrono::steady_clock::now()) {}
+
+  ~StageOutput() {
+    if (series_) std::fclose(series_);
+  }
+
+  // Fresh stage: new series with its first row. Resumed: keep the rows up to the checkpoint.
+  void open(const State& state, bool resumed) {
+    fs::create_directories(dir_);
+    const fs::path path = dir_ / "series.csv";
+    if (resumed && fs::exists(path)) {
+      std::string kept;
+      const SeriesTable t = read_series(path, state.control.stage_step, &kept);
+      write_text_atomic(path, kept);
+      const int e1 = t.column("e1"), ev = t.column("ev");
+      for (const auto& row : t.rows) di_.add(row[e1], row[ev]);
+      series_ = std::fopen(path.c_str(), "ab");
+    } else {
+      series_ = std::fopen(path.c_str(), "wb");
+      if (series_) std::fputs(series_header().c_str(), series_);
+    }
+    if (!series_) throw RunError(path.string() + ": cannot write");
+    start_step_ = state.control.stage_step;
+    if (!resumed) write_row(state);
+  }
+
+  // After every step. Returns true when the next step must rebuild the neighbour list (after a checkpoint,
+  // so that a resumed run does the same). Throws Interrupted after a stop request, once checkpointed.
+  bool after_step(const State& state, double fraction, const std::string& extra = "") {
+    const std::int64_t s = state.control.stage_step;
+    if (s % output_interval_ == 0) write_row(state);
+    progress_.update(s, fraction, extra);
+    if (g_stop_requested) {
+      checkpoint(state);
+      progress_.finish();
+      throw Interrupted("stopped by a signal in stage '" + stage_ + "' at step " + std::to_string(s) +
+                        "; a checkpoint was written. Continue with: celldem run " + deck_.source + " --out " +
+                        options_.out_dir + " --resume");
+    }
+    if (s % deck_.checkpoint_interval == 0) {
+      checkpoint(state);
+      return true;
+    }
+    return false;
+  }
+
+  void finish(const State& state) {
+    if (state.control.stage_step % output_interval_ != 0) write_row(state);
+    std::fflush(series_);
+    progress_.finish();
+  }
+
+  double elapsed() const {
+    return elapsed_before_ + std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+  std::int64_t steps_this_segment(const State& state) const { return state.control.stage_step - start_step_; }
+  const fs::path& dir() const { return dir_; }
+
+ private:
+  void write_row(const State& state) {
+    const std::vector<double> row = measure_series_row(model_, state, di_);
+    for (int k : {6, 7, 8, 20})  // stresses and Zm: trouble shows here first
+      if (!std::isfinite(row[k]))
+        throw RunError("non-finite values in stage '" + stage_ + "' at step " +
+                       std::to_string(state.control.stage_step) +
+                       " (unstable time step or loading?); the last checkpoint holds the last good state");
+    const std::string line = format_series_row(row);
+    std::fwrite(line.data(), 1, line.size(), series_);
+  }
+
+  void checkpoint(const State& state) {
+    std::fflush(series_);
+    write_state((fs::path(options_.out_dir) / kCheckpoint).string(), state, "stage:" + stage_);
+    Json progress = fs::exists(fs::path(options_.out_dir) / kProgress)
+                        ? read_json(fs::path(options_.out_dir) / kProgress) : Json::object();
+    progress["elapsed"][stage_] = elapsed();
+    write_text_atomic(fs::path(options_.out_dir) / kProgress, progress.dump(2));
+  }
+
+  const Deck& deck_;
+  const RunOptions& options_;
+  const Model& model_;
+  std::string stage_;
+  fs::path dir_;
+  std::int64_t output_interval_;
+  DilatancyWindow di_;
+  Progress progress_;
+  double elapsed_before_;
+  std::chrono::steady_clock::time_point start_;
+  std::int64_t start_step_ = 0;
+  std::FILE* series_ = nullptr;
+};
+
+// ---- preparation: fast strain-controlled compression, then the stress servo to equilibrium ----
+
+Loading isotropic_strain(double increment, double friction) {
+  AxisControl a{AxisMode::StrainIncrement, increment};
+  return {{a, a, a}, friction};
+}
+
+Loading isotropic_stress(double pressure, double friction) {
+  AxisControl a{AxisMode::Stress, pressure};
+  return {{a, a, a}, friction};
+}
+
+bool in_equilibrium(const Model& model, const State& state, const PrepareDef& prep, std::string* why) {
+  const EquilibriumDef& eq = prep.equilibrium;
+  const double p = state.stress.trace() / 3.0;
+  const double p_err = std::abs(p - prep.target_pressure) / prep.target_pressure;
+  double s_err = 0.0;
+  for (int k = 0; k < 3; ++k) s_err = std::max(s_err, std::abs(state.stress(k, k) - prep.target_pressure) / prep.target_pressure);
+  const double ufr = state.touching ? unbalanced_force_ratio(model, state) : 1.0;
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "p %.1f kPa  |dp| %.2g  max|ds| %.2g  unbalanced %.2g", p / 1e3, p_err, s_err, ufr);
+  *why = buf;
+  return state.touching > 0 && p_err <= eq.pressure_tolerance && s_err <= eq.stress_tolerance &&
+         ufr <= eq.unbalanced_force_ratio;
+}
+
+void run_preparation(const Deck& deck, const RunOptions& options, Json& summary, State& state,
+                     bool resumed, double elapsed_before) {
+  const PrepareDef& prep = *deck.prepare;
+  const Model model = make_model(deck, state.particles.radius);
+  if (!resumed) {
+    rebuild_pairs(model, state);
+    compute_contact_forces(model, prep.friction, state, /*advance_slip=*/false);
+  }
+  StageOutput out(deck, options, model, "prepare", prep.output_interval, elapsed_before);
+  out.open(state, resumed);
+  const Loading fast = isotropic_strain(prep.fast_strain_increment, prep.friction);
+  const Loading servo = isotropic_stress(prep.target_pressure, prep.friction);
+  bool rebuild = true;
+  std::string status = "fast compression";
+  for (;;) {
+    ControlState& c = state.control;
+    if (c.phase == 0 && model.solid_volume / state.cell.volume() >= prep.fast_solid_fraction) {
+      c.phase = 1;  // the servo takes over; strains stay relative to the stage start
+      c.step = 0;
+    }
+    step(model, c.phase == 0 ? fast : servo, state, rebuild);
+    ++c.stage_step;
+    if (c.phase == 1 && c.step % prep.equilibrium.check_interval == 0) {
+      const bool done = in_equilibrium(model, state, prep, &status) && c.step >= prep.equilibrium.min_steps;
+      if (done) break;
+      if (c.step >= prep.equilibrium.max_steps)
+        throw RunError("preparation did not reach equilibrium in " + std::to_string(c.step) +
+                       " servo steps (" + status + "); raise prepare.equilibrium.max_steps or relax its tolerances");
+    }
+    rebuild = out.after_step(state, -1.0, status);
+  }
+  out.finish(state);
+  write_state((fs::path(options.out_dir) / kPrepared).string(), state, "prepared");
+
+  const Coordination z = coordination(state);
+  const double wall = out.elapsed();
+  summary["prepared"] = {{"void_ratio", void_ratio(model, state)},
+                         {"Z", z.z},
+                         {"Zm", z.z_mechanical},
+                         {"rattlers", z.rattlers},
+                         {"p", state.stress.trace() / 3.0},
+                         {"s11", state.stress(0, 0)},
+                         {"s22", state.stress(1, 1)},
+                         {"s33", state.stress(2, 2)},
+                         {"unbalanced_force", unbalanced_force_ratio(model, state)},
+                         {"steps", state.control.stage_step},
+                         {"wall_s", wall},
+                         {"particle_steps_per_s",
+                          wall > 0 ? static_cast<double>(state.particles.size()) * state.control.stage_step / wall : 0.0},
+                         {"equilibrium_criterion",
+                          "every " + std::to_string(prep.equilibrium.check_interval) +
+                              " servo steps after at least " + std::to_string(prep.equilibrium.min_steps) +
+                              ": |p - target|/target <= " + std::to_string(prep.equilibrium.pressure_tolerance) +
+                              ", each |s_kk - target|/target <= " + std::to_string(prep.equilibrium.stress_tolerance) +
+                              ", mean |net contact force| / mean normal force <= " +
+                              std::to_string(prep.equilibrium.unbalanced_force_ratio)}};
+}
+
+// ---- loading tests ----
+
+std::int64_t test_steps(const Deck& deck, const TestDef& t) {
+  const AxisControl& a = t.axes[t.end_axis];
+  const double per_step = a.mode == AxisMode::StrainRate ? a.value * deck.time_step : a.value;
+  const auto n = static_cast<std::int64_t>(std::llround(t.end_strain / per_step));
+  return t.max_steps > 0 ? std::min(n, t.max_steps) : n;
+}
+
+Json test_summary(const fs::path& series, double wall, std::int64_t steps, std::size_t particles) {
+  const SeriesTable t = read_series(series, INT64_MAX);
+  const int ratio = t.column("ratio13"), e1 = t.column("e1"), b = t.column("b");
+  std::size_t peak = 0;
+  for (std::size_t r = 0; r < t.rows.size(); ++r)
+    if (t.rows[r][ratio] > t.rows[peak][ratio]) peak = r;
+  auto num = [](double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); };
+  return {{"peak_ratio13", num(t.rows[peak][ratio])},
+          {"e1_at_peak", num(t.rows[peak][e1])},
+          {"b_at_peak", num(t.rows[peak][b])},
+          {"b_final", num(t.rows.back()[b])},
+          {"final_e1", num(t.rows.back()[e1])},
+          {"steps", steps},
+          {"wall_s", wall},
+          {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}};
+}
+
+void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, const fs::path& prepared,
+              Json& summary, bool resumed, double elapsed_before) {
+  State state;
+  if (resumed) {
+    state = read_state((fs::path(options.out_dir) / kCheckpoint).string());
+  } else {
+    state = read_state(prepared.string());
+    state.control = ControlState{};
+    state.control.reference_lengths = state.cell.h.diagonal();
+    state.control.reference_volume = state.cell.volume();
+  }
+  const Model model = make_model(deck, state.particles.radius);
+  const Loading loading{test.axes, test.friction};
+  if (!resumed) {  // the stage's first row measures the state as loaded, with this test's friction
+    rebuild_pairs(model, state);
+    compute_contact_forces(model, test.friction, state, /*advance_slip=*/false);
+  }
+  const std::int64_t total = test_steps(deck, test);
+  StageOutput out(deck, options, model, test.name, test.output_interval, elapsed_before);
+  out.open(state, resumed);
+  bool rebuild = true;
+  while (state.control.stage_step < total) {
+    step(model, loading, state, rebuild);
+    ++state.control.stage_step;
+    rebuild = out.after_step(state, static_cast<double>(state.control.stage_step) / total);
+  }
+  out.finish(state);
+  write_state((out.dir() / "final.state").string(), state, "test:" + test.name);
+  summary["tests"][test.name] = test_summary(out.dir() / "series.csv", out.elapsed(), total, state.particles.size());
+}
+
+// ---- the run directory ----
+
+bool holds_results(const fs::path& dir) {
+  for (const char* name : {kSummary, kProgress, kPrepared, kCheckpoint})
+    if (fs::exists(dir / name)) return true;
+  return false;
+}
+
+void clear_results(const fs::path& dir, const Deck& deck) {
+  for (const char* name : {kSummary, kProgress, kPrepared, kCheckpoint}) fs::remove(dir / name);
+  fs::remove_all(dir / "prepare");
+  for (const TestDef& t : deck.tests) fs::remove_all(dir / t.name);
+}
+
+Json settings_of(const Deck& deck, int threads) {
+  return {{"deck", deck.source},
+          {"particles", deck.sample.count},
+          {"diameters_m", deck.sample.diameters},
+          {"density", deck.sample.density},
+          {"seed", deck.sample.seed},
+          {"time_step", deck.time_step},
+          {"kn", deck.contact.kn},
+          {"kt", deck.contact.kt},
+          {"tangential_rotation", deck.contact.rotation == TangentialRotation::Rotate ? "rotate" : "project"},
+          {"moment_arm", deck.contact.moment_arm == MomentArm::ContactPoint ? "contact_point" : "radius"},
+          {"kinematics", deck.kinematics == Kinematics::Affine ? "affine" : "lammps"},
+          {"damping_translational", deck.damping.translational},
+          {"damping_rotational", deck.damping.rotational},
+          {"servo_gain", deck.servo.gain},
+          {"servo_integral_gain", deck.servo.integral_gain},
+          {"servo_max_strain_increment", deck.servo.max_strain_increment},
+          {"threads", threads}};
+}
+
+}  // namespace
+
+void install_stop_handlers() {
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+}
+
+void run_deck(const Deck& deck, const RunOptions& options) {
+  const fs::path dir(options.out_dir);
+  if (options.threads > 0) omp_set_num_threads(options.threads);
+  const int threads = omp_get_max_threads();
+
+  Json progress = Json::object();
+  Json summary;
+  if (options.resume) {
+    if (!fs::exists(dir / kProgress))
+      throw RunError(dir.string() + " holds no interrupted run to resume (no " + kProgress + ")");
+    progress = read_json(dir / kProgress);
+    if (progress.value("deck", std::string()) != deck.canonical)
+      throw RunError("--resume: the deck differs from the one this run was started with");
+    summary = fs::exists(dir / kSummary) ? read_json(dir / kSummary) : Json::object();
+  } else {
+    if (fs::exists(dir) && holds_results(dir)) {
+      if (!options.force)
+        throw RunError(dir.string() + " already holds results; use --force to overwrite them or --resume to "
+                       "continue an interrupted run");
+      clear_results(dir, deck);
+    }
+    fs::create_directories(dir);
+    progress = {{"deck", deck.canonical}, {"completed", Json::array()}, {"elapsed", Json::object()}};
+    write_text_atomic(dir / kProgress, progress.dump(2));
+  }
+  summary["celldem_version"] = "0.1.0";
+  summary["deck"] = deck.source;
+  summary["settings"] = settings_of(deck, threads);
+
+  // A checkpoint names the stage it belongs to; every stage before it is complete.
+  std::string resume_stage;
+  if (options.resume && fs::exists(dir / kCheckpoint)) {
+    std::string label;
+    (void)read_state((dir / kCheckpoint).string(), &label);
+    resume_stage = label.substr(label.find(':') + 1);
+  }
+  auto completed = [&](const std::string& stage) {
+    for (const auto& s : progress["completed"]) if (s == stage) return true;
+    return false;
+  };
+  auto mark_done = [&](const std::string& stage) {
+    progress = read_json(dir / kProgress);
+    progress["completed"].push_back(stage);
+    write_text_atomic(dir / kProgress, progress.dump(2));
+    fs::remove(dir / kCheckpoint);
+    write_text_atomic(dir / kSummary, summary.dump(2));
+  };
+  auto elapsed_of = [&](const std::string& stage) {
+    const Json p = read_json(dir / kProgress);
+    return p["elapsed"].value(stage, 0.0);
+  };
+
+  const double skin = 0.1 * *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
+  fs::path prepared;
+  if (deck.prepare) {
+    prepared = dir / kPrepared;
+    if (!completed("prepare")) {
+      const bool resumed = resume_stage == "prepare";
+      State state = resumed ? read_state((dir / kCheckpoint).string()) : make_grid_sample(deck.sample, skin);
+      if (!options.quiet) std::printf("prepare: %d spheres, isotropic compression to %g Pa\n", deck.sample.count,
+                                      deck.prepare->target_pressure);
+      run_preparation(deck, options, summary, state, resumed, resumed ? elapsed_of("prepare") : 0.0);
+      mark_done("prepare");
+      if (!options.quiet)
+        std::printf("prepare: done in %lld steps, %.1f s: void ratio %.4f, Z %.3f\n",
+                    static_cast<long long>(summary["prepared"]["steps"].get<std::int64_t>()),
+                    summary["prepared"]["wall_s"].get<double>(), summary["prepared"]["void_ratio"].get<double>(),
+                    summary["prepared"]["Z"].get<double>());
+    }
+  } else {
+    prepared = fs::path(deck.source).parent_path() / *deck.initial_state;
+    if (!fs::exists(prepared)) throw DeckError("initial_state: no such file " + prepared.string());
+    summary["initial_state"] = prepared.string();
+  }
+
+  for (const TestDef& test : deck.tests) {
+    if (completed(test.name)) continue;
+    const bool resumed = resume_stage == test.name;
+    if (!options.quiet) std::printf("%s: %s\n", test.name.c_str(), resumed ? "resuming" : "starting");
+    run_test(deck, options, test, prepared, summary, resumed, resumed ? elapsed_of(test.name) : 0.0);
+    mark_done(test.name);
+    if (!options.quiet) {
+      const Json& s = summary["tests"][test.name];
+      std::printf("%s: done in %.1f s (%.3g particle-steps/s): peak s1/s3 %.4f at e1 %.4f\n", test.name.c_str(),
+                  s["wall_s"].get<double>(), s["particle_steps_per_s"].get<double>(),
+                  s["peak_ratio13"].is_null() ? NAN : s["peak_ratio13"].get<double>(),
+                  s["e1_at_peak"].is_null() ? NAN : s["e1_at_peak"].get<double>());
+    }
+  }
+  write_text_atomic(dir / kSummary, summary.dump(2));
+}
+
+}  // namespace celldem

@@ -1,0 +1,35 @@
+// Runs a deck: prepare a sample (or load one), then each loading test from the same prepared state,
+// writing series, state files, checkpoints and summary.json into the run directory.
+#pragma once
+#include <stdexcept>
+#include <string>
+
+#include "io/deck.hpp"
+
+namespace celldem {
+
+struct RunOptions {
+  std::string out_dir;
+  int threads = 0;        // 0: OpenMP default
+  bool force = false;     // overwrite results already in out_dir
+  bool resume = false;    // continue an interrupted run in out_dir
+  bool progress = false;  // progress line on stderr
+  bool quiet = false;     // no stage messages on stdout
+};
+
+// Thrown after SIGINT/SIGTERM once a checkpoint has been written.
+struct Interrupted : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// A run-time failure that is not bad input (numerical trouble, an output that cannot be written).
+struct RunError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+void run_deck(const Deck& deck, const RunOptions& options);
+
+// Installs SIGINT/SIGTERM handlers that ask the running stage to checkpoint and stop.
+void install_stop_handlers();
+
+}  // namespace celldem

@@ -1,0 +1,35 @@
+#include "run/sample.hpp"
+
+#include <cmath>
+
+#include "core/rng.hpp"
+
+namespace celldem {
+
+State make_grid_sample(const SampleDef& sample, double skin) {
+  State s;
+  const int n = sample.count;
+  int side = 1;
+  while (static_cast<long long>(side) * side * side < n) ++side;
+  const double length = side * sample.grid_spacing;
+  s.cell.h = Mat3::Identity() * length;
+  s.particles.resize(n);
+  s.pairs.skin = skin;
+  Rng rng(sample.seed);
+  for (int i = 0; i < n; ++i) {
+    const double d = sample.diameters[rng.below(sample.diameters.size())];
+    s.particles.radius[i] = 0.5 * d;
+    const int g[3] = {i % side, (i / side) % side, i / (side * side)};
+    // Up to a quarter of the free gap each way: still no overlaps, but no perfect lattice either.
+    const double gap = 0.25 * (sample.grid_spacing - d);
+    for (int k = 0; k < 3; ++k) {
+      const double x = (g[k] + 0.5) * sample.grid_spacing + gap * (2.0 * rng.uniform() - 1.0);
+      s.particles.scaled[i][k] = x / length;
+    }
+  }
+  s.control.reference_lengths = s.cell.h.diagonal();
+  s.control.reference_volume = s.cell.volume();
+  return s;
+}
+
+}  // namespace celldem

@@ -1,0 +1,130 @@
+#!/usr/bin/env bash
+# Tests tools/figures.py and tools/report.py on synthetic run directories (tests/tools/make_fake_run.py):
+# the figures are written, and the report's comparison table holds the numbers built into the fake data.
+# Usage: bash tests/tools/test_tools.sh      (exits non-zero on the first failure)
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+# Debian's python3 sees python3-numpy and python3-matplotlib; another python3 first on PATH may not.
+PY="${CELLDEM_PYTHON:-/usr/bin/python3}"
+TMP="$(mktemp -d)"
+trap 'rm -rf "$TMP"' EXIT
+
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# Checks report.md against expected.json. Mode "alike": the run agrees with the paper; "diverging": the fake
+# PSC differs from TTC, so each comparison between the tests must say "no".
+check_report() {
+  "$PY" - "$1" "$2" <<'EOF'
+import json, os, re, sys
+
+run_dir, mode = sys.argv[1], sys.argv[2]
+expected = json.load(open(os.path.join(run_dir, "expected.json")))
+text = open(os.path.join(run_dir, "report.md"), encoding="utf-8").read()
+errors = []
+
+# The first Markdown table of the report, rows keyed by their first cell.
+lines = text.splitlines()
+start = next(i for i, l in enumerate(lines) if l.startswith("|"))
+rows = {}
+for line in lines[start + 2:]:
+    if not line.startswith("|"):
+        break
+    cells = [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+    rows[cells[0]] = cells
+
+def expect(row, column, wanted, how="equals"):
+    got = rows.get(row, [None] * 5)[column]
+    ok = got == wanted if how == "equals" else (got is not None and got.startswith(wanted))
+    if not ok:
+        errors.append(f"row {row!r} column {column}: expected {how} {wanted!r}, got {got!r}")
+
+RUN, MATCH = 2, 3
+expect("Prepared void ratio e", RUN, f"{expected['prepared_void_ratio']:.3f}")
+expect("Prepared coordination number Z", RUN, f"{expected['prepared_Z']:.2f}")
+expect("PSC b at peak σ1/σ3", RUN, f"{expected['psc_b_at_peak']:.3f}")
+expect("PSC b at peak σ1/σ3", MATCH, "yes")
+expect("PSC b at ε1 = 10 %", RUN, f"{expected['psc_b_at_10']:.3f}")
+peaks = expected["peaks"]
+yn = lambda flag: "yes" if flag else "no"
+expect("PSC peak σ1/σ3 exceeds TTC's", RUN,
+       f"{yn(expected['psc_peak_exceeds_ttc'])} (psc {peaks['psc']:.3f}, ttc {peaks['ttc']:.3f})")
+expect("PSC peak σ1/σ3 exceeds TTC's", MATCH, yn(expected["psc_peak_exceeds_ttc"]))
+fab = expected["fabric_peak"]
+expect("H11/H33 grows more in PSC", RUN, f"yes (max psc {fab['psc']:.3f}, ttc {fab['ttc']:.3f})")
+for row, key in (("Z evolves alike in TTC and PSC", "z_alike"),
+                 ("Sliding fraction evolves alike in TTC and PSC", "sliding_alike"),
+                 ("σ1/σ3 vs Hs11/Hs33 (ε1 ≤ 1 %) is one curve for both tests", "macro_micro_unique")):
+    expect(row, RUN, yn(expected[key]) + " (", how="starts with")
+    expect(row, MATCH, yn(expected[key]))
+expect("TTC b stays 0", MATCH, "yes")
+expect("PSC ε2 stays 0", MATCH, "yes")
+
+# Per-test values: the peaks, computed from the series.
+for name, peak in peaks.items():
+    if not re.search(r"\| peak σ1/σ3 \(–\) \|.*\b%s\b" % re.escape(f"{peak:.3f}"), text):
+        errors.append(f"per-test table lacks peak σ1/σ3 {peak:.3f} of {name}")
+
+# Every embedded figure exists, and the paper's Figures 2-12 are all there.
+links = re.findall(r"!\[[^]]*\]\(([^)]+)\)", text)
+for link in links:
+    if not link.startswith("figures/") or not os.path.isfile(os.path.join(run_dir, link)):
+        errors.append(f"figure link {link} does not resolve inside the run directory")
+for n in range(2, 13):
+    if not any(os.path.basename(l).startswith(f"fig{n:02d}_") for l in links):
+        errors.append(f"no Figure {n} embedded")
+
+for e in errors:
+    print("  " + e, file=sys.stderr)
+sys.exit(1 if errors else 0)
+EOF
+}
+
+check_pngs() {
+  local dir="$1" count=0
+  for f in "$dir"/fig02_*.png "$dir"/fig03_*.png "$dir"/fig04_*.png "$dir"/fig05_*.png "$dir"/fig06_*.png \
+           "$dir"/fig07_*.png "$dir"/fig08_*.png "$dir"/fig09_*.png "$dir"/fig10_*.png "$dir"/fig11_*.png \
+           "$dir"/fig12_*.png "$dir"/overview.png; do
+    [[ -s "$f" ]] || fail "missing or empty figure $f"
+    [[ "$(head -c 8 "$f" | od -An -tx1 | tr -d ' \n')" == "89504e470d0a1a0a" ]] || fail "$f is not a PNG"
+    count=$((count + 1))
+  done
+  [[ $count -eq 12 ]] || fail "expected 12 figures in $dir, found $count"
+}
+
+echo "1. run alike to the paper: figures.py, then report.py"
+"$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/alike"
+"$PY" "$ROOT/tools/figures.py" "$TMP/alike" >/dev/null || fail "figures.py failed"
+check_pngs "$TMP/alike/figures"
+"$PY" "$ROOT/tools/report.py" "$TMP/alike" >/dev/null || fail "report.py failed"
+check_report "$TMP/alike" alike || fail "report of the alike run"
+
+echo "2. run whose tests diverge: report.py alone draws the missing figures"
+"$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/diverging" --variant diverging
+"$PY" "$ROOT/tools/report.py" "$TMP/diverging" >/dev/null || fail "report.py failed"
+check_pngs "$TMP/diverging/figures"
+check_report "$TMP/diverging" diverging || fail "report of the diverging run"
+
+echo "3. one test, optional columns and the prepared stage missing: n/a, not a crash"
+"$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/partial" --only ttc --no-prepared \
+  --drop-columns Hs11_Hs33,Hs11,Hw11_Hw33,DI,Zm,sin_phi,kinetic_energy,unbalanced_force
+"$PY" "$ROOT/tools/report.py" "$TMP/partial" >/dev/null || fail "report.py failed on a partial run"
+check_pngs "$TMP/partial/figures"
+grep -q "| PSC b at peak σ1/σ3 | 0.396 | n/a | n/a |" "$TMP/partial/report.md" || fail "partial run: PSC b not n/a"
+grep -q "first row of ttc/series.csv" "$TMP/partial/report.md" || fail "partial run: no fallback for prepared"
+
+echo "4. figures.py --out writes elsewhere"
+"$PY" "$ROOT/tools/figures.py" "$TMP/alike" --out "$TMP/elsewhere" >/dev/null || fail "figures.py --out failed"
+check_pngs "$TMP/elsewhere"
+
+echo "5. a missing run directory or summary.json is an error with a message"
+for tool in figures.py report.py; do
+  if "$PY" "$ROOT/tools/$tool" "$TMP/no-such-run" 2>"$TMP/err"; then fail "$tool accepted a missing run dir"; fi
+  grep -q "run directory not found" "$TMP/err" || fail "$tool: unclear message for a missing run dir"
+  mkdir -p "$TMP/no-summary/ttc"
+  if "$PY" "$ROOT/tools/$tool" "$TMP/no-summary" 2>"$TMP/err"; then fail "$tool accepted a run without summary"; fi
+  grep -q "summary.json not found" "$TMP/err" || fail "$tool: unclear message for a missing summary.json"
+done
+[[ ! -e "$TMP/no-summary/report.md" ]] || fail "report.md written for a run without summary.json"
+
+echo "PASS: tools tests"

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Installs the Debian packages celldem needs. Safe to run repeatedly.
+# Usage: tools/install-deps.sh [--with-crosscheck]
+set -euo pipefail
+pkgs=(build-essential cmake libeigen3-dev nlohmann-json3-dev libgtest-dev libgmock-dev libcli11-dev
+      python3-numpy python3-matplotlib)
+if [[ "${1:-}" == "--with-crosscheck" ]]; then
+  pkgs+=(lammps liggghts openmpi-bin)
+fi
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  SUDO=""; [[ $(id -u) -ne 0 ]] && SUDO="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
