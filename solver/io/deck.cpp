@@ -285,13 +285,13 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
     }
     if (max_depth > 64) throw DeckError("deck: nesting deeper than 64 levels");
     j = Json::parse(json_text, nullptr, true, /*ignore_comments=*/true);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {  // parse errors, and numbers too large for a double
     throw DeckError(std::string("deck is not valid JSON: ") + e.what());
   }
 
   Deck d;
   d.source = source;
-  d.canonical = j.dump();
+  d.canonical = j.dump(-1, ' ', false, Json::error_handler_t::replace);  // invalid UTF-8 must not throw
   ObjectReader r(j, "");
   d.format = static_cast<int>(r.integer("format", 1, 1000));
   if (d.format != kDeckFormatVersion)
@@ -322,6 +322,7 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
       ObjectReader::fail(s.path(), "gain and integral_gain cannot both be zero");
     s.finish();
   }
+  d.neighbor_skin = r.number("neighbor_skin", 1e-4, 1.0, d.neighbor_skin);
   d.checkpoint_interval = r.integer("checkpoint_interval", 1, std::int64_t{1} << 50, d.checkpoint_interval);
 
   const bool has_prepare = r.has("prepare");
