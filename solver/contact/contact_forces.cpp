@@ -37,6 +37,14 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
       const auto& img = pl.image[q];
       const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(img[0], img[1], img[2]);
       const Vec3 branch = h * ds;
+      const double reach = p.radius[i] + p.radius[j];
+      if (branch.squaredNorm() >= reach * reach) {  // most listed pairs: apart, nothing to compute
+        if (pl.flags[q]) {  // a contact just opened: forget its history
+          pl.flags[q] = 0;
+          pl.tangential[q].setZero();
+        }
+        continue;
+      }
       Vec3 dv = p.velocity[j] - p.velocity[i];
       if constexpr (K == Kinematics::Affine) dv += L * branch;  // the images move apart with the cell
       const ContactResult r = linear_spring_contact(law, branch, p.radius[i], p.radius[j], dv, p.spin[i],
@@ -45,13 +53,10 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
       pl.torque_i[q] = r.torque_i;
       pl.torque_j[q] = r.torque_j;
       pl.tangential[q] = r.tangential;
-      pl.flags[q] = static_cast<std::uint8_t>((r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0));
-      if (r.touching) {
-        acc.stress_sum.noalias() += r.force * branch.transpose();
-        const double dn = branch.norm();
-        acc.stiffness_sum += law.kn * (branch.array().square() / dn).square().matrix();  // kn (n_k l_k)^2
-        ++acc.touching;
-      }
+      pl.flags[q] = static_cast<std::uint8_t>(kTouching | (r.sliding ? kSliding : 0));
+      acc.stress_sum.noalias() += r.force * branch.transpose();
+      acc.stiffness_sum += law.kn * (branch.array().square() / branch.norm()).square().matrix();  // kn (n_k l_k)^2
+      ++acc.touching;
     }
     partial[c] = acc;
   }

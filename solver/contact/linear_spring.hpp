@@ -29,7 +29,7 @@ struct ContactResult {
 // branch: x_j - x_i [m] (j's periodic image), dv: velocity of j's centre minus i's (affine part included
 // when the kinematics say so) [m/s], wi/wj spins [rad/s], xi the stored tangential displacement [m] of the
 // previous step, dt [s].
-inline ContactResult linear_spring_contact(const ContactParams& p, const Vec3& branch, double ri, double rj,
+[[gnu::always_inline]] inline ContactResult linear_spring_contact(const ContactParams& p, const Vec3& branch, double ri, double rj,
                                            const Vec3& dv, const Vec3& wi, const Vec3& wj, const Vec3& xi,
                                            double dt) {
   ContactResult out;

@@ -9,12 +9,15 @@ void gather_and_kick(const Model& model, State& state) {
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < n; ++i) {
     Vec3 f = Vec3::Zero(), t = Vec3::Zero();
+    // Per-pair results are only valid where the pair touches (the pair loop skips the others).
     for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
+      if (!(pl.flags[q] & kTouching)) continue;
       f -= pl.force[q];
       t += pl.torque_i[q];
     }
     for (Index k = pl.incoming_first[i]; k < pl.incoming_first[i + 1]; ++k) {
       const Index q = pl.incoming[k];
+      if (!(pl.flags[q] & kTouching)) continue;
       f += pl.force[q];
       t += pl.torque_j[q];
     }

@@ -315,6 +315,7 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
     state.control.reference_volume = state.cell.volume();
   }
   const Model model = make_model(deck, state.particles.radius);
+  state.pairs.skin = deck.neighbor_skin * 2.0 * model.max_radius;  // the deck's, not the preparing run's
   const Loading loading{test.axes, test.friction};
   if (!resumed) {  // the stage's first row measures the state as loaded, with this test's friction
     rebuild_pairs(model, state);
@@ -427,7 +428,8 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     return p["elapsed"].value(stage, 0.0);
   };
 
-  const double skin = 0.1 * *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
+  const double skin =
+      deck.neighbor_skin * *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
   fs::path prepared;
   if (deck.prepare) {
     prepared = dir / kPrepared;
