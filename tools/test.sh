@@ -1,9 +1,17 @@
 #!/usr/bin/env bash
-# The test suite: install what is missing (LAMMPS and LIGGGHTS included, for the cross-checks), build, and
-# run every test with ctest.
+# The test suite: install what is missing (LAMMPS and LIGGGHTS included, for the cross-checks), build, run
+# every test with ctest; then the unit tests again under AddressSanitizer + UndefinedBehaviorSanitizer, and
+# the deck and state-file fuzzers for a bounded time (CELLDEM_FUZZ_SECONDS per target, default 60).
+# CELLDEM_QUICK=1 skips the sanitizer build and the fuzzers.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh --with-crosscheck
 bash tools/build.sh -DCELLDEM_WERROR=ON
-cd "${CELLDEM_BUILD_DIR:-build}"
-ctest --output-on-failure -j 2 "$@"
+(cd "${CELLDEM_BUILD_DIR:-build}" && ctest --output-on-failure -j 2 "$@")
+if [[ "${CELLDEM_QUICK:-0}" != 1 ]]; then
+  echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer =="
+  CELLDEM_BUILD_DIR=build-asan bash tools/build.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCELLDEM_SANITIZE=ON
+  (cd build-asan && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j 2 -L unit)
+  echo "== fuzzing =="
+  bash tools/fuzz.sh "${CELLDEM_FUZZ_SECONDS:-60}"
+fi

@@ -55,7 +55,7 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
       pl.tangential[q] = r.tangential;
       pl.flags[q] = static_cast<std::uint8_t>(kTouching | (r.sliding ? kSliding : 0));
       acc.stress_sum.noalias() += r.force * branch.transpose();
-      acc.stiffness_sum += law.kn * (branch.array().square() / branch.norm()).square().matrix();  // kn (n_k l_k)^2
+      acc.stiffness_sum += law.kn * (r.normal.array() * branch.array()).square().matrix();  // kn (n_k l_k)^2
       ++acc.touching;
     }
     partial[c] = acc;

@@ -21,6 +21,7 @@ struct ContactResult {
   Vec3 torque_i = Vec3::Zero();    // [N m] on i
   Vec3 torque_j = Vec3::Zero();    // [N m] on j
   Vec3 tangential = Vec3::Zero();  // [m] updated stored tangential displacement
+  Vec3 normal = Vec3::Zero();      // unit vector from i to j
   double normal_force = 0.0;       // [N] >= 0
   bool touching = false;
   bool sliding = false;            // the trial tangential force reached the Coulomb limit
@@ -37,7 +38,7 @@ struct ContactResult {
   const double d2 = branch.squaredNorm();
   if (d2 >= reach * reach) return out;  // apart: history is forgotten
   const double d = std::sqrt(d2);
-  const Vec3 n = branch / d;
+  const Vec3 n = branch * (1.0 / d);
   const double overlap = reach - d;
   // Lever arms from each centre to the contact point (middle of the overlap), or the plain radii.
   const double ai = p.moment_arm == MomentArm::ContactPoint ? ri - 0.5 * overlap : ri;
@@ -70,6 +71,7 @@ struct ContactResult {
   out.torque_i = -ai * nxft;
   out.torque_j = -aj * nxft;
   out.tangential = s;
+  out.normal = n;
   out.normal_force = fn;
   out.touching = true;
   return out;

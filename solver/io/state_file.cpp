@@ -140,7 +140,8 @@ State parse_state(const std::string& bytes, std::string* label) {
     throw StateFileError("state file format " + std::to_string(version) + " is not the supported " +
                          std::to_string(kStateFormatVersion));
   const auto payload_size = head.get<std::uint64_t>();
-  if (payload_size + sizeof(std::uint64_t) != head.remaining())
+  head.need(sizeof(std::uint64_t));  // then remaining() >= 8 and the subtraction below cannot wrap
+  if (payload_size != head.remaining() - sizeof(std::uint64_t))
     throw StateFileError("state file is truncated or has trailing bytes");
   const char* payload = bytes.data() + (bytes.size() - head.remaining());
   std::uint64_t stored_sum;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 
 #include "cell/control.hpp"
@@ -20,8 +21,9 @@ const std::vector<std::string>& series_columns() {
 
 double DilatancyWindow::add(double e1, double ev) {
   points_.emplace_back(e1, ev);
-  while (!points_.empty() && points_.front().first < e1 - width_) points_.pop_front();
-  const double span = points_.back().first - points_.front().first;
+  // |.|: e1 may also decrease (extension along x1).
+  while (!points_.empty() && std::abs(e1 - points_.front().first) > width_) points_.pop_front();
+  const double span = std::abs(points_.back().first - points_.front().first);
   if (points_.size() < 2 || span < 0.5 * width_) return std::numeric_limits<double>::quiet_NaN();
   double mx = 0, my = 0;
   for (const auto& [x, y] : points_) mx += x, my += y;
@@ -31,6 +33,16 @@ double DilatancyWindow::add(double e1, double ev) {
   for (const auto& [x, y] : points_) sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
   return -sxy / sxx;
 }
+
+namespace {
+// The value as the series file prints it. The DI window is fed these, so a run resumed from the file
+// (which refills the window from the printed rows) computes exactly the same DI.
+double as_printed(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", x);
+  return std::strtod(buf, nullptr);
+}
+}  // namespace
 
 std::vector<double> measure_series_row(const Model& model, const State& state, DilatancyWindow& di) {
   const Vec3 e = axis_strains(state);
@@ -45,7 +57,7 @@ std::vector<double> measure_series_row(const Model& model, const State& state, D
           e[0], e[1], e[2], ev,
           s(0, 0), s(1, 1), s(2, 2), s(0, 1), s(0, 2), s(1, 2),
           inv.p, inv.q, ratio(s(0, 0), s(2, 2)), b_value(s(0, 0), s(1, 1), s(2, 2)), inv.sin_phi,
-          di.add(e[0], ev),
+          di.add(as_printed(e[0]), as_printed(ev)),
           void_ratio(model, state), z.z, z.z_mechanical, sliding_fraction(state),
           static_cast<double>(f.contacts), static_cast<double>(f.strong_contacts),
           f.all(0, 0), f.all(1, 1), f.all(2, 2), f.all(0, 1), f.all(0, 2), f.all(1, 2),

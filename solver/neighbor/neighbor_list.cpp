@@ -191,7 +191,10 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   pl.neighbor.resize(contacts.size());
   pl.tangential.resize(contacts.size());
   pl.flags.resize(contacts.size());
-  pl.image.assign(contacts.size(), {0, 0, 0});
+  pl.image.assign(contacts.size(), {0, 0, 0});  // unknown until the next rebuild, which must come first
+  pl.force.assign(contacts.size(), Vec3::Zero());
+  pl.torque_i.assign(contacts.size(), Vec3::Zero());
+  pl.torque_j.assign(contacts.size(), Vec3::Zero());
   std::vector<Index> fill(pl.first.begin(), pl.first.end() - 1);
   for (const auto& c : contacts) {  // contacts arrive sorted by (i, j), so each row stays sorted
     const Index q = fill[c.i]++;

@@ -1,0 +1,243 @@
+// The pair loop (solver/contact/contact_forces.hpp): periodic images, the affine part of the relative
+// velocity in a deforming cell, the contact stress and axis stiffness of a lattice against their analytic
+// values, and independence of the thread count.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+
+#include "contact/contact_forces.hpp"
+#include "helpers.hpp"
+#include "integrate/leapfrog.hpp"
+#include "neighbor/neighbor_list.hpp"
+#include "step.hpp"
+
+namespace celldem {
+namespace {
+
+using testing::find_pair;
+using testing::make_state;
+using testing::model_deck;
+
+constexpr double kKn = 1.0e4, kKt = 8.0e3, kDt = 1e-4;
+
+// Two spheres of radius 1/2 (dyadic positions, so that both placements give bit-identical branch vectors).
+struct PairSetup {
+  Mat3 h;
+  Vec3 si, sj;  // scaled positions
+};
+
+State pair_state(const PairSetup& p, const Mat3& velocity_gradient) {
+  State s;
+  s.cell.h = p.h;
+  s.cell.velocity_gradient = velocity_gradient;
+  s.particles.resize(2);
+  s.particles.radius = {0.5, 0.5};
+  s.particles.scaled = {p.si, p.sj};
+  s.particles.velocity = {Vec3(0.25, -0.5, 0.125), Vec3(-0.75, 0.375, 0.5)};
+  s.particles.spin = {Vec3(1.5, 2.0, -0.5), Vec3(-3.0, 0.25, 1.0)};
+  s.pairs.skin = 0.125;
+  s.control.reference_lengths = p.h.diagonal();
+  s.control.reference_volume = p.h.determinant();
+  return s;
+}
+
+void expect_same_pair_result(const PairSetup& straddling, const PairSetup& interior) {
+  const Mat3 L = (Mat3() << 0.5, 0.25, 0.0, -0.125, -0.25, 0.5, 0.0, 0.75, 0.125).finished();
+  const Deck deck = model_deck(kKn, kKt, kDt);
+  const Model model = make_model(deck, {0.5, 0.5});
+  State a = pair_state(straddling, L), b = pair_state(interior, L);
+  rebuild_pairs(model, a);
+  rebuild_pairs(model, b);
+  const int qa = find_pair(a.pairs, 0, 1), qb = find_pair(b.pairs, 0, 1);
+  ASSERT_GE(qa, 0);
+  ASSERT_GE(qb, 0);
+  EXPECT_NE(a.pairs.image[qa], (std::array<std::int32_t, 3>{0, 0, 0}));  // really across the boundary
+  compute_contact_forces(model, 0.5, a);
+  compute_contact_forces(model, 0.5, b);
+  ASSERT_EQ(a.pairs.flags[qa] & kTouching, kTouching);
+  ASSERT_GT(a.pairs.force[qa].norm(), 0.0);
+  ASSERT_GT(a.pairs.tangential[qa].norm(), 0.0);  // velocities, spins and L all add slip
+  EXPECT_EQ(a.pairs.force[qa], b.pairs.force[qb]);
+  EXPECT_EQ(a.pairs.torque_i[qa], b.pairs.torque_i[qb]);
+  EXPECT_EQ(a.pairs.torque_j[qa], b.pairs.torque_j[qb]);
+  EXPECT_EQ(a.pairs.tangential[qa], b.pairs.tangential[qb]);
+  EXPECT_EQ(a.pairs.flags[qa], b.pairs.flags[qb]);
+  EXPECT_EQ(a.stress, b.stress);
+  EXPECT_EQ(a.axis_stiffness, b.axis_stiffness);
+}
+
+TEST(ContactForces, PairAcrossFaceEqualsSamePairInside) {
+  const Mat3 h = Mat3::Identity() * 8.0;
+  // Across the x faces: s_j - s_i - 1 = -31/256 (branch -0.96875 m in x).
+  const PairSetup straddling{h, Vec3(3.0 / 256, 0.5, 0.5), Vec3(228.0 / 256, 0.5 + 1.0 / 256, 0.5 - 1.0 / 512)};
+  const PairSetup interior{h, Vec3(131.0 / 256, 0.5, 0.5), Vec3(100.0 / 256, 0.5 + 1.0 / 256, 0.5 - 1.0 / 512)};
+  expect_same_pair_result(straddling, interior);
+}
+
+TEST(ContactForces, PairAcrossCornerOfShearedCellEqualsSamePairInside) {
+  const Mat3 h = (Mat3() << 8.0, 2.0, 0.0, 0.0, 8.0, 1.0, 0.0, 0.0, 8.0).finished();
+  // ds = (-15/256, -17/256, 1/512) through the image (-1, -1, 0).
+  const PairSetup straddling{h, Vec3(3.0 / 256, 5.0 / 256, 0.5),
+                             Vec3(244.0 / 256, 244.0 / 256, 0.5 + 1.0 / 512)};
+  const PairSetup interior{h, Vec3(131.0 / 256, 133.0 / 256, 0.5), Vec3(116.0 / 256, 116.0 / 256, 0.5 + 1.0 / 512)};
+  expect_same_pair_result(straddling, interior);
+}
+
+// The same physical packing written with particles in different periodic images (scaled positions shifted
+// by whole cells, as an unwrapped trajectory leaves them) gives the same forces, pair by pair.
+TEST(ContactForces, ForcesDoNotDependOnWhichImageHoldsAParticle) {
+  std::mt19937_64 gen(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::uniform_int_distribution<int> shift(-2, 2);
+  const int n = 150;
+  std::vector<double> radius(n);
+  for (double& r : radius) r = 0.4 + 0.2 * u(gen);
+  const Mat3 h = (Mat3() << 5.0, 0.6, 0.0, 0.0, 5.2, -0.4, 0.0, 0.0, 5.1).finished();
+  const Model model = make_model(model_deck(kKn, kKt, kDt), radius);
+  State a;
+  a.cell.h = h;
+  a.cell.velocity_gradient = (Mat3() << 0.1, 0.2, 0.0, 0.0, -0.3, 0.1, 0.05, 0.0, 0.2).finished();
+  a.particles.resize(n);
+  a.particles.radius = radius;
+  a.pairs.skin = 0.1;
+  for (int i = 0; i < n; ++i) {
+    a.particles.scaled[i] = Vec3(u(gen), u(gen), u(gen));
+    a.particles.velocity[i] = Vec3(u(gen) - 0.5, u(gen) - 0.5, u(gen) - 0.5);
+    a.particles.spin[i] = Vec3(u(gen) - 0.5, u(gen) - 0.5, u(gen) - 0.5) * 10.0;
+  }
+  State b = a;
+  for (int i = 0; i < n; ++i) b.particles.scaled[i] += Vec3(shift(gen), shift(gen), shift(gen));
+  rebuild_pairs(model, a);
+  rebuild_pairs(model, b);
+  compute_contact_forces(model, 0.3, a);
+  compute_contact_forces(model, 0.3, b);
+  ASSERT_GT(a.touching, 50);  // dense enough to test something (150 spheres, solid fraction ~0.5)
+  EXPECT_EQ(a.touching, b.touching);
+  for (std::size_t q = 0; q < a.pairs.size(); ++q) {
+    if (!(a.pairs.flags[q] & kTouching)) continue;
+    const int qb = find_pair(b.pairs, a.pairs.owner[q], a.pairs.neighbor[q]);
+    ASSERT_GE(qb, 0);
+    EXPECT_NEAR((a.pairs.force[q] - b.pairs.force[qb]).norm(), 0.0, 1e-9 * a.pairs.force[q].norm());
+    EXPECT_NEAR((a.pairs.tangential[q] - b.pairs.tangential[qb]).norm(), 0.0, 1e-12);
+  }
+  EXPECT_NEAR((a.stress - b.stress).norm(), 0.0, 1e-9 * a.stress.norm());
+}
+
+// Particles at rest in a cell deforming with velocity gradient L: the contact sees the relative velocity
+// L * branch of the affine field, so one evaluation stores the tangential part of L * branch * dt.
+// With the LAMMPS kinematics the affine field is invisible to the contact: nothing is stored.
+TEST(ContactForces, AffineVelocityDifferenceAddsTangentialSlip) {
+  const Mat3 L = (Mat3() << 0.3, 1.2, -0.4, 0.2, -0.5, 0.7, -0.9, 0.1, 0.2).finished();
+  const Vec3 dir = Vec3(2.0, -3.0, 6.0) / 7.0;
+  const Vec3 branch = dir * 0.97;
+  const Mat3 h = Mat3::Identity() * 6.0;
+  for (Kinematics kin : {Kinematics::Affine, Kinematics::Lammps}) {
+    Deck deck = model_deck(kKn, kKt, kDt);
+    deck.kinematics = kin;
+    const Model model = make_model(deck, {0.5, 0.5});
+    State s = make_state(h, {0.5, 0.5}, {Vec3(3.0, 3.0, 3.0), Vec3(3.0, 3.0, 3.0) + branch}, 0.1);
+    s.cell.velocity_gradient = L;
+    rebuild_pairs(model, s);
+    compute_contact_forces(model, 100.0, s);
+    const int q = find_pair(s.pairs, 0, 1);
+    ASSERT_GE(q, 0);
+    ASSERT_TRUE(s.pairs.flags[q] & kTouching);
+    const Vec3 lb = L * branch;
+    const Vec3 expected = kin == Kinematics::Affine ? Vec3((lb - lb.dot(dir) * dir) * kDt) : Vec3::Zero();
+    EXPECT_NEAR((s.pairs.tangential[q] - expected).norm(), 0.0, 1e-15) << "kinematics " << static_cast<int>(kin);
+    // The force: kn * overlap along the branch, -kt xi across it.
+    const Vec3 f_expected = kKn * 0.03 * dir - kKt * expected;
+    EXPECT_NEAR((s.pairs.force[q] - f_expected).norm(), 0.0, 1e-9);
+    if (kin == Kinematics::Affine) { EXPECT_GT(expected.norm(), 1e-5); }
+  }
+}
+
+// advance_slip = false evaluates the forces of the state as it stands: no slip is added.
+TEST(ContactForces, NoSlipAddedWhenNotAdvancing) {
+  const Model model = make_model(model_deck(kKn, kKt, kDt), {0.5, 0.5});
+  State s = make_state(Mat3::Identity() * 6.0, {0.5, 0.5}, {Vec3(3, 3, 3), Vec3(3.9, 3.2, 3.0)}, 0.1);
+  s.particles.velocity[1] = Vec3(0.0, 1.0, 0.0);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, 1.0, s, /*advance_slip=*/false);
+  const int q = find_pair(s.pairs, 0, 1);
+  ASSERT_GE(q, 0);
+  EXPECT_TRUE(s.pairs.flags[q] & kTouching);
+  EXPECT_EQ(s.pairs.tangential[q], Vec3::Zero());
+}
+
+// A rectangular lattice of n^3 equal spheres, spacings a_k < 2R, in a periodic cell: each sphere has one
+// contact per axis in the half list (3 per sphere), each with force kn (2R - a_k) along the axis and branch
+// a_k. sigma = (1/V) sum f (x) l, V = N a_x a_y a_z:
+//   sigma_xx = kn (2R - a_x) / (a_y a_z), off-diagonal 0;
+//   axis stiffness K_x = (1/V) sum kn (n_x l_x)^2 = kn a_x / (a_y a_z),
+// which is also d(sigma_xx)/d(eps_xx) for this lattice, sigma_xx being linear in a_x.
+TEST(ContactForces, LatticeStressAndStiffnessMatchAnalytic) {
+  const int n = 4;
+  const double R = 0.5;
+  const Vec3 a(0.99, 0.98, 0.995);
+  const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, R));
+  State s = testing::lattice_state(n, R, a, 0.05);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, 0.5, s);
+  EXPECT_EQ(s.touching, 3 * n * n * n);
+  for (int k = 0; k < 3; ++k) {
+    const double other = a[(k + 1) % 3] * a[(k + 2) % 3];
+    const double sigma = kKn * (2 * R - a[k]) / other;
+    const double stiffness = kKn * a[k] / other;
+    EXPECT_NEAR(s.stress(k, k), sigma, 1e-9 * sigma) << "axis " << k;
+    EXPECT_GT(s.stress(k, k), 0.0);  // compression positive
+    EXPECT_NEAR(s.axis_stiffness[k], stiffness, 1e-9 * stiffness) << "axis " << k;
+    for (int l = 0; l < 3; ++l)
+      if (l != k) { EXPECT_NEAR(s.stress(k, l), 0.0, 1e-9 * sigma); }
+  }
+  // The affine stiffness against a finite difference of the stress: compress x by eps, affinely.
+  const double eps = 1e-4;
+  State t = s;
+  const Mat3 map = Vec3(1.0 - eps, 1.0, 1.0).asDiagonal();
+  t.cell.h = map * s.cell.h;  // scaled positions unchanged: every branch shrinks along x
+  compute_contact_forces(model, 0.5, t, false);
+  EXPECT_NEAR((t.stress(0, 0) - s.stress(0, 0)) / eps, s.axis_stiffness[0], 1e-6 * s.axis_stiffness[0]);
+}
+
+// The reductions and per-pair results do not depend on the number of threads (more than one block of
+// 256 owners, so the blocked sums really are split).
+TEST(ContactForces, ResultsIndependentOfThreadCount) {
+  const int n = 7;  // 343 spheres
+  std::mt19937_64 gen(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, 0.5));
+  State base = testing::lattice_state(n, 0.5, Vec3(0.98, 0.98, 0.98), 0.1);
+  const Mat3 hinv = base.cell.h.inverse();
+  for (std::size_t i = 0; i < base.particles.size(); ++i) {
+    base.particles.scaled[i] += hinv * Vec3(u(gen), u(gen), u(gen)) * 0.02;
+    base.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen));
+    base.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * 5.0;
+  }
+  base.cell.velocity_gradient = Mat3::Identity() * 0.1;
+  const int saved = omp_get_max_threads();
+  std::vector<State> results;
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    State s = base;
+    rebuild_pairs(model, s);
+    for (int k = 0; k < 3; ++k) compute_contact_forces(model, 0.4, s);
+    gather_and_kick(model, s);
+    results.push_back(std::move(s));
+  }
+  omp_set_num_threads(saved);
+  ASSERT_GT(results[0].touching, 500);
+  for (std::size_t r = 1; r < results.size(); ++r) {
+    EXPECT_EQ(results[r].stress, results[0].stress);
+    EXPECT_EQ(results[r].axis_stiffness, results[0].axis_stiffness);
+    EXPECT_EQ(results[r].pairs.force, results[0].pairs.force);
+    EXPECT_EQ(results[r].pairs.tangential, results[0].pairs.tangential);
+    EXPECT_EQ(results[r].particles.force, results[0].particles.force);
+    EXPECT_EQ(results[r].particles.velocity, results[0].particles.velocity);
+  }
+}
+
+}  // namespace
+}  // namespace celldem

@@ -1,0 +1,50 @@
+// The immutable model (solver/core/model.hpp): masses, inertias and the damped leapfrog coefficients,
+// against their formulas written out by hand.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/model.hpp"
+#include "helpers.hpp"
+
+namespace celldem {
+namespace {
+
+TEST(Model, MassesAndUndampedCoefficients) {
+  const double dt = 1e-4, density = 2500.0;
+  const std::vector<double> radius = {0.5, 0.25, 1.0};
+  const Model m = make_model(testing::model_deck(1e4, 5e3, dt, density), radius);
+  ASSERT_EQ(m.mass.size(), 3u);
+  double volume = 0.0;
+  for (std::size_t i = 0; i < radius.size(); ++i) {
+    const double r = radius[i], v = 4.0 / 3.0 * M_PI * r * r * r, mass = density * v;
+    volume += v;
+    EXPECT_NEAR(m.mass[i], mass, 1e-12 * mass);
+    EXPECT_EQ(m.velocity_keep[i], 1.0);
+    EXPECT_EQ(m.spin_keep[i], 1.0);
+    EXPECT_NEAR(m.velocity_gain[i], dt / mass, 1e-15 * dt / mass);
+    EXPECT_NEAR(m.spin_gain[i], dt / (0.4 * mass * r * r), 1e-12 * dt / (0.4 * mass * r * r));
+  }
+  EXPECT_NEAR(m.solid_volume, volume, 1e-12 * volume);
+  EXPECT_EQ(m.max_radius, 1.0);
+  EXPECT_EQ(m.dt, dt);
+}
+
+// Body damping, a fraction of critical: c = a 2 sqrt(m kn) on translation, c_r = a_r 2 r sqrt(I kt) on
+// rotation, integrated implicitly (trapezoidal): keep = (1 - c dt/2m)/(1 + c dt/2m), gain = dt/(m (1 + c dt/2m)).
+TEST(Model, DampedCoefficients) {
+  const double dt = 2e-4, kn = 1e4, kt = 4e3, at = 0.3, ar = 0.2;
+  const Model m = make_model(testing::model_deck(kn, kt, dt, testing::kUnitMassDensity, at, ar), {0.5});
+  const double mass = 1.0, inertia = 0.4 * 0.25;
+  const double c = at * 2.0 * std::sqrt(mass * kn), cr = ar * 2.0 * 0.5 * std::sqrt(inertia * kt);
+  const double x = c * dt / (2 * mass), xr = cr * dt / (2 * inertia);
+  EXPECT_NEAR(m.velocity_keep[0], (1 - x) / (1 + x), 1e-15);
+  EXPECT_NEAR(m.velocity_gain[0], dt / (mass * (1 + x)), 1e-18);
+  EXPECT_NEAR(m.spin_keep[0], (1 - xr) / (1 + xr), 1e-15);
+  EXPECT_NEAR(m.spin_gain[0], dt / (inertia * (1 + xr)), 1e-15);
+  EXPECT_LT(m.velocity_keep[0], 1.0);
+  EXPECT_GT(m.velocity_keep[0], 0.0);
+}
+
+}  // namespace
+}  // namespace celldem

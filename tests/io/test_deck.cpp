@@ -1,0 +1,321 @@
+// Deck parsing and validation (solver/io/deck.hpp): a valid deck gives the expected values and defaults;
+// every kind of bad input throws DeckError whose message starts with the JSON path of the offending key.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "helpers.hpp"
+#include "io/deck.hpp"
+
+namespace celldem {
+namespace {
+
+using Json = nlohmann::json;
+
+Json minimal_deck() {
+  return Json::parse(R"({
+    "format": 1,
+    "sample": {"count": 100, "diameters": {"min": 3.0e-3, "max": 4.5e-3, "count": 4}, "density": 2650},
+    "contact": {"kn": 1.0e6, "kt": 5.0e5},
+    "damping": {"translational": 0.05, "rotational": 0.1},
+    "time_step": 1.0e-6,
+    "prepare": {"target_pressure": 1.0e5},
+    "tests": [
+      {"name": "ttc", "friction": 0.5,
+       "axes": {"x1": {"strain_increment": 2.0e-7}, "x2": {"stress": 1.0e5}, "x3": {"stress": 1.0e5}},
+       "end": {"strain": 0.1}},
+      {"name": "psc", "friction": 0.5,
+       "axes": {"x1": {"stress": 1.0e5}, "x2": {"strain_increment": 0.0}, "x3": {"strain_rate": 0.2}},
+       "end": {"axis": "x3", "strain": 0.05, "max_steps": 1000}, "output_interval": 50}
+    ]
+  })");
+}
+
+TEST(Deck, MinimalDeckParsesWithExpectedValuesAndDefaults) {
+  const Deck d = parse_deck(minimal_deck().dump(), "mine.json");
+  EXPECT_EQ(d.format, 1);
+  EXPECT_EQ(d.source, "mine.json");
+  EXPECT_EQ(d.sample.count, 100);
+  ASSERT_EQ(d.sample.diameters.size(), 4u);
+  EXPECT_DOUBLE_EQ(d.sample.diameters[0], 3.0e-3);
+  EXPECT_DOUBLE_EQ(d.sample.diameters[1], 3.5e-3);
+  EXPECT_DOUBLE_EQ(d.sample.diameters[2], 4.0e-3);
+  EXPECT_DOUBLE_EQ(d.sample.diameters[3], 4.5e-3);
+  EXPECT_EQ(d.sample.density, 2650.0);
+  EXPECT_EQ(d.sample.seed, 1u);
+  EXPECT_DOUBLE_EQ(d.sample.grid_spacing, 1.1 * 4.5e-3);
+  EXPECT_EQ(d.contact.kn, 1.0e6);
+  EXPECT_EQ(d.contact.kt, 5.0e5);
+  EXPECT_EQ(d.contact.rotation, TangentialRotation::Rotate);
+  EXPECT_EQ(d.contact.moment_arm, MomentArm::ContactPoint);
+  EXPECT_EQ(d.kinematics, Kinematics::Affine);
+  EXPECT_EQ(d.damping.translational, 0.05);
+  EXPECT_EQ(d.damping.rotational, 0.1);
+  EXPECT_EQ(d.time_step, 1.0e-6);
+  EXPECT_EQ(d.servo.gain, 0.05);
+  EXPECT_EQ(d.servo.integral_gain, 0.002);
+  EXPECT_EQ(d.servo.max_strain_increment, 1e-6);
+  EXPECT_EQ(d.checkpoint_interval, 100000);
+  ASSERT_TRUE(d.prepare.has_value());
+  EXPECT_FALSE(d.initial_state.has_value());
+  EXPECT_EQ(d.prepare->target_pressure, 1.0e5);
+  EXPECT_EQ(d.prepare->friction, 0.0);
+  EXPECT_EQ(d.prepare->fast_solid_fraction, 0.45);
+  EXPECT_EQ(d.prepare->equilibrium.min_steps, 20000);
+  ASSERT_EQ(d.tests.size(), 2u);
+  const TestDef& t = d.tests[0];
+  EXPECT_EQ(t.name, "ttc");
+  EXPECT_EQ(t.friction, 0.5);
+  EXPECT_EQ(t.axes[0].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(t.axes[0].value, 2.0e-7);
+  EXPECT_EQ(t.axes[1].mode, AxisMode::Stress);
+  EXPECT_EQ(t.axes[1].value, 1.0e5);
+  EXPECT_EQ(t.end_axis, 0);
+  EXPECT_EQ(t.end_strain, 0.1);
+  EXPECT_EQ(t.max_steps, 0);
+  EXPECT_EQ(t.output_interval, 1000);
+  const TestDef& u = d.tests[1];
+  EXPECT_EQ(u.axes[1].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(u.axes[1].value, 0.0);
+  EXPECT_EQ(u.axes[2].mode, AxisMode::StrainRate);
+  EXPECT_EQ(u.axes[2].value, 0.2);
+  EXPECT_EQ(u.end_axis, 2);
+  EXPECT_EQ(u.max_steps, 1000);
+  EXPECT_EQ(u.output_interval, 50);
+}
+
+TEST(Deck, OptionalChoicesAndListDiameters) {
+  Json j = minimal_deck();
+  j["contact"]["tangential_rotation"] = "project";
+  j["contact"]["moment_arm"] = "radius";
+  j["kinematics"] = "lammps";
+  j["sample"]["diameters"] = {{"list", {2e-3, 4e-3}}};
+  j["sample"]["seed"] = 42;
+  j["sample"]["grid_spacing"] = 5e-3;
+  j["servo"] = {{"gain", 0.1}, {"integral_gain", 0.0}, {"max_strain_increment", 1e-5}};
+  j.erase("prepare");
+  j["initial_state"] = "prepared.state";
+  const Deck d = parse_deck(j.dump());
+  EXPECT_EQ(d.contact.rotation, TangentialRotation::Project);
+  EXPECT_EQ(d.contact.moment_arm, MomentArm::Radius);
+  EXPECT_EQ(d.kinematics, Kinematics::Lammps);
+  EXPECT_EQ(d.sample.diameters, (std::vector<double>{2e-3, 4e-3}));
+  EXPECT_EQ(d.sample.seed, 42u);
+  EXPECT_EQ(d.sample.grid_spacing, 5e-3);
+  EXPECT_EQ(d.servo.gain, 0.1);
+  EXPECT_FALSE(d.prepare.has_value());
+  EXPECT_EQ(d.initial_state, "prepared.state");
+}
+
+TEST(Deck, CriticalTimeStepIsSqrtOfLightestMassOverKn) {
+  SampleDef s;
+  s.density = 2650;
+  s.diameters = {4e-3, 3e-3, 5e-3};
+  const double m = 2650 * M_PI / 6.0 * 27e-9;
+  EXPECT_NEAR(critical_time_step(s, 1e6), std::sqrt(m / 1e6), 1e-18);
+}
+
+// Parses a mutated deck and checks the error names `path` (the message is "path: what").
+void expect_error(const Json& j, const std::string& path, const std::string& also = "") {
+  try {
+    (void)parse_deck(j.dump());
+    ADD_FAILURE() << "no error for " << path;
+  } catch (const DeckError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(path + ":", 0), 0u) << "message does not start with \"" << path << ":\": " << what;
+    if (!also.empty()) { EXPECT_NE(what.find(also), std::string::npos) << what; }
+  }
+}
+
+TEST(DeckErrors, UnknownKeysTopLevelAndNested) {
+  Json j = minimal_deck();
+  j["frobnicate"] = 1;
+  expect_error(j, "frobnicate", "unknown key");
+  j = minimal_deck();
+  j["contact"]["kN"] = 1.0;
+  expect_error(j, "contact.kN", "unknown key");
+  j = minimal_deck();
+  j["tests"][1]["axes"]["x2"]["strain_incremnt"] = 0.0;
+  expect_error(j, "tests[1].axes.x2.strain_incremnt", "unknown key");
+  j = minimal_deck();
+  j["prepare"]["equilibrium"] = {{"min_steps", 10}, {"tolerance", 0.1}};
+  expect_error(j, "prepare.equilibrium.tolerance", "unknown key");
+  j = minimal_deck();
+  j["sample"]["diameters"]["mean"] = 1e-3;
+  expect_error(j, "sample.diameters.mean", "unknown key");
+  j = minimal_deck();
+  j["tests"][0]["end"]["at"] = 1;
+  expect_error(j, "tests[0].end.at", "unknown key");
+}
+
+TEST(DeckErrors, WrongTypes) {
+  Json j = minimal_deck();
+  j["sample"]["density"] = "heavy";
+  expect_error(j, "sample.density", "expected a number");
+  j = minimal_deck();
+  j["sample"]["count"] = 100.5;
+  expect_error(j, "sample.count", "integer");
+  j = minimal_deck();
+  j["contact"]["kn"] = "1e6";
+  expect_error(j, "contact.kn");
+  j = minimal_deck();
+  j["contact"] = 5;
+  expect_error(j, "contact", "object");
+  j = minimal_deck();
+  j["tests"] = Json::object();
+  expect_error(j, "tests", "array");
+  j = minimal_deck();
+  j["tests"][0]["name"] = 3;
+  expect_error(j, "tests[0].name", "string");
+  j = minimal_deck();
+  j["contact"]["tangential_rotation"] = true;
+  expect_error(j, "contact.tangential_rotation");
+  j = minimal_deck();
+  j["sample"]["diameters"] = {{"list", {1e-3, "big"}}};
+  expect_error(j, "sample.diameters.list[1]");
+}
+
+TEST(DeckErrors, MissingKeys) {
+  for (const char* key : {"sample", "contact", "damping", "time_step", "format"}) {
+    Json j = minimal_deck();
+    j.erase(key);
+    expect_error(j, key, "missing");
+  }
+  Json j = minimal_deck();
+  j["contact"].erase("kn");
+  expect_error(j, "contact.kn", "missing");
+  j = minimal_deck();
+  j["sample"].erase("density");
+  expect_error(j, "sample.density", "missing");
+  j = minimal_deck();
+  j["tests"][0].erase("axes");
+  expect_error(j, "tests[0].axes", "missing");
+  j = minimal_deck();
+  j["tests"][0]["axes"].erase("x3");
+  expect_error(j, "tests[0].axes.x3", "missing");
+  j = minimal_deck();
+  j["prepare"].erase("target_pressure");
+  expect_error(j, "prepare.target_pressure", "missing");
+  j = minimal_deck();
+  j["damping"].erase("rotational");
+  expect_error(j, "damping.rotational", "missing");
+}
+
+TEST(DeckErrors, OutOfRangeValues) {
+  struct Case {
+    const char* pointer;
+    Json value;
+    const char* path;
+  };
+  const Case cases[] = {
+      {"/contact/kn", -1.0e6, "contact.kn"},
+      {"/contact/kn", 0.0, "contact.kn"},
+      {"/contact/kt", -1.0, "contact.kt"},
+      {"/tests/0/friction", -0.1, "tests[0].friction"},
+      {"/prepare/friction", -0.5, "prepare.friction"},
+      {"/sample/count", 0, "sample.count"},
+      {"/sample/count", -5, "sample.count"},
+      {"/sample/count", 18446744073709551615ULL, "sample.count"},
+      {"/sample/density", 0.0, "sample.density"},
+      {"/damping/translational", -0.1, "damping.translational"},
+      {"/time_step", 0.0, "time_step"},
+      {"/time_step", 1.0e-5, "time_step"},  // above sqrt(m_min / kn) = 6.1e-6 s
+      {"/sample/grid_spacing", 4.0e-3, "sample.grid_spacing"},  // below the largest diameter
+      {"/sample/diameters/min", -3.0e-3, "sample.diameters.min"},
+      {"/sample/diameters/max", 2.0e-3, "sample.diameters.max"},  // below min
+      {"/prepare/target_pressure", -1.0, "prepare.target_pressure"},
+      {"/prepare/fast_solid_fraction", 0.9, "prepare.fast_solid_fraction"},
+      {"/tests/0/axes/x2/stress", -1.0e5, "tests[0].axes.x2.stress"},
+      {"/tests/0/axes/x1/strain_increment", 0.5, "tests[0].axes.x1.strain_increment"},
+      {"/tests/0/end/strain", 0.0, "tests[0].end.strain"},
+      {"/tests/0/end/strain", -0.1, "tests[0].end.strain"},  // the axis is compressed, not extended
+      {"/tests/0/output_interval", 0, "tests[0].output_interval"},
+      {"/format", 2, "format"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.pointer);
+    Json j = minimal_deck();
+    j[Json::json_pointer(c.pointer)] = c.value;
+    expect_error(j, c.path);
+  }
+  Json j = minimal_deck();
+  j["servo"] = {{"gain", 1.5}};
+  expect_error(j, "servo.gain");
+  j["servo"] = {{"gain", 0.0}, {"integral_gain", 0.0}};
+  expect_error(j, "servo");
+  j = minimal_deck();
+  j["sample"]["diameters"] = {{"list", {1e-3, -2e-3}}};
+  expect_error(j, "sample.diameters.list[1]");
+}
+
+TEST(DeckErrors, BadEnumValuesListTheChoices) {
+  Json j = minimal_deck();
+  j["contact"]["tangential_rotation"] = "spin";
+  expect_error(j, "contact.tangential_rotation", "\"rotate\"");
+  j = minimal_deck();
+  j["contact"]["moment_arm"] = "lever";
+  expect_error(j, "contact.moment_arm", "\"radius\"");
+  j = minimal_deck();
+  j["kinematics"] = "liggghts";
+  expect_error(j, "kinematics", "\"lammps\"");
+  j = minimal_deck();
+  j["tests"][0]["end"]["axis"] = "x4";
+  expect_error(j, "tests[0].end.axis");
+}
+
+TEST(DeckErrors, ExactlyOneOfPrepareAndInitialState) {
+  Json both = minimal_deck();
+  both["initial_state"] = "a.state";
+  expect_error(both, "initial_state", "exactly one");
+  Json neither = minimal_deck();
+  neither.erase("prepare");
+  expect_error(neither, "prepare", "exactly one");
+  Json state_without_tests = minimal_deck();
+  state_without_tests.erase("prepare");
+  state_without_tests["initial_state"] = "a.state";
+  state_without_tests.erase("tests");
+  expect_error(state_without_tests, "tests");
+}
+
+TEST(DeckErrors, InconsistentTests) {
+  Json j = minimal_deck();
+  j["tests"][1]["name"] = "ttc";
+  expect_error(j, "tests[1].name", "duplicate");
+  j = minimal_deck();
+  j["tests"][0]["name"] = "a/b";
+  expect_error(j, "tests[0].name");
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x1"] = {{"strain_increment", 1e-7}, {"stress", 1e5}};
+  expect_error(j, "tests[0].axes.x1", "exactly one");
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x1"] = Json::object();
+  expect_error(j, "tests[0].axes.x1", "exactly one");
+  j = minimal_deck();
+  j["tests"][0]["end"]["axis"] = "x2";  // stress-controlled
+  expect_error(j, "tests[0].end.axis");
+  j = minimal_deck();
+  j["tests"][1]["axes"]["x3"] = {{"strain_increment", 0.0}};  // never reaches its end strain
+  expect_error(j, "tests[1].end.strain");
+}
+
+TEST(DeckErrors, NotJsonOrTooDeepIsADeckError) {
+  EXPECT_THROW(parse_deck("{\"format\": 1,"), DeckError);
+  EXPECT_THROW(parse_deck(""), DeckError);
+  EXPECT_THROW(parse_deck("[1, 2]"), DeckError);
+  EXPECT_THROW(parse_deck(std::string(100000, '[') + std::string(100000, ']')), DeckError);
+  EXPECT_THROW(read_deck("/nonexistent/celldem/deck.json"), DeckError);
+}
+
+TEST(Deck, ReadDeckFromFileKeepsSource) {
+  testing::TempDir dir;
+  const auto path = dir.path() / "d.json";
+  testing::write_bytes(path, "// a comment\n" + minimal_deck().dump(2));
+  const Deck d = read_deck(path.string());
+  EXPECT_EQ(d.source, path.string());
+  EXPECT_EQ(d.sample.count, 100);
+}
+
+}  // namespace
+}  // namespace celldem

@@ -1,0 +1,240 @@
+// The neighbour list (solver/neighbor/neighbor_list.hpp) against a brute-force search over all pairs and
+// all periodic images; the rebuild criterion against the same brute force along a random trajectory of a
+// deforming cell; history carried over a rebuild; and the stored-contact round trip.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <tuple>
+
+#include "helpers.hpp"
+#include "neighbor/neighbor_list.hpp"
+
+namespace celldem {
+namespace {
+
+using testing::model_deck;
+using Key = std::tuple<Index, Index, int, int, int>;  // (i, j, total image shift n)
+
+// Every (i < j, image) with |h (s_j - s_i + n)| < r_i + r_j + extra, by trying every image near the
+// closest one. Independent of the bins and of how positions are wrapped.
+std::set<Key> brute_force(const State& s, double extra, int range = 1) {
+  std::set<Key> out;
+  const auto& p = s.particles;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    for (std::size_t j = i + 1; j < p.size(); ++j) {
+      const Vec3 ds = p.scaled[j] - p.scaled[i];
+      const Vec3 base = (-ds).array().round();
+      for (int dz = -range; dz <= range; ++dz)
+        for (int dy = -range; dy <= range; ++dy)
+          for (int dx = -range; dx <= range; ++dx) {
+            const Vec3 n = base + Vec3(dx, dy, dz);
+            const double reach = p.radius[i] + p.radius[j] + extra;
+            if ((s.cell.h * (ds + n)).squaredNorm() < reach * reach)
+              out.insert({static_cast<Index>(i), static_cast<Index>(j), static_cast<int>(n[0]),
+                          static_cast<int>(n[1]), static_cast<int>(n[2])});
+          }
+    }
+  return out;
+}
+
+std::set<Key> listed(const PairList& pl) {
+  std::set<Key> out;
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    out.insert({pl.owner[q], pl.neighbor[q], pl.image[q][0], pl.image[q][1], pl.image[q][2]});
+  return out;
+}
+
+// A random polydisperse packing in the cell h, positions shifted by random whole cells (unwrapped).
+State random_state(const Mat3& h, int n, double rmin, double rmax, std::uint64_t seed, double skin) {
+  std::mt19937_64 gen(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::uniform_int_distribution<int> whole(-3, 3);
+  State s;
+  s.cell.h = h;
+  s.particles.resize(n);
+  s.pairs.skin = skin;
+  for (int i = 0; i < n; ++i) {
+    s.particles.radius[i] = rmin + (rmax - rmin) * u(gen);
+    s.particles.scaled[i] = Vec3(u(gen) + whole(gen), u(gen) + whole(gen), u(gen) + whole(gen));
+  }
+  return s;
+}
+
+void expect_list_consistent(const PairList& pl, std::size_t n) {
+  ASSERT_EQ(pl.first.size(), n + 1);
+  EXPECT_EQ(pl.first[0], 0);
+  EXPECT_EQ(static_cast<std::size_t>(pl.first[n]), pl.size());
+  for (std::size_t i = 0; i < n; ++i)
+    for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
+      EXPECT_EQ(pl.owner[q], static_cast<Index>(i));
+      EXPECT_GT(pl.neighbor[q], static_cast<Index>(i));
+      if (q > pl.first[i]) { EXPECT_LT(pl.neighbor[q - 1], pl.neighbor[q]); }  // sorted by j, one image each
+    }
+  // The reverse index lists each pair once, under its neighbour, in ascending order.
+  ASSERT_EQ(pl.incoming_first.size(), n + 1);
+  ASSERT_EQ(pl.incoming.size(), pl.size());
+  std::vector<int> seen(pl.size(), 0);
+  for (std::size_t j = 0; j < n; ++j)
+    for (Index k = pl.incoming_first[j]; k < pl.incoming_first[j + 1]; ++k) {
+      const Index q = pl.incoming[k];
+      EXPECT_EQ(pl.neighbor[q], static_cast<Index>(j));
+      if (k > pl.incoming_first[j]) { EXPECT_LT(pl.incoming[k - 1], q); }
+      ++seen[q];
+    }
+  for (int c : seen) EXPECT_EQ(c, 1);
+}
+
+struct CellCase {
+  const char* name;
+  Mat3 h;
+  int n;
+};
+
+TEST(NeighborList, MatchesBruteForceInCubicShearedAndSmallCells) {
+  const CellCase cases[] = {
+      {"cubic, binned", Mat3::Identity() * 10.0, 400},
+      {"sheared, binned", (Mat3() << 9.0, 2.5, -1.0, 0.0, 10.0, 1.5, 0.0, 0.0, 9.5).finished(), 400},
+      {"small, all pairs", Mat3::Identity() * 3.0, 20},
+      {"thin sheared, all pairs", (Mat3() << 3.0, 1.0, 0.0, 0.0, 3.2, 0.0, 0.0, 0.0, 8.0).finished(), 40},
+  };
+  for (const CellCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    const double skin = 0.15;
+    State s = random_state(c.h, c.n, 0.3, 0.6, 5, skin);
+    const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+    rebuild_pairs(model, s);
+    expect_list_consistent(s.pairs, s.particles.size());
+    const std::set<Key> expected = brute_force(s, skin);
+    EXPECT_EQ(listed(s.pairs), expected);
+    EXPECT_GT(expected.size(), 10u);
+    for (std::size_t q = 0; q < s.pairs.size(); ++q) {  // histories start empty
+      EXPECT_EQ(s.pairs.tangential[q], Vec3::Zero());
+      EXPECT_EQ(s.pairs.flags[q], 0);
+    }
+  }
+}
+
+TEST(NeighborList, CellTooSmallForParticlesThrows) {
+  State s = random_state(Mat3::Identity() * 2.0, 4, 0.5, 0.5, 1, 0.1);  // width 2 <= 2 (1 + 0.1)
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+  EXPECT_THROW(rebuild_pairs(model, s), std::runtime_error);
+}
+
+TEST(NeighborList, HistoryCarriedOverRebuild) {
+  State s = random_state(Mat3::Identity() * 8.0, 200, 0.35, 0.55, 9, 0.2);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+  rebuild_pairs(model, s);
+  // Plant a history on every listed pair, keyed by its ids.
+  for (std::size_t q = 0; q < s.pairs.size(); ++q) {
+    s.pairs.tangential[q] = Vec3(s.pairs.owner[q], s.pairs.neighbor[q], 1.0) * 1e-6;
+    s.pairs.flags[q] = kTouching | (q % 2 ? kSliding : 0);
+  }
+  const PairList before = s.pairs;
+  // Move every particle a little: some pairs leave the list, the others keep their history.
+  std::mt19937_64 gen(3);
+  std::normal_distribution<double> g(0.0, 0.01);
+  for (auto& x : s.particles.scaled) x += Vec3(g(gen), g(gen), g(gen));
+  rebuild_pairs(model, s);
+  int kept = 0;
+  for (std::size_t q = 0; q < s.pairs.size(); ++q) {
+    const int old = testing::find_pair(before, s.pairs.owner[q], s.pairs.neighbor[q]);
+    if (old < 0) {
+      EXPECT_EQ(s.pairs.tangential[q], Vec3::Zero());
+      EXPECT_EQ(s.pairs.flags[q], 0);
+    } else {
+      EXPECT_EQ(s.pairs.tangential[q], before.tangential[old]);
+      EXPECT_EQ(s.pairs.flags[q], before.flags[old]);
+      ++kept;
+    }
+  }
+  EXPECT_GT(kept, 50);
+  EXPECT_LT(static_cast<std::size_t>(kept), s.pairs.size());  // the move changed the list
+}
+
+// Along a random trajectory (particle moves and cell deformation), whenever pairs_need_rebuild says the
+// list is still good, every pair actually in contact (brute force) is in it.
+TEST(NeighborList, RebuildCriterionNeverMissesAContact) {
+  const double skin = 0.1;
+  State s = random_state(Mat3::Identity() * 6.0, 150, 0.3, 0.5, 21, skin);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+  std::mt19937_64 gen(4);
+  std::normal_distribution<double> g(0.0, 1.0);
+  rebuild_pairs(model, s);
+  std::set<Key> have = listed(s.pairs);  // the list changes only at a rebuild
+  int checks = 0, rebuilds = 0;
+  for (int it = 0; it < 120; ++it) {
+    // A small random step of the cell (stretch and shear) and of each particle.
+    Mat3 F = Mat3::Identity();
+    for (int k = 0; k < 9; ++k) F.data()[k] += 2e-3 * g(gen);
+    s.cell.h = F * s.cell.h;
+    const Mat3 hinv = s.cell.h.inverse();
+    for (auto& x : s.particles.scaled) x += hinv * Vec3(g(gen), g(gen), g(gen)) * 4e-3;
+    if (pairs_need_rebuild(model, s)) {
+      rebuild_pairs(model, s);
+      have = listed(s.pairs);
+      ++rebuilds;
+      continue;
+    }
+    ++checks;
+    const std::set<Key> touching = brute_force(s, 0.0);
+    for (const Key& k : touching) EXPECT_TRUE(have.count(k)) << "missed pair " << std::get<0>(k) << "-" << std::get<1>(k);
+  }
+  EXPECT_GT(checks, 20);   // the criterion does allow steps without a rebuild...
+  EXPECT_GT(rebuilds, 2);  // ...and asks for rebuilds
+}
+
+TEST(NeighborList, NeedsRebuildWhenListDoesNotMatchParticles) {
+  State s = random_state(Mat3::Identity() * 7.0, 30, 0.3, 0.5, 2, 0.1);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+  EXPECT_TRUE(pairs_need_rebuild(model, s));  // never built
+  rebuild_pairs(model, s);
+  EXPECT_FALSE(pairs_need_rebuild(model, s));  // nothing moved
+  // One particle moves by more than half the skin: two such ends could close it, so a rebuild is needed.
+  s.particles.scaled[0] += s.cell.h.inverse() * Vec3(0.06, 0.0, 0.0);
+  EXPECT_TRUE(pairs_need_rebuild(model, s));
+}
+
+TEST(NeighborList, StoredContactsRoundTrip) {
+  State s = random_state(Mat3::Identity() * 8.0, 200, 0.4, 0.6, 13, 0.1);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+  rebuild_pairs(model, s);
+  for (std::size_t q = 0; q < s.pairs.size(); ++q) {
+    s.pairs.flags[q] = q % 3 ? kTouching : 0;
+    if (q % 3) s.pairs.tangential[q] = Vec3(q, -1.0, 0.5) * 1e-7;
+    if (q % 5 == 0) s.pairs.flags[q] |= kSliding;
+  }
+  const std::vector<StoredContact> stored = stored_contacts(s);
+  ASSERT_FALSE(stored.empty());
+  for (std::size_t c = 1; c < stored.size(); ++c)
+    EXPECT_TRUE(std::tie(stored[c - 1].i, stored[c - 1].j) < std::tie(stored[c].i, stored[c].j));
+  State t = s;
+  set_stored_contacts(t, stored);
+  EXPECT_EQ(t.pairs.skin, s.pairs.skin);
+  const std::vector<StoredContact> again = stored_contacts(t);
+  ASSERT_EQ(again.size(), stored.size());
+  for (std::size_t c = 0; c < stored.size(); ++c) {
+    EXPECT_EQ(again[c].i, stored[c].i);
+    EXPECT_EQ(again[c].j, stored[c].j);
+    EXPECT_EQ(again[c].tangential, stored[c].tangential);
+    EXPECT_EQ(again[c].flags, stored[c].flags);
+  }
+  // The next rebuild merges the stored history into the full list: the same list with the same history.
+  rebuild_pairs(model, t);
+  EXPECT_EQ(listed(t.pairs), listed(s.pairs));
+  for (std::size_t q = 0; q < s.pairs.size(); ++q) {
+    const int r = testing::find_pair(t.pairs, s.pairs.owner[q], s.pairs.neighbor[q]);
+    ASSERT_GE(r, 0);
+    if (s.pairs.flags[q] & kTouching) {
+      EXPECT_EQ(t.pairs.tangential[r], s.pairs.tangential[q]);
+      EXPECT_EQ(t.pairs.flags[r], s.pairs.flags[q]);
+    } else {
+      EXPECT_EQ(t.pairs.flags[r], 0);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace celldem

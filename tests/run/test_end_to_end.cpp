@@ -1,0 +1,181 @@
+// The celldem command line, end to end, on a tiny deck written into the build tree: prepare + a triaxial
+// test, the files and their documented header, refusing to overwrite, deck errors (exit 2, key path on
+// stderr), and an interrupted run resumed to the same bytes as an uninterrupted one.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "helpers.hpp"
+#include "io/state_file.hpp"
+#include "measure/series_row.hpp"
+
+extern char** environ;
+
+namespace celldem {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::read_bytes;
+
+const char* kBinary = CELLDEM_BINARY;
+
+// A clean folder for one test under the build tree's e2e folder.
+fs::path test_dir(const std::string& name) {
+  const fs::path dir = fs::path(CELLDEM_E2E_DIR) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+// Runs the binary with the given arguments (already quoted), capturing stdout and stderr in files.
+Result celldem(const fs::path& dir, const std::string& args) {
+  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const std::string cmd = std::string("'") + kBinary + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(cmd.c_str());
+  Result r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = read_bytes(out);
+  r.err = read_bytes(err);
+  return r;
+}
+
+const std::string kTtc = R"([{"name": "ttc", "friction": 0.5,
+    "axes": {"x1": {"strain_increment": 4e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+    "end": {"axis": "x1", "strain": 0.004}, "output_interval": 100}])";
+
+std::string run_args(const fs::path& deck, const fs::path& out, const std::string& extra = "") {
+  return "run '" + deck.string() + "' --out '" + out.string() + "' --threads 1 " + extra;
+}
+
+TEST(EndToEnd, PrepareAndTriaxialTestWriteDocumentedFiles) {
+  const fs::path dir = test_dir("prepare_ttc");
+  const fs::path deck = dir / "deck.json", out = dir / "run";
+  testing::write_bytes(deck, testing::small_deck_json(200, kTtc));
+
+  const Result r = celldem(dir, run_args(deck, out));
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* f : {"prepared.state", "summary.json", "progress.json", "prepare/series.csv", "ttc/series.csv",
+                        "ttc/final.state"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_FALSE(fs::exists(out / "checkpoint.state"));
+
+  // The series: the documented header, then a row every 100 steps from 0 to 1000.
+  const std::string series = read_bytes(out / "ttc" / "series.csv");
+  const std::string header = series.substr(0, series.find('\n') + 1);
+  EXPECT_EQ(header, series_header());
+  EXPECT_EQ(header.rfind("step,time,e1,e2,e3,ev,s11,s22,s33,s12,s13,s23,p,q,ratio13,b,sin_phi,DI,", 0), 0u);
+  EXPECT_EQ(std::count(series.begin(), series.end(), '\n'), 1 + 11);
+  const std::string last = series.substr(series.rfind('\n', series.size() - 2) + 1);
+  EXPECT_EQ(last.rfind("1000,", 0), 0u) << last;
+
+  const auto summary = nlohmann::json::parse(read_bytes(out / "summary.json"));
+  EXPECT_NEAR(summary["prepared"]["p"].get<double>(), 1e5, 0.011e5);  // the deck's pressure tolerance
+  EXPECT_EQ(summary["tests"]["ttc"]["steps"], 1000);
+  EXPECT_NEAR(summary["tests"]["ttc"]["final_e1"].get<double>(), 0.004, 1e-12);
+  EXPECT_GT(summary["tests"]["ttc"]["peak_ratio13"].get<double>(), 1.2);
+  EXPECT_EQ(read_state((out / "prepared.state").string()).particles.size(), 200u);
+  std::string label;
+  (void)read_state((out / "ttc" / "final.state").string(), &label);
+  EXPECT_EQ(label, "test:ttc");
+
+  // A second run into the same folder without --force fails and leaves every file as it was.
+  std::map<std::string, std::pair<std::string, fs::file_time_type>> before;
+  for (const auto& e : fs::recursive_directory_iterator(out))
+    if (e.is_regular_file()) before[e.path().string()] = {read_bytes(e.path()), e.last_write_time()};
+  const Result again = celldem(dir, run_args(deck, out));
+  EXPECT_NE(again.code, 0);
+  EXPECT_NE(again.err.find("--force"), std::string::npos) << again.err;
+  std::size_t files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(out))
+    if (e.is_regular_file()) {
+      ++files;
+      ASSERT_TRUE(before.count(e.path().string())) << "new file " << e.path();
+      EXPECT_EQ(read_bytes(e.path()), before[e.path().string()].first) << e.path();
+      EXPECT_EQ(e.last_write_time(), before[e.path().string()].second) << e.path();
+    }
+  EXPECT_EQ(files, before.size());
+}
+
+TEST(EndToEnd, DeckErrorExitsTwoNamingTheKey) {
+  const fs::path dir = test_dir("deck_error");
+  std::string text = testing::small_deck_json(200, kTtc);
+  text.replace(text.find("\"kn\": 1.0e6"), 11, "\"kn\": -1.0e6");
+  testing::write_bytes(dir / "bad.json", text);
+  Result r = celldem(dir, run_args(dir / "bad.json", dir / "run"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("contact.kn"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "run" / "summary.json"));
+  r = celldem(dir, "check '" + (dir / "bad.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("contact.kn"), std::string::npos) << r.err;
+
+  text = testing::small_deck_json(200, kTtc);
+  text.replace(text.find("\"friction\": 0.5"), 15, "\"friction\": 0.5, \"mu\": 0.5");
+  testing::write_bytes(dir / "unknown.json", text);
+  r = celldem(dir, "check '" + (dir / "unknown.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("tests[0].mu"), std::string::npos) << r.err;
+
+  testing::write_bytes(dir / "good.json", testing::small_deck_json(200, kTtc));
+  r = celldem(dir, "check '" + (dir / "good.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("valid"), std::string::npos) << r.out;
+}
+
+// Interrupted by SIGINT part-way (during the preparation or the test, whichever it happens to be), then
+// resumed: the series and states are byte-identical to an uninterrupted run's.
+TEST(EndToEnd, InterruptedRunResumesToSameBytes) {
+  const fs::path dir = test_dir("resume");
+  const fs::path deck = dir / "deck.json";
+  std::string text = testing::small_deck_json(200, kTtc);
+  text.replace(text.find("\"time_step\""), 0, "\"checkpoint_interval\": 700,\n  ");
+  testing::write_bytes(deck, text);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(celldem(dir, run_args(deck, dir / "ref")).code, 0);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  // Start the same run and stop it at about 40 % of the reference's wall time.
+  const fs::path out = dir / "cut";
+  const std::string deck_s = deck.string(), out_s = out.string();
+  std::vector<std::string> args = {kBinary, "run", deck_s, "--out", out_s, "--threads", "1", "--quiet"};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid;
+  ASSERT_EQ(posix_spawn(&pid, kBinary, nullptr, nullptr, argv.data(), environ), 0);
+  std::this_thread::sleep_for(std::chrono::duration<double>(0.4 * wall));
+  kill(pid, SIGINT);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  const int code = WEXITSTATUS(status);
+  EXPECT_TRUE(code == 130 || code == 0) << code;  // 0 if it finished before the signal
+  if (code == 130) {
+    EXPECT_TRUE(fs::exists(out / "checkpoint.state"));
+    const Result r = celldem(dir, run_args(deck, out, "--resume"));
+    ASSERT_EQ(r.code, 0) << r.err;
+  } else {
+    GTEST_LOG_(INFO) << "the run finished before the signal: resume not exercised";
+  }
+  for (const char* f : {"prepared.state", "prepare/series.csv", "ttc/series.csv", "ttc/final.state"})
+    EXPECT_EQ(read_bytes(out / f), read_bytes(dir / "ref" / f)) << f;
+  EXPECT_FALSE(fs::exists(out / "checkpoint.state"));
+}
+
+}  // namespace
+}  // namespace celldem
