@@ -416,12 +416,14 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     for (const auto& s : progress["completed"]) if (s == stage) return true;
     return false;
   };
+  // Order matters for a kill at any moment: the summary first, then the stage marked complete, then its
+  // checkpoint removed. Killed in between, a resume re-runs the stage's tail from the checkpoint.
   auto mark_done = [&](const std::string& stage) {
+    write_text_atomic(dir / kSummary, summary.dump(2));
     progress = read_json(dir / kProgress);
     progress["completed"].push_back(stage);
     write_text_atomic(dir / kProgress, progress.dump(2));
     fs::remove(dir / kCheckpoint);
-    write_text_atomic(dir / kSummary, summary.dump(2));
   };
   auto elapsed_of = [&](const std::string& stage) {
     const Json p = read_json(dir / kProgress);
