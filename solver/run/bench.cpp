@@ -1,0 +1,107 @@
+#include "run/bench.hpp"
+
+#include <omp.h>
+
+#include <chrono>
+
+#include "cell/control.hpp"
+#include "contact/contact_forces.hpp"
+#include "measure/series_row.hpp"
+#include "neighbor/neighbor_list.hpp"
+#include "step.hpp"
+
+namespace celldem {
+
+State tile_state(const State& s, int k) {
+  State t = s;
+  const std::size_t n = s.particles.size();
+  const std::vector<StoredContact> contacts = stored_contacts(s);
+  t.particles.resize(0);
+  t.particles.resize(n * k * k * k);
+  t.cell.h = s.cell.h * k;
+  std::vector<StoredContact> tiled;
+  tiled.reserve(contacts.size() * k * k * k);
+  std::size_t copy = 0;
+  for (int a = 0; a < k; ++a)
+    for (int b = 0; b < k; ++b)
+      for (int c = 0; c < k; ++c, ++copy) {
+        const Vec3 shift(a, b, c);
+        for (std::size_t i = 0; i < n; ++i) {
+          const std::size_t q = copy * n + i;
+          t.particles.radius[q] = s.particles.radius[i];
+          t.particles.scaled[q] = (s.particles.scaled[i] + shift) / k;
+          t.particles.velocity[q] = s.particles.velocity[i];
+          t.particles.spin[q] = s.particles.spin[i];
+        }
+        // A contact across the copy's boundary now joins a neighbouring copy; the history is kept only for
+        // contacts inside the copy (those across are rebuilt from zero, a negligible warm-up difference).
+        for (const StoredContact& cc : contacts)
+          tiled.push_back({static_cast<Index>(copy * n + cc.i), static_cast<Index>(copy * n + cc.j),
+                           cc.tangential, cc.flags});
+      }
+  t.control.reference_lengths = t.cell.h.diagonal();
+  t.control.reference_volume = t.cell.volume();
+  set_stored_contacts(t, tiled);
+  return t;
+}
+
+namespace {
+double state_bytes_per_particle(const State& s);
+}
+
+ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initial, int threads, std::int64_t steps,
+                       std::int64_t warmup) {
+  omp_set_num_threads(threads);
+  State state = initial;
+  state.control = ControlState{};
+  state.control.reference_lengths = state.cell.h.diagonal();
+  state.control.reference_volume = state.cell.volume();
+  const Model model = make_model(deck, state.particles.radius);
+  state.pairs.skin = deck.neighbor_skin * 2.0 * model.max_radius;
+  const Loading loading{test.axes, test.friction};
+  rebuild_pairs(model, state);
+  compute_contact_forces(model, test.friction, state, false);
+  for (std::int64_t k = 0; k < warmup; ++k) step(model, loading, state);
+
+  DilatancyWindow di(0.0025);
+  std::string sink;
+  double row_seconds = 0.0;
+  std::int64_t rows = 0;
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  for (std::int64_t k = 1; k <= steps; ++k) {
+    step(model, loading, state);
+    ++state.control.stage_step;
+    if (k % test.output_interval == 0) {
+      const auto r0 = Clock::now();
+      sink += format_series_row(measure_series_row(model, state, di));
+      row_seconds += std::chrono::duration<double>(Clock::now() - r0).count();
+      ++rows;
+      if (sink.size() > (1u << 20)) sink.clear();
+    }
+  }
+  ShearTiming t;
+  t.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  t.particle_steps_per_second = static_cast<double>(state.particles.size()) * steps / t.seconds;
+  t.row_seconds = rows ? row_seconds / rows : 0.0;
+  t.step_seconds = (t.seconds - row_seconds) / steps;
+  t.bytes_per_particle = state_bytes_per_particle(state);
+  return t;
+}
+
+namespace {
+double state_bytes_per_particle(const State& s) {
+  const Particles& p = s.particles;
+  const PairList& pl = s.pairs;
+  auto bytes = [](const auto& v) { return static_cast<double>(v.capacity() * sizeof(v[0])); };
+  const double particle_bytes = bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) +
+                                bytes(p.force) + bytes(p.torque) + bytes(pl.scaled_at_build) + bytes(pl.first) +
+                                bytes(pl.incoming_first);
+  const double pair_bytes = bytes(pl.owner) + bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) +
+                            bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_i) + bytes(pl.torque_j) +
+                            bytes(pl.incoming);
+  return (particle_bytes + pair_bytes) / static_cast<double>(p.size());
+}
+}  // namespace
+
+}  // namespace celldem

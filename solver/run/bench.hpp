@@ -1,0 +1,31 @@
+// Benchmarks of the shear phase: celldem's throughput on a prepared sample (and tiled copies of it for
+// scaling), and the same scene in LAMMPS through the translated deck, alternated so that both see the
+// same machine load.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/state.hpp"
+#include "io/deck.hpp"
+
+namespace celldem {
+
+// k x k x k periodic copies of a state (contacts and their history included): a larger sample with the
+// same packing statistics, for measuring how cost grows with the particle count.
+State tile_state(const State& state, int k);
+
+struct ShearTiming {
+  double seconds = 0.0;                  // wall time of the timed steps (rows included)
+  double particle_steps_per_second = 0.0;
+  double row_seconds = 0.0;              // mean time of one series row (measurements + formatting)
+  double step_seconds = 0.0;             // mean time of one step without rows
+  double bytes_per_particle = 0.0;       // state memory (particles, pairs, history) per particle
+};
+
+// Runs `steps` steps of the deck's test `test` from `state` with `threads` threads, writing a row every
+// output_interval steps to memory (as a run would to its file), after `warmup` untimed steps.
+ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& state, int threads, std::int64_t steps,
+                       std::int64_t warmup);
+
+
+}  // namespace celldem
