@@ -121,6 +121,19 @@ double kinetic_energy(const Model& model, const State& state) {
   return e;
 }
 
+double elastic_energy(const Model& model, const State& state) {
+  const PairList& pl = state.pairs;
+  double e = 0.0;
+  for (std::size_t q = 0; q < pl.size(); ++q) {
+    if (!(pl.flags[q] & kTouching)) continue;
+    const Vec3 n = branch_of(state, q).normalized();
+    const double fn = pl.force[q].dot(n);
+    const double ft2 = (pl.force[q] - fn * n).squaredNorm();
+    e += 0.5 * fn * fn / model.contact.kn + (model.contact.kt > 0.0 ? 0.5 * ft2 / model.contact.kt : 0.0);
+  }
+  return e;
+}
+
 double unbalanced_force_ratio(const Model& model, const State& state) {
   const Particles& p = state.particles;
   const PairList& pl = state.pairs;

@@ -30,6 +30,7 @@ Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, I
 
 double sliding_fraction(const State& state);  // contacts at the Coulomb limit / contacts
 double kinetic_energy(const Model& model, const State& state);  // [J] fluctuating translation + rotation
+double elastic_energy(const Model& model, const State& state);  // [J] stored in the contact springs
 // Mean |net contact force| over particles / mean contact normal force (0 when nothing touches).
 double unbalanced_force_ratio(const Model& model, const State& state);
 double void_ratio(const Model& model, const State& state);

@@ -32,6 +32,10 @@ volatile std::sig_atomic_t g_stop_requested = 0;
 void on_stop_signal(int) { g_stop_requested = 1; }
 
 constexpr double kDilatancyWindow = 0.0025;  // DI fitted over the last 0.25 % of e1
+constexpr double kMaxStepMotion = 0.05;       // runaway: a particle moving 5 % of its radius in one step
+constexpr double kMaxKineticToElastic = 0.5;  // runaway in a test: kinetic energy above half the elastic
+constexpr double kQuasiStaticInertia = 1e-3;  // inertial number above which a test is not quasi-static
+constexpr double kServoTolerance = 0.005;     // stress-controlled axes should stay within 0.5 % of target
 constexpr const char* kCheckpoint = "checkpoint.state";
 constexpr const char* kPrepared = "prepared.state";
 constexpr const char* kProgress = "progress.json";
@@ -96,8 +100,8 @@ SeriesTable read_series(const fs::path& path, std::int64_t max_step, std::string
 class StageOutput {
  public:
   StageOutput(const Deck& deck, const RunOptions& options, const Model& model, const std::string& stage,
-              std::int64_t output_interval, double elapsed_before)
-      : deck_(deck), options_(options), model_(model), stage_(stage), dir_(fs::path(options.out_dir) / stage),
+              std::int64_t output_interval, double elapsed_before, bool check_energy = false)
+      : check_energy_(check_energy), deck_(deck), options_(options), model_(model), stage_(stage), dir_(fs::path(options.out_dir) / stage),
         output_interval_(output_interval), di_(kDilatancyWindow),
         progress_(stage, options.progress), elapsed_before_(elapsed_before),
         start_(std::chrono::steady_clock::now()) {}
@@ -130,6 +134,9 @@ class StageOutput {
   // so that a resumed run does the same). Throws Interrupted after a stop request, once checkpointed.
   bool after_step(const State& state, double fraction, const std::string& extra = "") {
     const std::int64_t s = state.control.stage_step;
+    if (!std::isfinite(state.stress.sum()) || !std::isfinite(state.cell.h.sum()))  // cheap, every step
+      throw RunError("non-finite stress or cell in stage '" + stage_ + "' at step " + std::to_string(s) +
+                     " (time step too large or loading too fast?); the last checkpoint holds the last good state");
     if (s % output_interval_ == 0) write_row(state);
     progress_.update(s, fraction, extra);
     if (g_stop_requested) {
@@ -160,6 +167,7 @@ class StageOutput {
 
  private:
   void write_row(const State& state) {
+    check_motion(state);
     const std::vector<double> row = measure_series_row(model_, state, di_);
     for (int k : {6, 7, 8, 20})  // stresses and Zm: trouble shows here first
       if (!std::isfinite(row[k]))
@@ -168,6 +176,40 @@ class StageOutput {
                        " (unstable time step or loading?); the last checkpoint holds the last good state");
     const std::string line = format_series_row(row);
     std::fwrite(line.data(), 1, line.size(), series_);
+  }
+
+  // An explicit scheme has left its stable range when a particle moves a sizeable part of its radius in a
+  // single step (quasi-static motion is orders of magnitude below this).
+  void check_motion(const State& state) {
+    const Particles& p = state.particles;
+    double worst = 0.0;
+    for (std::size_t i = 0; i < p.size(); ++i)
+      worst = std::max(worst, p.velocity[i].norm() * model_.dt / p.radius[i]);
+    if (check_energy_) {
+      // In a quasi-static test the packing's motion carries far less energy than its springs store (about
+      // 1e-5 of it at the paper's settings). More kinetic than elastic energy means the scheme is unstable
+      // or the loading is dynamic: the packing boils instead of deforming.
+      // Only growth counts: a test may start from a packing that is still settling (kinetic energy decays).
+      const double ke = kinetic_energy(model_, state), ee = elastic_energy(model_, state);
+      const bool growing = previous_kinetic_energy_ >= 0.0 && ke > 2.0 * previous_kinetic_energy_;
+      previous_kinetic_energy_ = ke;
+      if (growing && !(ke <= kMaxKineticToElastic * ee)) {
+        char buf[128];
+        std::snprintf(buf, sizeof buf, "kinetic energy %.3g J exceeds %.3g x the elastic energy %.3g J", ke,
+                      kMaxKineticToElastic, ee);
+        throw RunError("runaway kinetic energy in stage '" + stage_ + "' at step " +
+                       std::to_string(state.control.stage_step) + ": " + buf +
+                       " - time step too large (try <= 0.3 sqrt(m_min/kn)), damping too low or loading too fast; "
+                       "the last checkpoint holds the last good state");
+      }
+    }
+    if (!(worst <= kMaxStepMotion)) {
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "a particle moves %.3g of its radius per step (limit %.3g)", worst, kMaxStepMotion);
+      throw RunError("runaway motion in stage '" + stage_ + "' at step " + std::to_string(state.control.stage_step) +
+                     ": " + buf + " - time step too large, damping too low or loading too fast; the last "
+                     "checkpoint holds the last good state");
+    }
   }
 
   void checkpoint(const State& state) {
@@ -179,6 +221,8 @@ class StageOutput {
     write_text_atomic(fs::path(options_.out_dir) / kProgress, progress.dump(2));
   }
 
+  bool check_energy_;  // loading tests only: a preparation starts as a gas
+  double previous_kinetic_energy_ = -1.0;  // at the last row; negative: no row yet
   const Deck& deck_;
   const RunOptions& options_;
   const Model& model_;
@@ -286,14 +330,49 @@ std::int64_t test_steps(const Deck& deck, const TestDef& t) {
   return t.max_steps > 0 ? std::min(n, t.max_steps) : n;
 }
 
-Json test_summary(const fs::path& series, double wall, std::int64_t steps, std::size_t particles) {
+// Inertial number I = rate d_mean sqrt(rho / p) of the fastest strain-driven axis at the target or
+// current mean stress: above ~1e-3 a test is no longer quasi-static.
+double inertial_number(const Deck& deck, const TestDef& test, double mean_stress) {
+  double rate = 0.0;
+  for (const AxisControl& a : test.axes) {
+    if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / deck.time_step);
+    if (a.mode == AxisMode::StrainRate) rate = std::max(rate, std::abs(a.value));
+  }
+  double d_mean = 0.0;
+  for (double d : deck.sample.diameters) d_mean += d / deck.sample.diameters.size();
+  return mean_stress > 0.0 ? rate * d_mean * std::sqrt(deck.sample.density / mean_stress) : INFINITY;
+}
+
+Json test_summary(const Deck& deck, const TestDef& test, const fs::path& series, double wall, std::int64_t steps,
+                  std::size_t particles, std::vector<std::string>& warnings) {
   const SeriesTable t = read_series(series, INT64_MAX);
-  const int ratio = t.column("ratio13"), e1 = t.column("e1"), b = t.column("b");
+  const int ratio = t.column("ratio13"), e1 = t.column("e1"), b = t.column("b"), p = t.column("p");
   std::size_t peak = 0;
   for (std::size_t r = 0; r < t.rows.size(); ++r)
     if (t.rows[r][ratio] > t.rows[peak][ratio]) peak = r;
   auto num = [](double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); };
+  // How well the servo held its targets: the largest relative error over the rows after the first 2 %.
+  double servo_error = 0.0;
+  const char* stress_columns[3] = {"s11", "s22", "s33"};
+  for (int k = 0; k < 3; ++k) {
+    if (test.axes[k].mode != AxisMode::Stress) continue;
+    const int c = t.column(stress_columns[k]);
+    for (std::size_t r = t.rows.size() / 50 + 1; r < t.rows.size(); ++r)
+      servo_error = std::max(servo_error, std::abs(t.rows[r][c] / test.axes[k].value - 1.0));
+  }
+  double mean_p = 0.0;
+  for (const auto& row : t.rows) mean_p += row[p] / t.rows.size();
+  const double inertia = inertial_number(deck, test, mean_p);
+  if (servo_error > kServoTolerance)
+    warnings.push_back("test '" + test.name + "': the servo missed its target by up to " +
+                       std::to_string(100 * servo_error) + " % (tolerance 0.5 %): lower the strain rate or raise "
+                       "servo.gain / servo.integral_gain");
+  if (inertia > kQuasiStaticInertia)
+    warnings.push_back("test '" + test.name + "': inertial number " + std::to_string(inertia) +
+                       " exceeds the quasi-static limit 1e-3: results depend on the loading rate");
   return {{"peak_ratio13", num(t.rows[peak][ratio])},
+          {"servo_max_error", servo_error},
+          {"inertial_number", inertia},
           {"e1_at_peak", num(t.rows[peak][e1])},
           {"b_at_peak", num(t.rows[peak][b])},
           {"b_final", num(t.rows.back()[b])},
@@ -322,7 +401,7 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
     compute_contact_forces(model, test.friction, state, /*advance_slip=*/false);
   }
   const std::int64_t total = test_steps(deck, test);
-  StageOutput out(deck, options, model, test.name, test.output_interval, elapsed_before);
+  StageOutput out(deck, options, model, test.name, test.output_interval, elapsed_before, /*check_energy=*/true);
   out.open(state, resumed);
   bool rebuild = true;
   while (state.control.stage_step < total) {
@@ -332,7 +411,13 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
   }
   out.finish(state);
   write_state((out.dir() / "final.state").string(), state, "test:" + test.name);
-  summary["tests"][test.name] = test_summary(out.dir() / "series.csv", out.elapsed(), total, state.particles.size());
+  std::vector<std::string> warnings;
+  summary["tests"][test.name] =
+      test_summary(deck, test, out.dir() / "series.csv", out.elapsed(), total, state.particles.size(), warnings);
+  for (const std::string& w : warnings) {
+    std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
+    summary["warnings"].push_back(w);
+  }
 }
 
 // ---- the run directory ----

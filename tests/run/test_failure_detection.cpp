@@ -1,0 +1,107 @@
+// Run-time detection of settings that break the physics: an unstable time step stops the run with the
+// cause and the step; a loading too fast for quasi-static conditions and a servo that misses its target
+// are reported in summary.json and on stderr.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "helpers.hpp"
+#include "run/runner.hpp"
+
+namespace celldem {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::read_bytes;
+
+// A dense 300-sphere sample at 100 kPa, made once for all tests here.
+class FailureDetection : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    run(testing::small_deck_json(300, "[]", 7), "prep");
+  }
+  static void TearDownTestSuite() { delete dir_; }
+
+  static void run(const std::string& deck_text, const std::string& name) {
+    testing::write_bytes(dir_->path() / (name + ".json"), deck_text);
+    RunOptions options;
+    options.out_dir = (dir_->path() / name).string();
+    options.threads = 1;
+    options.quiet = true;
+    run_deck(read_deck((dir_->path() / (name + ".json")).string()), options);
+  }
+
+  // A deck that loads the prepared sample with the given test JSON and extra top-level keys.
+  static std::string test_deck(const std::string& test, const std::string& replace_from = "",
+                               const std::string& replace_to = "") {
+    std::string d = testing::small_deck_json(300, "[" + test + "]", 7);
+    const auto at = d.find("\"prepare\"");
+    d.replace(at, d.find("\"tests\"") - at, "\"initial_state\": \"prep/prepared.state\",\n  ");
+    if (!replace_from.empty()) d.replace(d.find(replace_from), replace_from.size(), replace_to);
+    return d;
+  }
+
+  static nlohmann::json summary(const std::string& name) {
+    return nlohmann::json::parse(read_bytes(dir_->path() / name / "summary.json"));
+  }
+
+  static testing::TempDir* dir_;
+};
+testing::TempDir* FailureDetection::dir_ = nullptr;
+
+TEST_F(FailureDetection, QuasiStaticLoadingRaisesNoWarning) {
+  run(test_deck(R"({"name": "slow", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-7},
+      "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"strain": 0.0004}, "output_interval": 100})"),
+      "slow");
+  const auto s = summary("slow");
+  // I = (2e-7 / 3e-6 s) * 3.75 mm * sqrt(2650 / 1e5), mean diameter of the four sizes 3..4.5 mm.
+  const double expected = 2e-7 / 3e-6 * 3.75e-3 * std::sqrt(2650 / 1e5);
+  EXPECT_NEAR(s["tests"]["slow"]["inertial_number"].get<double>(), expected, 0.2 * expected);
+  EXPECT_FALSE(s.contains("warnings")) << s.dump(2);
+  EXPECT_LT(s["tests"]["slow"]["servo_max_error"].get<double>(), 0.005);
+}
+
+TEST_F(FailureDetection, FastLoadingIsReportedAsNotQuasiStatic) {
+  run(test_deck(R"({"name": "fast", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-5},
+      "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"strain": 0.004}, "output_interval": 20})"),
+      "fast");
+  const auto s = summary("fast");
+  EXPECT_GT(s["tests"]["fast"]["inertial_number"].get<double>(), 1e-3);
+  ASSERT_TRUE(s.contains("warnings"));
+  EXPECT_NE(s["warnings"].dump().find("inertial number"), std::string::npos) << s["warnings"].dump();
+}
+
+TEST_F(FailureDetection, WeakServoIsReported) {
+  run(test_deck(R"({"name": "weak", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-6},
+      "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"strain": 0.004}, "output_interval": 20})",
+                "\"servo\": {\"max_strain_increment\": 4e-5}",
+                "\"servo\": {\"gain\": 0.0005, \"integral_gain\": 0, \"max_strain_increment\": 4e-5}"),
+      "weak");
+  const auto s = summary("weak");
+  EXPECT_GT(s["tests"]["weak"]["servo_max_error"].get<double>(), 0.005);
+  ASSERT_TRUE(s.contains("warnings"));
+  EXPECT_NE(s["warnings"].dump().find("servo missed"), std::string::npos) << s["warnings"].dump();
+}
+
+// A time step just under sqrt(m_min/kn) passes validation, but a sphere pressed by several neighbours
+// oscillates at sqrt(Z kn / m): the leapfrog step is unstable there, and the run must stop with the cause.
+TEST_F(FailureDetection, UnstableTimeStepStopsTheRunWithTheCause) {
+  const std::string deck =
+      test_deck(R"({"name": "unstable", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-7},
+      "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"strain": 0.002}, "output_interval": 50})",
+                "\"time_step\": 3.0e-6", "\"time_step\": 5.9e-6");
+  try {
+    run(deck, "unstable");
+    FAIL() << "an unstable run finished";
+  } catch (const RunError& e) {
+    const std::string what = e.what();
+    EXPECT_TRUE(what.find("runaway") != std::string::npos || what.find("non-finite") != std::string::npos) << what;
+    EXPECT_NE(what.find("at step"), std::string::npos) << what;
+  }
+}
+
+}  // namespace
+}  // namespace celldem
