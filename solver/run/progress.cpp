@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 
 namespace celldem {
@@ -14,14 +15,15 @@ Progress::Progress(std::string stage, bool enabled)
 void Progress::update(std::int64_t step, double fraction, const std::string& extra) {
   if (!enabled_) return;
   const auto now = std::chrono::steady_clock::now();
-  if (first_step_ < 0) first_step_ = step;
+  if (first_step_ < 0) first_step_ = step, first_fraction_ = fraction;
   if (now - last_ < std::chrono::milliseconds(500)) return;
   last_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double rate = elapsed > 0 ? (step - first_step_) / elapsed : 0.0;
   char line[256];
-  if (fraction >= 0.0 && fraction > 0.0 && rate > 0) {
-    const double eta = elapsed * (1.0 - fraction) / std::max(1e-9, fraction - 0.0);
+  if (fraction > first_fraction_ && first_fraction_ >= 0.0 && rate > 0) {
+    // Extrapolate from this segment only: a resumed run started part-way.
+    const double eta = elapsed * (1.0 - fraction) / (fraction - first_fraction_);
     std::snprintf(line, sizeof line, "\r[%s] %5.1f%%  step %lld  %.0f steps/s  ETA %dm%02ds  %s\x1b[K",
                   stage_.c_str(), 100.0 * fraction, static_cast<long long>(step), rate,
                   static_cast<int>(eta) / 60, static_cast<int>(eta) % 60, extra.c_str());

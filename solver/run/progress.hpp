@@ -17,6 +17,7 @@ class Progress {
   bool enabled_;
   std::chrono::steady_clock::time_point start_, last_;
   std::int64_t first_step_ = -1;
+  double first_fraction_ = -1.0;
   bool printed_ = false;
 };
 

@@ -58,4 +58,13 @@ for f in prepare/series.csv ttc/series.csv psc/series.csv prepared.state ttc/fin
   cmp -s "$work/ref/$f" "$work/cut/$f" || fail "$f differs from the uninterrupted run"
 done
 [[ ! -f "$work/cut/checkpoint.state" ]] || fail "a finished run left its checkpoint behind"
-echo "PASS: byte-identical after $interrupted interruptions"
+echo "byte-identical after $interrupted interruptions"
+
+# The figure and report tools on this real (small) run.
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+/usr/bin/python3 "$root/tools/report.py" "$work/ref" > "$work/report.log" 2>&1 || { cat "$work/report.log"; fail "report.py"; }
+for f in report.md figures/fig02_stress_ratio.png figures/fig12_macro_micro.png; do
+  [[ -s "$work/ref/$f" ]] || fail "report.py did not write $f"
+done
+grep -q "ttc" "$work/ref/report.md" || fail "report.md does not mention the ttc test"
+echo "PASS"
