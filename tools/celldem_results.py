@@ -92,10 +92,11 @@ def load_series(path):
 
 
 def discover_tests(run_dir, summary):
-    """Test names: those listed in summary.json first (in its order), then any other <dir>/series.csv."""
+    """Test names: those listed in summary.json first (in its order), then any other <dir>/series.csv.
+    The preparation stage (prepare/series.csv) is not a loading test."""
     listed = list((summary.get("tests") or {}).keys())
     found = sorted(d for d in os.listdir(run_dir)
-                   if os.path.isfile(os.path.join(run_dir, d, "series.csv")))
+                   if d != "prepare" and os.path.isfile(os.path.join(run_dir, d, "series.csv")))
     return listed + [d for d in found if d not in listed]
 
 
