@@ -6,6 +6,7 @@ The figures are (re)drawn into RUN_DIR/figures when any is missing, or always wi
 """
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -377,9 +378,40 @@ def figures_section(fig_dir_name="figures"):
     return "\n".join(out)
 
 
+def study_section(run):
+    """The speed–accuracy study (tools/study.py) when its results lie beside the run folder (results/study), or None.
+
+    Linked rather than embedded: the study's figures live in its own folder."""
+    study_dir = os.path.join(os.path.dirname(os.path.abspath(run.directory)), "study")
+    md = os.path.join(study_dir, "study.md")
+    if not os.path.isfile(md):
+        return None
+    rel = os.path.relpath(study_dir, os.path.abspath(run.directory))
+    out = [f"Speed against accuracy, the stability map and the modelling choices on a reduced scene: "
+           f"[{rel}/study.md]({rel}/study.md) (charts: [error against run time]({rel}/figures/pareto.png), "
+           f"[stability map]({rel}/figures/stability.png)).", ""]
+    try:
+        with open(os.path.join(study_dir, "study.json"), encoding="utf-8") as f:
+            study = json.load(f)
+    except (OSError, ValueError):
+        return "\n".join(out)
+    rows = []
+    for name, p in (study.get("presets") or {}).items():
+        rows.append((f"inputs/{name}.json", p.get("rule", "n/a"), fmt(p.get("time_step")),
+                     fmt(p.get("strain_increment")), fmt(p.get("inertial_number")), fmt(p.get("score_stress"), 2),
+                     fmt(p.get("score_volume"), 2), f"{fmt(p.get('test_steps_speedup'), 1)}×"))
+    if rows:
+        out += ["Presets (errors on the reduced scene as multiples of the seed-to-seed noise floor; speed-up of the "
+                "tests over inputs/paper.json):", "",
+                md_table(("deck", "rule", "time_step (s)", "Δε1 per step", "inertial number",
+                          "stress-ratio errors / floor", "εv, Z errors / floor", "speed-up"), rows)]
+    return "\n".join(out)
+
+
 def build_report(run):
     name = os.path.basename(os.path.abspath(run.directory))
     tests = ", ".join(run.test_names) or "none"
+    study = study_section(run)
     return "\n".join([
         f"# celldem run report: {name}",
         "",
@@ -410,7 +442,7 @@ def build_report(run):
         "## Figures",
         "",
         figures_section(),
-    ])
+    ] + ([] if study is None else ["## Speed–accuracy study", "", study, ""]))
 
 
 def main(argv=None):

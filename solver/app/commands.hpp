@@ -10,5 +10,7 @@ using Command = std::function<int()>;
 
 Command add_run_command(CLI::App& app);    // celldem run
 Command add_check_command(CLI::App& app);  // celldem check
+Command add_bench_command(CLI::App& app);  // celldem bench
+Command add_translate_command(CLI::App& app);  // celldem translate
 
 }  // namespace celldem::app

@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   const std::vector<celldem::app::Command> commands = {
       celldem::app::add_run_command(app),
       celldem::app::add_check_command(app),
+      celldem::app::add_bench_command(app),
+      celldem::app::add_translate_command(app),
   };
   try {
     app.parse(argc, argv);

@@ -1,0 +1,181 @@
+#!/usr/bin/env bash
+# Tests the analysis half of tools/study.py (tools/study_analysis.py) without running celldem: the compared
+# quantities of a series, the noise floor, the errors, the Pareto front, the presets' choice, the stability and
+# servo measures, on known inputs and on a synthetic study root (tests/tools/make_fake_study.py); then that
+# `study.py analyse` writes study.json, study.md and the charts, and that report.py links the study.
+# Usage: bash tests/tools/test_study.sh      (exits non-zero on the first failure)
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+PY="${CELLDEM_PYTHON:-/usr/bin/python3}"
+TMP="$(mktemp -d)"
+trap 'rm -rf "$TMP"' EXIT
+
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+echo "1. the analysis functions on hand-made inputs"
+"$PY" - "$ROOT" <<'EOF' || fail "analysis functions"
+import math, sys
+import numpy as np
+sys.path.insert(0, sys.argv[1] + "/tools")
+import study_analysis as sa
+
+errors = []
+def check(what, got, want, tol=1e-12):
+    if isinstance(want, float) and math.isfinite(want):
+        ok = got is not None and abs(got - want) <= tol * max(1, abs(want))
+    else:
+        ok = got == want
+    if not ok:
+        errors.append(f"{what}: got {got!r}, want {want!r}")
+
+# Pareto front: lower cost and lower error win; a tie in one and a loss in the other is dominated.
+pts = [(10, 1.0), (5, 2.0), (20, 0.5), (12, 1.5), (5, 3.0), (1, 10.0), (20, 0.6), (None, 1.0)]
+check("pareto", sa.pareto_front(pts), [5, 1, 0, 2])
+check("pareto of one", sa.pareto_front([(3, 4)]), [0])
+check("pareto keeps equal points", sa.pareto_front([(2, 1.0), (2, 1.0), (3, 1.0)]), [0, 1])
+
+# Noise floor: sample standard deviation (ddof 1) over the seeds; one seed gives no floor.
+ref = [{"ttc": {"peak_ratio": v}} for v in (2.9, 3.0, 3.1, 3.0)]
+mean, floor = sa.noise_floor(ref, (("ttc", "peak_ratio"),))
+check("floor mean", mean[("ttc", "peak_ratio")], 3.0)
+check("floor std", floor[("ttc", "peak_ratio")], math.sqrt(0.02 / 3))
+check("floor of one", sa.noise_floor(ref[:1], (("ttc", "peak_ratio"),))[1][("ttc", "peak_ratio")], None)
+
+# Errors: signed difference, normalised by the floor; the mean over seeds; the score is the largest.
+q1, q2 = ("ttc", "peak_ratio"), ("psc", "b_peak")
+fl = {q1: 0.1, q2: 0.02}
+e = sa.errors_against({"ttc": {"peak_ratio": 3.05}, "psc": {"b_peak": 0.37}},
+                      {"ttc": {"peak_ratio": 3.0}, "psc": {"b_peak": 0.40}}, fl, (q1, q2))
+check("error value", e[q1][0], 0.05, 1e-9)
+check("error normalised", e[q1][1], 0.5, 1e-9)
+check("error sign", e[q2][0], -0.03, 1e-9)
+check("score", sa.score_of(e), 1.5, 1e-9)
+c = sa.combine_seeds([{q1: (0.03, None)}, {q1: (-0.05, None)}], fl, (q1,))
+check("mean over seeds", c[q1][0], -0.01, 1e-12)
+check("mean normalised", c[q1][1], 0.1, 1e-12)
+check("missing quantity skipped", sa.errors_against({"ttc": {}}, {"ttc": {"peak_ratio": 1}}, fl, (q1,)), {})
+
+# Presets: the cheapest row within the limit.
+rows = [{"key": "a", "cost": 10, "score": 0.9}, {"key": "b", "cost": 5, "score": 1.2},
+        {"key": "c", "cost": 20, "score": 0.3}, {"key": "d", "cost": 1, "score": None}]
+check("fast", sa.cheapest_within(rows, 1.0)["key"], "a")
+check("balanced", sa.cheapest_within(rows, 0.5)["key"], "c")
+check("none within", sa.cheapest_within(rows, 0.1), None)
+
+# A preset with another dt or servo cap needs a sample prepared with those that meets the rule too.
+rule = {"stress": 1.0, "volume": 2.0}
+cap = sa.DEFAULT_SERVO_CAP
+prep = [{"group": "prepare_dt", "sample_time_step": 3e-6, "sample_servo_cap": cap, "score_stress": 0.5,
+         "score_volume": 2.5},
+        {"group": "prepare_dt", "sample_time_step": sa.PAPER_DT, "sample_servo_cap": 5e-6, "score_stress": 0.5,
+         "score_volume": 0.5}]
+check("meets", sa.meets({"score_stress": 1.0, "score_volume": 2.0}, rule), True)
+check("fails on volume", sa.meets({"score_stress": 0.1, "score_volume": 2.1}, rule), False)
+check("preparation as the paper's", sa.preparation_ok(prep, sa.PAPER_DT, cap, rule), True)
+check("preparation failing the rule", sa.preparation_ok(prep, 3e-6, cap, rule), False)
+check("preparation meeting a looser rule", sa.preparation_ok(prep, 3e-6, cap, {"stress": 1.0, "volume": 5.0}), True)
+check("preparation never checked", sa.preparation_ok(prep, 5e-6, cap, {"stress": 1.0, "volume": 5.0}), False)
+check("preparation with a larger cap", sa.preparation_ok(prep, sa.PAPER_DT, 5e-6, rule), True)
+check("cap never checked", sa.preparation_ok(prep, sa.PAPER_DT, 2.5e-6, rule), False)
+
+# A series: peak, ε1 at the peak, b at the peak, εv and Z at the end strain (also when the last row is a hair short).
+e1 = np.array([0.0, 0.01, 0.02, 0.03 - 1e-12])
+s = {"e1": e1, "ratio13": np.array([1.0, 3.0, 2.5, 2.4]), "b": np.array([np.nan, 0.4, 0.3, 0.2]),
+     "ev": np.array([0.0, 0.001, -0.01, -0.02]), "Z": np.array([6.0, 5.0, 4.5, 4.4]),
+     "s11": e1, "s22": e1, "s33": e1}
+m = sa.test_metrics(s, 0.03)
+check("peak", m["peak_ratio"], 3.0)
+check("e1 at peak", m["e1_peak"], 0.01)
+check("b at peak", m["b_peak"], 0.4)
+check("ev at end", m["ev_end"], -0.02, 1e-9)
+check("Z at end", m["Z_end"], 4.4, 1e-9)
+check("finite", m["finite"], True)
+m = sa.test_metrics(s, 0.025)
+check("ev over the end window [0.02, 0.025]", m["ev_end"], -0.01, 1e-9)
+s2 = dict(s, e1=np.linspace(0.0, 0.03, 31), ev=np.linspace(0.0, -0.03, 31), Z=np.linspace(6.0, 3.0, 31),
+          ratio13=np.linspace(1.0, 3.0, 31), b=np.zeros(31), s11=np.ones(31), s22=np.ones(31), s33=np.ones(31))
+m = sa.test_metrics(s2, 0.03)
+check("ev mean over the last 0.5 %", m["ev_end"], -0.0275, 1e-9)
+check("Z mean over the last 0.5 %", m["Z_end"], 3.25, 1e-9)
+check("short run: no end values", sa.test_metrics(s2, 0.04)["Z_end"], None)
+
+# Servo error: std, |mean| and max of σ/target − 1 after the first 10 % of rows.
+n = 100
+s22 = 1e5 * (1 + np.where(np.arange(n) % 2 == 0, 0.02, 0.0))
+s33 = np.full(n, 1e5)
+std, bias, mx = sa.servo_error_stats({"s22": s22, "s33": s33}, {"s22": 1e5, "s33": 1e5})
+all_err = np.concatenate([s22[10:] / 1e5 - 1, s33[10:] / 1e5 - 1])
+check("servo std", std, float(np.std(all_err)), 1e-12)
+check("servo bias", bias, float(abs(np.mean(all_err))), 1e-12)
+check("servo max", mx, 0.02, 1e-12)
+s22[50] = np.nan
+check("servo non-finite", sa.servo_error_stats({"s22": s22}, {"s22": 1e5})[0], math.inf)
+
+# Inertial number of the paper's loading: 0.2/s · 3.75 mm · sqrt(2650/1e5).
+check("inertial number", sa.inertial_number(0.2, 3.75e-3, 2650), 0.2 * 3.75e-3 * math.sqrt(0.0265), 1e-12)
+
+for e in errors:
+    print("  " + e, file=sys.stderr)
+sys.exit(1 if errors else 0)
+EOF
+
+echo "2. study.py analyse on a synthetic study root"
+"$PY" "$ROOT/tests/tools/make_fake_study.py" "$TMP/study"
+"$PY" "$ROOT/tools/study.py" analyse --root "$TMP/study" >/dev/null || fail "study.py analyse failed"
+for f in study.json study.md figures/pareto.png figures/stability.png figures/reference.png; do
+  [[ -s "$TMP/study/$f" ]] || fail "analyse did not write $f"
+done
+"$PY" - "$TMP/study" <<'EOF' || fail "study.json against the synthetic answers"
+import json, math, sys
+root = sys.argv[1]
+got = json.load(open(f"{root}/study.json"))
+want = json.load(open(f"{root}/expected.json"))
+errors = []
+def close(what, g, w, tol=1e-9):
+    if g is None or abs(g - w) > tol * max(1.0, abs(w)):
+        errors.append(f"{what}: got {g!r}, want {w!r}")
+close("floor ttc peak", got["noise_floor"]["ttc.peak_ratio"][1], want["floor_ttc_peak"])
+close("floor psc b", got["noise_floor"]["psc.b_peak"][1], want["floor_psc_b"])
+close("floor ttc ev", got["noise_floor"]["ttc.ev_end"][1], want["floor_ttc_ev_end"])
+rows = {r["key"]: r for r in got["rows"]}
+for key, score in want["scores"].items():
+    close(f"score of {key}", rows[key]["score"], score)
+close("reference score", rows["reference"]["score"], 0.0)
+front = sorted(k for k, r in rows.items() if r["pareto"])
+if front != want["pareto"]:
+    errors.append(f"Pareto front: got {front}, want {want['pareto']}")
+for name in ("fast", "balanced"):
+    p = got["presets"].get(name)
+    if p is None or p["row"] != want[name]:
+        errors.append(f"preset {name}: got {p and p['row']}, want {want[name]}")
+if got["presets"].get("balanced"):
+    close("balanced speed-up in steps", got["presets"]["balanced"]["test_steps_speedup"], 5.0)
+    close("balanced measured speed-up", got["presets"]["balanced"]["measured_speedup"], 100.0 / 20.0)
+servo = got["stability"]["servo"][0]
+close("servo std", servo["std"], want["servo_std"])
+if servo["holds"]:
+    errors.append("a servo 0.7 % off its target must not 'hold'")
+states = {r["name"]: r["state"] for r in got["stability"]["dt"]}
+for name, state in want["stability"].items():
+    if states.get(name) != state:
+        errors.append(f"stability of {name}: got {states.get(name)}, want {state}")
+md = open(f"{root}/study.md", encoding="utf-8").read()
+for needle in ("## Noise floor", "## Presets", "## Stability map", "![error against run time](figures/pareto.png)"):
+    if needle not in md:
+        errors.append(f"study.md lacks {needle!r}")
+for e in errors:
+    print("  " + e, file=sys.stderr)
+sys.exit(1 if errors else 0)
+EOF
+
+echo "3. a missing study root is an error with a message"
+if "$PY" "$ROOT/tools/study.py" analyse --root "$TMP/none" 2>"$TMP/err"; then fail "analyse accepted a missing root"; fi
+grep -q "no study results" "$TMP/err" || fail "unclear message for a missing study root"
+
+echo "4. report.py links a study found beside the run folder"
+"$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/paper" >/dev/null
+"$PY" "$ROOT/tools/report.py" "$TMP/paper" >/dev/null || fail "report.py failed"
+grep -q "](../study/study.md)" "$TMP/paper/report.md" || fail "report.md does not link ../study/study.md"
+
+echo "PASS: study analysis tests"
