@@ -397,13 +397,13 @@ def study_section(run):
         return "\n".join(out)
     rows = []
     for name, p in (study.get("presets") or {}).items():
-        rows.append((f"inputs/{name}.json", p.get("rule", "n/a"), fmt(p.get("time_step")),
+        rows.append((f"inputs/{name}.json", p.get("rule", "n/a"), p.get("preparation", "n/a"), fmt(p.get("time_step")),
                      fmt(p.get("strain_increment")), fmt(p.get("inertial_number")), fmt(p.get("score_stress"), 2),
                      fmt(p.get("score_volume"), 2), f"{fmt(p.get('test_steps_speedup'), 1)}×"))
     if rows:
         out += ["Presets (errors on the reduced scene as multiples of the seed-to-seed noise floor; speed-up of the "
                 "tests over inputs/paper.json):", "",
-                md_table(("deck", "rule", "time_step (s)", "Δε1 per step", "inertial number",
+                md_table(("deck", "rule", "preparation", "time_step (s)", "Δε1 per step", "inertial number",
                           "stress-ratio errors / floor", "εv, Z errors / floor", "speed-up"), rows)]
     return "\n".join(out)
 

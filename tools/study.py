@@ -269,11 +269,21 @@ def run_deck(paper, spec, state_path):
     return deck
 
 
-def preset_deck(paper, name, time_step, strain_increment, output_interval, description):
-    """A full paper deck (8000 spheres, ε1 to 10 %) with only the time step, strain increment, the servo's cap on
-    the strain per step (5 × the strain increment, the paper's ratio) and the output interval changed."""
+PAPER_PREPARED_STATE = "../results/paper/prepared.state"   # relative to inputs/: what tools/paper.sh prepares
+
+
+def preset_deck(paper, name, time_step, strain_increment, output_interval, description, preparation="own"):
+    """A paper deck (8000 spheres, ε1 to 10 %) with only the time step, strain increment, the servo's cap on the
+    strain per step (5 × the strain increment, the paper's ratio) and the output interval changed.
+
+    preparation "own": the deck keeps "prepare" (which then runs with the preset's time step and servo cap);
+    "paper": the deck starts from the paper deck's prepared sample instead ("initial_state"), as the study's runs
+    did, for presets whose own preparation was not shown to give the same sample."""
     deck = copy.deepcopy(paper)
     deck["description"] = description
+    if preparation == "paper":  # "initial_state" where "prepare" was
+        deck = {("initial_state" if k == "prepare" else k): (PAPER_PREPARED_STATE if k == "prepare" else v)
+                for k, v in deck.items()}
     deck["time_step"] = time_step
     if strain_increment != PAPER_INC:  # after time_step, as the README lists the keys
         keys = list(deck)
@@ -506,7 +516,11 @@ def write_presets(study, paper, celldem):
                 f"({p['dt_over_tc']:.2f} t_c) and axial strain increment {p['strain_increment']:g}/step (I = "
                 f"{p['inertial_number']:.1e}); on the reduced study scene: {p['rule']}; "
                 f"tests {p['test_steps_speedup']:.1f}x fewer steps than inputs/paper.json (tools/study.py)")
-        deck = preset_deck(paper, name, p["time_step"], p["strain_increment"], interval, desc)
+        if p["preparation"] == "paper":
+            desc += (f"; starts from the paper deck's prepared sample ({PAPER_PREPARED_STATE}: run inputs/paper.json "
+                     "or tools/paper.sh first) because the preset's time step or servo cap would change the "
+                     "preparation")
+        deck = preset_deck(paper, name, p["time_step"], p["strain_increment"], interval, desc, p["preparation"])
         path = os.path.join(REPO, "inputs", f"{name}.json")
         with open(path, "w", encoding="utf-8") as f:
             f.write(format_deck(deck))

@@ -79,6 +79,19 @@ check("preparation never checked", sa.preparation_ok(prep, 5e-6, cap, {"stress":
 check("preparation with a larger cap", sa.preparation_ok(prep, sa.PAPER_DT, 5e-6, rule), True)
 check("cap never checked", sa.preparation_ok(prep, sa.PAPER_DT, 2.5e-6, rule), False)
 
+# A preset whose preparation was not checked starts from the paper's prepared sample.
+import study
+paper = study.load_paper()
+own = study.preset_deck(paper, "x", 3e-6, 1.5e-6, 133, "d")
+reuse = study.preset_deck(paper, "x", 3e-6, 1.5e-6, 133, "d", preparation="paper")
+check("own preparation kept", ("prepare" in own, "initial_state" in own), (True, False))
+check("paper's sample reused", (reuse.get("prepare"), reuse.get("initial_state")),
+      (None, study.PAPER_PREPARED_STATE))
+check("servo cap 5 × Δε1", reuse["servo"]["max_strain_increment"], 7.5e-6, 1e-12)
+check("strain increment and rows", (reuse["tests"][1]["axes"]["x1"], reuse["tests"][1]["output_interval"]),
+      ({"strain_increment": 1.5e-6}, 133))
+check("paper deck untouched", "initial_state" in paper or paper["time_step"] != 1e-6, False)
+
 # A series: peak, ε1 at the peak, b at the peak, εv and Z at the end strain (also when the last row is a hair short).
 e1 = np.array([0.0, 0.01, 0.02, 0.03 - 1e-12])
 s = {"e1": e1, "ratio13": np.array([1.0, 3.0, 2.5, 2.4]), "b": np.array([np.nan, 0.4, 0.3, 0.2]),
@@ -149,6 +162,8 @@ for name in ("fast", "balanced"):
     p = got["presets"].get(name)
     if p is None or p["row"] != want[name]:
         errors.append(f"preset {name}: got {p and p['row']}, want {want[name]}")
+    elif p["preparation"] != "own":
+        errors.append(f"preset {name}: its preparation was checked, so it should keep its own, got {p['preparation']}")
 if got["presets"].get("balanced"):
     close("balanced speed-up in steps", got["presets"]["balanced"]["test_steps_speedup"], 5.0)
     close("balanced measured speed-up", got["presets"]["balanced"]["measured_speedup"], 100.0 / 20.0)
