@@ -433,8 +433,8 @@ def parse_args(argv=None):
     p.add_argument("--tol-peak", type=float, default=0.03)
     p.add_argument("--tol-e1-peak", type=float, default=0.01)
     p.add_argument("--at-e1", type=float, default=0.05)
-    p.add_argument("--tol-ev", type=float, default=0.003)
-    p.add_argument("--tol-z", type=float, default=0.15)
+    p.add_argument("--tol-ev", type=float, default=1e-3)
+    p.add_argument("--tol-z", type=float, default=0.05)
     args = p.parse_args(argv)
     if "=" in args.hold_e1:
         args.hold_e1 = {k: float(v) for k, v in (kv.split("=") for kv in args.hold_e1.split(","))}
