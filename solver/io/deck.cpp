@@ -1,5 +1,6 @@
 #include "io/deck.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -258,6 +259,10 @@ PrepareDef read_prepare(ObjectReader r) {
 }
 
 }  // namespace
+
+double skin_length(const Deck& deck) {
+  return deck.neighbor_skin * *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
+}
 
 double critical_time_step(const SampleDef& sample, double kn) {
   double dmin = sample.diameters.empty() ? 0.0 : sample.diameters[0];

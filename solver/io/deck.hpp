@@ -104,6 +104,9 @@ struct Deck {
 Deck parse_deck(const std::string& json_text, const std::string& source = "<deck>");
 Deck read_deck(const std::string& path);
 
+// The neighbour-list skin in metres: neighbor_skin times the largest diameter.
+double skin_length(const Deck& deck);
+
 // The stable time step for the lightest particle, sqrt(m_min / kn) (no safety factor).
 double critical_time_step(const SampleDef& sample, double kn);
 

@@ -57,7 +57,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   state.control.reference_lengths = state.cell.h.diagonal();
   state.control.reference_volume = state.cell.volume();
   const Model model = make_model(deck, state.particles.radius);
-  state.pairs.skin = deck.neighbor_skin * 2.0 * model.max_radius;
+  state.pairs.skin = skin_length(deck);
   const Loading loading{test.axes, test.friction};
   rebuild_pairs(model, state);
   compute_contact_forces(model, test.friction, state, false);

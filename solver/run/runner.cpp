@@ -62,6 +62,14 @@ Json read_json(const fs::path& path) {
   }
 }
 
+// Prints a warning and records it in the summary, once: a resumed run reloads the summary it had written.
+void add_warning(Json& summary, const std::string& w) {
+  std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
+  for (const auto& known : summary["warnings"])
+    if (known == w) return;
+  summary["warnings"].push_back(w);
+}
+
 // Reads a series.csv into its header and rows of numbers (for summaries and for resuming).
 struct SeriesTable {
   std::vector<std::string> columns;
@@ -395,7 +403,7 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
     state.control.reference_volume = state.cell.volume();
   }
   const Model model = make_model(deck, state.particles.radius);
-  state.pairs.skin = deck.neighbor_skin * 2.0 * model.max_radius;  // the deck's, not the preparing run's
+  state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   const Loading loading{test.axes, test.friction};
   if (!resumed) {  // the stage's first row measures the state as loaded, with this test's friction
     rebuild_pairs(model, state);
@@ -415,10 +423,7 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
   std::vector<std::string> warnings;
   summary["tests"][test.name] =
       test_summary(deck, test, out.dir() / "series.csv", out.elapsed(), total, state.particles.size(), warnings);
-  for (const std::string& w : warnings) {
-    std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
-    summary["warnings"].push_back(w);
-  }
+  for (const std::string& w : warnings) add_warning(summary, w);
 }
 
 // ---- the run directory ----
@@ -494,8 +499,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
   if (dt_ratio > kStableTimeStepFraction) {
     const std::string w = "time_step is " + std::to_string(dt_ratio) + " of sqrt(m_min/kn); results drift above "
                           "about 0.55 of it and the packing boils above 0.65 (measured): use <= 0.5";
-    std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
-    summary["warnings"].push_back(w);
+    add_warning(summary, w);
   }
   summary["celldem_version"] = "0.1.0";
   summary["deck"] = deck.source;
@@ -526,8 +530,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     return p["elapsed"].value(stage, 0.0);
   };
 
-  const double skin =
-      deck.neighbor_skin * *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
+  const double skin = skin_length(deck);
   fs::path prepared;
   if (deck.prepare) {
     prepared = dir / kPrepared;
