@@ -2,29 +2,36 @@
 
 namespace celldem {
 
+namespace {
+// Completes particle i's net force and moment: the pair loop left the sums over the pairs where i is the
+// owner; the pairs where it is the neighbour come here, in ascending pair order.
+inline void gather(const PairList& pl, Particles& p, std::size_t i) {
+  Vec3 f = p.force[i], t = p.torque[i];
+  for (Index k = pl.incoming_first[i]; k < pl.incoming_first[i + 1]; ++k) {
+    const Index q = pl.incoming[k];
+    if (!(pl.flags[q] & kTouching)) continue;
+    f += pl.force[q];
+    t += pl.torque_j[q];
+  }
+  p.force[i] = f;
+  p.torque[i] = t;
+}
+}  // namespace
+
+void gather_forces(State& state) {
+  const std::size_t n = state.particles.size();
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < n; ++i) gather(state.pairs, state.particles, i);
+}
+
 void gather_and_kick(const Model& model, State& state) {
   Particles& p = state.particles;
-  const PairList& pl = state.pairs;
   const std::size_t n = p.size();
 #pragma omp parallel for schedule(static)
   for (std::size_t i = 0; i < n; ++i) {
-    Vec3 f = Vec3::Zero(), t = Vec3::Zero();
-    // Per-pair results are only valid where the pair touches (the pair loop skips the others).
-    for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
-      if (!(pl.flags[q] & kTouching)) continue;
-      f -= pl.force[q];
-      t += pl.torque_i[q];
-    }
-    for (Index k = pl.incoming_first[i]; k < pl.incoming_first[i + 1]; ++k) {
-      const Index q = pl.incoming[k];
-      if (!(pl.flags[q] & kTouching)) continue;
-      f += pl.force[q];
-      t += pl.torque_j[q];
-    }
-    p.force[i] = f;
-    p.torque[i] = t;
-    p.velocity[i] = model.velocity_keep[i] * p.velocity[i] + model.velocity_gain[i] * f;
-    p.spin[i] = model.spin_keep[i] * p.spin[i] + model.spin_gain[i] * t;
+    gather(state.pairs, p, i);
+    p.velocity[i] = model.velocity_keep[i] * p.velocity[i] + model.velocity_gain[i] * p.force[i];
+    p.spin[i] = model.spin_keep[i] * p.spin[i] + model.spin_gain[i] * p.torque[i];
   }
 }
 

@@ -5,8 +5,11 @@
 
 namespace celldem {
 
-// Sums each particle's contact forces and moments in a fixed order (pairs where it is i, then where it is
-// j), then advances the fluctuating velocity and the spin by one step with implicit body damping.
+// Completes each particle's net contact force and moment (the pair loop summed the pairs where it is i;
+// this adds those where it is j, in a fixed order).
+void gather_forces(State& state);
+
+// gather_forces, then advances the fluctuating velocity and the spin by one step with implicit body damping.
 void gather_and_kick(const Model& model, State& state);
 
 // Moves particles by their fluctuating velocity in scaled coordinates, s += dt h_mid^-1 v', where h_mid

@@ -8,6 +8,7 @@
 #include "contact/contact_forces.hpp"
 #include "measure/series_row.hpp"
 #include "neighbor/neighbor_list.hpp"
+#include "integrate/leapfrog.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -61,6 +62,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   const Loading loading{test.axes, test.friction};
   rebuild_pairs(model, state);
   compute_contact_forces(model, test.friction, state, false);
+  gather_forces(state);
   for (std::int64_t k = 0; k < warmup; ++k) step(model, loading, state);
 
   DilatancyWindow di(0.0025);

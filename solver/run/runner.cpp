@@ -20,6 +20,7 @@
 #include "neighbor/neighbor_list.hpp"
 #include "run/progress.hpp"
 #include "run/sample.hpp"
+#include "integrate/leapfrog.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -279,6 +280,7 @@ void run_preparation(const Deck& deck, const RunOptions& options, Json& summary,
   if (!resumed) {
     rebuild_pairs(model, state);
     compute_contact_forces(model, prep.friction, state, /*advance_slip=*/false);
+    gather_forces(state);
   }
   StageOutput out(deck, options, model, "prepare", prep.output_interval, elapsed_before);
   out.open(state, resumed);
@@ -408,6 +410,7 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
   if (!resumed) {  // the stage's first row measures the state as loaded, with this test's friction
     rebuild_pairs(model, state);
     compute_contact_forces(model, test.friction, state, /*advance_slip=*/false);
+    gather_forces(state);
   }
   const std::int64_t total = test_steps(deck, test);
   StageOutput out(deck, options, model, test.name, test.output_interval, elapsed_before, /*check_energy=*/true);
