@@ -19,35 +19,28 @@ struct Partial {
   std::int64_t touching = 0;
 };
 
-// What the in-order sums need from one chunk of the SIMD loop, one array per component.
-struct ChunkTerms {
+// One chunk of pairs laid out for SIMD: component-major arrays with one lane per pair, so that the law
+// runs on unit-stride loads and stores. Gathered from the particle and pair arrays before, scattered back
+// and summed in pair order after.
+struct ChunkIn {
+  alignas(64) double ds[3][kChunk];  // s_j - s_i + image (scaled branch)
+  alignas(64) double dv[3][kChunk];  // v_j - v_i (fluctuating velocities)
+  alignas(64) double wi[3][kChunk];
+  alignas(64) double wj[3][kChunk];
+  alignas(64) double ri[kChunk];
+  alignas(64) double rj[kChunk];
+  alignas(64) double xi[3][kChunk];  // stored tangential displacement
+};
+struct ChunkOut {
+  alignas(64) double force[3][kChunk];
+  alignas(64) double torque_i[3][kChunk];
+  alignas(64) double torque_j[3][kChunk];
+  alignas(64) double tangential[3][kChunk];
   alignas(64) double stress[9][kChunk];     // force_a * branch_b, row-major (a, b)
   alignas(64) double stiffness[3][kChunk];  // kn (n_k l_k)^2
-  alignas(64) bool touching[kChunk];
-  alignas(64) bool sliding[kChunk];
+  alignas(64) std::int64_t flags[kChunk];   // PairFlag bits
 };
 
-// Raw views of the arrays the loop reads and writes: SIMD lanes index them directly.
-struct PairArrays {
-  const double* __restrict scaled;     // (N, 3)
-  const double* __restrict velocity;   // (N, 3)
-  const double* __restrict spin;       // (N, 3)
-  const double* __restrict radius;     // (N)
-  const Index* __restrict owner;       // (P)
-  const Index* __restrict neighbor;    // (P)
-  const std::int32_t* __restrict image;  // (P, 3)
-  double* __restrict tangential;       // (P, 3)
-  double* __restrict force;            // (P, 3)
-  double* __restrict torque_i;         // (P, 3)
-  double* __restrict torque_j;         // (P, 3)
-};
-
-inline Real3 load3(const double* a, std::size_t k) { return {a[3 * k], a[3 * k + 1], a[3 * k + 2]}; }
-inline void store3(double* a, std::size_t k, Real3 v) {
-  a[3 * k] = v.x;
-  a[3 * k + 1] = v.y;
-  a[3 * k + 2] = v.z;
-}
 // m v with the sums left to right (as Eigen's product), skipping the zero terms of a diagonal m.
 template <bool Diagonal>
 inline Real3 apply(const Mat3& m, Real3 v) {
@@ -57,38 +50,68 @@ inline Real3 apply(const Mat3& m, Real3 v) {
             m(2, 0) * v.x + m(2, 1) * v.y + m(2, 2) * v.z};
 }
 
-// One pair through the law: its results go to the pair arrays, its reduction terms to the chunk.
-template <Kinematics K, bool Diagonal>
-[[gnu::always_inline]] inline void evaluate_pair(const ContactParams& law, const PairArrays& a, const Mat3& h,
-                                                 const Mat3& L, double dt, Index q, ChunkTerms& terms, int k) {
-  const Index i = a.owner[q], j = a.neighbor[q];
-  const Real3 ds = load3(a.scaled, j) - load3(a.scaled, i) +
-                   Real3{double(a.image[3 * q]), double(a.image[3 * q + 1]), double(a.image[3 * q + 2])};
-  const Real3 branch = apply<Diagonal>(h, ds);
-  Real3 dv = load3(a.velocity, j) - load3(a.velocity, i);
-  if constexpr (K == Kinematics::Affine) dv = dv + apply<Diagonal>(L, branch);  // images move apart with the cell
-  const PairContact c = contact_law(law, branch, a.radius[i], a.radius[j], dv, load3(a.spin, i), load3(a.spin, j),
-                                    load3(a.tangential, q), dt);
-  store3(a.force, q, c.force);
-  store3(a.torque_i, q, c.torque_i);
-  store3(a.torque_j, q, c.torque_j);
-  store3(a.tangential, q, c.tangential);
-  const double f[3] = {c.force.x, c.force.y, c.force.z}, l[3] = {branch.x, branch.y, branch.z};
-  for (int r = 0; r < 3; ++r)
-    for (int s = 0; s < 3; ++s) terms.stress[3 * r + s][k] = f[r] * l[s];
-  const double nl[3] = {c.normal.x * branch.x, c.normal.y * branch.y, c.normal.z * branch.z};
-  for (int r = 0; r < 3; ++r) terms.stiffness[r][k] = law.kn * (nl[r] * nl[r]);
-  terms.touching[k] = c.touching;
-  terms.sliding[k] = c.sliding;
+void gather_chunk(const Particles& p, const PairList& pl, Index q0, int m, ChunkIn& c) {
+  for (int k = 0; k < m; ++k) {
+    const Index q = q0 + k, i = pl.owner[q], j = pl.neighbor[q];
+    for (int d = 0; d < 3; ++d) {
+      c.ds[d][k] = p.scaled[j][d] - p.scaled[i][d] + pl.image[q][d];
+      c.dv[d][k] = p.velocity[j][d] - p.velocity[i][d];
+      c.wi[d][k] = p.spin[i][d];
+      c.wj[d][k] = p.spin[j][d];
+      c.xi[d][k] = pl.tangential[q][d];
+    }
+    c.ri[k] = p.radius[i];
+    c.rj[k] = p.radius[j];
+  }
 }
 
-// The SIMD loop over pairs q0 .. q0 + m - 1. Everything comes by value: the compiler then knows that no
-// store in the loop can change the parameters, the cell or the array pointers.
+// The law for every pair of the chunk, one SIMD lane each. Everything comes by value: the compiler then
+// knows that no store in the loop changes the parameters or the cell.
 template <Kinematics K, bool Diagonal>
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
-void evaluate_chunk(ContactParams law, PairArrays a, Mat3 h, Mat3 L, double dt, Index q0, int m, ChunkTerms& terms) {
-#pragma omp simd
-  for (int k = 0; k < m; ++k) evaluate_pair<K, Diagonal>(law, a, h, L, dt, q0 + k, terms, k);
+void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
+                    ChunkOut& __restrict o) {
+  for (int k = 0; k < m; ++k) {
+    const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
+    Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
+    if constexpr (K == Kinematics::Affine) dv = dv + apply<Diagonal>(L, branch);  // images move apart with the cell
+    const PairContact r = contact_law(law, branch, c.ri[k], c.rj[k], dv, {c.wi[0][k], c.wi[1][k], c.wi[2][k]},
+                                      {c.wj[0][k], c.wj[1][k], c.wj[2][k]}, {c.xi[0][k], c.xi[1][k], c.xi[2][k]}, dt);
+    o.force[0][k] = r.force.x, o.force[1][k] = r.force.y, o.force[2][k] = r.force.z;
+    o.torque_i[0][k] = r.torque_i.x, o.torque_i[1][k] = r.torque_i.y, o.torque_i[2][k] = r.torque_i.z;
+    o.torque_j[0][k] = r.torque_j.x, o.torque_j[1][k] = r.torque_j.y, o.torque_j[2][k] = r.torque_j.z;
+    o.tangential[0][k] = r.tangential.x, o.tangential[1][k] = r.tangential.y, o.tangential[2][k] = r.tangential.z;
+    o.stress[0][k] = r.force.x * branch.x, o.stress[1][k] = r.force.x * branch.y, o.stress[2][k] = r.force.x * branch.z;
+    o.stress[3][k] = r.force.y * branch.x, o.stress[4][k] = r.force.y * branch.y, o.stress[5][k] = r.force.y * branch.z;
+    o.stress[6][k] = r.force.z * branch.x, o.stress[7][k] = r.force.z * branch.y, o.stress[8][k] = r.force.z * branch.z;
+    const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
+    o.stiffness[0][k] = law.kn * (nl.x * nl.x), o.stiffness[1][k] = law.kn * (nl.y * nl.y);
+    o.stiffness[2][k] = law.kn * (nl.z * nl.z);
+    o.flags[k] = (r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0);
+  }
+}
+
+// Writes the chunk's results to the pairs and adds the touching ones, in pair order, to the owners' net
+// force and moment and to the block's reductions.
+void scatter_chunk(const ChunkOut& c, Index q0, int m, Particles& p, PairList& pl, Partial& acc) {
+  for (int k = 0; k < m; ++k) {
+    const Index q = q0 + k;
+    pl.flags[q] = static_cast<std::uint8_t>(c.flags[k]);
+    for (int a = 0; a < 3; ++a) {
+      pl.force[q][a] = c.force[a][k];
+      pl.torque_i[q][a] = c.torque_i[a][k];
+      pl.torque_j[q][a] = c.torque_j[a][k];
+      pl.tangential[q][a] = c.tangential[a][k];
+    }
+    if (!(c.flags[k] & kTouching)) continue;
+    const Index i = pl.owner[q];
+    p.force[i] -= pl.force[q];
+    p.torque[i] += pl.torque_i[q];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) acc.stress_sum(a, b) += c.stress[3 * a + b][k];
+    for (int a = 0; a < 3; ++a) acc.stiffness_sum[a] += c.stiffness[a][k];
+    ++acc.touching;
+  }
 }
 
 // Diagonal: the cell and the velocity gradient are diagonal (principal-axis loading, the common case); the
@@ -99,42 +122,33 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
   PairList& pl = state.pairs;
   const Mat3 h = state.cell.h;
   const Mat3 L = state.cell.velocity_gradient;
-  const PairArrays a{p.scaled.data()->data(), p.velocity.data()->data(), p.spin.data()->data(), p.radius.data(),
-                     pl.owner.data(), pl.neighbor.data(), pl.image.data()->data(), pl.tangential.data()->data(),
-                     pl.force.data()->data(), pl.torque_i.data()->data(), pl.torque_j.data()->data()};
   const std::size_t n = p.size();
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   std::vector<Partial> partial(blocks);
 
-#pragma omp parallel for schedule(static)
-  for (std::size_t c = 0; c < blocks; ++c) {
-    Partial acc;
-    ChunkTerms terms;
-    const std::size_t first_owner = c * kBlock, last_owner = std::min(n, (c + 1) * kBlock);
-    // The owner's share of the net force and moment, summed here in pair order; the gather adds the pairs
-    // where the particle is the neighbour.
-    for (std::size_t i = first_owner; i < last_owner; ++i) {
-      p.force[i].setZero();
-      p.torque[i].setZero();
-    }
-    const Index begin = pl.first[first_owner], end = pl.first[last_owner];
-    for (Index q0 = begin; q0 < end; q0 += kChunk) {
-      const int m = std::min<Index>(kChunk, end - q0);
-      evaluate_chunk<K, Diagonal>(law, a, h, L, dt, q0, m, terms);
-      for (int k = 0; k < m; ++k) {
-        const Index q = q0 + k;
-        pl.flags[q] = static_cast<std::uint8_t>((terms.touching[k] ? kTouching : 0) | (terms.sliding[k] ? kSliding : 0));
-        if (!terms.touching[k]) continue;
-        const Index i = pl.owner[q];
-        p.force[i] -= pl.force[q];
-        p.torque[i] += pl.torque_i[q];
-        for (int r = 0; r < 3; ++r)
-          for (int s = 0; s < 3; ++s) acc.stress_sum(r, s) += terms.stress[3 * r + s][k];
-        for (int r = 0; r < 3; ++r) acc.stiffness_sum[r] += terms.stiffness[r][k];
-        ++acc.touching;
+#pragma omp parallel
+  {
+    ChunkIn in;
+    ChunkOut out;
+#pragma omp for schedule(static)
+    for (std::size_t b = 0; b < blocks; ++b) {
+      Partial acc;
+      const std::size_t first_owner = b * kBlock, last_owner = std::min(n, (b + 1) * kBlock);
+      // The owner's share of the net force and moment, summed here in pair order; the gather adds the pairs
+      // where the particle is the neighbour.
+      for (std::size_t i = first_owner; i < last_owner; ++i) {
+        p.force[i].setZero();
+        p.torque[i].setZero();
       }
+      const Index begin = pl.first[first_owner], end = pl.first[last_owner];
+      for (Index q0 = begin; q0 < end; q0 += kChunk) {
+        const int m = std::min<Index>(kChunk, end - q0);
+        gather_chunk(p, pl, q0, m, in);
+        evaluate_chunk<K, Diagonal>(law, h, L, dt, m, in, out);
+        scatter_chunk(out, q0, m, p, pl, acc);
+      }
+      partial[b] = acc;
     }
-    partial[c] = acc;
   }
 
   Partial total;
