@@ -7,7 +7,7 @@ namespace celldem {
 namespace {
 
 // Reductions are summed over fixed blocks of owner particles (their pairs in list order), then the blocks
-// in order. Only touching pairs add to them, so the result depends neither on the number of threads nor on
+// in order. Only touching pairs add to them (the others add exact zeros), so the result depends neither on the number of threads nor on
 // which non-touching pairs the neighbour list happens to hold (so a rebuild never changes the arithmetic).
 constexpr std::size_t kBlock = 256;
 // Pairs evaluated together by the SIMD loop before their in-order sums (small enough to stay in L1).
@@ -19,9 +19,8 @@ struct Partial {
   std::int64_t touching = 0;
 };
 
-// One chunk of pairs laid out for SIMD: component-major arrays with one lane per pair, so that the law
-// runs on unit-stride loads and stores. Gathered from the particle and pair arrays before, scattered back
-// and summed in pair order after.
+// A chunk of pairs in SIMD form: the particle data of both ends gathered component-major, one lane per
+// pair, so that the law runs on unit-stride loads; the pair arrays themselves are read and written in place.
 struct ChunkIn {
   alignas(64) double ds[3][kChunk];  // s_j - s_i + image (scaled branch)
   alignas(64) double dv[3][kChunk];  // v_j - v_i (fluctuating velocities)
@@ -29,13 +28,10 @@ struct ChunkIn {
   alignas(64) double wj[3][kChunk];
   alignas(64) double ri[kChunk];
   alignas(64) double rj[kChunk];
-  alignas(64) double xi[3][kChunk];  // stored tangential displacement
 };
+// What the in-order sums after the SIMD loop need besides the pair arrays.
 struct ChunkOut {
-  alignas(64) double force[3][kChunk];
-  alignas(64) double torque_i[3][kChunk];
-  alignas(64) double torque_j[3][kChunk];
-  alignas(64) double tangential[3][kChunk];
+  alignas(64) double torque_i[3][kChunk];   // moment on the owner
   alignas(64) double stress[9][kChunk];     // force_a * branch_b, row-major (a, b)
   alignas(64) double stiffness[3][kChunk];  // kn (n_k l_k)^2
   alignas(64) std::int64_t flags[kChunk];   // PairFlag bits
@@ -58,59 +54,54 @@ void gather_chunk(const Particles& p, const PairList& pl, Index q0, int m, Chunk
       c.dv[d][k] = p.velocity[j][d] - p.velocity[i][d];
       c.wi[d][k] = p.spin[i][d];
       c.wj[d][k] = p.spin[j][d];
-      c.xi[d][k] = pl.tangential[q][d];
     }
     c.ri[k] = p.radius[i];
     c.rj[k] = p.radius[j];
   }
 }
 
-// The law for every pair of the chunk, one SIMD lane each. Everything comes by value: the compiler then
-// knows that no store in the loop changes the parameters or the cell.
+// The law for every pair of the chunk, one SIMD lane each. tangential, force and torque_j are the chunk's
+// slices of the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
+// knows no store in the loop changes the parameters or the cell.
 template <Kinematics K, bool Diagonal>
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
+                    double* __restrict tangential, double* __restrict force, double* __restrict torque_j,
                     ChunkOut& __restrict o) {
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
     if constexpr (K == Kinematics::Affine) dv = dv + apply<Diagonal>(L, branch);  // images move apart with the cell
+    const Real3 xi{tangential[3 * k], tangential[3 * k + 1], tangential[3 * k + 2]};
     const PairContact r = contact_law(law, branch, c.ri[k], c.rj[k], dv, {c.wi[0][k], c.wi[1][k], c.wi[2][k]},
-                                      {c.wj[0][k], c.wj[1][k], c.wj[2][k]}, {c.xi[0][k], c.xi[1][k], c.xi[2][k]}, dt);
-    o.force[0][k] = r.force.x, o.force[1][k] = r.force.y, o.force[2][k] = r.force.z;
+                                      {c.wj[0][k], c.wj[1][k], c.wj[2][k]}, xi, dt);
+    tangential[3 * k] = r.tangential.x, tangential[3 * k + 1] = r.tangential.y, tangential[3 * k + 2] = r.tangential.z;
+    force[3 * k] = r.force.x, force[3 * k + 1] = r.force.y, force[3 * k + 2] = r.force.z;
+    torque_j[3 * k] = r.torque_j.x, torque_j[3 * k + 1] = r.torque_j.y, torque_j[3 * k + 2] = r.torque_j.z;
     o.torque_i[0][k] = r.torque_i.x, o.torque_i[1][k] = r.torque_i.y, o.torque_i[2][k] = r.torque_i.z;
-    o.torque_j[0][k] = r.torque_j.x, o.torque_j[1][k] = r.torque_j.y, o.torque_j[2][k] = r.torque_j.z;
-    o.tangential[0][k] = r.tangential.x, o.tangential[1][k] = r.tangential.y, o.tangential[2][k] = r.tangential.z;
     o.stress[0][k] = r.force.x * branch.x, o.stress[1][k] = r.force.x * branch.y, o.stress[2][k] = r.force.x * branch.z;
     o.stress[3][k] = r.force.y * branch.x, o.stress[4][k] = r.force.y * branch.y, o.stress[5][k] = r.force.y * branch.z;
     o.stress[6][k] = r.force.z * branch.x, o.stress[7][k] = r.force.z * branch.y, o.stress[8][k] = r.force.z * branch.z;
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
-    o.stiffness[0][k] = law.kn * (nl.x * nl.x), o.stiffness[1][k] = law.kn * (nl.y * nl.y);
-    o.stiffness[2][k] = law.kn * (nl.z * nl.z);
+    const double kn = r.touching ? law.kn : 0.0;
+    o.stiffness[0][k] = kn * (nl.x * nl.x), o.stiffness[1][k] = kn * (nl.y * nl.y), o.stiffness[2][k] = kn * (nl.z * nl.z);
     o.flags[k] = (r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0);
   }
 }
 
-// Writes the chunk's results to the pairs and adds the touching ones, in pair order, to the owners' net
-// force and moment and to the block's reductions.
-void scatter_chunk(const ChunkOut& c, Index q0, int m, Particles& p, PairList& pl, Partial& acc) {
+// Stores the chunk's flags and adds its pairs, in pair order, to the owners' net force and moment and to
+// the block's reductions. Pairs apart have all their terms zero, so adding them changes no sum (no branch).
+void sum_chunk(const ChunkOut& c, Index q0, int m, Particles& p, PairList& pl, Partial& acc) {
   for (int k = 0; k < m; ++k) {
     const Index q = q0 + k;
     pl.flags[q] = static_cast<std::uint8_t>(c.flags[k]);
-    for (int a = 0; a < 3; ++a) {
-      pl.force[q][a] = c.force[a][k];
-      pl.torque_i[q][a] = c.torque_i[a][k];
-      pl.torque_j[q][a] = c.torque_j[a][k];
-      pl.tangential[q][a] = c.tangential[a][k];
-    }
-    if (!(c.flags[k] & kTouching)) continue;
     const Index i = pl.owner[q];
     p.force[i] -= pl.force[q];
-    p.torque[i] += pl.torque_i[q];
+    for (int a = 0; a < 3; ++a) p.torque[i][a] += c.torque_i[a][k];
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) acc.stress_sum(a, b) += c.stress[3 * a + b][k];
     for (int a = 0; a < 3; ++a) acc.stiffness_sum[a] += c.stiffness[a][k];
-    ++acc.touching;
+    acc.touching += c.flags[k] & kTouching;
   }
 }
 
@@ -144,8 +135,9 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
       for (Index q0 = begin; q0 < end; q0 += kChunk) {
         const int m = std::min<Index>(kChunk, end - q0);
         gather_chunk(p, pl, q0, m, in);
-        evaluate_chunk<K, Diagonal>(law, h, L, dt, m, in, out);
-        scatter_chunk(out, q0, m, p, pl, acc);
+        evaluate_chunk<K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(), pl.force[q0].data(),
+                                    pl.torque_j[q0].data(), out);
+        sum_chunk(out, q0, m, p, pl, acc);
       }
       partial[b] = acc;
     }

@@ -44,9 +44,9 @@ struct PairList {
   std::vector<std::array<std::int32_t, 3>> image; // (P) integer shift n: branch = h (s_j - s_i + n)
   std::vector<Vec3> tangential;                  // (P) xi [m], stored tangential spring displacement
   std::vector<std::uint8_t> flags;               // (P) PairFlag bits of the last force evaluation
-  // Per-pair results of the last force evaluation, valid only where flags has kTouching.
+  // Per-pair results of the last force evaluation (zero where the pair does not touch).
+  // (The moment on i is summed into the owner by the pair loop and not kept.)
   std::vector<Vec3> force;                       // (P) [N] force on j by i
-  std::vector<Vec3> torque_i;                    // (P) [N m] moment on i
   std::vector<Vec3> torque_j;                    // (P) [N m] moment on j
   // Reverse index for the gather: pairs in which a particle is the neighbour, CSR by j.
   std::vector<Index> incoming_first;             // (N+1)

@@ -4,12 +4,12 @@ namespace celldem {
 
 namespace {
 // Completes particle i's net force and moment: the pair loop left the sums over the pairs where i is the
-// owner; the pairs where it is the neighbour come here, in ascending pair order.
+// owner; the pairs where it is the neighbour come here, in ascending pair order. Pairs apart hold zero
+// force and moment, so adding them changes nothing (and needs no branch).
 inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   Vec3 f = p.force[i], t = p.torque[i];
   for (Index k = pl.incoming_first[i]; k < pl.incoming_first[i + 1]; ++k) {
     const Index q = pl.incoming[k];
-    if (!(pl.flags[q] & kTouching)) continue;
     f += pl.force[q];
     t += pl.torque_j[q];
   }

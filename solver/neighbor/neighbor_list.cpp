@@ -133,7 +133,6 @@ void rebuild_pairs(const Model& model, State& state) {
   next.tangential.assign(count, Vec3::Zero());
   next.flags.assign(count, 0);
   next.force.assign(count, Vec3::Zero());
-  next.torque_i.assign(count, Vec3::Zero());
   next.torque_j.assign(count, Vec3::Zero());
 
   const bool have_old = pl.first.size() == n + 1;
@@ -193,7 +192,6 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   pl.flags.resize(contacts.size());
   pl.image.assign(contacts.size(), {0, 0, 0});  // unknown until the next rebuild, which must come first
   pl.force.assign(contacts.size(), Vec3::Zero());
-  pl.torque_i.assign(contacts.size(), Vec3::Zero());
   pl.torque_j.assign(contacts.size(), Vec3::Zero());
   std::vector<Index> fill(pl.first.begin(), pl.first.end() - 1);
   for (const auto& c : contacts) {  // contacts arrive sorted by (i, j), so each row stays sorted

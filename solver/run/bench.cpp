@@ -100,7 +100,7 @@ double state_bytes_per_particle(const State& s) {
                                 bytes(p.force) + bytes(p.torque) + bytes(pl.scaled_at_build) + bytes(pl.first) +
                                 bytes(pl.incoming_first);
   const double pair_bytes = bytes(pl.owner) + bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) +
-                            bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_i) + bytes(pl.torque_j) +
+                            bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_j) +
                             bytes(pl.incoming);
   return (particle_bytes + pair_bytes) / static_cast<double>(p.size());
 }
