@@ -1,5 +1,7 @@
 #include "contact/contact_forces.hpp"
 
+#include "core/parallel.hpp"
+
 #include <algorithm>
 #include <vector>
 
@@ -121,8 +123,11 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
   {
     ChunkIn in;
     ChunkOut out;
-#pragma omp for schedule(static)
-    for (std::size_t b = 0; b < blocks; ++b) {
+    // Each thread a contiguous run of blocks with about equal numbers of pairs. The sums do not depend on
+    // which thread takes which block.
+    const auto [first_block, last_block] =
+        thread_share(blocks, [&](std::size_t b) { return pl.first[std::min(n, b * kBlock)]; });
+    for (std::size_t b = first_block; b < last_block; ++b) {
       Partial acc;
       const std::size_t first_owner = b * kBlock, last_owner = std::min(n, (b + 1) * kBlock);
       // The owner's share of the net force and moment, summed here in pair order; the gather adds the pairs

@@ -1,5 +1,7 @@
 #include "integrate/leapfrog.hpp"
 
+#include "core/parallel.hpp"
+
 namespace celldem {
 
 namespace {
@@ -16,22 +18,32 @@ inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   p.force[i] = f;
   p.torque[i] = t;
 }
+
+
+// Each thread a contiguous range of particles with about equal work (incoming pairs plus the particle).
+std::pair<std::size_t, std::size_t> gather_share(const PairList& pl, std::size_t n) {
+  return thread_share(n, [&](std::size_t i) { return static_cast<std::size_t>(pl.incoming_first[i]) + i; });
+}
 }  // namespace
 
 void gather_forces(State& state) {
-  const std::size_t n = state.particles.size();
-#pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < n; ++i) gather(state.pairs, state.particles, i);
+#pragma omp parallel
+  {
+    const auto [begin, end] = gather_share(state.pairs, state.particles.size());
+    for (std::size_t i = begin; i < end; ++i) gather(state.pairs, state.particles, i);
+  }
 }
 
 void gather_and_kick(const Model& model, State& state) {
   Particles& p = state.particles;
-  const std::size_t n = p.size();
-#pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < n; ++i) {
-    gather(state.pairs, p, i);
-    p.velocity[i] = model.velocity_keep[i] * p.velocity[i] + model.velocity_gain[i] * p.force[i];
-    p.spin[i] = model.spin_keep[i] * p.spin[i] + model.spin_gain[i] * p.torque[i];
+#pragma omp parallel
+  {
+    const auto [begin, end] = gather_share(state.pairs, p.size());
+    for (std::size_t i = begin; i < end; ++i) {
+      gather(state.pairs, p, i);
+      p.velocity[i] = model.velocity_keep[i] * p.velocity[i] + model.velocity_gain[i] * p.force[i];
+      p.spin[i] = model.spin_keep[i] * p.spin[i] + model.spin_gain[i] * p.torque[i];
+    }
   }
 }
 
