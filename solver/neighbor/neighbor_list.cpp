@@ -168,8 +168,10 @@ bool pairs_need_rebuild(const Model& model, const State& state) {
   // (1 - |F - I|) (r_i + r_j + skin) - 2 max_disp > r_i + r_j, hardest for the largest pair.
   const Mat3& h = state.cell.h;
   const double strain = (h * pl.h_at_build.inverse() - Mat3::Identity()).norm();  // Frobenius >= spectral
-  double max_disp2 = 0.0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  double max_disp2 = 0.0;  // a maximum: the same whatever the order, so the threads may split the work
+  const std::size_t n = p.size();
+#pragma omp parallel for schedule(static) reduction(max : max_disp2)
+  for (std::size_t i = 0; i < n; ++i) {
     const Vec3 ds = p.scaled[i] - pl.scaled_at_build[i];
     max_disp2 = std::max(max_disp2, (h * ds).squaredNorm());
   }
