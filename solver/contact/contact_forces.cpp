@@ -91,20 +91,41 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
   }
 }
 
+// A block's running sums, carried from chunk to chunk.
+struct BlockSums {
+  double stress[9] = {};     // sum of force (x) branch, row-major [N m]
+  double stiffness[3] = {};  // sum of kn (n_k l_k)^2 [N m]
+  std::int64_t touching = 0;
+  Index owner = -1;          // the owner whose net force and moment are being summed, and those sums
+  double force[3] = {};
+  double torque[3] = {};
+};
+
 // Stores the chunk's flags and adds its pairs, in pair order, to the owners' net force and moment and to
-// the block's reductions. Pairs apart have all their terms zero, so adding them changes no sum (no branch).
-void sum_chunk(const ChunkOut& c, Index q0, int m, Particles& p, PairList& pl, Partial& acc) {
+// the block's sums. Pairs apart have all their terms zero, so adding them changes no sum (no branch). The
+// owner sums restart at each new owner and are stored after every pair (the last store is the total), so
+// they stay in registers.
+void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint8_t* __restrict flags,
+               double* __restrict net_force, double* __restrict net_torque, BlockSums& block) {
+  BlockSums s = block;
+  const Index* __restrict owner = pl.owner.data() + q0;
+  const double* __restrict pair_force = pl.force[q0].data();
   for (int k = 0; k < m; ++k) {
-    const Index q = q0 + k;
-    pl.flags[q] = static_cast<std::uint8_t>(c.flags[k]);
-    const Index i = pl.owner[q];
-    p.force[i] -= pl.force[q];
-    for (int a = 0; a < 3; ++a) p.torque[i][a] += c.torque_i[a][k];
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) acc.stress_sum(a, b) += c.stress[3 * a + b][k];
-    for (int a = 0; a < 3; ++a) acc.stiffness_sum[a] += c.stiffness[a][k];
-    acc.touching += c.flags[k] & kTouching;
+    const Index i = owner[k];
+    const bool same = i == s.owner;
+    s.owner = i;
+    for (int a = 0; a < 3; ++a) {
+      s.force[a] = (same ? s.force[a] : 0.0) - pair_force[3 * k + a];
+      s.torque[a] = (same ? s.torque[a] : 0.0) + c.torque_i[a][k];
+      net_force[3 * i + a] = s.force[a];
+      net_torque[3 * i + a] = s.torque[a];
+    }
+    for (int a = 0; a < 9; ++a) s.stress[a] += c.stress[a][k];
+    for (int a = 0; a < 3; ++a) s.stiffness[a] += c.stiffness[a][k];
+    s.touching += c.flags[k] & kTouching;
   }
+  for (int k = 0; k < m; ++k) flags[q0 + k] = static_cast<std::uint8_t>(c.flags[k]);
+  block = s;
 }
 
 // Diagonal: the cell and the velocity gradient are diagonal (principal-axis loading, the common case); the
@@ -128,7 +149,7 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
     const auto [first_block, last_block] =
         thread_share(blocks, [&](std::size_t b) { return pl.first[std::min(n, b * kBlock)]; });
     for (std::size_t b = first_block; b < last_block; ++b) {
-      Partial acc;
+      BlockSums sums;
       const std::size_t first_owner = b * kBlock, last_owner = std::min(n, (b + 1) * kBlock);
       // The owner's share of the net force and moment, summed here in pair order; the gather adds the pairs
       // where the particle is the neighbour.
@@ -142,9 +163,11 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
         gather_chunk(p, pl, q0, m, in);
         evaluate_chunk<K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(), pl.force[q0].data(),
                                     pl.torque_j[q0].data(), out);
-        sum_chunk(out, q0, m, p, pl, acc);
+        sum_chunk(out, q0, m, pl, pl.flags.data(), p.force.data()->data(), p.torque.data()->data(), sums);
       }
-      partial[b] = acc;
+      partial[b].stress_sum = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(sums.stress);
+      partial[b].stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
+      partial[b].touching = sums.touching;
     }
   }
 
