@@ -6,16 +6,17 @@
 
 namespace celldem {
 
-void step(const Model& model, const Loading& loading, State& state, bool force_rebuild) {
+bool step(const Model& model, const Loading& loading, State& state, bool force_rebuild) {
   const Mat3 h_before = state.cell.h;
   advance_cell(model, loading, state);     // 1. control: the cell at the end of the step (strain or servo)
   drift(model, h_before, state);           // 2. particles move by their fluctuating velocity
-  if (force_rebuild || pairs_need_rebuild(model, state))
-    rebuild_pairs(model, state);           // 3. neighbours, with contact history carried over
+  const bool rebuild = force_rebuild || pairs_need_rebuild(model, state);
+  if (rebuild) rebuild_pairs(model, state);  // 3. neighbours, with contact history carried over
   compute_contact_forces(model, loading.friction, state);  // 4. contact forces, history, stress
   gather_and_kick(model, state);           // 5. net forces -> damped velocities and spins
   state.time += model.dt;
   ++state.total_steps;
+  return rebuild;
 }
 
 }  // namespace celldem

@@ -8,7 +8,7 @@ namespace celldem {
 
 // Advances the state by one time step under the given loading. force_rebuild rebuilds the neighbour list
 // even if the skin would allow more steps (at the start of a segment and after checkpoints, so that a
-// resumed run repeats the same arithmetic as an uninterrupted one).
-void step(const Model& model, const Loading& loading, State& state, bool force_rebuild = false);
+// resumed run repeats the same arithmetic as an uninterrupted one). Returns whether the list was rebuilt.
+bool step(const Model& model, const Loading& loading, State& state, bool force_rebuild = false);
 
 }  // namespace celldem

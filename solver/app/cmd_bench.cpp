@@ -146,7 +146,9 @@ Command add_bench_command(CLI::App& app) {
     Json report = {{"deck", a->deck}, {"state", a->state}, {"test", test->name}, {"particles", n},
                    {"steps", a->steps}, {"warmup", a->warmup}, {"repeats", a->repeats},
                    {"bytes_per_particle", last.bytes_per_particle},
-                   {"row_seconds", last.row_seconds}, {"step_seconds", last.step_seconds}};
+                   {"row_seconds", last.row_seconds}, {"step_seconds", last.step_seconds},
+                   {"pairs_per_particle", last.pairs_per_particle},
+                   {"contacts_per_particle", last.contacts_per_particle}, {"rebuilds", last.rebuilds}};
     std::printf("medians (particle-steps/s):\n");
     for (const auto& [name, v] : samples) {
       report["median_particle_steps_per_s"][name] = median(v);
@@ -155,6 +157,9 @@ Command add_bench_command(CLI::App& app) {
     }
     std::printf("memory: %.0f bytes per particle; one series row costs %.3g s = %.1f steps\n",
                 last.bytes_per_particle, last.row_seconds, last.row_seconds / last.step_seconds);
+    std::printf("per particle: %.2f listed pairs, %.2f contacts; %lld neighbour-list rebuilds in %lld steps\n",
+                last.pairs_per_particle, last.contacts_per_particle, static_cast<long long>(last.rebuilds),
+                static_cast<long long>(a->steps));
 
     if (a->scaling) {
       std::printf("scaling (%d thread%s; constant particle-steps per point):\n", threads.back(),

@@ -94,7 +94,7 @@ struct Deck {
   double time_step = 0.0;                   // [s]
   ServoDef servo;
   std::int64_t checkpoint_interval = 100000;  // steps between checkpoints of a running stage
-  double neighbor_skin = 0.05;              // neighbour-list skin, as a fraction of the largest diameter
+  double neighbor_skin = 0.01;              // neighbour-list skin, as a fraction of the largest diameter
   std::optional<PrepareDef> prepare;        // exactly one of prepare / initial_state
   std::optional<std::string> initial_state; // path, relative to the deck's folder
   std::vector<TestDef> tests;

@@ -62,6 +62,8 @@ void find_candidates(const State& state, double skin, double max_radius,
   }
 
   out.assign(n, {});
+  // Each particle's list is its own, sorted by j: the result does not depend on the threads.
+#pragma omp parallel for schedule(dynamic, 64)
   for (std::size_t i = 0; i < n; ++i) {
     const int bi = bin_of[i];
     const int b[3] = {bi % bins[0], (bi / bins[0]) % bins[1], bi / (bins[0] * bins[1])};

@@ -65,6 +65,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   gather_forces(state);
   for (std::int64_t k = 0; k < warmup; ++k) step(model, loading, state);
 
+  ShearTiming t;
   DilatancyWindow di(0.0025);
   std::string sink;
   double row_seconds = 0.0;
@@ -72,7 +73,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   for (std::int64_t k = 1; k <= steps; ++k) {
-    step(model, loading, state);
+    t.rebuilds += step(model, loading, state);
     ++state.control.stage_step;
     if (k % test.output_interval == 0) {
       const auto r0 = Clock::now();
@@ -82,12 +83,13 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
       if (sink.size() > (1u << 20)) sink.clear();
     }
   }
-  ShearTiming t;
   t.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   t.particle_steps_per_second = static_cast<double>(state.particles.size()) * steps / t.seconds;
   t.row_seconds = rows ? row_seconds / rows : 0.0;
   t.step_seconds = (t.seconds - row_seconds) / steps;
   t.bytes_per_particle = state_bytes_per_particle(state);
+  t.pairs_per_particle = static_cast<double>(state.pairs.size()) / static_cast<double>(state.particles.size());
+  t.contacts_per_particle = static_cast<double>(state.touching) / static_cast<double>(state.particles.size());
   return t;
 }
 

@@ -20,6 +20,9 @@ struct ShearTiming {
   double row_seconds = 0.0;              // mean time of one series row (measurements + formatting)
   double step_seconds = 0.0;             // mean time of one step without rows
   double bytes_per_particle = 0.0;       // state memory (particles, pairs, history) per particle
+  double pairs_per_particle = 0.0;       // neighbour-list pairs at the end
+  double contacts_per_particle = 0.0;    // touching pairs at the end
+  std::int64_t rebuilds = 0;             // neighbour-list rebuilds during the timed steps
 };
 
 // Runs `steps` steps of the deck's test `test` from `state` with `threads` threads, writing a row every
