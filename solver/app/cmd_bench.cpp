@@ -83,7 +83,8 @@ double run_lammps(const LammpsScene& scene, int ranks) {
 Command add_bench_command(CLI::App& app) {
   struct Args {
     std::string deck = "inputs/paper.json", state = "results/paper/prepared.state", test, out = "results/bench";
-    std::string threads = "1,2", ranks = "1,2", tiles = "1,2,3";
+    std::string threads = "1,2", ranks = "1,2", copies = "1,2,4,8,16";
+    std::vector<std::string> extra_states;
     std::int64_t steps = 20000, warmup = 1000;
     int repeats = 3;
     bool vs_lammps = false, scaling = false, force = false;
@@ -99,8 +100,11 @@ Command add_bench_command(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "Thread counts to time")->capture_default_str();
   cmd->add_flag("--vs-lammps", a->vs_lammps, "Also run the scene in LAMMPS (mpirun -np each of --ranks), alternating");
   cmd->add_option("--ranks", a->ranks, "LAMMPS rank counts")->capture_default_str();
-  cmd->add_flag("--scaling", a->scaling, "Also time k x k x k tiled copies of the sample (see --tiles)");
-  cmd->add_option("--tiles", a->tiles, "Tile factors for --scaling")->capture_default_str();
+  cmd->add_flag("--scaling", a->scaling, "Also time periodic copies of the sample (see --copies) and --extra-state samples");
+  cmd->add_option("--copies", a->copies, "Copy counts for --scaling (16 copies of 8000 spheres = 128,000)")
+      ->capture_default_str();
+  cmd->add_option("--extra-state", a->extra_states, "Other prepared samples to add to the scaling table (e.g. a "
+                  "1000-sphere one)")->check(CLI::ExistingFile);
   cmd->add_option("--out", a->out, "Folder for bench.json (and the LAMMPS scene)")->capture_default_str();
   cmd->add_flag("--force", a->force, "Overwrite an earlier bench.json in --out");
   return [cmd, a]() -> int {
@@ -112,7 +116,7 @@ Command add_bench_command(CLI::App& app) {
     if (!a->test.empty() && test->name != a->test) throw CLI::ValidationError("--test", "no test named " + a->test);
     const std::vector<int> threads = parse_list(a->threads, "--threads");
     const std::vector<int> ranks = parse_list(a->ranks, "--ranks");
-    const std::vector<int> tiles = parse_list(a->tiles, "--tiles");
+    const std::vector<int> copies = parse_list(a->copies, "--copies");
     const fs::path out(a->out);
     if (fs::exists(out / "bench.json") && !a->force)
       throw std::runtime_error((out / "bench.json").string() + " exists; use --force to overwrite it");
@@ -162,23 +166,26 @@ Command add_bench_command(CLI::App& app) {
                 static_cast<long long>(a->steps));
 
     if (a->scaling) {
-      std::printf("scaling (%d thread%s; constant particle-steps per point):\n", threads.back(),
-                  threads.back() > 1 ? "s" : "");
-      for (int k : tiles) {
-        const State big = tile_state(state, k);
-        const std::int64_t steps = std::max<std::int64_t>(200, a->steps / (k * k * k));
+      std::printf("scaling (about %lld particle-steps per point):\n", static_cast<long long>(a->steps * n));
+      std::vector<State> samples_to_time;
+      for (const std::string& path : a->extra_states) samples_to_time.push_back(read_state(path));
+      for (int k : copies) samples_to_time.push_back(tile_state(state, k));
+      for (const State& sample : samples_to_time) {
+        const std::size_t count = sample.particles.size();
+        const std::int64_t steps = std::max<std::int64_t>(200, a->steps * static_cast<std::int64_t>(n / count));
         for (int t : threads) {
           std::vector<double> v;
           ShearTiming s{};
           for (int r = 0; r < a->repeats; ++r) {
-            s = time_shear(deck, *test, big, t, steps, std::min<std::int64_t>(a->warmup, 200));
+            s = time_shear(deck, *test, sample, t, steps, std::min<std::int64_t>(a->warmup, 200));
             v.push_back(s.particle_steps_per_second);
           }
-          report["scaling"].push_back({{"particles", big.particles.size()}, {"threads", t}, {"steps", steps},
+          report["scaling"].push_back({{"particles", count}, {"threads", t}, {"steps", steps},
                                        {"particle_steps_per_s", median(v)},
-                                       {"bytes_per_particle", s.bytes_per_particle}});
-          std::printf("  %8zu particles  %d thread%s  %.4g particle-steps/s  %.0f bytes/particle\n",
-                      big.particles.size(), t, t > 1 ? "s" : "", median(v), s.bytes_per_particle);
+                                       {"bytes_per_particle", s.bytes_per_particle},
+                                       {"pairs_per_particle", s.pairs_per_particle}});
+          std::printf("  %8zu particles  %d thread%s  %.4g particle-steps/s  %.0f bytes/particle\n", count, t,
+                      t > 1 ? "s" : "", median(v), s.bytes_per_particle);
           std::fflush(stdout);
         }
       }

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <chrono>
+#include <stdexcept>
 
 #include "cell/control.hpp"
 #include "contact/contact_forces.hpp"
@@ -13,24 +14,33 @@
 
 namespace celldem {
 
-State tile_state(const State& s, int k) {
+State tile_state(const State& s, int copies) {
+  if (copies < 1) throw std::invalid_argument("tile_state: copies must be >= 1");
+  // Factors of `copies` spread over the axes, largest first: 16 -> 4, 2, 2.
+  int k[3] = {1, 1, 1};
+  for (int left = copies, axis = 0; left > 1; axis = (axis + 1) % 3) {
+    int f = 2;
+    while (left % f != 0) ++f;
+    k[axis] *= f;
+    left /= f;
+  }
   State t = s;
   const std::size_t n = s.particles.size();
   const std::vector<StoredContact> contacts = stored_contacts(s);
   t.particles.resize(0);
-  t.particles.resize(n * k * k * k);
-  t.cell.h = s.cell.h * k;
+  t.particles.resize(n * copies);
+  t.cell.h = s.cell.h * Vec3(k[0], k[1], k[2]).asDiagonal();
   std::vector<StoredContact> tiled;
-  tiled.reserve(contacts.size() * k * k * k);
+  tiled.reserve(contacts.size() * copies);
   std::size_t copy = 0;
-  for (int a = 0; a < k; ++a)
-    for (int b = 0; b < k; ++b)
-      for (int c = 0; c < k; ++c, ++copy) {
+  for (int c = 0; c < k[2]; ++c)
+    for (int b = 0; b < k[1]; ++b)
+      for (int a = 0; a < k[0]; ++a, ++copy) {
         const Vec3 shift(a, b, c);
         for (std::size_t i = 0; i < n; ++i) {
           const std::size_t q = copy * n + i;
           t.particles.radius[q] = s.particles.radius[i];
-          t.particles.scaled[q] = (s.particles.scaled[i] + shift) / k;
+          t.particles.scaled[q] = (s.particles.scaled[i] + shift).cwiseQuotient(Vec3(k[0], k[1], k[2]));
           t.particles.velocity[q] = s.particles.velocity[i];
           t.particles.spin[q] = s.particles.spin[i];
         }

@@ -10,9 +10,11 @@
 
 namespace celldem {
 
-// k x k x k periodic copies of a state (contacts and their history included): a larger sample with the
-// same packing statistics, for measuring how cost grows with the particle count.
-State tile_state(const State& state, int k);
+// `copies` periodic copies of a state (contacts and their history included), stacked in a near-cubic
+// block (2 = 2x1x1, 4 = 2x2x1, 8 = 2x2x2, 16 = 4x2x2, ...): a larger sample with the same packing
+// statistics, for measuring how cost grows with the particle count. Copies are consecutive in particle
+// order, so the result is as spatially ordered as the original.
+State tile_state(const State& state, int copies);
 
 struct ShearTiming {
   double seconds = 0.0;                  // wall time of the timed steps (rows included)
