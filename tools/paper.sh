@@ -8,12 +8,14 @@ bash tools/install-deps.sh
 bash tools/build.sh
 out=results/paper
 args=("$@")
-if [[ ${#args[@]} -eq 0 ]]; then
-  if [[ -f "$out/progress.json" && ! -f "$out/summary.json" ]] || [[ -f "$out/checkpoint.state" ]]; then
-    args=(--resume)   # an interrupted reproduction continues where it stopped
-  elif [[ -f "$out/summary.json" ]]; then
-    args=(--force)
-  fi
+if [[ ${#args[@]} -eq 0 && -f "$out/progress.json" ]]; then
+  # An interrupted reproduction continues where it stopped; a finished one is run afresh.
+  finished=$(/usr/bin/python3 -c "
+import json
+done = set(json.load(open('$out/progress.json')).get('completed', []))
+stages = {'prepare'} | {t['name'] for t in json.load(open('inputs/paper.json'))['tests']}
+print(int(stages <= done))" 2>/dev/null || echo 0)
+  if [[ $finished == 1 ]]; then args=(--force); else args=(--resume); fi
 fi
 ./build/celldem run inputs/paper.json --out "$out" "${args[@]}"
 /usr/bin/python3 tools/report.py "$out" --refresh-figures

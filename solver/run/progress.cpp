@@ -4,8 +4,28 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <map>
+#include <mutex>
 
 namespace celldem {
+namespace {
+// Stages running side by side share the terminal line: it shows the latest status of each.
+std::mutex g_line_mutex;
+std::map<std::string, std::string> g_line_parts;
+
+void show(const std::string& stage, const std::string& part) {
+  const std::lock_guard<std::mutex> lock(g_line_mutex);
+  g_line_parts[stage] = part;
+  std::string line = "\r";
+  for (const auto& [name, text] : g_line_parts) line += (line.size() > 1 ? "  |  " : "") + text;
+  std::fputs((line + "\x1b[K").c_str(), stderr);
+}
+
+void forget(const std::string& stage) {
+  const std::lock_guard<std::mutex> lock(g_line_mutex);
+  g_line_parts.erase(stage);
+}
+}  // namespace
 
 bool stderr_is_terminal() { return isatty(fileno(stderr)) != 0; }
 
@@ -24,18 +44,19 @@ void Progress::update(std::int64_t step, double fraction, const std::string& ext
   if (fraction > first_fraction_ && first_fraction_ >= 0.0 && rate > 0) {
     // Extrapolate from this segment only: a resumed run started part-way.
     const double eta = elapsed * (1.0 - fraction) / (fraction - first_fraction_);
-    std::snprintf(line, sizeof line, "\r[%s] %5.1f%%  step %lld  %.0f steps/s  ETA %dm%02ds  %s\x1b[K",
+    std::snprintf(line, sizeof line, "[%s] %5.1f%%  step %lld  %.0f steps/s  ETA %dm%02ds  %s",
                   stage_.c_str(), 100.0 * fraction, static_cast<long long>(step), rate,
                   static_cast<int>(eta) / 60, static_cast<int>(eta) % 60, extra.c_str());
   } else {
-    std::snprintf(line, sizeof line, "\r[%s] step %lld  %.0f steps/s  %s\x1b[K", stage_.c_str(),
+    std::snprintf(line, sizeof line, "[%s] step %lld  %.0f steps/s  %s", stage_.c_str(),
                   static_cast<long long>(step), rate, extra.c_str());
   }
-  std::fputs(line, stderr);
+  show(stage_, line);
   printed_ = true;
 }
 
 void Progress::finish() {
+  forget(stage_);
   if (enabled_ && printed_) std::fputs("\n", stderr);
   printed_ = false;
 }

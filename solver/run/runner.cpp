@@ -9,8 +9,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "contact/contact_forces.hpp"
 #include "core/model.hpp"
@@ -38,7 +40,7 @@ constexpr double kMaxKineticToElastic = 0.5;  // runaway in a test: kinetic ener
 constexpr double kQuasiStaticInertia = 1e-3;  // inertial number above which a test is not quasi-static
 constexpr double kServoTolerance = 0.005;     // stress-controlled axes should stay within 0.5 % of target
 constexpr double kStableTimeStepFraction = 0.5;  // of sqrt(m_min/kn): measured stable limit ~0.55
-constexpr const char* kCheckpoint = "checkpoint.state";
+constexpr const char* kCheckpoint = "checkpoint.state";  // in the stage's folder
 constexpr const char* kPrepared = "prepared.state";
 constexpr const char* kProgress = "progress.json";
 constexpr const char* kSummary = "summary.json";
@@ -63,8 +65,13 @@ Json read_json(const fs::path& path) {
   }
 }
 
+// Tests run side by side (see run_tests_side_by_side): the summary and progress.json are shared between
+// them, so every read-modify-write of either holds this lock.
+std::mutex g_run_files;
+
 // Prints a warning and records it in the summary, once: a resumed run reloads the summary it had written.
 void add_warning(Json& summary, const std::string& w) {
+  const std::lock_guard<std::mutex> lock(g_run_files);
   std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
   for (const auto& known : summary["warnings"])
     if (known == w) return;
@@ -224,7 +231,8 @@ class StageOutput {
 
   void checkpoint(const State& state) {
     std::fflush(series_);
-    write_state((fs::path(options_.out_dir) / kCheckpoint).string(), state, "stage:" + stage_);
+    write_state((dir_ / kCheckpoint).string(), state, "stage:" + stage_);
+    const std::lock_guard<std::mutex> lock(g_run_files);
     Json progress = fs::exists(fs::path(options_.out_dir) / kProgress)
                         ? read_json(fs::path(options_.out_dir) / kProgress) : Json::object();
     progress["elapsed"][stage_] = elapsed();
@@ -397,7 +405,7 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
               Json& summary, bool resumed, double elapsed_before) {
   State state;
   if (resumed) {
-    state = read_state((fs::path(options.out_dir) / kCheckpoint).string());
+    state = read_state((fs::path(options.out_dir) / test.name / kCheckpoint).string());
   } else {
     state = read_state(prepared.string());
     state.control = ControlState{};
@@ -424,21 +432,28 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
   out.finish(state);
   write_state((out.dir() / "final.state").string(), state, "test:" + test.name);
   std::vector<std::string> warnings;
-  summary["tests"][test.name] =
+  const Json result =
       test_summary(deck, test, out.dir() / "series.csv", out.elapsed(), total, state.particles.size(), warnings);
+  {
+    const std::lock_guard<std::mutex> lock(g_run_files);
+    summary["tests"][test.name] = result;
+  }
   for (const std::string& w : warnings) add_warning(summary, w);
 }
 
 // ---- the run directory ----
 
-bool holds_results(const fs::path& dir) {
-  for (const char* name : {kSummary, kProgress, kPrepared, kCheckpoint})
+bool holds_results(const fs::path& dir, const Deck& deck) {
+  for (const char* name : {kSummary, kProgress, kPrepared})
     if (fs::exists(dir / name)) return true;
+  if (fs::exists(dir / "prepare")) return true;
+  for (const TestDef& t : deck.tests)
+    if (fs::exists(dir / t.name)) return true;
   return false;
 }
 
 void clear_results(const fs::path& dir, const Deck& deck) {
-  for (const char* name : {kSummary, kProgress, kPrepared, kCheckpoint}) fs::remove(dir / name);
+  for (const char* name : {kSummary, kProgress, kPrepared}) fs::remove(dir / name);
   fs::remove_all(dir / "prepare");
   for (const TestDef& t : deck.tests) fs::remove_all(dir / t.name);
 }
@@ -485,7 +500,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
       throw RunError("--resume: the deck differs from the one this run was started with");
     summary = fs::exists(dir / kSummary) ? read_json(dir / kSummary) : Json::object();
   } else {
-    if (fs::exists(dir) && holds_results(dir)) {
+    if (fs::exists(dir) && holds_results(dir, deck)) {
       if (!options.force)
         throw RunError(dir.string() + " already holds results; use --force to overwrite them or --resume to "
                        "continue an interrupted run");
@@ -508,13 +523,8 @@ void run_deck(const Deck& deck, const RunOptions& options) {
   summary["deck"] = deck.source;
   summary["settings"] = settings_of(deck, threads);
 
-  // A checkpoint names the stage it belongs to; every stage before it is complete.
-  std::string resume_stage;
-  if (options.resume && fs::exists(dir / kCheckpoint)) {
-    std::string label;
-    (void)read_state((dir / kCheckpoint).string(), &label);
-    resume_stage = label.substr(label.find(':') + 1);
-  }
+  // Each stage checkpoints into its own folder; an unfinished stage with a checkpoint resumes from it.
+  auto resumes = [&](const std::string& stage) { return options.resume && fs::exists(dir / stage / kCheckpoint); };
   auto completed = [&](const std::string& stage) {
     for (const auto& s : progress["completed"]) if (s == stage) return true;
     return false;
@@ -522,13 +532,15 @@ void run_deck(const Deck& deck, const RunOptions& options) {
   // Order matters for a kill at any moment: the summary first, then the stage marked complete, then its
   // checkpoint removed. Killed in between, a resume re-runs the stage's tail from the checkpoint.
   auto mark_done = [&](const std::string& stage) {
+    const std::lock_guard<std::mutex> lock(g_run_files);
     write_text_atomic(dir / kSummary, summary.dump(2));
     progress = read_json(dir / kProgress);
     progress["completed"].push_back(stage);
     write_text_atomic(dir / kProgress, progress.dump(2));
-    fs::remove(dir / kCheckpoint);
+    fs::remove(dir / stage / kCheckpoint);
   };
   auto elapsed_of = [&](const std::string& stage) {
+    const std::lock_guard<std::mutex> lock(g_run_files);
     const Json p = read_json(dir / kProgress);
     return p["elapsed"].value(stage, 0.0);
   };
@@ -538,8 +550,8 @@ void run_deck(const Deck& deck, const RunOptions& options) {
   if (deck.prepare) {
     prepared = dir / kPrepared;
     if (!completed("prepare")) {
-      const bool resumed = resume_stage == "prepare";
-      State state = resumed ? read_state((dir / kCheckpoint).string()) : make_grid_sample(deck.sample, skin);
+      const bool resumed = resumes("prepare");
+      State state = resumed ? read_state((dir / "prepare" / kCheckpoint).string()) : make_grid_sample(deck.sample, skin);
       if (!options.quiet) std::printf("prepare: %d spheres, isotropic compression to %g Pa\n", deck.sample.count,
                                       deck.prepare->target_pressure);
       run_preparation(deck, options, summary, state, resumed, resumed ? elapsed_of("prepare") : 0.0);
@@ -556,19 +568,53 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     summary["initial_state"] = prepared.string();
   }
 
-  for (const TestDef& test : deck.tests) {
-    if (completed(test.name)) continue;
-    const bool resumed = resume_stage == test.name;
-    if (!options.quiet) std::printf("%s: %s\n", test.name.c_str(), resumed ? "resuming" : "starting");
+  // The tests start from the same prepared state and do not depend on each other: with more threads than
+  // one, several run side by side, each with its share of the threads (one thread per test on two cores
+  // does more work than two threads per test, one after the other). Results do not depend on the thread
+  // count, so they are the same bytes either way.
+  std::vector<const TestDef*> pending;
+  for (const TestDef& test : deck.tests)
+    if (!completed(test.name)) pending.push_back(&test);
+  const std::size_t side_by_side = std::max<std::size_t>(1, std::min<std::size_t>(pending.size(), threads));
+  auto run_one = [&](const TestDef& test, int test_threads) {
+    omp_set_num_threads(test_threads);
+    const bool resumed = resumes(test.name);
+    if (!options.quiet) std::printf("%s: %s (%d thread%s)\n", test.name.c_str(), resumed ? "resuming" : "starting",
+                                    test_threads, test_threads > 1 ? "s" : "");
     run_test(deck, options, test, prepared, summary, resumed, resumed ? elapsed_of(test.name) : 0.0);
     mark_done(test.name);
     if (!options.quiet) {
+      const std::lock_guard<std::mutex> lock(g_run_files);
       const Json& s = summary["tests"][test.name];
       std::printf("%s: done in %.1f s (%.3g particle-steps/s): peak s1/s3 %.4f at e1 %.4f\n", test.name.c_str(),
                   s["wall_s"].get<double>(), s["particle_steps_per_s"].get<double>(),
                   s["peak_ratio13"].is_null() ? NAN : s["peak_ratio13"].get<double>(),
                   s["e1_at_peak"].is_null() ? NAN : s["e1_at_peak"].get<double>());
     }
+  };
+  for (std::size_t first = 0; first < pending.size(); first += side_by_side) {
+    const std::size_t group = std::min(side_by_side, pending.size() - first);
+    if (group == 1) {
+      run_one(*pending[first], threads);
+      continue;
+    }
+    // One std::thread per test, each its own OpenMP team. A failure or a stop request in one does not
+    // cut the others short: each finishes or checkpoints, then the first error is reported.
+    std::vector<std::exception_ptr> errors(group);
+    std::vector<std::thread> workers;
+    for (std::size_t k = 0; k < group; ++k) {
+      const int test_threads = threads / static_cast<int>(group) + (static_cast<int>(k) < threads % static_cast<int>(group));
+      workers.emplace_back([&, k, test_threads] {
+        try {
+          run_one(*pending[first + k], test_threads);
+        } catch (...) {
+          errors[k] = std::current_exception();
+        }
+      });
+    }
+    for (std::thread& w : workers) w.join();
+    for (const std::exception_ptr& e : errors)
+      if (e) std::rethrow_exception(e);
   }
   write_text_atomic(dir / kSummary, summary.dump(2));
 }

@@ -57,7 +57,9 @@ echo "interrupted $interrupted times"
 for f in prepare/series.csv ttc/series.csv psc/series.csv prepared.state ttc/final.state psc/final.state; do
   cmp -s "$work/ref/$f" "$work/cut/$f" || fail "$f differs from the uninterrupted run"
 done
-[[ ! -f "$work/cut/checkpoint.state" ]] || fail "a finished run left its checkpoint behind"
+for stage in prepare ttc psc; do
+  [[ ! -f "$work/cut/$stage/checkpoint.state" ]] || fail "a finished run left the checkpoint of $stage behind"
+done
 echo "byte-identical after $interrupted interruptions"
 
 # The figure and report tools on this real (small) run.
