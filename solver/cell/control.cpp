@@ -21,7 +21,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
         break;
       case AxisMode::Stress: {
         const ServoDef& servo = model.servo;
-        const double err = a.value - state.stress(k, k);
+        const double err = a.value - state.normal_stress[k];
         const double stiffness = state.axis_stiffness[k];
         double de;
         if (stiffness > 0.0) {

@@ -16,7 +16,7 @@ constexpr std::size_t kBlock = 256;
 constexpr int kChunk = 64;
 
 struct Partial {
-  Mat3 stress_sum = Mat3::Zero();     // sum of force (x) branch [N m]
+  Vec3 normal_sum = Vec3::Zero();     // sum of force_k branch_k [N m]
   Vec3 stiffness_sum = Vec3::Zero();  // sum of kn (n_k l_k)^2 [N m]
   std::int64_t touching = 0;
 };
@@ -34,7 +34,7 @@ struct ChunkIn {
 // What the in-order sums after the SIMD loop need besides the pair arrays.
 struct ChunkOut {
   alignas(64) double torque_i[3][kChunk];   // moment on the owner
-  alignas(64) double stress[9][kChunk];     // force_a * branch_b, row-major (a, b)
+  alignas(64) double normal[3][kChunk];     // force_k * branch_k
   alignas(64) double stiffness[3][kChunk];  // kn (n_k l_k)^2
   alignas(64) std::int64_t flags[kChunk];   // PairFlag bits
 };
@@ -81,9 +81,7 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
     force[3 * k] = r.force.x, force[3 * k + 1] = r.force.y, force[3 * k + 2] = r.force.z;
     torque_j[3 * k] = r.torque_j.x, torque_j[3 * k + 1] = r.torque_j.y, torque_j[3 * k + 2] = r.torque_j.z;
     o.torque_i[0][k] = r.torque_i.x, o.torque_i[1][k] = r.torque_i.y, o.torque_i[2][k] = r.torque_i.z;
-    o.stress[0][k] = r.force.x * branch.x, o.stress[1][k] = r.force.x * branch.y, o.stress[2][k] = r.force.x * branch.z;
-    o.stress[3][k] = r.force.y * branch.x, o.stress[4][k] = r.force.y * branch.y, o.stress[5][k] = r.force.y * branch.z;
-    o.stress[6][k] = r.force.z * branch.x, o.stress[7][k] = r.force.z * branch.y, o.stress[8][k] = r.force.z * branch.z;
+    o.normal[0][k] = r.force.x * branch.x, o.normal[1][k] = r.force.y * branch.y, o.normal[2][k] = r.force.z * branch.z;
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
     const double kn = r.touching ? law.kn : 0.0;
     o.stiffness[0][k] = kn * (nl.x * nl.x), o.stiffness[1][k] = kn * (nl.y * nl.y), o.stiffness[2][k] = kn * (nl.z * nl.z);
@@ -93,7 +91,7 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
 
 // A block's running sums, carried from chunk to chunk.
 struct BlockSums {
-  double stress[9] = {};     // sum of force (x) branch, row-major [N m]
+  double normal[3] = {};     // sum of force_k branch_k [N m]
   double stiffness[3] = {};  // sum of kn (n_k l_k)^2 [N m]
   std::int64_t touching = 0;
   Index owner = -1;          // the owner whose net force and moment are being summed, and those sums
@@ -120,7 +118,7 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
       net_force[3 * i + a] = s.force[a];
       net_torque[3 * i + a] = s.torque[a];
     }
-    for (int a = 0; a < 9; ++a) s.stress[a] += c.stress[a][k];
+    for (int a = 0; a < 3; ++a) s.normal[a] += c.normal[a][k];
     for (int a = 0; a < 3; ++a) s.stiffness[a] += c.stiffness[a][k];
     s.touching += c.flags[k] & kTouching;
   }
@@ -165,7 +163,7 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
                                     pl.torque_j[q0].data(), out);
         sum_chunk(out, q0, m, pl, pl.flags.data(), p.force.data()->data(), p.torque.data()->data(), sums);
       }
-      partial[b].stress_sum = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(sums.stress);
+      partial[b].normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
       partial[b].stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
       partial[b].touching = sums.touching;
     }
@@ -173,17 +171,41 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
 
   Partial total;
   for (const Partial& part : partial) {
-    total.stress_sum += part.stress_sum;
+    total.normal_sum += part.normal_sum;
     total.stiffness_sum += part.stiffness_sum;
     total.touching += part.touching;
   }
   const double volume = state.cell.volume();
-  state.stress = 0.5 * (total.stress_sum + total.stress_sum.transpose()) / volume;
+  state.normal_stress = total.normal_sum / volume;
   state.axis_stiffness = total.stiffness_sum / volume;
   state.touching = total.touching;
 }
 
 }  // namespace
+
+Mat3 contact_stress(const State& state) {
+  const Particles& p = state.particles;
+  const PairList& pl = state.pairs;
+  const Mat3& h = state.cell.h;
+  const std::size_t n = p.size();
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  // Same blocks, same order and same products as the pair loop's normal stresses, so that the diagonal
+  // here equals state.normal_stress bit for bit. Pairs apart hold zero force and add nothing.
+  Mat3 total = Mat3::Zero();
+  for (std::size_t b = 0; b < blocks; ++b) {
+    Mat3 block = Mat3::Zero();
+    for (Index q = pl.first[b * kBlock]; q < pl.first[std::min(n, (b + 1) * kBlock)]; ++q) {
+      const Index i = pl.owner[q], j = pl.neighbor[q];
+      const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]);
+      const Real3 branch = apply<false>(h, real3(ds));
+      const double l[3] = {branch.x, branch.y, branch.z};
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) block(r, c) += pl.force[q][r] * l[c];
+    }
+    total += block;
+  }
+  return 0.5 * (total + total.transpose()) / state.cell.volume();
+}
 
 void compute_contact_forces(const Model& model, double friction, State& state, bool advance_slip) {
   const double dt = advance_slip ? model.dt : 0.0;

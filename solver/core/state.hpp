@@ -83,7 +83,8 @@ struct State {
   double time = 0.0;            // [s]
   std::int64_t total_steps = 0; // steps since the sample was made
   // Measured in the last force evaluation; the servo reads them on the next step.
-  Mat3 stress = Mat3::Zero();   // [Pa] contact stress, compression positive, symmetric part
+  Vec3 normal_stress = Vec3::Zero();  // [Pa] sigma_kk from the contacts, compression positive (the full
+                                      // tensor, when a row needs it: contact_stress(state))
   Vec3 axis_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ii)/d(e_ii) from the normal springs
   std::int64_t touching = 0;    // contacts in the last force evaluation
 };

@@ -103,7 +103,7 @@ std::string serialize_state(const State& s, const std::string& label) {
   w.put(s.control.reference_lengths);
   w.put(s.control.reference_volume);
   w.put(s.control.servo_integral);
-  w.put(s.stress);
+  w.put(Mat3(s.normal_stress.asDiagonal()));  // a full tensor's slot: earlier files held the whole tensor
   w.put(s.axis_stiffness);
   w.put(s.touching);
   w.put(s.pairs.skin);
@@ -167,7 +167,7 @@ State parse_state(const std::string& bytes, std::string* label) {
   s.control.reference_lengths = r.vec();
   s.control.reference_volume = r.finite();
   s.control.servo_integral = r.vec();
-  s.stress = r.mat();
+  s.normal_stress = r.mat().diagonal();
   s.axis_stiffness = r.vec();
   s.touching = r.get<std::int64_t>();
   s.pairs.skin = r.finite();

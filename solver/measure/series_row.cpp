@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "cell/control.hpp"
+#include "contact/contact_forces.hpp"
 #include "measure/micro.hpp"
 
 namespace celldem {
@@ -47,7 +48,7 @@ double as_printed(double x) {
 std::vector<double> measure_series_row(const Model& model, const State& state, DilatancyWindow& di) {
   const Vec3 e = axis_strains(state);
   const double ev = 1.0 - state.cell.volume() / state.control.reference_volume;
-  const Mat3& s = state.stress;
+  const Mat3 s = contact_stress(state);
   const StressInvariants inv = stress_invariants(s);
   const Coordination z = coordination(state);
   const Fabric f = contact_fabric(model, state);

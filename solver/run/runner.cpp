@@ -151,7 +151,7 @@ class StageOutput {
   // so that a resumed run does the same). Throws Interrupted after a stop request, once checkpointed.
   bool after_step(const State& state, double fraction, const std::string& extra = "") {
     const std::int64_t s = state.control.stage_step;
-    if (!std::isfinite(state.stress.sum()) || !std::isfinite(state.cell.h.sum()))  // cheap, every step
+    if (!std::isfinite(state.normal_stress.sum()) || !std::isfinite(state.cell.h.sum()))  // cheap, every step
       throw RunError("non-finite stress or cell in stage '" + stage_ + "' at step " + std::to_string(s) +
                      " (time step too large or loading too fast?); the last checkpoint holds the last good state");
     if (s % output_interval_ == 0) write_row(state);
@@ -269,10 +269,10 @@ Loading isotropic_stress(double pressure, double friction) {
 
 bool in_equilibrium(const Model& model, const State& state, const PrepareDef& prep, std::string* why) {
   const EquilibriumDef& eq = prep.equilibrium;
-  const double p = state.stress.trace() / 3.0;
+  const double p = state.normal_stress.sum() / 3.0;
   const double p_err = std::abs(p - prep.target_pressure) / prep.target_pressure;
   double s_err = 0.0;
-  for (int k = 0; k < 3; ++k) s_err = std::max(s_err, std::abs(state.stress(k, k) - prep.target_pressure) / prep.target_pressure);
+  for (int k = 0; k < 3; ++k) s_err = std::max(s_err, std::abs(state.normal_stress[k] - prep.target_pressure) / prep.target_pressure);
   const double ufr = state.touching ? unbalanced_force_ratio(model, state) : 1.0;
   char buf[160];
   std::snprintf(buf, sizeof buf, "p %.1f kPa  |dp| %.2g  max|ds| %.2g  unbalanced %.2g", p / 1e3, p_err, s_err, ufr);
@@ -322,10 +322,10 @@ void run_preparation(const Deck& deck, const RunOptions& options, Json& summary,
                          {"Z", z.z},
                          {"Zm", z.z_mechanical},
                          {"rattlers", z.rattlers},
-                         {"p", state.stress.trace() / 3.0},
-                         {"s11", state.stress(0, 0)},
-                         {"s22", state.stress(1, 1)},
-                         {"s33", state.stress(2, 2)},
+                         {"p", state.normal_stress.sum() / 3.0},
+                         {"s11", state.normal_stress[0]},
+                         {"s22", state.normal_stress[1]},
+                         {"s33", state.normal_stress[2]},
                          {"unbalanced_force", unbalanced_force_ratio(model, state)},
                          {"steps", state.control.stage_step},
                          {"wall_s", wall},

@@ -71,7 +71,7 @@ TEST(Control, ServoStepFollowsItsLaw) {
                          AxisControl{AxisMode::StrainIncrement, 0.0}},
                         0.0};
   State s = cell_state(Mat3::Identity() * 1.0);
-  s.stress = Vec3(0.8e5, 1.3e5, 0.0).asDiagonal();  // x below target (compress), y above (extend)
+  s.normal_stress = Vec3(0.8e5, 1.3e5, 0.0);  // x below target (compress), y above (extend)
   s.axis_stiffness = Vec3(K, K, K);
   double integral_x = 0.0, integral_y = 0.0, hx = 1.0, hy = 1.0;
   for (int k = 0; k < 3; ++k) {
@@ -101,7 +101,7 @@ TEST(Control, ServoSaturatesWithoutWindupAndWithoutContacts) {
                         0.0};
   State s = cell_state(Mat3::Identity());
   // No contacts (K = 0): the largest increment, towards the target.
-  s.stress = Vec3(0.0, 2e5, 0.0).asDiagonal();
+  s.normal_stress = Vec3(0.0, 2e5, 0.0);
   s.axis_stiffness = Vec3(0.0, 0.0, 1e3);  // z: a huge step asked for, capped
   advance_cell(model, loading, s);
   EXPECT_DOUBLE_EQ(s.cell.h(0, 0), 1.0 - 1e-6);
@@ -150,7 +150,7 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
                         0.5};
   rebuild_pairs(model, s);
   compute_contact_forces(model, loading.friction, s, false);
-  const double s11_start = s.stress(0, 0);
+  const double s11_start = s.normal_stress[0];
   EXPECT_NEAR(s11_start, target, 0.03 * target);  // the preparation did reach the target
 
   const int steps = 4000, transient = 300;
@@ -159,7 +159,7 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
     step(model, loading, s, k == 0);
     if (k < transient) continue;
     for (int a : {1, 2}) {
-      const double err = (s.stress(a, a) - target) / target;
+      const double err = (s.normal_stress[a] - target) / target;
       worst = std::max(worst, std::abs(err));
       mean_error += err / (2.0 * (steps - transient));
     }
@@ -169,7 +169,7 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
   EXPECT_LT(worst, 0.005);
   EXPECT_LT(std::abs(mean_error), 0.001);  // no steady lag: the integral term removes it
   EXPECT_NEAR(axis_strains(s)[0], steps * increment, 1e-12);
-  EXPECT_GT(s.stress(0, 0), 1.5 * target);
+  EXPECT_GT(s.normal_stress[0], 1.5 * target);
   // The servo moved the lateral walls (the sample changed volume), not just held them.
   EXPECT_GT(std::abs(axis_strains(s)[1]), 1e-5);
 }

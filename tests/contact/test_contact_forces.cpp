@@ -65,7 +65,7 @@ void expect_same_pair_result(const PairSetup& straddling, const PairSetup& inter
   EXPECT_EQ(a.pairs.torque_j[qa], b.pairs.torque_j[qb]);
   EXPECT_EQ(a.pairs.tangential[qa], b.pairs.tangential[qb]);
   EXPECT_EQ(a.pairs.flags[qa], b.pairs.flags[qb]);
-  EXPECT_EQ(a.stress, b.stress);
+  EXPECT_EQ(contact_stress(a), contact_stress(b));
   EXPECT_EQ(a.axis_stiffness, b.axis_stiffness);
 }
 
@@ -123,7 +123,9 @@ TEST(ContactForces, ForcesDoNotDependOnWhichImageHoldsAParticle) {
     EXPECT_NEAR((a.pairs.force[q] - b.pairs.force[qb]).norm(), 0.0, 1e-9 * a.pairs.force[q].norm());
     EXPECT_NEAR((a.pairs.tangential[q] - b.pairs.tangential[qb]).norm(), 0.0, 1e-12);
   }
-  EXPECT_NEAR((a.stress - b.stress).norm(), 0.0, 1e-9 * a.stress.norm());
+  EXPECT_NEAR((contact_stress(a) - contact_stress(b)).norm(), 0.0, 1e-9 * contact_stress(a).norm());
+  // In a sheared cell too, the full tensor's diagonal is the step's normal stress to the bit.
+  EXPECT_EQ(Vec3(contact_stress(a).diagonal()), a.normal_stress);
 }
 
 // Particles at rest in a cell deforming with velocity gradient L: the contact sees the relative velocity
@@ -183,15 +185,17 @@ TEST(ContactForces, LatticeStressAndStiffnessMatchAnalytic) {
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
   EXPECT_EQ(s.touching, 3 * n * n * n);
+  const Mat3 stress = contact_stress(s);
   for (int k = 0; k < 3; ++k) {
     const double other = a[(k + 1) % 3] * a[(k + 2) % 3];
     const double sigma = kKn * (2 * R - a[k]) / other;
     const double stiffness = kKn * a[k] / other;
-    EXPECT_NEAR(s.stress(k, k), sigma, 1e-9 * sigma) << "axis " << k;
-    EXPECT_GT(s.stress(k, k), 0.0);  // compression positive
+    EXPECT_NEAR(stress(k, k), sigma, 1e-9 * sigma) << "axis " << k;
+    EXPECT_EQ(s.normal_stress[k], stress(k, k)) << "axis " << k;  // the step's diagonal, to the bit
+    EXPECT_GT(stress(k, k), 0.0);  // compression positive
     EXPECT_NEAR(s.axis_stiffness[k], stiffness, 1e-9 * stiffness) << "axis " << k;
     for (int l = 0; l < 3; ++l)
-      if (l != k) { EXPECT_NEAR(s.stress(k, l), 0.0, 1e-9 * sigma); }
+      if (l != k) { EXPECT_NEAR(stress(k, l), 0.0, 1e-9 * sigma); }
   }
   // The affine stiffness against a finite difference of the stress: compress x by eps, affinely.
   const double eps = 1e-4;
@@ -199,7 +203,7 @@ TEST(ContactForces, LatticeStressAndStiffnessMatchAnalytic) {
   const Mat3 map = Vec3(1.0 - eps, 1.0, 1.0).asDiagonal();
   t.cell.h = map * s.cell.h;  // scaled positions unchanged: every branch shrinks along x
   compute_contact_forces(model, 0.5, t, false);
-  EXPECT_NEAR((t.stress(0, 0) - s.stress(0, 0)) / eps, s.axis_stiffness[0], 1e-6 * s.axis_stiffness[0]);
+  EXPECT_NEAR((t.normal_stress[0] - s.normal_stress[0]) / eps, s.axis_stiffness[0], 1e-6 * s.axis_stiffness[0]);
 }
 
 // The reductions and per-pair results do not depend on the number of threads (more than one block of
@@ -230,7 +234,8 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
   omp_set_num_threads(saved);
   ASSERT_GT(results[0].touching, 500);
   for (std::size_t r = 1; r < results.size(); ++r) {
-    EXPECT_EQ(results[r].stress, results[0].stress);
+    EXPECT_EQ(contact_stress(results[r]), contact_stress(results[0]));
+    EXPECT_EQ(results[r].normal_stress, results[0].normal_stress);
     EXPECT_EQ(results[r].axis_stiffness, results[0].axis_stiffness);
     EXPECT_EQ(results[r].pairs.force, results[0].pairs.force);
     EXPECT_EQ(results[r].pairs.tangential, results[0].pairs.tangential);
