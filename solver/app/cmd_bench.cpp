@@ -172,7 +172,8 @@ Command add_bench_command(CLI::App& app) {
       for (int k : copies) samples_to_time.push_back(tile_state(state, k));
       for (const State& sample : samples_to_time) {
         const std::size_t count = sample.particles.size();
-        const std::int64_t steps = std::max<std::int64_t>(200, a->steps * static_cast<std::int64_t>(n / count));
+        const auto steps = std::max<std::int64_t>(
+            200, std::llround(static_cast<double>(a->steps) * static_cast<double>(n) / static_cast<double>(count)));
         for (int t : threads) {
           std::vector<double> v;
           ShearTiming s{};
