@@ -12,8 +12,12 @@ bool step(const Model& model, const Loading& loading, State& state, bool force_r
   drift(model, h_before, state);           // 2. particles move by their fluctuating velocity
   const bool rebuild = force_rebuild || pairs_need_rebuild(model, state);
   if (rebuild) rebuild_pairs(model, state);  // 3. neighbours, with contact history carried over
-  compute_contact_forces(model, loading.friction, state);  // 4. contact forces, history, stress
-  gather_and_kick(model, state);           // 5. net forces -> damped velocities and spins
+  // 4. contact forces, history, stress; 5. net forces -> damped velocities and spins. On one thread the
+  // pair loop hands each block of particles over as soon as their forces are complete, so that their kick
+  // finds them in cache; the particles not handed over are kicked after.
+  const auto kick = [&](std::size_t begin, std::size_t end) { gather_and_kick_range(model, state, begin, end); };
+  const std::size_t kicked = compute_contact_forces(model, loading.friction, state, true, kick);
+  gather_and_kick(model, state, kicked);
   state.time += model.dt;
   ++state.total_steps;
   return rebuild;

@@ -129,7 +129,7 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
 // Diagonal: the cell and the velocity gradient are diagonal (principal-axis loading, the common case); the
 // products with h and L then skip their zero terms, which gives the same numbers bit for bit.
 template <Kinematics K, bool Diagonal>
-void pair_loop(const ContactParams& law, State& state, double dt) {
+std::size_t pair_loop(const ContactParams& law, State& state, double dt, const BlocksDone& blocks_done) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
   const Mat3 h = state.cell.h;
@@ -137,9 +137,11 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
   const std::size_t n = p.size();
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   std::vector<Partial> partial(blocks);
+  std::size_t handed_over = 0;
 
 #pragma omp parallel
   {
+    const bool hand_over = blocks_done && omp_get_num_threads() == 1;
     ChunkIn in;
     ChunkOut out;
     // Each thread a contiguous run of blocks with about equal numbers of pairs. The sums do not depend on
@@ -166,6 +168,10 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
       partial[b].normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
       partial[b].stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
       partial[b].touching = sums.touching;
+      if (hand_over) {
+        blocks_done(first_owner, last_owner);
+        handed_over = last_owner;
+      }
     }
   }
 
@@ -179,6 +185,7 @@ void pair_loop(const ContactParams& law, State& state, double dt) {
   state.normal_stress = total.normal_sum / volume;
   state.axis_stiffness = total.stiffness_sum / volume;
   state.touching = total.touching;
+  return handed_over;
 }
 
 }  // namespace
@@ -207,19 +214,18 @@ Mat3 contact_stress(const State& state) {
   return 0.5 * (total + total.transpose()) / state.cell.volume();
 }
 
-void compute_contact_forces(const Model& model, double friction, State& state, bool advance_slip) {
+std::size_t compute_contact_forces(const Model& model, double friction, State& state, bool advance_slip,
+                                   const BlocksDone& blocks_done) {
   const double dt = advance_slip ? model.dt : 0.0;
   const ContactParams law{model.contact.kn, model.contact.kt, friction, model.contact.rotation,
                           model.contact.moment_arm};
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
-  if (model.kinematics == Kinematics::Affine) {
-    if (diagonal) pair_loop<Kinematics::Affine, true>(law, state, dt);
-    else pair_loop<Kinematics::Affine, false>(law, state, dt);
-  } else {
-    if (diagonal) pair_loop<Kinematics::Lammps, true>(law, state, dt);
-    else pair_loop<Kinematics::Lammps, false>(law, state, dt);
-  }
+  if (model.kinematics == Kinematics::Affine)
+    return diagonal ? pair_loop<Kinematics::Affine, true>(law, state, dt, blocks_done)
+                    : pair_loop<Kinematics::Affine, false>(law, state, dt, blocks_done);
+  return diagonal ? pair_loop<Kinematics::Lammps, true>(law, state, dt, blocks_done)
+                  : pair_loop<Kinematics::Lammps, false>(law, state, dt, blocks_done);
 }
 
 }  // namespace celldem

@@ -1,6 +1,8 @@
 // The pair loop: every listed pair through the contact law, its history updated, and the reductions the
 // control needs (stress, axis stiffness, contact count).
 #pragma once
+#include <functional>
+
 #include "contact/linear_spring.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
@@ -10,7 +12,15 @@ namespace celldem {
 // Evaluates all pairs at the current positions with the half-step velocities, stores per-pair forces and
 // moments and the new history, and sets state.normal_stress, state.axis_stiffness and state.touching.
 // With advance_slip = false no slip is added (the forces of the state as it stands, e.g. at a stage start).
-void compute_contact_forces(const Model& model, double friction, State& state, bool advance_slip = true);
+//
+// On one thread, blocks_done(begin, end) is called after each block of owners: every pair of the
+// particles in [begin, end) has then been evaluated (a pair's owner has the lower id), so their net forces
+// can be completed and used while their data are still in cache; later pairs never read them again.
+// Returns how many particles, from the first, were handed over (0 on more threads: there a neighbour of
+// one thread's pairs may belong to another thread's range).
+using BlocksDone = std::function<void(std::size_t begin, std::size_t end)>;
+std::size_t compute_contact_forces(const Model& model, double friction, State& state, bool advance_slip = true,
+                                   const BlocksDone& blocks_done = {});
 
 // The full contact stress tensor [Pa] (symmetric part, compression positive) of the last force
 // evaluation, sum of force (x) branch over the contacts divided by the cell volume. The step keeps only

@@ -34,16 +34,25 @@ void gather_forces(State& state) {
   }
 }
 
-void gather_and_kick(const Model& model, State& state) {
+void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end) {
   Particles& p = state.particles;
+  for (std::size_t i = begin; i < end; ++i) {
+    gather(state.pairs, p, i);
+    p.velocity[i] = model.velocity_keep[i] * p.velocity[i] + model.velocity_gain[i] * p.force[i];
+    p.spin[i] = model.spin_keep[i] * p.spin[i] + model.spin_gain[i] * p.torque[i];
+  }
+}
+
+void gather_and_kick(const Model& model, State& state, std::size_t first) {
+  const PairList& pl = state.pairs;
+  const std::size_t n = state.particles.size();
+  if (first >= n) return;
 #pragma omp parallel
   {
-    const auto [begin, end] = gather_share(state.pairs, p.size());
-    for (std::size_t i = begin; i < end; ++i) {
-      gather(state.pairs, p, i);
-      p.velocity[i] = model.velocity_keep[i] * p.velocity[i] + model.velocity_gain[i] * p.force[i];
-      p.spin[i] = model.spin_keep[i] * p.spin[i] + model.spin_gain[i] * p.torque[i];
-    }
+    const auto [begin, end] = thread_share(n - first, [&](std::size_t k) {
+      return static_cast<std::size_t>(pl.incoming_first[first + k] - pl.incoming_first[first]) + k;
+    });
+    gather_and_kick_range(model, state, first + begin, first + end);
   }
 }
 

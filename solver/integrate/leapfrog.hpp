@@ -9,8 +9,12 @@ namespace celldem {
 // this adds those where it is j, in a fixed order).
 void gather_forces(State& state);
 
-// gather_forces, then advances the fluctuating velocity and the spin by one step with implicit body damping.
-void gather_and_kick(const Model& model, State& state);
+// For particles [first, N), split among the threads: completes the net force and moment as gather_forces
+// does, then advances the fluctuating velocity and the spin by one step with implicit body damping.
+void gather_and_kick(const Model& model, State& state, std::size_t first = 0);
+
+// The same for particles [begin, end), on the calling thread.
+void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end);
 
 // Moves particles by their fluctuating velocity in scaled coordinates, s += dt h_mid^-1 v', where h_mid
 // is the cell halfway between h_before and the current cell (the affine part is carried by the cell).
