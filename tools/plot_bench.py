@@ -53,7 +53,8 @@ def main(argv):
     ax.set_ylabel("throughput [million particle-steps/s]")
     ax.set_title("Shear-phase throughput (TTC, mu = 0.5)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
+    if rows:
+        ax.legend()
     fig.tight_layout()
     fig.savefig(folder / "scaling.png", dpi=120)
     print(f"wrote {folder / 'scaling.md'} and {folder / 'scaling.png'}")

@@ -1,16 +1,17 @@
 #include "contact/contact_forces.hpp"
 
-#include "core/parallel.hpp"
-
 #include <algorithm>
 #include <vector>
+
+#include "core/parallel.hpp"
 
 namespace celldem {
 namespace {
 
 // Reductions are summed over fixed blocks of owner particles (their pairs in list order), then the blocks
-// in order. Only touching pairs add to them (the others add exact zeros), so the result depends neither on the number of threads nor on
-// which non-touching pairs the neighbour list happens to hold (so a rebuild never changes the arithmetic).
+// in order. Only touching pairs add to them (the others add exact zeros), so the result depends neither on
+// the number of threads nor on which non-touching pairs the neighbour list happens to hold (so a rebuild
+// never changes the arithmetic).
 constexpr std::size_t kBlock = 256;
 // Pairs evaluated together by the SIMD loop before their in-order sums (small enough to stay in L1).
 constexpr int kChunk = 64;

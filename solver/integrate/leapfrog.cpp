@@ -19,17 +19,20 @@ inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   p.torque[i] = t;
 }
 
-
-// Each thread a contiguous range of particles with about equal work (incoming pairs plus the particle).
-std::pair<std::size_t, std::size_t> gather_share(const PairList& pl, std::size_t n) {
-  return thread_share(n, [&](std::size_t i) { return static_cast<std::size_t>(pl.incoming_first[i]) + i; });
+// The calling thread's share of particles [first, N): a contiguous range with about equal work (incoming
+// pairs plus the particle itself).
+std::pair<std::size_t, std::size_t> gather_share(const PairList& pl, std::size_t first, std::size_t n) {
+  const auto [begin, end] = thread_share(n - first, [&](std::size_t k) {
+    return static_cast<std::size_t>(pl.incoming_first[first + k] - pl.incoming_first[first]) + k;
+  });
+  return {first + begin, first + end};
 }
 }  // namespace
 
 void gather_forces(State& state) {
 #pragma omp parallel
   {
-    const auto [begin, end] = gather_share(state.pairs, state.particles.size());
+    const auto [begin, end] = gather_share(state.pairs, 0, state.particles.size());
     for (std::size_t i = begin; i < end; ++i) gather(state.pairs, state.particles, i);
   }
 }
@@ -44,15 +47,12 @@ void gather_and_kick_range(const Model& model, State& state, std::size_t begin, 
 }
 
 void gather_and_kick(const Model& model, State& state, std::size_t first) {
-  const PairList& pl = state.pairs;
   const std::size_t n = state.particles.size();
   if (first >= n) return;
 #pragma omp parallel
   {
-    const auto [begin, end] = thread_share(n - first, [&](std::size_t k) {
-      return static_cast<std::size_t>(pl.incoming_first[first + k] - pl.incoming_first[first]) + k;
-    });
-    gather_and_kick_range(model, state, first + begin, first + end);
+    const auto [begin, end] = gather_share(state.pairs, first, n);
+    gather_and_kick_range(model, state, begin, end);
   }
 }
 
