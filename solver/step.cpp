@@ -23,4 +23,10 @@ bool step(const Model& model, const Loading& loading, State& state, bool force_r
   return rebuild;
 }
 
+void evaluate_forces(const Model& model, double friction, State& state) {
+  rebuild_pairs(model, state);
+  compute_contact_forces(model, friction, state, /*advance_slip=*/false);
+  gather_forces(state);
+}
+
 }  // namespace celldem

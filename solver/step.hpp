@@ -11,4 +11,8 @@ namespace celldem {
 // resumed run repeats the same arithmetic as an uninterrupted one). Returns whether the list was rebuilt.
 bool step(const Model& model, const Loading& loading, State& state, bool force_rebuild = false);
 
+// The forces of a state as it stands, nothing advanced (a stage's first row): a fresh neighbour list, the
+// contact forces with this friction and no slip added, the net force and moment of every particle.
+void evaluate_forces(const Model& model, double friction, State& state);
+
 }  // namespace celldem

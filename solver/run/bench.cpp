@@ -6,10 +6,8 @@
 #include <stdexcept>
 
 #include "cell/control.hpp"
-#include "contact/contact_forces.hpp"
 #include "measure/series_row.hpp"
 #include "neighbor/neighbor_list.hpp"
-#include "integrate/leapfrog.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -70,9 +68,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);
   const Loading loading{test.axes, test.friction};
-  rebuild_pairs(model, state);
-  compute_contact_forces(model, test.friction, state, false);
-  gather_forces(state);
+  evaluate_forces(model, test.friction, state);
   for (std::int64_t k = 0; k < warmup; ++k) step(model, loading, state);
 
   ShearTiming t;

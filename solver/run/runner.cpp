@@ -14,15 +14,12 @@
 #include <sstream>
 #include <thread>
 
-#include "contact/contact_forces.hpp"
 #include "core/model.hpp"
 #include "io/state_file.hpp"
 #include "measure/micro.hpp"
 #include "measure/series_row.hpp"
-#include "neighbor/neighbor_list.hpp"
 #include "run/progress.hpp"
 #include "run/sample.hpp"
-#include "integrate/leapfrog.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -65,8 +62,8 @@ Json read_json(const fs::path& path) {
   }
 }
 
-// Tests run side by side (see run_tests_side_by_side): the summary and progress.json are shared between
-// them, so every read-modify-write of either holds this lock.
+// Tests may run side by side (see run_deck): the summary and progress.json are shared between them, so
+// every read-modify-write of either holds this lock.
 std::mutex g_run_files;
 
 // Prints a warning and records it in the summary, once: a resumed run reloads the summary it had written.
@@ -286,9 +283,7 @@ void run_preparation(const Deck& deck, const RunOptions& options, Json& summary,
   const PrepareDef& prep = *deck.prepare;
   const Model model = make_model(deck, state.particles.radius);
   if (!resumed) {
-    rebuild_pairs(model, state);
-    compute_contact_forces(model, prep.friction, state, /*advance_slip=*/false);
-    gather_forces(state);
+    evaluate_forces(model, prep.friction, state);
   }
   StageOutput out(deck, options, model, "prepare", prep.output_interval, elapsed_before);
   out.open(state, resumed);
@@ -416,9 +411,7 @@ void run_test(const Deck& deck, const RunOptions& options, const TestDef& test, 
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   const Loading loading{test.axes, test.friction};
   if (!resumed) {  // the stage's first row measures the state as loaded, with this test's friction
-    rebuild_pairs(model, state);
-    compute_contact_forces(model, test.friction, state, /*advance_slip=*/false);
-    gather_forces(state);
+    evaluate_forces(model, test.friction, state);
   }
   const std::int64_t total = test_steps(deck, test);
   StageOutput out(deck, options, model, test.name, test.output_interval, elapsed_before, /*check_energy=*/true);
@@ -594,10 +587,6 @@ void run_deck(const Deck& deck, const RunOptions& options) {
   };
   for (std::size_t first = 0; first < pending.size(); first += side_by_side) {
     const std::size_t group = std::min(side_by_side, pending.size() - first);
-    if (group == 1) {
-      run_one(*pending[first], threads);
-      continue;
-    }
     // One std::thread per test, each its own OpenMP team. A failure or a stop request in one does not
     // cut the others short: each finishes or checkpoints, then the first error is reported.
     std::vector<std::exception_ptr> errors(group);
