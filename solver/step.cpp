@@ -6,7 +6,7 @@
 
 namespace celldem {
 
-bool step(const Model& model, const Loading& loading, State& state, bool force_rebuild) {
+bool advance_one_step(const Model& model, const Loading& loading, State& state, bool force_rebuild) {
   const Mat3 h_before = state.cell.h;
   advance_cell(model, loading, state);     // 1. control: the cell at the end of the step (strain or servo)
   drift(model, h_before, state);           // 2. particles move by their fluctuating velocity
@@ -19,7 +19,8 @@ bool step(const Model& model, const Loading& loading, State& state, bool force_r
   const std::size_t kicked = compute_contact_forces(model, loading.friction, state, true, kick);
   gather_and_kick(model, state, kicked);
   state.time += model.dt;
-  ++state.total_steps;
+  ++state.steps_since_creation;
+  ++state.control.stage_steps;  // (phase_steps: advance_cell)
   return rebuild;
 }
 

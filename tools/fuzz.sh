@@ -9,7 +9,7 @@ out=build-fuzz
 mkdir -p "$out"
 flags=(-std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I solver -I /usr/include/eigen3)
-common=(solver/io/deck.cpp solver/io/state_file.cpp solver/neighbor/neighbor_list.cpp solver/core/state.cpp)
+common=(solver/io/deck_reader.cpp solver/core/plan.cpp solver/io/files.cpp solver/io/state_file.cpp solver/neighbor/neighbor_list.cpp solver/core/state.cpp)
 for target in deck state; do
   if [[ ! -x "$out/fuzz_$target" || -n "$(find solver tests/fuzz -newer "$out/fuzz_$target" -name '*.[ch]pp' | head -1)" ]]; then
     clang++ "${flags[@]}" "tests/fuzz/fuzz_$target.cpp" "${common[@]}" -o "$out/fuzz_$target"

@@ -12,7 +12,8 @@
 #include <sstream>
 
 #include "app/commands.hpp"
-#include "io/deck.hpp"
+#include "core/plan.hpp"
+#include "io/deck_reader.hpp"
 #include "io/state_file.hpp"
 #include "io/translate.hpp"
 #include "run/bench.hpp"
@@ -51,9 +52,7 @@ struct LammpsScene {
 LammpsScene prepare_lammps(const Deck& deck, TestDef test, const State& state, std::int64_t steps,
                            const fs::path& dir) {
   fs::create_directories(dir);
-  const AxisControl& a = test.axes[test.end_axis];
-  const double per_step = a.mode == AxisMode::StrainRate ? a.value * deck.time_step : a.value;
-  test.end_strain = per_step * static_cast<double>(steps);
+  test.end_strain = plan_test(deck, test).strain_per_step * static_cast<double>(steps);
   test.max_steps = 0;
   const std::vector<std::string> diffs = state_differences(state, TargetCode::Lammps);
   std::ofstream(dir / kTranslatedDataName) << translate_data(deck, state, TargetCode::Lammps, "bench", diffs);

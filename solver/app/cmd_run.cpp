@@ -1,7 +1,8 @@
 #include <cstdio>
 
 #include "app/commands.hpp"
-#include "io/deck.hpp"
+#include "core/plan.hpp"
+#include "io/deck_reader.hpp"
 #include "run/progress.hpp"
 #include "run/runner.hpp"
 

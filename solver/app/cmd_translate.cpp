@@ -6,7 +6,7 @@
 #include <stdexcept>
 
 #include "app/commands.hpp"
-#include "io/deck.hpp"
+#include "io/deck_reader.hpp"
 #include "io/state_file.hpp"
 #include "io/translate.hpp"
 

@@ -12,5 +12,7 @@ Command add_run_command(CLI::App& app);    // celldem run
 Command add_check_command(CLI::App& app);  // celldem check
 Command add_bench_command(CLI::App& app);  // celldem bench
 Command add_translate_command(CLI::App& app);  // celldem translate
+Command add_schema_command(CLI::App& app);     // celldem schema
+Command add_plan_command(CLI::App& app);       // celldem plan
 
 }  // namespace celldem::app

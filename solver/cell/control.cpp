@@ -5,11 +5,22 @@
 
 namespace celldem {
 
+void begin_stage(State& state) {
+  state.control = ControlState{};
+  state.control.reference_lengths = state.cell.h.diagonal();
+  state.control.reference_volume = state.cell.volume();
+}
+
+void begin_phase(State& state, int phase) {
+  state.control.phase = phase;
+  state.control.phase_steps = 0;
+}
+
 void advance_cell(const Model& model, const Loading& loading, State& state) {
   Cell& cell = state.cell;
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
-  const double next_step = static_cast<double>(ctl.step + 1);
+  const double next_step = static_cast<double>(ctl.phase_steps + 1);
   for (int k = 0; k < 3; ++k) {
     const AxisControl& a = loading.axes[k];
     switch (a.mode) {
@@ -37,7 +48,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
     }
   }
   cell.velocity_gradient = (cell.h - h_before) / model.dt * (0.5 * (cell.h + h_before)).inverse();
-  ++ctl.step;
+  ++ctl.phase_steps;
 }
 
 Vec3 axis_strains(const State& state) {

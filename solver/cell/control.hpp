@@ -21,8 +21,15 @@ struct Loading {
   double friction = 0.0;
 };
 
-// Sets the cell for the end of this step (state.control.step is the number of steps already done in the
-// stage) and the velocity gradient L with hdot = L h_mid. Off-diagonal terms of h are held.
+// Starts a stage from the state as it stands: step counters and servo memory reset, strains and volume
+// measured from the current cell. The one place that resets the control.
+void begin_stage(State& state);
+// Starts the next phase of a stage: its strain-driven axes count their steps afresh; strains in the series
+// stay relative to the stage start.
+void begin_phase(State& state, int phase);
+
+// Sets the cell for the end of this step (state.control.phase_steps is the number of steps already done in
+// the phase) and the velocity gradient L with hdot = L h_mid. Off-diagonal terms of h are held.
 void advance_cell(const Model& model, const Loading& loading, State& state);
 
 // Engineering strains of the cell relative to the stage start, compression positive.

@@ -9,7 +9,7 @@
 #include <cmath>
 
 #include "core/types.hpp"
-#include "io/deck.hpp"
+#include "core/choices.hpp"
 
 namespace celldem {
 

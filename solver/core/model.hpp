@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "core/types.hpp"
-#include "io/deck.hpp"
+#include "core/deck.hpp"
 
 namespace celldem {
 

@@ -65,11 +65,13 @@ struct StoredContact {
   std::uint8_t flags;
 };
 
-// Mixed control memory: what the loading stage needs to continue exactly.
+// Mixed control memory: what the loading stage needs to continue exactly. A stage starts from
+// begin_stage() (cell/control.hpp), the one place that resets it.
 struct ControlState {
-  std::int64_t step = 0;                 // steps done in the current phase of the stage
+  std::int64_t phase_steps = 0;          // steps done in the current phase of the stage (a strain-driven axis
+                                         // follows reference_length (1 - phase_steps increment))
   std::int32_t phase = 0;                // stage-specific (preparation: 0 fast, 1 servo)
-  std::int64_t stage_step = 0;           // steps done in the current stage
+  std::int64_t stage_steps = 0;          // steps done in the current stage (the series' `step`)
   Vec3 reference_lengths = Vec3::Ones(); // [m] diagonal of h at the start of the stage
   double reference_volume = 1.0;         // [m^3]
   Vec3 servo_integral = Vec3::Zero();    // [Pa] accumulated stress error per axis
@@ -81,7 +83,7 @@ struct State {
   PairList pairs;
   ControlState control;
   double time = 0.0;            // [s]
-  std::int64_t total_steps = 0; // steps since the sample was made
+  std::int64_t steps_since_creation = 0;  // over every stage since the sample was made
   // Measured in the last force evaluation; the servo reads them on the next step.
   Vec3 normal_stress = Vec3::Zero();  // [Pa] sigma_kk from the contacts, compression positive (the full
                                       // tensor, when a row needs it: contact_stress(state))

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "io/files.hpp"
 #include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
@@ -94,12 +95,12 @@ std::string serialize_state(const State& s, const std::string& label) {
   w.put(static_cast<std::uint64_t>(s.particles.size()));
   w.put(static_cast<std::uint64_t>(contacts.size()));
   w.put(s.time);
-  w.put(s.total_steps);
+  w.put(s.steps_since_creation);
   w.put(s.cell.h);
   w.put(s.cell.velocity_gradient);
-  w.put(s.control.step);
+  w.put(s.control.phase_steps);
   w.put(s.control.phase);
-  w.put(s.control.stage_step);
+  w.put(s.control.stage_steps);
   w.put(s.control.reference_lengths);
   w.put(s.control.reference_volume);
   w.put(s.control.servo_integral);
@@ -158,12 +159,12 @@ State parse_state(const std::string& bytes, std::string* label) {
   if (n == 0 || n > r.remaining() / kParticleBytes || nc > r.remaining() / kContactBytes)
     throw StateFileError("state file particle or contact count does not match its size");
   s.time = r.finite();
-  s.total_steps = r.get<std::int64_t>();
+  s.steps_since_creation = r.get<std::int64_t>();
   s.cell.h = r.mat();
   s.cell.velocity_gradient = r.mat();
-  s.control.step = r.get<std::int64_t>();
+  s.control.phase_steps = r.get<std::int64_t>();
   s.control.phase = r.get<std::int32_t>();
-  s.control.stage_step = r.get<std::int64_t>();
+  s.control.stage_steps = r.get<std::int64_t>();
   s.control.reference_lengths = r.vec();
   s.control.reference_volume = r.finite();
   s.control.servo_integral = r.vec();
@@ -172,7 +173,7 @@ State parse_state(const std::string& bytes, std::string* label) {
   s.touching = r.get<std::int64_t>();
   s.pairs.skin = r.finite();
   if (!(s.cell.volume() > 0.0)) throw StateFileError("state file cell has no positive volume");
-  if (s.pairs.skin < 0.0 || s.total_steps < 0 || s.control.step < 0 || s.control.stage_step < 0)
+  if (s.pairs.skin < 0.0 || s.steps_since_creation < 0 || s.control.phase_steps < 0 || s.control.stage_steps < 0)
     throw StateFileError("state file holds a negative step count or skin");
   s.particles.resize(n);
   Particles& p = s.particles;
@@ -200,16 +201,7 @@ State parse_state(const std::string& bytes, std::string* label) {
 }
 
 void write_state(const std::string& path, const State& state, const std::string& label) {
-  const std::string bytes = serialize_state(state, label);
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw StateFileError(tmp + ": cannot write");
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    if (!out) throw StateFileError(tmp + ": write failed");
-  }
-  std::filesystem::rename(tmp, path);  // atomic on POSIX: readers see the old or the new file, whole
+  write_file_atomic(path, serialize_state(state, label));
 }
 
 State read_state(const std::string& path, std::string* label) {

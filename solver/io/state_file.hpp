@@ -14,7 +14,8 @@ struct StateFileError : std::runtime_error {
 
 inline constexpr std::uint32_t kStateFormatVersion = 1;
 
-// label says what the state is (e.g. "prepared", "checkpoint:ttc"); it is stored and returned.
+// label says what the state is (e.g. "prepared", "checkpoint:ttc"); it is stored and returned. Written
+// atomically; a failed write throws IoError (io/files.hpp).
 void write_state(const std::string& path, const State& state, const std::string& label);
 
 // Reads and validates a state file; the pair list holds only the stored contacts until the next rebuild.

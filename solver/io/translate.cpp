@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "core/plan.hpp"
 #include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
@@ -28,13 +29,6 @@ bool any_stress_axis(const Deck& d) {
   return std::any_of(d.tests.begin(), d.tests.end(), [](const TestDef& t) { return any_stress_axis(t); });
 }
 
-// Same rule as the runner: steps to reach the end strain of the driving axis, capped by end.max_steps.
-std::int64_t test_steps(const Deck& deck, const TestDef& t) {
-  const AxisControl& a = t.axes[t.end_axis];
-  const double per_step = a.mode == AxisMode::StrainRate ? a.value * deck.time_step : a.value;
-  const auto n = static_cast<std::int64_t>(std::llround(t.end_strain / per_step));
-  return t.max_steps > 0 ? std::min(n, t.max_steps) : n;
-}
 
 // fix deform erate [1/s] of a strain-controlled axis (compression positive in the deck, L = L0 (1 + erate t)).
 double engineering_rate(const Deck& deck, const AxisControl& a) {
@@ -94,10 +88,6 @@ std::string matrix(std::size_t n, double value) {
   return s;
 }
 
-double skin(const Deck& deck) {  // as celldem: neighbor_skin x the largest diameter
-  return deck.neighbor_skin * *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
-}
-
 std::string deck_name(const Deck& deck) { return std::filesystem::path(deck.source).filename().string(); }
 
 void comment_block(std::ostringstream& o, const std::string& title, const std::vector<std::string>& items) {
@@ -142,7 +132,7 @@ void header(std::ostringstream& o, const Deck& deck, const TestDef& test, Target
     << "#   evaluation (taken before fix deform / the servo move the box at the end of the step).\n"
     << "#\n"
     << "# Test: x1 " << axis_text(test.axes[0]) << ", x2 " << axis_text(test.axes[1]) << ", x3 "
-    << axis_text(test.axes[2]) << "; friction " << num(test.friction) << "; " << test_steps(deck, test)
+    << axis_text(test.axes[2]) << "; friction " << num(test.friction) << "; " << plan_test(deck, test).steps
     << " steps (e" << test.end_axis + 1 << " = " << num(test.end_strain) << "), output every "
     << test.output_interval << "\n";
   std::vector<std::string> differences = model_differences(deck, code);
@@ -211,7 +201,7 @@ void output(std::ostringstream& o, const Deck& deck, const TestDef& test, Target
     << "thermo_modify   norm no\n"
     << "thermo          " << test.output_interval << "\n"
     << "# one run per test: fix deform strains are relative to the box at the start of the run\n"
-    << "run             " << test_steps(deck, test) << "\n";
+    << "run             " << plan_test(deck, test).steps << "\n";
 }
 
 std::string lammps_script(const Deck& deck, const TestDef& test) {
@@ -228,7 +218,7 @@ std::string lammps_script(const Deck& deck, const TestDef& test) {
     << "variable        data index " << kTranslatedDataName << "\n"
     << "variable        out index " << series_file_name(test, TargetCode::Lammps) << "\n"
     << "read_data       ${data}\n"
-    << "neighbor        " << num(skin(deck)) << " bin\n"
+    << "neighbor        " << num(skin_length(deck)) << " bin\n"
     << "neigh_modify    delay 0 every 1 check yes\n"
     << "\n# contact: F_n = kn overlap, incremental tangential spring kt with Coulomb limit, no contact damping\n"
     << "pair_style      gran/hooke/history " << num(deck.contact.kn) << " " << num(deck.contact.kt) << " 0.0 0.0 "
@@ -285,7 +275,7 @@ std::string liggghts_script(const Deck& deck, const TestDef& test) {
     << "variable        data index " << kTranslatedDataName << "\n"
     << "variable        out index " << series_file_name(test, TargetCode::Liggghts) << "\n"
     << "read_data       ${data}\n"
-    << "neighbor        " << num(skin(deck)) << " bin\n"
+    << "neighbor        " << num(skin_length(deck)) << " bin\n"
     << "neigh_modify    delay 0 every 1 check yes\n"
     << "\n# contact: hooke/stiffness F_n = kn overlap (absolute kn), history tangential spring kt, Coulomb limit;\n"
     << "# gamman and gammat must be given (per type pair) even when zero\n"
@@ -353,10 +343,11 @@ std::vector<AtomType> atom_types(const Deck& deck) {
     if (std::any_of(types.begin(), types.end(), [d](const AtomType& t) { return t.diameter == d; })) continue;
     AtomType t;
     t.diameter = d;
-    t.mass = deck.sample.density * M_PI / 6.0 * d * d * d;
-    t.inertia = 0.4 * t.mass * 0.25 * d * d;
-    t.c_t = deck.damping.translational * 2.0 * std::sqrt(t.mass * deck.contact.kn);
-    t.c_r = deck.damping.rotational * 2.0 * 0.5 * d * std::sqrt(t.inertia * deck.contact.kt);
+    const BodyProperties b = body_properties(0.5 * d, deck.sample.density, deck.damping, deck.contact);
+    t.mass = b.mass;
+    t.inertia = b.inertia;
+    t.c_t = b.translational_drag;
+    t.c_r = b.rotational_drag;
     types.push_back(t);
   }
   return types;

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/state.hpp"
-#include "io/deck.hpp"
+#include "core/deck.hpp"
 
 namespace celldem {
 

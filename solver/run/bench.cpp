@@ -6,7 +6,8 @@
 #include <stdexcept>
 
 #include "cell/control.hpp"
-#include "measure/series_row.hpp"
+#include "core/plan.hpp"
+#include "measure/series.hpp"
 #include "neighbor/neighbor_list.hpp"
 #include "step.hpp"
 
@@ -48,8 +49,7 @@ State tile_state(const State& s, int copies) {
           tiled.push_back({static_cast<Index>(copy * n + cc.i), static_cast<Index>(copy * n + cc.j),
                            cc.tangential, cc.flags});
       }
-  t.control.reference_lengths = t.cell.h.diagonal();
-  t.control.reference_volume = t.cell.volume();
+  begin_stage(t);
   set_stored_contacts(t, tiled);
   return t;
 }
@@ -62,25 +62,22 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
                        std::int64_t warmup) {
   omp_set_num_threads(threads);
   State state = initial;
-  state.control = ControlState{};
-  state.control.reference_lengths = state.cell.h.diagonal();
-  state.control.reference_volume = state.cell.volume();
+  begin_stage(state);
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);
   const Loading loading{test.axes, test.friction};
   evaluate_forces(model, test.friction, state);
-  for (std::int64_t k = 0; k < warmup; ++k) step(model, loading, state);
+  for (std::int64_t k = 0; k < warmup; ++k) advance_one_step(model, loading, state);
 
   ShearTiming t;
-  DilatancyWindow di(0.0025);
+  DilatancyWindow di;
   std::string sink;
   double row_seconds = 0.0;
   std::int64_t rows = 0;
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   for (std::int64_t k = 1; k <= steps; ++k) {
-    t.rebuilds += step(model, loading, state);
-    ++state.control.stage_step;
+    t.rebuilds += advance_one_step(model, loading, state);
     if (k % test.output_interval == 0) {
       const auto r0 = Clock::now();
       sink += format_series_row(measure_series_row(model, state, di));

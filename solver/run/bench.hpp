@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "core/state.hpp"
-#include "io/deck.hpp"
+#include "core/deck.hpp"
 
 namespace celldem {
 

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "io/deck.hpp"
+#include "core/deck.hpp"
 
 namespace celldem {
 
@@ -31,5 +31,6 @@ void run_deck(const Deck& deck, const RunOptions& options);
 
 // Installs SIGINT/SIGTERM handlers that ask the running stage to checkpoint and stop.
 void install_stop_handlers();
+bool stop_requested();
 
 }  // namespace celldem

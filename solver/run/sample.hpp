@@ -1,7 +1,7 @@
 // A new sample: spheres of randomly chosen sizes at the points of a cubic grid (the paper's section 4).
 #pragma once
 #include "core/state.hpp"
-#include "io/deck.hpp"
+#include "core/deck.hpp"
 
 namespace celldem {
 

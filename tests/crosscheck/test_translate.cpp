@@ -9,7 +9,7 @@
 #include <regex>
 #include <sstream>
 
-#include "io/deck.hpp"
+#include "io/deck_reader.hpp"
 #include "io/translate.hpp"
 #include "neighbor/neighbor_list.hpp"
 

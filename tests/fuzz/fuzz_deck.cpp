@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <string>
 
-#include "io/deck.hpp"
+#include "io/deck_reader.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   try {

@@ -1,4 +1,4 @@
-// Deck parsing and validation (solver/io/deck.hpp): a valid deck gives the expected values and defaults;
+// Deck parsing and validation (solver/io/deck_reader.hpp, solver/core/deck_schema.hpp): a valid deck gives the expected values and defaults;
 // every kind of bad input throws DeckError whose message starts with the JSON path of the offending key.
 #include <gtest/gtest.h>
 
@@ -7,7 +7,8 @@
 #include <string>
 
 #include "helpers.hpp"
-#include "io/deck.hpp"
+#include "core/plan.hpp"
+#include "io/deck_reader.hpp"
 
 namespace celldem {
 namespace {

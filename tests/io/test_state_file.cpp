@@ -34,10 +34,10 @@ State sample_state() {
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.1, s);  // friction 0.1: some contacts slide
   s.time = 0.123;
-  s.total_steps = 1234567;
-  s.control.step = 42;
+  s.steps_since_creation = 1234567;
+  s.control.phase_steps = 42;
   s.control.phase = 1;
-  s.control.stage_step = 4242;
+  s.control.stage_steps = 4242;
   s.control.reference_lengths = Vec3(2.9, 2.95, 3.0);
   s.control.reference_volume = 25.6;
   s.control.servo_integral = Vec3(1e3, -2e3, 3.5);
@@ -58,10 +58,10 @@ TEST(StateFile, RoundTripIsExact) {
   EXPECT_EQ(b.particles.velocity, a.particles.velocity);
   EXPECT_EQ(b.particles.spin, a.particles.spin);
   EXPECT_EQ(b.time, a.time);
-  EXPECT_EQ(b.total_steps, a.total_steps);
-  EXPECT_EQ(b.control.step, a.control.step);
+  EXPECT_EQ(b.steps_since_creation, a.steps_since_creation);
+  EXPECT_EQ(b.control.phase_steps, a.control.phase_steps);
   EXPECT_EQ(b.control.phase, a.control.phase);
-  EXPECT_EQ(b.control.stage_step, a.control.stage_step);
+  EXPECT_EQ(b.control.stage_steps, a.control.stage_steps);
   EXPECT_EQ(b.control.reference_lengths, a.control.reference_lengths);
   EXPECT_EQ(b.control.reference_volume, a.control.reference_volume);
   EXPECT_EQ(b.control.servo_integral, a.control.servo_integral);
@@ -182,7 +182,7 @@ TEST(StateFile, InvalidContentsUnderValidChecksumThrow) {
   const std::string label = "lbl";  // payload: u32 length + 3 bytes, then n (u64) at 7, contacts (u64) at 15
   const std::string good = payload_of(serialize_state(s, label));
   const std::size_t at_n = 4 + label.size(), at_nc = at_n + 8, at_time = at_nc + 8;
-  const std::size_t at_h = at_time + 16;             // after time and total_steps
+  const std::size_t at_h = at_time + 16;             // after time and steps_since_creation
   const std::size_t header = at_h + 9 * 8 * 2 + 8 + 4 + 8 + 3 * 8 + 8 + 3 * 8 + 9 * 8 + 3 * 8 + 8 + 8;
   const std::size_t particle_bytes = 10 * 8;
   ASSERT_NO_THROW(parse_state(wrap(good)));

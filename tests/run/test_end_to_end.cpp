@@ -16,7 +16,7 @@
 
 #include "helpers.hpp"
 #include "io/state_file.hpp"
-#include "measure/series_row.hpp"
+#include "measure/series.hpp"
 
 extern char** environ;
 

@@ -9,7 +9,7 @@
 
 #include "helpers.hpp"
 #include "io/state_file.hpp"
-#include "measure/series_row.hpp"
+#include "measure/series.hpp"
 #include "run/runner.hpp"
 
 namespace celldem {

@@ -14,7 +14,7 @@
 #include "cell/control.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
-#include "io/deck.hpp"
+#include "io/deck_reader.hpp"
 
 namespace celldem::testing {
 

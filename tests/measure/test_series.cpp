@@ -1,5 +1,5 @@
-// One row of series.csv (solver/measure/series_row.hpp): the dilatancy window's slope, the header, the row
-// formatting, and a row measured on a lattice whose values are known.
+// The series (solver/measure/series.hpp): the dilatancy window's slope, the column table and header, the row
+// formatting and parsing, and a row measured on a lattice whose values are known.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -7,19 +7,12 @@
 
 #include "contact/contact_forces.hpp"
 #include "helpers.hpp"
-#include "measure/series_row.hpp"
+#include "measure/series.hpp"
 #include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
 namespace {
 
-int column(const std::string& name) {
-  const auto& c = series_columns();
-  for (std::size_t k = 0; k < c.size(); ++k)
-    if (c[k] == name) return static_cast<int>(k);
-  ADD_FAILURE() << "no column " << name;
-  return -1;
-}
 
 // ev = 0.3 - 0.4 e1 (dilating as e1 grows): DI = -d(ev)/d(e1) = 0.4, once the window spans half its width.
 TEST(DilatancyWindow, SlopeOfLinearSeries) {
@@ -70,28 +63,47 @@ TEST(DilatancyWindow, SlopeWhenE1Decreases) {
   EXPECT_NEAR(last, -0.3, 1e-9);
 }
 
-TEST(SeriesRow, HeaderIsTheColumnList) {
-  const auto& c = series_columns();
-  ASSERT_FALSE(c.empty());
-  std::string joined;
-  for (const auto& name : c) joined += (joined.empty() ? "" : ",") + name;
-  EXPECT_EQ(series_header(), joined + "\n");
-  EXPECT_EQ(series_header().rfind("step,time,e1,e2,e3,ev,s11,s22,s33", 0), 0u);
-  EXPECT_EQ(c[22], "n_contacts");  // formatted as counts
-  EXPECT_EQ(c[23], "n_strong");
+TEST(SeriesRow, HeaderIsTheDocumentedColumnList) {
+  // An interface: tools and users read these names.
+  EXPECT_EQ(series_header(),
+            "step,time,e1,e2,e3,ev,s11,s22,s33,s12,s13,s23,p,q,ratio13,b,sin_phi,DI,void_ratio,Z,Zm,"
+            "sliding_fraction,n_contacts,n_strong,H11,H22,H33,H12,H13,H23,Hs11,Hs22,Hs33,Hw11,Hw22,Hw33,H11_H33,"
+            "Hs11_Hs33,Hw11_Hw33,kinetic_energy,unbalanced_force\n");
+  for (const SeriesColumn& c : series_columns()) {
+    EXPECT_FALSE(c.unit.empty()) << c.name;
+    EXPECT_FALSE(c.meaning.empty()) << c.name;
+    EXPECT_EQ(find_series_column(c.name), &c);
+  }
+  EXPECT_EQ(find_series_column("nope"), nullptr);
 }
 
-TEST(SeriesRow, FormatsCountsAndNaN) {
-  std::vector<double> row(series_columns().size(), 0.125);
-  row[0] = 1000;
-  row[17] = std::nan("");
-  row[22] = 192;
+TEST(SeriesRow, FormatsCountsAndNaNAndParsesBack) {
+  SeriesRow row;
+  for (const SeriesColumn& c : series_columns()) row.*c.field = 0.125;
+  row.step = 1000;
+  row.DI = std::nan("");
+  row.n_contacts = 192;
+  row.s11 = 1.0 / 3.0;  // more digits than the file keeps
   const std::string line = format_series_row(row);
   EXPECT_EQ(line.back(), '\n');
   EXPECT_EQ(line.rfind("1000,0.125,", 0), 0u);
   EXPECT_NE(line.find(",nan,"), std::string::npos);
   EXPECT_NE(line.find(",192,"), std::string::npos);
-  EXPECT_EQ(std::count(line.begin(), line.end(), ','), static_cast<long>(row.size() - 1));
+  EXPECT_NE(line.find(",0.3333333333,"), std::string::npos);
+  EXPECT_EQ(std::count(line.begin(), line.end(), ','), static_cast<long>(series_columns().size() - 1));
+
+  std::vector<std::string> header;
+  for (const SeriesColumn& c : series_columns()) header.emplace_back(c.name);
+  const std::optional<SeriesRow> back = parse_series_row(header, line.substr(0, line.size() - 1));
+  ASSERT_TRUE(back.has_value());
+  const SeriesRow printed = as_printed(row);
+  EXPECT_EQ(printed.s11, 0.3333333333);
+  for (const SeriesColumn& c : series_columns()) {
+    if (std::isnan(printed.*c.field)) EXPECT_TRUE(std::isnan(back.value().*c.field)) << c.name;
+    else EXPECT_EQ(back.value().*c.field, printed.*c.field) << c.name;
+  }
+  header.pop_back();  // one field too many for this header
+  EXPECT_FALSE(parse_series_row(header, line.substr(0, line.size() - 1)).has_value());
 }
 
 // A simple cubic lattice (spacing a, overlap delta = 2R - a): p = s_ii = kn delta / a^2, q = 0, Z = 6, fabric
@@ -101,31 +113,30 @@ TEST(SeriesRow, LatticeRowHasKnownValues) {
   const double R = 0.5, a = 0.98, kn = 1e4, dt = 1e-4;
   const Model model = make_model(testing::model_deck(kn, kn, dt), std::vector<double>(n * n * n, R));
   State s = testing::lattice_state(n, R, Vec3(a, a, a), 0.05);
-  s.control.stage_step = 250;
+  s.control.stage_steps = 250;
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
   DilatancyWindow di(0.0025);
-  const std::vector<double> row = measure_series_row(model, s, di);
-  ASSERT_EQ(row.size(), series_columns().size());
+  const SeriesRow row = measure_series_row(model, s, di);
   const double p = kn * (2 * R - a) / (a * a);
-  EXPECT_EQ(row[column("step")], 250.0);
-  EXPECT_NEAR(row[column("time")], 250 * dt, 1e-15);
-  for (const char* e : {"e1", "e2", "e3", "ev"}) EXPECT_NEAR(row[column(e)], 0.0, 1e-15) << e;
-  for (const char* c : {"s11", "s22", "s33", "p"}) EXPECT_NEAR(row[column(c)], p, 1e-9 * p) << c;
-  for (const char* c : {"s12", "s13", "s23"}) EXPECT_NEAR(row[column(c)], 0.0, 1e-9 * p) << c;
-  EXPECT_NEAR(row[column("q")], 0.0, 1e-9 * p);
-  EXPECT_NEAR(row[column("ratio13")], 1.0, 1e-12);
-  EXPECT_TRUE(std::isnan(row[column("DI")]));
-  EXPECT_EQ(row[column("Z")], 6.0);
-  EXPECT_EQ(row[column("Zm")], 6.0);
-  EXPECT_EQ(row[column("n_contacts")], 3.0 * n * n * n);
+  EXPECT_EQ(row.step, 250.0);
+  EXPECT_NEAR(row.time, 250 * dt, 1e-15);
+  for (double e : {row.e1, row.e2, row.e3, row.ev}) EXPECT_NEAR(e, 0.0, 1e-15);
+  for (double x : {row.s11, row.s22, row.s33, row.p}) EXPECT_NEAR(x, p, 1e-9 * p);
+  for (double x : {row.s12, row.s13, row.s23}) EXPECT_NEAR(x, 0.0, 1e-9 * p);
+  EXPECT_NEAR(row.q, 0.0, 1e-9 * p);
+  EXPECT_NEAR(row.ratio13, 1.0, 1e-12);
+  EXPECT_TRUE(std::isnan(row.DI));
+  EXPECT_EQ(row.Z, 6.0);
+  EXPECT_EQ(row.Zm, 6.0);
+  EXPECT_EQ(row.n_contacts, 3.0 * n * n * n);
   // (Which of the equal forces count as "strong" is decided by rounding: not checked here.)
-  for (const char* h : {"H11", "H22", "H33"}) EXPECT_NEAR(row[column(h)], 1.0 / 3, 1e-12) << h;
-  for (const char* h : {"H12", "H13", "H23"}) EXPECT_NEAR(row[column(h)], 0.0, 1e-12) << h;
-  EXPECT_NEAR(row[column("H11_H33")], 1.0, 1e-12);
-  EXPECT_NEAR(row[column("void_ratio")], a * a * a / (4.0 / 3.0 * M_PI * R * R * R) - 1.0, 1e-12);
-  EXPECT_EQ(row[column("sliding_fraction")], 0.0);
-  EXPECT_EQ(row[column("kinetic_energy")], 0.0);
+  for (double h : {row.H11, row.H22, row.H33}) EXPECT_NEAR(h, 1.0 / 3, 1e-12);
+  for (double h : {row.H12, row.H13, row.H23}) EXPECT_NEAR(h, 0.0, 1e-12);
+  EXPECT_NEAR(row.H11_H33, 1.0, 1e-12);
+  EXPECT_NEAR(row.void_ratio, a * a * a / (4.0 / 3.0 * M_PI * R * R * R) - 1.0, 1e-12);
+  EXPECT_EQ(row.sliding_fraction, 0.0);
+  EXPECT_EQ(row.kinetic_energy, 0.0);
 }
 
 // Strains in the row are engineering strains of the cell against the stage start, compression positive.
@@ -136,13 +147,13 @@ TEST(SeriesRow, StrainsAgainstStageStart) {
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
   DilatancyWindow di(0.0025);
-  const std::vector<double> row = measure_series_row(model, s, di);
-  EXPECT_NEAR(row[column("e1")], 0.01, 1e-14);
-  EXPECT_NEAR(row[column("e2")], -0.02, 1e-14);
-  EXPECT_NEAR(row[column("e3")], 0.0, 1e-14);
-  EXPECT_NEAR(row[column("ev")], 1.0 - 0.99 * 1.02, 1e-14);
-  EXPECT_EQ(row[column("n_contacts")], 0.0);
-  EXPECT_EQ(row[column("unbalanced_force")], 0.0);
+  const SeriesRow row = measure_series_row(model, s, di);
+  EXPECT_NEAR(row.e1, 0.01, 1e-14);
+  EXPECT_NEAR(row.e2, -0.02, 1e-14);
+  EXPECT_NEAR(row.e3, 0.0, 1e-14);
+  EXPECT_NEAR(row.ev, 1.0 - 0.99 * 1.02, 1e-14);
+  EXPECT_EQ(row.n_contacts, 0.0);
+  EXPECT_EQ(row.unbalanced_force, 0.0);
 }
 
 }  // namespace

@@ -1,0 +1,24 @@
+// The model's named choices, with their deck names in enum order (names[int(value)]).
+#pragma once
+#include <array>
+#include <cstddef>
+#include <string_view>
+
+namespace celldem {
+
+enum class TangentialRotation { Rotate, Project };  // keep |xi| when the tangent plane turns, or not (LAMMPS)
+enum class MomentArm { ContactPoint, Radius };      // lever arm of the tangential force
+enum class Kinematics { Affine, Lammps };           // contacts see the affine velocity difference, or not
+enum class AxisMode { StrainIncrement, StrainRate, Stress };
+
+inline constexpr std::array<std::string_view, 2> kTangentialRotationNames = {"rotate", "project"};
+inline constexpr std::array<std::string_view, 2> kMomentArmNames = {"contact_point", "radius"};
+inline constexpr std::array<std::string_view, 2> kKinematicsNames = {"affine", "lammps"};
+inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
+
+template <class Enum, std::size_t N>
+constexpr std::string_view name_of(Enum value, const std::array<std::string_view, N>& names) {
+  return names[static_cast<std::size_t>(value)];
+}
+
+}  // namespace celldem

@@ -1,0 +1,99 @@
+// The deck: what a run is asked to do, as plain structs (SI units). io/deck_reader.cpp fills them from JSON;
+// every default below comes from the key table in core/deck_schema.hpp, the single place that declares them.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/deck_schema.hpp"
+
+namespace celldem {
+
+// Bad input. The message names the JSON path of the offending key ("tests[1].axes.x2.stress: ...").
+struct DeckError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+inline constexpr int kDeckFormatVersion = 1;
+
+struct SampleDef {
+  int count = 0;                   // number of spheres
+  std::vector<double> diameters;   // [m] the distinct sizes, each drawn with equal probability
+  double density = 0.0;            // [kg/m^3]
+  std::uint64_t seed = static_cast<std::uint64_t>(keys::sample_seed.fallback);
+  double grid_spacing = 0.0;       // [m] spacing of the initial cubic grid (> largest diameter)
+};
+
+struct ContactDef {
+  double kn = 0.0;  // [N/m] normal spring
+  double kt = 0.0;  // [N/m] tangential spring
+  TangentialRotation rotation = TangentialRotation::Rotate;
+  MomentArm moment_arm = MomentArm::ContactPoint;
+};
+
+struct DampingDef {
+  double translational = 0.0;  // fraction of 2*sqrt(m*kn), on the fluctuating velocity
+  double rotational = 0.0;     // fraction of 2*r*sqrt(I*kt), on the spin
+};
+
+// Stress servo (cell/control.hpp has the law).
+struct ServoDef {
+  double gain = keys::servo_gain.fallback;
+  double integral_gain = keys::servo_integral_gain.fallback;
+  double max_strain_increment = keys::servo_max_strain_increment.fallback;
+};
+
+struct AxisControl {
+  AxisMode mode = AxisMode::StrainIncrement;
+  double value = 0.0;  // per step [-] (compression +), rate [1/s] (compression +), or stress [Pa] (compression +)
+};
+
+struct EquilibriumDef {
+  double pressure_tolerance = keys::equilibrium_pressure_tolerance.fallback;
+  double stress_tolerance = keys::equilibrium_stress_tolerance.fallback;
+  double unbalanced_force_ratio = keys::equilibrium_unbalanced_force_ratio.fallback;
+  std::int64_t min_steps = static_cast<std::int64_t>(keys::equilibrium_min_steps.fallback);
+  std::int64_t check_interval = static_cast<std::int64_t>(keys::equilibrium_check_interval.fallback);
+  std::int64_t max_steps = static_cast<std::int64_t>(keys::equilibrium_max_steps.fallback);
+};
+
+struct PrepareDef {
+  double friction = keys::prepare_friction.fallback;  // interparticle mu during preparation
+  double target_pressure = 1e5;                       // [Pa] (required in a deck)
+  double fast_solid_fraction = keys::prepare_fast_solid_fraction.fallback;
+  double fast_strain_increment = keys::prepare_fast_strain_increment.fallback;
+  EquilibriumDef equilibrium;
+  std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
+};
+
+struct TestDef {
+  std::string name;
+  double friction = 0.0;
+  std::array<AxisControl, 3> axes;
+  int end_axis = 0;                 // 0-based axis whose strain ends the test
+  double end_strain = 0.0;          // engineering strain of end_axis, compression +
+  std::int64_t max_steps = 0;       // safety stop, 0 = derived from the end strain
+  std::int64_t output_interval = static_cast<std::int64_t>(keys::test_output_interval.fallback);
+};
+
+struct Deck {
+  int format = kDeckFormatVersion;
+  std::string source;                       // path it was read from (for reports)
+  std::string canonical;                    // the deck as compact JSON (compared on --resume)
+  SampleDef sample;
+  ContactDef contact;
+  DampingDef damping;
+  Kinematics kinematics = Kinematics::Affine;
+  double time_step = 0.0;                   // [s]
+  ServoDef servo;
+  std::int64_t checkpoint_interval = static_cast<std::int64_t>(keys::checkpoint_interval.fallback);
+  double neighbor_skin = keys::neighbor_skin.fallback;  // fraction of the largest diameter
+  std::optional<PrepareDef> prepare;        // exactly one of prepare / initial_state
+  std::optional<std::string> initial_state; // path, relative to the deck's folder
+  std::vector<TestDef> tests;
+};
+
+}  // namespace celldem

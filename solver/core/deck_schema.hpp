@@ -1,0 +1,192 @@
+// Every deck key, declared once: its type, range, default, unit and meaning. The reader
+// (io/deck_reader.cpp) takes range and default from here, the structs in core/deck.hpp their defaults,
+// `celldem schema` prints the table (the README's deck table is generated from it), and the translator
+// names keys through it.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <string_view>
+
+#include "core/choices.hpp"
+
+namespace celldem {
+
+enum class KeyKind { Object, Number, Integer, String, Choice, Array };
+
+struct KeySpec {
+  std::string_view path;     // JSON path; "tests[]" stands for every test, "xK" for x1, x2 and x3
+  KeyKind kind = KeyKind::Number;
+  double min = -std::numeric_limits<double>::infinity();  // inclusive bounds (numbers and integers)
+  double max = std::numeric_limits<double>::infinity();
+  bool positive = false;     // strictly > 0
+  bool required = true;      // missing = error (unless the meaning says when it may be left out)
+  double fallback = 0.0;     // default of an optional number or integer
+  std::string_view default_text = {};  // default as the table prints it, when it is not `fallback`
+  std::span<const std::string_view> choices = {};  // KeyKind::Choice
+  std::string_view unit = {};
+  std::string_view meaning = {};
+
+  // The key's own name: the last component of the path.
+  constexpr std::string_view name() const { return path.substr(path.rfind('.') + 1); }
+};
+
+namespace keys {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kMaxCount = 1125899906842624.0;  // 2^50: counts of steps and rows
+constexpr double kMaxSeed = 9007199254740992.0;   // 2^53: seeds a double still holds exactly
+
+// clang-format off
+inline constexpr KeySpec format{.path = "format", .kind = KeyKind::Integer, .min = 1, .max = 1000,
+    .meaning = "deck format version (this celldem reads 1)"};
+inline constexpr KeySpec description{.path = "description", .kind = KeyKind::String, .required = false,
+    .default_text = "none", .meaning = "free text, for people"};
+
+inline constexpr KeySpec sample{.path = "sample", .kind = KeyKind::Object,
+    .meaning = "the spheres of a new sample (also required with `initial_state`: the state must agree with it)"};
+inline constexpr KeySpec sample_count{.path = "sample.count", .kind = KeyKind::Integer, .min = 1, .max = 50'000'000,
+    .meaning = "number of spheres"};
+inline constexpr KeySpec sample_diameters{.path = "sample.diameters", .kind = KeyKind::Object,
+    .meaning = "sizes, each sphere drawing one with equal probability: `list`, or `min`/`max`/`count`"};
+inline constexpr KeySpec sample_diameters_list{.path = "sample.diameters.list", .kind = KeyKind::Array,
+    .required = false, .unit = "m", .meaning = "the sizes, each a finite number > 0"};
+inline constexpr KeySpec sample_diameters_min{.path = "sample.diameters.min", .kind = KeyKind::Number,
+    .positive = true, .required = false, .unit = "m", .meaning = "smallest of `count` evenly spaced sizes"};
+inline constexpr KeySpec sample_diameters_max{.path = "sample.diameters.max", .kind = KeyKind::Number,
+    .positive = true, .required = false, .unit = "m", .meaning = "largest size, >= `min`"};
+inline constexpr KeySpec sample_diameters_count{.path = "sample.diameters.count", .kind = KeyKind::Integer,
+    .min = 1, .max = 100000, .required = false, .meaning = "number of evenly spaced sizes (> 1 when max > min)"};
+inline constexpr KeySpec sample_density{.path = "sample.density", .kind = KeyKind::Number, .positive = true,
+    .unit = "kg/m^3", .meaning = "particle density"};
+inline constexpr KeySpec sample_seed{.path = "sample.seed", .kind = KeyKind::Integer, .min = 0, .max = kMaxSeed,
+    .required = false, .fallback = 1, .meaning = "sizes and the initial jitter depend on it only"};
+inline constexpr KeySpec sample_grid_spacing{.path = "sample.grid_spacing", .kind = KeyKind::Number,
+    .required = false, .default_text = "1.1 x largest diameter", .unit = "m",
+    .meaning = "spacing of the initial cubic grid, > largest diameter"};
+
+inline constexpr KeySpec contact{.path = "contact", .kind = KeyKind::Object, .meaning = "the contact law"};
+inline constexpr KeySpec contact_kn{.path = "contact.kn", .kind = KeyKind::Number, .positive = true, .unit = "N/m",
+    .meaning = "normal spring stiffness"};
+inline constexpr KeySpec contact_kt{.path = "contact.kt", .kind = KeyKind::Number, .min = 0, .unit = "N/m",
+    .meaning = "tangential spring stiffness"};
+inline constexpr KeySpec contact_tangential_rotation{.path = "contact.tangential_rotation", .kind = KeyKind::Choice,
+    .required = false, .choices = kTangentialRotationNames,
+    .meaning = "when the tangent plane turns, `rotate` the spring keeping its length, or `project` it (as LAMMPS)"};
+inline constexpr KeySpec contact_moment_arm{.path = "contact.moment_arm", .kind = KeyKind::Choice,
+    .required = false, .choices = kMomentArmNames,
+    .meaning = "lever arm of the tangential force: `contact_point` (r - overlap/2) or `radius` (as LAMMPS)"};
+
+inline constexpr KeySpec damping{.path = "damping", .kind = KeyKind::Object, .meaning = "body damping"};
+inline constexpr KeySpec damping_translational{.path = "damping.translational", .kind = KeyKind::Number, .min = 0,
+    .max = 10, .meaning = "fraction of 2 sqrt(m kn), on the fluctuating velocity"};
+inline constexpr KeySpec damping_rotational{.path = "damping.rotational", .kind = KeyKind::Number, .min = 0,
+    .max = 10, .meaning = "fraction of 2 r sqrt(I kt), on the spin"};
+
+inline constexpr KeySpec kinematics{.path = "kinematics", .kind = KeyKind::Choice, .required = false,
+    .choices = kKinematicsNames,
+    .meaning = "`affine`: contacts see the affine velocity difference between periodic images; `lammps`: they do "
+               "not (as LAMMPS/LIGGGHTS with `fix deform remap x`)"};
+inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number, .positive = true, .unit = "s",
+    .meaning = "refused above sqrt(m_min/kn), warned about above half of it"};
+
+inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
+    .default_text = "defaults", .meaning = "the stress servo (README: Mixed control)"};
+inline constexpr KeySpec servo_gain{.path = "servo.gain", .kind = KeyKind::Number, .min = 0, .max = 1,
+    .required = false, .fallback = 0.05, .meaning = "fraction of the stress error one affine step removes"};
+inline constexpr KeySpec servo_integral_gain{.path = "servo.integral_gain", .kind = KeyKind::Number, .min = 0,
+    .max = 1, .required = false, .fallback = 0.002,
+    .meaning = "per step, fraction of the accumulated error added back (not both gains 0)"};
+inline constexpr KeySpec servo_max_strain_increment{.path = "servo.max_strain_increment", .kind = KeyKind::Number,
+    .min = 1e-12, .max = 1e-2, .required = false, .fallback = 1e-6,
+    .meaning = "cap of a stress-driven axis's strain per step"};
+
+inline constexpr KeySpec neighbor_skin{.path = "neighbor_skin", .kind = KeyKind::Number, .min = 1e-4, .max = 1,
+    .required = false, .fallback = 0.01,
+    .meaning = "neighbour-list skin as a fraction of the largest diameter; changes speed only, never results"};
+inline constexpr KeySpec checkpoint_interval{.path = "checkpoint_interval", .kind = KeyKind::Integer, .min = 1,
+    .max = kMaxCount, .required = false, .fallback = 100000, .meaning = "steps between checkpoints"};
+
+inline constexpr KeySpec prepare{.path = "prepare", .kind = KeyKind::Object, .required = false,
+    .default_text = "none",
+    .meaning = "make a sample: fast strain-controlled compression, then the servo to equilibrium (exactly one of "
+               "`prepare` and `initial_state`)"};
+inline constexpr KeySpec prepare_friction{.path = "prepare.friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
+    .required = false, .fallback = 0.0, .meaning = "interparticle friction coefficient while preparing"};
+inline constexpr KeySpec prepare_target_pressure{.path = "prepare.target_pressure", .kind = KeyKind::Number,
+    .positive = true, .unit = "Pa", .meaning = "isotropic stress of the prepared sample"};
+inline constexpr KeySpec prepare_fast_solid_fraction{.path = "prepare.fast_solid_fraction", .kind = KeyKind::Number,
+    .min = 0.01, .max = 0.6, .required = false, .fallback = 0.45,
+    .meaning = "strain-controlled compression up to this solid fraction"};
+inline constexpr KeySpec prepare_fast_strain_increment{.path = "prepare.fast_strain_increment",
+    .kind = KeyKind::Number, .min = 1e-9, .max = 1e-2, .required = false, .fallback = 2e-5,
+    .meaning = "strain per step and axis in the fast phase"};
+inline constexpr KeySpec prepare_output_interval{.path = "prepare.output_interval", .kind = KeyKind::Integer,
+    .min = 1, .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
+inline constexpr KeySpec prepare_equilibrium{.path = "prepare.equilibrium", .kind = KeyKind::Object,
+    .required = false, .default_text = "defaults",
+    .meaning = "when the servo stage ends (README: Preparation)"};
+inline constexpr KeySpec equilibrium_pressure_tolerance{.path = "prepare.equilibrium.pressure_tolerance",
+    .kind = KeyKind::Number, .min = 1e-9, .max = 1, .required = false, .fallback = 0.005,
+    .meaning = "|p - target| / target"};
+inline constexpr KeySpec equilibrium_stress_tolerance{.path = "prepare.equilibrium.stress_tolerance",
+    .kind = KeyKind::Number, .min = 1e-9, .max = 1, .required = false, .fallback = 0.005,
+    .meaning = "every axis: |s_kk - target| / target"};
+inline constexpr KeySpec equilibrium_unbalanced_force_ratio{.path = "prepare.equilibrium.unbalanced_force_ratio",
+    .kind = KeyKind::Number, .min = 1e-12, .max = 1, .required = false, .fallback = 1e-3,
+    .meaning = "mean |net contact force| / mean contact normal force"};
+inline constexpr KeySpec equilibrium_min_steps{.path = "prepare.equilibrium.min_steps", .kind = KeyKind::Integer,
+    .min = 0, .max = kMaxCount, .required = false, .fallback = 20000, .meaning = "servo steps at least"};
+inline constexpr KeySpec equilibrium_check_interval{.path = "prepare.equilibrium.check_interval",
+    .kind = KeyKind::Integer, .min = 1, .max = kMaxCount, .required = false, .fallback = 1000,
+    .meaning = "servo steps between checks"};
+inline constexpr KeySpec equilibrium_max_steps{.path = "prepare.equilibrium.max_steps", .kind = KeyKind::Integer,
+    .min = 1, .max = kMaxCount, .required = false, .fallback = 2000000,
+    .meaning = "servo steps before the run stops with an error"};
+
+inline constexpr KeySpec initial_state{.path = "initial_state", .kind = KeyKind::String, .required = false,
+    .default_text = "none", .meaning = "instead of `prepare`: a state file (path relative to the deck) to test"};
+
+inline constexpr KeySpec tests{.path = "tests", .kind = KeyKind::Array, .required = false, .default_text = "[]",
+    .meaning = "loading tests, each from the prepared state (at least one without `prepare`)"};
+inline constexpr KeySpec test_name{.path = "tests[].name", .kind = KeyKind::String,
+    .meaning = "letters, digits, `_` or `-`; unique; not `prepare`"};
+inline constexpr KeySpec test_friction{.path = "tests[].friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
+    .meaning = "interparticle friction coefficient"};
+inline constexpr KeySpec test_axes{.path = "tests[].axes", .kind = KeyKind::Object,
+    .meaning = "`x1`, `x2`, `x3`: each exactly one of the three controls below"};
+inline constexpr KeySpec axis_strain_increment{.path = "tests[].axes.xK.strain_increment", .kind = KeyKind::Number,
+    .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
+    .meaning = "engineering strain per step relative to the test start, compression +"};
+inline constexpr KeySpec axis_strain_rate{.path = "tests[].axes.xK.strain_rate", .kind = KeyKind::Number,
+    .min = -1e6, .max = 1e6, .required = false, .default_text = "-", .unit = "1/s",
+    .meaning = "engineering strain rate, compression +"};
+inline constexpr KeySpec axis_stress{.path = "tests[].axes.xK.stress", .kind = KeyKind::Number, .positive = true,
+    .required = false, .default_text = "-", .unit = "Pa", .meaning = "servo-controlled stress, compression +"};
+inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object, .meaning = "when the test ends"};
+inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
+    .choices = kAxisNames, .meaning = "strain-driven axis whose strain ends the test"};
+inline constexpr KeySpec test_end_strain{.path = "tests[].end.strain", .kind = KeyKind::Number, .min = -0.9,
+    .max = 0.9, .meaning = "engineering strain of that axis at the end, non-zero, in the axis's direction"};
+inline constexpr KeySpec test_end_max_steps{.path = "tests[].end.max_steps", .kind = KeyKind::Integer, .min = 0,
+    .max = kMaxCount, .required = false, .fallback = 0, .meaning = "safety stop (0: none)"};
+inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval", .kind = KeyKind::Integer, .min = 1,
+    .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
+// clang-format on
+
+// Every key in table order (the order of the README's table).
+inline constexpr auto kAll = std::to_array<const KeySpec*>({
+    &format, &description, &sample, &sample_count, &sample_diameters, &sample_diameters_list,
+    &sample_diameters_min, &sample_diameters_max, &sample_diameters_count, &sample_density, &sample_seed,
+    &sample_grid_spacing, &contact, &contact_kn, &contact_kt, &contact_tangential_rotation, &contact_moment_arm,
+    &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &servo, &servo_gain,
+    &servo_integral_gain, &servo_max_strain_increment, &neighbor_skin, &checkpoint_interval, &prepare,
+    &prepare_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
+    &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
+    &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
+    &equilibrium_max_steps, &initial_state, &tests, &test_name, &test_friction, &test_axes,
+    &axis_strain_increment, &axis_strain_rate, &axis_stress, &test_end, &test_end_axis, &test_end_strain,
+    &test_end_max_steps, &test_output_interval});
+}  // namespace keys
+
+}  // namespace celldem

@@ -1,0 +1,50 @@
+// What a deck implies before anything runs, computed in one place for the runner, the translator, the bench
+// and `celldem plan` (which the Python tools ask instead of re-deriving): the steps and strain per step of a
+// test, the rows it writes, the properties and damping coefficients of each particle, the stability limit
+// of the time step and the neighbour skin.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "core/deck.hpp"
+
+namespace celldem {
+
+// Stage names the run directory uses itself; tests may not take them.
+bool is_reserved_stage_name(const std::string& name);
+
+struct TestPlan {
+  std::int64_t steps = 0;        // steps to reach the end strain of the driving axis, capped by end.max_steps
+  double strain_per_step = 0.0;  // engineering strain of the driving axis per step (compression +)
+  double strain_rate = 0.0;      // the same per second [1/s]
+  std::int64_t rows = 0;         // series rows: the first, one per output interval, and the last
+};
+TestPlan plan_test(const Deck& deck, const TestDef& test);
+
+// The fastest strain rate [1/s] of the test's strain-driven axes (the rate of the inertial number).
+double loading_rate(const Deck& deck, const TestDef& test);
+
+// Mass, rotational inertia and body-damping coefficients of a solid sphere. Damping is a fraction of
+// critical: c_t = translational 2 sqrt(m kn) on the fluctuating velocity, c_r = rotational 2 r sqrt(I kt) on
+// the spin.
+struct BodyProperties {
+  double volume = 0.0;             // [m^3]
+  double mass = 0.0;               // [kg]
+  double inertia = 0.0;            // [kg m^2]
+  double translational_drag = 0.0; // c_t [kg/s]
+  double rotational_drag = 0.0;    // c_r [kg m^2/s]
+};
+BodyProperties body_properties(double radius, double density, const DampingDef& damping, const ContactDef& contact);
+
+// The stable time step for the lightest particle, sqrt(m_min / kn) (no safety factor).
+double critical_time_step(const SampleDef& sample, double kn);
+// Above this fraction of critical_time_step the run is warned: the measured stability map (results/study)
+// shows results drifting from about 0.55 of it and the packing boiling from 0.65 (kt ~ kn).
+inline constexpr double kStableTimeStepFraction = 0.5;
+
+// The neighbour-list skin in metres: neighbor_skin times the largest diameter.
+double skin_length(const Deck& deck);
+
+double mean_diameter(const SampleDef& sample);  // sizes are drawn with equal probability
+
+}  // namespace celldem

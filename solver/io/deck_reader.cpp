@@ -1,0 +1,489 @@
+#include "io/deck_reader.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "core/plan.hpp"
+
+namespace celldem {
+namespace {
+
+using Json = nlohmann::json;
+
+std::string fmt(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) { throw DeckError(path + ": " + what); }
+
+// Reads one JSON object, remembering which keys were asked for so unknown keys are errors. Each read names
+// its key's entry in the key table, which gives the range and the default. Messages carry the JSON path.
+class ObjectReader {
+ public:
+  ObjectReader(const Json& j, std::string path) : j_(j), path_(std::move(path)) {
+    if (!j_.is_object()) fail(path_, "expected an object");
+  }
+
+  bool has(std::string_view key) {
+    known_.insert(std::string(key));
+    return j_.contains(std::string(key));
+  }
+  bool has(const KeySpec& spec) { return has(spec.name()); }
+
+  double number(const KeySpec& spec) {
+    const Json* v = find(spec);
+    if (!v) return spec.fallback;
+    if (!v->is_number()) fail(at(spec), "expected a number, got " + std::string(v->type_name()));
+    const double x = v->get<double>();
+    if (!std::isfinite(x)) fail(at(spec), "must be finite");
+    check_range(spec, x);
+    return x;
+  }
+
+  std::int64_t integer(const KeySpec& spec) {
+    const Json* v = find(spec);
+    if (!v) return static_cast<std::int64_t>(spec.fallback);
+    if (!v->is_number_integer()) fail(at(spec), "expected an integer, got " + std::string(v->type_name()));
+    // Large unsigned values do not fit int64: reject them before get<int64_t> wraps them.
+    if (v->is_number_unsigned() && v->get<std::uint64_t>() > static_cast<std::uint64_t>(spec.max))
+      fail(at(spec), "must be in [" + fmt(spec.min) + ", " + fmt(spec.max) + "]");
+    const std::int64_t x = v->get<std::int64_t>();
+    check_range(spec, static_cast<double>(x));
+    return x;
+  }
+
+  std::string string(const KeySpec& spec) {
+    const Json* v = find(spec);
+    if (!v) return "";
+    if (!v->is_string()) fail(at(spec), "expected a string, got " + std::string(v->type_name()));
+    return v->get<std::string>();
+  }
+
+  // The index of the value among spec.choices (the first choice when the key is optional and absent).
+  std::size_t choice(const KeySpec& spec) {
+    const Json* v = find(spec);
+    if (!v) return 0;
+    if (!v->is_string()) fail(at(spec), "expected a string, got " + std::string(v->type_name()));
+    const std::string value = v->get<std::string>();
+    for (std::size_t k = 0; k < spec.choices.size(); ++k)
+      if (spec.choices[k] == value) return k;
+    std::string list;
+    for (const std::string_view c : spec.choices) {
+      list += list.empty() ? "\"" : ", \"";
+      list += c;
+      list += '"';
+    }
+    fail(at(spec), "unknown value \"" + value + "\"; expected one of " + list);
+  }
+  template <class Enum>
+  Enum choice_of(const KeySpec& spec) {
+    return static_cast<Enum>(choice(spec));
+  }
+
+  ObjectReader object(const KeySpec& spec) { return object(spec.name()); }
+  ObjectReader object(std::string_view key) {
+    known_.insert(std::string(key));
+    const auto it = j_.find(std::string(key));
+    if (it == j_.end()) fail(at(key), "missing required key");
+    return ObjectReader(*it, at(key));
+  }
+
+  const Json& raw(const KeySpec& spec) {
+    known_.insert(std::string(spec.name()));
+    const auto it = j_.find(std::string(spec.name()));
+    if (it == j_.end()) fail(at(spec), "missing required key");
+    return *it;
+  }
+
+  std::string at(std::string_view key) const {
+    return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
+  }
+  std::string at(const KeySpec& spec) const { return at(spec.name()); }
+  const std::string& path() const { return path_; }
+
+  // Call after reading every key: anything not asked for is a typo or an unsupported option.
+  void finish() const {
+    for (const auto& [key, _] : j_.items())
+      if (!known_.count(key)) fail(at(key), "unknown key");
+  }
+
+ private:
+  const Json* find(const KeySpec& spec) {
+    known_.insert(std::string(spec.name()));
+    const auto it = j_.find(std::string(spec.name()));
+    if (it == j_.end() || (it->is_null() && !spec.required)) {
+      if (!spec.required) return nullptr;
+      fail(at(spec), "missing required key");
+    }
+    return &*it;
+  }
+
+  void check_range(const KeySpec& spec, double x) const {
+    if (spec.positive && !(x > 0.0)) fail(at(spec), "must be > 0, got " + fmt(x));
+    if (x < spec.min || x > spec.max)
+      fail(at(spec), "must be in [" + fmt(spec.min) + ", " + fmt(spec.max) + "], got " + fmt(x));
+  }
+
+  const Json& j_;
+  std::string path_;
+  std::set<std::string> known_;
+};
+
+std::vector<double> read_diameters(ObjectReader d) {
+  std::vector<double> out;
+  if (d.has(keys::sample_diameters_list)) {
+    const Json& list = d.raw(keys::sample_diameters_list);
+    const std::string path = d.at(keys::sample_diameters_list);
+    if (!list.is_array() || list.empty()) fail(path, "expected a non-empty array");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string p = path + "[" + std::to_string(i) + "]";
+      if (!list[i].is_number()) fail(p, "expected a number");
+      const double x = list[i].get<double>();
+      if (!(x > 0.0) || !std::isfinite(x)) fail(p, "must be a finite number > 0");
+      out.push_back(x);
+    }
+    if (d.has(keys::sample_diameters_min) || d.has(keys::sample_diameters_max) || d.has(keys::sample_diameters_count))
+      fail(d.path(), "give either \"list\" or \"min\"/\"max\"/\"count\", not both");
+  } else {
+    for (const KeySpec* k : {&keys::sample_diameters_min, &keys::sample_diameters_max, &keys::sample_diameters_count})
+      if (!d.has(*k)) fail(d.at(*k), "missing required key (or give \"list\")");
+    const double lo = d.number(keys::sample_diameters_min);
+    const double hi = d.number(keys::sample_diameters_max);
+    const int n = static_cast<int>(d.integer(keys::sample_diameters_count));
+    if (hi < lo) fail(d.at(keys::sample_diameters_max), "must be >= min");
+    if (n == 1 && hi != lo) fail(d.at(keys::sample_diameters_count), "must be > 1 when max > min");
+    for (int i = 0; i < n; ++i) out.push_back(n == 1 ? lo : lo + (hi - lo) * i / (n - 1));
+  }
+  d.finish();
+  return out;
+}
+
+SampleDef read_sample(ObjectReader r) {
+  SampleDef s;
+  s.count = static_cast<int>(r.integer(keys::sample_count));
+  s.density = r.number(keys::sample_density);
+  s.seed = static_cast<std::uint64_t>(r.integer(keys::sample_seed));
+  s.diameters = read_diameters(r.object(keys::sample_diameters));
+  const double dmax = *std::max_element(s.diameters.begin(), s.diameters.end());
+  s.grid_spacing = r.has(keys::sample_grid_spacing) ? r.number(keys::sample_grid_spacing) : 1.1 * dmax;
+  if (s.grid_spacing <= dmax)
+    fail(r.at(keys::sample_grid_spacing),
+         "must exceed the largest diameter (" + fmt(dmax) + ") so that the initial spheres do not overlap");
+  r.finish();
+  return s;
+}
+
+ContactDef read_contact(ObjectReader r) {
+  ContactDef c;
+  c.kn = r.number(keys::contact_kn);
+  c.kt = r.number(keys::contact_kt);
+  c.rotation = r.choice_of<TangentialRotation>(keys::contact_tangential_rotation);
+  c.moment_arm = r.choice_of<MomentArm>(keys::contact_moment_arm);
+  r.finish();
+  return c;
+}
+
+DampingDef read_damping(ObjectReader r) {
+  DampingDef d;
+  d.translational = r.number(keys::damping_translational);
+  d.rotational = r.number(keys::damping_rotational);
+  r.finish();
+  return d;
+}
+
+ServoDef read_servo(ObjectReader r) {
+  ServoDef s;
+  s.gain = r.number(keys::servo_gain);
+  s.integral_gain = r.number(keys::servo_integral_gain);
+  s.max_strain_increment = r.number(keys::servo_max_strain_increment);
+  if (s.gain == 0.0 && s.integral_gain == 0.0) fail(r.path(), "gain and integral_gain cannot both be zero");
+  r.finish();
+  return s;
+}
+
+AxisControl read_axis(ObjectReader r) {
+  AxisControl a;
+  int given = 0;
+  const std::pair<const KeySpec*, AxisMode> controls[] = {{&keys::axis_strain_increment, AxisMode::StrainIncrement},
+                                                          {&keys::axis_strain_rate, AxisMode::StrainRate},
+                                                          {&keys::axis_stress, AxisMode::Stress}};
+  for (const auto& [spec, mode] : controls)
+    if (r.has(*spec)) {
+      a = {mode, r.number(*spec)};
+      ++given;
+    }
+  if (given != 1) fail(r.path(), "give exactly one of \"strain_increment\", \"strain_rate\", \"stress\"");
+  r.finish();
+  return a;
+}
+
+TestDef read_test(ObjectReader r) {
+  TestDef t;
+  t.name = r.string(keys::test_name);
+  if (t.name.empty() || t.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
+                            std::string::npos)
+    fail(r.at(keys::test_name), "must be a non-empty name of letters, digits, '_' or '-'");
+  if (is_reserved_stage_name(t.name))
+    fail(r.at(keys::test_name), "\"" + t.name + "\" is reserved (the preparation stage); choose another name");
+  t.friction = r.number(keys::test_friction);
+  {
+    ObjectReader axes = r.object(keys::test_axes);
+    for (int i = 0; i < 3; ++i) t.axes[i] = read_axis(axes.object(kAxisNames[i]));
+    axes.finish();
+  }
+  {
+    ObjectReader end = r.object(keys::test_end);
+    t.end_axis = static_cast<int>(end.choice(keys::test_end_axis));
+    t.end_strain = end.number(keys::test_end_strain);
+    if (t.end_strain == 0.0) fail(end.at(keys::test_end_strain), "must be non-zero");
+    t.max_steps = end.integer(keys::test_end_max_steps);
+    end.finish();
+  }
+  const AxisControl& driver = t.axes[t.end_axis];
+  if (driver.mode == AxisMode::Stress)
+    fail(r.at("end.axis"), "the axis that ends the test must be strain-controlled");
+  if (driver.value == 0.0 || (driver.value > 0) != (t.end_strain > 0))
+    fail(r.at("end.strain"), "the end axis is not strained towards this value");
+  t.output_interval = r.integer(keys::test_output_interval);
+  r.finish();
+  return t;
+}
+
+EquilibriumDef read_equilibrium(ObjectReader e) {
+  EquilibriumDef q;
+  q.pressure_tolerance = e.number(keys::equilibrium_pressure_tolerance);
+  q.stress_tolerance = e.number(keys::equilibrium_stress_tolerance);
+  q.unbalanced_force_ratio = e.number(keys::equilibrium_unbalanced_force_ratio);
+  q.min_steps = e.integer(keys::equilibrium_min_steps);
+  q.check_interval = e.integer(keys::equilibrium_check_interval);
+  q.max_steps = e.integer(keys::equilibrium_max_steps);
+  e.finish();
+  return q;
+}
+
+PrepareDef read_prepare(ObjectReader r) {
+  PrepareDef p;
+  p.friction = r.number(keys::prepare_friction);
+  p.target_pressure = r.number(keys::prepare_target_pressure);
+  p.fast_solid_fraction = r.number(keys::prepare_fast_solid_fraction);
+  p.fast_strain_increment = r.number(keys::prepare_fast_strain_increment);
+  p.output_interval = r.integer(keys::prepare_output_interval);
+  if (r.has(keys::prepare_equilibrium)) p.equilibrium = read_equilibrium(r.object(keys::prepare_equilibrium));
+  r.finish();
+  return p;
+}
+
+// Parses JSON, refusing what the JSON library would silently accept: a key given twice in one object (the
+// library keeps the last) and absurd nesting.
+Json parse_json(const std::string& json_text) {
+  int depth = 0, max_depth = 0;  // bounded before the parser's own recursion matters
+  bool in_string = false, escaped = false;
+  for (char c : json_text) {
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+      continue;
+    }
+    if (c == '"') in_string = true;
+    else if (c == '{' || c == '[') max_depth = std::max(max_depth, ++depth);
+    else if (c == '}' || c == ']') --depth;
+  }
+  if (max_depth > 64) throw DeckError("deck: nesting deeper than 64 levels");
+
+  struct Frame {
+    bool array = false;
+    std::string path;
+    std::set<std::string> keys;
+    std::string key;
+    std::size_t index = 0;
+  };
+  std::vector<Frame> frames;
+  auto child_path = [&frames]() -> std::string {
+    if (frames.empty()) return "";
+    const Frame& f = frames.back();
+    std::string path = f.path;
+    if (f.array) {
+      path += '[';
+      path += std::to_string(f.index);
+      path += ']';
+    } else {
+      if (!path.empty()) path += '.';
+      path += f.key;
+    }
+    return path;
+  };
+  auto open = [&](bool array) {
+    Frame f;
+    f.array = array;
+    f.path = child_path();
+    frames.push_back(std::move(f));
+  };
+  auto element_done = [&frames] {
+    if (!frames.empty() && frames.back().array) ++frames.back().index;
+  };
+  const Json::parser_callback_t track = [&](int, Json::parse_event_t event, Json& parsed) {
+    using E = Json::parse_event_t;
+    switch (event) {
+      case E::object_start: open(false); break;
+      case E::array_start: open(true); break;
+      case E::key: {
+        Frame& f = frames.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second) fail(child_path(), "duplicate key (given more than once in one object)");
+        break;
+      }
+      case E::object_end:
+      case E::array_end:
+        frames.pop_back();
+        element_done();
+        break;
+      case E::value: element_done(); break;
+    }
+    return true;
+  };
+  try {
+    return Json::parse(json_text, track, true, /*ignore_comments=*/true);
+  } catch (const Json::exception& e) {  // parse errors, and numbers too large for a double
+    throw DeckError(std::string("deck is not valid JSON: ") + e.what());
+  }
+}
+
+}  // namespace
+
+Deck parse_deck(const std::string& json_text, const std::string& source) {
+  const Json j = parse_json(json_text);
+  Deck d;
+  d.source = source;
+  d.canonical = j.dump(-1, ' ', false, Json::error_handler_t::replace);  // invalid UTF-8 must not throw
+  ObjectReader r(j, "");
+  d.format = static_cast<int>(r.integer(keys::format));
+  if (d.format != kDeckFormatVersion)
+    fail("format", "this celldem reads deck format " + std::to_string(kDeckFormatVersion) + ", the deck says " +
+                       std::to_string(d.format));
+  (void)r.string(keys::description);
+  d.sample = read_sample(r.object(keys::sample));
+  d.contact = read_contact(r.object(keys::contact));
+  d.damping = read_damping(r.object(keys::damping));
+  d.kinematics = r.choice_of<Kinematics>(keys::kinematics);
+  d.time_step = r.number(keys::time_step);
+  const double dt_crit = critical_time_step(d.sample, d.contact.kn);
+  if (d.time_step > dt_crit)
+    fail("time_step", "exceeds the stability limit sqrt(m_min/kn) = " + fmt(dt_crit) + " s of the lightest particle");
+  if (r.has(keys::servo)) d.servo = read_servo(r.object(keys::servo));
+  d.neighbor_skin = r.number(keys::neighbor_skin);
+  d.checkpoint_interval = r.integer(keys::checkpoint_interval);
+
+  const bool has_prepare = r.has(keys::prepare);
+  const bool has_state = r.has(keys::initial_state);
+  if (has_prepare == has_state)
+    fail(has_prepare ? "initial_state" : "prepare",
+         "give exactly one of \"prepare\" (make a sample) and \"initial_state\" (reuse one)");
+  if (has_prepare) d.prepare = read_prepare(r.object(keys::prepare));
+  if (has_state) d.initial_state = r.string(keys::initial_state);
+
+  if (r.has(keys::tests)) {
+    const Json& tests = r.raw(keys::tests);
+    if (!tests.is_array()) fail("tests", "expected an array");
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < tests.size(); ++i) {
+      const std::string path = "tests[" + std::to_string(i) + "]";
+      d.tests.push_back(read_test(ObjectReader(tests[i], path)));
+      if (!names.insert(d.tests.back().name).second)
+        fail(path + ".name", "duplicate test name \"" + d.tests.back().name + "\"");
+    }
+  }
+  if (!has_prepare && d.tests.empty()) fail("tests", "a deck without \"prepare\" needs at least one test");
+  r.finish();
+  return d;
+}
+
+Deck read_deck(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DeckError(path + ": cannot open the deck");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_deck(text.str(), path);
+}
+
+namespace {
+
+std::string kind_name(KeyKind kind) {
+  switch (kind) {
+    case KeyKind::Object: return "object";
+    case KeyKind::Number: return "number";
+    case KeyKind::Integer: return "integer";
+    case KeyKind::String: return "string";
+    case KeyKind::Choice: return "choice";
+    case KeyKind::Array: return "array";
+  }
+  return "";
+}
+
+std::string default_of(const KeySpec& k) {
+  if (!k.default_text.empty()) return std::string(k.default_text);
+  if (k.required) return "required";
+  if (k.kind == KeyKind::Choice) {
+    std::string s = "`";
+    s += k.choices.front();
+    s += '`';
+    return s;
+  }
+  return fmt(k.fallback);
+}
+
+std::string allowed_of(const KeySpec& k) {
+  if (k.kind == KeyKind::Choice) {
+    std::string s;
+    for (const std::string_view c : k.choices) {
+      s += s.empty() ? "`" : ", `";
+      s += c;
+      s += '`';
+    }
+    return s;
+  }
+  if (k.kind != KeyKind::Number && k.kind != KeyKind::Integer) return "";
+  const std::string lo = k.positive ? "(0" : (std::isinf(k.min) ? "(-inf" : "[" + fmt(k.min));
+  const std::string hi = std::isinf(k.max) ? "inf)" : fmt(k.max) + "]";
+  return lo + ", " + hi;
+}
+
+}  // namespace
+
+std::string deck_schema_markdown() {
+  std::string out = "| key | type | unit | default | allowed | meaning |\n|---|---|---|---|---|---|\n";
+  for (const KeySpec* k : keys::kAll)
+    out += "| `" + std::string(k->path) + "` | " + kind_name(k->kind) + " | " + std::string(k->unit) + " | " +
+           default_of(*k) + " | " + allowed_of(*k) + " | " + std::string(k->meaning) + " |\n";
+  return out;
+}
+
+std::string deck_schema_json() {
+  Json out = Json::array();
+  for (const KeySpec* k : keys::kAll) {
+    Json e = {{"key", k->path}, {"type", kind_name(k->kind)}, {"required", k->required},
+              {"unit", k->unit}, {"meaning", k->meaning}};
+    if (k->kind == KeyKind::Number || k->kind == KeyKind::Integer) {
+      e["min"] = std::isinf(k->min) ? Json(nullptr) : Json(k->min);
+      e["max"] = std::isinf(k->max) ? Json(nullptr) : Json(k->max);
+      e["exclusive_min"] = k->positive;
+      if (!k->required && k->default_text.empty()) e["default"] = k->fallback;
+    }
+    if (k->kind == KeyKind::Choice) {
+      e["choices"] = Json::array();
+      for (const std::string_view c : k->choices) e["choices"].push_back(c);
+      if (!k->required) e["default"] = k->choices.front();
+    }
+    if (!k->default_text.empty()) e["default_text"] = k->default_text;
+    out.push_back(e);
+  }
+  return out.dump(1) + "\n";
+}
+
+}  // namespace celldem

@@ -1,0 +1,34 @@
+#include "measure/quasi_static.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "measure/micro.hpp"
+
+namespace celldem {
+
+std::string EquilibriumCheck::describe() const {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "p %.1f kPa  |dp| %.2g  max|ds| %.2g  unbalanced %.2g", p / 1e3, pressure_error,
+                max_stress_error, unbalanced);
+  return buf;
+}
+
+EquilibriumCheck check_equilibrium(const Model& model, const State& state, const EquilibriumDef& criterion,
+                                   double target) {
+  EquilibriumCheck c;
+  c.p = state.normal_stress.sum() / 3.0;
+  c.pressure_error = std::abs(c.p - target) / target;
+  for (int k = 0; k < 3; ++k)
+    c.max_stress_error = std::max(c.max_stress_error, std::abs(state.normal_stress[k] - target) / target);
+  c.unbalanced = state.touching ? unbalanced_force_ratio(model, state) : 1.0;
+  c.reached = state.touching > 0 && c.pressure_error <= criterion.pressure_tolerance &&
+              c.max_stress_error <= criterion.stress_tolerance && c.unbalanced <= criterion.unbalanced_force_ratio;
+  return c;
+}
+
+double inertial_number(double strain_rate, double diameter, double density, double mean_stress) {
+  return mean_stress > 0.0 ? strain_rate * diameter * std::sqrt(density / mean_stress) : INFINITY;
+}
+
+}  // namespace celldem

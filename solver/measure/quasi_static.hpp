@@ -1,0 +1,30 @@
+// Is the packing at rest, is the loading slow: the preparation's equilibrium criterion and the inertial
+// number of a test.
+#pragma once
+#include <string>
+
+#include "core/deck.hpp"
+#include "core/model.hpp"
+#include "core/state.hpp"
+
+namespace celldem {
+
+// The preparation's end: |p - target|/target, every |s_kk - target|/target and the unbalanced force ratio
+// within the deck's tolerances (with at least one contact).
+struct EquilibriumCheck {
+  bool reached = false;
+  double p = 0.0;                 // [Pa]
+  double pressure_error = 0.0;    // |p - target| / target
+  double max_stress_error = 0.0;  // max_k |s_kk - target| / target
+  double unbalanced = 0.0;        // unbalanced force ratio (1 when nothing touches)
+  std::string describe() const;   // "p 100.0 kPa  |dp| 0.001  max|ds| 0.002  unbalanced 0.009"
+};
+EquilibriumCheck check_equilibrium(const Model& model, const State& state, const EquilibriumDef& criterion,
+                                   double target_pressure);
+
+// Inertial number I = rate d sqrt(rho / p): the time a grain needs to rearrange under p over the loading
+// time (quasi-static below about 1e-3). Infinite when p <= 0.
+double inertial_number(double strain_rate, double diameter, double density, double mean_stress);
+inline constexpr double kQuasiStaticInertia = 1e-3;
+
+}  // namespace celldem

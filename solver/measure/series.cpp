@@ -1,0 +1,192 @@
+#include "measure/series.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cell/control.hpp"
+#include "contact/contact_forces.hpp"
+#include "measure/micro.hpp"
+
+namespace celldem {
+namespace {
+
+using R = SeriesRow;
+constexpr ColumnFormat kCount = ColumnFormat::Count;
+constexpr ColumnFormat kReal = ColumnFormat::Real;
+
+// clang-format off
+const std::array kColumns = std::to_array<SeriesColumn>({
+    {"step", &R::step, kCount, "-", "steps since the stage started", false},
+    {"time", &R::time, kReal, "s", "time since the stage started", false},
+    {"e1", &R::e1, kReal, "-", "engineering strain of axis 1, 1 - h11/h11(start), compression +", false},
+    {"e2", &R::e2, kReal, "-", "engineering strain of axis 2", false},
+    {"e3", &R::e3, kReal, "-", "engineering strain of axis 3", false},
+    {"ev", &R::ev, kReal, "-", "volumetric strain 1 - V/V(start), compression +", false},
+    {"s11", &R::s11, kReal, "Pa", "contact stress (1/V) sum f (x) l, compression +", true},
+    {"s22", &R::s22, kReal, "Pa", "contact stress, axis 2", true},
+    {"s33", &R::s33, kReal, "Pa", "contact stress, axis 3", true},
+    {"s12", &R::s12, kReal, "Pa", "contact shear stress (symmetric part)", false},
+    {"s13", &R::s13, kReal, "Pa", "contact shear stress", false},
+    {"s23", &R::s23, kReal, "Pa", "contact shear stress", false},
+    {"p", &R::p, kReal, "Pa", "mean stress trace/3", false},
+    {"q", &R::q, kReal, "Pa", "deviator stress sqrt(3/2 s':s')", false},
+    {"ratio13", &R::ratio13, kReal, "-", "s11/s33 (axis stresses)", false},
+    {"b", &R::b, kReal, "-", "(s22 - s33)/(s11 - s33) (axis stresses)", false},
+    {"sin_phi", &R::sin_phi, kReal, "-", "(s1 - s3)/(s1 + s3) of the principal stresses", false},
+    {"DI", &R::DI, kReal, "-", "dilatancy index -d(ev)/d(e1), trailing window of 0.25 % in e1", false},
+    {"void_ratio", &R::void_ratio, kReal, "-", "V/V(solid) - 1", false},
+    {"Z", &R::Z, kReal, "-", "coordination number 2 contacts / particles", false},
+    {"Zm", &R::Zm, kReal, "-", "mechanical coordination number, rattlers (< 2 contacts) removed", true},
+    {"sliding_fraction", &R::sliding_fraction, kReal, "-", "contacts at the Coulomb limit / contacts", false},
+    {"n_contacts", &R::n_contacts, kCount, "-", "contacts", false},
+    {"n_strong", &R::n_strong, kCount, "-", "contacts with normal force above the mean", false},
+    {"H11", &R::H11, kReal, "-", "fabric tensor (1/Nc) sum n (x) n, all contacts", false},
+    {"H22", &R::H22, kReal, "-", "fabric tensor, all contacts", false},
+    {"H33", &R::H33, kReal, "-", "fabric tensor, all contacts", false},
+    {"H12", &R::H12, kReal, "-", "fabric tensor, all contacts", false},
+    {"H13", &R::H13, kReal, "-", "fabric tensor, all contacts", false},
+    {"H23", &R::H23, kReal, "-", "fabric tensor, all contacts", false},
+    {"Hs11", &R::Hs11, kReal, "-", "fabric tensor of the strong contacts", false},
+    {"Hs22", &R::Hs22, kReal, "-", "fabric tensor of the strong contacts", false},
+    {"Hs33", &R::Hs33, kReal, "-", "fabric tensor of the strong contacts", false},
+    {"Hw11", &R::Hw11, kReal, "-", "fabric tensor of the weak contacts (normal force <= mean)", false},
+    {"Hw22", &R::Hw22, kReal, "-", "fabric tensor of the weak contacts", false},
+    {"Hw33", &R::Hw33, kReal, "-", "fabric tensor of the weak contacts", false},
+    {"H11_H33", &R::H11_H33, kReal, "-", "H11/H33", false},
+    {"Hs11_Hs33", &R::Hs11_Hs33, kReal, "-", "Hs11/Hs33", false},
+    {"Hw11_Hw33", &R::Hw11_Hw33, kReal, "-", "Hw11/Hw33", false},
+    {"kinetic_energy", &R::kinetic_energy, kReal, "J", "fluctuating translation and rotation", false},
+    {"unbalanced_force", &R::unbalanced_force, kReal, "-",
+     "mean |net contact force| over particles / mean contact normal force", false},
+});
+// clang-format on
+
+// The value as the series file prints it.
+void print_value(char* buf, std::size_t size, double x, ColumnFormat format) {
+  if (std::isnan(x)) std::snprintf(buf, size, "%s", "nan");
+  else if (format == ColumnFormat::Count) std::snprintf(buf, size, "%.0f", x);
+  else std::snprintf(buf, size, "%.10g", x);
+}
+
+double printed(double x, ColumnFormat format) {
+  char buf[40];
+  print_value(buf, sizeof buf, x, format);
+  return std::strtod(buf, nullptr);
+}
+
+}  // namespace
+
+std::span<const SeriesColumn> series_columns() { return kColumns; }
+
+const SeriesColumn* find_series_column(std::string_view name) {
+  for (const SeriesColumn& c : kColumns)
+    if (c.name == name) return &c;
+  return nullptr;
+}
+
+double DilatancyWindow::add(double e1, double ev) {
+  points_.emplace_back(e1, ev);
+  // |.|: e1 may also decrease (extension along x1).
+  while (!points_.empty() && std::abs(e1 - points_.front().first) > width_) points_.pop_front();
+  const double span = std::abs(points_.back().first - points_.front().first);
+  if (points_.size() < 2 || span < 0.5 * width_) return std::numeric_limits<double>::quiet_NaN();
+  double mx = 0, my = 0;
+  for (const auto& [x, y] : points_) mx += x, my += y;
+  mx /= points_.size();
+  my /= points_.size();
+  double sxy = 0, sxx = 0;
+  for (const auto& [x, y] : points_) sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
+  return -sxy / sxx;
+}
+
+SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWindow& di) {
+  const Vec3 e = axis_strains(state);
+  const Mat3 s = contact_stress(state);
+  const StressInvariants inv = stress_invariants(s);
+  const Coordination z = coordination(state);
+  const Fabric f = contact_fabric(model, state);
+  auto ratio = [](double a, double b) { return b != 0.0 ? a / b : std::numeric_limits<double>::quiet_NaN(); };
+  SeriesRow r;
+  r.step = static_cast<double>(state.control.stage_steps);
+  r.time = static_cast<double>(state.control.stage_steps) * model.dt;
+  r.e1 = e[0], r.e2 = e[1], r.e3 = e[2];
+  r.ev = 1.0 - state.cell.volume() / state.control.reference_volume;
+  r.s11 = s(0, 0), r.s22 = s(1, 1), r.s33 = s(2, 2), r.s12 = s(0, 1), r.s13 = s(0, 2), r.s23 = s(1, 2);
+  r.p = inv.p, r.q = inv.q, r.ratio13 = ratio(s(0, 0), s(2, 2)), r.b = b_value(s(0, 0), s(1, 1), s(2, 2));
+  r.sin_phi = inv.sin_phi;
+  // The window is fed the printed values, so a run resumed from the file (which refills the window from the
+  // printed rows) computes exactly the same DI.
+  r.DI = di.add(printed(r.e1, ColumnFormat::Real), printed(r.ev, ColumnFormat::Real));
+  r.void_ratio = void_ratio(model, state);
+  r.Z = z.z, r.Zm = z.z_mechanical, r.sliding_fraction = sliding_fraction(state);
+  r.n_contacts = static_cast<double>(f.contacts), r.n_strong = static_cast<double>(f.strong_contacts);
+  r.H11 = f.all(0, 0), r.H22 = f.all(1, 1), r.H33 = f.all(2, 2);
+  r.H12 = f.all(0, 1), r.H13 = f.all(0, 2), r.H23 = f.all(1, 2);
+  r.Hs11 = f.strong(0, 0), r.Hs22 = f.strong(1, 1), r.Hs33 = f.strong(2, 2);
+  r.Hw11 = f.weak(0, 0), r.Hw22 = f.weak(1, 1), r.Hw33 = f.weak(2, 2);
+  r.H11_H33 = ratio(f.all(0, 0), f.all(2, 2));
+  r.Hs11_Hs33 = ratio(f.strong(0, 0), f.strong(2, 2));
+  r.Hw11_Hw33 = ratio(f.weak(0, 0), f.weak(2, 2));
+  r.kinetic_energy = kinetic_energy(model, state);
+  r.unbalanced_force = unbalanced_force_ratio(model, state);
+  return r;
+}
+
+SeriesRow as_printed(const SeriesRow& row) {
+  SeriesRow out;
+  for (const SeriesColumn& c : kColumns) out.*c.field = printed(row.*c.field, c.format);
+  return out;
+}
+
+std::string series_header() {
+  std::string line;
+  for (const SeriesColumn& c : kColumns) {
+    if (!line.empty()) line += ',';
+    line += c.name;
+  }
+  return line + "\n";
+}
+
+std::string format_series_row(const SeriesRow& row) {
+  std::string line;
+  char buf[40];
+  for (const SeriesColumn& c : kColumns) {
+    print_value(buf, sizeof buf, row.*c.field, c.format);
+    if (!line.empty()) line += ',';
+    line += buf;
+  }
+  return line + "\n";
+}
+
+std::optional<SeriesRow> parse_series_row(const std::vector<std::string>& header, const std::string& line) {
+  SeriesRow row;
+  std::stringstream ss(line);
+  std::size_t k = 0;
+  for (std::string field; std::getline(ss, field, ','); ++k) {
+    if (k >= header.size()) return std::nullopt;
+    if (const SeriesColumn* c = find_series_column(header[k])) row.*c->field = std::strtod(field.c_str(), nullptr);
+  }
+  if (k != header.size()) return std::nullopt;
+  return row;
+}
+
+std::string series_columns_markdown() {
+  std::string out = "| column | unit | meaning |\n|---|---|---|\n";
+  for (const SeriesColumn& c : kColumns)
+    out += "| `" + std::string(c.name) + "` | " + std::string(c.unit) + " | " + std::string(c.meaning) + " |\n";
+  return out;
+}
+
+std::string series_columns_json() {
+  nlohmann::json columns = nlohmann::json::array();
+  for (const SeriesColumn& c : kColumns)
+    columns.push_back({{"name", c.name}, {"unit", c.unit}, {"meaning", c.meaning}});
+  return nlohmann::json{{"columns", columns}}.dump(1) + "\n";
+}
+
+}  // namespace celldem

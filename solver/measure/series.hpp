@@ -1,0 +1,80 @@
+// A stage's series: one row of named measurements per output interval, and the table of columns that
+// drives everything about them (CSV header and formats, units and meanings, which values must be finite).
+// Code reads a quantity by its field (row.ratio13), never by its position in the file.
+#pragma once
+#include <deque>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/model.hpp"
+#include "core/state.hpp"
+
+namespace celldem {
+
+struct SeriesRow {
+  double step = 0, time = 0;
+  double e1 = 0, e2 = 0, e3 = 0, ev = 0;
+  double s11 = 0, s22 = 0, s33 = 0, s12 = 0, s13 = 0, s23 = 0;
+  double p = 0, q = 0, ratio13 = 0, b = 0, sin_phi = 0, DI = 0;
+  double void_ratio = 0, Z = 0, Zm = 0, sliding_fraction = 0, n_contacts = 0, n_strong = 0;
+  double H11 = 0, H22 = 0, H33 = 0, H12 = 0, H13 = 0, H23 = 0;
+  double Hs11 = 0, Hs22 = 0, Hs33 = 0, Hw11 = 0, Hw22 = 0, Hw33 = 0;
+  double H11_H33 = 0, Hs11_Hs33 = 0, Hw11_Hw33 = 0;
+  double kinetic_energy = 0, unbalanced_force = 0;
+
+  // Engineering strain of axis k (0-based), compression positive.
+  double strain(int k) const { return k == 0 ? e1 : k == 1 ? e2 : e3; }
+  double normal_stress(int k) const { return k == 0 ? s11 : k == 1 ? s22 : s33; }
+};
+
+enum class ColumnFormat { Count, Real };  // "%.0f", "%.10g"
+
+struct SeriesColumn {
+  std::string_view name;  // in the CSV header (an interface: tools read these names)
+  double SeriesRow::*field;
+  ColumnFormat format;
+  std::string_view unit;  // "-" for dimensionless
+  std::string_view meaning;
+  bool must_be_finite;    // a non-finite value stops the run (trouble shows here first)
+};
+
+// The columns in file order.
+std::span<const SeriesColumn> series_columns();
+const SeriesColumn* find_series_column(std::string_view name);
+
+// Dilatancy index DI = -d(ev)/d(e1): least-squares slope of ev against e1 over the rows whose e1 lies in
+// the trailing window [e1 - width, e1] (a window in strain, not in rows, so the output interval does not
+// change its smoothing). NaN until the window spans at least half its width.
+inline constexpr double kDilatancyWindow = 0.0025;
+class DilatancyWindow {
+ public:
+  explicit DilatancyWindow(double width = kDilatancyWindow) : width_(width) {}
+  double add(double e1, double ev);
+  void clear() { points_.clear(); }
+
+ private:
+  double width_;
+  std::deque<std::pair<double, double>> points_;
+};
+
+// Measures every column for the current state; feeds the row's printed e1 and ev to the DI window.
+SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWindow& di);
+
+// The row as series.csv holds it (every value through its column's format): what a resumed run reads back,
+// so summaries built from these are the same whether or not the run was interrupted.
+SeriesRow as_printed(const SeriesRow& row);
+
+std::string series_header();
+std::string format_series_row(const SeriesRow& row);
+// Parses a line written by format_series_row under `header` (the file's column names); nullopt if the
+// line does not have one field per column. Columns the file lacks stay 0.
+std::optional<SeriesRow> parse_series_row(const std::vector<std::string>& header, const std::string& line);
+
+// The column table as Markdown (README) and as the JSON sidecar written next to each series.csv.
+std::string series_columns_markdown();
+std::string series_columns_json();
+
+}  // namespace celldem

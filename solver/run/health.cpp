@@ -1,0 +1,83 @@
+#include "run/health.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "core/plan.hpp"
+#include "measure/micro.hpp"
+#include "measure/quasi_static.hpp"
+#include "run/runner.hpp"
+
+namespace celldem {
+
+void RunawayMonitor::check(const Model& model, const State& state) {
+  const Particles& p = state.particles;
+  const std::string where = "in stage '" + stage_ + "' at step " + std::to_string(state.control.stage_steps);
+  // An explicit scheme has left its stable range when a particle moves a sizeable part of its radius in a
+  // single step (quasi-static motion is orders of magnitude below this).
+  double worst = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) worst = std::max(worst, p.velocity[i].norm() * model.dt / p.radius[i]);
+  if (check_energy_) {
+    // In a quasi-static test the packing's motion carries far less energy than its springs store (about
+    // 1e-5 of it at the paper's settings). More kinetic than elastic energy means the scheme is unstable
+    // or the loading is dynamic: the packing boils instead of deforming.
+    // Only growth counts: a test may start from a packing that is still settling (kinetic energy decays).
+    const double ke = kinetic_energy(model, state), ee = elastic_energy(model, state);
+    const bool growing = previous_kinetic_energy_ >= 0.0 && ke > 2.0 * previous_kinetic_energy_;
+    previous_kinetic_energy_ = ke;
+    if (growing && !(ke <= kMaxKineticToElastic * ee)) {
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "kinetic energy %.3g J exceeds %.3g x the elastic energy %.3g J", ke,
+                    kMaxKineticToElastic, ee);
+      throw RunError("runaway kinetic energy " + where + ": " + buf +
+                     " - time step too large (try <= 0.3 sqrt(m_min/kn)), damping too low or loading too fast; "
+                     "the last checkpoint holds the last good state");
+    }
+  }
+  if (!(worst <= kMaxStepMotion)) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "a particle moves %.3g of its radius per step (limit %.3g)", worst, kMaxStepMotion);
+    throw RunError("runaway motion " + where + ": " + buf + " - time step too large, damping too low or loading "
+                   "too fast; the last checkpoint holds the last good state");
+  }
+}
+
+void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64_t step) {
+  for (const SeriesColumn& c : series_columns())
+    if (c.must_be_finite && !std::isfinite(row.*c.field))
+      throw RunError("non-finite values in stage '" + stage + "' at step " + std::to_string(step) +
+                     " (unstable time step or loading?); the last checkpoint holds the last good state");
+}
+
+double servo_max_error(const TestDef& test, const std::vector<SeriesRow>& rows) {
+  double error = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    if (test.axes[k].mode != AxisMode::Stress) continue;
+    for (std::size_t r = rows.size() / 50 + 1; r < rows.size(); ++r)
+      error = std::max(error, std::abs(rows[r].normal_stress(k) / test.axes[k].value - 1.0));
+  }
+  return error;
+}
+
+std::vector<std::string> test_warnings(const TestDef& test, double servo_error, double inertia) {
+  std::vector<std::string> out;
+  if (servo_error > kServoTolerance)
+    out.push_back("test '" + test.name + "': the servo missed its target by up to " +
+                  std::to_string(100 * servo_error) + " % (tolerance 0.5 %): lower the strain rate or raise "
+                  "servo.gain / servo.integral_gain");
+  if (inertia > kQuasiStaticInertia)
+    out.push_back("test '" + test.name + "': inertial number " + std::to_string(inertia) +
+                  " exceeds the quasi-static limit 1e-3: results depend on the loading rate");
+  return out;
+}
+
+std::vector<std::string> deck_warnings(const Deck& deck) {
+  std::vector<std::string> out;
+  const double dt_ratio = deck.time_step / critical_time_step(deck.sample, deck.contact.kn);
+  if (dt_ratio > kStableTimeStepFraction)
+    out.push_back("time_step is " + std::to_string(dt_ratio) + " of sqrt(m_min/kn); results drift above "
+                  "about 0.55 of it and the packing boils above 0.65 (measured): use <= 0.5");
+  return out;
+}
+
+}  // namespace celldem

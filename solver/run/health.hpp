@@ -1,0 +1,41 @@
+// Health checks of a running stage: an explicit scheme out of its stable range, a test that is not quasi-
+// static, a servo that misses its targets, a time step too close to the stability limit.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/deck.hpp"
+#include "core/model.hpp"
+#include "core/state.hpp"
+#include "measure/series.hpp"
+
+namespace celldem {
+
+inline constexpr double kMaxStepMotion = 0.05;       // runaway: a particle moving 5 % of its radius in one step
+inline constexpr double kMaxKineticToElastic = 0.5;  // runaway in a test: kinetic energy above half the elastic
+inline constexpr double kServoTolerance = 0.005;     // stress-controlled axes should stay within 0.5 % of target
+
+// Checked at every series row; throws RunError naming the cause and the step.
+class RunawayMonitor {
+ public:
+  // check_energy: loading tests only (a preparation starts as a gas).
+  RunawayMonitor(std::string stage, bool check_energy) : stage_(std::move(stage)), check_energy_(check_energy) {}
+  void check(const Model& model, const State& state);
+
+ private:
+  std::string stage_;
+  bool check_energy_;
+  double previous_kinetic_energy_ = -1.0;  // at the last row; negative: no row yet
+};
+
+// Stops the run when a row holds non-finite values in a column that must be finite.
+void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64_t step);
+
+// The largest relative error of the test's stress-controlled axes over its rows after the first 2 %.
+double servo_max_error(const TestDef& test, const std::vector<SeriesRow>& rows);
+
+// Warnings about a finished test (servo error, inertial number), and about a deck before it runs.
+std::vector<std::string> test_warnings(const TestDef& test, double servo_error, double inertial_number);
+std::vector<std::string> deck_warnings(const Deck& deck);
+
+}  // namespace celldem

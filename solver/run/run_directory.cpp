@@ -1,0 +1,120 @@
+#include "run/run_directory.hpp"
+
+#include <cstdio>
+
+#include "io/files.hpp"
+
+namespace celldem {
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+Json read_json(const fs::path& path) {
+  const std::string text = read_file(path);
+  try {
+    return Json::parse(text);
+  } catch (const Json::exception& e) {
+    throw RunError(path.string() + ": not valid JSON (" + e.what() + ")");
+  }
+}
+
+// What a run writes into its directory: its own files and one folder per stage (a folder holding a
+// series, a checkpoint or a final state), the report's figures and text.
+bool is_run_output(const fs::directory_entry& entry) {
+  const std::string name = entry.path().filename().string();
+  if (entry.is_directory()) {
+    if (name == "figures") return true;
+    for (const char* f : {"series.csv", kCheckpointName, "final.state"})
+      if (fs::exists(entry.path() / f)) return true;
+    return false;
+  }
+  for (const char* f : {kSummaryName, kProgressName, kPreparedName, "report.md"})
+    if (name == f || name == std::string(f) + ".tmp") return true;
+  return false;
+}
+
+}  // namespace
+
+RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
+    : dir_(options.out_dir), resume_(options.resume) {
+  if (options.resume) {
+    if (!fs::exists(dir_ / kProgressName))
+      throw RunError(dir_.string() + " holds no interrupted run to resume (no " + kProgressName + ")");
+    progress_ = read_json(dir_ / kProgressName);
+    if (progress_.value("deck", std::string()) != deck.canonical)
+      throw RunError("--resume: the deck differs from the one this run was started with");
+    summary_ = fs::exists(dir_ / kSummaryName) ? read_json(dir_ / kSummaryName) : Json::object();
+    return;
+  }
+  if (fs::exists(dir_)) {
+    std::vector<fs::path> outputs;
+    for (const fs::directory_entry& entry : fs::directory_iterator(dir_))
+      if (is_run_output(entry)) outputs.push_back(entry.path());
+    if (!outputs.empty()) {
+      if (!options.force)
+        throw RunError(dir_.string() + " already holds results; use --force to overwrite them or --resume to "
+                       "continue an interrupted run");
+      for (const fs::path& p : outputs) fs::remove_all(p);  // only the new run's outputs will be there
+    }
+  }
+  fs::create_directories(dir_);
+  progress_ = {{"deck", deck.canonical}, {"completed", Json::array()}, {"elapsed", Json::object()}};
+  summary_ = Json::object();
+  write_progress();
+}
+
+bool RunDirectory::completed(const std::string& stage) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& s : progress_["completed"])
+    if (s == stage) return true;
+  return false;
+}
+
+bool RunDirectory::resumes(const std::string& stage) const { return resume_ && fs::exists(checkpoint(stage)); }
+
+double RunDirectory::elapsed_of(const std::string& stage) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return progress_["elapsed"].value(stage, 0.0);
+}
+
+void RunDirectory::record_elapsed(const std::string& stage, double seconds) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  progress_["elapsed"][stage] = seconds;
+  write_progress();
+}
+
+void RunDirectory::mark_done(const std::string& stage) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  write_file_atomic(dir_ / kSummaryName, summary_.dump(2));
+  progress_["completed"].push_back(stage);
+  write_progress();
+  fs::remove(checkpoint(stage));
+}
+
+void RunDirectory::add_warning(const std::string& warning) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  std::fprintf(stderr, "celldem: warning: %s\n", warning.c_str());
+  for (const auto& known : summary_["warnings"])
+    if (known == warning) return;
+  summary_["warnings"].push_back(warning);
+}
+
+void RunDirectory::update_summary(const std::function<void(Json&)>& change) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  change(summary_);
+}
+
+Json RunDirectory::summary() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return summary_;
+}
+
+void RunDirectory::write_summary() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  write_file_atomic(dir_ / kSummaryName, summary_.dump(2));
+}
+
+void RunDirectory::write_progress() { write_file_atomic(dir_ / kProgressName, progress_.dump(2)); }
+
+}  // namespace celldem

@@ -1,0 +1,59 @@
+// A run directory and its lifecycle: a fresh run refuses to overwrite results (or, with --force, removes
+// every output of the earlier run first); a resumed run reloads what the interrupted one recorded.
+// progress.json holds the deck, the completed stages and each stage's elapsed time; summary.json the
+// results. Tests may run side by side, so every change to either goes through this class, under its lock.
+#pragma once
+#include <filesystem>
+#include <functional>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "core/deck.hpp"
+#include "run/runner.hpp"
+
+namespace celldem {
+
+inline constexpr const char* kCheckpointName = "checkpoint.state";  // in the stage's folder
+inline constexpr const char* kPreparedName = "prepared.state";
+inline constexpr const char* kProgressName = "progress.json";
+inline constexpr const char* kSummaryName = "summary.json";
+
+class RunDirectory {
+ public:
+  RunDirectory(const Deck& deck, const RunOptions& options);
+
+  const std::filesystem::path& path() const { return dir_; }
+  std::filesystem::path stage_dir(const std::string& stage) const { return dir_ / stage; }
+  std::filesystem::path checkpoint(const std::string& stage) const { return dir_ / stage / kCheckpointName; }
+  std::filesystem::path prepared_state() const { return dir_ / kPreparedName; }
+
+  bool completed(const std::string& stage) const;
+  // A stage of a resumed run that has a checkpoint continues from it.
+  bool resumes(const std::string& stage) const;
+  double elapsed_of(const std::string& stage) const;
+
+  // After a checkpoint of `stage` was written.
+  void record_elapsed(const std::string& stage, double seconds);
+  // Order matters for a kill at any moment: the summary first, then the stage marked complete, then its
+  // checkpoint removed. Killed in between, a resume re-runs the stage's tail from the checkpoint.
+  void mark_done(const std::string& stage);
+
+  // Prints a warning and records it in the summary, once: a resumed run reloads the summary it had written.
+  void add_warning(const std::string& warning);
+  // Changes the summary under the lock.
+  void update_summary(const std::function<void(nlohmann::json&)>& change);
+  nlohmann::json summary() const;
+  void write_summary();
+
+ private:
+  void write_progress();
+
+  std::filesystem::path dir_;
+  mutable std::mutex mutex_;
+  nlohmann::json progress_;
+  nlohmann::json summary_;
+  bool resume_;
+};
+
+}  // namespace celldem

@@ -1,0 +1,106 @@
+#include "run/summary.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/plan.hpp"
+#include "measure/micro.hpp"
+#include "measure/quasi_static.hpp"
+#include "run/health.hpp"
+
+namespace celldem {
+using Json = nlohmann::json;
+
+namespace {
+Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
+}  // namespace
+
+Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows, double wall,
+                    std::int64_t steps, std::size_t particles, std::vector<std::string>& warnings) {
+  std::size_t peak = 0;  // the first row of the largest s11/s33
+  for (std::size_t r = 0; r < rows.size(); ++r)
+    if (rows[r].ratio13 > rows[peak].ratio13) peak = r;
+  const SeriesRow& at_peak = rows[peak];
+  const SeriesRow& last = rows.back();
+
+  // The plateau around the peak: the peak row is one row of a noisy plateau, its range is what is sure.
+  double lo = at_peak.e1, hi = at_peak.e1;
+  for (const SeriesRow& r : rows)
+    if (r.ratio13 >= (1.0 - kPeakPlateau) * at_peak.ratio13) lo = std::min(lo, r.e1), hi = std::max(hi, r.e1);
+
+  double ev_end = 0.0, z_end = 0.0;
+  int in_window = 0;
+  const double end_strain = last.strain(test.end_axis);
+  for (const SeriesRow& r : rows)
+    if (std::abs(r.strain(test.end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
+
+  double mean_p = 0.0;
+  for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
+  const double servo_error = servo_max_error(test, rows);
+  const double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density,
+                                         mean_p);
+  for (const std::string& w : test_warnings(test, servo_error, inertia)) warnings.push_back(w);
+
+  return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
+          {"servo_max_error", servo_error},
+          {"inertial_number", inertia},
+          {"e1_at_peak", number_or_null(at_peak.e1)},
+          {"e1_peak_range", {number_or_null(lo), number_or_null(hi)}},
+          {"e1_at_peak_centre", number_or_null(0.5 * (lo + hi))},
+          {"b_at_peak", number_or_null(at_peak.b)},
+          {"b_final", number_or_null(last.b)},
+          {"final_e1", number_or_null(last.e1)},
+          {"ev_final", number_or_null(last.ev)},
+          {"Z_final", number_or_null(last.Z)},
+          {"end_window", {{"strain", kEndWindowStrain},
+                          {"ev", number_or_null(ev_end / in_window)},
+                          {"Z", number_or_null(z_end / in_window)}}},
+          {"steps", steps},
+          {"wall_s", wall},
+          {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}};
+}
+
+Json summarize_preparation(const Model& model, const State& state, const PrepareDef& prep, double wall) {
+  const Coordination z = coordination(state);
+  const EquilibriumDef& eq = prep.equilibrium;
+  const std::int64_t steps = state.control.stage_steps;
+  return {{"void_ratio", void_ratio(model, state)},
+          {"Z", z.z},
+          {"Zm", z.z_mechanical},
+          {"rattlers", z.rattlers},
+          {"p", state.normal_stress.sum() / 3.0},
+          {"s11", state.normal_stress[0]},
+          {"s22", state.normal_stress[1]},
+          {"s33", state.normal_stress[2]},
+          {"unbalanced_force", unbalanced_force_ratio(model, state)},
+          {"steps", steps},
+          {"wall_s", wall},
+          {"particle_steps_per_s", wall > 0 ? static_cast<double>(state.particles.size()) * steps / wall : 0.0},
+          {"equilibrium_criterion",
+           "every " + std::to_string(eq.check_interval) + " servo steps after at least " +
+               std::to_string(eq.min_steps) + ": |p - target|/target <= " + std::to_string(eq.pressure_tolerance) +
+               ", each |s_kk - target|/target <= " + std::to_string(eq.stress_tolerance) +
+               ", mean |net contact force| / mean normal force <= " + std::to_string(eq.unbalanced_force_ratio)}};
+}
+
+Json run_settings(const Deck& deck, int threads) {
+  return {{"deck", deck.source},
+          {"particles", deck.sample.count},
+          {"diameters_m", deck.sample.diameters},
+          {"density", deck.sample.density},
+          {"seed", deck.sample.seed},
+          {"time_step", deck.time_step},
+          {"kn", deck.contact.kn},
+          {"kt", deck.contact.kt},
+          {"tangential_rotation", name_of(deck.contact.rotation, kTangentialRotationNames)},
+          {"moment_arm", name_of(deck.contact.moment_arm, kMomentArmNames)},
+          {"kinematics", name_of(deck.kinematics, kKinematicsNames)},
+          {"damping_translational", deck.damping.translational},
+          {"damping_rotational", deck.damping.rotational},
+          {"servo_gain", deck.servo.gain},
+          {"servo_integral_gain", deck.servo.integral_gain},
+          {"servo_max_strain_increment", deck.servo.max_strain_increment},
+          {"threads", threads}};
+}
+
+}  // namespace celldem

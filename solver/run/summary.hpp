@@ -1,0 +1,33 @@
+// The scalars of summary.json. C++ owns every one of them: the tools read them and never recompute them.
+#pragma once
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/deck.hpp"
+#include "core/model.hpp"
+#include "core/state.hpp"
+#include "measure/series.hpp"
+
+namespace celldem {
+
+// εv and Z "at the end" of a test: their means over the rows whose end-axis strain lies within this of the
+// last row's (a single row of Z jumps by a few hundredths as contacts open and close).
+inline constexpr double kEndWindowStrain = 0.005;
+// "ε1 at peak" as a range: the rows whose σ11/σ33 stays within this fraction of the peak.
+inline constexpr double kPeakPlateau = 0.01;
+
+// A test's scalars from its rows as series.csv holds them (as_printed), so that a resumed run reports the
+// same bytes. `warnings` receives what the health checks say about the finished test.
+nlohmann::json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
+                              double wall_seconds, std::int64_t steps, std::size_t particles,
+                              std::vector<std::string>& warnings);
+
+// The prepared sample: void ratio, coordination, stresses, cost, and the equilibrium criterion in words.
+nlohmann::json summarize_preparation(const Model& model, const State& state, const PrepareDef& prepare,
+                                     double wall_seconds);
+
+// The settings a run used (the physics and the thread count).
+nlohmann::json run_settings(const Deck& deck, int threads);
+
+}  // namespace celldem
