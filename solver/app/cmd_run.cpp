@@ -3,6 +3,7 @@
 #include "app/commands.hpp"
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
+#include "run/preflight.hpp"
 #include "run/progress.hpp"
 #include "run/runner.hpp"
 
@@ -41,6 +42,7 @@ Command add_check_command(CLI::App& app) {
   return [cmd, path]() -> int {
     if (!cmd->parsed()) return -1;
     const Deck deck = read_deck(*path);
+    for (const std::string& w : preflight(deck)) std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
     std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s)\n", path->c_str(),
                 deck.sample.count, deck.tests.size(), critical_time_step(deck.sample, deck.contact.kn));
     return 0;

@@ -12,6 +12,7 @@
 #include "core/plan.hpp"
 #include "io/state_file.hpp"
 #include "measure/quasi_static.hpp"
+#include "run/preflight.hpp"
 #include "run/run_directory.hpp"
 #include "run/sample.hpp"
 #include "run/stage_output.hpp"
@@ -110,6 +111,7 @@ bool stop_requested() { return g_stop_requested != 0; }
 void run_deck(const Deck& deck, const RunOptions& options) {
   if (options.threads > 0) omp_set_num_threads(options.threads);
   const int threads = omp_get_max_threads();
+  const std::vector<std::string> warnings = preflight(deck);  // before the run directory is touched
   RunDirectory run(deck, options);
 
   std::vector<std::string> stages;
@@ -120,7 +122,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
                 options.out_dir.c_str());
     return;
   }
-  for (const std::string& w : deck_warnings(deck)) run.add_warning(w);
+  for (const std::string& w : warnings) run.add_warning(w);
   run.update_summary([&](Json& s) {
     s["celldem_version"] = CELLDEM_VERSION;
     s["deck"] = deck.source;
@@ -147,8 +149,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
       }
     }
   } else {
-    prepared = fs::path(deck.source).parent_path() / *deck.initial_state;
-    if (!fs::exists(prepared)) throw DeckError("initial_state: no such file " + prepared.string());
+    prepared = initial_state_path(deck);
     run.update_summary([&](Json& s) { s["initial_state"] = prepared.string(); });
   }
 

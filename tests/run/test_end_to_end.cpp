@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "cli.hpp"
 #include "helpers.hpp"
 #include "io/state_file.hpp"
 #include "measure/series.hpp"
@@ -26,40 +27,12 @@ namespace {
 namespace fs = std::filesystem;
 using testing::read_bytes;
 
-const char* kBinary = CELLDEM_BINARY;
-
-// A clean folder for one test under the build tree's e2e folder.
-fs::path test_dir(const std::string& name) {
-  const fs::path dir = fs::path(CELLDEM_E2E_DIR) / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
-
-// Runs the binary with the given arguments (already quoted), capturing stdout and stderr in files.
-Result celldem(const fs::path& dir, const std::string& args) {
-  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string cmd = std::string("'") + kBinary + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  Result r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_bytes(out);
-  r.err = read_bytes(err);
-  return r;
-}
-
-const std::string kTtc = R"([{"name": "ttc", "friction": 0.5,
-    "axes": {"x1": {"strain_increment": 4e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
-    "end": {"axis": "x1", "strain": 0.004}, "output_interval": 100}])";
-
-std::string run_args(const fs::path& deck, const fs::path& out, const std::string& extra = "") {
-  return "run '" + deck.string() + "' --out '" + out.string() + "' --threads 1 " + extra;
-}
+using testing::celldem;
+using testing::kBinary;
+using testing::kTtc;
+using testing::Result;
+using testing::run_args;
+using testing::test_dir;
 
 TEST(EndToEnd, PrepareAndTriaxialTestWriteDocumentedFiles) {
   const fs::path dir = test_dir("prepare_ttc");

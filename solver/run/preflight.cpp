@@ -1,0 +1,89 @@
+#include "run/preflight.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "core/plan.hpp"
+#include "io/state_file.hpp"
+#include "run/health.hpp"
+
+namespace celldem {
+namespace {
+
+std::string fmt(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+// The neighbour list needs every face width of the cell above 2 (largest diameter + skin).
+double smallest_cell_width(const Deck& deck) {
+  const double d_max = *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
+  return 2.0 * (d_max + skin_length(deck));
+}
+
+void check_prepared_cell(const Deck& deck) {
+  const SampleDef& s = deck.sample;
+  int side = 1;
+  while (static_cast<long long>(side) * side * side < s.count) ++side;
+  double solid = 0.0;
+  for (double d : s.diameters) solid += M_PI / 6.0 * d * d * d / static_cast<double>(s.diameters.size());
+  // A prepared random packing of spheres fills about 64 % of the cell.
+  const double prepared = std::cbrt(s.count * solid / 0.64);
+  const double needed = smallest_cell_width(deck);
+  if (std::min(side * s.grid_spacing, prepared) <= needed)
+    throw DeckError("sample.count: " + std::to_string(s.count) + " spheres make a cell about " + fmt(prepared) +
+                    " m wide once compressed, too small for the largest diameter and the skin (the cell must "
+                    "exceed " + fmt(needed) + " m): use more spheres");
+}
+
+void check_state(const Deck& deck, const std::string& path) {
+  const State state = read_state(path);
+  const std::size_t n = state.particles.size();
+  if (n != static_cast<std::size_t>(deck.sample.count))
+    throw DeckError("sample.count: the deck says " + std::to_string(deck.sample.count) + " spheres, initial_state " +
+                    path + " holds " + std::to_string(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = 2.0 * state.particles.radius[i];
+    const bool listed = std::any_of(deck.sample.diameters.begin(), deck.sample.diameters.end(),
+                                    [d](double x) { return std::abs(x - d) <= 1e-12 * x; });
+    if (!listed)
+      throw DeckError("sample.diameters: initial_state " + path + " holds a sphere of diameter " + fmt(d) +
+                      " m (particle " + std::to_string(i) + "), which is not one of the deck's diameters");
+  }
+  const double needed = smallest_cell_width(deck);
+  const double width = state.cell.face_widths().minCoeff();
+  if (width <= needed)
+    throw DeckError("initial_state: the cell of " + path + " is " + fmt(width) + " m wide, too small for its "
+                    "largest diameter and the skin (it must exceed " + fmt(needed) + " m)");
+}
+
+}  // namespace
+
+std::string initial_state_path(const Deck& deck) {
+  return (std::filesystem::path(deck.source).parent_path() / deck.initial_state.value()).string();
+}
+
+std::vector<std::string> preflight(const Deck& deck) {
+  const double dt_fraction = deck.time_step / critical_time_step(deck.sample, deck.contact.kn);
+  if (dt_fraction < kMinTimeStepFraction)
+    throw DeckError("time_step: " + fmt(deck.time_step) + " s is " + fmt(dt_fraction) + " of sqrt(m_min/kn), below " +
+                    fmt(kMinTimeStepFraction) + " of it: the run would take more than a thousand times the steps "
+                    "it needs");
+  if (deck.prepare) check_prepared_cell(deck);
+  if (deck.initial_state) {
+    const std::string path = initial_state_path(deck);
+    if (!std::filesystem::exists(path)) throw DeckError("initial_state: no such file " + path);
+    check_state(deck, path);
+  }
+  std::vector<std::string> warnings = deck_warnings(deck);
+  if (dt_fraction < kSlowTimeStepFraction)
+    warnings.push_back("time_step is only " + fmt(dt_fraction) + " of sqrt(m_min/kn): the run takes " +
+                       fmt(kSlowTimeStepFraction / dt_fraction) + " times the steps of a time step at " +
+                       fmt(kSlowTimeStepFraction) + " of it");
+  return warnings;
+}
+
+}  // namespace celldem
