@@ -1,14 +1,24 @@
-// The celldem command line: a thin front end over the library. Exit codes: 0 success, 1 run-time error,
-// 2 invalid input (deck, state file or arguments), 130 stopped by a signal after writing a checkpoint.
+// The celldem command line: a thin front end over the library. Exit codes: 0 success, 1 run-time error
+// (a failed write included: io/files.hpp's IoError), 2 invalid input (deck, state file or arguments), 130
+// stopped by a signal after writing a checkpoint.
 #include <cstdio>
 #include <exception>
+#include <string>
 #include <vector>
 
 #include "app/commands.hpp"
 #include "io/deck_reader.hpp"
-#include "io/files.hpp"
 #include "io/state_file.hpp"
 #include "run/runner.hpp"
+
+namespace {
+// "celldem: <kind><message>" on stderr. Errors during a run start on a new line: the progress line may be
+// unfinished.
+int report_error(bool during_run, const char* kind, const std::exception& e, int exit_code) {
+  std::fprintf(stderr, "%scelldem: %s%s\n", during_run ? "\n" : "", kind, e.what());
+  return exit_code;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"celldem: discrete element simulations of granular element tests in a periodic cell"};
@@ -29,20 +39,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   } catch (const celldem::DeckError& e) {
-    std::fprintf(stderr, "celldem: invalid deck: %s\n", e.what());
-    return 2;
+    return report_error(false, "invalid deck: ", e, 2);
   } catch (const celldem::StateFileError& e) {
-    std::fprintf(stderr, "celldem: invalid state file: %s\n", e.what());
-    return 2;
-  } catch (const celldem::IoError& e) {  // before any input error: a failed write is never bad input
-    std::fprintf(stderr, "\ncelldem: error: %s\n", e.what());
-    return 1;
+    return report_error(false, "invalid state file: ", e, 2);
   } catch (const celldem::Interrupted& e) {
-    std::fprintf(stderr, "\ncelldem: %s\n", e.what());
-    return 130;
+    return report_error(true, "", e, 130);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "\ncelldem: error: %s\n", e.what());
-    return 1;
+    return report_error(true, "error: ", e, 1);
   }
   return 0;
 }

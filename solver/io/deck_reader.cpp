@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 #include "core/plan.hpp"
 
@@ -135,6 +136,15 @@ class ObjectReader {
   std::set<std::string> known_;
 };
 
+// Reads the listed keys into the struct's fields (the key table gives range and default).
+template <class S, class T>
+void read_fields(ObjectReader& r, S& s, const std::initializer_list<std::pair<const KeySpec*, T S::*>>& fields) {
+  for (const auto& [key, field] : fields) {
+    if constexpr (std::is_same_v<T, double>) s.*field = r.number(*key);
+    else s.*field = r.integer(*key);
+  }
+}
+
 std::vector<double> read_diameters(ObjectReader d) {
   std::vector<double> out;
   if (d.has(keys::sample_diameters_list)) {
@@ -199,9 +209,9 @@ DampingDef read_damping(ObjectReader r) {
 
 ServoDef read_servo(ObjectReader r) {
   ServoDef s;
-  s.gain = r.number(keys::servo_gain);
-  s.integral_gain = r.number(keys::servo_integral_gain);
-  s.max_strain_increment = r.number(keys::servo_max_strain_increment);
+  read_fields<ServoDef, double>(r, s, {{&keys::servo_gain, &ServoDef::gain},
+                                       {&keys::servo_integral_gain, &ServoDef::integral_gain},
+                                       {&keys::servo_max_strain_increment, &ServoDef::max_strain_increment}});
   if (s.gain == 0.0 && s.integral_gain == 0.0) fail(r.path(), "gain and integral_gain cannot both be zero");
   r.finish();
   return s;
@@ -255,26 +265,33 @@ TestDef read_test(ObjectReader r) {
   return t;
 }
 
-EquilibriumDef read_equilibrium(ObjectReader e) {
-  EquilibriumDef q;
-  q.pressure_tolerance = e.number(keys::equilibrium_pressure_tolerance);
-  q.stress_tolerance = e.number(keys::equilibrium_stress_tolerance);
-  q.unbalanced_force_ratio = e.number(keys::equilibrium_unbalanced_force_ratio);
-  q.min_steps = e.integer(keys::equilibrium_min_steps);
-  q.check_interval = e.integer(keys::equilibrium_check_interval);
-  q.max_steps = e.integer(keys::equilibrium_max_steps);
-  e.finish();
-  return q;
-}
+// Which key fills which field.
+template <class S, class T>
+using Bindings = std::initializer_list<std::pair<const KeySpec*, T S::*>>;
+using E = EquilibriumDef;
+using P = PrepareDef;
+const Bindings<E, double> kEquilibriumTolerances = {
+    {&keys::equilibrium_pressure_tolerance, &E::pressure_tolerance},
+    {&keys::equilibrium_stress_tolerance, &E::stress_tolerance},
+    {&keys::equilibrium_unbalanced_force_ratio, &E::unbalanced_force_ratio}};
+const Bindings<E, std::int64_t> kEquilibriumSteps = {{&keys::equilibrium_min_steps, &E::min_steps},
+                                                     {&keys::equilibrium_check_interval, &E::check_interval},
+                                                     {&keys::equilibrium_max_steps, &E::max_steps}};
+const Bindings<P, double> kPrepareNumbers = {{&keys::prepare_friction, &P::friction},
+                                             {&keys::prepare_target_pressure, &P::target_pressure},
+                                             {&keys::prepare_fast_solid_fraction, &P::fast_solid_fraction},
+                                             {&keys::prepare_fast_strain_increment, &P::fast_strain_increment}};
 
 PrepareDef read_prepare(ObjectReader r) {
   PrepareDef p;
-  p.friction = r.number(keys::prepare_friction);
-  p.target_pressure = r.number(keys::prepare_target_pressure);
-  p.fast_solid_fraction = r.number(keys::prepare_fast_solid_fraction);
-  p.fast_strain_increment = r.number(keys::prepare_fast_strain_increment);
+  read_fields(r, p, kPrepareNumbers);
   p.output_interval = r.integer(keys::prepare_output_interval);
-  if (r.has(keys::prepare_equilibrium)) p.equilibrium = read_equilibrium(r.object(keys::prepare_equilibrium));
+  if (r.has(keys::prepare_equilibrium)) {
+    ObjectReader e = r.object(keys::prepare_equilibrium);
+    read_fields(e, p.equilibrium, kEquilibriumTolerances);
+    read_fields(e, p.equilibrium, kEquilibriumSteps);
+    e.finish();
+  }
   r.finish();
   return p;
 }

@@ -7,19 +7,8 @@ celldem="$1"
 kills="${2:-6}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-cat > "$work/deck.json" <<'JSON'
-{"format":1,
- "sample":{"count":150,"diameters":{"min":0.003,"max":0.0045,"count":4},"density":2650,"seed":11,"grid_spacing":0.005},
- "contact":{"kn":1e6,"kt":1e6},"damping":{"translational":0.05,"rotational":0.05},"time_step":1e-6,
- "checkpoint_interval":700,
- "prepare":{"target_pressure":1e5,"fast_strain_increment":5e-5,"output_interval":500,
-            "equilibrium":{"min_steps":2000,"max_steps":200000,"unbalanced_force_ratio":0.02,"check_interval":500}},
- "tests":[
-  {"name":"ttc","friction":0.5,"axes":{"x1":{"strain_increment":1e-6},"x2":{"stress":1e5},"x3":{"stress":1e5}},
-   "end":{"axis":"x1","strain":0.006},"output_interval":250},
-  {"name":"psc","friction":0.5,"axes":{"x1":{"strain_increment":1e-6},"x2":{"strain_increment":0},"x3":{"stress":1e5}},
-   "end":{"axis":"x1","strain":0.006},"output_interval":250}]}
-JSON
+# 150 spheres, prepared and tested twice (TTC, PSC), checkpoints every 700 steps.
+cp "$(dirname "$0")/small_run.json" "$work/deck.json"
 fail() { echo "FAIL: $*"; exit 1; }
 
 start=$(date +%s.%N)

@@ -30,6 +30,14 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 
 Result check(const fs::path& dir, const fs::path& deck) { return celldem(dir, "check '" + deck.string() + "'"); }
 
+// `check` of the deck text refuses it with exit code 2 and a message that names `key`.
+void expect_refused(const fs::path& dir, const std::string& name, const std::string& deck, const std::string& key) {
+  write_bytes(dir / name, deck);
+  const Result r = check(dir, dir / name);
+  EXPECT_EQ(r.code, 2) << name;
+  EXPECT_NE(r.err.find(key), std::string::npos) << name << ": " << r.err;
+}
+
 // A deck that tests an existing state file, with the state's sample block.
 std::string deck_on_state(const std::string& state_file, int count = 200) {
   std::string d = testing::small_deck_json(count, kTtc);
@@ -38,21 +46,17 @@ std::string deck_on_state(const std::string& state_file, int count = 200) {
   return d.replace(at, end - at, "\"initial_state\": \"" + state_file + "\",");
 }
 
-// One prepared 200-sphere state shared by the tests below.
-fs::path prepared_state() {
-  static const fs::path state = [] {
-    const fs::path dir = test_dir("reliability_prepared");
-    write_bytes(dir / "deck.json", testing::small_deck_json(200, "[]"));
-    const Result r = celldem(dir, run_args(dir / "deck.json", dir / "run"));
-    EXPECT_EQ(r.code, 0) << r.err;
-    return dir / "run" / "prepared.state";
-  }();
-  return state;
+// A prepared 200-sphere state in the test's folder (ctest runs each test in its own process, side by side).
+fs::path prepared_state(const fs::path& dir) {
+  write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
+  const Result r = celldem(dir, run_args(dir / "prep.json", dir / "prep"));
+  EXPECT_EQ(r.code, 0) << r.err;
+  return dir / "prep" / "prepared.state";
 }
 
 TEST(Reliability, CheckReadsTheInitialState) {
   const fs::path dir = test_dir("check_state");
-  fs::copy_file(prepared_state(), dir / "good.state");
+  fs::copy_file(prepared_state(dir), dir / "good.state");
   write_bytes(dir / "deck.json", deck_on_state("good.state"));
   Result r = check(dir, dir / "deck.json");
   EXPECT_EQ(r.code, 0) << r.err;
@@ -63,7 +67,7 @@ TEST(Reliability, CheckReadsTheInitialState) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("nothing.state"), std::string::npos) << r.err;
 
-  const std::string bytes = read_bytes(prepared_state());
+  const std::string bytes = read_bytes(dir / "good.state");
   write_bytes(dir / "cut.state", bytes.substr(0, bytes.size() / 2));
   write_bytes(dir / "cut.json", deck_on_state("cut.state"));
   r = check(dir, dir / "cut.json");
@@ -81,7 +85,7 @@ TEST(Reliability, CheckReadsTheInitialState) {
 
 TEST(Reliability, SampleMustAgreeWithTheInitialState) {
   const fs::path dir = test_dir("state_sample");
-  fs::copy_file(prepared_state(), dir / "s.state");
+  fs::copy_file(prepared_state(dir), dir / "s.state");
   write_bytes(dir / "count.json", deck_on_state("s.state", 8000));
   Result r = check(dir, dir / "count.json");
   EXPECT_EQ(r.code, 2);
@@ -92,55 +96,40 @@ TEST(Reliability, SampleMustAgreeWithTheInitialState) {
   EXPECT_EQ(r.code, 2) << "run must refuse what check refuses";
   EXPECT_FALSE(fs::exists(dir / "run"));
 
-  write_bytes(dir / "sizes.json", replaced(deck_on_state("s.state"), "\"min\": 3.0e-3", "\"min\": 2.0e-3"));
-  r = check(dir, dir / "sizes.json");
-  EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("sample.diameters"), std::string::npos) << r.err;
+  expect_refused(dir, "sizes.json", replaced(deck_on_state("s.state"), "\"min\": 3.0e-3", "\"min\": 2.0e-3"),
+                 "sample.diameters");
 }
 
 TEST(Reliability, SampleTooSmallForItsCellIsRefusedByCheck) {
   const fs::path dir = test_dir("tiny_sample");
-  write_bytes(dir / "deck.json", testing::small_deck_json(1, kTtc));
-  const Result r = check(dir, dir / "deck.json");
-  EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("sample.count"), std::string::npos) << r.err;
+  expect_refused(dir, "deck.json", testing::small_deck_json(1, kTtc), "sample.count");
 }
 
 TEST(Reliability, TimeStepTooSmallToEverFinishIsRefused) {
   const fs::path dir = test_dir("tiny_step");
-  write_bytes(dir / "deck.json", replaced(testing::small_deck_json(200, kTtc), "\"time_step\": 3.0e-6",
-                                          "\"time_step\": 1e-300"));
-  Result r = check(dir, dir / "deck.json");
-  EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("time_step"), std::string::npos) << r.err;
+  const std::string deck = testing::small_deck_json(200, kTtc);
+  expect_refused(dir, "deck.json", replaced(deck, "\"time_step\": 3.0e-6", "\"time_step\": 1e-300"), "time_step");
   // A time step above half the stability limit is warned about by check, as by run.
-  write_bytes(dir / "large.json", replaced(testing::small_deck_json(200, kTtc), "\"time_step\": 3.0e-6",
-                                           "\"time_step\": 4.0e-6"));
-  r = check(dir, dir / "large.json");
+  write_bytes(dir / "large.json", replaced(deck, "\"time_step\": 3.0e-6", "\"time_step\": 4.0e-6"));
+  const Result r = check(dir, dir / "large.json");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("warning: time_step"), std::string::npos) << r.err;
 }
 
 TEST(Reliability, ReservedStageNamesAndDuplicateKeysAreErrors) {
   const fs::path dir = test_dir("names");
-  write_bytes(dir / "prepare.json", replaced(testing::small_deck_json(200, kTtc), "\"name\": \"ttc\"",
-                                             "\"name\": \"prepare\""));
-  Result r = check(dir, dir / "prepare.json");
-  EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("tests[0].name"), std::string::npos) << r.err;
-
-  write_bytes(dir / "twice.json",
-              replaced(testing::small_deck_json(200, kTtc), "\"count\": 200,", "\"count\": 200, \"count\": 300,"));
-  r = check(dir, dir / "twice.json");
-  EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("sample.count: duplicate key"), std::string::npos) << r.err;
+  const std::string deck = testing::small_deck_json(200, kTtc);
+  expect_refused(dir, "prepare.json", replaced(deck, "\"name\": \"ttc\"", "\"name\": \"prepare\""), "tests[0].name");
+  expect_refused(dir, "figures.json", replaced(deck, "\"name\": \"ttc\"", "\"name\": \"figures\""), "tests[0].name");
+  expect_refused(dir, "twice.json", replaced(deck, "\"count\": 200,", "\"count\": 200, \"count\": 300,"),
+                 "sample.count: duplicate key");
 }
 
 // --force removes every output of the earlier run (test folders of tests the new deck no longer has
 // included); files that are not run outputs stay.
 TEST(Reliability, ForceLeavesOnlyTheNewRunsOutputs) {
   const fs::path dir = test_dir("force");
-  fs::copy_file(prepared_state(), dir / "s.state");
+  fs::copy_file(prepared_state(dir), dir / "s.state");
   std::string two = deck_on_state("s.state");
   two = replaced(two, "\"end\": {\"axis\": \"x1\", \"strain\": 0.004}", "\"end\": {\"axis\": \"x1\", \"strain\": 0.0004}");
   const std::string first = replaced(two, "\"name\": \"ttc\"", "\"name\": \"old\"");

@@ -9,17 +9,10 @@ celldem="$1"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
-cat > "$work/deck.json" <<'JSON'
-{"format":1,
- "sample":{"count":150,"diameters":{"min":0.003,"max":0.0045,"count":4},"density":2650,"seed":11,"grid_spacing":0.005},
- "contact":{"kn":1e6,"kt":1e6},"damping":{"translational":0.05,"rotational":0.05},"time_step":1e-6,
- "checkpoint_interval":700,
- "prepare":{"target_pressure":1e5,"fast_strain_increment":5e-5,"output_interval":500,
-            "equilibrium":{"min_steps":2000,"max_steps":200000,"unbalanced_force_ratio":0.02,"check_interval":500}},
- "tests":[
-  {"name":"ttc","friction":0.5,"axes":{"x1":{"strain_increment":1e-6},"x2":{"stress":1e5},"x3":{"stress":1e5}},
-   "end":{"axis":"x1","strain":0.003},"output_interval":2}]}
-JSON
+# The kill-and-resume deck (150 spheres, TTC and PSC) with a row every other step in the tests, so that a
+# series outgrows the state files.
+sed 's/"output_interval":250/"output_interval":2/g' "$(dirname "$0")/small_run.json" > "$work/deck.json"
+grep -q '"output_interval":2}' "$work/deck.json" || fail "small_run.json changed: adapt this test"
 "$celldem" run "$work/deck.json" --out "$work/ref" --quiet --threads 1 || fail "reference run"
 series_kb=$(( $(stat -c %s "$work/ref/ttc/series.csv") / 1024 ))
 state_kb=$(( $(stat -c %s "$work/ref/prepared.state") / 1024 ))
