@@ -12,7 +12,6 @@
 #include <sstream>
 
 #include "app/commands.hpp"
-#include "core/plan.hpp"
 #include "io/deck_reader.hpp"
 #include "io/state_file.hpp"
 #include "io/translate.hpp"
@@ -49,11 +48,9 @@ struct LammpsScene {
   std::int64_t steps = 0;
 };
 
-LammpsScene prepare_lammps(const Deck& deck, TestDef test, const State& state, std::int64_t steps,
+LammpsScene prepare_lammps(const Deck& deck, const TestDef& test, const State& state, std::int64_t steps,
                            const fs::path& dir) {
   fs::create_directories(dir);
-  test.end_strain = plan_test(deck, test).strain_per_step * static_cast<double>(steps);
-  test.max_steps = 0;
   const std::vector<std::string> diffs = state_differences(state, TargetCode::Lammps);
   std::ofstream(dir / kTranslatedDataName) << translate_data(deck, state, TargetCode::Lammps, "bench", diffs);
   const std::string script = script_file_name(test, TargetCode::Lammps);
@@ -66,6 +63,7 @@ double run_lammps(const LammpsScene& scene, int ranks) {
   const std::string cmd = "cd '" + scene.dir.string() +
                           "' && OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_NUM_THREADS=1 "
                           "mpirun --oversubscribe -np " + std::to_string(ranks) + " lmp -in " + scene.script +
+                          " -var steps " + std::to_string(scene.steps) +
                           " -log " + log + " -screen none > /dev/null 2>&1";
   if (std::system(cmd.c_str()) != 0) throw std::runtime_error("LAMMPS failed: " + cmd);
   std::ifstream in(scene.dir / log);

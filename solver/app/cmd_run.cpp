@@ -23,12 +23,18 @@ Command add_run_command(CLI::App& app) {
   cmd->add_flag("--force", args->options.force, "Overwrite results already in the run directory");
   cmd->add_flag("--resume", args->options.resume, "Continue an interrupted run from its last checkpoint");
   cmd->add_flag("--quiet", args->options.quiet, "No progress or stage messages");
+  cmd->add_option("--progress-interval", args->options.progress_interval,
+                  "Seconds between progress lines when stderr is not a terminal (a log file)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.001, 1e6));
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     if (args->options.force && args->options.resume)
       throw CLI::ValidationError("--force and --resume exclude each other");
     const Deck deck = read_deck(args->deck);
-    args->options.progress = !args->options.quiet && stderr_is_terminal();
+    args->options.progress = args->options.quiet     ? ProgressMode::Off
+                             : stderr_is_terminal() ? ProgressMode::Terminal
+                                                    : ProgressMode::Log;
     install_stop_handlers();
     run_deck(deck, args->options);
     return 0;

@@ -123,7 +123,7 @@ void header(std::ostringstream& o, const Deck& deck, const TestDef& test, Target
     << "# Data file: `celldem translate DECK --to " << target_code_name(code)
     << " --state FILE --out DIR` writes DIR/" << kTranslatedDataName << "\n"
     << "# (atom type k = k-th diameter of sample.diameters, one type per diameter for per-type damping).\n"
-    << "# Run in DIR:  " << exe << " -in " << script_file_name(test, code) << "   [-var data FILE] [-var out FILE]\n";
+    << "# Run in DIR:  " << exe << " -in " << script_file_name(test, code) << "   [-var data FILE] [-var out FILE] [-var steps N]\n";
   o << "#   in parallel, unchanged:  mpirun -np 4 " << exe << " -in " << script_file_name(test, code)
     << "   (as root: mpirun --allow-run-as-root ...)\n";
   o << "# Writes " << series_file_name(test, code) << ": " << kTranslatedSeriesHeader << "\n"
@@ -201,7 +201,17 @@ void output(std::ostringstream& o, const Deck& deck, const TestDef& test, Target
     << "thermo_modify   norm no\n"
     << "thermo          " << test.output_interval << "\n"
     << "# one run per test: fix deform strains are relative to the box at the start of the run\n"
-    << "run             " << plan_test(deck, test).steps << "\n";
+    << "run             ${steps}\n";
+}
+
+// The file names and run length, each overridable with -var NAME VALUE on the command line.
+void script_variables(std::ostringstream& o, const Deck& deck, const TestDef& test, TargetCode code) {
+  o << "variable        data index " << kTranslatedDataName << "\n"
+    << "variable        out index " << series_file_name(test, code) << "\n"
+    << "variable        steps index " << plan_test(deck, test).steps << "\n"
+    << "read_data       ${data}\n"
+    << "neighbor        " << num(skin_length(deck)) << " bin\n"
+    << "neigh_modify    delay 0 every 1 check yes\n";
 }
 
 std::string lammps_script(const Deck& deck, const TestDef& test) {
@@ -214,13 +224,9 @@ std::string lammps_script(const Deck& deck, const TestDef& test) {
     << "dimension       3\n"
     << "boundary        p p p\n"
     << "newton          off\n"
-    << "comm_modify     vel yes\n"
-    << "variable        data index " << kTranslatedDataName << "\n"
-    << "variable        out index " << series_file_name(test, TargetCode::Lammps) << "\n"
-    << "read_data       ${data}\n"
-    << "neighbor        " << num(skin_length(deck)) << " bin\n"
-    << "neigh_modify    delay 0 every 1 check yes\n"
-    << "\n# contact: F_n = kn overlap, incremental tangential spring kt with Coulomb limit, no contact damping\n"
+    << "comm_modify     vel yes\n";
+  script_variables(o, deck, test, TargetCode::Lammps);
+  o << "\n# contact: F_n = kn overlap, incremental tangential spring kt with Coulomb limit, no contact damping\n"
     << "pair_style      gran/hooke/history " << num(deck.contact.kn) << " " << num(deck.contact.kt) << " 0.0 0.0 "
     << num(test.friction) << " 0\n"
     << "pair_coeff      * *\n"
@@ -271,13 +277,9 @@ std::string liggghts_script(const Deck& deck, const TestDef& test) {
     << "atom_modify     map array\n"
     << "boundary        p p p\n"
     << "newton          off\n"
-    << "communicate     single vel yes\n"
-    << "variable        data index " << kTranslatedDataName << "\n"
-    << "variable        out index " << series_file_name(test, TargetCode::Liggghts) << "\n"
-    << "read_data       ${data}\n"
-    << "neighbor        " << num(skin_length(deck)) << " bin\n"
-    << "neigh_modify    delay 0 every 1 check yes\n"
-    << "\n# contact: hooke/stiffness F_n = kn overlap (absolute kn), history tangential spring kt, Coulomb limit;\n"
+    << "communicate     single vel yes\n";
+  script_variables(o, deck, test, TargetCode::Liggghts);
+  o << "\n# contact: hooke/stiffness F_n = kn overlap (absolute kn), history tangential spring kt, Coulomb limit;\n"
     << "# gamman and gammat must be given (per type pair) even when zero\n"
     << "fix             m1 all property/global kn peratomtypepair " << matrix(n, deck.contact.kn) << "\n"
     << "fix             m2 all property/global kt peratomtypepair " << matrix(n, deck.contact.kt) << "\n"

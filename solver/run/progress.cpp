@@ -29,14 +29,18 @@ void forget(const std::string& stage) {
 
 bool stderr_is_terminal() { return isatty(fileno(stderr)) != 0; }
 
-Progress::Progress(std::string stage, bool enabled)
-    : stage_(std::move(stage)), enabled_(enabled), start_(std::chrono::steady_clock::now()), last_(start_) {}
+Progress::Progress(std::string stage, ProgressMode mode, double log_interval_seconds)
+    : stage_(std::move(stage)),
+      mode_(mode),
+      interval_(mode == ProgressMode::Log ? log_interval_seconds : 0.5),
+      start_(std::chrono::steady_clock::now()),
+      last_(start_) {}
 
 void Progress::update(std::int64_t step, double fraction, const std::string& extra) {
-  if (!enabled_) return;
+  if (mode_ == ProgressMode::Off) return;
   const auto now = std::chrono::steady_clock::now();
   if (first_step_ < 0) first_step_ = step, first_fraction_ = fraction;
-  if (now - last_ < std::chrono::milliseconds(500)) return;
+  if (now - last_ < interval_) return;
   last_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double rate = elapsed > 0 ? (step - first_step_) / elapsed : 0.0;
@@ -51,13 +55,18 @@ void Progress::update(std::int64_t step, double fraction, const std::string& ext
     std::snprintf(line, sizeof line, "[%s] step %lld  %.0f steps/s  %s", stage_.c_str(),
                   static_cast<long long>(step), rate, extra.c_str());
   }
+  if (mode_ == ProgressMode::Log) {
+    std::fprintf(stderr, "%s\n", line);
+    std::fflush(stderr);
+    return;
+  }
   show(stage_, line);
   printed_ = true;
 }
 
 void Progress::finish() {
   forget(stage_);
-  if (enabled_ && printed_) std::fputs("\n", stderr);
+  if (mode_ == ProgressMode::Terminal && printed_) std::fputs("\n", stderr);
   printed_ = false;
 }
 

@@ -1,20 +1,26 @@
-// Progress on a terminal: stage, percent, steps/s, ETA. Silent when stderr is not a terminal.
+// Progress of a running stage: percent, steps/s and ETA. On a terminal, one line rewritten in place twice a
+// second (stages side by side share it); in a log file (a cluster job), a plain line every `interval`
+// seconds, so that a log shows how far a run got and how fast it goes.
 #pragma once
 #include <chrono>
+#include <cstdint>
 #include <string>
 
 namespace celldem {
 
+enum class ProgressMode { Off, Terminal, Log };
+
 class Progress {
  public:
-  Progress(std::string stage, bool enabled);
+  Progress(std::string stage, ProgressMode mode, double log_interval_seconds = 30.0);
   // fraction in [0,1] or negative when unknown (then no ETA is shown).
   void update(std::int64_t step, double fraction, const std::string& extra = "");
   void finish();
 
  private:
   std::string stage_;
-  bool enabled_;
+  ProgressMode mode_;
+  std::chrono::duration<double> interval_;
   std::chrono::steady_clock::time_point start_, last_;
   std::int64_t first_step_ = -1;
   double first_fraction_ = -1.0;

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/deck.hpp"
+#include "run/progress.hpp"
 
 namespace celldem {
 
@@ -13,7 +14,8 @@ struct RunOptions {
   int threads = 0;        // 0: OpenMP default
   bool force = false;     // overwrite results already in out_dir
   bool resume = false;    // continue an interrupted run in out_dir
-  bool progress = false;  // progress line on stderr
+  ProgressMode progress = ProgressMode::Off;  // on stderr
+  double progress_interval = 30.0;            // [s] between progress lines in a log
   bool quiet = false;     // no stage messages on stdout
 };
 

@@ -12,7 +12,7 @@ namespace fs = std::filesystem;
 StageOutput::StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& options, const Model& model,
                          std::string stage, std::int64_t output_interval, bool loading_test)
     : run_(run), deck_(deck), options_(options), model_(model), stage_(std::move(stage)), dir_(run.stage_dir(stage_)),
-      output_interval_(output_interval), monitor_(stage_, loading_test), progress_(stage_, options.progress),
+      output_interval_(output_interval), monitor_(stage_, loading_test), progress_(stage_, options.progress, options.progress_interval),
       start_(std::chrono::steady_clock::now()) {}
 
 void StageOutput::open(const State& state, bool resumed) {

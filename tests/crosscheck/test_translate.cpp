@@ -190,7 +190,7 @@ TEST(Translate, LammpsScriptCarriesTheDeck) {
     EXPECT_EQ(std::stod(w[15]), servo.modulus);
   }
   EXPECT_TRUE(contains(s, "\nfix_modify      srv press P\n"));
-  EXPECT_TRUE(contains(s, "\nrun             5000\n"));
+  EXPECT_TRUE(contains(s, "\nvariable        steps index 5000\n") && contains(s, "\nrun             ${steps}\n"));
   // The observation fix comes before the box moves (fix order = end_of_step order).
   EXPECT_LT(s.find("fix             obs"), s.find("fix             dfm"));
   EXPECT_LT(s.find("fix             obs"), s.find("fix             srv"));
@@ -212,7 +212,7 @@ TEST(Translate, LammpsScriptCarriesTheDeck) {
   const std::string s2 = translate_test(deck, deck.tests[1], TargetCode::Lammps);
   EXPECT_TRUE(contains(s2, "\nfix             dfm all deform 1 x erate -0.2 z erate 0.1 remap x\n"));
   EXPECT_FALSE(contains(s2, "\nfix             srv"));
-  EXPECT_TRUE(contains(s2, "\nrun             2000\n"));
+  EXPECT_TRUE(contains(s2, "\nvariable        steps index 2000\n"));
   EXPECT_TRUE(contains(s2, " 0.3 0\n"));
 }
 

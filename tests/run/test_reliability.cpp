@@ -156,3 +156,25 @@ TEST(Reliability, ForceLeavesOnlyTheNewRunsOutputs) {
 
 }  // namespace
 }  // namespace celldem
+
+namespace celldem {
+namespace {
+
+// In a log file (stderr not a terminal) a run writes plain progress lines at the chosen interval.
+TEST(Reliability, ProgressLinesInALog) {
+  const fs::path dir = test_dir("progress_log");
+  write_bytes(dir / "deck.json", testing::small_deck_json(200, kTtc));
+  const Result r = celldem(dir, run_args(dir / "deck.json", dir / "run", "--progress-interval 0.01"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("[prepare] step "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("[ttc] "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("% "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("steps/s"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ETA"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << "no terminal control characters in a log";
+  const Result quiet = celldem(dir, run_args(dir / "deck.json", dir / "run", "--force --quiet"));
+  EXPECT_EQ(quiet.err.find("steps/s"), std::string::npos) << quiet.err;
+}
+
+}  // namespace
+}  // namespace celldem
