@@ -41,8 +41,29 @@ Json axis_json(const AxisControl& a) {
     case AxisMode::StrainIncrement: return {{"strain_increment", a.value}};
     case AxisMode::StrainRate: return {{"strain_rate", a.value}};
     case AxisMode::Stress: return {{"stress", a.value}};
+    case AxisMode::B: return {{"b", a.value}};
+    case AxisMode::MeanStress: return {{"mean_stress", a.value}};
+    case AxisMode::ConstantVolume: return {{"constant_volume", true}};
   }
   return nullptr;
+}
+
+Json end_json(const LegEnd& e) {
+  switch (e.kind) {
+    case LegEndKind::Strain: return {{"axis", kAxisNames[e.axis]}, {"strain", e.value}};
+    case LegEndKind::Ratio: return {{"ratio", e.value}};
+    case LegEndKind::Stress: return {{"axis", kAxisNames[e.axis]}, {"stress", e.value}};
+    case LegEndKind::Steps: return {{"steps", e.steps}};
+    case LegEndKind::SolidFraction: return {{"solid_fraction", e.value}};
+    case LegEndKind::Equilibrium: return {{"equilibrium", true}};
+  }
+  return nullptr;
+}
+
+Json axes_json(const Leg& leg) {
+  Json axes;
+  for (int k = 0; k < 3; ++k) axes[std::string(kAxisNames[k])] = axis_json(leg.axes[k]);
+  return axes;
 }
 
 Json plan_json(const Deck& deck) {
@@ -76,21 +97,22 @@ Json plan_json(const Deck& deck) {
   if (deck.initial_state) out["initial_state"] = (fs::path(deck.source).parent_path() / *deck.initial_state).string();
   for (const TestDef& t : deck.tests) {
     const TestPlan p = plan_test(deck, t);
-    Json axes;
+    const Leg& first = t.legs.front();
     double stress_sum = 0.0;
     int stress_axes = 0;
-    for (int k = 0; k < 3; ++k) {
-      axes[std::string(kAxisNames[k])] = axis_json(t.axes[k]);
-      if (t.axes[k].mode == AxisMode::Stress) stress_sum += t.axes[k].value, ++stress_axes;
-    }
+    for (const AxisControl& a : first.axes)
+      if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) stress_sum += a.value, ++stress_axes;
     const Json inertia = stress_axes ? Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample),
                                                             deck.sample.density, stress_sum / stress_axes))
                                      : Json(nullptr);
-    out["tests"].push_back({{"name", t.name}, {"friction", t.friction}, {"steps", p.steps},
-                            {"end_axis", kAxisNames[t.end_axis]}, {"end_strain", t.end_strain},
+    Json legs = Json::array();
+    for (const Leg& leg : t.legs) legs.push_back({{"axes", axes_json(leg)}, {"end", end_json(leg.end)}});
+    const auto known = [](std::int64_t n) { return n >= 0 ? Json(n) : Json(nullptr); };
+    out["tests"].push_back({{"name", t.name}, {"friction", t.friction}, {"steps", known(p.steps)},
+                            {"end_axis", kAxisNames[first.end.axis]}, {"end_strain", first.end.value},
                             {"strain_per_step", p.strain_per_step}, {"strain_rate", p.strain_rate},
-                            {"output_interval", t.output_interval}, {"rows", p.rows}, {"axes", axes},
-                            {"inertial_number", inertia}});
+                            {"output_interval", t.output_interval}, {"rows", known(p.rows)},
+                            {"axes", axes_json(first)}, {"legs", legs}, {"inertial_number", inertia}});
   }
   return out;
 }
@@ -117,11 +139,11 @@ Command add_plan_command(CLI::App& app) {
     std::printf("%s: time step %.3g s = %.3f of sqrt(m_min/kn) = %.3g s; skin %.3g m\n", a->deck.c_str(),
                 plan["time_step"].get<double>(), plan["time_step_ratio"].get<double>(),
                 plan["critical_time_step"].get<double>(), plan["skin"].get<double>());
-    for (const Json& t : plan["tests"])
-      std::printf("  %-12s %lld steps, %lld rows, %s to %g at %.3g per step\n", t["name"].get<std::string>().c_str(),
-                  static_cast<long long>(t["steps"].get<std::int64_t>()),
-                  static_cast<long long>(t["rows"].get<std::int64_t>()), t["end_axis"].get<std::string>().c_str(),
-                  t["end_strain"].get<double>(), t["strain_per_step"].get<double>());
+    for (const Json& t : plan["tests"]) {
+      const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
+      std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", t["name"].get<std::string>().c_str(), t["legs"].size(),
+                  t["legs"].size() > 1 ? "s" : "", count(t["steps"]).c_str(), count(t["rows"]).c_str());
+    }
     return 0;
   };
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace celldem {
 
@@ -9,44 +10,114 @@ void begin_stage(State& state) {
   state.control = ControlState{};
   state.control.reference_lengths = state.cell.h.diagonal();
   state.control.reference_volume = state.cell.volume();
+  state.control.leg_start_volume = state.control.reference_volume;
 }
 
-void begin_phase(State& state, int phase) {
-  state.control.phase = phase;
-  state.control.phase_steps = 0;
+void begin_leg(State& state, int leg) {
+  ControlState& c = state.control;
+  c.phase = leg;
+  c.phase_steps = 0;
+  c.leg_start_strains = axis_strains(state);
+  c.leg_start_volume = state.cell.volume();
+  c.servo_integral = Vec3::Zero();
 }
+
+Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s) {
+  Vec3 target = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+  int major = -1, b_axis = -1, minor = -1;
+  double known = 0.0;  // stress of the axes that are not mean_stress
+  int mean_axes = 0;
+  double mean = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const AxisControl& a = axes[k];
+    if (a.strain_driven()) major = k;
+    if (a.mode == AxisMode::B) b_axis = k;
+    if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) minor = k;
+    if (a.mode == AxisMode::Stress) target[k] = a.value;
+    if (a.mode == AxisMode::MeanStress) ++mean_axes, mean = a.value;
+    else if (a.mode != AxisMode::B) known += a.mode == AxisMode::Stress ? a.value : s[k];
+  }
+  if (b_axis >= 0) {
+    const double b = axes[b_axis].value, s_major = s[major];
+    if (axes[minor].mode == AxisMode::MeanStress) target[minor] = (3.0 * mean - (1.0 + b) * s_major) / (2.0 - b);
+    target[b_axis] = target[minor] + b * (s_major - target[minor]);
+  } else if (mean_axes > 0) {
+    for (int k = 0; k < 3; ++k)
+      if (axes[k].mode == AxisMode::MeanStress) target[k] = (3.0 * mean - known) / mean_axes;
+  }
+  return target;
+}
+
+namespace {
+
+// The servo's strain increment of axis k towards `target` (and its integral, anti-windup).
+double servo_increment(const ServoDef& servo, double target, int k, State& state) {
+  const double err = target - state.normal_stress[k];
+  const double stiffness = state.axis_stiffness[k];
+  double de;
+  if (stiffness > 0.0) {
+    de = (servo.gain * err + servo.integral_gain * (state.control.servo_integral[k] + err)) / stiffness;
+  } else {
+    de = err > 0.0 ? servo.max_strain_increment : -servo.max_strain_increment;  // nothing touches yet
+  }
+  if (std::abs(de) < servo.max_strain_increment) state.control.servo_integral[k] += err;
+  return std::clamp(de, -servo.max_strain_increment, servo.max_strain_increment);
+}
+
+// Scales the constant-volume axes by one common factor x so that det h = volume. det h is a polynomial of
+// degree (number of such axes) in x, found exactly from its values at a few points.
+void hold_volume(const std::array<AxisControl, 3>& axes, double volume, Mat3& h) {
+  int cv[2], n = 0;
+  for (int k = 0; k < 3; ++k)
+    if (axes[k].mode == AxisMode::ConstantVolume) cv[n++] = k;
+  if (n == 0) return;
+  Mat3 base = h;  // the axes at the leg's proportions, scaled by x below
+  auto det_at = [&](double x) {
+    Mat3 t = base;
+    for (int i = 0; i < n; ++i) t(cv[i], cv[i]) = base(cv[i], cv[i]) * x;
+    return t.determinant();
+  };
+  double x;
+  if (n == 1) {
+    const double d0 = det_at(0.0), d1 = det_at(1.0);
+    x = (volume - d0) / (d1 - d0);
+  } else {  // det(x) = A x^2 + B x + C; the root near 1 (the present cell)
+    const double c = det_at(0.0), p = det_at(1.0), m = det_at(-1.0);
+    const double a = 0.5 * (p + m) - c, b = 0.5 * (p - m);
+    const double disc = std::sqrt(std::max(0.0, b * b - 4.0 * a * (c - volume)));
+    x = std::abs(a) > 0.0 ? (-b + disc) / (2.0 * a) : (volume - c) / b;
+  }
+  for (int i = 0; i < n; ++i) h(cv[i], cv[i]) = base(cv[i], cv[i]) * x;
+}
+
+}  // namespace
 
 void advance_cell(const Model& model, const Loading& loading, State& state) {
   Cell& cell = state.cell;
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
   const double next_step = static_cast<double>(ctl.phase_steps + 1);
+  const Vec3 target = stress_targets(loading.axes, state.normal_stress);
   for (int k = 0; k < 3; ++k) {
     const AxisControl& a = loading.axes[k];
+    const double e0 = ctl.leg_start_strains[k];
     switch (a.mode) {
       case AxisMode::StrainIncrement:  // exact engineering strain: no drift from summing increments
-        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - next_step * a.value);
+        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_step * a.value));
         break;
       case AxisMode::StrainRate:
-        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - next_step * a.value * model.dt);
+        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_step * a.value * model.dt));
         break;
-      case AxisMode::Stress: {
-        const ServoDef& servo = model.servo;
-        const double err = a.value - state.normal_stress[k];
-        const double stiffness = state.axis_stiffness[k];
-        double de;
-        if (stiffness > 0.0) {
-          de = (servo.gain * err + servo.integral_gain * (ctl.servo_integral[k] + err)) / stiffness;
-        } else {
-          de = err > 0.0 ? servo.max_strain_increment : -servo.max_strain_increment;  // nothing touches yet
-        }
-        if (std::abs(de) < servo.max_strain_increment) ctl.servo_integral[k] += err;
-        de = std::clamp(de, -servo.max_strain_increment, servo.max_strain_increment);
-        cell.h(k, k) *= 1.0 - de;
+      case AxisMode::Stress:
+      case AxisMode::MeanStress:
+      case AxisMode::B:
+        cell.h(k, k) *= 1.0 - servo_increment(model.servo, target[k], k, state);
         break;
-      }
+      case AxisMode::ConstantVolume:  // below, once the other axes are set
+        break;
     }
   }
+  hold_volume(loading.axes, ctl.leg_start_volume, cell.h);
   cell.velocity_gradient = (cell.h - h_before) / model.dt * (0.5 * (cell.h + h_before)).inverse();
   ++ctl.phase_steps;
 }

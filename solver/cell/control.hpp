@@ -1,13 +1,23 @@
-// Mixed control of the periodic cell: each principal axis is strain-driven or stress-driven (servo).
+// Mixed control of the periodic cell: during a leg of a load program each principal axis is strain-driven,
+// stress-driven (servo) or volume-driven.
 //
-// Servo law (per stress-controlled axis k, once per step, compression positive):
+// Strain-driven axis k (strain_increment d or strain_rate r): after n steps of the leg its engineering strain
+// against the stage start is exactly e_k = e_k(leg start) + n d (or n r dt); h_kk = L_k (1 - e_k).
+//
+// Stress-driven axes hold a target stress by the servo (per axis, once per step, compression positive):
 //   err_k   = target_k - s_kk                       [Pa]  (s from the previous force evaluation)
 //   I_k    += err_k                                  (not while the increment is saturated: anti-windup)
 //   de_k    = (gain * err_k + integral_gain * I_k) / K_kk,   |de_k| <= max_strain_increment
 //   h_kk   *= 1 - de_k
 // K_kk = (1/V) sum_c kn (n_k l_k)^2 is the affine stiffness of the axis measured from the contacts, so
-// `gain` is the fraction of the stress error an affine step would remove (dimensionless, default 0.05),
-// and the integral term removes the steady lag a proportional servo has while the sample dilates.
+// `gain` is the fraction of the stress error an affine step would remove. The targets (stress_targets()):
+//   stress s:        s;
+//   mean_stress p:   the axes share 3p minus the other axes' stresses equally (p held);
+//   b:               s_minor + b (s_major - s_minor), s_major the strain-driven axis's stress, s_minor the other
+//                    stress axis's; with a mean_stress minor axis both follow from b and p together:
+//                    s_minor = (3p - (1 + b) s_major) / (2 - b).
+// Constant-volume axes scale together (equal strain increments from the leg start) so that det h stays at
+// the leg's start volume. Off-diagonal terms of h are held.
 #pragma once
 #include <array>
 
@@ -24,12 +34,15 @@ struct Loading {
 // Starts a stage from the state as it stands: step counters and servo memory reset, strains and volume
 // measured from the current cell. The one place that resets the control.
 void begin_stage(State& state);
-// Starts the next phase of a stage: its strain-driven axes count their steps afresh; strains in the series
-// stay relative to the stage start.
-void begin_phase(State& state, int phase);
+// Starts leg `leg` of the stage's program where the previous one ended: its steps count afresh, its
+// strain-driven axes start from their present strains, the servo's memory is cleared.
+void begin_leg(State& state, int leg);
+
+// The target stresses of the stress-driven axes for the stresses s (NaN for other axes).
+Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s);
 
 // Sets the cell for the end of this step (state.control.phase_steps is the number of steps already done in
-// the phase) and the velocity gradient L with hdot = L h_mid. Off-diagonal terms of h are held.
+// the leg) and the velocity gradient L with hdot = L h_mid.
 void advance_cell(const Model& model, const Loading& loading, State& state);
 
 // Engineering strains of the cell relative to the stage start, compression positive.

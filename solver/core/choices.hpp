@@ -9,7 +9,10 @@ namespace celldem {
 enum class TangentialRotation { Rotate, Project };  // keep |xi| when the tangent plane turns, or not (LAMMPS)
 enum class MomentArm { ContactPoint, Radius };      // lever arm of the tangential force
 enum class Kinematics { Affine, Lammps };           // contacts see the affine velocity difference, or not
-enum class AxisMode { StrainIncrement, StrainRate, Stress };
+// How an axis of the cell is driven during a leg (cell/control.hpp has the laws).
+enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume };
+// What ends a leg.
+enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium };
 
 inline constexpr std::array<std::string_view, 2> kTangentialRotationNames = {"rotate", "project"};
 inline constexpr std::array<std::string_view, 2> kMomentArmNames = {"contact_point", "radius"};

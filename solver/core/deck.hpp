@@ -48,7 +48,31 @@ struct ServoDef {
 
 struct AxisControl {
   AxisMode mode = AxisMode::StrainIncrement;
-  double value = 0.0;  // per step [-] (compression +), rate [1/s] (compression +), or stress [Pa] (compression +)
+  // StrainIncrement: per step [-]; StrainRate [1/s]; Stress, MeanStress [Pa]; B [-] (compression +);
+  // ConstantVolume: unused.
+  double value = 0.0;
+  bool strain_driven() const { return mode == AxisMode::StrainIncrement || mode == AxisMode::StrainRate; }
+  bool stress_driven() const { return mode == AxisMode::Stress || mode == AxisMode::MeanStress || mode == AxisMode::B; }
+};
+
+struct LegEnd {
+  LegEndKind kind = LegEndKind::Strain;
+  int axis = 0;                // Strain, Stress: the axis (0-based)
+  double value = 0.0;          // Strain [-] relative to the test start; Ratio s11/s33; Stress [Pa]; SolidFraction
+  std::int64_t steps = 0;      // Steps: the leg's length
+  std::int64_t max_steps = 0;  // a Strain leg ends here at the latest; any other leg that has not ended by
+                               // then stops the run with an error (0: no limit)
+};
+
+// One leg of a load program: the axis controls, held until the end condition.
+struct Leg {
+  std::array<AxisControl, 3> axes;
+  LegEnd end;
+  // The strain-driven axes' strain per step (0 for other axes): increments, or rates times the time step.
+  double strain_per_step(int axis, double time_step) const {
+    const AxisControl& a = axes[axis];
+    return a.mode == AxisMode::StrainIncrement ? a.value : a.mode == AxisMode::StrainRate ? a.value * time_step : 0.0;
+  }
 };
 
 struct EquilibriumDef {
@@ -62,20 +86,21 @@ struct EquilibriumDef {
 
 struct PrepareDef {
   double friction = keys::prepare_friction.fallback;  // interparticle mu during preparation
-  double target_pressure = 1e5;                       // [Pa] (required in a deck)
+  double target_pressure = 1e5;                       // [Pa] (required in a deck without legs)
   double fast_solid_fraction = keys::prepare_fast_solid_fraction.fallback;
   double fast_strain_increment = keys::prepare_fast_strain_increment.fallback;
   EquilibriumDef equilibrium;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
+  // The program; when a deck gives none, the two legs above: fast isotropic compression to the solid
+  // fraction, then the isotropic servo at the target pressure to equilibrium (preparation_legs()).
+  std::vector<Leg> legs;
 };
 
+// A loading test: a load program of one or more legs from the prepared state.
 struct TestDef {
   std::string name;
   double friction = 0.0;
-  std::array<AxisControl, 3> axes;
-  int end_axis = 0;                 // 0-based axis whose strain ends the test
-  double end_strain = 0.0;          // engineering strain of end_axis, compression +
-  std::int64_t max_steps = 0;       // safety stop, 0 = derived from the end strain
+  std::vector<Leg> legs;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::test_output_interval.fallback);
 };
 

@@ -13,7 +13,7 @@
 
 namespace celldem {
 
-enum class KeyKind { Object, Number, Integer, String, Choice, Array };
+enum class KeyKind { Object, Number, Integer, String, Choice, Array, Boolean };
 
 struct KeySpec {
   std::string_view path;     // JSON path; "tests[]" stands for every test, "xK" for x1, x2 and x3
@@ -114,7 +114,8 @@ inline constexpr KeySpec prepare{.path = "prepare", .kind = KeyKind::Object, .re
 inline constexpr KeySpec prepare_friction{.path = "prepare.friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .required = false, .fallback = 0.0, .meaning = "interparticle friction coefficient while preparing"};
 inline constexpr KeySpec prepare_target_pressure{.path = "prepare.target_pressure", .kind = KeyKind::Number,
-    .positive = true, .unit = "Pa", .meaning = "isotropic stress of the prepared sample"};
+    .positive = true, .required = false, .default_text = "required without `legs`", .unit = "Pa",
+    .meaning = "isotropic stress of the prepared sample"};
 inline constexpr KeySpec prepare_fast_solid_fraction{.path = "prepare.fast_solid_fraction", .kind = KeyKind::Number,
     .min = 0.01, .max = 0.6, .required = false, .fallback = 0.45,
     .meaning = "strain-controlled compression up to this solid fraction"};
@@ -144,6 +145,17 @@ inline constexpr KeySpec equilibrium_max_steps{.path = "prepare.equilibrium.max_
     .min = 1, .max = kMaxCount, .required = false, .fallback = 2000000,
     .meaning = "servo steps before the run stops with an error"};
 
+inline constexpr KeySpec prepare_legs{.path = "prepare.legs", .kind = KeyKind::Array, .required = false,
+    .default_text = "fast compression, then the servo",
+    .meaning = "instead of the two default legs: a load program as in `tests[].legs`, whose legs may also end on "
+               "`solid_fraction` or `equilibrium` (`target_pressure` and the fast keys are then not used)"};
+inline constexpr KeySpec end_solid_fraction{.path = "prepare.legs[].end.solid_fraction", .kind = KeyKind::Number,
+    .min = 0.01, .max = 0.9, .required = false, .default_text = "-",
+    .meaning = "the leg ends when the spheres fill this fraction of the cell"};
+inline constexpr KeySpec end_equilibrium{.path = "prepare.legs[].end.equilibrium", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "-",
+    .meaning = "`true`: the leg ends in equilibrium (`prepare.equilibrium`) at its stress targets"};
+
 inline constexpr KeySpec initial_state{.path = "initial_state", .kind = KeyKind::String, .required = false,
     .default_text = "none", .meaning = "instead of `prepare`: a state file (path relative to the deck) to test"};
 
@@ -153,8 +165,14 @@ inline constexpr KeySpec test_name{.path = "tests[].name", .kind = KeyKind::Stri
     .meaning = "letters, digits, `_` or `-`; unique; not `prepare`"};
 inline constexpr KeySpec test_friction{.path = "tests[].friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .meaning = "interparticle friction coefficient"};
+inline constexpr KeySpec test_legs{.path = "tests[].legs", .kind = KeyKind::Array, .required = false,
+    .default_text = "one leg: `axes`, `end`",
+    .meaning = "instead of `axes` and `end`: a load program, legs `{\"axes\", \"end\"}` run in order, each from where "
+               "the previous one ended, or blocks `{\"repeat\": n, \"legs\": [...]}`"};
+inline constexpr KeySpec leg_repeat{.path = "tests[].legs[].repeat", .kind = KeyKind::Integer, .min = 1,
+    .max = 100000, .required = false, .default_text = "-", .meaning = "times the block's `legs` run in a row"};
 inline constexpr KeySpec test_axes{.path = "tests[].axes", .kind = KeyKind::Object,
-    .meaning = "`x1`, `x2`, `x3`: each exactly one of the three controls below"};
+    .meaning = "`x1`, `x2`, `x3`: each exactly one of the controls below"};
 inline constexpr KeySpec axis_strain_increment{.path = "tests[].axes.xK.strain_increment", .kind = KeyKind::Number,
     .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
     .meaning = "engineering strain per step relative to the test start, compression +"};
@@ -163,13 +181,33 @@ inline constexpr KeySpec axis_strain_rate{.path = "tests[].axes.xK.strain_rate",
     .meaning = "engineering strain rate, compression +"};
 inline constexpr KeySpec axis_stress{.path = "tests[].axes.xK.stress", .kind = KeyKind::Number, .positive = true,
     .required = false, .default_text = "-", .unit = "Pa", .meaning = "servo-controlled stress, compression +"};
-inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object, .meaning = "when the test ends"};
+inline constexpr KeySpec axis_b{.path = "tests[].axes.xK.b", .kind = KeyKind::Number, .min = 0, .max = 1,
+    .required = false, .default_text = "-",
+    .meaning = "servo to s_minor + b (s_major - s_minor): s_major of the one strain-driven axis, s_minor of the one "
+               "other stress-driven axis"};
+inline constexpr KeySpec axis_mean_stress{.path = "tests[].axes.xK.mean_stress", .kind = KeyKind::Number,
+    .positive = true, .required = false, .default_text = "-", .unit = "Pa",
+    .meaning = "servo so that the mean stress stays at this value (the same on every such axis; with a `b` axis, "
+               "b and p are held together)"};
+inline constexpr KeySpec axis_constant_volume{.path = "tests[].axes.xK.constant_volume", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "-",
+    .meaning = "`true`: the axis's strain keeps the cell volume at the leg's start (equal strains on two such axes)"};
+inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object,
+    .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`"};
 inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
-    .choices = kAxisNames, .meaning = "strain-driven axis whose strain ends the test"};
+    .choices = kAxisNames, .meaning = "the axis of a `strain` or `stress` end"};
 inline constexpr KeySpec test_end_strain{.path = "tests[].end.strain", .kind = KeyKind::Number, .min = -0.9,
-    .max = 0.9, .meaning = "engineering strain of that axis at the end, non-zero, in the axis's direction"};
+    .max = 0.9, .required = false, .default_text = "-",
+    .meaning = "engineering strain of the axis relative to the test start (either direction: unloading too)"};
+inline constexpr KeySpec test_end_ratio{.path = "tests[].end.ratio", .kind = KeyKind::Number, .positive = true,
+    .required = false, .default_text = "-", .meaning = "s11/s33 reaches this value (from either side)"};
+inline constexpr KeySpec test_end_stress{.path = "tests[].end.stress", .kind = KeyKind::Number, .positive = true,
+    .required = false, .default_text = "-", .unit = "Pa", .meaning = "the axis's stress reaches this value"};
+inline constexpr KeySpec test_end_steps{.path = "tests[].end.steps", .kind = KeyKind::Integer, .min = 1,
+    .max = kMaxCount, .required = false, .default_text = "-", .meaning = "the leg's length in steps"};
 inline constexpr KeySpec test_end_max_steps{.path = "tests[].end.max_steps", .kind = KeyKind::Integer, .min = 0,
-    .max = kMaxCount, .required = false, .fallback = 0, .meaning = "safety stop (0: none)"};
+    .max = kMaxCount, .required = false, .fallback = 0,
+    .meaning = "a `strain` leg ends here at the latest; any other leg not ended by then stops the run (0: none)"};
 inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval", .kind = KeyKind::Integer, .min = 1,
     .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 // clang-format on
@@ -184,9 +222,10 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &prepare_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
     &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
-    &equilibrium_max_steps, &initial_state, &tests, &test_name, &test_friction, &test_axes,
-    &axis_strain_increment, &axis_strain_rate, &axis_stress, &test_end, &test_end_axis, &test_end_strain,
-    &test_end_max_steps, &test_output_interval});
+    &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &tests,
+    &test_name, &test_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
+    &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
+    &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &test_output_interval});
 }  // namespace keys
 
 }  // namespace celldem

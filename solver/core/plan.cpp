@@ -7,23 +7,53 @@ namespace celldem {
 
 bool is_reserved_stage_name(const std::string& name) { return name == "prepare" || name == "figures"; }
 
+std::vector<Leg> preparation_legs(const PrepareDef& prep) {
+  Leg fast, servo;
+  fast.axes.fill({AxisMode::StrainIncrement, prep.fast_strain_increment});
+  fast.end = {.kind = LegEndKind::SolidFraction, .value = prep.fast_solid_fraction};
+  servo.axes.fill({AxisMode::Stress, prep.target_pressure});
+  servo.end = {.kind = LegEndKind::Equilibrium, .max_steps = prep.equilibrium.max_steps};
+  return {fast, servo};
+}
+
+std::int64_t leg_steps(const Leg& leg, double time_step, double from) {
+  const LegEnd& e = leg.end;
+  std::int64_t n = -1;
+  if (e.kind == LegEndKind::Steps) n = e.steps;
+  if (e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven())
+    n = std::max<std::int64_t>(0, std::llround((e.value - from) / leg.strain_per_step(e.axis, time_step)));
+  if (n >= 0 && e.max_steps > 0) n = std::min(n, e.max_steps);
+  return n;
+}
+
 TestPlan plan_test(const Deck& deck, const TestDef& test) {
-  const AxisControl& a = test.axes[test.end_axis];
   TestPlan p;
-  p.strain_per_step = a.mode == AxisMode::StrainRate ? a.value * deck.time_step : a.value;
+  const Leg& first = test.legs.front();
+  p.strain_per_step = first.strain_per_step(first.end.axis, deck.time_step);
   p.strain_rate = p.strain_per_step / deck.time_step;
-  const auto n = static_cast<std::int64_t>(std::llround(test.end_strain / p.strain_per_step));
-  p.steps = test.max_steps > 0 ? std::min(n, test.max_steps) : n;
+  // A leg starts where the previous one ended: its end axis from the previous strain end of that axis.
+  Vec3 strain = Vec3::Zero();
+  for (const Leg& leg : test.legs) {
+    const std::int64_t n = leg_steps(leg, deck.time_step, strain[leg.end.axis]);
+    if (n < 0) {
+      p.steps = p.rows = -1;
+      return p;
+    }
+    p.steps += n;
+    for (int k = 0; k < 3; ++k) strain[k] += n * leg.strain_per_step(k, deck.time_step);
+    if (leg.end.kind == LegEndKind::Strain && n != leg.end.max_steps) strain[leg.end.axis] = leg.end.value;
+  }
   p.rows = 1 + p.steps / test.output_interval + (p.steps % test.output_interval != 0);
   return p;
 }
 
 double loading_rate(const Deck& deck, const TestDef& test) {
   double rate = 0.0;
-  for (const AxisControl& a : test.axes) {
-    if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / deck.time_step);
-    if (a.mode == AxisMode::StrainRate) rate = std::max(rate, std::abs(a.value));
-  }
+  for (const Leg& leg : test.legs)
+    for (const AxisControl& a : leg.axes) {
+      if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / deck.time_step);
+      if (a.mode == AxisMode::StrainRate) rate = std::max(rate, std::abs(a.value));
+    }
   return rate;
 }
 

@@ -7,21 +7,31 @@
 #include <string>
 
 #include "core/deck.hpp"
+#include "core/types.hpp"
 
 namespace celldem {
 
 // Stage names the run directory uses itself; tests may not take them.
 bool is_reserved_stage_name(const std::string& name);
 
+// The preparation's default program: fast isotropic compression at fast_strain_increment to
+// fast_solid_fraction, then the isotropic servo at target_pressure until equilibrium (or max_steps: error).
+std::vector<Leg> preparation_legs(const PrepareDef& prepare);
+
+// Steps of a leg that ends on a strain-driven axis's strain or on a step count, counted from the strain
+// `from` of the end axis at the leg's start; -1 when only running the leg tells (a ratio or stress end, a
+// strain reached by a stress-driven axis). Capped by end.max_steps.
+std::int64_t leg_steps(const Leg& leg, double time_step, double from = 0.0);
+
 struct TestPlan {
-  std::int64_t steps = 0;        // steps to reach the end strain of the driving axis, capped by end.max_steps
-  double strain_per_step = 0.0;  // engineering strain of the driving axis per step (compression +)
+  std::int64_t steps = 0;        // all legs; -1 when a leg's length is known only by running it
+  double strain_per_step = 0.0;  // the first leg's end axis, per step (compression +)
   double strain_rate = 0.0;      // the same per second [1/s]
-  std::int64_t rows = 0;         // series rows: the first, one per output interval, and the last
+  std::int64_t rows = 0;         // series rows: the first, one per output interval, and the last (-1: unknown)
 };
 TestPlan plan_test(const Deck& deck, const TestDef& test);
 
-// The fastest strain rate [1/s] of the test's strain-driven axes (the rate of the inertial number).
+// The fastest strain rate [1/s] of the test's strain-driven axes over its legs (the inertial number's rate).
 double loading_rate(const Deck& deck, const TestDef& test);
 
 // Mass, rotational inertia and body-damping coefficients of a solid sphere. Damping is a fraction of

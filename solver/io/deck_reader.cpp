@@ -59,6 +59,13 @@ class ObjectReader {
     return x;
   }
 
+  bool boolean(const KeySpec& spec) {
+    const Json* v = find(spec);
+    if (!v) return false;
+    if (!v->is_boolean()) fail(at(spec), "expected true or false, got " + std::string(v->type_name()));
+    return v->get<bool>();
+  }
+
   std::string string(const KeySpec& spec) {
     const Json* v = find(spec);
     if (!v) return "";
@@ -220,17 +227,126 @@ ServoDef read_servo(ObjectReader r) {
 AxisControl read_axis(ObjectReader r) {
   AxisControl a;
   int given = 0;
-  const std::pair<const KeySpec*, AxisMode> controls[] = {{&keys::axis_strain_increment, AxisMode::StrainIncrement},
-                                                          {&keys::axis_strain_rate, AxisMode::StrainRate},
-                                                          {&keys::axis_stress, AxisMode::Stress}};
+  const std::pair<const KeySpec*, AxisMode> controls[] = {
+      {&keys::axis_strain_increment, AxisMode::StrainIncrement}, {&keys::axis_strain_rate, AxisMode::StrainRate},
+      {&keys::axis_stress, AxisMode::Stress}, {&keys::axis_b, AxisMode::B},
+      {&keys::axis_mean_stress, AxisMode::MeanStress}, {&keys::axis_constant_volume, AxisMode::ConstantVolume}};
   for (const auto& [spec, mode] : controls)
     if (r.has(*spec)) {
-      a = {mode, r.number(*spec)};
+      if (mode == AxisMode::ConstantVolume) {
+        if (!r.boolean(*spec)) fail(r.at(*spec), "only true is meaningful (leave the key out otherwise)");
+        a = {mode, 0.0};
+      } else {
+        a = {mode, r.number(*spec)};
+      }
       ++given;
     }
-  if (given != 1) fail(r.path(), "give exactly one of \"strain_increment\", \"strain_rate\", \"stress\"");
+  if (given != 1)
+    fail(r.path(), "give exactly one of \"strain_increment\", \"strain_rate\", \"stress\", \"b\", \"mean_stress\", "
+                   "\"constant_volume\"");
   r.finish();
   return a;
+}
+
+LegEnd read_end(ObjectReader end, bool preparation) {
+  LegEnd e;
+  int given = 0;
+  if (end.has(keys::test_end_strain)) e.kind = LegEndKind::Strain, e.value = end.number(keys::test_end_strain), ++given;
+  if (end.has(keys::test_end_ratio)) e.kind = LegEndKind::Ratio, e.value = end.number(keys::test_end_ratio), ++given;
+  if (end.has(keys::test_end_stress)) e.kind = LegEndKind::Stress, e.value = end.number(keys::test_end_stress), ++given;
+  if (end.has(keys::test_end_steps)) e.kind = LegEndKind::Steps, e.steps = end.integer(keys::test_end_steps), ++given;
+  if (preparation && end.has(keys::end_solid_fraction))
+    e.kind = LegEndKind::SolidFraction, e.value = end.number(keys::end_solid_fraction), ++given;
+  if (preparation && end.has(keys::end_equilibrium)) {
+    if (!end.boolean(keys::end_equilibrium)) fail(end.at(keys::end_equilibrium), "only true is meaningful");
+    e.kind = LegEndKind::Equilibrium, ++given;
+  }
+  if (given != 1)
+    fail(end.path(), preparation ? "give exactly one of \"strain\", \"ratio\", \"stress\", \"steps\", "
+                                   "\"solid_fraction\", \"equilibrium\""
+                                 : "give exactly one of \"strain\", \"ratio\", \"stress\", \"steps\"");
+  e.axis = static_cast<int>(end.choice(keys::test_end_axis));
+  e.max_steps = end.integer(keys::test_end_max_steps);
+  end.finish();
+  return e;
+}
+
+// The rules that make a leg's controls well defined; `at` is the leg's path.
+void check_leg(const Leg& leg, const std::string& at) {
+  int driven = 0, stress = 0, b = 0;
+  double mean = -1.0;
+  for (int k = 0; k < 3; ++k) {
+    const AxisControl& a = leg.axes[k];
+    driven += a.strain_driven();
+    stress += a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress;
+    b += a.mode == AxisMode::B;
+    if (a.mode == AxisMode::MeanStress) {
+      if (mean >= 0.0 && a.value != mean)
+        fail(at + ".axes." + std::string(kAxisNames[k]) + ".mean_stress", "every mean_stress axis must give the same value");
+      mean = a.value;
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    const std::string axis = at + ".axes." + std::string(kAxisNames[k]);
+    if (leg.axes[k].mode == AxisMode::B && (driven != 1 || stress != 1))
+      fail(axis + ".b", "a b axis needs exactly one strain-driven axis (the major stress) and one other stress or "
+                        "mean_stress axis (the minor stress)");
+    if (leg.axes[k].mode == AxisMode::ConstantVolume && driven == 0)
+      fail(axis + ".constant_volume", "a constant-volume axis needs a strain-driven axis to balance");
+  }
+  if (b > 1) fail(at + ".axes", "at most one b axis");
+  if (mean >= 0.0 && driven == 0 && b == 0 && stress < 3)
+    fail(at + ".axes", "mean_stress axes need a strain-driven or b axis beside them, or all three on mean_stress");
+  const LegEnd& e = leg.end;
+  const std::string end = at + ".end";
+  if (e.kind == LegEndKind::Strain) {
+    const bool driven_end = leg.axes[e.axis].strain_driven();
+    if (driven_end && leg.strain_per_step(e.axis, 1.0) == 0.0)
+      fail(end + ".axis", "the end axis is held at zero strain increment: it never moves");
+    if (!driven_end && e.max_steps == 0)
+      fail(end + ".max_steps", "a strain end on an axis that is not strain-driven needs max_steps (it may never be "
+                               "reached)");
+  }
+  if (e.kind == LegEndKind::Equilibrium)
+    for (int k = 0; k < 3; ++k)
+      if (leg.axes[k].mode != AxisMode::Stress && leg.axes[k].mode != AxisMode::MeanStress)
+        fail(end + ".equilibrium", "a leg that ends in equilibrium needs every axis on stress or mean_stress");
+  if ((e.kind == LegEndKind::Ratio || e.kind == LegEndKind::Stress) && e.max_steps == 0)
+    fail(end + ".max_steps", "a ratio or stress end needs max_steps (it may never be reached)");
+}
+
+Leg read_leg(ObjectReader& r, bool preparation) {
+  Leg leg;
+  {
+    ObjectReader axes = r.object(keys::test_axes);
+    for (int i = 0; i < 3; ++i) leg.axes[i] = read_axis(axes.object(kAxisNames[i]));
+    axes.finish();
+  }
+  leg.end = read_end(r.object(keys::test_end), preparation);
+  return leg;
+}
+
+// A program: legs in order, blocks {"repeat": n, "legs": [...]} expanded in place.
+void read_program(const Json& list, const std::string& path, bool preparation, std::vector<Leg>& out) {
+  if (!list.is_array() || list.empty()) fail(path, "expected a non-empty array of legs");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string at = path + "[" + std::to_string(i) + "]";
+    ObjectReader r(list[i], at);
+    if (r.has(keys::leg_repeat)) {
+      const std::int64_t times = r.integer(keys::leg_repeat);
+      std::vector<Leg> block;
+      read_program(r.raw(keys::test_legs), r.at(keys::test_legs), preparation, block);
+      r.finish();
+      if (static_cast<double>(out.size()) + static_cast<double>(times) * block.size() > 1e6)
+        fail(at + ".repeat", "more than a million legs");
+      for (std::int64_t k = 0; k < times; ++k) out.insert(out.end(), block.begin(), block.end());
+    } else {
+      const Leg leg = read_leg(r, preparation);
+      check_leg(leg, at);
+      r.finish();
+      out.push_back(leg);
+    }
+  }
 }
 
 TestDef read_test(ObjectReader r) {
@@ -242,24 +358,23 @@ TestDef read_test(ObjectReader r) {
   if (is_reserved_stage_name(t.name))
     fail(r.at(keys::test_name), "\"" + t.name + "\" is reserved (the preparation stage); choose another name");
   t.friction = r.number(keys::test_friction);
-  {
-    ObjectReader axes = r.object(keys::test_axes);
-    for (int i = 0; i < 3; ++i) t.axes[i] = read_axis(axes.object(kAxisNames[i]));
-    axes.finish();
+  if (r.has(keys::test_legs)) {
+    if (r.has(keys::test_axes) || r.has(keys::test_end))
+      fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" and \"end\", not both");
+    read_program(r.raw(keys::test_legs), r.at(keys::test_legs), false, t.legs);
+  } else {
+    const Leg leg = read_leg(r, false);
+    // The one-leg form: the axis that ends the test must be strained towards the end strain.
+    if (leg.end.kind == LegEndKind::Strain) {
+      const AxisControl& driver = leg.axes[leg.end.axis];
+      if (!driver.strain_driven()) fail(r.at("end.axis"), "the axis that ends the test must be strain-controlled");
+      if (leg.end.value == 0.0) fail(r.at("end.strain"), "must be non-zero");
+      if (driver.value == 0.0 || (driver.value > 0) != (leg.end.value > 0))
+        fail(r.at("end.strain"), "the end axis is not strained towards this value");
+    }
+    check_leg(leg, r.path());
+    t.legs.push_back(leg);
   }
-  {
-    ObjectReader end = r.object(keys::test_end);
-    t.end_axis = static_cast<int>(end.choice(keys::test_end_axis));
-    t.end_strain = end.number(keys::test_end_strain);
-    if (t.end_strain == 0.0) fail(end.at(keys::test_end_strain), "must be non-zero");
-    t.max_steps = end.integer(keys::test_end_max_steps);
-    end.finish();
-  }
-  const AxisControl& driver = t.axes[t.end_axis];
-  if (driver.mode == AxisMode::Stress)
-    fail(r.at("end.axis"), "the axis that ends the test must be strain-controlled");
-  if (driver.value == 0.0 || (driver.value > 0) != (t.end_strain > 0))
-    fail(r.at("end.strain"), "the end axis is not strained towards this value");
   t.output_interval = r.integer(keys::test_output_interval);
   r.finish();
   return t;
@@ -284,6 +399,10 @@ const Bindings<P, double> kPrepareNumbers = {{&keys::prepare_friction, &P::frict
 
 PrepareDef read_prepare(ObjectReader r) {
   PrepareDef p;
+  if (r.has(keys::prepare_legs))
+    read_program(r.raw(keys::prepare_legs), r.at(keys::prepare_legs), true, p.legs);
+  else if (!r.has(keys::prepare_target_pressure))
+    fail(r.at(keys::prepare_target_pressure), "missing required key (or give \"legs\")");
   read_fields(r, p, kPrepareNumbers);
   p.output_interval = r.integer(keys::prepare_output_interval);
   if (r.has(keys::prepare_equilibrium)) {
@@ -292,6 +411,7 @@ PrepareDef read_prepare(ObjectReader r) {
     read_fields(e, p.equilibrium, kEquilibriumSteps);
     e.finish();
   }
+  if (p.legs.empty()) p.legs = preparation_legs(p);
   r.finish();
   return p;
 }
@@ -439,6 +559,7 @@ std::string kind_name(KeyKind kind) {
     case KeyKind::String: return "string";
     case KeyKind::Choice: return "choice";
     case KeyKind::Array: return "array";
+    case KeyKind::Boolean: return "boolean";
   }
   return "";
 }

@@ -104,6 +104,8 @@ std::string serialize_state(const State& s, const std::string& label) {
   w.put(s.control.reference_lengths);
   w.put(s.control.reference_volume);
   w.put(s.control.servo_integral);
+  w.put(s.control.leg_start_strains);  // format 2
+  w.put(s.control.leg_start_volume);
   w.put(Mat3(s.normal_stress.asDiagonal()));  // a full tensor's slot: earlier files held the whole tensor
   w.put(s.axis_stiffness);
   w.put(s.touching);
@@ -137,8 +139,8 @@ State parse_state(const std::string& bytes, std::string* label) {
   if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) throw StateFileError("not a celldem state file");
   for (std::size_t k = 0; k < sizeof kMagic; ++k) (void)head.get<char>();
   const auto version = head.get<std::uint32_t>();
-  if (version != kStateFormatVersion)
-    throw StateFileError("state file format " + std::to_string(version) + " is not the supported " +
+  if (version < 1 || version > kStateFormatVersion)
+    throw StateFileError("state file format " + std::to_string(version) + " is not one of the supported 1 to " +
                          std::to_string(kStateFormatVersion));
   const auto payload_size = head.get<std::uint64_t>();
   head.need(sizeof(std::uint64_t));  // then remaining() >= 8 and the subtraction below cannot wrap
@@ -168,6 +170,12 @@ State parse_state(const std::string& bytes, std::string* label) {
   s.control.reference_lengths = r.vec();
   s.control.reference_volume = r.finite();
   s.control.servo_integral = r.vec();
+  if (version >= 2) {  // format 1 had no legs: its stage was one leg from the stage start
+    s.control.leg_start_strains = r.vec();
+    s.control.leg_start_volume = r.finite();
+  } else {
+    s.control.leg_start_volume = s.control.reference_volume;
+  }
   s.normal_stress = r.mat().diagonal();
   s.axis_stiffness = r.vec();
   s.touching = r.get<std::int64_t>();

@@ -12,7 +12,8 @@ struct StateFileError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-inline constexpr std::uint32_t kStateFormatVersion = 1;
+// 2: the control holds the current leg's start (strains, volume). Format 1 files are still read.
+inline constexpr std::uint32_t kStateFormatVersion = 2;
 
 // label says what the state is (e.g. "prepared", "checkpoint:ttc"); it is stored and returned. Written
 // atomically; a failed write throws IoError (io/files.hpp).

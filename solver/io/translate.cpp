@@ -23,7 +23,10 @@ std::string num(double x) {
 const char* kAxisName[3] = {"x", "y", "z"};
 
 bool any_stress_axis(const TestDef& t) {
-  return std::any_of(t.axes.begin(), t.axes.end(), [](const AxisControl& a) { return a.mode == AxisMode::Stress; });
+  for (const Leg& leg : t.legs)
+    for (const AxisControl& a : leg.axes)
+      if (a.stress_driven()) return true;
+  return false;
 }
 bool any_stress_axis(const Deck& d) {
   return std::any_of(d.tests.begin(), d.tests.end(), [](const TestDef& t) { return any_stress_axis(t); });
@@ -40,6 +43,9 @@ std::string axis_text(const AxisControl& a) {
     case AxisMode::StrainIncrement: return "strain increment " + num(a.value) + " per step";
     case AxisMode::StrainRate: return "strain rate " + num(a.value) + " 1/s";
     case AxisMode::Stress: return "stress " + num(a.value) + " Pa";
+    case AxisMode::B: return "b " + num(a.value);
+    case AxisMode::MeanStress: return "mean stress " + num(a.value) + " Pa";
+    case AxisMode::ConstantVolume: return "constant volume";
   }
   return "";
 }
@@ -131,9 +137,9 @@ void header(std::ostringstream& o, const Deck& deck, const TestDef& test, Target
     << "#   kinetic energy [J] translation + rotation; lengths l [m] and stresses are those of the step's force\n"
     << "#   evaluation (taken before fix deform / the servo move the box at the end of the step).\n"
     << "#\n"
-    << "# Test: x1 " << axis_text(test.axes[0]) << ", x2 " << axis_text(test.axes[1]) << ", x3 "
-    << axis_text(test.axes[2]) << "; friction " << num(test.friction) << "; " << plan_test(deck, test).steps
-    << " steps (e" << test.end_axis + 1 << " = " << num(test.end_strain) << "), output every "
+    << "# Test: x1 " << axis_text(test.legs[0].axes[0]) << ", x2 " << axis_text(test.legs[0].axes[1]) << ", x3 "
+    << axis_text(test.legs[0].axes[2]) << "; friction " << num(test.friction) << "; " << plan_test(deck, test).steps
+    << " steps (e" << test.legs[0].end.axis + 1 << " = " << num(test.legs[0].end.value) << "), output every "
     << test.output_interval << "\n";
   std::vector<std::string> differences = model_differences(deck, code);
   differences.push_back("contact history cannot be carried by a data file: the run starts with zero tangential "
@@ -244,7 +250,7 @@ std::string lammps_script(const Deck& deck, const TestDef& test) {
 
   std::string deform, baro;
   for (int k = 0; k < 3; ++k) {
-    const AxisControl& a = test.axes[k];
+    const AxisControl& a = test.legs[0].axes[k];
     if (a.mode == AxisMode::Stress) {
       baro += std::string(" ") + kAxisName[k] + " " + num(a.value) + " " + num(a.value) + " " +
               num(translated_servo(deck).pdamp);
@@ -301,7 +307,7 @@ std::string liggghts_script(const Deck& deck, const TestDef& test) {
   std::string deform, servo_vars;
   const TranslatedServo servo = translated_servo(deck);
   for (int k = 0; k < 3; ++k) {
-    const AxisControl& a = test.axes[k];
+    const AxisControl& a = test.legs[0].axes[k];
     const std::string ax = kAxisName[k], i = std::to_string(k + 1);
     if (a.mode == AxisMode::Stress) {
       servo_vars += "variable        d" + ax + " equal l" + ax + "*(1.0-" + num(deck.time_step) + "/" +

@@ -165,6 +165,11 @@ StressInvariants stress_invariants(const Mat3& s) {
   return out;
 }
 
+Vec3 principal_stresses(const Mat3& s) {
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(s, Eigen::EigenvaluesOnly);
+  return Vec3(eig.eigenvalues()[2], eig.eigenvalues()[1], eig.eigenvalues()[0]);  // ascending -> descending
+}
+
 double b_value(double s11, double s22, double s33) {
   const double den = s11 - s33;
   return den != 0.0 ? (s22 - s33) / den : std::numeric_limits<double>::quiet_NaN();

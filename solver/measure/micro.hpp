@@ -39,6 +39,8 @@ struct StressInvariants {
   double p = 0.0, q = 0.0, sin_phi = 0.0;  // [Pa], [Pa], [-]
 };
 StressInvariants stress_invariants(const Mat3& stress);
+// Principal stresses of the symmetric tensor, descending (sigma1 >= sigma2 >= sigma3).
+Vec3 principal_stresses(const Mat3& stress);
 // b = (s2 - s3) / (s1 - s3) from the axis stresses s11, s22, s33 (NaN when s1 == s3).
 double b_value(double s11, double s22, double s33);
 

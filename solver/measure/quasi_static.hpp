@@ -9,8 +9,9 @@
 
 namespace celldem {
 
-// The preparation's end: |p - target|/target, every |s_kk - target|/target and the unbalanced force ratio
-// within the deck's tolerances (with at least one contact).
+// The preparation's end: |p - p_target|/p_target (p_target the mean of the targets), every
+// |s_kk - target_k|/target_k and the unbalanced force ratio within the deck's tolerances (with at least
+// one contact).
 struct EquilibriumCheck {
   bool reached = false;
   double p = 0.0;                 // [Pa]
@@ -20,7 +21,7 @@ struct EquilibriumCheck {
   std::string describe() const;   // "p 100.0 kPa  |dp| 0.001  max|ds| 0.002  unbalanced 0.009"
 };
 EquilibriumCheck check_equilibrium(const Model& model, const State& state, const EquilibriumDef& criterion,
-                                   double target_pressure);
+                                   const Vec3& targets);
 
 // Inertial number I = rate d sqrt(rho / p): the time a grain needs to rearrange under p over the loading
 // time (quasi-static below about 1e-3). Infinite when p <= 0.

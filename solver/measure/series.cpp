@@ -63,6 +63,14 @@ const std::array kColumns = std::to_array<SeriesColumn>({
     {"kinetic_energy", &R::kinetic_energy, kReal, "J", "fluctuating translation and rotation", false},
     {"unbalanced_force", &R::unbalanced_force, kReal, "-",
      "mean |net contact force| over particles / mean contact normal force", false},
+    {"leg", &R::leg, kCount, "-", "leg of the load program (0-based)", false},
+    {"sigma1", &R::sigma1, kReal, "Pa", "major principal stress of the contact stress tensor", false},
+    {"sigma2", &R::sigma2, kReal, "Pa", "intermediate principal stress", false},
+    {"sigma3", &R::sigma3, kReal, "Pa", "minor principal stress", false},
+    {"b_principal", &R::b_principal, kReal, "-", "(sigma2 - sigma3)/(sigma1 - sigma3) (the paper's b)", false},
+    {"ratio_principal", &R::ratio_principal, kReal, "-", "sigma1/sigma3", false},
+    {"lode_angle", &R::lode_angle, kReal, "deg",
+     "atan((2 sigma2 - sigma1 - sigma3)/(sqrt(3) (sigma1 - sigma3))): -30 compression (b = 0), +30 extension", false},
 });
 // clang-format on
 
@@ -134,6 +142,14 @@ SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWi
   r.Hw11_Hw33 = ratio(f.weak(0, 0), f.weak(2, 2));
   r.kinetic_energy = kinetic_energy(model, state);
   r.unbalanced_force = unbalanced_force_ratio(model, state);
+  r.leg = static_cast<double>(state.control.phase);
+  const Vec3 principal = principal_stresses(s);
+  r.sigma1 = principal[0], r.sigma2 = principal[1], r.sigma3 = principal[2];
+  r.b_principal = b_value(r.sigma1, r.sigma2, r.sigma3);
+  r.ratio_principal = ratio(r.sigma1, r.sigma3);
+  r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /
+                                                  (std::sqrt(3.0) * (r.sigma1 - r.sigma3))) * 180.0 / M_PI
+                                      : std::numeric_limits<double>::quiet_NaN();
   return r;
 }
 

@@ -24,6 +24,9 @@ struct SeriesRow {
   double Hs11 = 0, Hs22 = 0, Hs33 = 0, Hw11 = 0, Hw22 = 0, Hw33 = 0;
   double H11_H33 = 0, Hs11_Hs33 = 0, Hw11_Hw33 = 0;
   double kinetic_energy = 0, unbalanced_force = 0;
+  double leg = 0;                                   // the leg of the load program (0-based)
+  double sigma1 = 0, sigma2 = 0, sigma3 = 0;        // principal stresses, descending
+  double b_principal = 0, ratio_principal = 0, lode_angle = 0;
 
   // Engineering strain of axis k (0-based), compression positive.
   double strain(int k) const { return k == 0 ? e1 : k == 1 ? e2 : e3; }

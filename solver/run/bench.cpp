@@ -65,7 +65,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   begin_stage(state);
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);
-  const Loading loading{test.axes, test.friction};
+  const Loading loading{test.legs.front().axes, test.friction};
   evaluate_forces(model, test.friction, state);
   for (std::int64_t k = 0; k < warmup; ++k) advance_one_step(model, loading, state);
 

@@ -51,11 +51,11 @@ void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64
 
 double servo_max_error(const TestDef& test, const std::vector<SeriesRow>& rows) {
   double error = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    if (test.axes[k].mode != AxisMode::Stress) continue;
-    for (std::size_t r = rows.size() / 50 + 1; r < rows.size(); ++r)
-      error = std::max(error, std::abs(rows[r].normal_stress(k) / test.axes[k].value - 1.0));
-  }
+  for (int k = 0; k < 3; ++k)
+    for (std::size_t r = rows.size() / 50 + 1; r < rows.size(); ++r) {
+      const AxisControl& a = test.legs[static_cast<std::size_t>(rows[r].leg)].axes[k];
+      if (a.mode == AxisMode::Stress) error = std::max(error, std::abs(rows[r].normal_stress(k) / a.value - 1.0));
+    }
   return error;
 }
 
@@ -68,6 +68,29 @@ std::vector<std::string> test_warnings(const TestDef& test, double servo_error, 
   if (inertia > kQuasiStaticInertia)
     out.push_back("test '" + test.name + "': inertial number " + std::to_string(inertia) +
                   " exceeds the quasi-static limit 1e-3: results depend on the loading rate");
+  return out;
+}
+
+std::vector<std::string> control_warnings(const TestDef& test, const std::vector<ControlErrors>& errors) {
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < errors.size(); ++k) {
+    const ControlErrors& e = errors[k];
+    const std::string leg = "test '" + test.name + "' leg " + std::to_string(k) + ": ";
+    char buf[200];
+    if (e.b > kBTolerance) {
+      std::snprintf(buf, sizeof buf, "b missed its target by up to %.3g (tolerance %.3g)", e.b, kBTolerance);
+      out.push_back(leg + buf + ": lower the strain rate or raise servo.max_strain_increment / servo.gain");
+    }
+    if (e.mean_stress > kMeanStressTolerance) {
+      std::snprintf(buf, sizeof buf, "the mean stress missed its target by up to %.3g %% (tolerance %.3g %%)",
+                    100 * e.mean_stress, 100 * kMeanStressTolerance);
+      out.push_back(leg + buf + ": lower the strain rate or raise servo.max_strain_increment / servo.gain");
+    }
+    if (e.volume > kVolumeTolerance) {
+      std::snprintf(buf, sizeof buf, "the volume drifted by up to %.3g (tolerance %.3g)", e.volume, kVolumeTolerance);
+      out.push_back(leg + buf);
+    }
+  }
   return out;
 }
 

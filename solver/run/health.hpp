@@ -8,12 +8,16 @@
 #include "core/model.hpp"
 #include "core/state.hpp"
 #include "measure/series.hpp"
+#include "run/program.hpp"
 
 namespace celldem {
 
 inline constexpr double kMaxStepMotion = 0.05;       // runaway: a particle moving 5 % of its radius in one step
 inline constexpr double kMaxKineticToElastic = 0.5;  // runaway in a test: kinetic energy above half the elastic
 inline constexpr double kServoTolerance = 0.005;     // stress-controlled axes should stay within 0.5 % of target
+inline constexpr double kBTolerance = 0.01;           // a b axis within 0.01 of its b
+inline constexpr double kMeanStressTolerance = 0.005; // the mean stress within 0.5 %
+inline constexpr double kVolumeTolerance = 1e-6;      // constant volume within 1e-6 relative
 
 // Checked at every series row; throws RunError naming the cause and the step.
 class RunawayMonitor {
@@ -31,11 +35,13 @@ class RunawayMonitor {
 // Stops the run when a row holds non-finite values in a column that must be finite.
 void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64_t step);
 
-// The largest relative error of the test's stress-controlled axes over its rows after the first 2 %.
+// The largest relative error of the test's fixed-stress axes over its rows after the first 2 %.
 double servo_max_error(const TestDef& test, const std::vector<SeriesRow>& rows);
 
 // Warnings about a finished test (servo error, inertial number), and about a deck before it runs.
 std::vector<std::string> test_warnings(const TestDef& test, double servo_error, double inertial_number);
 std::vector<std::string> deck_warnings(const Deck& deck);
+// Legs whose controls missed the tolerances above after their first kSettleStrain.
+std::vector<std::string> control_warnings(const TestDef& test, const std::vector<ControlErrors>& errors);
 
 }  // namespace celldem

@@ -78,10 +78,16 @@ double RunDirectory::elapsed_of(const std::string& stage) const {
   return progress_["elapsed"].value(stage, 0.0);
 }
 
-void RunDirectory::record_elapsed(const std::string& stage, double seconds) {
+void RunDirectory::record_checkpoint(const std::string& stage, double seconds, const Json& memory) {
   const std::lock_guard<std::mutex> lock(mutex_);
   progress_["elapsed"][stage] = seconds;
+  progress_["memory"][stage] = memory;
   write_progress();
+}
+
+Json RunDirectory::memory_of(const std::string& stage) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return progress_.contains("memory") && progress_["memory"].contains(stage) ? progress_["memory"][stage] : Json();
 }
 
 void RunDirectory::mark_done(const std::string& stage) {

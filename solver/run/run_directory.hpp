@@ -33,8 +33,10 @@ class RunDirectory {
   bool resumes(const std::string& stage) const;
   double elapsed_of(const std::string& stage) const;
 
-  // After a checkpoint of `stage` was written.
-  void record_elapsed(const std::string& stage, double seconds);
+  // After a checkpoint of `stage` was written: its elapsed time and what else the stage must carry over a
+  // resume (its controls' errors so far).
+  void record_checkpoint(const std::string& stage, double seconds, const nlohmann::json& memory);
+  nlohmann::json memory_of(const std::string& stage) const;
   // Order matters for a kill at any moment: the summary first, then the stage marked complete, then its
   // checkpoint removed. Killed in between, a resume re-runs the stage's tail from the checkpoint.
   void mark_done(const std::string& stage);

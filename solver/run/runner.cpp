@@ -13,6 +13,7 @@
 #include "io/state_file.hpp"
 #include "measure/quasi_static.hpp"
 #include "run/preflight.hpp"
+#include "run/program.hpp"
 #include "run/run_directory.hpp"
 #include "run/sample.hpp"
 #include "run/stage_output.hpp"
@@ -28,38 +29,14 @@ namespace {
 volatile std::sig_atomic_t g_stop_requested = 0;
 void on_stop_signal(int) { g_stop_requested = 1; }
 
-Loading isotropic(AxisMode mode, double value, double friction) {
-  const AxisControl a{mode, value};
-  return {{a, a, a}, friction};
-}
-
-// Preparation: fast strain-controlled compression to a solid fraction, then the stress servo until the
-// packing is in equilibrium at the target pressure.
+// The preparation: its load program (by default fast compression, then the servo to equilibrium).
 void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& options, State& state, bool resumed) {
   const PrepareDef& prep = *deck.prepare;
   const Model model = make_model(deck, state.particles.radius);
   if (!resumed) evaluate_forces(model, prep.friction, state);
   StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false);
   out.open(state, resumed);
-  const Loading fast = isotropic(AxisMode::StrainIncrement, prep.fast_strain_increment, prep.friction);
-  const Loading servo = isotropic(AxisMode::Stress, prep.target_pressure, prep.friction);
-  bool rebuild = true;
-  std::string status = "fast compression";
-  for (;;) {
-    const ControlState& c = state.control;
-    if (c.phase == 0 && model.solid_volume / state.cell.volume() >= prep.fast_solid_fraction)
-      begin_phase(state, 1);  // the servo takes over
-    advance_one_step(model, c.phase == 0 ? fast : servo, state, rebuild);
-    if (c.phase == 1 && c.phase_steps % prep.equilibrium.check_interval == 0) {
-      const EquilibriumCheck eq = check_equilibrium(model, state, prep.equilibrium, prep.target_pressure);
-      status = eq.describe();
-      if (eq.reached && c.phase_steps >= prep.equilibrium.min_steps) break;
-      if (c.phase_steps >= prep.equilibrium.max_steps)
-        throw RunError("preparation did not reach equilibrium in " + std::to_string(c.phase_steps) +
-                       " servo steps (" + status + "); raise prepare.equilibrium.max_steps or relax its tolerances");
-    }
-    rebuild = out.after_step(state, -1.0, status);
-  }
+  run_program(model, {prep.legs, prep.friction, &prep.equilibrium}, state, out, out.control_errors());
   out.finish(state);
   write_state(run.prepared_state().string(), state, "prepared");
   const Json prepared = summarize_preparation(model, state, prep, out.elapsed());
@@ -73,21 +50,16 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   if (!resumed) begin_stage(state);
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
-  const Loading loading{test.axes, test.friction};
   if (!resumed) evaluate_forces(model, test.friction, state);  // the first row: the state as loaded
-  const std::int64_t total = plan_test(deck, test).steps;
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true);
   out.open(state, resumed);
-  bool rebuild = true;
-  while (state.control.stage_steps < total) {
-    advance_one_step(model, loading, state, rebuild);
-    rebuild = out.after_step(state, static_cast<double>(state.control.stage_steps) / total);
-  }
+  const Program program{test.legs, test.friction, nullptr, plan_test(deck, test).steps};
+  run_program(model, program, state, out, out.control_errors());
   out.finish(state);
   write_state((out.dir() / "final.state").string(), state, "test:" + test.name);
   std::vector<std::string> warnings;
-  const Json result =
-      summarize_test(deck, test, out.rows(), out.elapsed(), total, state.particles.size(), warnings);
+  const Json result = summarize_test(deck, test, out.rows(), out.control_errors(), out.elapsed(),
+                                     state.control.stage_steps, state.particles.size(), warnings);
   run.update_summary([&](Json& s) { s["tests"][test.name] = result; });
   for (const std::string& w : warnings) run.add_warning(w);
 }

@@ -19,7 +19,11 @@ void StageOutput::open(const State& state, bool resumed) {
   fs::create_directories(dir_);
   const fs::path path = dir_ / "series.csv";
   write_file_atomic(dir_ / "series.columns.json", series_columns_json());
-  if (resumed) elapsed_before_ = run_.elapsed_of(stage_);
+  if (resumed) {
+    elapsed_before_ = run_.elapsed_of(stage_);
+    for (const auto& e : run_.memory_of(stage_).value("control_errors", nlohmann::json::array()))
+      control_errors_.push_back(control_errors_from_json(e));
+  }
   if (resumed && fs::exists(path)) {
     std::istringstream in(read_file(path));
     std::string line;
@@ -69,7 +73,7 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
 }
 
 void StageOutput::finish(const State& state) {
-  if (state.control.stage_steps % output_interval_ != 0) write_row(state);
+  if (rows_.empty() || rows_.back().step != static_cast<double>(state.control.stage_steps)) write_row(state);
   progress_.finish();
 }
 
@@ -87,7 +91,9 @@ void StageOutput::write_row(const State& state) {
 
 void StageOutput::checkpoint(const State& state) {
   write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_);
-  run_.record_elapsed(stage_, elapsed());
+  nlohmann::json errors = nlohmann::json::array();
+  for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));
+  run_.record_checkpoint(stage_, elapsed(), {{"control_errors", errors}});
 }
 
 }  // namespace celldem

@@ -12,6 +12,7 @@
 #include "io/files.hpp"
 #include "measure/series.hpp"
 #include "run/health.hpp"
+#include "run/program.hpp"
 #include "run/progress.hpp"
 #include "run/run_directory.hpp"
 
@@ -37,6 +38,8 @@ class StageOutput {
   const std::filesystem::path& dir() const { return dir_; }
   // Every row of the stage so far, as series.csv holds them.
   const std::vector<SeriesRow>& rows() const { return rows_; }
+  // The errors of each leg's controls so far (restored on resume, saved with each checkpoint).
+  std::vector<ControlErrors>& control_errors() { return control_errors_; }
 
  private:
   void write_row(const State& state);
@@ -56,6 +59,7 @@ class StageOutput {
   std::chrono::steady_clock::time_point start_;
   AppendFile series_;
   std::vector<SeriesRow> rows_;
+  std::vector<ControlErrors> control_errors_;
 };
 
 }  // namespace celldem

@@ -15,8 +15,31 @@ namespace {
 Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
 }  // namespace
 
-Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows, double wall,
-                    std::int64_t steps, std::size_t particles, std::vector<std::string>& warnings) {
+Json summarize_legs(const TestDef& test, const std::vector<SeriesRow>& rows, const std::vector<ControlErrors>& errors) {
+  Json legs = Json::array();
+  for (std::size_t k = 0; k < test.legs.size(); ++k) {
+    const SeriesRow* peak = nullptr;
+    std::int64_t count = 0;
+    for (const SeriesRow& r : rows)
+      if (r.leg == static_cast<double>(k)) {
+        ++count;
+        if (!peak || r.ratio13 > peak->ratio13) peak = &r;
+      }
+    Json leg = {{"leg", k}, {"rows", count}};
+    if (peak)
+      leg["peak"] = {{"ratio13", number_or_null(peak->ratio13)}, {"e1", number_or_null(peak->e1)},
+                     {"b", number_or_null(peak->b)}, {"b_principal", number_or_null(peak->b_principal)},
+                     {"p", number_or_null(peak->p)}, {"ev", number_or_null(peak->ev)},
+                     {"sin_phi", number_or_null(peak->sin_phi)}};
+    if (k < errors.size()) leg["control_errors"] = to_json(errors[k]);
+    legs.push_back(leg);
+  }
+  return legs;
+}
+
+Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
+                    const std::vector<ControlErrors>& errors, double wall, std::int64_t steps, std::size_t particles,
+                    std::vector<std::string>& warnings) {
   std::size_t peak = 0;  // the first row of the largest s11/s33
   for (std::size_t r = 0; r < rows.size(); ++r)
     if (rows[r].ratio13 > rows[peak].ratio13) peak = r;
@@ -30,9 +53,10 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
 
   double ev_end = 0.0, z_end = 0.0;
   int in_window = 0;
-  const double end_strain = last.strain(test.end_axis);
+  const int end_axis = test.legs.back().end.axis;
+  const double end_strain = last.strain(end_axis);
   for (const SeriesRow& r : rows)
-    if (std::abs(r.strain(test.end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
+    if (std::abs(r.strain(end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
 
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
@@ -40,6 +64,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   const double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density,
                                          mean_p);
   for (const std::string& w : test_warnings(test, servo_error, inertia)) warnings.push_back(w);
+  for (const std::string& w : control_warnings(test, errors)) warnings.push_back(w);
 
   return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
           {"servo_max_error", servo_error},
@@ -48,6 +73,14 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
           {"e1_peak_range", {number_or_null(lo), number_or_null(hi)}},
           {"e1_at_peak_centre", number_or_null(0.5 * (lo + hi))},
           {"b_at_peak", number_or_null(at_peak.b)},
+          {"b_principal_at_peak", number_or_null(at_peak.b_principal)},
+          {"ratio_principal_at_peak", number_or_null(at_peak.ratio_principal)},
+          {"peak_state", {{"sigma1", number_or_null(at_peak.sigma1)}, {"sigma2", number_or_null(at_peak.sigma2)},
+                          {"sigma3", number_or_null(at_peak.sigma3)}, {"p", number_or_null(at_peak.p)},
+                          {"q", number_or_null(at_peak.q)}, {"sin_phi", number_or_null(at_peak.sin_phi)},
+                          {"b", number_or_null(at_peak.b)}, {"b_principal", number_or_null(at_peak.b_principal)},
+                          {"lode_angle", number_or_null(at_peak.lode_angle)}, {"ev", number_or_null(at_peak.ev)}}},
+          {"legs", summarize_legs(test, rows, errors)},
           {"b_final", number_or_null(last.b)},
           {"final_e1", number_or_null(last.e1)},
           {"ev_final", number_or_null(last.ev)},

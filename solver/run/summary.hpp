@@ -8,6 +8,7 @@
 #include "core/model.hpp"
 #include "core/state.hpp"
 #include "measure/series.hpp"
+#include "run/program.hpp"
 
 namespace celldem {
 
@@ -19,9 +20,11 @@ inline constexpr double kPeakPlateau = 0.01;
 
 // A test's scalars from its rows as series.csv holds them (as_printed), so that a resumed run reports the
 // same bytes. `warnings` receives what the health checks say about the finished test.
+// Per leg ("legs"): its rows' peak of s11/s33, e1 and the controlled quantities there (b, p, volumetric
+// strain), and the worst errors of its controls.
 nlohmann::json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
-                              double wall_seconds, std::int64_t steps, std::size_t particles,
-                              std::vector<std::string>& warnings);
+                              const std::vector<ControlErrors>& errors, double wall_seconds, std::int64_t steps,
+                              std::size_t particles, std::vector<std::string>& warnings);
 
 // The prepared sample: void ratio, coordination, stresses, cost, and the equilibrium criterion in words.
 nlohmann::json summarize_preparation(const Model& model, const State& state, const PrepareDef& prepare,

@@ -27,6 +27,65 @@ State cell_state(const Mat3& h) {
   return s;
 }
 
+// The coupled targets, against the stresses they must reproduce by hand.
+TEST(Control, StressTargetsOfBAndMeanStress) {
+  const AxisControl driven{AxisMode::StrainIncrement, 1e-6};
+  // b = 0.5 with a fixed minor stress of 40: s2 = 40 + 0.5 (160 - 40) = 100.
+  Vec3 t = stress_targets({driven, AxisControl{AxisMode::B, 0.5}, AxisControl{AxisMode::Stress, 40.0}},
+                          Vec3(160.0, 0.0, 0.0));
+  EXPECT_TRUE(std::isnan(t[0]));
+  EXPECT_DOUBLE_EQ(t[1], 100.0);
+  EXPECT_DOUBLE_EQ(t[2], 40.0);
+  // b = 0.5 and p = 100 held together with s1 = 160: s3 = (300 - 1.5 160) / 1.5 = 40, s2 = 100.
+  t = stress_targets({driven, AxisControl{AxisMode::B, 0.5}, AxisControl{AxisMode::MeanStress, 100.0}},
+                     Vec3(160.0, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(t[1], 100.0);
+  EXPECT_DOUBLE_EQ(t[2], 40.0);
+  EXPECT_DOUBLE_EQ((160.0 + t[1] + t[2]) / 3.0, 100.0);
+  // b = 0 is the triaxial compression at constant p: s2 = s3 = (300 - 160) / 2; b = 1 extension: s2 = s1.
+  t = stress_targets({driven, AxisControl{AxisMode::B, 0.0}, AxisControl{AxisMode::MeanStress, 100.0}},
+                     Vec3(160.0, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(t[1], 70.0);
+  EXPECT_DOUBLE_EQ(t[2], 70.0);
+  t = stress_targets({driven, AxisControl{AxisMode::B, 1.0}, AxisControl{AxisMode::MeanStress, 100.0}},
+                     Vec3(130.0, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(t[1], 130.0);
+  EXPECT_DOUBLE_EQ(t[2], 40.0);
+  // Two mean_stress axes share what the strain-driven axis leaves of 3p; one beside a fixed stress takes
+  // the rest.
+  const AxisControl mean{AxisMode::MeanStress, 100.0};
+  t = stress_targets({driven, mean, mean}, Vec3(160.0, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(t[1], 70.0);
+  EXPECT_DOUBLE_EQ(t[2], 70.0);
+  t = stress_targets({driven, AxisControl{AxisMode::Stress, 50.0}, mean}, Vec3(160.0, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(t[2], 90.0);
+}
+
+// Constant-volume axes keep det h at the leg's start volume, with equal strain increments on two of them;
+// on a sheared (non-diagonal) cell too.
+TEST(Control, ConstantVolumeAxesHoldTheVolume) {
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-3), {});
+  for (const Mat3& h0 : {Mat3(Vec3(2.0, 3.0, 4.0).asDiagonal()),
+                         (Mat3() << 2.0, 0.3, -0.1, 0.0, 3.0, 0.2, 0.0, 0.0, 4.0).finished()}) {
+    State s = cell_state(h0);
+    begin_stage(s);
+    const double v0 = s.cell.volume();
+    const AxisControl cv{AxisMode::ConstantVolume, 0.0};
+    Loading two{{AxisControl{AxisMode::StrainIncrement, 1e-4}, cv, cv}, 0.0};
+    for (int k = 0; k < 500; ++k) advance_cell(model, two, s);
+    EXPECT_NEAR(s.cell.volume() / v0 - 1.0, 0.0, 1e-13);
+    EXPECT_NEAR(axis_strains(s)[0], 0.05, 1e-14);
+    EXPECT_NEAR(s.cell.h(1, 1) / h0(1, 1), s.cell.h(2, 2) / h0(2, 2), 1e-13);  // equal lateral strains
+    // One constant-volume axis beside a fixed one, in a later leg that starts from the present cell.
+    begin_leg(s, 1);
+    const double v1 = s.cell.volume();
+    Loading one{{AxisControl{AxisMode::StrainIncrement, -1e-4}, AxisControl{AxisMode::StrainIncrement, 0.0}, cv}, 0.0};
+    for (int k = 0; k < 200; ++k) advance_cell(model, one, s);
+    EXPECT_NEAR(s.cell.volume() / v1 - 1.0, 0.0, 1e-13);
+    EXPECT_NEAR(axis_strains(s)[0], 0.05 - 0.02, 1e-14);  // the leg continues from the present strain
+  }
+}
+
 TEST(Control, StrainIncrementAndRateFollowExactEngineeringStrain) {
   const double dt = 1e-3;
   const Model model = make_model(model_deck(1e4, 1e4, dt), {});

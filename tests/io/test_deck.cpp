@@ -69,21 +69,21 @@ TEST(Deck, MinimalDeckParsesWithExpectedValuesAndDefaults) {
   const TestDef& t = d.tests[0];
   EXPECT_EQ(t.name, "ttc");
   EXPECT_EQ(t.friction, 0.5);
-  EXPECT_EQ(t.axes[0].mode, AxisMode::StrainIncrement);
-  EXPECT_EQ(t.axes[0].value, 2.0e-7);
-  EXPECT_EQ(t.axes[1].mode, AxisMode::Stress);
-  EXPECT_EQ(t.axes[1].value, 1.0e5);
-  EXPECT_EQ(t.end_axis, 0);
-  EXPECT_EQ(t.end_strain, 0.1);
-  EXPECT_EQ(t.max_steps, 0);
+  EXPECT_EQ(t.legs[0].axes[0].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(t.legs[0].axes[0].value, 2.0e-7);
+  EXPECT_EQ(t.legs[0].axes[1].mode, AxisMode::Stress);
+  EXPECT_EQ(t.legs[0].axes[1].value, 1.0e5);
+  EXPECT_EQ(t.legs[0].end.axis, 0);
+  EXPECT_EQ(t.legs[0].end.value, 0.1);
+  EXPECT_EQ(t.legs[0].end.max_steps, 0);
   EXPECT_EQ(t.output_interval, 1000);
   const TestDef& u = d.tests[1];
-  EXPECT_EQ(u.axes[1].mode, AxisMode::StrainIncrement);
-  EXPECT_EQ(u.axes[1].value, 0.0);
-  EXPECT_EQ(u.axes[2].mode, AxisMode::StrainRate);
-  EXPECT_EQ(u.axes[2].value, 0.2);
-  EXPECT_EQ(u.end_axis, 2);
-  EXPECT_EQ(u.max_steps, 1000);
+  EXPECT_EQ(u.legs[0].axes[1].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(u.legs[0].axes[1].value, 0.0);
+  EXPECT_EQ(u.legs[0].axes[2].mode, AxisMode::StrainRate);
+  EXPECT_EQ(u.legs[0].axes[2].value, 0.2);
+  EXPECT_EQ(u.legs[0].end.axis, 2);
+  EXPECT_EQ(u.legs[0].end.max_steps, 1000);
   EXPECT_EQ(u.output_interval, 50);
 }
 

@@ -38,6 +38,8 @@ State sample_state() {
   s.control.phase_steps = 42;
   s.control.phase = 1;
   s.control.stage_steps = 4242;
+  s.control.leg_start_strains = Vec3(0.01, -0.002, 0.003);
+  s.control.leg_start_volume = 26.5;
   s.control.reference_lengths = Vec3(2.9, 2.95, 3.0);
   s.control.reference_volume = 25.6;
   s.control.servo_integral = Vec3(1e3, -2e3, 3.5);
@@ -65,6 +67,8 @@ TEST(StateFile, RoundTripIsExact) {
   EXPECT_EQ(b.control.reference_lengths, a.control.reference_lengths);
   EXPECT_EQ(b.control.reference_volume, a.control.reference_volume);
   EXPECT_EQ(b.control.servo_integral, a.control.servo_integral);
+  EXPECT_EQ(b.control.leg_start_strains, a.control.leg_start_strains);
+  EXPECT_EQ(b.control.leg_start_volume, a.control.leg_start_volume);
   EXPECT_EQ(b.normal_stress, a.normal_stress);
   EXPECT_EQ(b.axis_stiffness, a.axis_stiffness);
   EXPECT_EQ(b.touching, a.touching);
@@ -177,13 +181,36 @@ TEST(StateFile, LayoutIsAsDocumented) {
   EXPECT_EQ(wrap(payload_of(bytes)), bytes);  // the same checksum computed independently
 }
 
+// Format 1 (before load programs) had no leg start in the control: such files still read, as one leg that
+// began at the stage start.
+TEST(StateFile, FormatOneFilesStillRead) {
+  State s = sample_state();
+  s.control.leg_start_strains = Vec3::Zero();
+  s.control.leg_start_volume = s.control.reference_volume;
+  const std::string label = "v1";
+  std::string payload = payload_of(serialize_state(s, label));
+  const std::size_t at_leg = 4 + label.size() + 8 + 8 + 16 + 9 * 8 * 2 + 8 + 4 + 8 + 3 * 8 + 8 + 3 * 8;
+  payload.erase(at_leg, 3 * 8 + 8);
+  std::string v1 = wrap(payload);
+  const std::uint32_t one = 1;
+  std::memcpy(v1.data() + 8, &one, sizeof one);
+  const State b = parse_state(v1);
+  EXPECT_EQ(b.cell.h, s.cell.h);
+  EXPECT_EQ(b.particles.scaled, s.particles.scaled);
+  EXPECT_EQ(b.control.servo_integral, s.control.servo_integral);
+  EXPECT_EQ(b.control.leg_start_strains, Vec3::Zero());
+  EXPECT_EQ(b.control.leg_start_volume, s.control.reference_volume);
+  EXPECT_EQ(b.normal_stress, s.normal_stress);
+  EXPECT_EQ(serialize_state(b, label), serialize_state(s, label));
+}
+
 TEST(StateFile, InvalidContentsUnderValidChecksumThrow) {
   const State s = sample_state();
   const std::string label = "lbl";  // payload: u32 length + 3 bytes, then n (u64) at 7, contacts (u64) at 15
   const std::string good = payload_of(serialize_state(s, label));
   const std::size_t at_n = 4 + label.size(), at_nc = at_n + 8, at_time = at_nc + 8;
   const std::size_t at_h = at_time + 16;             // after time and steps_since_creation
-  const std::size_t header = at_h + 9 * 8 * 2 + 8 + 4 + 8 + 3 * 8 + 8 + 3 * 8 + 9 * 8 + 3 * 8 + 8 + 8;
+  const std::size_t header = at_h + 9 * 8 * 2 + 8 + 4 + 8 + 3 * 8 + 8 + 3 * 8 + (3 * 8 + 8) + 9 * 8 + 3 * 8 + 8 + 8;
   const std::size_t particle_bytes = 10 * 8;
   ASSERT_NO_THROW(parse_state(wrap(good)));
 

