@@ -3,6 +3,7 @@
 #include "app/commands.hpp"
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
+#include "run/ensemble.hpp"
 #include "run/preflight.hpp"
 #include "run/progress.hpp"
 #include "run/runner.hpp"
@@ -11,7 +12,7 @@ namespace celldem::app {
 
 Command add_run_command(CLI::App& app) {
   struct Args {
-    std::string deck;
+    std::string deck, seeds;
     RunOptions options;
   };
   auto args = std::make_shared<Args>();
@@ -23,6 +24,9 @@ Command add_run_command(CLI::App& app) {
   cmd->add_flag("--force", args->options.force, "Overwrite results already in the run directory");
   cmd->add_flag("--resume", args->options.resume, "Continue an interrupted run from its last checkpoint");
   cmd->add_flag("--quiet", args->options.quiet, "No progress or stage messages");
+  cmd->add_option("--seeds", args->seeds,
+                  "A seed ensemble: prepare one sample per seed (e.g. 1-8) into DIR/seed-<k>/ and write "
+                  "DIR/ensemble.json (mean, std, 95 % interval of every summary quantity)");
   cmd->add_option("--progress-interval", args->options.progress_interval,
                   "Seconds between progress lines when stderr is not a terminal (a log file)")
       ->capture_default_str()
@@ -36,7 +40,8 @@ Command add_run_command(CLI::App& app) {
                              : stderr_is_terminal() ? ProgressMode::Terminal
                                                     : ProgressMode::Log;
     install_stop_handlers();
-    run_deck(deck, args->options);
+    if (args->seeds.empty()) run_deck(deck, args->options);
+    else run_ensemble(deck, args->options, parse_seed_list(args->seeds));
     return 0;
   };
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/plan.hpp"
 #include "measure/micro.hpp"
@@ -14,6 +15,47 @@ using Json = nlohmann::json;
 namespace {
 Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
 }  // namespace
+
+Json robust_peak(const std::vector<SeriesRow>& rows) {
+  const std::size_t n = rows.size();
+  std::vector<double> smooth(n, std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t k = 0; k < n; ++k) {
+    double sum = 0.0;
+    int count = 0;
+    for (std::size_t j = k; j < n && std::abs(rows[j].e1 - rows[k].e1) <= 0.5 * kPeakSmoothing; ++j)
+      if (std::isfinite(rows[j].ratio13)) sum += rows[j].ratio13, ++count;
+    for (std::size_t j = k; j-- > 0 && std::abs(rows[j].e1 - rows[k].e1) <= 0.5 * kPeakSmoothing;)
+      if (std::isfinite(rows[j].ratio13)) sum += rows[j].ratio13, ++count;
+    if (count) smooth[k] = sum / count;
+  }
+  std::size_t peak = 0;
+  for (std::size_t k = 0; k < n; ++k)
+    if (smooth[k] > smooth[peak] || !std::isfinite(smooth[peak])) peak = k;
+  std::size_t lo = peak, hi = peak;
+  while (lo > 0 && smooth[lo - 1] >= (1.0 - kPeakPlateau) * smooth[peak]) --lo;
+  while (hi + 1 < n && smooth[hi + 1] >= (1.0 - kPeakPlateau) * smooth[peak]) ++hi;
+  auto mean_std = [&](double SeriesRow::*field) {
+    double sum = 0.0, sq = 0.0;
+    int count = 0;
+    for (std::size_t k = lo; k <= hi; ++k)
+      if (std::isfinite(rows[k].*field)) sum += rows[k].*field, sq += rows[k].*field * rows[k].*field, ++count;
+    const double mean = count ? sum / count : std::numeric_limits<double>::quiet_NaN();
+    const double var = count > 1 ? (sq - count * mean * mean) / (count - 1) : 0.0;
+    return std::make_pair(mean, std::sqrt(std::max(0.0, var)));
+  };
+  const auto [b, b_std] = mean_std(&SeriesRow::b);
+  const auto [bp, bp_std] = mean_std(&SeriesRow::b_principal);
+  return {{"smoother", "centred moving average of s11/s33 over 0.5 % of e1"},
+          {"ratio13", number_or_null(smooth[peak])},
+          {"e1", number_or_null(rows[peak].e1)},
+          {"plateau_e1", {number_or_null(std::min(rows[lo].e1, rows[hi].e1)),
+                          number_or_null(std::max(rows[lo].e1, rows[hi].e1))}},
+          {"plateau_rows", hi - lo + 1},
+          {"b_mean", number_or_null(b)},
+          {"b_std", number_or_null(b_std)},
+          {"b_principal_mean", number_or_null(bp)},
+          {"b_principal_std", number_or_null(bp_std)}};
+}
 
 Json summarize_legs(const TestDef& test, const std::vector<SeriesRow>& rows, const std::vector<ControlErrors>& errors) {
   Json legs = Json::array();
@@ -75,6 +117,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
           {"b_at_peak", number_or_null(at_peak.b)},
           {"b_principal_at_peak", number_or_null(at_peak.b_principal)},
           {"ratio_principal_at_peak", number_or_null(at_peak.ratio_principal)},
+          {"peak_robust", robust_peak(rows)},
           {"peak_state", {{"sigma1", number_or_null(at_peak.sigma1)}, {"sigma2", number_or_null(at_peak.sigma2)},
                           {"sigma3", number_or_null(at_peak.sigma3)}, {"p", number_or_null(at_peak.p)},
                           {"q", number_or_null(at_peak.q)}, {"sin_phi", number_or_null(at_peak.sin_phi)},

@@ -17,6 +17,10 @@ namespace celldem {
 inline constexpr double kEndWindowStrain = 0.005;
 // "ε1 at peak" as a range: the rows whose σ11/σ33 stays within this fraction of the peak.
 inline constexpr double kPeakPlateau = 0.01;
+// The robust peak: σ11/σ33 smoothed by a centred moving average over this much ε1 (rows within half of it
+// on either side, in row order), its maximum, the contiguous ε1 range around it where the smoothed curve
+// stays within kPeakPlateau of the maximum, and b (axis and principal) averaged over that range.
+inline constexpr double kPeakSmoothing = 0.005;
 
 // A test's scalars from its rows as series.csv holds them (as_printed), so that a resumed run reports the
 // same bytes. `warnings` receives what the health checks say about the finished test.

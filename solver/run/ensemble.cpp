@@ -1,0 +1,150 @@
+#include "run/ensemble.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+#include "io/files.hpp"
+
+namespace celldem {
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+// Two-sided 95 % quantiles of Student's t for 1..30 degrees of freedom; 1.96 beyond.
+double t95(std::size_t dof) {
+  static const double table[] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+                                 2.201,  2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
+                                 2.080,  2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
+  return dof >= 1 && dof <= 30 ? table[dof - 1] : 1.96;
+}
+
+// Every numeric leaf of a summary object, by its dotted path ("peak_state.sigma1", "end_window.ev").
+void numeric_leaves(const Json& j, const std::string& prefix, std::map<std::string, double>& out) {
+  if (j.is_object()) {
+    for (const auto& [key, value] : j.items()) numeric_leaves(value, prefix.empty() ? key : prefix + "." + key, out);
+  } else if (j.is_array()) {
+    for (std::size_t k = 0; k < j.size(); ++k) numeric_leaves(j[k], prefix + "[" + std::to_string(k) + "]", out);
+  } else if (j.is_number()) {
+    out[prefix] = j.get<double>();
+  }
+}
+
+// quantity -> values over the seeds that have it.
+using Columns = std::map<std::string, std::vector<double>>;
+
+Json describe_all(const Columns& columns) {
+  Json out = Json::object();
+  for (const auto& [name, values] : columns) out[name] = describe(values);
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::uint64_t> parse_seed_list(const std::string& text) {
+  std::vector<std::uint64_t> seeds;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    const auto dash = item.find('-');
+    try {
+      std::size_t used = 0;
+      const std::uint64_t a = std::stoull(item.substr(0, dash), &used);
+      if (used != item.substr(0, dash).size()) throw std::invalid_argument(item);
+      std::uint64_t b = a;
+      if (dash != std::string::npos) {
+        b = std::stoull(item.substr(dash + 1), &used);
+        if (used != item.substr(dash + 1).size() || b < a) throw std::invalid_argument(item);
+      }
+      if (b - a > 10000) throw std::invalid_argument(item);
+      for (std::uint64_t k = a; k <= b; ++k)
+        if (std::find(seeds.begin(), seeds.end(), k) == seeds.end()) seeds.push_back(k);
+    } catch (const std::logic_error&) {
+      throw DeckError("--seeds: \"" + item + "\" is not a seed or a range like 1-8");
+    }
+  }
+  if (seeds.size() < 2) throw DeckError("--seeds: an ensemble needs at least two seeds");
+  return seeds;
+}
+
+Json describe(const std::vector<double>& values) {
+  const std::size_t n = values.size();
+  if (n == 0) return {{"n", 0}};
+  double mean = 0.0;
+  for (double v : values) mean += v / static_cast<double>(n);
+  double var = 0.0;
+  for (double v : values) var += (v - mean) * (v - mean);
+  const double sd = n > 1 ? std::sqrt(var / static_cast<double>(n - 1)) : 0.0;
+  const double se = sd / std::sqrt(static_cast<double>(n));
+  const double half = n > 1 ? t95(n - 1) * se : 0.0;
+  return {{"n", n}, {"mean", mean}, {"std", sd}, {"sem", se}, {"ci95", {mean - half, mean + half}},
+          {"values", values}};
+}
+
+Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vector<Json>& summaries) {
+  Columns prepared;
+  std::map<std::string, Columns> tests;
+  std::map<std::string, std::map<std::string, std::map<std::uint64_t, double>>> by_seed;  // test -> q -> seed
+  for (std::size_t k = 0; k < summaries.size(); ++k) {
+    std::map<std::string, double> leaves;
+    numeric_leaves(summaries[k].value("prepared", Json::object()), "", leaves);
+    for (const auto& [q, v] : leaves) prepared[q].push_back(v);
+    const Json tests_of_seed = summaries[k].value("tests", Json::object());  // items() needs a live object
+    for (const auto& [name, test] : tests_of_seed.items()) {
+      std::map<std::string, double> t;
+      numeric_leaves(test, "", t);
+      for (const auto& [q, v] : t) {
+        tests[name][q].push_back(v);
+        by_seed[name][q][seeds[k]] = v;
+      }
+    }
+  }
+  Json out = {{"seeds", seeds},
+              {"statistics", "mean, std (n - 1), sem = std / sqrt(n), ci95 = mean -+ t(0.975, n - 1) sem"},
+              {"prepared", describe_all(prepared)},
+              {"tests", Json::object()},
+              {"paired", Json::object()}};
+  for (const auto& [name, columns] : tests) out["tests"][name] = describe_all(columns);
+  // Paired differences on the same seeds (the same sample): B - A for every quantity both tests have.
+  for (auto a = by_seed.begin(); a != by_seed.end(); ++a)
+    for (auto b = std::next(a); b != by_seed.end(); ++b) {
+      Columns diff;
+      for (const auto& [q, values_a] : a->second) {
+        const auto it = b->second.find(q);
+        if (it == b->second.end()) continue;
+        for (const auto& [seed, va] : values_a)
+          if (const auto vb = it->second.find(seed); vb != it->second.end()) diff[q].push_back(vb->second - va);
+      }
+      out["paired"][b->first + "-" + a->first] = describe_all(diff);
+    }
+  return out;
+}
+
+void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds) {
+  if (!deck.prepare) throw DeckError("--seeds: the deck has no \"prepare\": a seed ensemble prepares its samples");
+  const fs::path dir(options.out_dir);
+  if (!options.resume && !options.force && fs::exists(dir / "ensemble.json"))
+    throw RunError(dir.string() + " already holds an ensemble; use --force to overwrite it or --resume");
+  fs::create_directories(dir);
+  std::vector<Json> summaries;
+  for (const std::uint64_t seed : seeds) {
+    Deck d = deck;
+    d.sample.seed = seed;
+    Json canonical = Json::parse(deck.canonical);
+    canonical["sample"]["seed"] = seed;
+    d.canonical = canonical.dump();
+    RunOptions o = options;
+    o.out_dir = (dir / ("seed-" + std::to_string(seed))).string();
+    o.resume = options.resume && fs::exists(fs::path(o.out_dir) / "progress.json");
+    if (!options.quiet) std::printf("== seed %llu -> %s\n", static_cast<unsigned long long>(seed), o.out_dir.c_str());
+    run_deck(d, o);
+    summaries.push_back(Json::parse(read_file(fs::path(o.out_dir) / "summary.json")));
+  }
+  write_file_atomic(dir / "ensemble.json", ensemble_statistics(seeds, summaries).dump(1));
+  if (!options.quiet) std::printf("wrote %s\n", (dir / "ensemble.json").c_str());
+}
+
+}  // namespace celldem

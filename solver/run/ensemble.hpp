@@ -1,0 +1,29 @@
+// Seed ensembles: the same deck prepared from several seeds (sample sizes and jitter), every test run on
+// each sample, and the statistics of every summary quantity over the seeds: how sure each number is.
+#pragma once
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/deck.hpp"
+#include "run/runner.hpp"
+
+namespace celldem {
+
+// "1-8", "1,3,5", "1-4,10": the seeds, in order, without repeats. Throws DeckError on a malformed list.
+std::vector<std::uint64_t> parse_seed_list(const std::string& text);
+
+// Runs the deck once per seed into DIR/seed-<k>/ (each a run directory of its own: --resume continues each
+// where it stopped, a finished one is kept) and writes DIR/ensemble.json.
+void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds);
+
+// Mean, standard deviation, standard error and the 95 % interval of the mean (Student t, n - 1 degrees of
+// freedom) of the values; {"n": 0} when there are none.
+nlohmann::json describe(const std::vector<double>& values);
+
+// ensemble.json from the per-seed summaries: per test (and for the prepared sample) and per numeric
+// quantity, describe() over the seeds; "paired": per pair of tests, the per-seed differences (B - A).
+nlohmann::json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vector<nlohmann::json>& summaries);
+
+}  // namespace celldem
