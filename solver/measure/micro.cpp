@@ -57,7 +57,7 @@ Fabric contact_fabric(const Model&, const State& state) {
   return fabric_of(normals, forces);
 }
 
-Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts) {
+Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts, int min_contacts) {
   Coordination c;
   if (n == 0) return c;
   c.z = 2.0 * static_cast<double>(contacts.size()) / static_cast<double>(n);
@@ -75,13 +75,13 @@ Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, I
   std::vector<char> rattler(n, 0);
   std::vector<Index> queue;
   for (std::size_t k = 0; k < n; ++k)
-    if (degree[k] < 2) rattler[k] = 1, queue.push_back(static_cast<Index>(k));
+    if (degree[k] < min_contacts) rattler[k] = 1, queue.push_back(static_cast<Index>(k));
   while (!queue.empty()) {
     const Index k = queue.back();
     queue.pop_back();
     for (Index a = first[k]; a < first[k + 1]; ++a) {
       const Index m = adjacent[a];
-      if (!rattler[m] && --degree[m] < 2) rattler[m] = 1, queue.push_back(m);
+      if (!rattler[m] && --degree[m] < min_contacts) rattler[m] = 1, queue.push_back(m);
     }
   }
   std::int64_t kept_contacts = 0, kept_particles = 0;
@@ -92,13 +92,13 @@ Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, I
   return c;
 }
 
-Coordination coordination(const State& state) {
+Coordination coordination(const State& state, int min_contacts) {
   const PairList& pl = state.pairs;
   std::vector<std::pair<Index, Index>> contacts;
   contacts.reserve(state.touching);
   for (std::size_t q = 0; q < pl.size(); ++q)
     if (pl.flags[q] & kTouching) contacts.emplace_back(pl.owner[q], pl.neighbor[q]);
-  return coordination_of(state.particles.size(), contacts);
+  return coordination_of(state.particles.size(), contacts, min_contacts);
 }
 
 double sliding_fraction(const State& state) {

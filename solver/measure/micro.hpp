@@ -20,13 +20,17 @@ Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& no
 
 struct Coordination {
   double z = 0.0;          // 2 contacts / particles (the paper's definition)
-  double z_mechanical = 0.0;  // the same without rattlers (fewer than 2 contacts, removed iteratively)
+  double z_mechanical = 0.0;  // the same without rattlers (fewer than min_contacts, removed iteratively)
   std::int64_t rattlers = 0;
 };
-Coordination coordination(const State& state);
+// Rattlers have fewer than min_contacts contacts: 2 for frictional packings (a sphere with friction is held by
+// two), d + 1 = 4 for frictionless ones.
+inline constexpr int kFrictionalRattler = 2, kFrictionlessRattler = 4;
+Coordination coordination(const State& state, int min_contacts = kFrictionalRattler);
 
 // Mechanical coordination of an explicit contact list over n particles (for tests and reuse).
-Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts);
+Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts,
+                             int min_contacts = kFrictionalRattler);
 
 double sliding_fraction(const State& state);  // contacts at the Coulomb limit / contacts
 double kinetic_energy(const Model& model, const State& state);  // [J] fluctuating translation + rotation

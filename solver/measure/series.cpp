@@ -36,12 +36,14 @@ const std::array kColumns = std::to_array<SeriesColumn>({
     {"p", &R::p, kReal, "Pa", "mean stress trace/3", false},
     {"q", &R::q, kReal, "Pa", "deviator stress sqrt(3/2 s':s')", false},
     {"ratio13", &R::ratio13, kReal, "-", "s11/s33 (axis stresses)", false},
-    {"b", &R::b, kReal, "-", "(s22 - s33)/(s11 - s33) (axis stresses)", false},
+    {"b", &R::b, kReal, "-", "(s22 - s33)/(s11 - s33) (axis stresses); nan while s11 - s33 < 1 % of p (noise)",
+     false},
     {"sin_phi", &R::sin_phi, kReal, "-", "(s1 - s3)/(s1 + s3) of the principal stresses", false},
     {"DI", &R::DI, kReal, "-", "dilatancy index -d(ev)/d(e1), trailing window of 0.25 % in e1", false},
     {"void_ratio", &R::void_ratio, kReal, "-", "V/V(solid) - 1", false},
     {"Z", &R::Z, kReal, "-", "coordination number 2 contacts / particles", false},
-    {"Zm", &R::Zm, kReal, "-", "mechanical coordination number, rattlers (< 2 contacts) removed", true},
+    {"Zm", &R::Zm, kReal, "-", "mechanical coordination number, rattlers (< 2 contacts: the frictional rule) removed",
+     true},
     {"sliding_fraction", &R::sliding_fraction, kReal, "-", "contacts at the Coulomb limit / contacts", false},
     {"n_contacts", &R::n_contacts, kCount, "-", "contacts", false},
     {"n_strong", &R::n_strong, kCount, "-", "contacts with normal force above the mean", false},
@@ -67,10 +69,13 @@ const std::array kColumns = std::to_array<SeriesColumn>({
     {"sigma1", &R::sigma1, kReal, "Pa", "major principal stress of the contact stress tensor", false},
     {"sigma2", &R::sigma2, kReal, "Pa", "intermediate principal stress", false},
     {"sigma3", &R::sigma3, kReal, "Pa", "minor principal stress", false},
-    {"b_principal", &R::b_principal, kReal, "-", "(sigma2 - sigma3)/(sigma1 - sigma3) (the paper's b)", false},
+    {"b_principal", &R::b_principal, kReal, "-",
+     "(sigma2 - sigma3)/(sigma1 - sigma3) (the paper's b); nan while sigma1 - sigma3 < 1 % of p", false},
     {"ratio_principal", &R::ratio_principal, kReal, "-", "sigma1/sigma3", false},
     {"lode_angle", &R::lode_angle, kReal, "deg",
      "atan((2 sigma2 - sigma1 - sigma3)/(sqrt(3) (sigma1 - sigma3))): -30 compression (b = 0), +30 extension", false},
+    {"Zm_frictionless", &R::Zm_frictionless, kReal, "-",
+     "mechanical coordination number with the frictionless rule: rattlers have < 4 contacts (d + 1)", false},
 });
 // clang-format on
 
@@ -125,7 +130,12 @@ SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWi
   r.e1 = e[0], r.e2 = e[1], r.e3 = e[2];
   r.ev = 1.0 - state.cell.volume() / state.control.reference_volume;
   r.s11 = s(0, 0), r.s22 = s(1, 1), r.s33 = s(2, 2), r.s12 = s(0, 1), r.s13 = s(0, 2), r.s23 = s(1, 2);
-  r.p = inv.p, r.q = inv.q, r.ratio13 = ratio(s(0, 0), s(2, 2)), r.b = b_value(s(0, 0), s(1, 1), s(2, 2));
+  // b is a ratio of differences: while the deviator is at the level of the noise it means nothing.
+  const double noise = kBNoise * std::abs(inv.p);
+  auto b_above_noise = [&](double s1, double s2, double s3) {
+    return std::abs(s1 - s3) >= noise ? b_value(s1, s2, s3) : std::numeric_limits<double>::quiet_NaN();
+  };
+  r.p = inv.p, r.q = inv.q, r.ratio13 = ratio(s(0, 0), s(2, 2)), r.b = b_above_noise(s(0, 0), s(1, 1), s(2, 2));
   r.sin_phi = inv.sin_phi;
   // The window is fed the printed values, so a run resumed from the file (which refills the window from the
   // printed rows) computes exactly the same DI.
@@ -145,7 +155,8 @@ SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWi
   r.leg = static_cast<double>(state.control.phase);
   const Vec3 principal = principal_stresses(s);
   r.sigma1 = principal[0], r.sigma2 = principal[1], r.sigma3 = principal[2];
-  r.b_principal = b_value(r.sigma1, r.sigma2, r.sigma3);
+  r.b_principal = b_above_noise(r.sigma1, r.sigma2, r.sigma3);
+  r.Zm_frictionless = coordination(state, kFrictionlessRattler).z_mechanical;
   r.ratio_principal = ratio(r.sigma1, r.sigma3);
   r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /
                                                   (std::sqrt(3.0) * (r.sigma1 - r.sigma3))) * 180.0 / M_PI

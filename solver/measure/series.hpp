@@ -27,11 +27,15 @@ struct SeriesRow {
   double leg = 0;                                   // the leg of the load program (0-based)
   double sigma1 = 0, sigma2 = 0, sigma3 = 0;        // principal stresses, descending
   double b_principal = 0, ratio_principal = 0, lode_angle = 0;
+  double Zm_frictionless = 0;                       // Zm with the frictionless rattler rule (< 4 contacts)
 
   // Engineering strain of axis k (0-based), compression positive.
   double strain(int k) const { return k == 0 ? e1 : k == 1 ? e2 : e3; }
   double normal_stress(int k) const { return k == 0 ? s11 : k == 1 ? s22 : s33; }
 };
+
+// b (axis and principal) is written only where the stress difference s1 - s3 exceeds this fraction of p.
+inline constexpr double kBNoise = 0.01;
 
 enum class ColumnFormat { Count, Real };  // "%.0f", "%.10g"
 

@@ -69,7 +69,7 @@ TEST(SeriesRow, HeaderIsTheDocumentedColumnList) {
             "step,time,e1,e2,e3,ev,s11,s22,s33,s12,s13,s23,p,q,ratio13,b,sin_phi,DI,void_ratio,Z,Zm,"
             "sliding_fraction,n_contacts,n_strong,H11,H22,H33,H12,H13,H23,Hs11,Hs22,Hs33,Hw11,Hw22,Hw33,H11_H33,"
             "Hs11_Hs33,Hw11_Hw33,kinetic_energy,unbalanced_force,leg,sigma1,sigma2,sigma3,b_principal,"
-            "ratio_principal,lode_angle\n");
+            "ratio_principal,lode_angle,Zm_frictionless\n");
   for (const SeriesColumn& c : series_columns()) {
     EXPECT_FALSE(c.unit.empty()) << c.name;
     EXPECT_FALSE(c.meaning.empty()) << c.name;
@@ -138,6 +138,91 @@ TEST(SeriesRow, LatticeRowHasKnownValues) {
   EXPECT_NEAR(row.void_ratio, a * a * a / (4.0 / 3.0 * M_PI * R * R * R) - 1.0, 1e-12);
   EXPECT_EQ(row.sliding_fraction, 0.0);
   EXPECT_EQ(row.kinetic_energy, 0.0);
+}
+
+// An anisotropic packing where every column is known by hand: a simple lattice with spacings ax < ay < az
+// < 2R, so each sphere touches its x, y and z neighbours with overlaps 2R - a and forces f = kn (2R - a).
+// Love-Weber: s_kk = f_k / (area of the cell face normal to k per sphere). All three forces differ, so b,
+// sin phi, p, q, the ratios and the strong/weak split (mean force (fx + fy + fz)/3) are all non-trivial.
+TEST(SeriesRow, AnisotropicLatticeRowEveryColumnByHand) {
+  const int n = 4;
+  const double R = 0.5, kn = 1e4, dt = 1e-4;
+  const Vec3 a(0.97, 0.985, 0.995);
+  const Model model = make_model(testing::model_deck(kn, kn, dt), std::vector<double>(n * n * n, R));
+  State s = testing::lattice_state(n, R, a, 0.05);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, 0.5, s);
+  DilatancyWindow di;
+  const SeriesRow row = measure_series_row(model, s, di);
+
+  const Vec3 f = kn * (Vec3::Constant(2 * R) - a);
+  const double s11 = f[0] / (a[1] * a[2]), s22 = f[1] / (a[0] * a[2]), s33 = f[2] / (a[0] * a[1]);
+  const double tol = 1e-9 * s11;
+  EXPECT_NEAR(row.s11, s11, tol);
+  EXPECT_NEAR(row.s22, s22, tol);
+  EXPECT_NEAR(row.s33, s33, tol);
+  for (double x : {row.s12, row.s13, row.s23}) EXPECT_NEAR(x, 0.0, tol);
+  const double p = (s11 + s22 + s33) / 3.0;
+  const double q = std::sqrt(0.5 * ((s11 - s22) * (s11 - s22) + (s22 - s33) * (s22 - s33) + (s33 - s11) * (s33 - s11)));
+  EXPECT_NEAR(row.p, p, tol);
+  EXPECT_NEAR(row.q, q, tol);
+  EXPECT_NEAR(row.ratio13, s11 / s33, 1e-9);
+  EXPECT_NEAR(row.b, (s22 - s33) / (s11 - s33), 1e-9);
+  EXPECT_NEAR(row.sin_phi, (s11 - s33) / (s11 + s33), 1e-9);
+  // Principal stresses are the axis stresses here (no shear), in descending order.
+  EXPECT_NEAR(row.sigma1, s11, tol);
+  EXPECT_NEAR(row.sigma2, s22, tol);
+  EXPECT_NEAR(row.sigma3, s33, tol);
+  EXPECT_NEAR(row.b_principal, row.b, 1e-9);
+  EXPECT_NEAR(row.ratio_principal, row.ratio13, 1e-9);
+  const double bb = (s22 - s33) / (s11 - s33);
+  EXPECT_NEAR(row.lode_angle, std::atan((2 * bb - 1) / std::sqrt(3.0)) * 180 / M_PI, 1e-9);
+  // Every sphere touches six neighbours: Z = Zm = 6 under both rattler rules; fabric I/3.
+  EXPECT_EQ(row.n_contacts, 3.0 * n * n * n);
+  EXPECT_EQ(row.Z, 6.0);
+  EXPECT_EQ(row.Zm, 6.0);
+  EXPECT_EQ(row.Zm_frictionless, 6.0);
+  for (double h : {row.H11, row.H22, row.H33}) EXPECT_NEAR(h, 1.0 / 3, 1e-12);
+  // Strong: above the mean normal force (fx + fy + fz)/3 = only the x contacts; weak: y and z.
+  ASSERT_GT(f[0], f.mean());
+  ASSERT_LT(f[1], f.mean());
+  EXPECT_EQ(row.n_strong, 1.0 * n * n * n);
+  EXPECT_NEAR(row.Hs11, 1.0, 1e-12);
+  EXPECT_NEAR(row.Hs22, 0.0, 1e-12);
+  EXPECT_NEAR(row.Hw11, 0.0, 1e-12);
+  EXPECT_NEAR(row.Hw22, 0.5, 1e-12);
+  EXPECT_NEAR(row.Hw33, 0.5, 1e-12);
+  EXPECT_TRUE(std::isnan(row.Hs11_Hs33) || std::isinf(row.Hs11_Hs33));  // no strong z contacts
+  EXPECT_NEAR(row.Hw11_Hw33, 0.0, 1e-12);
+  EXPECT_NEAR(row.H11_H33, 1.0, 1e-12);
+  EXPECT_NEAR(row.void_ratio, a.prod() / (4.0 / 3.0 * M_PI * R * R * R) - 1.0, 1e-12);
+}
+
+// The dilatancy index is the least-squares slope -d(ev)/d(e1) over the trailing window: a cell deformed so
+// that ev = -0.4 e1 exactly (dilating) gives DI = 0.4 once the window spans half its width, NaN before.
+TEST(SeriesRow, DilatancyIndexOfAKnownPath) {
+  const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-4), std::vector<double>(27, 0.5));
+  State s = testing::lattice_state(3, 0.5, Vec3(1.2, 1.2, 1.2), 0.05);
+  const Vec3 l0 = s.cell.h.diagonal();
+  DilatancyWindow di;
+  int finite = 0;
+  for (int k = 0; k <= 12; ++k) {
+    const double e1 = 0.0005 * k, ev = -0.4 * e1;
+    // (1 - e1) (1 - e2)^2 = 1 - ev: equal lateral strains carry the volume change.
+    const double lateral = std::sqrt((1.0 - ev) / (1.0 - e1));
+    s.cell.h = Vec3(l0[0] * (1.0 - e1), l0[1] * lateral, l0[2] * lateral).asDiagonal();
+    rebuild_pairs(model, s);
+    compute_contact_forces(model, 0.0, s);
+    const SeriesRow row = measure_series_row(model, s, di);
+    EXPECT_NEAR(row.ev, ev, 1e-12);
+    if (e1 < 0.5 * kDilatancyWindow - 1e-12) {
+      EXPECT_TRUE(std::isnan(row.DI)) << e1;
+    } else {
+      EXPECT_NEAR(row.DI, 0.4, 1e-6) << e1;  // the printed e1 and ev feed the window: 10 digits
+      ++finite;
+    }
+  }
+  EXPECT_GT(finite, 5);
 }
 
 // Strains in the row are engineering strains of the cell against the stage start, compression positive.
