@@ -39,7 +39,9 @@ const std::array kColumns = std::to_array<SeriesColumn>({
     {"b", &R::b, kReal, "-", "(s22 - s33)/(s11 - s33) (axis stresses); nan while s11 - s33 < 1 % of p (noise)",
      false},
     {"sin_phi", &R::sin_phi, kReal, "-", "(s1 - s3)/(s1 + s3) of the principal stresses", false},
-    {"DI", &R::DI, kReal, "-", "dilatancy index -d(ev)/d(e1), trailing window of 0.25 % in e1", false},
+    {"DI", &R::DI, kReal, "-",
+     "dilatancy index -d(ev)/d(e1), least squares over a centred window of 0.25 % in e1 (written when the stage ends)",
+     false},
     {"void_ratio", &R::void_ratio, kReal, "-", "V/V(solid) - 1", false},
     {"Z", &R::Z, kReal, "-", "coordination number 2 contacts / particles", false},
     {"Zm", &R::Zm, kReal, "-", "mechanical coordination number, rattlers (< 2 contacts: the frictional rule) removed",
@@ -102,22 +104,31 @@ const SeriesColumn* find_series_column(std::string_view name) {
   return nullptr;
 }
 
-double DilatancyWindow::add(double e1, double ev) {
-  points_.emplace_back(e1, ev);
-  // |.|: e1 may also decrease (extension along x1).
-  while (!points_.empty() && std::abs(e1 - points_.front().first) > width_) points_.pop_front();
-  const double span = std::abs(points_.back().first - points_.front().first);
-  if (points_.size() < 2 || span < 0.5 * width_) return std::numeric_limits<double>::quiet_NaN();
-  double mx = 0, my = 0;
-  for (const auto& [x, y] : points_) mx += x, my += y;
-  mx /= points_.size();
-  my /= points_.size();
-  double sxy = 0, sxx = 0;
-  for (const auto& [x, y] : points_) sxy += (x - mx) * (y - my), sxx += (x - mx) * (x - mx);
-  return -sxy / sxx;
+void fill_dilatancy(std::vector<SeriesRow>& rows, double width) {
+  const std::size_t n = rows.size();
+  // Rows that are half a window away count, whatever the rounding of their strains (symmetric windows).
+  const double half = 0.5 * width * (1.0 + 1e-9);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double centre = rows[k].e1;
+    std::size_t lo = k, hi = k;
+    while (lo > 0 && std::abs(rows[lo - 1].e1 - centre) <= half) --lo;
+    while (hi + 1 < n && std::abs(rows[hi + 1].e1 - centre) <= half) ++hi;
+    double e_min = centre, e_max = centre, mx = 0.0, my = 0.0;
+    for (std::size_t j = lo; j <= hi; ++j) {
+      e_min = std::min(e_min, rows[j].e1), e_max = std::max(e_max, rows[j].e1);
+      mx += rows[j].e1, my += rows[j].ev;
+    }
+    const double count = static_cast<double>(hi - lo + 1);
+    mx /= count, my /= count;
+    double sxy = 0.0, sxx = 0.0;
+    for (std::size_t j = lo; j <= hi; ++j)
+      sxy += (rows[j].e1 - mx) * (rows[j].ev - my), sxx += (rows[j].e1 - mx) * (rows[j].e1 - mx);
+    const bool enough = hi > lo && e_max - e_min >= 0.5 * width * (1.0 - 1e-9);
+    rows[k].DI = enough ? -sxy / sxx : std::numeric_limits<double>::quiet_NaN();
+  }
 }
 
-SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWindow& di) {
+SeriesRow measure_series_row(const Model& model, const State& state) {
   const Vec3 e = axis_strains(state);
   const Mat3 s = contact_stress(state);
   const StressInvariants inv = stress_invariants(s);
@@ -137,9 +148,7 @@ SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWi
   };
   r.p = inv.p, r.q = inv.q, r.ratio13 = ratio(s(0, 0), s(2, 2)), r.b = b_above_noise(s(0, 0), s(1, 1), s(2, 2));
   r.sin_phi = inv.sin_phi;
-  // The window is fed the printed values, so a run resumed from the file (which refills the window from the
-  // printed rows) computes exactly the same DI.
-  r.DI = di.add(printed(r.e1, ColumnFormat::Real), printed(r.ev, ColumnFormat::Real));
+  r.DI = std::numeric_limits<double>::quiet_NaN();  // filled when the stage ends (fill_dilatancy)
   r.void_ratio = void_ratio(model, state);
   r.Z = z.z, r.Zm = z.z_mechanical, r.sliding_fraction = sliding_fraction(state);
   r.n_contacts = static_cast<double>(f.contacts), r.n_strong = static_cast<double>(f.strong_contacts);

@@ -2,7 +2,6 @@
 // drives everything about them (CSV header and formats, units and meanings, which values must be finite).
 // Code reads a quantity by its field (row.ratio13), never by its position in the file.
 #pragma once
-#include <deque>
 #include <optional>
 #include <span>
 #include <string>
@@ -52,23 +51,16 @@ struct SeriesColumn {
 std::span<const SeriesColumn> series_columns();
 const SeriesColumn* find_series_column(std::string_view name);
 
-// Dilatancy index DI = -d(ev)/d(e1): least-squares slope of ev against e1 over the rows whose e1 lies in
-// the trailing window [e1 - width, e1] (a window in strain, not in rows, so the output interval does not
-// change its smoothing). NaN until the window spans at least half its width.
+// Dilatancy index DI = -d(ev)/d(e1), centred: for each row, the least-squares slope of ev against e1 over
+// the contiguous rows (in row order) whose e1 lies within kDilatancyWindow / 2 of the row's, on both sides,
+// so the index does not lag the curve. A window in strain, not in rows, so the output interval does not
+// change its smoothing. NaN where the rows found span less than half the window (the ends of a stage,
+// the turns of a cycle). It needs the rows after a row: a stage writes its DI column when it ends.
 inline constexpr double kDilatancyWindow = 0.0025;
-class DilatancyWindow {
- public:
-  explicit DilatancyWindow(double width = kDilatancyWindow) : width_(width) {}
-  double add(double e1, double ev);
-  void clear() { points_.clear(); }
+void fill_dilatancy(std::vector<SeriesRow>& rows, double width = kDilatancyWindow);
 
- private:
-  double width_;
-  std::deque<std::pair<double, double>> points_;
-};
-
-// Measures every column for the current state; feeds the row's printed e1 and ev to the DI window.
-SeriesRow measure_series_row(const Model& model, const State& state, DilatancyWindow& di);
+// Measures every column for the current state (DI: NaN, see fill_dilatancy).
+SeriesRow measure_series_row(const Model& model, const State& state);
 
 // The row as series.csv holds it (every value through its column's format): what a resumed run reads back,
 // so summaries built from these are the same whether or not the run was interrupted.

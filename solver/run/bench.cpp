@@ -70,7 +70,6 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   for (std::int64_t k = 0; k < warmup; ++k) advance_one_step(model, loading, state);
 
   ShearTiming t;
-  DilatancyWindow di;
   std::string sink;
   double row_seconds = 0.0;
   std::int64_t rows = 0;
@@ -80,7 +79,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
     t.rebuilds += advance_one_step(model, loading, state);
     if (k % test.output_interval == 0) {
       const auto r0 = Clock::now();
-      sink += format_series_row(measure_series_row(model, state, di));
+      sink += format_series_row(measure_series_row(model, state));
       row_seconds += std::chrono::duration<double>(Clock::now() - r0).count();
       ++rows;
       if (sink.size() > (1u << 20)) sink.clear();

@@ -38,7 +38,6 @@ void StageOutput::open(const State& state, bool resumed) {
       if (in.eof()) break;  // no newline: the row was cut short
       const std::optional<SeriesRow> row = parse_series_row(header, line);
       if (!row || row->step > static_cast<double>(state.control.stage_steps)) break;
-      di_.add(row->e1, row->ev);
       rows_.push_back(*row);
       kept += line + "\n";
     }
@@ -74,6 +73,16 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
 
 void StageOutput::finish(const State& state) {
   if (rows_.empty() || rows_.back().step != static_cast<double>(state.control.stage_steps)) write_row(state);
+  // The centred dilatancy index needs every row: now the series is rewritten whole with it (atomically:
+  // the file holds the rows with or without DI, never a mix).
+  fill_dilatancy(rows_);
+  std::string text = series_header();
+  for (SeriesRow& row : rows_) {
+    row = as_printed(row);
+    text += format_series_row(row);
+  }
+  series_ = AppendFile();
+  write_file_atomic(dir_ / "series.csv", text);
   progress_.finish();
 }
 
@@ -83,7 +92,7 @@ double StageOutput::elapsed() const {
 
 void StageOutput::write_row(const State& state) {
   monitor_.check(model_, state);
-  const SeriesRow row = measure_series_row(model_, state, di_);
+  const SeriesRow row = measure_series_row(model_, state);
   check_row_finite(row, stage_, state.control.stage_steps);
   series_.append(format_series_row(row));
   rows_.push_back(as_printed(row));

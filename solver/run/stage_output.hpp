@@ -53,7 +53,6 @@ class StageOutput {
   std::filesystem::path dir_;
   std::int64_t output_interval_;
   RunawayMonitor monitor_;
-  DilatancyWindow di_;
   Progress progress_;
   double elapsed_before_ = 0.0;
   std::chrono::steady_clock::time_point start_;

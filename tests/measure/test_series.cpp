@@ -14,53 +14,44 @@ namespace celldem {
 namespace {
 
 
-// ev = 0.3 - 0.4 e1 (dilating as e1 grows): DI = -d(ev)/d(e1) = 0.4, once the window spans half its width.
-TEST(DilatancyWindow, SlopeOfLinearSeries) {
-  const double width = 0.01;
-  DilatancyWindow w(width);
-  int nan_rows = 0;
-  for (int k = 0; k <= 100; ++k) {
-    const double e1 = k * 1e-3;
-    const double di = w.add(e1, 0.3 - 0.4 * e1);
-    if (e1 < 0.5 * width - 1e-12) {
-      EXPECT_TRUE(std::isnan(di)) << "e1 " << e1;
-      ++nan_rows;
-    } else {
-      EXPECT_NEAR(di, 0.4, 1e-9) << "e1 " << e1;
-    }
-  }
-  EXPECT_EQ(nan_rows, 5);
+std::vector<SeriesRow> path(int count, double step, double (*ev)(double)) {
+  std::vector<SeriesRow> rows(count);
+  for (int k = 0; k < count; ++k) rows[k].e1 = k * step, rows[k].ev = ev(rows[k].e1);
+  return rows;
 }
 
-// The window forgets rows older than its width: after a kink, the slope becomes the new one exactly once
-// the window has passed the kink.
-TEST(DilatancyWindow, ForgetsRowsOutsideWindow) {
-  const double width = 0.004;
-  DilatancyWindow w(width);
-  double last = 0.0;
-  for (int k = 0; k <= 200; ++k) {
-    const double e1 = k * 1e-4;
-    const double ev = e1 < 0.01 ? 0.5 * e1 : 0.005 - 0.2 * (e1 - 0.01);  // compaction, then dilation
-    last = w.add(e1, ev);
-    if (k == 99) { EXPECT_NEAR(last, -0.5, 1e-9); }
-    if (e1 > 0.01 + width + 1e-9) { EXPECT_NEAR(last, 0.2, 1e-9) << "e1 " << e1; }
-  }
-  EXPECT_NEAR(last, 0.2, 1e-9);
-  w.clear();
-  EXPECT_TRUE(std::isnan(w.add(0.5, 0.1)));
+// ev = 0.3 - 0.4 e1 (dilating as e1 grows): DI = -d(ev)/d(e1) = 0.4 wherever the centred window spans half
+// its width, NaN at the very first row (nothing on one side and too little on the other) .
+TEST(Dilatancy, SlopeOfLinearSeries) {
+  std::vector<SeriesRow> rows = path(101, 1e-3, [](double e) { return 0.3 - 0.4 * e; });
+  fill_dilatancy(rows, 0.01);
+  for (const SeriesRow& r : rows) EXPECT_NEAR(r.DI, 0.4, 1e-9) << r.e1;
+  rows = path(3, 1e-3, [](double e) { return 0.3 - 0.4 * e; });
+  fill_dilatancy(rows, 0.01);  // three rows span 0.2 %, less than half the window
+  for (const SeriesRow& r : rows) EXPECT_TRUE(std::isnan(r.DI));
 }
 
-// Extension along x1 (a test driven by a negative strain increment, which the deck allows): e1 decreases.
-// DI = -d(ev)/d(e1) is defined just the same; here ev = 0.1 + 0.3 e1, so DI = -0.3 once the window (which
-// now trails on the other side of the current e1) spans half its width.
-TEST(DilatancyWindow, SlopeWhenE1Decreases) {
-  DilatancyWindow w(0.01);
-  double last = 0.0;
-  for (int k = 0; k <= 100; ++k) {
-    const double e1 = -k * 1e-3;
-    last = w.add(e1, 0.1 + 0.3 * e1);
+// Centred, the index does not lag: on ev = -e1^2 the least-squares slope over a symmetric window is the
+// derivative at its centre, -d(ev)/d(e1) = 2 e1, exactly (a trailing window would give 2 e1 - width/2).
+TEST(Dilatancy, CentredWindowHasNoLag) {
+  std::vector<SeriesRow> rows = path(201, 1e-4, [](double e) { return -e * e; });
+  fill_dilatancy(rows, 0.004);
+  for (std::size_t k = 20; k + 20 < rows.size(); ++k) EXPECT_NEAR(rows[k].DI, 2 * rows[k].e1, 1e-9) << rows[k].e1;
+}
+
+// A kink: compaction then dilation; away from the kink by half a window the slope is the local one, and a
+// turn of e1 (unloading) splits the windows: rows on the other branch are not neighbours in row order.
+TEST(Dilatancy, KinkAndTurn) {
+  std::vector<SeriesRow> rows = path(201, 1e-4, [](double e) { return e < 0.01 ? 0.5 * e : 0.005 - 0.2 * (e - 0.01); });
+  fill_dilatancy(rows, 0.004);
+  for (const SeriesRow& r : rows) {
+    if (r.e1 > 0.001 && r.e1 < 0.01 - 0.002 - 1e-9) { EXPECT_NEAR(r.DI, -0.5, 1e-9) << r.e1; }
+    if (r.e1 > 0.01 + 0.002 + 1e-9 && r.e1 < 0.019) { EXPECT_NEAR(r.DI, 0.2, 1e-9) << r.e1; }
   }
-  EXPECT_NEAR(last, -0.3, 1e-9);
+  // Extension (e1 decreasing) is defined just the same: ev = 0.1 + 0.3 e1 gives DI = -0.3.
+  std::vector<SeriesRow> back = path(101, -1e-3, [](double e) { return 0.1 + 0.3 * e; });
+  fill_dilatancy(back, 0.01);
+  EXPECT_NEAR(back[50].DI, -0.3, 1e-9);
 }
 
 TEST(SeriesRow, HeaderIsTheDocumentedColumnList) {
@@ -117,8 +108,7 @@ TEST(SeriesRow, LatticeRowHasKnownValues) {
   s.control.stage_steps = 250;
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
-  DilatancyWindow di(0.0025);
-  const SeriesRow row = measure_series_row(model, s, di);
+  const SeriesRow row = measure_series_row(model, s);
   const double p = kn * (2 * R - a) / (a * a);
   EXPECT_EQ(row.step, 250.0);
   EXPECT_NEAR(row.time, 250 * dt, 1e-15);
@@ -152,8 +142,7 @@ TEST(SeriesRow, AnisotropicLatticeRowEveryColumnByHand) {
   State s = testing::lattice_state(n, R, a, 0.05);
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
-  DilatancyWindow di;
-  const SeriesRow row = measure_series_row(model, s, di);
+  const SeriesRow row = measure_series_row(model, s);
 
   const Vec3 f = kn * (Vec3::Constant(2 * R) - a);
   const double s11 = f[0] / (a[1] * a[2]), s22 = f[1] / (a[0] * a[2]), s33 = f[2] / (a[0] * a[1]);
@@ -198,14 +187,13 @@ TEST(SeriesRow, AnisotropicLatticeRowEveryColumnByHand) {
   EXPECT_NEAR(row.void_ratio, a.prod() / (4.0 / 3.0 * M_PI * R * R * R) - 1.0, 1e-12);
 }
 
-// The dilatancy index is the least-squares slope -d(ev)/d(e1) over the trailing window: a cell deformed so
-// that ev = -0.4 e1 exactly (dilating) gives DI = 0.4 once the window spans half its width, NaN before.
+// The rows of a cell deformed so that ev = -0.4 e1 exactly (dilating), measured on the state and then given
+// their centred dilatancy index as a stage does when it ends: DI = 0.4.
 TEST(SeriesRow, DilatancyIndexOfAKnownPath) {
   const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-4), std::vector<double>(27, 0.5));
   State s = testing::lattice_state(3, 0.5, Vec3(1.2, 1.2, 1.2), 0.05);
   const Vec3 l0 = s.cell.h.diagonal();
-  DilatancyWindow di;
-  int finite = 0;
+  std::vector<SeriesRow> rows;
   for (int k = 0; k <= 12; ++k) {
     const double e1 = 0.0005 * k, ev = -0.4 * e1;
     // (1 - e1) (1 - e2)^2 = 1 - ev: equal lateral strains carry the volume change.
@@ -213,16 +201,21 @@ TEST(SeriesRow, DilatancyIndexOfAKnownPath) {
     s.cell.h = Vec3(l0[0] * (1.0 - e1), l0[1] * lateral, l0[2] * lateral).asDiagonal();
     rebuild_pairs(model, s);
     compute_contact_forces(model, 0.0, s);
-    const SeriesRow row = measure_series_row(model, s, di);
-    EXPECT_NEAR(row.ev, ev, 1e-12);
-    if (e1 < 0.5 * kDilatancyWindow - 1e-12) {
-      EXPECT_TRUE(std::isnan(row.DI)) << e1;
-    } else {
-      EXPECT_NEAR(row.DI, 0.4, 1e-6) << e1;  // the printed e1 and ev feed the window: 10 digits
-      ++finite;
-    }
+    rows.push_back(as_printed(measure_series_row(model, s)));
+    EXPECT_NEAR(rows.back().ev, ev, 1e-12);
+    EXPECT_TRUE(std::isnan(rows.back().DI));  // not known until the rows after it are
   }
-  EXPECT_GT(finite, 5);
+  fill_dilatancy(rows);
+  // At the ends the window holds less than half its width (a row every 0.05 %, window 0.25 %): NaN there.
+  EXPECT_TRUE(std::isnan(rows.front().DI));
+  EXPECT_TRUE(std::isnan(rows.back().DI));
+  int defined = 0;
+  for (const SeriesRow& r : rows) {
+    if (std::isnan(r.DI)) continue;
+    EXPECT_NEAR(r.DI, 0.4, 1e-6) << r.e1;  // printed e1, ev: 10 digits
+    ++defined;
+  }
+  EXPECT_GE(defined, 9);
 }
 
 // Strains in the row are engineering strains of the cell against the stage start, compression positive.
@@ -232,8 +225,7 @@ TEST(SeriesRow, StrainsAgainstStageStart) {
   s.cell.h = Vec3(3.6 * 0.99, 3.6 * 1.02, 3.6).asDiagonal();
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
-  DilatancyWindow di(0.0025);
-  const SeriesRow row = measure_series_row(model, s, di);
+  const SeriesRow row = measure_series_row(model, s);
   EXPECT_NEAR(row.e1, 0.01, 1e-14);
   EXPECT_NEAR(row.e2, -0.02, 1e-14);
   EXPECT_NEAR(row.e3, 0.0, 1e-14);

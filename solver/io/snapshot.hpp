@@ -1,0 +1,95 @@
+// Snapshots of a State for viewing (ParaView, OVITO): the particles, the contact network and a time
+// collection, written as text so that a reader (or a test) can check every number.
+//
+// Per snapshot at step S, in the writer's folder (the step in plain decimal, not padded):
+//   <stem>_S.vtu            VTK XML UnstructuredGrid: one VTK_VERTEX per particle; point data radius,
+//                           velocity (the fluctuation v' as stored, not the affine part), spin, contacts
+//                           (touching pairs of the particle), id (the celldem particle index, from 0);
+//                           field data TimeValue, step and the cell matrix h (row-major).
+//   <stem>_contacts_S.vtp   VTK XML PolyData: one line per touching pair, from the centre of i to
+//                           centre(i) + branch (a chain across the periodic boundary is drawn from i
+//                           outwards, leaving the cell); cell data branch, normal_force, tangential_force,
+//                           sliding (0/1), i, j.
+//   <stem>_S.dump           LAMMPS text dump (one file per snapshot; OVITO loads the series with the
+//                           wildcard <stem>_*.dump): id radius x y z vx vy vz wx wy wz contacts, ids from 1
+//                           as in `celldem translate` data files.
+// and two collections listing every snapshot with its time, rewritten after each snapshot:
+//   <stem>.pvd              the particle files      <stem>_contacts.pvd   the contact files
+// (two collections rather than one with two parts, so ParaView opens each as a plain dataset that the
+// Glyph and Tube filters take directly).
+//
+// Positions are wrapped into the primary cell for viewing: each scaled coordinate into [0, 1), x = h s.
+// Numbers are written with %.17g (they read back to the same double). Every file is written to a temporary
+// name and renamed (io/files.hpp), the collections last, so a collection never lists a missing file and a
+// run cut short still leaves a valid one; a failed write throws IoError "<file>: <what>: <system reason>".
+#pragma once
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/state.hpp"
+
+namespace celldem {
+
+// Scaled position wrapped into [0, 1) per component, and the position h s it gives [m].
+Vec3 wrapped_scaled(const Vec3& s);
+Vec3 wrapped_position(const Cell& cell, const Vec3& s);
+
+// Touching pairs per particle (each pair counts for both of its particles), from the pair flags of the last
+// force evaluation. (N)
+std::vector<std::int32_t> contacts_per_particle(const State& state);
+
+// One touching pair as drawn and reported in the contact file.
+struct ContactSnapshot {
+  Index i = 0, j = 0;
+  Vec3 branch = Vec3::Zero();            // [m] h (s_j - s_i + n): from i's centre to the image of j's
+  double normal_force = 0.0;             // [N] f . n, n = branch / |branch|; compression positive
+  Vec3 tangential_force = Vec3::Zero();  // [N] f - (f . n) n
+  bool sliding = false;
+};
+// The touching pairs of the last force evaluation, in pair-list order. f is pairs.force (on j by i).
+std::vector<ContactSnapshot> touching_contacts(const State& state);
+
+// The file contents (no files touched).
+std::string particles_vtu(const State& state, std::int64_t step, double time);
+std::string contacts_vtp(const State& state, std::int64_t step, double time);
+std::string lammps_dump(const State& state, std::int64_t step);
+
+struct CollectionEntry {
+  double time = 0.0;      // [s]
+  std::string file;       // relative to the collection's folder
+};
+std::string pvd_collection(const std::vector<CollectionEntry>& entries);
+
+// Writes snapshots of one run into `dir` (created when the first snapshot is written).
+//
+// If `<stem>.pvd` already lists snapshots (a run resumed from a checkpoint), the writer continues that
+// collection: write(step) first drops every entry at that step or later, so the snapshots of the
+// interrupted run after the checkpoint are replaced, and a fresh run from step 0 starts a new collection.
+class SnapshotWriter {
+ public:
+  // stem: letters, digits, '_', '-' or '.' (it goes into file names and XML attributes); else
+  // std::invalid_argument.
+  SnapshotWriter(std::filesystem::path dir, std::string stem);
+
+  void write(const State& state, std::int64_t step, double time);
+
+  const std::filesystem::path& dir() const { return dir_; }
+  std::filesystem::path particles_file(std::int64_t step) const;  // dir/<stem>_<step>.vtu
+  std::filesystem::path contacts_file(std::int64_t step) const;   // dir/<stem>_contacts_<step>.vtp
+  std::filesystem::path dump_file(std::int64_t step) const;       // dir/<stem>_<step>.dump
+  std::filesystem::path particles_collection() const;             // dir/<stem>.pvd
+  std::filesystem::path contacts_collection() const;              // dir/<stem>_contacts.pvd
+
+ private:
+  struct Entry {
+    std::int64_t step;
+    double time;
+  };
+  std::filesystem::path dir_;
+  std::string stem_;
+  std::vector<Entry> entries_;  // ascending steps
+};
+
+}  // namespace celldem
