@@ -1,0 +1,527 @@
+// Snapshots (solver/io/snapshot.hpp): the .vtu, .vtp, .pvd and dump files of a sheared cell with contacts
+// are read back (with a small XML reader here) and every number is checked against values computed in the
+// test from the state: wrapped positions, radii, contact counts from the pair list, each contact's normal
+// force against the spring law kn * overlap. Collections list every snapshot and survive a resume; a
+// failed write throws naming the file and leaves nothing under a final name.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <random>
+#include <sstream>
+
+#include "contact/contact_forces.hpp"
+#include "helpers.hpp"
+#include "io/files.hpp"
+#include "io/snapshot.hpp"
+#include "neighbor/neighbor_list.hpp"
+
+namespace celldem {
+namespace {
+
+constexpr double kKn = 1e4, kFriction = 0.1;
+
+// ---- a minimal XML reader: elements, attributes and text; throws on a malformed document ----
+
+struct XmlElement {
+  std::string name;
+  std::map<std::string, std::string> attributes;
+  std::string text;
+  std::vector<XmlElement> children;
+};
+
+class XmlReader {
+ public:
+  explicit XmlReader(const std::string& text) : t_(text) {}
+
+  XmlElement document() {
+    skip_space();
+    if (t_.compare(at_, 5, "<?xml") == 0) at_ = t_.find("?>", at_) + 2;
+    skip_space();
+    XmlElement root = element();
+    skip_space();
+    if (at_ != t_.size()) fail("text after the root element");
+    return root;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error("XML at offset " + std::to_string(at_) + ": " + what);
+  }
+  void skip_space() {
+    while (at_ < t_.size() && std::isspace(static_cast<unsigned char>(t_[at_]))) ++at_;
+  }
+  std::string name() {
+    const std::size_t begin = at_;
+    while (at_ < t_.size() && (std::isalnum(static_cast<unsigned char>(t_[at_])) || t_[at_] == '_')) ++at_;
+    if (at_ == begin) fail("expected a name");
+    return t_.substr(begin, at_ - begin);
+  }
+  void expect(char c) {
+    if (at_ >= t_.size() || t_[at_] != c) fail(std::string("expected '") + c + "'");
+    ++at_;
+  }
+  XmlElement element() {
+    expect('<');
+    XmlElement e;
+    e.name = name();
+    for (;;) {
+      skip_space();
+      if (t_.compare(at_, 2, "/>") == 0) {
+        at_ += 2;
+        return e;
+      }
+      if (at_ < t_.size() && t_[at_] == '>') break;
+      const std::string key = name();
+      expect('=');
+      expect('"');
+      const std::size_t end = t_.find('"', at_);
+      if (end == std::string::npos) fail("unterminated attribute");
+      if (!e.attributes.emplace(key, t_.substr(at_, end - at_)).second) fail("duplicate attribute " + key);
+      at_ = end + 1;
+    }
+    ++at_;
+    for (;;) {
+      const std::size_t lt = t_.find('<', at_);
+      if (lt == std::string::npos) fail("unclosed element " + e.name);
+      e.text += t_.substr(at_, lt - at_);
+      at_ = lt;
+      if (t_.compare(at_, 2, "</") == 0) {
+        at_ += 2;
+        if (name() != e.name) fail("mismatched closing tag of " + e.name);
+        expect('>');
+        return e;
+      }
+      e.children.push_back(element());
+    }
+  }
+
+  const std::string& t_;
+  std::size_t at_ = 0;
+};
+
+XmlElement read_xml(const std::filesystem::path& path) {
+  const std::string text = testing::read_bytes(path);
+  return XmlReader(text).document();
+}
+
+// The first element named `name` (with Name="array_name" when given), depth first; fails the test if none.
+const XmlElement* find(const XmlElement& e, const std::string& name, const std::string& array_name = "") {
+  if (e.name == name && (array_name.empty() || (e.attributes.count("Name") && e.attributes.at("Name") == array_name)))
+    return &e;
+  for (const XmlElement& c : e.children)
+    if (const XmlElement* f = find(c, name, array_name)) return f;
+  return nullptr;
+}
+
+std::vector<double> numbers(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<double> v;
+  for (std::string w; in >> w;) v.push_back(std::strtod(w.c_str(), nullptr));
+  return v;
+}
+
+std::vector<double> array(const XmlElement& root, const std::string& array_name, std::size_t expected_size) {
+  const XmlElement* e = find(root, "DataArray", array_name);
+  EXPECT_NE(e, nullptr) << array_name;
+  if (!e) return std::vector<double>(expected_size, 0.0);
+  EXPECT_EQ(e->attributes.at("format"), "ascii");
+  std::vector<double> v = numbers(e->text);
+  EXPECT_EQ(v.size(), expected_size) << array_name;
+  v.resize(expected_size, 0.0);
+  return v;
+}
+
+// The array inside <Points>.
+std::vector<double> points(const XmlElement& root, std::size_t expected_size) {
+  const XmlElement* p = find(root, "Points");
+  EXPECT_NE(p, nullptr);
+  if (!p || p->children.empty()) return std::vector<double>(expected_size, 0.0);
+  EXPECT_EQ(p->children[0].attributes.at("NumberOfComponents"), "3");
+  std::vector<double> v = numbers(p->children[0].text);
+  EXPECT_EQ(v.size(), expected_size);
+  v.resize(expected_size, 0.0);
+  return v;
+}
+
+Vec3 vec_at(const std::vector<double>& v, std::size_t k) { return Vec3(v[3 * k], v[3 * k + 1], v[3 * k + 2]); }
+
+// ---- the state ----
+
+// A sheared cell (upper triangular h), particles displaced by whole cells (scaled positions outside
+// [0, 1)), velocities and spins, and contacts with history, some across the boundary and some sliding.
+State sheared_state() {
+  std::mt19937_64 gen(23);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  State s = testing::lattice_state(3, 0.5, Vec3(0.97, 0.98, 0.99), 0.05);
+  s.cell.h(0, 1) = 0.1;
+  s.cell.h(1, 2) = -0.05;
+  s.cell.h(0, 2) = 0.03;
+  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+    s.particles.radius[i] = 0.5 + 0.01 * u(gen);
+    s.particles.scaled[i] += Vec3(u(gen), u(gen), u(gen)) * 1e-3 + Vec3(i % 2, -(int)(i % 3), 2.0 * (i % 5 == 0));
+    s.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen));
+    s.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * 3.0;
+  }
+  s.cell.velocity_gradient = (Mat3() << 1e-3, 2e-4, 0, 0, -1e-3, 0, 0, 5e-5, 0).finished();
+  const Model model = make_model(testing::model_deck(kKn, kKn, 1e-4), s.particles.radius);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, kFriction, s);
+  // Stretch the spring of every other contact far beyond the Coulomb limit, so that those slide.
+  for (std::size_t q = 0; q < s.pairs.size(); ++q)
+    if ((s.pairs.flags[q] & kTouching) && q % 2 == 0) s.pairs.tangential[q] = Vec3(0.05, -0.03, 0.02);
+  compute_contact_forces(model, kFriction, s);
+  return s;
+}
+
+// Wrapped position computed here, independently of the writer.
+Vec3 primary_position(const State& s, std::size_t i) {
+  Vec3 w = s.particles.scaled[i];
+  for (int k = 0; k < 3; ++k) w[k] -= std::floor(w[k]);
+  return s.cell.h * w;
+}
+
+// Touching pairs per particle, counted here from the pair list.
+std::vector<int> contact_count(const State& s) {
+  std::vector<int> count(s.particles.size(), 0);
+  for (std::size_t q = 0; q < s.pairs.size(); ++q)
+    if (s.pairs.flags[q] & kTouching) count[s.pairs.owner[q]]++, count[s.pairs.neighbor[q]]++;
+  return count;
+}
+
+// x lies in the primary cell and differs from h s by whole cells.
+void expect_same_place(const State& s, std::size_t i, const Vec3& x) {
+  const Vec3 sx = s.cell.h.inverse() * x;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_GE(sx[k], -1e-12) << i;
+    EXPECT_LT(sx[k], 1.0 + 1e-12) << i;
+    const double shift = s.particles.scaled[i][k] - sx[k];
+    EXPECT_NEAR(shift, std::round(shift), 1e-12) << i;
+  }
+  EXPECT_NEAR((x - primary_position(s, i)).norm(), 0.0, 1e-12) << i;
+}
+
+TEST(Snapshot, ParticlesFileHoldsWrappedPositionsRadiiAndContactCounts) {
+  const State s = sheared_state();
+  ASSERT_GT(s.touching, 10);
+  testing::TempDir dir;
+  SnapshotWriter writer(dir.path(), "snap");
+  writer.write(s, 1234, 0.5);
+  const XmlElement vtu = read_xml(writer.particles_file(1234));
+  EXPECT_EQ(vtu.attributes.at("type"), "UnstructuredGrid");
+  const std::size_t n = s.particles.size();
+  const XmlElement* piece = find(vtu, "Piece");
+  ASSERT_NE(piece, nullptr);
+  EXPECT_EQ(piece->attributes.at("NumberOfPoints"), std::to_string(n));
+  EXPECT_EQ(piece->attributes.at("NumberOfCells"), std::to_string(n));
+
+  const std::vector<double> x = points(vtu, 3 * n);
+  const std::vector<double> radius = array(vtu, "radius", n);
+  const std::vector<double> velocity = array(vtu, "velocity", 3 * n);
+  const std::vector<double> spin = array(vtu, "spin", 3 * n);
+  const std::vector<double> contacts = array(vtu, "contacts", n);
+  const std::vector<double> id = array(vtu, "id", n);
+  const std::vector<int> expected_contacts = contact_count(s);
+  bool any_wrapped = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    expect_same_place(s, i, vec_at(x, i));
+    any_wrapped |= (vec_at(x, i) - s.cell.h * s.particles.scaled[i]).norm() > 0.1;
+    EXPECT_EQ(radius[i], s.particles.radius[i]);  // %.17g reads back exactly
+    EXPECT_EQ(vec_at(velocity, i), s.particles.velocity[i]);
+    EXPECT_EQ(vec_at(spin, i), s.particles.spin[i]);
+    EXPECT_EQ(contacts[i], expected_contacts[i]) << i;
+    EXPECT_EQ(id[i], static_cast<double>(i));
+  }
+  EXPECT_TRUE(any_wrapped);
+
+  // One vertex per particle.
+  EXPECT_EQ(array(vtu, "types", n), std::vector<double>(n, 1.0));
+  const std::vector<double> offsets = array(vtu, "offsets", n);
+  for (std::size_t i = 0; i < n; ++i) EXPECT_EQ(offsets[i], static_cast<double>(i + 1));
+  // Time, step and cell as field data.
+  EXPECT_EQ(array(vtu, "TimeValue", 1)[0], 0.5);
+  EXPECT_EQ(array(vtu, "step", 1)[0], 1234.0);
+  const std::vector<double> h = array(vtu, "cell_h", 9);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(h[3 * r + c], s.cell.h(r, c));
+}
+
+TEST(Snapshot, ContactFileHoldsEveryTouchingPairWithItsForces) {
+  const State s = sheared_state();
+  testing::TempDir dir;
+  SnapshotWriter writer(dir.path(), "snap");
+  writer.write(s, 7, 0.25);
+  const XmlElement vtp = read_xml(writer.contacts_file(7));
+  EXPECT_EQ(vtp.attributes.at("type"), "PolyData");
+
+  std::vector<std::size_t> touching;
+  for (std::size_t q = 0; q < s.pairs.size(); ++q)
+    if (s.pairs.flags[q] & kTouching) touching.push_back(q);
+  const std::size_t m = touching.size();
+  ASSERT_EQ(static_cast<std::int64_t>(m), s.touching);
+  const XmlElement* piece = find(vtp, "Piece");
+  ASSERT_NE(piece, nullptr);
+  EXPECT_EQ(piece->attributes.at("NumberOfLines"), std::to_string(m));
+  EXPECT_EQ(piece->attributes.at("NumberOfPoints"), std::to_string(2 * m));
+
+  const std::vector<double> x = points(vtp, 6 * m);
+  const std::vector<double> branch = array(vtp, "branch", 3 * m);
+  const std::vector<double> normal_force = array(vtp, "normal_force", m);
+  const std::vector<double> tangential = array(vtp, "tangential_force", 3 * m);
+  const std::vector<double> sliding = array(vtp, "sliding", m);
+  const std::vector<double> pi = array(vtp, "i", m), pj = array(vtp, "j", m);
+  const std::vector<double> connectivity = array(vtp, "connectivity", 2 * m);
+  const std::vector<double> offsets = array(vtp, "offsets", m);
+  int across_boundary = 0, sliding_count = 0;
+  for (std::size_t c = 0; c < m; ++c) {
+    const std::size_t q = touching[c];
+    const Index i = s.pairs.owner[q], j = s.pairs.neighbor[q];
+    EXPECT_EQ(pi[c], i);
+    EXPECT_EQ(pj[c], j);
+    EXPECT_EQ(connectivity[2 * c], 2.0 * c);
+    EXPECT_EQ(connectivity[2 * c + 1], 2.0 * c + 1);
+    EXPECT_EQ(offsets[c], 2.0 * c + 2);
+    const auto& n = s.pairs.image[q];
+    across_boundary += n[0] != 0 || n[1] != 0 || n[2] != 0;
+
+    // The line starts at i's wrapped centre and ends at the image of j's centre touching it.
+    const Vec3 l = s.cell.h * (s.particles.scaled[j] - s.particles.scaled[i] + Vec3(n[0], n[1], n[2]));
+    EXPECT_NEAR((vec_at(branch, c) - l).norm(), 0.0, 1e-14);
+    expect_same_place(s, i, vec_at(x, 2 * c));
+    EXPECT_NEAR((vec_at(x, 2 * c + 1) - vec_at(x, 2 * c) - l).norm(), 0.0, 1e-12);
+    EXPECT_LT(l.norm(), s.particles.radius[i] + s.particles.radius[j]);
+
+    // Normal force: the dot product with the unit branch, and the spring law's kn * overlap.
+    const Vec3& f = s.pairs.force[q];
+    const double fn = f.dot(l) / l.norm();
+    EXPECT_NEAR(normal_force[c], fn, 1e-12 * std::abs(fn));
+    const double overlap = s.particles.radius[i] + s.particles.radius[j] - l.norm();
+    EXPECT_NEAR(normal_force[c], kKn * overlap, 1e-9 * kKn * overlap);
+    EXPECT_GT(normal_force[c], 0.0);  // compression positive
+
+    // Tangential force: f minus its normal part, perpendicular to the branch, within the Coulomb cap.
+    const Vec3 ft = vec_at(tangential, c);
+    EXPECT_NEAR((ft - (f - fn * l / l.norm())).norm(), 0.0, 1e-12 * f.norm());
+    EXPECT_NEAR(ft.dot(l), 0.0, 1e-12 * f.norm() * l.norm());
+    EXPECT_LE(ft.norm(), kFriction * fn * (1 + 1e-9));
+    const bool slides = (s.pairs.flags[q] & kSliding) != 0;
+    EXPECT_EQ(sliding[c], slides ? 1.0 : 0.0);
+    if (slides) {
+      EXPECT_NEAR(ft.norm(), kFriction * fn, 1e-9 * fn);
+    }
+    sliding_count += slides;
+  }
+  EXPECT_GT(across_boundary, 0);
+  EXPECT_GT(sliding_count, 0);
+}
+
+// The dump's lines, split into words.
+std::vector<std::vector<std::string>> dump_lines(const std::filesystem::path& path) {
+  std::istringstream in(testing::read_bytes(path));
+  std::vector<std::vector<std::string>> out;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream words(line);
+    out.emplace_back();
+    for (std::string w; words >> w;) out.back().push_back(w);
+  }
+  return out;
+}
+
+double number(const std::string& word) { return std::strtod(word.c_str(), nullptr); }
+
+TEST(Snapshot, DumpHoldsTheTiltedBoxAndEveryAtom) {
+  const State s = sheared_state();
+  testing::TempDir dir;
+  SnapshotWriter writer(dir.path(), "snap");
+  writer.write(s, 42, 0.1);
+  const auto lines = dump_lines(writer.dump_file(42));
+  const std::size_t n = s.particles.size();
+  ASSERT_EQ(lines.size(), 9 + n);
+  EXPECT_EQ(lines[0], (std::vector<std::string>{"ITEM:", "TIMESTEP"}));
+  EXPECT_EQ(lines[1], (std::vector<std::string>{"42"}));
+  EXPECT_EQ(lines[3], (std::vector<std::string>{std::to_string(n)}));
+  EXPECT_EQ(lines[4], (std::vector<std::string>{"ITEM:", "BOX", "BOUNDS", "xy", "xz", "yz", "pp", "pp", "pp"}));
+
+  // LAMMPS's bounding box and tilts: xlo_bound = xlo + min(0, xy, xz, xy + xz), ...
+  const Mat3& h = s.cell.h;
+  const double xy = h(0, 1), xz = h(0, 2), yz = h(1, 2);
+  EXPECT_EQ(number(lines[5][2]), xy);
+  EXPECT_EQ(number(lines[6][2]), xz);
+  EXPECT_EQ(number(lines[7][2]), yz);
+  EXPECT_DOUBLE_EQ(number(lines[5][0]), std::min({0.0, xy, xz, xy + xz}));
+  EXPECT_DOUBLE_EQ(number(lines[5][1]), h(0, 0) + std::max({0.0, xy, xz, xy + xz}));
+  EXPECT_DOUBLE_EQ(number(lines[6][0]), std::min(0.0, yz));
+  EXPECT_DOUBLE_EQ(number(lines[6][1]), h(1, 1) + std::max(0.0, yz));
+  EXPECT_EQ(number(lines[7][0]), 0.0);
+  EXPECT_EQ(number(lines[7][1]), h(2, 2));
+
+  EXPECT_EQ(lines[8], (std::vector<std::string>{"ITEM:", "ATOMS", "id", "radius", "x", "y", "z", "vx", "vy", "vz",
+                                                "wx", "wy", "wz", "contacts"}));
+  const std::vector<int> contacts = contact_count(s);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& w = lines[9 + i];
+    ASSERT_EQ(w.size(), 12u);
+    EXPECT_EQ(w[0], std::to_string(i + 1));
+    EXPECT_EQ(number(w[1]), s.particles.radius[i]);
+    expect_same_place(s, i, Vec3(number(w[2]), number(w[3]), number(w[4])));
+    EXPECT_EQ(Vec3(number(w[5]), number(w[6]), number(w[7])), s.particles.velocity[i]);
+    EXPECT_EQ(Vec3(number(w[8]), number(w[9]), number(w[10])), s.particles.spin[i]);
+    EXPECT_EQ(w[11], std::to_string(contacts[i]));
+  }
+}
+
+TEST(Snapshot, DumpOfAnOrthogonalCellUsesThePlainBoxBounds) {
+  State s = testing::lattice_state(2, 0.5, Vec3(1.0, 1.2, 1.4), 0.05);
+  s.particles.scaled[3] += Vec3(-1, 3, 0);
+  testing::TempDir dir;
+  SnapshotWriter writer(dir.path(), "cube");
+  writer.write(s, 0, 0.0);
+  const auto lines = dump_lines(writer.dump_file(0));
+  ASSERT_EQ(lines.size(), 9 + s.particles.size());
+  EXPECT_EQ(lines[4], (std::vector<std::string>{"ITEM:", "BOX", "BOUNDS", "pp", "pp", "pp"}));
+  EXPECT_EQ(lines[5], (std::vector<std::string>{"0", "2"}));
+  EXPECT_EQ(lines[6], (std::vector<std::string>{"0", "2.3999999999999999"}));  // 2 x 1.2, %.17g
+  EXPECT_EQ(number(lines[7][1]), 2.8);
+  expect_same_place(s, 3, Vec3(number(lines[12][2]), number(lines[12][3]), number(lines[12][4])));
+  // No contacts: an empty but valid contact file.
+  const XmlElement vtp = read_xml(writer.contacts_file(0));
+  EXPECT_EQ(find(vtp, "Piece")->attributes.at("NumberOfLines"), "0");
+}
+
+// A cell that is not upper triangular is rotated into LAMMPS's frame: lengths and angles are kept.
+TEST(Snapshot, DumpRotatesAGeneralCellIntoTheLammpsFrame) {
+  State s = sheared_state();
+  s.cell.h(1, 0) = 0.2;
+  s.cell.h(2, 0) = -0.1;
+  s.cell.h(2, 1) = 0.07;
+  const std::string dump = lammps_dump(s, 3);
+  testing::TempDir dir;
+  testing::write_bytes(dir.path() / "d.dump", dump);
+  const auto lines = dump_lines(dir.path() / "d.dump");
+  const double xy = number(lines[5][2]), xz = number(lines[6][2]), yz = number(lines[7][2]);
+  const double lx = number(lines[5][1]) - number(lines[5][0]) - (std::max({0.0, xy, xz, xy + xz}) - std::min({0.0, xy, xz, xy + xz}));
+  const double ly = number(lines[6][1]) - number(lines[6][0]) - std::abs(yz);
+  const double lz = number(lines[7][1]) - number(lines[7][0]);
+  const Mat3 box = (Mat3() << lx, xy, xz, 0, ly, yz, 0, 0, lz).finished();
+  const Mat3 metric = s.cell.h.transpose() * s.cell.h;
+  EXPECT_NEAR((box.transpose() * box - metric).norm(), 0.0, 1e-12);
+  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+    const auto& w = lines[9 + i];
+    const Vec3 x(number(w[2]), number(w[3]), number(w[4])), v(number(w[5]), number(w[6]), number(w[7]));
+    const Vec3 spin(number(w[8]), number(w[9]), number(w[10]));
+    // The same point of the cell, and the same vectors relative to the cell vectors.
+    const Vec3 sx = box.inverse() * x;
+    const Vec3 expected = s.cell.h.inverse() * primary_position(s, i);
+    EXPECT_NEAR((sx - expected).norm(), 0.0, 1e-12);
+    EXPECT_NEAR((box.transpose() * v - s.cell.h.transpose() * s.particles.velocity[i]).norm(), 0.0, 1e-12);
+    EXPECT_NEAR((box.transpose() * spin - s.cell.h.transpose() * s.particles.spin[i]).norm(), 0.0, 1e-12);
+  }
+}
+
+std::vector<std::pair<double, std::string>> collection(const std::filesystem::path& pvd) {
+  const XmlElement root = read_xml(pvd);
+  EXPECT_EQ(root.attributes.at("type"), "Collection");
+  std::vector<std::pair<double, std::string>> out;
+  const XmlElement* c = find(root, "Collection");
+  if (!c) return out;
+  for (const XmlElement& e : c->children) {
+    EXPECT_EQ(e.name, "DataSet");
+    out.emplace_back(number(e.attributes.at("timestep")), e.attributes.at("file"));
+  }
+  return out;
+}
+
+using Entries = std::vector<std::pair<double, std::string>>;
+
+TEST(Snapshot, CollectionsListEverySnapshotAndContinueAfterAResume) {
+  const State s = sheared_state();
+  testing::TempDir dir;
+  const auto folder = dir.path() / "snapshots";  // created by the first write
+  {
+    SnapshotWriter writer(folder, "run.a");
+    writer.write(s, 0, 0.0);
+    EXPECT_EQ(collection(writer.particles_collection()), (Entries{{0.0, "run.a_0.vtu"}}));
+    writer.write(s, 100, 0.1);
+    writer.write(s, 200, 0.2);
+    EXPECT_EQ(collection(writer.particles_collection()),
+              (Entries{{0.0, "run.a_0.vtu"}, {0.1, "run.a_100.vtu"}, {0.2, "run.a_200.vtu"}}));
+    EXPECT_EQ(collection(writer.contacts_collection()),
+              (Entries{{0.0, "run.a_contacts_0.vtp"}, {0.1, "run.a_contacts_100.vtp"}, {0.2, "run.a_contacts_200.vtp"}}));
+    for (const auto& [time, file] : collection(writer.particles_collection()))
+      EXPECT_TRUE(std::filesystem::exists(folder / file)) << file;
+  }
+  // A run resumed from a checkpoint at step 150 writes step 200 again: the collection keeps what came before.
+  {
+    SnapshotWriter writer(folder, "run.a");
+    writer.write(s, 200, 0.2);
+    writer.write(s, 300, 0.3);
+    EXPECT_EQ(collection(writer.particles_collection()),
+              (Entries{{0.0, "run.a_0.vtu"}, {0.1, "run.a_100.vtu"}, {0.2, "run.a_200.vtu"}, {0.3, "run.a_300.vtu"}}));
+  }
+  // A new run from step 0 starts a new collection.
+  {
+    SnapshotWriter writer(folder, "run.a");
+    writer.write(s, 0, 0.0);
+    EXPECT_EQ(collection(writer.particles_collection()), (Entries{{0.0, "run.a_0.vtu"}}));
+    EXPECT_EQ(collection(writer.contacts_collection()), (Entries{{0.0, "run.a_contacts_0.vtp"}}));
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(folder))
+    EXPECT_NE(entry.path().extension(), ".tmp") << entry.path();
+}
+
+TEST(Snapshot, AFailedWriteThrowsNamingTheFileAndLeavesNoPartialFile) {
+  const State s = sheared_state();
+  testing::TempDir dir;
+
+  // A folder that cannot be made: its parent is a regular file.
+  testing::write_bytes(dir.path() / "plain_file", "x");
+  const auto impossible = dir.path() / "plain_file" / "snapshots";
+  try {
+    SnapshotWriter(impossible, "snap").write(s, 1, 0.0);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(impossible.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("Not a directory"), std::string::npos) << e.what();
+  }
+
+  // A folder without write permission (root may write anyway: then only the case below applies).
+  if (::geteuid() != 0) {
+    const auto locked = dir.path() / "locked";
+    std::filesystem::create_directory(locked);
+    std::filesystem::permissions(locked, std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+    try {
+      SnapshotWriter(locked, "snap").write(s, 1, 0.0);
+      ADD_FAILURE() << "no exception";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find((locked / "snap_1.vtu").string()), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("Permission denied"), std::string::npos) << e.what();
+    }
+    std::filesystem::permissions(locked, std::filesystem::perms::owner_all);
+  }
+
+  // A final name that cannot be replaced (a non-empty folder stands there): the error names the file, the
+  // temporary is gone, and no collection lists the missing snapshot.
+  const auto folder = dir.path() / "out";
+  SnapshotWriter writer(folder, "snap");
+  std::filesystem::create_directories(writer.contacts_file(5) / "blocker");
+  try {
+    writer.write(s, 5, 0.0);
+    ADD_FAILURE() << "no exception";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find(writer.contacts_file(5).string()), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(writer.contacts_file(5).string() + ".tmp"));
+  EXPECT_FALSE(std::filesystem::exists(writer.particles_collection()));
+}
+
+TEST(Snapshot, StemMustBeSafeInFileNamesAndXml) {
+  EXPECT_THROW(SnapshotWriter("/tmp", "a\"b"), std::invalid_argument);
+  EXPECT_THROW(SnapshotWriter("/tmp", "a/b"), std::invalid_argument);
+  EXPECT_THROW(SnapshotWriter("/tmp", ""), std::invalid_argument);
+  EXPECT_NO_THROW(SnapshotWriter("/tmp/celldem-no-such-folder", "ttc_01-x.y"));
+}
+
+}  // namespace
+}  // namespace celldem
