@@ -117,7 +117,7 @@ Vec3 wrapped_scaled(const Vec3& s) {
   Vec3 w;
   for (int k = 0; k < 3; ++k) {
     w[k] = s[k] - std::floor(s[k]);
-    if (!(w[k] < 1.0)) w[k] = 0.0;  // s just below a whole number rounds up to 1
+    if (w[k] == 1.0) w[k] = 0.0;  // s just below a whole number rounds up to 1 (NaN stays NaN: visible)
   }
   return w;
 }

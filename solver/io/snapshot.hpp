@@ -18,6 +18,10 @@
 // (two collections rather than one with two parts, so ParaView opens each as a plain dataset that the
 // Glyph and Tube filters take directly).
 //
+// The state is taken as the step left it: pair images from the last neighbour-list build, forces, flags
+// and contact counts from the last force evaluation (a state just read from a file has no valid images
+// until rebuild_pairs, so write its snapshot after the first force evaluation).
+//
 // Positions are wrapped into the primary cell for viewing: each scaled coordinate into [0, 1), x = h s.
 // Numbers are written with %.17g (they read back to the same double). Every file is written to a temporary
 // name and renamed (io/files.hpp), the collections last, so a collection never lists a missing file and a
