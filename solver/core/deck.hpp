@@ -84,6 +84,13 @@ struct EquilibriumDef {
   std::int64_t max_steps = static_cast<std::int64_t>(keys::equilibrium_max_steps.fallback);
 };
 
+// When a stage writes particle and contact snapshots (none by default).
+struct SnapshotDef {
+  std::int64_t interval = 0;       // steps; 0: none by interval
+  std::vector<double> e1;          // strains of axis 1 at which to write one, ascending
+  bool any() const { return interval > 0 || !e1.empty(); }
+};
+
 struct PrepareDef {
   double friction = keys::prepare_friction.fallback;  // interparticle mu during preparation
   double target_pressure = 1e5;                       // [Pa] (required in a deck without legs)
@@ -91,6 +98,7 @@ struct PrepareDef {
   double fast_strain_increment = keys::prepare_fast_strain_increment.fallback;
   EquilibriumDef equilibrium;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
+  SnapshotDef snapshots;
   // The program; when a deck gives none, the two legs above: fast isotropic compression to the solid
   // fraction, then the isotropic servo at the target pressure to equilibrium (preparation_legs()).
   std::vector<Leg> legs;
@@ -102,6 +110,7 @@ struct TestDef {
   double friction = 0.0;
   std::vector<Leg> legs;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::test_output_interval.fallback);
+  SnapshotDef snapshots;
 };
 
 struct Deck {

@@ -157,7 +157,10 @@ inline constexpr KeySpec end_equilibrium{.path = "prepare.legs[].end.equilibrium
     .meaning = "`true`: the leg ends in equilibrium (`prepare.equilibrium`) at its stress targets"};
 
 inline constexpr KeySpec initial_state{.path = "initial_state", .kind = KeyKind::String, .required = false,
-    .default_text = "none", .meaning = "instead of `prepare`: a state file (path relative to the deck) to test"};
+    .default_text = "none",
+    .meaning = "instead of `prepare`: the sample to test (path relative to the deck), a celldem state file or a "
+               "LAMMPS data file (`atom_style sphere`, orthogonal box, one density equal to `sample.density`; no "
+               "contact history)"};
 
 inline constexpr KeySpec tests{.path = "tests", .kind = KeyKind::Array, .required = false, .default_text = "[]",
     .meaning = "loading tests, each from the prepared state (at least one without `prepare`)"};
@@ -208,6 +211,15 @@ inline constexpr KeySpec test_end_steps{.path = "tests[].end.steps", .kind = Key
 inline constexpr KeySpec test_end_max_steps{.path = "tests[].end.max_steps", .kind = KeyKind::Integer, .min = 0,
     .max = kMaxCount, .required = false, .fallback = 0,
     .meaning = "a `strain` leg ends here at the latest; any other leg not ended by then stops the run (0: none)"};
+inline constexpr KeySpec snapshots{.path = "tests[].snapshots", .kind = KeyKind::Object, .required = false,
+    .default_text = "none",
+    .meaning = "particle and contact snapshots of the stage (also `prepare.snapshots`) into `<stage>/snapshots/`: "
+               "VTK `.vtu`/`.vtp` with `.pvd` collections (ParaView) and LAMMPS-style `.dump` (OVITO)"};
+inline constexpr KeySpec snapshots_interval{.path = "tests[].snapshots.interval", .kind = KeyKind::Integer, .min = 1,
+    .max = kMaxCount, .required = false, .fallback = 0, .default_text = "none",
+    .meaning = "a snapshot every this many steps (and at the stage's start and end)"};
+inline constexpr KeySpec snapshots_e1{.path = "tests[].snapshots.e1", .kind = KeyKind::Array, .required = false,
+    .default_text = "none", .meaning = "a snapshot at the first step whose e1 reaches each of these strains"};
 inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval", .kind = KeyKind::Integer, .min = 1,
     .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 // clang-format on
@@ -225,7 +237,8 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &tests,
     &test_name, &test_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
-    &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &test_output_interval});
+    &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,
+    &snapshots_e1, &test_output_interval});
 }  // namespace keys
 
 }  // namespace celldem

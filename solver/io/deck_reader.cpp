@@ -349,6 +349,25 @@ void read_program(const Json& list, const std::string& path, bool preparation, s
   }
 }
 
+SnapshotDef read_snapshots(ObjectReader r) {
+  SnapshotDef s;
+  s.interval = r.integer(keys::snapshots_interval);
+  if (r.has(keys::snapshots_e1)) {
+    const Json& list = r.raw(keys::snapshots_e1);
+    const std::string path = r.at(keys::snapshots_e1);
+    if (!list.is_array() || list.empty()) fail(path, "expected a non-empty array of strains");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      if (!list[i].is_number() || !std::isfinite(list[i].get<double>()) || std::abs(list[i].get<double>()) > 0.9)
+        fail(path + "[" + std::to_string(i) + "]", "expected a strain in [-0.9, 0.9]");
+      s.e1.push_back(list[i].get<double>());
+    }
+    std::sort(s.e1.begin(), s.e1.end());
+  }
+  if (!s.any()) fail(r.path(), "give \"interval\" or \"e1\"");
+  r.finish();
+  return s;
+}
+
 TestDef read_test(ObjectReader r) {
   TestDef t;
   t.name = r.string(keys::test_name);
@@ -376,6 +395,7 @@ TestDef read_test(ObjectReader r) {
     t.legs.push_back(leg);
   }
   t.output_interval = r.integer(keys::test_output_interval);
+  if (r.has(keys::snapshots)) t.snapshots = read_snapshots(r.object(keys::snapshots));
   r.finish();
   return t;
 }
@@ -405,6 +425,7 @@ PrepareDef read_prepare(ObjectReader r) {
     fail(r.at(keys::prepare_target_pressure), "missing required key (or give \"legs\")");
   read_fields(r, p, kPrepareNumbers);
   p.output_interval = r.integer(keys::prepare_output_interval);
+  if (r.has(keys::snapshots)) p.snapshots = read_snapshots(r.object(keys::snapshots));
   if (r.has(keys::prepare_equilibrium)) {
     ObjectReader e = r.object(keys::prepare_equilibrium);
     read_fields(e, p.equilibrium, kEquilibriumTolerances);

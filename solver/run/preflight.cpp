@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "core/plan.hpp"
+#include "io/files.hpp"
+#include "io/lammps_data.hpp"
 #include "io/state_file.hpp"
 #include "run/health.hpp"
 
@@ -40,7 +42,7 @@ void check_prepared_cell(const Deck& deck) {
 }
 
 void check_state(const Deck& deck, const std::string& path) {
-  const State state = read_state(path);
+  const State state = load_initial_state(deck);
   const std::size_t n = state.particles.size();
   if (n != static_cast<std::size_t>(deck.sample.count))
     throw DeckError("sample.count: the deck says " + std::to_string(deck.sample.count) + " spheres, initial_state " +
@@ -61,6 +63,24 @@ void check_state(const Deck& deck, const std::string& path) {
 }
 
 }  // namespace
+
+State load_initial_state(const Deck& deck) {
+  const std::string path = initial_state_path(deck);
+  if (read_file(path).rfind("CELLDEMS", 0) == 0) return read_state(path);
+  LammpsData data;
+  try {
+    data = read_lammps_data(path);
+  } catch (const LammpsDataError& e) {
+    throw DeckError(std::string("initial_state: neither a celldem state file nor a readable LAMMPS data file: ") +
+                    e.what());
+  }
+  if (!data.common_density)
+    throw DeckError("initial_state: " + path + " gives its atoms different densities; celldem has one (sample.density)");
+  if (std::abs(*data.common_density - deck.sample.density) > 1e-12 * deck.sample.density)
+    throw DeckError("sample.density: the deck says " + fmt(deck.sample.density) + " kg/m^3, initial_state " + path +
+                    " says " + fmt(*data.common_density));
+  return data.state;
+}
 
 std::string initial_state_path(const Deck& deck) {
   return (std::filesystem::path(deck.source).parent_path() / deck.initial_state.value()).string();

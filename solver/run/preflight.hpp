@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/deck.hpp"
+#include "core/state.hpp"
 
 namespace celldem {
 
@@ -22,5 +23,10 @@ std::vector<std::string> preflight(const Deck& deck);
 
 // The deck's initial_state, resolved against the deck's folder.
 std::string initial_state_path(const Deck& deck);
+
+// The sample the deck's tests start from: a celldem state file, or a LAMMPS data file (atom_style sphere,
+// orthogonal box) whose one density must equal sample.density (DeckError naming both otherwise). A data file
+// carries no contact history: the tests start with untouched tangential springs.
+State load_initial_state(const Deck& deck);
 
 }  // namespace celldem

@@ -34,7 +34,7 @@ void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& opti
   const PrepareDef& prep = *deck.prepare;
   const Model model = make_model(deck, state.particles.radius);
   if (!resumed) evaluate_forces(model, prep.friction, state);
-  StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false);
+  StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false, prep.snapshots);
   out.open(state, resumed);
   run_program(model, {prep.legs, prep.friction, &prep.equilibrium}, state, out, out.control_errors());
   out.finish(state);
@@ -46,12 +46,14 @@ void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& opti
 // A loading test from the prepared state (or from its own checkpoint).
 void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
               const fs::path& prepared, bool resumed) {
-  State state = read_state(resumed ? run.checkpoint(test.name).string() : prepared.string());
+  State state = resumed            ? read_state(run.checkpoint(test.name).string())
+                : deck.initial_state ? load_initial_state(deck)
+                                     : read_state(prepared.string());
   if (!resumed) begin_stage(state);
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   if (!resumed) evaluate_forces(model, test.friction, state);  // the first row: the state as loaded
-  StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true);
+  StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
   out.open(state, resumed);
   const Program program{test.legs, test.friction, nullptr, plan_test(deck, test).steps};
   run_program(model, program, state, out, out.control_errors());

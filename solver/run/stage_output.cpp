@@ -10,10 +10,14 @@ namespace celldem {
 namespace fs = std::filesystem;
 
 StageOutput::StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& options, const Model& model,
-                         std::string stage, std::int64_t output_interval, bool loading_test)
+                         std::string stage, std::int64_t output_interval, bool loading_test,
+                         const SnapshotDef& snapshots)
     : run_(run), deck_(deck), options_(options), model_(model), stage_(std::move(stage)), dir_(run.stage_dir(stage_)),
-      output_interval_(output_interval), monitor_(stage_, loading_test), progress_(stage_, options.progress, options.progress_interval),
-      start_(std::chrono::steady_clock::now()) {}
+      output_interval_(output_interval), monitor_(stage_, loading_test),
+      progress_(stage_, options.progress, options.progress_interval), start_(std::chrono::steady_clock::now()),
+      loading_test_(loading_test), snapshot_plan_(snapshots) {
+  if (snapshot_plan_.any()) snapshots_ = std::make_unique<SnapshotWriter>(dir_ / "snapshots", stage_);
+}
 
 void StageOutput::open(const State& state, bool resumed) {
   fs::create_directories(dir_);
@@ -47,7 +51,42 @@ void StageOutput::open(const State& state, bool resumed) {
     series_ = AppendFile(path, /*truncate=*/true);
     series_.append(series_header());
   }
-  if (!resumed) write_row(state);
+  for (const SeriesRow& row : rows_) best_ratio_ = std::max(best_ratio_, row.ratio13);
+  // Strain snapshots already passed before a resume are not repeated.
+  const double e1 = rows_.empty() ? 0.0 : rows_.back().e1;
+  while (next_e1_snapshot_ < snapshot_plan_.e1.size() && snapshot_plan_.e1[next_e1_snapshot_] <= e1 && resumed)
+    ++next_e1_snapshot_;
+  if (!resumed) {
+    write_row(state);
+    snapshot_if_due(state, /*force=*/true);
+  }
+}
+
+void StageOutput::snapshot_if_due(const State& state, bool force) {
+  if (!snapshots_) return;
+  const std::int64_t s = state.control.stage_steps;
+  bool due = force || (snapshot_plan_.interval > 0 && s % snapshot_plan_.interval == 0);
+  const double e1 = 1.0 - state.cell.h(0, 0) / state.control.reference_lengths[0];
+  while (next_e1_snapshot_ < snapshot_plan_.e1.size() && e1 >= snapshot_plan_.e1[next_e1_snapshot_])
+    ++next_e1_snapshot_, due = true;
+  if (due) snapshots_->write(state, s, static_cast<double>(s) * model_.dt);
+}
+
+void StageOutput::write_peak_contacts(const State& state, const SeriesRow& row) {
+  std::string text = "x_i,y_i,z_i,x_j,y_j,z_j,normal_force,sliding\n";
+  char buf[256];
+  for (const ContactSnapshot& c : touching_contacts(state)) {
+    const Vec3 a = wrapped_position(state.cell, state.particles.scaled[c.i]), b = a + c.branch;
+    std::snprintf(buf, sizeof buf, "%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%d\n", a[0], a[1], a[2], b[0], b[1],
+                  b[2], c.normal_force, c.sliding ? 1 : 0);
+    text += buf;
+  }
+  write_file_atomic(dir_ / "peak_contacts.csv", text);
+  const Mat3& h = state.cell.h;
+  const nlohmann::json meta = {{"step", state.control.stage_steps}, {"e1", row.e1}, {"ratio13", row.ratio13},
+                               {"cell", {{h(0, 0), h(0, 1), h(0, 2)}, {h(1, 0), h(1, 1), h(1, 2)}, {h(2, 0), h(2, 1), h(2, 2)}}},
+                               {"columns", "contact from the wrapped centre of i to the image of j; normal force [N]"}};
+  write_file_atomic(dir_ / "peak_contacts.json", meta.dump(1));
 }
 
 bool StageOutput::after_step(const State& state, double fraction, const std::string& status) {
@@ -56,6 +95,7 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
     throw RunError("non-finite stress or cell in stage '" + stage_ + "' at step " + std::to_string(s) +
                    " (time step too large or loading too fast?); the last checkpoint holds the last good state");
   if (s % output_interval_ == 0) write_row(state);
+  snapshot_if_due(state, false);
   progress_.update(s, fraction, status);
   if (stop_requested()) {
     checkpoint(state);
@@ -73,6 +113,7 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
 
 void StageOutput::finish(const State& state) {
   if (rows_.empty() || rows_.back().step != static_cast<double>(state.control.stage_steps)) write_row(state);
+  if (snapshots_) snapshots_->write(state, state.control.stage_steps, state.control.stage_steps * model_.dt);
   // The centred dilatancy index needs every row: now the series is rewritten whole with it (atomically:
   // the file holds the rows with or without DI, never a mix).
   fill_dilatancy(rows_);
@@ -96,6 +137,10 @@ void StageOutput::write_row(const State& state) {
   check_row_finite(row, stage_, state.control.stage_steps);
   series_.append(format_series_row(row));
   rows_.push_back(as_printed(row));
+  if (loading_test_ && rows_.back().ratio13 > best_ratio_) {
+    best_ratio_ = rows_.back().ratio13;
+    write_peak_contacts(state, rows_.back());
+  }
 }
 
 void StageOutput::checkpoint(const State& state) {

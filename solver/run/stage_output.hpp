@@ -1,8 +1,11 @@
 // One stage's outputs and bookkeeping while it runs: series rows (and the units sidecar), the runaway
-// checks at each row, checkpoints, stop requests and the progress line.
+// checks at each row, checkpoints, stop requests, the progress line, snapshots when the deck asks for
+// them, and for a loading test the contact network of its peak row (peak_contacts.csv, rewritten at each
+// new largest s11/s33, for the report's force-chain picture).
 #pragma once
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +13,7 @@
 #include "core/model.hpp"
 #include "core/state.hpp"
 #include "io/files.hpp"
+#include "io/snapshot.hpp"
 #include "measure/series.hpp"
 #include "run/health.hpp"
 #include "run/program.hpp"
@@ -22,7 +26,7 @@ class StageOutput {
  public:
   // loading_test: a test (checks kinetic energy), not the preparation.
   StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& options, const Model& model, std::string stage,
-              std::int64_t output_interval, bool loading_test);
+              std::int64_t output_interval, bool loading_test, const SnapshotDef& snapshots = {});
 
   // Fresh stage: a new series with its first row. Resumed: the rows up to the checkpoint are kept (a row cut
   // short, or written after the checkpoint, is dropped) and read back.
@@ -44,6 +48,8 @@ class StageOutput {
  private:
   void write_row(const State& state);
   void checkpoint(const State& state);
+  void snapshot_if_due(const State& state, bool force);
+  void write_peak_contacts(const State& state, const SeriesRow& row);
 
   RunDirectory& run_;
   const Deck& deck_;
@@ -59,6 +65,11 @@ class StageOutput {
   AppendFile series_;
   std::vector<SeriesRow> rows_;
   std::vector<ControlErrors> control_errors_;
+  bool loading_test_;
+  SnapshotDef snapshot_plan_;
+  std::unique_ptr<SnapshotWriter> snapshots_;
+  std::size_t next_e1_snapshot_ = 0;
+  double best_ratio_ = -1.0;  // the largest s11/s33 of a row so far (its contacts: peak_contacts.csv)
 };
 
 }  // namespace celldem

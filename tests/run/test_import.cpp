@@ -1,0 +1,101 @@
+// Bring your own packing, see the packing: a state translated to a LAMMPS data file and imported as
+// `initial_state` runs the same test as the state itself (to the series' printed precision: a data file
+// holds positions wrapped into the box, so the arithmetic differs at round-off); a data file whose density
+// contradicts the deck is refused naming both; snapshots and the peak contact network are written as asked.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cli.hpp"
+#include "helpers.hpp"
+#include "measure/series.hpp"
+
+namespace celldem {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::celldem;
+using testing::read_bytes;
+using testing::Result;
+using testing::run_args;
+using testing::write_bytes;
+
+std::vector<SeriesRow> read_series(const fs::path& path) {
+  std::istringstream in(read_bytes(path));
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  std::stringstream ss(line);
+  for (std::string c; std::getline(ss, c, ',');) header.push_back(c);
+  std::vector<SeriesRow> rows;
+  while (std::getline(in, line)) rows.push_back(parse_series_row(header, line).value());
+  return rows;
+}
+
+const std::string kTest = R"([{"name": "ttc", "friction": 0.5, "output_interval": 200,
+    "axes": {"x1": {"strain_increment": 2e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+    "end": {"axis": "x1", "strain": 0.004}, "snapshots": {"interval": 1000, "e1": [0.003]}}])";
+
+std::string deck_from(const std::string& state) {
+  std::string d = testing::small_deck_json(200, kTest);
+  const auto at = d.find("\"prepare\"");
+  return d.replace(at, d.find("}},", at) + 3 - at, "\"initial_state\": \"" + state + "\",");
+}
+
+TEST(Import, LammpsDataFileRunsLikeTheStateItCameFrom) {
+  const fs::path dir = testing::test_dir("import_" + std::to_string(getpid()));
+  write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
+  ASSERT_EQ(celldem(dir, run_args(dir / "prep.json", dir / "prep")).code, 0);
+  write_bytes(dir / "a.json", deck_from("prep/prepared.state"));
+  Result r = celldem(dir, "translate '" + (dir / "a.json").string() + "' --to lammps --state '" +
+                              (dir / "prep" / "prepared.state").string() + "' --out '" + (dir / "lmp").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  write_bytes(dir / "b.json", deck_from("lmp/state.data"));
+  ASSERT_EQ(celldem(dir, run_args(dir / "a.json", dir / "ra")).code, 0);
+  r = celldem(dir, run_args(dir / "b.json", dir / "rb"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::vector<SeriesRow> a = read_series(dir / "ra" / "ttc" / "series.csv");
+  const std::vector<SeriesRow> b = read_series(dir / "rb" / "ttc" / "series.csv");
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.size(), 11u);
+  for (std::size_t k = 0; k < a.size(); ++k)
+    for (const SeriesColumn& c : series_columns()) {
+      const double x = a[k].*c.field, y = b[k].*c.field;
+      if (std::isnan(x)) {
+        EXPECT_TRUE(std::isnan(y)) << c.name << " row " << k;
+        continue;
+      }
+      // Printed to 10 digits: equal up to the last printed digit or two.
+      EXPECT_NEAR(y, x, 1e-8 * std::max(1e-3 * std::abs(a[k].p), std::abs(x)) + 1e-300) << c.name << " row " << k;
+    }
+
+  // The deck's density must be the file's.
+  std::string other = deck_from("lmp/state.data");
+  other.replace(other.find("\"density\": 2650"), 15, "\"density\": 2000");
+  write_bytes(dir / "c.json", other);
+  r = celldem(dir, "check '" + (dir / "c.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("sample.density"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("2650"), std::string::npos) << r.err;
+
+  // Snapshots at the start, every 1000 steps, at e1 = 0.3 % and at the end; the peak row's contacts.
+  for (const char* f : {"ttc.pvd", "ttc_contacts.pvd", "ttc_0.vtu", "ttc_contacts_0.vtp", "ttc_0.dump",
+                        "ttc_1000.vtu", "ttc_2000.vtu"})
+    EXPECT_TRUE(fs::exists(dir / "ra" / "ttc" / "snapshots" / f)) << f;
+  int e1_snapshots = 0;
+  for (const auto& e : fs::directory_iterator(dir / "ra" / "ttc" / "snapshots"))
+    e1_snapshots += e.path().extension() == ".vtu" ? 1 : 0;
+  EXPECT_EQ(e1_snapshots, 4);  // steps 0, 1000, 1500-ish (e1 = 0.3 %) and 2000 (the end)
+  const auto meta = nlohmann::json::parse(read_bytes(dir / "ra" / "ttc" / "peak_contacts.json"));
+  const auto summary = nlohmann::json::parse(read_bytes(dir / "ra" / "summary.json"));
+  EXPECT_EQ(meta["ratio13"], summary["tests"]["ttc"]["peak_ratio13"]);
+  const std::string chains = read_bytes(dir / "ra" / "ttc" / "peak_contacts.csv");
+  EXPECT_GT(std::count(chains.begin(), chains.end(), '\n'), 200);
+}
+
+}  // namespace
+}  // namespace celldem
