@@ -3,231 +3,26 @@
 
 Usage: /usr/bin/python3 tools/figures.py RUN_DIR [--out FIGDIR]
 Writes one PNG per figure, two extra diagnostic figures and overview.png to FIGDIR (default RUN_DIR/figures).
+The drawing is tools/celldem/figures.py.
 """
 
-import argparse
 import os
 import sys
 
-import matplotlib
-
-matplotlib.use("Agg")  # no display on build and device machines
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import celldem_results as cr  # noqa: E402
-
-PERCENT = 100.0
-KPA = 1e-3
-
-E1_LABEL = r"axial strain $\varepsilon_1$ (%)"
-RATIO_UNIT = "(–)"
-
-# Long, noisy series make Agg rasterise millions of overlapping segments (minutes per figure); a few thousand
-# points per curve look the same at these sizes.
-MAX_POINTS_PER_CURVE = 4000
-
-# The paper plots the strain components for the first 5 % of ε1 only, and Figure 12 up to ε1 = 1 %.
-FIG03_E1_MAX = 0.05
-FIG12_E1_MAX = 0.01
-
-
-def test_color(run, name):
-    return f"C{run.test_names.index(name) % 10}"
-
-
-def thin(*arrays):
-    """Every k-th point of equally long arrays, k chosen to keep at most MAX_POINTS_PER_CURVE; keeps the last."""
-    n = len(arrays[0])
-    if n <= MAX_POINTS_PER_CURVE:
-        return arrays
-    pick = np.unique(np.append(np.arange(0, n, -(-n // MAX_POINTS_PER_CURVE)), n - 1))
-    return tuple(a[pick] for a in arrays)
-
-
-def plot_vs_e1(ax, run, name, scale=1.0, e1_max=None, linestyle="-", label_suffix="", label_tests=True):
-    """Plots column `name` of every test against ε1 (%); returns how many tests had the column."""
-    plotted = 0
-    for test in run.test_names:
-        series = run.test(test)
-        e1, y = cr.column(series, "e1"), cr.column(series, name)
-        if e1 is None or y is None:
-            continue
-        keep = np.ones_like(e1, dtype=bool) if e1_max is None else e1 <= e1_max * (1 + 1e-9)
-        label = f"{test}{label_suffix}" if label_tests else None
-        x_plot, y_plot = thin(e1[keep] * PERCENT, y[keep] * scale)
-        ax.plot(x_plot, y_plot, linestyle=linestyle, color=test_color(run, test), label=label, linewidth=1.2)
-        plotted += 1
-    return plotted
-
-
-def finish(ax, plotted, xlabel, ylabel, title):
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title, fontsize=10)
-    ax.grid(True, linewidth=0.4, alpha=0.5)
-    if plotted:
-        ax.legend(fontsize=8)
-    else:
-        ax.text(0.5, 0.5, "no data in this run", transform=ax.transAxes, ha="center", va="center")
-
-
-def draw_stress_ratio(ax, run):
-    n = plot_vs_e1(ax, run, "ratio13")
-    finish(ax, n, E1_LABEL, r"stress ratio $\sigma_1/\sigma_3$ " + RATIO_UNIT, "Fig. 2  Stress–strain")
-
-
-def draw_strains(ax, run):
-    n = 0
-    for comp, style in (("e1", "-"), ("e2", "--"), ("e3", ":")):
-        n += plot_vs_e1(ax, run, comp, PERCENT, FIG03_E1_MAX, style, rf" $\varepsilon_{comp[1]}$")
-    ax.axhline(0.0, color="0.6", linewidth=0.6)
-    finish(ax, n, E1_LABEL, r"strain $\varepsilon_1, \varepsilon_2, \varepsilon_3$ (%)",
-           r"Fig. 3  Strains (first 5 % of $\varepsilon_1$)")
-
-
-def draw_volumetric(ax, run):
-    n = plot_vs_e1(ax, run, "ev", PERCENT)
-    ax.axhline(0.0, color="0.6", linewidth=0.6)
-    finish(ax, n, E1_LABEL, r"volumetric strain $\varepsilon_v$ (%, compression +)", "Fig. 4  Volumetric strain")
-
-
-def draw_dilatancy(ax, run):
-    n = plot_vs_e1(ax, run, "DI")
-    ax.axhline(0.0, color="0.6", linewidth=0.6)
-    finish(ax, n, E1_LABEL, r"dilatancy index $DI = -d\varepsilon_v/d\varepsilon_1$ " + RATIO_UNIT,
-           "Fig. 5  Dilatancy index")
-
-
-def draw_b(ax, run):
-    n = plot_vs_e1(ax, run, "b")
-    # b is 0/0 while σ1 ≈ σ3 at the start; its spikes there would hide the curve, which lies in [0, 1].
-    low, high = ax.get_ylim()
-    ax.set_ylim(max(low, -0.2), min(high, 1.05))
-    finish(ax, n, E1_LABEL, r"$b = (\sigma_2-\sigma_3)/(\sigma_1-\sigma_3)$ " + RATIO_UNIT, "Fig. 6  b value")
-
-
-def draw_coordination(ax, run):
-    n = plot_vs_e1(ax, run, "Z", label_suffix=" Z")
-    n += plot_vs_e1(ax, run, "Zm", linestyle="--", label_suffix=r" $Z_m$")
-    finish(ax, n, E1_LABEL, "coordination number " + RATIO_UNIT, r"Fig. 7  Coordination number (Z, $Z_m$ dashed)")
-
-
-def draw_sliding(ax, run):
-    n = plot_vs_e1(ax, run, "sliding_fraction", PERCENT)
-    finish(ax, n, E1_LABEL, "sliding contacts (% of contacts)", "Fig. 8  Sliding contact fraction")
-
-
-def draw_fabric(column, symbol, title):
-    def draw(ax, run):
-        n = plot_vs_e1(ax, run, column)
-        ax.axhline(1.0, color="0.6", linewidth=0.6)
-        finish(ax, n, E1_LABEL, f"fabric ratio {symbol} " + RATIO_UNIT, title)
-    return draw
-
-
-def draw_macro_micro(ax, run):
-    n = 0
-    for test in run.test_names:
-        series = run.test(test)
-        e1, hs, r = (cr.column(series, c) for c in ("e1", "Hs11_Hs33", "ratio13"))
-        if e1 is None or hs is None or r is None:
-            continue
-        keep = e1 <= FIG12_E1_MAX * (1 + 1e-9)
-        ax.plot(*thin(hs[keep], r[keep]), "-o", markersize=2.0, linewidth=0.8, color=test_color(run, test), label=test)
-        n += 1
-    finish(ax, n, r"strong-contact fabric ratio $H^s_{11}/H^s_{33}$ " + RATIO_UNIT,
-           r"stress ratio $\sigma_1/\sigma_3$ " + RATIO_UNIT, r"Fig. 12  Macro–micro ($\varepsilon_1 \leq$ 1 %)")
-
-
-def draw_stresses(ax, run):
-    n = 0
-    for comp, style in (("s11", "-"), ("s22", "--"), ("s33", ":")):
-        n += plot_vs_e1(ax, run, comp, KPA, None, style, rf" $\sigma_{{{comp[1:]}}}$")
-    finish(ax, n, E1_LABEL, "normal stress (kPa, compression +)", "Extra  Stress components")
-
-
-def draw_balance(ax, run):
-    n = plot_vs_e1(ax, run, "unbalanced_force")
-    values = [cr.column(run.test(t), "unbalanced_force") for t in run.test_names]
-    if any(v is not None and np.any(v > 0) for v in values):
-        ax.set_yscale("log")  # it spans decades between shear start and steady flow
-    finish(ax, n, E1_LABEL, "unbalanced force ratio (–)", "Extra  Quasi-static check")
-
-
-# (file stem, caption, drawing function); the order is the overview's panel order.
-FIGURES = (
-    ("fig02_stress_ratio", "Figure 2: stress ratio σ1/σ3 vs ε1", draw_stress_ratio),
-    ("fig03_strains", "Figure 3: strains ε1, ε2, ε3 vs ε1 (first 5 % of ε1)", draw_strains),
-    ("fig04_volumetric_strain", "Figure 4: volumetric strain εv vs ε1", draw_volumetric),
-    ("fig05_dilatancy_index", "Figure 5: dilatancy index DI vs ε1", draw_dilatancy),
-    ("fig06_b_value", "Figure 6: b value vs ε1", draw_b),
-    ("fig07_coordination", "Figure 7: coordination number Z (solid) and Zm (dashed) vs ε1", draw_coordination),
-    ("fig08_sliding_fraction", "Figure 8: sliding contact fraction vs ε1", draw_sliding),
-    ("fig09_fabric_all", "Figure 9: fabric ratio H11/H33 (all contacts) vs ε1",
-     draw_fabric("H11_H33", r"$H_{11}/H_{33}$", "Fig. 9  Fabric ratio, all contacts")),
-    ("fig10_fabric_strong", "Figure 10: fabric ratio Hs11/Hs33 (strong contacts) vs ε1",
-     draw_fabric("Hs11_Hs33", r"$H^s_{11}/H^s_{33}$", "Fig. 10  Fabric ratio, strong contacts")),
-    ("fig11_fabric_weak", "Figure 11: fabric ratio Hw11/Hw33 (weak contacts) vs ε1",
-     draw_fabric("Hw11_Hw33", r"$H^w_{11}/H^w_{33}$", "Fig. 11  Fabric ratio, weak contacts")),
-    ("fig12_macro_micro", "Figure 12: σ1/σ3 vs Hs11/Hs33 for ε1 ≤ 1 %", draw_macro_micro),
-    ("extra_stresses", "Not in the paper: stress components σ11, σ22, σ33 vs ε1 (checks the stress control)",
-     draw_stresses),
-    ("extra_balance", "Not in the paper: unbalanced force ratio vs ε1 (checks the loading is quasi-static)",
-     draw_balance),
-)
-OVERVIEW = "overview"
-
-
-def figure_paths(fig_dir):
-    stems = [stem for stem, _, _ in FIGURES] + [OVERVIEW]
-    return [os.path.join(fig_dir, stem + ".png") for stem in stems]
-
-
-def write_figures(run, fig_dir):
-    """Writes every figure of `run` into fig_dir; returns the paths written."""
-    os.makedirs(fig_dir, exist_ok=True)
-    written = []
-    for stem, _, draw in FIGURES:
-        fig, ax = plt.subplots(figsize=(6.4, 4.6))
-        draw(ax, run)
-        fig.tight_layout()
-        path = os.path.join(fig_dir, stem + ".png")
-        fig.savefig(path, dpi=130)
-        plt.close(fig)
-        written.append(path)
-
-    cols = 4
-    rows = -(-len(FIGURES) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.0 * cols, 3.9 * rows))
-    for ax, (_, _, draw) in zip(axes.flat, FIGURES):
-        draw(ax, run)
-    for ax in list(axes.flat)[len(FIGURES):]:
-        ax.axis("off")
-    fig.suptitle(f"celldem run {os.path.basename(os.path.abspath(run.directory))}: tests "
-                 + ", ".join(run.test_names), fontsize=12)
-    fig.tight_layout(rect=(0, 0, 1, 0.98))
-    path = os.path.join(fig_dir, OVERVIEW + ".png")
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    written.append(path)
-    return written
+from celldem import figures, results  # noqa: E402
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("run_dir", help="run directory holding summary.json and <test>/series.csv")
+    parser = results.run_dir_parser(__doc__)
     parser.add_argument("--out", help="folder for the PNGs (default RUN_DIR/figures)")
     args = parser.parse_args(argv)
-    try:
-        run = cr.load_run(args.run_dir)
-    except cr.RunError as err:
-        print(f"figures.py: error: {err}", file=sys.stderr)
+    run = results.load_run_or_report(args.run_dir, "figures.py")
+    if run is None:
         return 2
     if not run.test_names:
         print(f"figures.py: warning: no <test>/series.csv in {args.run_dir}; figures will be empty", file=sys.stderr)
-    written = write_figures(run, args.out or os.path.join(args.run_dir, "figures"))
+    written = figures.write_figures(run, args.out or os.path.join(args.run_dir, "figures"))
     print(f"wrote {len(written)} figures to {os.path.dirname(written[0])}")
     return 0
 

@@ -11,14 +11,16 @@ Usage: /usr/bin/python3 tools/study.py plan                 list the runs and wh
 
 The scene: SCENE_COUNT spheres with the paper's sizes, density, contact law and preparation, tests to
 ε1 = END_STRAIN (the peak lies well inside it). Each sample is prepared once (samples/<name>/prepared.state)
-and every setting is run from it with a deck that uses "initial_state" (runs/<name>/deck.json). A run is
-skipped when its outcome.json exists; an interrupted one is resumed.
+and every setting is run from it with a deck that uses "initial_state" (runs/<name>/deck.json: inputs/paper.json
+with values changed; plan.json beside it is `celldem plan deck.json --json`). A run is skipped when its
+outcome.json exists; an interrupted one is resumed.
 
-The accuracy of a setting: for each quantity in QUANTITIES, the mean over its seeds of its difference from the
-reference (the paper's settings) on the same sample, divided by the noise floor, the standard deviation of that
-quantity over reference samples that differ only in sample.seed. Below 1 it is not an error. Runs with dt
-changed in its 9th digit show what round-off alone (DEM is chaotic) does. tools/study_analysis.py holds the
-analysis; tests/tools/test_study.sh tests it on synthetic results.
+The accuracy of a setting: for each compared quantity (summary.json's peak σ1/σ3, ε1 and b at the peak, εv and
+Z over the end window), the mean over its seeds of its difference from the reference (the paper's settings) on
+the same sample, divided by the noise floor, the standard deviation of that quantity over reference samples that
+differ only in sample.seed. Below 1 it is not an error. Runs with dt changed in its 9th digit show what
+round-off alone (DEM is chaotic) does. The work is in tools/celldem/ (study_scene, study_runs, study_analysis,
+study_report); tests/tools/test_study.sh tests the analysis on synthetic results.
 
 Decks for settings with a larger strain increment raise servo.max_strain_increment to 5 × Δε1 (the paper's own
 ratio, 1e-6 = 5 × 2e-7): PSC's free axis dilates at about 2 × Δε1 per step and the default cap stops the servo
@@ -26,577 +28,71 @@ from following (the servo_cap runs, kept from a first pass, show it).
 """
 
 import argparse
-import copy
-import hashlib
-import json
-import math
 import os
-import signal
-import socket
-import subprocess
 import sys
-import time
-
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from study_analysis import (  # noqa: E402
-    END_STRAIN, PAPER_DAMPING, PAPER_DT, PAPER_INC, PAPER_RATE, REF_SEEDS, ROW_STRAIN, SCENE_COUNT,
-    SERVO_CAP_FACTOR, SERVO_INC, SERVO_OUTPUT_INTERVAL, SERVO_STRAIN, STABILITY_STRAIN, analyse, critical_step,
-    diameters_of, draw_charts, draw_reference_curves, inertial_number, jsonable, load_results, read_json,
-    write_markdown)
-
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PAPER_DECK = os.path.join(REPO, "inputs", "paper.json")
-DEFAULT_ROOT = os.path.join(REPO, "results", "study")
-DEFAULT_CELLDEM = os.path.join(REPO, "build", "celldem")
+from celldem import binary, decks  # noqa: E402
+from celldem import study_analysis, study_report, study_runs  # noqa: E402
+from celldem.study_runs import DEFAULT_ROOT  # noqa: E402
+from celldem.study_scene import END_STRAIN, SCENE_COUNT  # noqa: E402
 
 
-def load_paper():
-    with open(PAPER_DECK, encoding="utf-8") as f:
-        return json.load(f)
-
-
-# ---- the plan: which runs ----------------------------------------------------------------------------------
-
-def sample_name(count=SCENE_COUNT, seed=1, time_step=PAPER_DT, servo_cap=None):
-    name = f"n{count}_s{seed}"
-    name = name if time_step == PAPER_DT else f"{name}_dt{time_step:g}"
-    return name if servo_cap is None else f"{name}_cap{servo_cap:g}"
-
-
-def sample_spec(count=SCENE_COUNT, seed=1, time_step=PAPER_DT, priority=0, label=None, servo_cap=None):
-    """A preparation with the paper's settings; time_step and servo.max_strain_increment (servo_cap) as a preset
-    deck would change them (its preparation runs with its own time step and servo)."""
-    cap = "" if servo_cap is None else f", servo.max_strain_increment {servo_cap:g}"
-    return {"name": sample_name(count, seed, time_step, servo_cap), "kind": "sample", "group": "sample",
-            "label": label or f"{count} spheres, seed {seed}, dt {time_step:g} s{cap}", "count": count, "seed": seed,
-            "time_step": time_step, "servo_cap": servo_cap, "priority": priority}
-
-
-def test_spec(name, group, label, priority, *, seed=1, count=SCENE_COUNT, sample_dt=PAPER_DT, sample_cap=None,
-              time_step=PAPER_DT,
-              strain_increment=PAPER_INC, density_factor=1.0, damping=(PAPER_DAMPING, PAPER_DAMPING),
-              row_strain=ROW_STRAIN, output_interval=None, tests=("ttc", "psc"), end_strain=END_STRAIN,
-              contact=None, kinematics=None, servo=None, role="accuracy", knob=None, value=None):
-    interval = output_interval or max(1, int(round(row_strain / strain_increment)))
-    if servo is None and strain_increment != PAPER_INC:
-        # The servo may move a stress-controlled axis by at most max_strain_increment per step. PSC's free axis
-        # moves about 2 × Δε1 per step once the sample dilates, so the cap must grow with Δε1: 5 × Δε1, which is
-        # the paper's own ratio (1e-6 = 5 × 2e-7). The servo_cap group shows what happens without it.
-        servo = {"max_strain_increment": SERVO_CAP_FACTOR * strain_increment}
-    return {"name": name, "kind": "test", "group": group, "label": label, "role": role, "priority": priority,
-            "knob": knob, "value": value, "sample": sample_name(count, seed, sample_dt, sample_cap),
-            "sample_dt": sample_dt, "sample_cap": sample_cap,
-            "count": count,
-            "seed": seed, "time_step": time_step, "strain_increment": strain_increment,
-            "density_factor": density_factor, "damping": list(damping), "output_interval": interval,
-            "tests": list(tests), "end_strain": end_strain, "contact": contact or {}, "kinematics": kinematics,
-            "servo": servo}
-
-
-MORE_SEEDS = ("inc_5e-07", "inc_1e-06", "dt_2e-06", "dt_3e-06", "combo_dt3e-06_inc1.5e-06", "combo_dt3e-06_inc1e-06",
-              "combo_dt2e-06_inc8e-07", "model_project", "model_radius", "model_rotdamp0", "model_lammps")
-
-
-def build_plan(paper):
-    """Every run of the study, in order of importance (priority, then as listed)."""
-    tc = critical_step(paper)
-    plan = []
-    # Samples: the reference seeds first; the others when their runs come up. Seeds 5-8 only sharpen the noise
-    # floor (a standard deviation from 4 samples is uncertain by a factor of 2); settings are run on seeds 1-4.
-    for seed in REF_SEEDS:
-        plan.append(sample_spec(seed=seed, priority=0 if seed <= 4 else 6))
-    # The reference: the paper's settings on each reference sample.
-    for seed in REF_SEEDS:
-        plan.append(test_spec(f"ref_s{seed}", "reference", f"paper settings, seed {seed}", 1 if seed <= 4 else 6,
-                              seed=seed, role="reference", knob="reference", value=seed))
-    seeds12 = (1, 2)
-    # The round-off level: the paper's settings with dt changed in its 9th digit. DEM is chaotic, so this alone
-    # sends each run down another path; its differences from the reference are what a perfect setting scores.
-    for seed in (1, 2, 3, 4):
-        plan.append(test_spec(f"null_s{seed}", "null", "paper settings, dt × (1 + 1e-9): round-off only", 2,
-                              seed=seed, time_step=PAPER_DT * (1 + 1e-9), knob="null", value=seed))
-
-    # Knob 1: axial strain increment per step at the paper's dt (the strain rate rises with it).
-    for inc, seeds, prio in ((5e-7, seeds12, 2), (1e-6, seeds12, 2), (2e-6, seeds12, 2), (5e-6, seeds12, 2),
-                             (1e-5, seeds12, 2), (2e-5, seeds12, 3), (5e-5, seeds12, 3), (1e-4, seeds12, 3),
-                             (1e-7, (1,), 10)):
-        for seed in seeds:
-            plan.append(test_spec(f"inc_{inc:g}_s{seed}", "strain_increment", f"Δε1 = {inc:g}/step", prio,
-                                  seed=seed, strain_increment=inc, knob="strain_increment", value=inc))
-    # Knob 2: time step at the paper's strain rate (so the strain per step grows with dt).
-    for frac_dt in (2e-6, 3e-6, 4e-6, 5e-6):
-        for seed in seeds12:
-            plan.append(test_spec(f"dt_{frac_dt:g}_s{seed}", "time_step", f"dt = {frac_dt / tc:.2f} t_c",
-                                  3, seed=seed, time_step=frac_dt, strain_increment=PAPER_RATE * frac_dt,
-                                  knob="time_step", value=frac_dt))
-    # Knob 3: density scaling ×f with dt ×sqrt(f) (the critical step grows by sqrt(f)), at the paper's rate.
-    for factor in (10.0, 100.0):
-        dt = PAPER_DT * math.sqrt(factor)
-        for seed in seeds12:
-            plan.append(test_spec(f"density_x{factor:g}_s{seed}", "density",
-                                  f"density ×{factor:g}, dt ×{math.sqrt(factor):.3g}",
-                                  3, seed=seed, time_step=dt, strain_increment=PAPER_RATE * dt,
-                                  density_factor=factor, knob="density_factor", value=factor))
-    # Combinations of a larger dt with a larger strain rate: the candidates for the presets.
-    for dt, inc in ((3e-6, 1.5e-6), (3e-6, 3e-6), (3e-6, 6e-6), (5e-6, 2.5e-6), (5e-6, 5e-6), (5e-6, 1e-5),
-                    (3e-6, 1e-6), (2e-6, 8e-7)):
-        for seed in seeds12:
-            plan.append(test_spec(f"combo_dt{dt:g}_inc{inc:g}_s{seed}", "combined",
-                                  f"dt = {dt / tc:.2f} t_c, Δε1 = {inc:g}", 4, seed=seed, time_step=dt,
-                                  strain_increment=inc, knob="combined", value=inc))
-    # Knob 4: damping fraction (translational and rotational together).
-    for alpha in (0.02, 0.1, 0.2):
-        plan.append(test_spec(f"damping_{alpha:g}_s1", "damping", f"damping {alpha:g}", 5,
-                              damping=(alpha, alpha), knob="damping", value=alpha))
-    # Knob 5: output interval (rows cost a measurement each).
-    for interval in (100, 10000):
-        plan.append(test_spec(f"output_{interval}_s1", "output_interval", f"a row every {interval} steps", 5,
-                              output_interval=interval, knob="output_interval", value=interval))
-    # Modelling choices: TTC only, each against the reference on the same sample.
-    for key, (label, kw) in {
-        "project": ("tangential_rotation project", {"contact": {"tangential_rotation": "project"}}),
-        "radius": ("moment_arm radius", {"contact": {"moment_arm": "radius"}}),
-        "rotdamp0": ("rotational damping 0", {"damping": (PAPER_DAMPING, 0.0)}),
-        "lammps": ("kinematics lammps", {"kinematics": "lammps"}),
-    }.items():
-        for seed in seeds12:
-            plan.append(test_spec(f"model_{key}_s{seed}", "modelling", label, 6, seed=seed, tests=("ttc",),
-                                  role="modelling", knob="modelling", value=key, **kw))
-    # Stability map 1: time step (fraction of t_c) × damping, short TTC at the paper's strain rate.
-    for alpha in (0.05, 0.01, 0.0):
-        for frac in (PAPER_DT / tc, 0.3, 0.4, 0.5, 0.55, 0.6, 0.65, 0.8, 0.9, 0.999):
-            if alpha != PAPER_DAMPING and frac in (0.4, 0.55, 0.6):
-                continue
-            dt = PAPER_DT if frac == PAPER_DT / tc else frac * tc
-            plan.append(test_spec(f"stab_f{frac:.3g}_a{alpha:g}", "stability_dt",
-                                  f"dt = {frac:.2f} t_c, damping {alpha:g}",
-                                  7, time_step=dt, strain_increment=PAPER_RATE * dt, damping=(alpha, alpha),
-                                  row_strain=ROW_STRAIN / 4, tests=("ttc",), end_strain=STABILITY_STRAIN,
-                                  role="stability", knob="dt_fraction", value=frac))
-    # Stability map 2: servo gains, short TTC at 2.5× the paper's rate, a row every 25 steps.
-    for gain in (0.0, 0.01, 0.05, 0.2, 0.5, 1.0):
-        for igain in (0.0, 0.002, 0.02, 0.1):
-            if gain == 0.0 and igain == 0.0:
-                continue
-            plan.append(test_spec(f"servo_g{gain:g}_i{igain:g}", "stability_servo",
-                                  f"gain {gain:g}, integral {igain:g}",
-                                  8, strain_increment=SERVO_INC, output_interval=SERVO_OUTPUT_INTERVAL,
-                                  tests=("ttc",), end_strain=SERVO_STRAIN,
-                                  servo={"gain": gain, "integral_gain": igain}, role="stability", knob="servo",
-                                  value=[gain, igain]))
-    # Samples prepared at a larger time step (a preset's dt changes its preparation too), then the paper's tests.
-    for dt, seeds in ((3e-6, (1, 2)), (5e-6, (1,))):
-        for seed in seeds:
-            plan.append(sample_spec(seed=seed, time_step=dt, priority=9))
-            plan.append(test_spec(f"prepdt_{dt:g}_s{seed}", "prepare_dt", f"sample prepared at dt = {dt / tc:.2f} t_c",
-                                  9 if seed == 1 else 11, seed=seed, sample_dt=dt, knob="prepare_dt", value=dt))
-    # Samples prepared with a larger servo.max_strain_increment (the presets raise it to 5 × their Δε1, and the
-    # preparation's servo uses it too), then the paper's tests.
-    for cap in (2.5e-6, 5e-6):
-        for seed in (1, 2):
-            plan.append(sample_spec(seed=seed, servo_cap=cap, priority=9))
-            plan.append(test_spec(f"prepcap_{cap:g}_s{seed}", "prepare_dt",
-                                  f"sample prepared with servo.max_strain_increment {cap:g}", 9, seed=seed,
-                                  sample_cap=cap, knob="prepare_cap", value=cap))
-    # Particle count: each count its own sample, the paper's test settings.
-    for count in (500, 2000):
-        plan.append(sample_spec(count=count, seed=1, priority=10))
-        plan.append(test_spec(f"count_{count}_s1", "count", f"{count} spheres", 10, count=count,
-                              knob="count", value=count))
-    # The settings nearest the reference (the candidates for the presets) on seeds 3 and 4 as well: their errors are
-    # a fraction of the noise floor, and two seeds leave too much chaotic scatter in the mean.
-    for spec in [s for s in plan if s["kind"] == "test" and s["seed"] == 1
-                 and s["name"].rsplit("_s", 1)[0] in MORE_SEEDS]:
-        for seed in (3, 4):
-            extra = copy.deepcopy(spec)
-            extra.update(name=f"{spec['name'].rsplit('_s', 1)[0]}_s{seed}", seed=seed,
-                         priority=max(5, spec["priority"]),
-                         sample=sample_name(spec["count"], seed))
-            plan.append(extra)
-    order = {id(s): i for i, s in enumerate(plan)}
-    return sorted(plan, key=lambda s: (s["priority"], order[id(s)]))
-
-
-def estimated_cost(spec):
-    """Particle-steps of a run; a sample's preparation counts as about 160k steps."""
-    if spec["kind"] == "sample":
-        return spec["count"] * 160_000
-    steps = int(round(spec["end_strain"] / spec["strain_increment"]))
-    return spec["count"] * steps * len(spec["tests"])
-
-
-# ---- decks --------------------------------------------------------------------------------------------------
-
-def sample_deck(paper, spec):
-    deck = copy.deepcopy(paper)
-    deck["description"] = f"celldem study: preparation of {spec['label']} (paper settings otherwise)"
-    deck["sample"]["count"] = spec["count"]
-    deck["sample"]["seed"] = spec["seed"]
-    deck["time_step"] = spec["time_step"]
-    if spec.get("servo_cap") is not None:
-        deck["servo"] = {"max_strain_increment": spec["servo_cap"]}
-    deck["tests"] = []
-    return deck
-
-
-def run_deck(paper, spec, state_path):
-    deck = copy.deepcopy(paper)
-    deck["description"] = f"celldem study: {spec['label']} ({spec['count']} spheres, seed {spec['seed']})"
-    deck.pop("prepare", None)
-    deck["initial_state"] = state_path
-    deck["sample"]["count"] = spec["count"]
-    deck["sample"]["seed"] = spec["seed"]
-    deck["sample"]["density"] = paper["sample"]["density"] * spec["density_factor"]
-    deck["time_step"] = spec["time_step"]
-    deck["damping"] = {"translational": spec["damping"][0], "rotational": spec["damping"][1]}
-    deck["contact"].update(spec["contact"])
-    if spec["kinematics"]:
-        deck["kinematics"] = spec["kinematics"]
-    if spec["servo"]:
-        deck["servo"] = dict(spec["servo"])
-    tests = []
-    for test in paper["tests"]:
-        if test["name"] not in spec["tests"]:
-            continue
-        t = copy.deepcopy(test)
-        t["axes"]["x1"] = {"strain_increment": spec["strain_increment"]}
-        t["end"]["strain"] = spec["end_strain"]
-        t["output_interval"] = spec["output_interval"]
-        tests.append(t)
-    deck["tests"] = tests
-    return deck
-
-
-PAPER_PREPARED_STATE = "../results/paper/prepared.state"   # relative to inputs/: what tools/paper.sh prepares
-
-
-def preset_deck(paper, name, time_step, strain_increment, output_interval, description, preparation="own"):
-    """A paper deck (8000 spheres, ε1 to 10 %) with only the time step, strain increment, the servo's cap on the
-    strain per step (5 × the strain increment, the paper's ratio) and the output interval changed.
-
-    preparation "own": the deck keeps "prepare" (which then runs with the preset's time step and servo cap);
-    "paper": the deck starts from the paper deck's prepared sample instead ("initial_state"), as the study's runs
-    did, for presets whose own preparation was not shown to give the same sample."""
-    deck = copy.deepcopy(paper)
-    deck["description"] = description
-    if preparation == "paper":  # "initial_state" where "prepare" was
-        deck = {("initial_state" if k == "prepare" else k): (PAPER_PREPARED_STATE if k == "prepare" else v)
-                for k, v in deck.items()}
-    deck["time_step"] = time_step
-    if strain_increment != PAPER_INC:  # after time_step, as the README lists the keys
-        keys = list(deck)
-        at = keys.index("time_step") + 1
-        deck["servo"] = {"max_strain_increment": SERVO_CAP_FACTOR * strain_increment}
-        deck = {k: deck[k] for k in keys[:at] + ["servo"] + keys[at:]}
-    for test in deck["tests"]:
-        test["axes"]["x1"] = {"strain_increment": strain_increment}
-        test["output_interval"] = output_interval
-    return deck
-
-
-# ---- running ------------------------------------------------------------------------------------------------
-
-def run_dir(root, spec):
-    return os.path.join(root, "samples" if spec["kind"] == "sample" else "runs", spec["name"])
-
-
-def write_json(path, data):
-    tmp = path + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        json.dump(data, f, indent=1)
-    os.replace(tmp, path)
-
-
-def outcome(root, spec):
-    return read_json(os.path.join(run_dir(root, spec), "outcome.json"))
-
-
-def is_done(root, spec, retry_failed=False):
-    out = outcome(root, spec)
-    return out is not None and (out.get("rc") == 0 or not retry_failed)
-
-
-def sample_ready(root, spec):
-    out = outcome(root, spec)
-    return out is not None and out.get("rc") == 0 and os.path.isfile(
-        os.path.join(run_dir(root, spec), "prepared.state"))
-
-
-class Job:
-    def __init__(self, spec, proc, log, directory, started):
-        self.spec, self.proc, self.log, self.directory, self.started = spec, proc, log, directory, started
-
-
-def start(root, paper, spec, celldem, samples):
-    directory = run_dir(root, spec)
-    os.makedirs(directory, exist_ok=True)
-    if spec["kind"] == "sample":
-        deck = sample_deck(paper, spec)
-    else:
-        state = os.path.relpath(os.path.join(run_dir(root, samples[spec["sample"]]), "prepared.state"), directory)
-        deck = run_deck(paper, spec, state)
-    deck_path = os.path.join(directory, "deck.json")
-    write_json(deck_path, deck)
-    write_json(os.path.join(directory, "spec.json"), spec)
-    resume = os.path.isfile(os.path.join(directory, "progress.json")) and \
-        read_json(os.path.join(directory, "progress.json")) is not None
-    if not resume:
-        try:
-            os.remove(os.path.join(directory, "partial_cpu.json"))
-        except OSError:
-            pass
-    cmd = [celldem, "run", "deck.json", "--out", ".", "--threads", "1", "--quiet",
-           "--resume" if resume else "--force"]
-    env = dict(os.environ, OMP_WAIT_POLICY="passive", OMP_NUM_THREADS="1")
-    log = open(os.path.join(directory, "celldem.log"), "a", encoding="utf-8")
-    log.write(f"$ {' '.join(cmd)}\n")
-    log.flush()
-    proc = subprocess.Popen(cmd, cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env)
-    return Job(spec, proc, log, directory, time.monotonic())
-
-
-def finish(job, rc, rusage):
-    job.log.close()
-    cpu = rusage.ru_utime + rusage.ru_stime if rusage else None
-    partial_path = os.path.join(job.directory, "partial_cpu.json")
-    partial = (read_json(partial_path) or {}).get("cpu_s", 0.0)
-    if rc == 130:  # stopped by a signal: celldem left a checkpoint, the next `run` resumes it
-        write_json(partial_path, {"cpu_s": partial + (cpu or 0.0)})
-        return None
-    if rc != 0 and "--resume" in job.proc.args:
-        # A failed resume (a checkpoint of another celldem build, say): start afresh at the next `run`.
-        for name in ("progress.json", "partial_cpu.json"):
-            try:
-                os.remove(os.path.join(job.directory, name))
-            except OSError:
-                pass
-        return None
-    tail = ""
-    try:
-        with open(os.path.join(job.directory, "celldem.log"), encoding="utf-8", errors="replace") as f:
-            tail = f.read()[-2000:]
-    except OSError:
-        pass
-    data = {"rc": rc, "wall_s": time.monotonic() - job.started,
-            "cpu_s": None if cpu is None else cpu + partial,
-            "host": socket.gethostname(), "finished": time.strftime("%Y-%m-%d %H:%M:%S"), "log_tail": tail}
-    # Final states are not needed by the study (only the prepared ones are).
-    for test in job.spec.get("tests", []):
-        try:
-            os.remove(os.path.join(job.directory, test, "final.state"))
-        except OSError:
-            pass
-    write_json(os.path.join(job.directory, "outcome.json"), data)
-    return data
-
-
-def record_binary(root, celldem):
-    """Appends the celldem binary this `run` uses (path, sha256, build time, git HEAD) to ROOT/binaries.json."""
-    with open(celldem, "rb") as f:
-        digest = hashlib.sha256(f.read()).hexdigest()
-    head = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"], capture_output=True, text=True)
-    path = os.path.join(root, "binaries.json")
-    seen = read_json(path) or []
-    if not any(b.get("sha256") == digest for b in seen):
-        seen.append({"path": os.path.abspath(celldem), "sha256": digest,
-                     "built": time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(os.path.getmtime(celldem))),
-                     "git_head_at_first_use": head.stdout.strip() or None})
-        write_json(path, seen)
-
-
-def cmd_run(args):
-    paper = load_paper()
-    plan = build_plan(paper)
-    if args.only:
-        wanted = set(args.only)
-        plan = [s for s in plan if s["group"] in wanted or s["name"] in wanted or s["kind"] == "sample"]
-    samples = {s["name"]: s for s in plan if s["kind"] == "sample"}
-    if args.max_priority is not None:
-        tests = [s for s in plan if s["kind"] == "test" and s["priority"] <= args.max_priority]
-        needed = {s["sample"] for s in tests}
-        plan = [s for s in plan if s in tests or (s["kind"] == "sample" and
-                                                  (s["name"] in needed or s["priority"] <= args.max_priority))]
-    if not os.access(args.celldem, os.X_OK):
-        print(f"study.py: error: no celldem binary at {args.celldem} (build it, or give --celldem)", file=sys.stderr)
-        return 2
-    todo = [s for s in plan if not is_done(args.root, s, args.retry_failed)]
-    if args.order == "cost":
-        todo.sort(key=lambda s: (s["kind"] != "sample", -estimated_cost(s)))
-    total = sum(estimated_cost(s) for s in todo)
-    print(f"study: {len(todo)} runs to do of {len(plan)}, about {total / 1e9:.2f}e9 particle-steps; "
-          f"results in {args.root}", flush=True)
-    os.makedirs(args.root, exist_ok=True)
-    record_binary(args.root, args.celldem)
-    t0 = time.monotonic()
-    running = []
-    stopping = {"now": False}
-
-    def on_signal(signum, _frame):
-        stopping["now"] = True
-        for job in running:
-            job.proc.send_signal(signal.SIGTERM)
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
-    skipped = set()
-    while True:
-        elapsed = time.monotonic() - t0
-        may_start = not stopping["now"] and (args.stop_after is None or elapsed < args.stop_after)
-        while may_start and len(running) < args.jobs:
-            busy = {j.spec["name"] for j in running}
-            ready = None
-            for s in todo:
-                if s["name"] in busy or s["name"] in skipped:
-                    continue
-                if s["kind"] == "test":
-                    dep = samples.get(s["sample"])
-                    if dep is None:
-                        skipped.add(s["name"])
-                        continue
-                    dep_out = outcome(args.root, dep)
-                    if dep_out is not None and dep_out.get("rc") != 0:
-                        print(f"  skip {s['name']}: its sample {dep['name']} failed", flush=True)
-                        skipped.add(s["name"])
-                        continue
-                    if not sample_ready(args.root, dep):
-                        continue
-                ready = s
-                break
-            if ready is None:
-                break
-            todo.remove(ready)
-            running.append(start(args.root, paper, ready, args.celldem, samples))
-            print(f"  start {ready['name']} ({ready['label']})", flush=True)
-        if not running:
-            break
-        pid, status, rusage = os.wait4(-1, 0)
-        job = next((j for j in running if j.proc.pid == pid), None)
-        if job is None:
-            continue
-        running.remove(job)
-        job.proc.returncode = os.waitstatus_to_exitcode(status)
-        data = finish(job, job.proc.returncode, rusage)
-        state = "stopped (resumes next time)" if data is None else (
-            f"done in {data['wall_s']:.1f} s wall, {data['cpu_s']:.1f} s CPU" if data["rc"] == 0
-            else f"FAILED rc {data['rc']}: {(data['log_tail'].strip().splitlines() or [''])[-1]}")
-        print(f"  {job.spec['name']}: {state}", flush=True)
-        if args.hard_stop is not None and time.monotonic() - t0 > args.hard_stop and not stopping["now"]:
-            on_signal(signal.SIGTERM, None)
-    left = [s["name"] for s in plan if not is_done(args.root, s, args.retry_failed)]
-    print(f"study: {len(plan) - len(left)} of {len(plan)} runs done" + (f"; left: {', '.join(left)}" if left else ""))
-    return 0
+def error(message):
+    print(f"study.py: error: {message}", file=sys.stderr)
+    return 2
 
 
 def cmd_plan(args):
-    paper = load_paper()
-    tc = critical_step(paper)
-    d_mean = float(np.mean(diameters_of(paper)))
-    print(f"scene: {SCENE_COUNT} spheres, tests to e1 = {END_STRAIN:g}; t_c = sqrt(m_min/kn) = {tc:.3e} s; "
-          f"paper dt = {PAPER_DT / tc:.3f} t_c; paper I = "
-          f"{inertial_number(PAPER_RATE, d_mean, paper['sample']['density']):.2e}")
+    paper_info = args.paper_plan
+    ttc = binary.test_plan(paper_info, "ttc")
+    print(f"scene: {SCENE_COUNT} spheres, tests to e1 = {END_STRAIN:g}; t_c = sqrt(m_min/kn) = "
+          f"{paper_info['critical_time_step']:.3e} s; paper dt = {paper_info['time_step_ratio']:.3f} t_c; paper I = "
+          f"{ttc['inertial_number']:.2e}")
+    plan = study_runs.build_plan(paper_info["critical_time_step"])
+    cost = study_runs.costs(plan, decks.load(), args.celldem)
     total = 0
-    for s in build_plan(paper):
-        out = outcome(args.root, s)
+    for s in plan:
+        out = study_runs.outcome(args.root, s)
         state = "todo" if out is None else ("done" if out.get("rc") == 0 else f"failed rc {out.get('rc')}")
-        total += estimated_cost(s) if out is None else 0
-        print(f"  p{s['priority']:<2} {s['name']:<34} {state:<12} {estimated_cost(s) / 1e6:8.1f}M  {s['label']}")
+        total += cost[s["name"]] if out is None else 0
+        print(f"  p{s['priority']:<2} {s['name']:<34} {state:<12} {cost[s['name']] / 1e6:8.1f}M  {s['label']}")
     print(f"left: about {total / 1e9:.2f}e9 particle-steps")
     return 0
 
 
-# ---- presets ----------------------------------------------------------------------------------------------------
-
-def write_presets(study, paper, celldem):
-    written = []
-    for name, p in study["presets"].items():
-        interval = p["output_interval"]
-        desc = (f"Preset '{name}' from tools/study.py: the paper deck with time_step {p['time_step']:g} s "
-                f"({p['dt_over_tc']:.2f} t_c) and axial strain increment {p['strain_increment']:g}/step (I = "
-                f"{p['inertial_number']:.1e}); on the reduced study scene: {p['rule']}; "
-                f"tests {p['test_steps_speedup']:.1f}x fewer steps than inputs/paper.json (tools/study.py)")
-        if p["preparation"] == "paper":
-            desc += (f"; starts from the paper deck's prepared sample ({PAPER_PREPARED_STATE}: run inputs/paper.json "
-                     "or tools/paper.sh first) because the preset's time step or servo cap would change the "
-                     "preparation")
-        deck = preset_deck(paper, name, p["time_step"], p["strain_increment"], interval, desc, p["preparation"])
-        path = os.path.join(REPO, "inputs", f"{name}.json")
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(format_deck(deck))
-        written.append(path)
-        if os.access(celldem, os.X_OK):
-            r = subprocess.run([celldem, "check", path], capture_output=True, text=True)
-            if r.returncode != 0:
-                print(f"study.py: warning: celldem check {path} failed: {r.stderr.strip()}", file=sys.stderr)
-    return written
-
-
-def json_number(x):
-    """A float as inputs/paper.json writes it: 1.0e6, 2.0e-7, 0.05 (12 significant digits at most)."""
-    if x == 0:
-        return "0.0"
-    if 1e-2 <= abs(x) < 1e4:
-        text = f"{x:.12g}"
-        return text if "." in text else text + ".0"
-    mantissa, exponent = f"{x:.11e}".split("e")
-    mantissa = mantissa.rstrip("0")
-    return f"{mantissa}0e{int(exponent)}" if mantissa.endswith(".") else f"{mantissa}e{int(exponent)}"
-
-
-def compact(v):
-    """One JSON value on one line, floats by json_number."""
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{json.dumps(k)}: {compact(x)}" for k, x in v.items()) + "}"
-    if isinstance(v, list):
-        return "[" + ", ".join(compact(x) for x in v) + "]"
-    if isinstance(v, float):
-        return json_number(v)
-    return json.dumps(v, ensure_ascii=False)
-
-
-def format_deck(deck):
-    """JSON laid out like inputs/paper.json: one key per line at the top, small objects on one line."""
-    lines = ["{"]
-    keys = list(deck)
-    for k, key in enumerate(keys):
-        v = deck[key]
-        end = "," if k < len(keys) - 1 else ""
-        if key == "tests":
-            lines.append('  "tests": [')
-            for i, t in enumerate(v):
-                lines.append("    {")
-                tk = list(t)
-                for j, kk in enumerate(tk):
-                    lines.append(f'      "{kk}": {compact(t[kk])}' + ("," if j < len(tk) - 1 else ""))
-                lines.append("    }" + ("," if i < len(v) - 1 else ""))
-            lines.append("  ]" + end)
-        elif isinstance(v, dict) and any(isinstance(x, dict) for x in v.values()):
-            lines.append(f'  "{key}": {{')
-            sk = list(v)
-            for j, kk in enumerate(sk):
-                lines.append(f'    "{kk}": {compact(v[kk])}' + ("," if j < len(sk) - 1 else ""))
-            lines.append("  }" + end)
-        else:
-            lines.append(f'  "{key}": {compact(v)}{end}')
-    lines.append("}")
-    return "\n".join(lines) + "\n"
+def cmd_run(args):
+    paper = decks.load()
+    plan = study_runs.select(study_runs.build_plan(args.paper_plan["critical_time_step"]), args.only,
+                             args.max_priority)
+    todo = [s for s in plan if not study_runs.is_done(args.root, s, args.retry_failed)]
+    cost = study_runs.costs(todo, paper, args.celldem)
+    if args.order == "cost":
+        todo.sort(key=lambda s: (s["kind"] != "sample", -cost[s["name"]]))
+    print(f"study: {len(todo)} runs to do of {len(plan)}, about {sum(cost.values()) / 1e9:.2f}e9 particle-steps; "
+          f"results in {args.root}", flush=True)
+    os.makedirs(args.root, exist_ok=True)
+    study_runs.record_binary(args.root, args.celldem)
+    study_runs.run_all(args.root, paper, plan, todo, args.celldem, args.jobs, args.stop_after, args.hard_stop)
+    left = [s["name"] for s in plan if not study_runs.is_done(args.root, s, args.retry_failed)]
+    print(f"study: {len(plan) - len(left)} of {len(plan)} runs done" + (f"; left: {', '.join(left)}" if left else ""))
+    return 0
 
 
 def cmd_analyse(args):
-    paper = load_paper()
     if not os.path.isdir(args.root):
-        print(f"study.py: error: no study results in {args.root}", file=sys.stderr)
-        return 2
-    study = analyse(args.root, paper)
+        return error(f"no study results in {args.root}")
+    if os.access(args.celldem, os.X_OK):  # runs of an older study.py have no plan.json
+        study_runs.fill_missing_plans(args.root, args.celldem)
+    study = study_analysis.analyse(args.root)
     fig_dir = os.path.join(args.root, "figures")
-    paths = draw_charts(study, fig_dir)
-    ref_fig = draw_reference_curves(load_results(args.root), fig_dir)
-    write_json(os.path.join(args.root, "study.json"), jsonable(study))
-    md = write_markdown(study, args.root, paths, ref_fig)
+    paths = study_report.draw_charts(study, fig_dir)
+    ref_fig = study_report.draw_reference_curves(study_analysis.load_results(args.root), fig_dir)
+    study_runs.write_json(os.path.join(args.root, "study.json"), study_report.jsonable(study))
+    md = study_report.write_markdown(study, args.root, paths, ref_fig)
     print(f"wrote {md}, {os.path.join(args.root, 'study.json')}, {', '.join(paths.values())}")
     if args.write_presets:
-        for p in write_presets(study, paper, args.celldem):
+        for p in study_runs.write_presets(study, decks.load(), args.celldem):
             print(f"wrote {p}")
     return 0
 
@@ -607,8 +103,8 @@ def main(argv=None):
     for name in ("plan", "run", "analyse"):
         p = sub.add_parser(name)
         p.add_argument("--root", default=DEFAULT_ROOT, help="study results folder (default results/study)")
-        p.add_argument("--celldem", default=os.environ.get("CELLDEM", DEFAULT_CELLDEM),
-                       help="celldem binary (default build/celldem, or $CELLDEM)")
+        p.add_argument("--celldem", default=binary.find(),
+                       help="celldem binary (default $CELLDEM, else build/celldem)")
         if name == "run":
             p.add_argument("--jobs", type=int, default=1, help="runs at once (default 1), each single-threaded")
             p.add_argument("--only", nargs="*", help="groups or run names to run (their samples come along)")
@@ -622,6 +118,12 @@ def main(argv=None):
             p.add_argument("--write-presets", action="store_true", help="write inputs/fast.json, inputs/balanced.json")
     args = parser.parse_args(argv)
     args.root = os.path.abspath(args.root)
+    args.celldem = os.path.abspath(args.celldem)
+    if args.command in ("plan", "run"):  # the plan places its time steps by the paper deck's critical step
+        try:
+            args.paper_plan = binary.plan(decks.PAPER_DECK, args.celldem)
+        except binary.BinaryError as err:
+            return error(err)
     return {"plan": cmd_plan, "run": cmd_run, "analyse": cmd_analyse}[args.command](args)
 
 

@@ -27,38 +27,32 @@ State cell_state(const Mat3& h) {
   return s;
 }
 
-// The coupled targets, against the stresses they must reproduce by hand.
+// The coupled targets, against the stresses they must reproduce by hand (s1 = 160 unless said).
 TEST(Control, StressTargetsOfBAndMeanStress) {
   const AxisControl driven{AxisMode::StrainIncrement, 1e-6};
-  // b = 0.5 with a fixed minor stress of 40: s2 = 40 + 0.5 (160 - 40) = 100.
-  Vec3 t = stress_targets({driven, AxisControl{AxisMode::B, 0.5}, AxisControl{AxisMode::Stress, 40.0}},
-                          Vec3(160.0, 0.0, 0.0));
-  EXPECT_TRUE(std::isnan(t[0]));
-  EXPECT_DOUBLE_EQ(t[1], 100.0);
-  EXPECT_DOUBLE_EQ(t[2], 40.0);
-  // b = 0.5 and p = 100 held together with s1 = 160: s3 = (300 - 1.5 160) / 1.5 = 40, s2 = 100.
-  t = stress_targets({driven, AxisControl{AxisMode::B, 0.5}, AxisControl{AxisMode::MeanStress, 100.0}},
-                     Vec3(160.0, 0.0, 0.0));
-  EXPECT_DOUBLE_EQ(t[1], 100.0);
-  EXPECT_DOUBLE_EQ(t[2], 40.0);
-  EXPECT_DOUBLE_EQ((160.0 + t[1] + t[2]) / 3.0, 100.0);
-  // b = 0 is the triaxial compression at constant p: s2 = s3 = (300 - 160) / 2; b = 1 extension: s2 = s1.
-  t = stress_targets({driven, AxisControl{AxisMode::B, 0.0}, AxisControl{AxisMode::MeanStress, 100.0}},
-                     Vec3(160.0, 0.0, 0.0));
-  EXPECT_DOUBLE_EQ(t[1], 70.0);
-  EXPECT_DOUBLE_EQ(t[2], 70.0);
-  t = stress_targets({driven, AxisControl{AxisMode::B, 1.0}, AxisControl{AxisMode::MeanStress, 100.0}},
-                     Vec3(130.0, 0.0, 0.0));
-  EXPECT_DOUBLE_EQ(t[1], 130.0);
-  EXPECT_DOUBLE_EQ(t[2], 40.0);
-  // Two mean_stress axes share what the strain-driven axis leaves of 3p; one beside a fixed stress takes
-  // the rest.
+  struct Case {
+    const char* what;
+    AxisControl x2, x3;
+    double s1, t2, t3;
+  };
   const AxisControl mean{AxisMode::MeanStress, 100.0};
-  t = stress_targets({driven, mean, mean}, Vec3(160.0, 0.0, 0.0));
-  EXPECT_DOUBLE_EQ(t[1], 70.0);
-  EXPECT_DOUBLE_EQ(t[2], 70.0);
-  t = stress_targets({driven, AxisControl{AxisMode::Stress, 50.0}, mean}, Vec3(160.0, 0.0, 0.0));
-  EXPECT_DOUBLE_EQ(t[2], 90.0);
+  const Case cases[] = {
+      {"b 0.5, fixed minor 40: 40 + 0.5 (160 - 40)", {AxisMode::B, 0.5}, {AxisMode::Stress, 40.0}, 160, 100, 40},
+      {"b 0.5 and p 100: s3 = (300 - 1.5 160) / 1.5", {AxisMode::B, 0.5}, mean, 160, 100, 40},
+      {"b 0 at p 100 (compression): s2 = s3 = (300 - 160) / 2", {AxisMode::B, 0.0}, mean, 160, 70, 70},
+      {"b 1 at p 100 (extension): s2 = s1", {AxisMode::B, 1.0}, mean, 130, 130, 40},
+      {"two mean_stress axes share 3p - s1", mean, mean, 160, 70, 70},
+      {"a mean_stress axis beside a fixed one takes the rest", {AxisMode::Stress, 50.0}, mean, 160, 50, 90},
+  };
+  for (const Case& c : cases) {
+    const Vec3 t = stress_targets({driven, c.x2, c.x3}, Vec3(c.s1, 0.0, 0.0));
+    EXPECT_TRUE(std::isnan(t[0])) << c.what;
+    EXPECT_DOUBLE_EQ(t[1], c.t2) << c.what;
+    EXPECT_DOUBLE_EQ(t[2], c.t3) << c.what;
+    if (c.x3.mode == AxisMode::MeanStress) {
+      EXPECT_DOUBLE_EQ((c.s1 + t[1] + t[2]) / 3.0, 100.0) << c.what;
+    }
+  }
 }
 
 // Constant-volume axes keep det h at the leg's start volume, with equal strain increments on two of them;

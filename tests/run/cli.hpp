@@ -5,9 +5,12 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
+#include <vector>
 #include <string>
 
 #include "helpers.hpp"
+#include "measure/series.hpp"
 
 namespace celldem::testing {
 
@@ -46,6 +49,19 @@ inline const std::string kTtc = R"([{"name": "ttc", "friction": 0.5,
 
 inline std::string run_args(const fs::path& deck, const fs::path& out, const std::string& extra = "") {
   return "run '" + deck.string() + "' --out '" + out.string() + "' --threads 1 " + extra;
+}
+
+// A series.csv as rows of named values.
+inline std::vector<SeriesRow> read_series(const fs::path& path) {
+  std::istringstream in(testing::read_bytes(path));
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  std::stringstream ss(line);
+  for (std::string c; std::getline(ss, c, ',');) header.push_back(c);
+  std::vector<SeriesRow> rows;
+  while (std::getline(in, line)) rows.push_back(parse_series_row(header, line).value());
+  return rows;
 }
 
 }  // namespace celldem::testing

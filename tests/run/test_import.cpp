@@ -24,17 +24,7 @@ using testing::Result;
 using testing::run_args;
 using testing::write_bytes;
 
-std::vector<SeriesRow> read_series(const fs::path& path) {
-  std::istringstream in(read_bytes(path));
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::string> header;
-  std::stringstream ss(line);
-  for (std::string c; std::getline(ss, c, ',');) header.push_back(c);
-  std::vector<SeriesRow> rows;
-  while (std::getline(in, line)) rows.push_back(parse_series_row(header, line).value());
-  return rows;
-}
+using testing::read_series;
 
 const std::string kTest = R"([{"name": "ttc", "friction": 0.5, "output_interval": 200,
     "axes": {"x1": {"strain_increment": 2e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},

@@ -26,18 +26,7 @@ using testing::run_args;
 using testing::test_dir;
 using testing::write_bytes;
 
-// The series as rows of named values.
-std::vector<SeriesRow> read_series(const fs::path& path) {
-  std::istringstream in(read_bytes(path));
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::string> header;
-  std::stringstream ss(line);
-  for (std::string c; std::getline(ss, c, ',');) header.push_back(c);
-  std::vector<SeriesRow> rows;
-  while (std::getline(in, line)) rows.push_back(parse_series_row(header, line).value());
-  return rows;
-}
+using testing::read_series;
 
 const std::string kTests = R"([
   {"name": "bp", "friction": 0.5, "output_interval": 200,

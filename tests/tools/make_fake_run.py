@@ -2,12 +2,17 @@
 """Writes a small synthetic celldem run directory for testing the figure and report tools.
 
 Usage: /usr/bin/python3 tests/tools/make_fake_run.py OUT_DIR [--variant alike|diverging] [--only TEST]
-       [--drop-columns A,B,...] [--no-prepared]
+       [--drop-columns A,B,...] [--no-prepared] [--no-columns-json] [--reverse-columns]
 
 The curves have the paper's shapes (peak and softening of σ1/σ3, contraction then dilation, falling Z, ...)
 and are built so that the numbers the report computes are known exactly; they are written to
 OUT_DIR/expected.json. With --variant diverging the PSC test differs from TTC in Z, sliding fraction, the
 σ1/σ3–Hs11/Hs33 relation and the peak σ1/σ3, so each of the report's comparisons should say "no".
+
+summary.json holds what celldem would write for these series: test_summary() computes it here by celldem's
+definitions (solver/run/summary.cpp), independently of the tools, so that test_tools.sh can check the tools'
+one copy of them (tools/celldem/mirror.py) against it. Each <test>/ also gets series.columns.json (units) unless
+--no-columns-json; --reverse-columns writes the series columns in reverse order (the tools read the header).
 """
 
 import argparse
@@ -99,7 +104,40 @@ def make_test(name, variant, rng):
         "Hs11": hs11, "Hs22": hs22, "Hs33": hs33, "Hw11": hw11, "Hw22": hw22, "Hw33": hw33,
         "H11_H33": h_ratio, "Hs11_Hs33": hs_ratio, "Hw11_Hw33": hw_ratio,
         "kinetic_energy": 1e-6 * ratio, "unbalanced_force": 1e-3 * np.exp(-E1 / 0.02) + 1e-4,
-    }, {"peak_ratio13": peak, "e1_at_peak": e_peak}
+    }
+
+
+END_WINDOW = 0.005   # celldem's end window: the last 0.5 % of the end axis's strain
+PLATEAU = 0.01       # celldem's peak plateau: within 1 % of the peak
+
+
+def test_summary(c):
+    """summary.json["tests"][name] of a series by celldem's definitions (summary.cpp): the first row of the largest
+    ratio13, the e1 range within 1 % of it, the last row, the means over the end window of e1."""
+    k = int(np.argmax(c["ratio13"]))
+    near = c["e1"][c["ratio13"] >= (1.0 - PLATEAU) * c["ratio13"][k]]
+    window = np.abs(c["e1"] - c["e1"][-1]) <= END_WINDOW
+    value = lambda x: None if math.isnan(x) else float(x)  # noqa: E731 (null for nan, as celldem writes)
+    return {"peak_ratio13": float(c["ratio13"][k]), "e1_at_peak": float(c["e1"][k]),
+            "e1_peak_range": [float(near.min()), float(near.max())],
+            "e1_at_peak_centre": float(0.5 * (near.min() + near.max())),
+            "b_at_peak": value(c["b"][k]), "b_final": value(c["b"][-1]), "final_e1": float(c["e1"][-1]),
+            "ev_final": float(c["ev"][-1]), "Z_final": float(c["Z"][-1]),
+            "end_window": {"strain": END_WINDOW, "ev": float(np.mean(c["ev"][window])),
+                           "Z": float(np.mean(c["Z"][window]))},
+            "peak_state": {"sigma1": float(c["s11"][k]), "sigma2": float(c["s22"][k]), "sigma3": float(c["s33"][k]),
+                           "p": float(c["p"][k]), "q": float(c["q"][k]), "sin_phi": float(c["sin_phi"][k]),
+                           "b": value(c["b"][k])},
+            "servo_max_error": 0.001, "inertial_number": 1.2e-4}
+
+
+def write_columns_json(path, names):
+    """series.columns.json as celldem writes it: stresses in Pa, kinetic energy in J, time in s, the rest '-'."""
+    units = {"time": "s", "kinetic_energy": "J"}
+    units.update({n: "Pa" for n in ("s11", "s22", "s33", "s12", "s13", "s23", "p", "q")})
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump({"columns": [{"name": n, "unit": units.get(n, "-"), "meaning": f"fake column {n}"}
+                               for n in names]}, f, indent=1)
 
 
 def write_series(path, columns):
@@ -119,22 +157,25 @@ def main():
     parser.add_argument("--only", help="write only this test")
     parser.add_argument("--drop-columns", default="", help="comma-separated series columns to leave out")
     parser.add_argument("--no-prepared", action="store_true", help="leave out summary.json 'prepared'")
+    parser.add_argument("--no-columns-json", action="store_true", help="no series.columns.json (older runs)")
+    parser.add_argument("--reverse-columns", action="store_true", help="series columns in reverse order")
     args = parser.parse_args()
 
     rng = np.random.default_rng(12345)
     drop = {c for c in args.drop_columns.split(",") if c}
     names = [args.only] if args.only else ["ttc", "psc"]
-    tests, peaks = {}, {}
+    tests = {}
     for name in names:
-        columns, peak = make_test(name, args.variant, rng)
+        columns = make_test(name, args.variant, rng)
+        # celldem's summary is of every column; --drop-columns changes only what the series shows.
+        tests[name] = dict(test_summary(columns), steps=240000, wall_s=120.5, particle_steps_per_s=1.6e7)
         columns = {k: v for k, v in columns.items() if k not in drop}
+        if args.reverse_columns:
+            columns = dict(reversed(list(columns.items())))
         os.makedirs(os.path.join(args.out_dir, name), exist_ok=True)
         write_series(os.path.join(args.out_dir, name, "series.csv"), columns)
-        peaks[name] = peak
-        tests[name] = {"peak_ratio13": peak["peak_ratio13"], "e1_at_peak": peak["e1_at_peak"],
-                       "b_at_peak": PSC_B_PEAK if name == "psc" else 0.0,
-                       "b_final": float(columns["b"][-1]) if "b" in columns else 0.0,
-                       "final_e1": float(E1[-1]), "steps": 240000, "wall_s": 120.5, "particle_steps_per_s": 1.6e7}
+        if not args.no_columns_json:
+            write_columns_json(os.path.join(args.out_dir, name, "series.columns.json"), list(columns))
 
     summary = {
         "celldem_version": "0.1.0", "deck": "inputs/fake.json",
@@ -153,7 +194,7 @@ def main():
         "prepared_void_ratio": None if args.no_prepared else PREPARED_E,
         "prepared_Z": None if args.no_prepared else PREPARED_Z,
         "psc_b_at_peak": PSC_B_PEAK, "psc_b_at_10": PSC_B_AT_10,
-        "peaks": {n: p["peak_ratio13"] for n, p in peaks.items()},
+        "peaks": {n: t["peak_ratio13"] for n, t in tests.items()},
         "fabric_peak": FABRIC_PEAK,
         "psc_peak_exceeds_ttc": not diverging, "z_alike": not diverging, "sliding_alike": not diverging,
         "fabric_grows_more_in_psc": True, "macro_micro_unique": not diverging,

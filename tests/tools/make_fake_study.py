@@ -7,9 +7,15 @@ Four reference runs (seeds 1-4) whose compared quantities have a known spread, a
 σ1/σ3 is off their paired reference by a known amount, with known CPU times; two stability runs (one blows up)
 and a servo run with a known stress error. ROOT/expected.json holds the noise floor, the normalised errors, the
 Pareto front and the presets the analysis must find.
+
+Each run folder gets what tools/study.py and celldem leave there: spec.json, outcome.json, <test>/series.csv,
+summary.json (its per-test quantities computed here from the series by celldem's definitions, and the settings)
+and plan.json (what `celldem plan` prints for the run's deck: steps, time step ratio, inertial number, particle
+masses), so that the analysis runs without a celldem binary.
 """
 
 import json
+import math
 import os
 import sys
 
@@ -17,8 +23,8 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "tools"))
-import study  # noqa: E402
-import study_analysis as sa  # noqa: E402
+from celldem import study_runs as study  # noqa: E402
+from celldem import study_scene as sa  # noqa: E402
 
 COLUMNS = ("step", "time", "e1", "e2", "e3", "ev", "s11", "s22", "s33", "s12", "s13", "s23", "p", "q", "ratio13",
            "b", "Z", "kinetic_energy", "void_ratio")
@@ -39,6 +45,13 @@ SETTINGS = {
     "combo_dt3e-06_inc3e-06": {"offsets": (0.12, 0.00), "cpu": 10.0, "inc": 3e-6, "dt": 3e-6, "ev_floors": 1.5},
 }
 REF_CPU = 100.0
+
+# What `celldem plan inputs/paper.json --json` prints for the paper's spheres (test data: celldem computes these).
+TC = 6.12074279757435e-06                         # [s] sqrt(m_min / kn)
+DIAMETERS = np.linspace(3.0e-3, 4.5e-3, 16)       # [m] the paper's 16 sizes
+DENSITY = 2650.0                                  # [kg/m^3]
+DEFAULT_SERVO_CAP = 1.0e-6                        # celldem's default servo.max_strain_increment
+END_WINDOW = 0.005                                # celldem's end window: the last 0.5 % of ε1
 
 
 def series(peak, e_peak, ev_end, z_end, b_peak=None, s22_noise=None, blow_up=False, ke_level=1e-7):
@@ -66,6 +79,37 @@ def series(peak, e_peak, ev_end, z_end, b_peak=None, s22_noise=None, blow_up=Fal
     return cols
 
 
+def test_summary(c):
+    """summary.json["tests"][name] of a series, by celldem's definitions: the first row of the largest ratio13
+    (NaN rows never win), the last row, the means of ev and Z over the rows within END_WINDOW of the last e1."""
+    ratio = np.where(np.isfinite(c["ratio13"]), c["ratio13"], -np.inf)
+    k = int(np.argmax(ratio))
+    window = np.abs(c["e1"] - c["e1"][-1]) <= END_WINDOW
+    value = lambda x: float(x) if math.isfinite(x) else None  # noqa: E731 (null, as celldem writes)
+    return {"peak_ratio13": float(c["ratio13"][k]), "e1_at_peak": float(c["e1"][k]), "b_at_peak": value(c["b"][k]),
+            "final_e1": float(c["e1"][-1]), "ev_final": value(c["ev"][-1]), "Z_final": value(c["Z"][-1]),
+            "end_window": {"strain": END_WINDOW, "ev": value(np.mean(c["ev"][window])),
+                           "Z": value(np.mean(c["Z"][window]))}}
+
+
+def fake_plan(spec):
+    """plan.json of a spec's deck, as `celldem plan --json` would print it (the fields the analysis reads)."""
+    density = DENSITY * spec.get("density_factor", 1.0)
+    masses = density * math.pi / 6.0 * DIAMETERS ** 3
+    d_mean = float(np.mean(DIAMETERS))
+    rate = spec.get("strain_increment", 0.0) / spec["time_step"]
+    tests = [{"name": name, "end_axis": "x1", "steps": int(round(spec["end_strain"] / spec["strain_increment"])),
+              "strain_per_step": spec["strain_increment"], "strain_rate": rate,
+              "inertial_number": rate * d_mean * math.sqrt(density / sa.P_REF),
+              "axes": {"x1": {"strain_increment": spec["strain_increment"]}, "x2": {"stress": sa.P_REF},
+                       "x3": {"stress": sa.P_REF}}} for name in spec.get("tests", [])]
+    return {"time_step": spec["time_step"], "critical_time_step": TC * math.sqrt(spec.get("density_factor", 1.0)),
+            "time_step_ratio": spec["time_step"] / (TC * math.sqrt(spec.get("density_factor", 1.0))),
+            "sample": {"count": spec["count"], "density": density, "mean_diameter": d_mean},
+            "particle_types": [{"diameter": float(d), "mass": float(m)} for d, m in zip(DIAMETERS, masses)],
+            "tests": tests}
+
+
 def write_run(root, spec, tests, cpu, rc=0):
     d = os.path.join(root, "samples" if spec["kind"] == "sample" else "runs", spec["name"])
     os.makedirs(d, exist_ok=True)
@@ -77,9 +121,15 @@ def write_run(root, spec, tests, cpu, rc=0):
                 f.write(",".join(repr(float(cols[c][i])) for c in COLUMNS) + "\n")
     with open(os.path.join(d, "spec.json"), "w", encoding="utf-8") as f:
         json.dump(spec, f)
-    summary = {"tests": {t: {"wall_s": 1.5 * cpu / max(len(tests), 1)} for t in tests}}
+    cap = (spec.get("servo") or {}).get("max_strain_increment", DEFAULT_SERVO_CAP)
+    if spec["kind"] == "sample":
+        cap = spec.get("servo_cap") or DEFAULT_SERVO_CAP
+    summary = {"settings": {"time_step": spec["time_step"], "servo_max_strain_increment": cap},
+               "tests": {t: dict(test_summary(cols), wall_s=1.5 * cpu / max(len(tests), 1)) for t, cols in tests.items()}}
     with open(os.path.join(d, "summary.json"), "w", encoding="utf-8") as f:
         json.dump(summary, f)
+    with open(os.path.join(d, "plan.json"), "w", encoding="utf-8") as f:
+        json.dump(fake_plan(spec), f)
     with open(os.path.join(d, "outcome.json"), "w", encoding="utf-8") as f:
         json.dump({"rc": rc, "cpu_s": cpu, "wall_s": 1.5 * cpu, "host": "fake", "log_tail": ""}, f)
 
@@ -118,7 +168,7 @@ def main():
             write_run(root, spec, ref_tests(seed), REF_CPU)
     # Stability: a stable run at the paper's dt, a hot one (kinetic energy 1e-3 p V) at 0.65 t_c, and one that
     # blows up (non-finite values) at 0.9 t_c.
-    tc = sa.critical_step(study.load_paper())
+    tc = TC
     for frac, blow, ke in ((sa.PAPER_DT / tc, False, 1e-7), (0.65, False, 5e-3), (0.9, True, 1e-7)):
         dt = sa.PAPER_DT if frac < 0.2 else frac * tc
         spec = study.test_spec(f"stab_f{frac:.3g}_a0.05", "stability_dt", "stab", 7, time_step=dt,
@@ -129,6 +179,7 @@ def main():
     # Servo: σ22 off its target by ±1 % alternately (std 1 %, mean 0), σ33 exact.
     noise = np.where(np.arange(E1.size) % 2 == 0, 0.01, -0.01)
     spec = study.test_spec("servo_g0.5_i0", "stability_servo", "servo", 8, tests=("ttc",), role="stability",
+                           strain_increment=sa.SERVO_INC, output_interval=sa.SERVO_OUTPUT_INTERVAL,
                            servo={"gain": 0.5, "integral_gain": 0.0}, knob="servo", value=[0.5, 0.0])
     write_run(root, spec, {"ttc": series(*REF[1]["ttc"], s22_noise=noise)}, 5.0)
 
@@ -144,7 +195,7 @@ def main():
         "floor_psc_b": float(np.std([REF[s]["b"] for s in REF], ddof=1)),
         # εv is linear in ε1 here, so its mean over the end window is its end value × the window's mean ε1 / END.
         "floor_ttc_ev_end": float(np.std([REF[s]["ttc"][2] for s in REF], ddof=1))
-        * float(np.mean(E1[E1 >= sa.END_STRAIN - sa.END_WINDOW - 1e-12])) / sa.END_STRAIN,
+        * float(np.mean(E1[np.abs(E1 - E1[-1]) <= END_WINDOW])) / sa.END_STRAIN,
         "scores": errors,
         "pareto": sorted(["reference", "inc_1e-06", "combo_dt3e-06_inc3e-06", "inc_1e-05"]),
         "fast": "combo_dt3e-06_inc3e-06",       # cheapest with stress errors ≤ 1 floor, εv and Z ≤ 2 floors

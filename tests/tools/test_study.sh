@@ -1,33 +1,19 @@
 #!/usr/bin/env bash
-# Tests the analysis half of tools/study.py (tools/study_analysis.py) without running celldem: the compared
-# quantities of a series, the noise floor, the errors, the Pareto front, the presets' choice, the stability and
+# Tests the analysis half of tools/study.py (tools/celldem/study_analysis.py) without running celldem: the
+# compared quantities (summary.json's, and the cross-check's copy of their definitions), what plan.json gives,
+# the noise floor, the errors, the Pareto front, the presets' choice, the stability and
 # servo measures, on known inputs and on a synthetic study root (tests/tools/make_fake_study.py); then that
 # `study.py analyse` writes study.json, study.md and the charts, and that report.py links the study.
 # Usage: bash tests/tools/test_study.sh      (exits non-zero on the first failure)
-set -euo pipefail
-
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
-PY="${CELLDEM_PYTHON:-/usr/bin/python3}"
-TMP="$(mktemp -d)"
-trap 'rm -rf "$TMP"' EXIT
-
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
 echo "1. the analysis functions on hand-made inputs"
-"$PY" - "$ROOT" <<'EOF' || fail "analysis functions"
-import math, sys
+"$PY" - <<'EOF' || fail "analysis functions"
+import math
 import numpy as np
-sys.path.insert(0, sys.argv[1] + "/tools")
-import study_analysis as sa
+from celldem import binary, decks, mirror, study_analysis as sa, study_runs as study, study_scene as scene
 
-errors = []
-def check(what, got, want, tol=1e-12):
-    if isinstance(want, float) and math.isfinite(want):
-        ok = got is not None and abs(got - want) <= tol * max(1, abs(want))
-    else:
-        ok = got == want
-    if not ok:
-        errors.append(f"{what}: got {got!r}, want {want!r}")
+from checking import check, done
 
 # Pareto front: lower cost and lower error win; a tie in one and a loss in the other is dominated.
 pts = [(10, 1.0), (5, 2.0), (20, 0.5), (12, 1.5), (5, 3.0), (1, 10.0), (20, 0.6), (None, 1.0)]
@@ -65,23 +51,24 @@ check("none within", sa.cheapest_within(rows, 0.1), None)
 
 # A preset with another dt or servo cap needs a sample prepared with those that meets the rule too.
 rule = {"stress": 1.0, "volume": 2.0}
-cap = sa.DEFAULT_SERVO_CAP
+cap = 1.0e-6   # the paper's servo.max_strain_increment (the reference runs' summary.json setting)
 prep = [{"group": "prepare_dt", "sample_time_step": 3e-6, "sample_servo_cap": cap, "score_stress": 0.5,
          "score_volume": 2.5},
-        {"group": "prepare_dt", "sample_time_step": sa.PAPER_DT, "sample_servo_cap": 5e-6, "score_stress": 0.5,
+        {"group": "prepare_dt", "sample_time_step": scene.PAPER_DT, "sample_servo_cap": 5e-6, "score_stress": 0.5,
          "score_volume": 0.5}]
 check("meets", sa.meets({"score_stress": 1.0, "score_volume": 2.0}, rule), True)
 check("fails on volume", sa.meets({"score_stress": 0.1, "score_volume": 2.1}, rule), False)
-check("preparation as the paper's", sa.preparation_ok(prep, sa.PAPER_DT, cap, rule), True)
-check("preparation failing the rule", sa.preparation_ok(prep, 3e-6, cap, rule), False)
-check("preparation meeting a looser rule", sa.preparation_ok(prep, 3e-6, cap, {"stress": 1.0, "volume": 5.0}), True)
-check("preparation never checked", sa.preparation_ok(prep, 5e-6, cap, {"stress": 1.0, "volume": 5.0}), False)
-check("preparation with a larger cap", sa.preparation_ok(prep, sa.PAPER_DT, 5e-6, rule), True)
-check("cap never checked", sa.preparation_ok(prep, sa.PAPER_DT, 2.5e-6, rule), False)
+check("preparation as the paper's", sa.preparation_ok(prep, scene.PAPER_DT, cap, rule, cap), True)
+check("preparation failing the rule", sa.preparation_ok(prep, 3e-6, cap, rule, cap), False)
+check("preparation meeting a looser rule", sa.preparation_ok(prep, 3e-6, cap, {"stress": 1.0, "volume": 5.0}, cap),
+      True)
+check("preparation never checked", sa.preparation_ok(prep, 5e-6, cap, {"stress": 1.0, "volume": 5.0}, cap), False)
+check("preparation with a larger cap", sa.preparation_ok(prep, scene.PAPER_DT, 5e-6, rule, cap), True)
+check("cap never checked", sa.preparation_ok(prep, scene.PAPER_DT, 2.5e-6, rule, cap), False)
+check("paper's cap unknown", sa.preparation_ok([], scene.PAPER_DT, cap, rule, None), False)
 
 # A preset whose preparation was not checked starts from the paper's prepared sample.
-import study
-paper = study.load_paper()
+paper = decks.load()
 own = study.preset_deck(paper, "x", 3e-6, 1.5e-6, 133, "d")
 reuse = study.preset_deck(paper, "x", 3e-6, 1.5e-6, 133, "d", preparation="paper")
 check("own preparation kept", ("prepare" in own, "initial_state" in own), (True, False))
@@ -92,26 +79,61 @@ check("strain increment and rows", (reuse["tests"][1]["axes"]["x1"], reuse["test
       ({"strain_increment": 1.5e-6}, 133))
 check("paper deck untouched", "initial_state" in paper or paper["time_step"] != 1e-6, False)
 
-# A series: peak, ε1 at the peak, b at the peak, εv and Z at the end strain (also when the last row is a hair short).
+# The compared quantities are summary.json's: peak, ε1 and b at the peak, the end window's εv and Z, the latter
+# only when the run reached the end strain (up to the rounding of its steps).
+info = {"peak_ratio13": 3.0, "e1_at_peak": 0.01, "b_at_peak": 0.4, "final_e1": 0.03 - 1e-12,
+        "end_window": {"strain": 0.005, "ev": -0.02, "Z": 4.4}, "e1_at_peak_centre": 0.015}
+m = sa.test_metrics(info, 0.03)
+check("peak", m["peak_ratio"], 3.0)
+check("e1 at peak: the row of the max", m["e1_peak"], 0.01)
+check("b at peak", m["b_peak"], 0.4)
+check("ev at end", m["ev_end"], -0.02)
+check("Z at end", m["Z_end"], 4.4)
+check("short run: no end values", sa.test_metrics(info, 0.04)["Z_end"], None)
+check("null in summary.json", sa.test_metrics(dict(info, b_at_peak=None), 0.03)["b_peak"], None)
+
+# The cross-check's copy of those definitions (series of LAMMPS/LIGGGHTS have no summary.json).
 e1 = np.array([0.0, 0.01, 0.02, 0.03 - 1e-12])
 s = {"e1": e1, "ratio13": np.array([1.0, 3.0, 2.5, 2.4]), "b": np.array([np.nan, 0.4, 0.3, 0.2]),
-     "ev": np.array([0.0, 0.001, -0.01, -0.02]), "Z": np.array([6.0, 5.0, 4.5, 4.4]),
-     "s11": e1, "s22": e1, "s33": e1}
-m = sa.test_metrics(s, 0.03)
-check("peak", m["peak_ratio"], 3.0)
-check("e1 at peak", m["e1_peak"], 0.01)
-check("b at peak", m["b_peak"], 0.4)
-check("ev at end", m["ev_end"], -0.02, 1e-9)
-check("Z at end", m["Z_end"], 4.4, 1e-9)
-check("finite", m["finite"], True)
-m = sa.test_metrics(s, 0.025)
-check("ev over the end window [0.02, 0.025]", m["ev_end"], -0.01, 1e-9)
-s2 = dict(s, e1=np.linspace(0.0, 0.03, 31), ev=np.linspace(0.0, -0.03, 31), Z=np.linspace(6.0, 3.0, 31),
-          ratio13=np.linspace(1.0, 3.0, 31), b=np.zeros(31), s11=np.ones(31), s22=np.ones(31), s33=np.ones(31))
-m = sa.test_metrics(s2, 0.03)
-check("ev mean over the last 0.5 %", m["ev_end"], -0.0275, 1e-9)
-check("Z mean over the last 0.5 %", m["Z_end"], 3.25, 1e-9)
-check("short run: no end values", sa.test_metrics(s2, 0.04)["Z_end"], None)
+     "ev": np.array([0.0, 0.001, -0.01, -0.02]), "Z": np.array([6.0, 5.0, 4.5, 4.4])}
+m = mirror.summary_of_series(s)
+check("mirror peak", m["peak_ratio13"], 3.0)
+check("mirror e1 at peak", m["e1_at_peak"], 0.01)
+check("mirror b at peak", m["b_at_peak"], 0.4)
+check("mirror plateau of one row", m["e1_peak_range"], [0.01, 0.01])
+check("mirror final", (m["final_e1"], m["ev_final"], m["Z_final"], m["b_final"]), (0.03 - 1e-12, -0.02, 4.4, 0.2))
+check("mirror end window of one row", (m["end_window"]["ev"], m["end_window"]["Z"]), (-0.02, 4.4))
+s2 = {"e1": np.linspace(0.0, 0.03, 31), "ev": np.linspace(0.0, -0.03, 31), "Z": np.linspace(6.0, 3.0, 31),
+      "s11": np.linspace(1.0, 3.0, 31) * 1e5, "s33": np.full(31, 1e5)}
+m = mirror.summary_of_series(s2)
+check("mirror s11/s33 without ratio13", m["peak_ratio13"], 3.0)
+check("mirror ev mean over the last 0.5 %", m["end_window"]["ev"], -0.0275, 1e-9)
+check("mirror Z mean over the last 0.5 %", m["end_window"]["Z"], 3.25, 1e-9)
+check("mirror without b", "b_at_peak" in m, False)
+s3 = {"e1": np.array([0.0, 0.01, 0.02, 0.03, 0.04]), "ratio13": np.array([1.0, 2.98, 3.0, 2.99, 2.5]),
+      "ev": np.zeros(5), "Z": np.zeros(5), "e2": np.array([0.0, 0.0, 0.0, 0.006, 0.009])}
+m = mirror.summary_of_series(s3)
+check("mirror plateau: rows within 1 % of the peak", m["e1_peak_range"], [0.01, 0.03])
+check("mirror plateau centre", m["e1_at_peak_centre"], 0.02)
+check("mirror end window on x2", mirror.summary_of_series(s3, "x2")["end_window"]["ev"], 0.0)
+check("mirror end window on x2: rows", mirror.summary_of_series(dict(s3, ev=np.arange(5.0)), "x2")["end_window"]["ev"],
+      3.5)
+
+# What a deck implies comes from plan.json (`celldem plan --json`).
+plan = {"time_step_ratio": 0.5, "critical_time_step": 6e-6, "sample": {"count": 10, "density": 2000.0,
+        "mean_diameter": 1e-3}, "particle_types": [{"mass": 1.0}, {"mass": 3.0}],
+        "tests": [{"name": "ttc", "steps": 100, "strain_rate": 0.2, "inertial_number": 1e-4,
+                   "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 5e4}, "x3": {"stress": 7e4}}}]}
+entry = {"plan": plan}
+check("planned steps", sa.planned(entry, "steps"), 100.0)
+check("planned ratio", sa.describe(entry)["dt_over_tc"], 0.5)
+check("planned inertial number", sa.describe(entry)["inertial_number"], 1e-4)
+check("planned mean diameter", sa.planned(entry, "mean_diameter"), 1e-3)
+check("no plan", sa.describe({"plan": None})["steps_per_test"], None)
+check("solid volume", binary.solid_volume(plan), 10 * 2.0 / 2000.0)
+check("stress targets", sa.stress_targets(entry, "ttc"), {"s22": 5e4, "s33": 7e4})
+check("kinetic energy / (p V)", sa.kinetic_ratio({"kinetic_energy": np.array([1.0]), "void_ratio": np.array([1.0])},
+                                                 0.5)[0], 1.0 / (scene.P_REF * 0.5 * 2.0))
 
 # Servo error: std, |mean| and max of σ/target − 1 after the first 10 % of rows.
 n = 100
@@ -125,12 +147,7 @@ check("servo max", mx, 0.02, 1e-12)
 s22[50] = np.nan
 check("servo non-finite", sa.servo_error_stats({"s22": s22}, {"s22": 1e5})[0], math.inf)
 
-# Inertial number of the paper's loading: 0.2/s · 3.75 mm · sqrt(2650/1e5).
-check("inertial number", sa.inertial_number(0.2, 3.75e-3, 2650), 0.2 * 3.75e-3 * math.sqrt(0.0265), 1e-12)
-
-for e in errors:
-    print("  " + e, file=sys.stderr)
-sys.exit(1 if errors else 0)
+done()
 EOF
 
 echo "2. study.py analyse on a synthetic study root"
@@ -140,14 +157,13 @@ for f in study.json study.md figures/pareto.png figures/stability.png figures/re
   [[ -s "$TMP/study/$f" ]] || fail "analyse did not write $f"
 done
 "$PY" - "$TMP/study" <<'EOF' || fail "study.json against the synthetic answers"
-import json, math, sys
+import json, sys
 root = sys.argv[1]
 got = json.load(open(f"{root}/study.json"))
 want = json.load(open(f"{root}/expected.json"))
-errors = []
-def close(what, g, w, tol=1e-9):
-    if g is None or abs(g - w) > tol * max(1.0, abs(w)):
-        errors.append(f"{what}: got {g!r}, want {w!r}")
+from checking import check, done, error
+def close(what, got, want):
+    check(what, got, want, 1e-9)
 close("floor ttc peak", got["noise_floor"]["ttc.peak_ratio"][1], want["floor_ttc_peak"])
 close("floor psc b", got["noise_floor"]["psc.b_peak"][1], want["floor_psc_b"])
 close("floor ttc ev", got["noise_floor"]["ttc.ev_end"][1], want["floor_ttc_ev_end"])
@@ -157,31 +173,29 @@ for key, score in want["scores"].items():
 close("reference score", rows["reference"]["score"], 0.0)
 front = sorted(k for k, r in rows.items() if r["pareto"])
 if front != want["pareto"]:
-    errors.append(f"Pareto front: got {front}, want {want['pareto']}")
+    error(f"Pareto front: got {front}, want {want['pareto']}")
 for name in ("fast", "balanced"):
     p = got["presets"].get(name)
     if p is None or p["row"] != want[name]:
-        errors.append(f"preset {name}: got {p and p['row']}, want {want[name]}")
+        error(f"preset {name}: got {p and p['row']}, want {want[name]}")
     elif p["preparation"] != "own":
-        errors.append(f"preset {name}: its preparation was checked, so it should keep its own, got {p['preparation']}")
+        error(f"preset {name}: its preparation was checked, so it should keep its own, got {p['preparation']}")
 if got["presets"].get("balanced"):
     close("balanced speed-up in steps", got["presets"]["balanced"]["test_steps_speedup"], 5.0)
     close("balanced measured speed-up", got["presets"]["balanced"]["measured_speedup"], 100.0 / 20.0)
 servo = got["stability"]["servo"][0]
 close("servo std", servo["std"], want["servo_std"])
 if servo["holds"]:
-    errors.append("a servo 0.7 % off its target must not 'hold'")
+    error("a servo 0.7 % off its target must not 'hold'")
 states = {r["name"]: r["state"] for r in got["stability"]["dt"]}
 for name, state in want["stability"].items():
     if states.get(name) != state:
-        errors.append(f"stability of {name}: got {states.get(name)}, want {state}")
+        error(f"stability of {name}: got {states.get(name)}, want {state}")
 md = open(f"{root}/study.md", encoding="utf-8").read()
 for needle in ("## Noise floor", "## Presets", "## Stability map", "![error against run time](figures/pareto.png)"):
     if needle not in md:
-        errors.append(f"study.md lacks {needle!r}")
-for e in errors:
-    print("  " + e, file=sys.stderr)
-sys.exit(1 if errors else 0)
+        error(f"study.md lacks {needle!r}")
+done()
 EOF
 
 echo "3. a missing study root is an error with a message"

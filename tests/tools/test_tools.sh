@@ -1,16 +1,10 @@
 #!/usr/bin/env bash
 # Tests tools/figures.py and tools/report.py on synthetic run directories (tests/tools/make_fake_run.py):
-# the figures are written, and the report's comparison table holds the numbers built into the fake data.
+# the figures are written, the report's comparison table holds the numbers built into the fake data, the report
+# quotes summary.json's quantities rather than recomputing them, and the tools' one copy of summary.json's
+# definitions (tools/celldem/mirror.py, for LAMMPS/LIGGGHTS series) agrees with the fake run's summary.
 # Usage: bash tests/tools/test_tools.sh      (exits non-zero on the first failure)
-set -euo pipefail
-
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
-# Debian's python3 sees python3-numpy and python3-matplotlib; another python3 first on PATH may not.
-PY="${CELLDEM_PYTHON:-/usr/bin/python3}"
-TMP="$(mktemp -d)"
-trap 'rm -rf "$TMP"' EXIT
-
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
 # Checks report.md against expected.json. Mode "alike": the run agrees with the paper; "diverging": the fake
 # PSC differs from TTC, so each comparison between the tests must say "no".
@@ -21,7 +15,7 @@ import json, os, re, sys
 run_dir, mode = sys.argv[1], sys.argv[2]
 expected = json.load(open(os.path.join(run_dir, "expected.json")))
 text = open(os.path.join(run_dir, "report.md"), encoding="utf-8").read()
-errors = []
+from checking import check, done, error
 
 # The first Markdown table of the report, rows keyed by their first cell.
 lines = text.splitlines()
@@ -37,7 +31,7 @@ def expect(row, column, wanted, how="equals"):
     got = rows.get(row, [None] * 5)[column]
     ok = got == wanted if how == "equals" else (got is not None and got.startswith(wanted))
     if not ok:
-        errors.append(f"row {row!r} column {column}: expected {how} {wanted!r}, got {got!r}")
+        error(f"row {row!r} column {column}: expected {how} {wanted!r}, got {got!r}")
 
 RUN, MATCH = 2, 3
 expect("Prepared void ratio e", RUN, f"{expected['prepared_void_ratio']:.3f}")
@@ -63,20 +57,18 @@ expect("PSC ε2 stays 0", MATCH, "yes")
 # Per-test values: the peaks, computed from the series.
 for name, peak in peaks.items():
     if not re.search(r"\| peak σ1/σ3 \(–\) \|.*\b%s\b" % re.escape(f"{peak:.3f}"), text):
-        errors.append(f"per-test table lacks peak σ1/σ3 {peak:.3f} of {name}")
+        error(f"per-test table lacks peak σ1/σ3 {peak:.3f} of {name}")
 
 # Every embedded figure exists, and the paper's Figures 2-12 are all there.
 links = re.findall(r"!\[[^]]*\]\(([^)]+)\)", text)
 for link in links:
     if not link.startswith("figures/") or not os.path.isfile(os.path.join(run_dir, link)):
-        errors.append(f"figure link {link} does not resolve inside the run directory")
+        error(f"figure link {link} does not resolve inside the run directory")
 for n in range(2, 13):
     if not any(os.path.basename(l).startswith(f"fig{n:02d}_") for l in links):
-        errors.append(f"no Figure {n} embedded")
+        error(f"no Figure {n} embedded")
 
-for e in errors:
-    print("  " + e, file=sys.stderr)
-sys.exit(1 if errors else 0)
+done()
 EOF
 }
 
@@ -99,6 +91,57 @@ check_pngs "$TMP/alike/figures"
 "$PY" "$ROOT/tools/report.py" "$TMP/alike" >/dev/null || fail "report.py failed"
 check_report "$TMP/alike" alike || fail "report of the alike run"
 
+echo "1b. the package on the alike run: summary.json's definitions, series columns by header, units"
+"$PY" - "$TMP/alike" <<'EOF' || fail "package functions on the alike run"
+import sys
+from celldem import mirror, plotting, results
+from checking import check, done, error
+run = results.load_run(sys.argv[1])
+def same(what, got, want):
+    """The mirror's value (got) against make_fake_run.py's summary.json (want), through dicts and lists."""
+    if isinstance(want, dict):
+        for k in want:
+            same(f"{what}.{k}", got.get(k), want[k])
+    elif isinstance(want, list):
+        for i, w in enumerate(want):
+            same(f"{what}[{i}]", got[i], w)
+    else:
+        check(what, got, want)
+for test in run.test_names:
+    for key, value in mirror.summary_of_series(run.test(test), "x1").items():
+        same(f"{test}.{key}", value, run.test_summary(test)[key])
+    # Without a ratio13 column (a translated script's series) the mirror takes s11/s33.
+    lammps_like = {k: v for k, v in run.test(test).items() if k not in ("ratio13", "b")}
+    if abs(mirror.summary_of_series(lammps_like)["peak_ratio13"] - run.quantity(test, "peak_ratio13")) > 1e-9:
+        error(f"{test}: the peak of s11/s33 differs from ratio13's")
+if run.quantity("psc", "end_window.ev") != run.test_summary("psc")["end_window"]["ev"]:
+    error("Run.quantity does not follow a key path")
+if run.unit("s11") != "Pa" or run.unit("e1") != "-":
+    error(f"units from series.columns.json: s11 {run.unit('s11')!r}, e1 {run.unit('e1')!r}")
+if plotting.unit_text(run.unit("s11"), 1e-3) != "(kPa)" or plotting.unit_text(run.unit("e1"), 100) != "(%)":
+    error("axis units")
+done()
+EOF
+
+echo "1c. the report quotes summary.json's peak, ε1 and b at the peak, not values recomputed from the series"
+cp -r "$TMP/alike" "$TMP/edited"
+"$PY" - "$TMP/edited/summary.json" <<'EOF'
+import json, sys
+path = sys.argv[1]
+s = json.load(open(path))
+s["tests"]["psc"].update(peak_ratio13=4.321, e1_at_peak=0.0123, b_at_peak=0.377)
+s["tests"]["ttc"].update(peak_ratio13=4.4, end_window={"strain": 0.005, "ev": -0.0555, "Z": 4.56})
+json.dump(s, open(path, "w"))
+EOF
+"$PY" "$ROOT/tools/report.py" "$TMP/edited" >/dev/null || fail "report.py failed on the edited run"
+r="$TMP/edited/report.md"
+grep -qF "| PSC b at peak σ1/σ3 | 0.396 | 0.377 | yes |" "$r" || fail "report does not quote summary.json b_at_peak"
+grep -qF "| PSC peak σ1/σ3 exceeds TTC's | yes | no (psc 4.321, ttc 4.400) | no |" "$r" \
+  || fail "report does not compare summary.json's peaks"
+grep -qF "| peak σ1/σ3 (–) | 4.400 | 4.321 |" "$r" || fail "per-test table does not quote summary.json's peaks"
+grep -qF "| ε1 at peak σ1/σ3 (%) | 2.500 | 1.230 |" "$r" || fail "per-test table does not quote summary.json e1_at_peak"
+grep -qF "| εv, Z over the end window (%, –) | -5.550, 4.56 |" "$r" || fail "per-test table lacks the end window"
+
 echo "2. run whose tests diverge: report.py alone draws the missing figures"
 "$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/diverging" --variant diverging
 "$PY" "$ROOT/tools/report.py" "$TMP/diverging" >/dev/null || fail "report.py failed"
@@ -106,8 +149,8 @@ check_pngs "$TMP/diverging/figures"
 check_report "$TMP/diverging" diverging || fail "report of the diverging run"
 
 echo "3. one test, optional columns and the prepared stage missing: n/a, not a crash"
-"$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/partial" --only ttc --no-prepared \
-  --drop-columns Hs11_Hs33,Hs11,Hw11_Hw33,DI,Zm,sin_phi,kinetic_energy,unbalanced_force
+"$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/partial" --only ttc --no-prepared --no-columns-json \
+  --reverse-columns --drop-columns Hs11_Hs33,Hs11,Hw11_Hw33,DI,Zm,sin_phi,kinetic_energy,unbalanced_force
 "$PY" "$ROOT/tools/report.py" "$TMP/partial" >/dev/null || fail "report.py failed on a partial run"
 check_pngs "$TMP/partial/figures"
 grep -q "| PSC b at peak σ1/σ3 | 0.396 | n/a | n/a |" "$TMP/partial/report.md" || fail "partial run: PSC b not n/a"

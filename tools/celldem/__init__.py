@@ -1,0 +1,19 @@
+"""celldem's Python tools: everything the entry scripts in tools/ and crosscheck/ share.
+
+Modules, from the bottom up:
+  tables    Markdown tables and the formatting of numbers in them
+  results   run directories: summary.json, <stage>/series.csv (columns by its header), series.columns.json
+  metrics   curve helpers on series columns (interpolation, binned differences, maxima)
+  mirror    summary.json's per-test quantities for a series without one (LAMMPS/LIGGGHTS): the one copy
+  binary    the celldem binary: `celldem plan DECK --json`
+  decks     decks as data: load, edit, write with a generic JSON layout
+  plotting  matplotlib without a display, thinning long curves, axis units from series.columns.json
+  figures, report                 tools/figures.py and tools/report.py
+  study_scene, study_runs, study_analysis, study_report   tools/study.py
+  crosscheck                      crosscheck/run_crosscheck.py
+  bench, failure_surface          tools/plot_bench.py and tools/failure_surface.py
+
+What celldem computes (steps, strain per step, masses, the critical time step, the inertial number of a deck;
+the peak, its plateau and the end values of a test) is read from `celldem plan --json` and summary.json,
+never derived again here; mirror.py is the one exception, for series that come from other codes.
+"""

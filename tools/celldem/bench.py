@@ -1,0 +1,54 @@
+"""The scaling table and plot of `celldem bench --scaling` (tools/plot_bench.py): DIR/bench.json ->
+DIR/scaling.md and DIR/scaling.png."""
+
+import json
+from pathlib import Path
+
+from . import plotting
+from .tables import md_table
+
+
+def scaling_markdown(bench):
+    rows = bench.get("scaling", [])
+    lines = [md_table(("particles", "threads", "steps", "particle-steps/s", "bytes/particle"),
+                      [(r["particles"], r["threads"], r["steps"], f"{r['particle_steps_per_s']:.3g}",
+                        f"{r['bytes_per_particle']:.0f}") for r in rows], align="rrrrr")]
+    medians = bench.get("median_particle_steps_per_s", {})
+    lines += ["", md_table(("run", "median particle-steps/s"), [(k, f"{v:.3g}") for k, v in sorted(medians.items())],
+                           align="lr")]
+    if "ratio" in bench:
+        lines += ["", f"ratio (celldem, most threads / LAMMPS, most ranks): {bench['ratio']:.2f}"]
+    if bench.get("step_seconds"):
+        lines += ["", f"one series row costs {bench['row_seconds']:.3g} s = "
+                      f"{bench['row_seconds'] / bench['step_seconds']:.2f} steps"]
+    return "\n".join(lines) + "\n"
+
+
+def scaling_plot(bench, path):
+    rows = bench.get("scaling", [])
+    medians = bench.get("median_particle_steps_per_s", {})
+    fig, ax = plotting.pyplot().subplots(figsize=(6, 4))
+    for threads in sorted({r["threads"] for r in rows}):
+        pts = sorted((r["particles"], r["particle_steps_per_s"]) for r in rows if r["threads"] == threads)
+        ax.plot([p for p, _ in pts], [v / 1e6 for _, v in pts], "o-", label=f"celldem, {threads} thread(s)")
+    for name, value in sorted(medians.items()):
+        if name.startswith("lammps"):
+            ax.axhline(value / 1e6, ls="--", color="grey")
+            ax.annotate(name.replace("lammps-np", "LAMMPS, ranks "), (bench["particles"], value / 1e6),
+                        textcoords="offset points", xytext=(4, 4), fontsize=8)
+    ax.set_xscale("log")
+    ax.set_xlabel("particles")
+    ax.set_ylabel("throughput [million particle-steps/s]")
+    ax.set_title("Shear-phase throughput (TTC, mu = 0.5)")
+    ax.grid(True, which="both", alpha=0.3)
+    if rows:
+        ax.legend()
+    return plotting.save(fig, path)
+
+
+def write_scaling(folder):
+    """Reads folder/bench.json, writes scaling.md and scaling.png beside it; returns their paths."""
+    folder = Path(folder)
+    bench = json.loads((folder / "bench.json").read_text())
+    (folder / "scaling.md").write_text(scaling_markdown(bench))
+    return folder / "scaling.md", scaling_plot(bench, folder / "scaling.png")

@@ -1,0 +1,79 @@
+"""The celldem binary, for what a deck implies: `celldem plan DECK --json` (a test's steps, strain per step and
+rows, the particle types' masses and damping, the critical time step, the inertial number). The tools ask it
+instead of deriving these again.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BUILT = os.path.join(REPO, "build", "celldem")
+
+
+class BinaryError(RuntimeError):
+    """The binary is missing or refused the deck; the message says which and why."""
+
+
+def find(path=None):
+    """The binary to use: `path` if given, else $CELLDEM, else build/celldem, else celldem on PATH."""
+    if path:
+        return os.path.abspath(path)
+    if os.environ.get("CELLDEM"):
+        return os.path.abspath(os.environ["CELLDEM"])
+    if os.access(BUILT, os.X_OK):
+        return BUILT
+    return shutil.which("celldem") or BUILT
+
+
+def run_json(args, binary=None):
+    """Runs `celldem ARGS` and parses its JSON output."""
+    exe = find(binary)
+    if not os.access(exe, os.X_OK):
+        raise BinaryError(f"no celldem binary at {exe} (build it with tools/build.sh, or give --celldem)")
+    r = subprocess.run([exe] + list(args), capture_output=True, text=True)
+    if r.returncode != 0:
+        raise BinaryError(f"celldem {' '.join(args)} failed (exit {r.returncode}): {r.stderr.strip()}")
+    try:
+        return json.loads(r.stdout)
+    except json.JSONDecodeError as err:
+        raise BinaryError(f"celldem {' '.join(args)}: output is not JSON ({err})") from err
+
+
+def plan(deck_path, binary=None):
+    """`celldem plan DECK --json` as a dict (see README: tests[] with steps, strain_per_step, rows, end_axis,
+    inertial_number; particle_types[] with mass; critical_time_step; time_step_ratio; sample.count)."""
+    return run_json(["plan", str(deck_path), "--json"], binary)
+
+
+def plan_deck(deck, directory, binary=None):
+    """The plan of a deck given as a dict, as if it were a file in `directory` (relative paths in it, such as
+    initial_state, resolve from there; the state file need not exist yet). directory None: the system's
+    temporary folder, where only the resolved paths differ."""
+    if directory is not None:
+        os.makedirs(directory, exist_ok=True)
+    fd, path = tempfile.mkstemp(prefix=".plan-", suffix=".json", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(deck, f)
+        return plan(path, binary)
+    finally:
+        os.remove(path)
+
+
+def test_plan(deck_plan, name):
+    """The entry of test `name` in a plan (KeyError when the deck has no such test)."""
+    for test in deck_plan["tests"]:
+        if test["name"] == name:
+            return test
+    raise KeyError(f"no test {name!r} in the plan of {deck_plan.get('deck')}")
+
+
+def solid_volume(deck_plan):
+    """[m^3] the spheres' volume: count × the mean over the equally likely sizes of mass / density."""
+    types = deck_plan["particle_types"]
+    sample = deck_plan["sample"]
+    return sample["count"] * sum(t["mass"] for t in types) / len(types) / sample["density"]
+

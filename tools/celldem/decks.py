@@ -1,0 +1,100 @@
+"""Decks as data: load a deck, change values in the dict, write it back with a generic, readable JSON layout.
+
+Nothing here knows the deck's keys; what a deck implies comes from `celldem plan` (binary.py).
+"""
+
+import copy
+import json
+import os
+
+from .binary import REPO
+
+PAPER_DECK = os.path.join(REPO, "inputs", "paper.json")
+LINE_WIDTH = 110
+
+
+def load(path=PAPER_DECK):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def edited(deck, changes):
+    """A deep copy of `deck` with `changes` applied: {"time_step": 3e-6, "servo.max_strain_increment": 1e-5};
+    a value None removes the key. Missing objects on a path are created."""
+    out = copy.deepcopy(deck)
+    for path, value in changes.items():
+        *parents, last = path.split(".")
+        node = out
+        for key in parents:
+            node = node.setdefault(key, {})
+        if value is None:
+            node.pop(last, None)
+        else:
+            node[last] = copy.deepcopy(value)
+    return out
+
+
+def insert_after(mapping, after, key, value):
+    """A copy of a dict with key: value placed right after `after` (or replaced in place when present)."""
+    if key in mapping:
+        return {k: (value if k == key else v) for k, v in mapping.items()}
+    out = {}
+    for k, v in mapping.items():
+        out[k] = v
+        if k == after:
+            out[key] = value
+    out.setdefault(key, value)
+    return out
+
+
+def json_number(x):
+    """A float as the decks in inputs/ write it: 1.0e6, 2.0e-7, 0.05 (12 significant digits at most)."""
+    if x == 0:
+        return "0.0"
+    if 1e-2 <= abs(x) < 1e4:
+        text = f"{x:.12g}"
+        return text if "." in text else text + ".0"
+    mantissa, exponent = f"{x:.11e}".split("e")
+    mantissa = mantissa.rstrip("0")
+    return f"{mantissa}0e{int(exponent)}" if mantissa.endswith(".") else f"{mantissa}e{int(exponent)}"
+
+
+def _inline(v):
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{json.dumps(k)}: {_inline(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_inline(x) for x in v) + "]"
+    if isinstance(v, float):
+        return json_number(v)
+    return json.dumps(v, ensure_ascii=False)
+
+
+def _layout(v, indent, used, width):
+    """v at `indent`, `used` columns of its line already taken: on one line when it fits (with a trailing
+    comma), else one member per line."""
+    one = _inline(v)
+    if not isinstance(v, (dict, list)) or not v or used + len(one) + 1 <= width:
+        return one
+    pad = " " * (indent + 2)
+    if isinstance(v, dict):
+        items = [f"{pad}{json.dumps(k)}: " + _layout(x, indent + 2, len(pad) + len(json.dumps(k)) + 2, width)
+                 for k, x in v.items()]
+        open_, close = "{", "}"
+    else:
+        items = [pad + _layout(x, indent + 2, len(pad), width) for x in v]
+        open_, close = "[", "]"
+    return open_ + "\n" + ",\n".join(items) + "\n" + " " * indent + close
+
+
+def format_json(value, width=LINE_WIDTH):
+    """JSON text for people: each object or array on one line when it fits in `width` columns, else one
+    member per line, nested alike; floats as json_number writes them."""
+    return _layout(value, 0, 0, width) + "\n"
+
+
+def write(path, deck):
+    """Writes a deck with format_json (under a temporary name, then renamed)."""
+    tmp = path + ".tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(format_json(deck))
+    os.replace(tmp, path)

@@ -1,0 +1,408 @@
+"""RUN_DIR/report.md (tools/report.py): the run's results beside the paper's, its settings and timings, its
+figures and the speed–accuracy study when one lies beside it.
+
+The peak of s11/s33, ε1 and b there, the final and end-window values come from summary.json (celldem computes
+them); maxima, start values, interpolated values and the comparisons of curves are measured on series.csv.
+"""
+
+import math
+import os
+
+import numpy as np
+
+from . import figures, metrics
+from .results import read_json
+from .tables import fmt, md_table, scaled, yes_no
+
+PERCENT = 100.0
+
+# What the paper reports (sections 4, 6.2, 7, 8).
+PAPER_VOID_RATIO = 0.57
+PAPER_Z = 5.94
+PAPER_B_AT_PEAK = 0.396
+PAPER_B_AT_10 = 0.314
+
+# Thresholds for calling the run's result a qualitative match.
+PREPARED_REL_TOL = 0.05     # prepared e and Z within 5 % of the paper: a comparably dense packing
+B_ABS_TOL = 0.10            # b within 0.1 of the paper: the same intermediate-principal-stress regime
+ALIKE_THRESHOLD = 0.10      # two curves "alike" when RMS difference / their range < 10 %
+UNIQUE_THRESHOLD = 0.10     # σ1/σ3(Hs11/Hs33) "one curve" when RMS relative difference < 10 %
+ZERO_B_TOL = 0.02           # TTC b "stays 0" when max |b| < 0.02
+ZERO_STRAIN_TOL = 1e-4      # PSC ε2 "stays 0" when max |ε2| < 0.01 %
+TRACKS_MIN_R = 0.8          # one curve "tracks" another when their Pearson correlation over the test ≥ 0.8
+CURVE_BINS = 100            # ε1 bins for comparing curves of two tests
+MACRO_MICRO_BINS = 20       # Hs11/Hs33 bins for comparing the macro-micro relations
+B_STRAIN = 0.10             # the paper's second b value is at ε1 = 10 %
+MACRO_MICRO_E1_MAX = 0.01   # the paper's Figure 12 stops at ε1 = 1 %
+B_DEFINED_MIN_E1 = 0.001    # b = (σ2-σ3)/(σ1-σ3) is 0/0-noisy until σ1 has moved away from σ3
+
+
+def answer(flag, detail):
+    """The run's yes/no with the numbers behind it; just 'n/a' when the run cannot say."""
+    return "n/a" if flag is None else f"{'yes' if flag else 'no'} ({detail})"
+
+
+def verdict(run_answer, paper_answer):
+    """'yes' when the run says what the paper says, 'n/a' when the run cannot say."""
+    return "n/a" if run_answer is None else ("yes" if run_answer == paper_answer else "no")
+
+
+def within(value, target, tol):
+    return None if value is None or not math.isfinite(value) else abs(value - target) <= tol
+
+
+NEEDS_BOTH = ("n/a", "n/a", "needs tests named ttc and psc")
+
+
+def both_tests(run):
+    return run.test("ttc") is not None and run.test("psc") is not None
+
+
+# --- the first table: the paper's findings beside the run's ------------------------------------------------
+
+def prepared_rows(run):
+    prepared = run.summary.get("prepared")
+    source = "summary.json prepared"
+    if isinstance(prepared, dict):
+        e, z = prepared.get("void_ratio"), prepared.get("Z")
+    else:
+        # A deck that starts from a saved state has no preparation stage; its first output row is the start.
+        e = z = None
+        source = "n/a (no prepared stage)"
+        for test in run.test_names:
+            e0, z0 = run.column(test, "void_ratio"), run.column(test, "Z")
+            if e0 is not None and z0 is not None and e0.size:
+                e, z, source = float(e0[0]), float(z0[0]), f"first row of {test}/series.csv"
+                break
+    return [
+        ("Prepared void ratio e", fmt(PAPER_VOID_RATIO), fmt(e),
+         yes_no(within(e, PAPER_VOID_RATIO, PREPARED_REL_TOL * PAPER_VOID_RATIO)),
+         f"{source}; match: within {PREPARED_REL_TOL:.0%} of the paper"),
+        ("Prepared coordination number Z", fmt(PAPER_Z, 2), fmt(z, 2),
+         yes_no(within(z, PAPER_Z, PREPARED_REL_TOL * PAPER_Z)),
+         f"{source}; match: within {PREPARED_REL_TOL:.0%} of the paper"),
+    ]
+
+
+def b_rows(run):
+    if run.test("psc") is None:
+        na = ("n/a", "no test named psc")
+        return [("PSC b at peak σ1/σ3", fmt(PAPER_B_AT_PEAK), "n/a", *na),
+                ("PSC b at ε1 = 10 %", fmt(PAPER_B_AT_10), "n/a", *na),
+                ("PSC b falls after the peak", "yes", "n/a", *na)]
+    e1 = run.column("psc", "e1")
+    b_peak = run.quantity("psc", "b_at_peak")
+    b_10 = metrics.value_at(e1, run.column("psc", "b"), B_STRAIN)
+    falls = None if b_peak is None or b_10 is None else b_10 < b_peak
+    end = "n/a" if e1 is None or not e1.size else f"{np.nanmax(e1) * PERCENT:.2f} %"
+    return [
+        ("PSC b at peak σ1/σ3", fmt(PAPER_B_AT_PEAK), fmt(b_peak), yes_no(within(b_peak, PAPER_B_AT_PEAK, B_ABS_TOL)),
+         f"summary.json b_at_peak (b on the row of max σ1/σ3); match: within {B_ABS_TOL} of the paper"),
+        ("PSC b at ε1 = 10 %", fmt(PAPER_B_AT_10), fmt(b_10), yes_no(within(b_10, PAPER_B_AT_10, B_ABS_TOL)),
+         f"b interpolated at ε1 = 10 % (run ends at ε1 = {end}); match: within {B_ABS_TOL} of the paper"),
+        ("PSC b falls after the peak", "yes", answer(falls, f"{fmt(b_peak)} → {fmt(b_10)}"),
+         verdict(falls, True), "b at ε1 = 10 % < b at peak"),
+    ]
+
+
+def peak_rows(run):
+    if not both_tests(run):
+        return [("PSC peak σ1/σ3 exceeds TTC's", "yes", *NEEDS_BOTH)]
+    peak_ttc, peak_psc = run.quantity("ttc", "peak_ratio13"), run.quantity("psc", "peak_ratio13")
+    exceeds = None if peak_ttc is None or peak_psc is None else peak_psc > peak_ttc
+    return [("PSC peak σ1/σ3 exceeds TTC's", "yes",
+             answer(exceeds, f"psc {fmt(peak_psc)}, ttc {fmt(peak_ttc)}"), verdict(exceeds, True),
+             "summary.json peak_ratio13 (max σ1/σ3) of each test")]
+
+
+def control_rows(run):
+    """The loading paths themselves: σ2 = σ3 in TTC (b = 0) and ε2 = 0 in PSC."""
+    rows = []
+    b, e1 = run.column("ttc", "b"), run.column("ttc", "e1")
+    if b is not None and e1 is not None:
+        keep = e1 >= B_DEFINED_MIN_E1
+        b_max = metrics.max_of(np.abs(b[keep])) if np.any(keep) else None
+    else:
+        b_max = None
+    ok = None if b_max is None else b_max < ZERO_B_TOL
+    rows.append(("TTC b stays 0", "yes", answer(ok, f"max |b| = {fmt(b_max)}"), verdict(ok, True),
+                 f"max |b| for ε1 ≥ {B_DEFINED_MIN_E1 * PERCENT:g} % below {ZERO_B_TOL}"))
+    e2 = run.column("psc", "e2")
+    e2_max = metrics.max_of(np.abs(e2)) if e2 is not None else None
+    ok = None if e2_max is None else e2_max < ZERO_STRAIN_TOL
+    rows.append(("PSC ε2 stays 0", "yes", answer(ok, f"max |ε2| = {fmt(e2_max)}"), verdict(ok, True),
+                 f"max |ε2| below {ZERO_STRAIN_TOL * PERCENT:g} %"))
+    return rows
+
+
+def alike_row(run, label, name):
+    if not both_tests(run):
+        return (label, "yes", *NEEDS_BOTH)
+    diff, used = metrics.curve_difference(run.column("ttc", "e1"), run.column("ttc", name),
+                                          run.column("psc", "e1"), run.column("psc", name), bins=CURVE_BINS)
+    alike = None if diff is None else diff < ALIKE_THRESHOLD
+    return (label, "yes", answer(alike, f"{fmt(scaled(diff, PERCENT), 1)} %"),
+            verdict(alike, True),
+            f"RMS difference of the two curves / their range, means in {CURVE_BINS} ε1 bins over the common ε1 "
+            f"range ({used} used); alike below {ALIKE_THRESHOLD:.0%}")
+
+
+def fabric_row(run, label, name):
+    if not both_tests(run):
+        return (label, "yes", *NEEDS_BOTH)
+    m_ttc, m_psc = metrics.max_of(run.column("ttc", name)), metrics.max_of(run.column("psc", name))
+    more = None if m_ttc is None or m_psc is None else m_psc > m_ttc
+    return (label, "yes", answer(more, f"max psc {fmt(m_psc)}, ttc {fmt(m_ttc)}"), verdict(more, True),
+            "max over the test")
+
+
+def macro_micro_relation(run, test):
+    e1, hs, ratio = (run.column(test, c) for c in ("e1", "Hs11_Hs33", "ratio13"))
+    if e1 is None or hs is None or ratio is None:
+        return None, None
+    keep = e1 <= MACRO_MICRO_E1_MAX * (1 + 1e-9)
+    return hs[keep], ratio[keep]
+
+
+def macro_micro_row(run):
+    label = "σ1/σ3 vs Hs11/Hs33 (ε1 ≤ 1 %) is one curve for both tests"
+    if not both_tests(run):
+        return (label, "yes", *NEEDS_BOTH)
+    hs_t, r_t = macro_micro_relation(run, "ttc")
+    hs_p, r_p = macro_micro_relation(run, "psc")
+    diff, used = metrics.curve_difference(hs_t, r_t, hs_p, r_p, bins=MACRO_MICRO_BINS, relative_to="value")
+    unique = None if diff is None else diff < UNIQUE_THRESHOLD
+    return (label, "yes", answer(unique, f"{fmt(scaled(diff, PERCENT), 1)} %"),
+            verdict(unique, True),
+            f"mean σ1/σ3 of each test in {MACRO_MICRO_BINS} Hs11/Hs33 bins over the range both cover ({used} "
+            f"used); RMS of the difference / mean value; one curve below {UNIQUE_THRESHOLD:.0%}")
+
+
+def peak_order_row(run):
+    """Section 7.3: σ1/σ3 peaks at small strain, H11/H33 (all contacts) at large strain."""
+    label = "H11/H33 peaks at a larger ε1 than σ1/σ3"
+    parts, answers = [], []
+    for test in run.test_names:
+        e1_ratio = run.quantity(test, "e1_at_peak")
+        e1_fabric = metrics.x_at_max(run.column(test, "e1"), run.column(test, "H11_H33"))
+        if e1_ratio is None or e1_fabric is None:
+            continue
+        answers.append(e1_fabric > e1_ratio)
+        parts.append(f"{test}: {e1_fabric * PERCENT:.1f} % vs {e1_ratio * PERCENT:.1f} %")
+    later = all(answers) if answers else None
+    return (label, "yes", answer(later, "; ".join(parts)), verdict(later, True),
+            "ε1 at max H11/H33 vs summary.json e1_at_peak (ε1 at max σ1/σ3), every test")
+
+
+def tracks_row(run, label, name, tests):
+    rs = []
+    for test in tests:
+        e1, y, ratio = run.column(test, "e1"), run.column(test, name), run.column(test, "ratio13")
+        if e1 is None or y is None or ratio is None:
+            continue
+        keep = e1 >= B_DEFINED_MIN_E1
+        r = metrics.pearson(y[keep], ratio[keep])
+        if r is not None:
+            rs.append((test, r))
+    tracks = min(r for _, r in rs) >= TRACKS_MIN_R if rs else None
+    detail = ", ".join(f"{t} r = {r:.2f}" for t, r in rs)
+    return (label, "yes", answer(tracks, detail), verdict(tracks, True),
+            f"Pearson correlation with σ1/σ3 over ε1 ≥ {B_DEFINED_MIN_E1 * PERCENT:g} %; tracks when r ≥ "
+            f"{TRACKS_MIN_R}")
+
+
+def paper_table(run):
+    rows = prepared_rows(run) + b_rows(run) + peak_rows(run)
+    rows += [alike_row(run, "Z evolves alike in TTC and PSC", "Z"),
+             alike_row(run, "Sliding fraction evolves alike in TTC and PSC", "sliding_fraction"),
+             fabric_row(run, "H11/H33 grows more in PSC", "H11_H33"),
+             macro_micro_row(run)]
+    # Further findings of the paper's sections 6-9.
+    rows += control_rows(run)
+    rows += [alike_row(run, "DI evolves alike in TTC and PSC", "DI"),
+             fabric_row(run, "Hs11/Hs33 grows more in PSC", "Hs11_Hs33"),
+             fabric_row(run, "Hw11/Hw33 grows more in PSC", "Hw11_Hw33"),
+             peak_order_row(run),
+             tracks_row(run, "Hs11/Hs33 tracks σ1/σ3 over ε1", "Hs11_Hs33", [t for t in ("ttc", "psc")
+                                                                            if run.test(t) is not None]),
+             tracks_row(run, "PSC b tracks σ1/σ3 over ε1", "b", ["psc"] if run.test("psc") is not None else [])]
+    return md_table(("Quantity", "Paper", "This run", "Matches qualitatively", "How computed"), rows)
+
+
+# --- the other sections ------------------------------------------------------------------------------------
+
+def setting_text(value):
+    if isinstance(value, float):
+        return f"{value:g}"
+    return "n/a" if value is None else str(value)
+
+
+def settings_section(run):
+    settings = run.summary.get("settings") or {}
+    out = [f"celldem version: {run.summary.get('celldem_version', 'n/a')}; deck: `{run.summary.get('deck', 'n/a')}`",
+           ""]
+    if settings:
+        out.append(md_table(("Setting", "Value"), [(k, setting_text(v)) for k, v in settings.items()]))
+    else:
+        out.append("No settings in summary.json.")
+    return "\n".join(out)
+
+
+def timing_section(run):
+    rows = []
+    total = 0.0
+    stages = []
+    if isinstance(run.summary.get("prepared"), dict):
+        stages.append(("prepare", run.summary["prepared"]))
+    stages += [(name, info) for name, info in (run.summary.get("tests") or {}).items() if isinstance(info, dict)]
+    for name, info in stages:
+        wall = info.get("wall_s")
+        if isinstance(wall, (int, float)):
+            total += wall
+        rows.append((name, fmt(info.get("steps")), fmt(wall, 1), fmt(info.get("particle_steps_per_s"), 3)))
+    if not rows:
+        return "No timings in summary.json."
+    rows.append(("total", "", fmt(total, 1), ""))
+    return md_table(("Stage", "Steps", "Wall time (s)", "Particle-steps per second"), rows)
+
+
+def phi_degrees(sin_phi):
+    return None if sin_phi is None or not -1 <= sin_phi <= 1 else math.degrees(math.asin(sin_phi))
+
+
+def test_values(run, test):
+    """(label, formatted value) pairs describing one test: summary.json's quantities, then the series'."""
+    series = run.test(test)
+    q = run.quantity
+
+    def first_last(name):
+        return metrics.first_last(run.column(test, name))
+
+    lo, hi = (run.test_summary(test).get("e1_peak_range") or [None, None])[:2]
+    e_start, e_end = first_last("void_ratio")
+    return [
+        ("rows in series.csv", fmt(len(next(iter(series.values()))) if series else None)),
+        ("peak σ1/σ3 (–)", fmt(q(test, "peak_ratio13"))),
+        ("ε1 at peak σ1/σ3 (%)", fmt(scaled(q(test, "e1_at_peak"), PERCENT))),
+        ("ε1 range within 1 % of the peak, its centre (%)",
+         f"{fmt(scaled(lo, PERCENT))}–{fmt(scaled(hi, PERCENT))}, {fmt(scaled(q(test, 'e1_at_peak_centre'), PERCENT))}"),
+        ("b at peak σ1/σ3 (–)", fmt(q(test, "b_at_peak"))),
+        ("mobilised friction angle at peak, asin((σ1−σ3)/(σ1+σ3)) (°)",
+         fmt(phi_degrees(q(test, "peak_state.sin_phi")), 1)),
+        ("p at peak (kPa)", fmt(scaled(q(test, "peak_state.p"), 1e-3), 1)),
+        ("q at peak (kPa)", fmt(scaled(q(test, "peak_state.q"), 1e-3), 1)),
+        ("final ε1 (%)", fmt(scaled(q(test, "final_e1"), PERCENT))),
+        ("final σ1/σ3 (–)", fmt(first_last("ratio13")[1])),
+        ("final b (–)", fmt(q(test, "b_final"))),
+        ("max contraction, max εv (%)", fmt(scaled(metrics.max_of(run.column(test, "ev")), PERCENT))),
+        ("final εv (%)", fmt(scaled(q(test, "ev_final"), PERCENT))),
+        ("εv, Z over the end window (%, –)",
+         f"{fmt(scaled(q(test, 'end_window.ev'), PERCENT))}, {fmt(q(test, 'end_window.Z'), 2)}"),
+        ("max DI (–)", fmt(metrics.max_of(run.column(test, "DI")))),
+        ("void ratio at start / end (–)", f"{fmt(e_start)} / {fmt(e_end)}"),
+        ("Z at start / end (–)", f"{fmt(first_last('Z')[0], 2)} / {fmt(q(test, 'Z_final'), 2)}"),
+        ("max sliding fraction (%)", fmt(scaled(metrics.max_of(run.column(test, "sliding_fraction")), PERCENT), 1)),
+        ("max H11/H33 (–)", fmt(metrics.max_of(run.column(test, "H11_H33")))),
+        ("max Hs11/Hs33 (–)", fmt(metrics.max_of(run.column(test, "Hs11_Hs33")))),
+        ("max Hw11/Hw33 (–)", fmt(metrics.max_of(run.column(test, "Hw11_Hw33")))),
+    ]
+
+
+def peaks_section(run):
+    if not run.test_names:
+        return "No series.csv found."
+    columns = [test_values(run, t) for t in run.test_names]
+    rows = [(label, *(values[k][1] for values in columns)) for k, (label, _) in enumerate(columns[0])]
+    return md_table(("Quantity", *run.test_names), rows)
+
+
+def end_window_text(run):
+    widths = {run.quantity(t, "end_window.strain") for t in run.test_names} - {None}
+    width = f"{PERCENT * widths.pop():g} %" if len(widths) == 1 else "the last 0.5 %"
+    return f"the end window is {width} of the strain of the test's end axis"
+
+
+def figures_section(fig_dir_name="figures"):
+    out = []
+    for stem, caption, _ in figures.FIGURES:
+        out += [f"### {caption}", "", f"![{caption}]({fig_dir_name}/{stem}.png)", ""]
+    out += ["### Overview", "", f"![All panels]({fig_dir_name}/{figures.OVERVIEW}.png)", ""]
+    return "\n".join(out)
+
+
+def study_section(run):
+    """The speed–accuracy study (tools/study.py) when its results lie beside the run folder (results/study), or None.
+
+    Linked rather than embedded: the study's figures live in its own folder."""
+    study_dir = os.path.join(os.path.dirname(os.path.abspath(run.directory)), "study")
+    md = os.path.join(study_dir, "study.md")
+    if not os.path.isfile(md):
+        return None
+    rel = os.path.relpath(study_dir, os.path.abspath(run.directory))
+    out = [f"Speed against accuracy, the stability map and the modelling choices on a reduced scene: "
+           f"[{rel}/study.md]({rel}/study.md) (charts: [error against run time]({rel}/figures/pareto.png), "
+           f"[stability map]({rel}/figures/stability.png)).", ""]
+    study = read_json(os.path.join(study_dir, "study.json"))
+    if not isinstance(study, dict):
+        return "\n".join(out)
+    rows = []
+    for name, p in (study.get("presets") or {}).items():
+        rows.append((f"inputs/{name}.json", p.get("rule", "n/a"), p.get("preparation", "n/a"), fmt(p.get("time_step")),
+                     fmt(p.get("strain_increment")), fmt(p.get("inertial_number")), fmt(p.get("score_stress"), 2),
+                     fmt(p.get("score_volume"), 2), f"{fmt(p.get('test_steps_speedup'), 1)}×"))
+    if rows:
+        out += ["Presets (errors on the reduced scene as multiples of the seed-to-seed noise floor; speed-up of the "
+                "tests over inputs/paper.json):", "",
+                md_table(("deck", "rule", "preparation", "time_step (s)", "Δε1 per step", "inertial number",
+                          "stress-ratio errors / floor", "εv, Z errors / floor", "speed-up"), rows)]
+    return "\n".join(out)
+
+
+def build_report(run):
+    name = os.path.basename(os.path.abspath(run.directory))
+    tests = ", ".join(run.test_names) or "none"
+    study = study_section(run)
+    return "\n".join([
+        f"# celldem run report: {name}",
+        "",
+        f"Tests: {tests}. Strains are compression positive and relative to each test's start.",
+        "",
+        "## Comparison with the paper",
+        "",
+        "Paper: *A comparison between true triaxial and plane strain compression by 3D DEM*. The comparisons "
+        "between tests use the tests named `ttc` and `psc`. \"Matches qualitatively\" says whether the run "
+        "shows what the paper reports, by the criterion in the last column.",
+        "",
+        paper_table(run),
+        "",
+        "## Run settings",
+        "",
+        settings_section(run),
+        "",
+        "## Wall times",
+        "",
+        timing_section(run),
+        "",
+        "## Per-test values",
+        "",
+        "The peak of σ1/σ3, ε1, b, p, q and the friction angle there, the final values and the end-window means "
+        f"are celldem's (summary.json; {end_window_text(run)}); maxima, start values and the final σ1/σ3 are "
+        "read from each series.csv.",
+        "",
+        peaks_section(run),
+        "",
+        "## Figures",
+        "",
+        figures_section(),
+    ] + ([] if study is None else ["## Speed–accuracy study", "", study, ""]))
+
+
+def write_report(run, refresh_figures=False):
+    """Draws the figures when any is missing (or always with refresh_figures), writes report.md; returns its path."""
+    fig_dir = os.path.join(run.directory, "figures")
+    if refresh_figures or figures.missing(fig_dir):
+        figures.write_figures(run, fig_dir)
+    path = os.path.join(run.directory, "report.md")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(build_report(run))
+    return path

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# The README's pictures, copied (and scaled down) into docs/figures/ from fresh runs. Produce the runs first:
+#   bash tools/paper.sh                                              -> results/paper/figures/overview.png
+#   build/celldem run inputs/failure_surface.json --out results/failure_surface
+#   /usr/bin/python3 tools/failure_surface.py results/failure_surface --with results/paper
+#   /usr/bin/python3 tools/study.py run && /usr/bin/python3 tools/study.py analyse   (hours: optional)
+#   build/celldem bench --scaling --out results/bench-scaling && /usr/bin/python3 tools/plot_bench.py results/bench-scaling
+#   crosscheck/run_crosscheck.py ... (crosscheck/README.md; its reports are kept in crosscheck/reports/)
+# then: bash tools/docs_figures.sh. A picture whose run is missing is left as it is (and named).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=docs/figures
+mkdir -p "$out"
+copy() {  # source destination-name
+  if [[ -f $1 ]]; then
+    /usr/bin/python3 - "$1" "$out/$2" <<'PY'
+import sys
+from PIL import Image  # comes with Debian's matplotlib
+img = Image.open(sys.argv[1])
+img.thumbnail((900, 900))  # small PNGs: at most 900 pixels a side
+img.save(sys.argv[2], optimize=True)
+PY
+    echo "docs/figures/$2 <- $1"
+  else
+    echo "docs/figures/$2: $1 is missing (run it first; the old picture, if any, is kept)"
+  fi
+}
+copy results/paper/figures/overview.png paper_overview.png
+copy results/failure_surface/figures/failure_surface_phi_b.png failure_surface_phi_b.png
+copy results/failure_surface/figures/failure_surface_pi_plane.png failure_surface_pi_plane.png
+copy results/study/figures/pareto.png study_pareto.png
+copy results/study/figures/stability.png study_stability.png
+copy crosscheck/reports/paper-lammps/ttc.png crosscheck_lammps_ttc.png
+copy crosscheck/reports/paper-lammps/psc.png crosscheck_lammps_psc.png
+copy results/bench-scaling/scaling.png bench_scaling.png
