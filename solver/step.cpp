@@ -24,7 +24,7 @@ bool advance_one_step(const Model& model, const Loading& loading, State& state, 
   return rebuild;
 }
 
-void evaluate_forces(const Model& model, double friction, State& state) {
+void evaluate_forces(const Model& model, const Friction& friction, State& state) {
   rebuild_pairs(model, state);
   compute_contact_forces(model, friction, state, /*advance_slip=*/false);
   gather_forces(state);

@@ -14,6 +14,6 @@ bool advance_one_step(const Model& model, const Loading& loading, State& state, 
 
 // The forces of a state as it stands, nothing advanced (a stage's first row): a fresh neighbour list, the
 // contact forces with this friction and no slip added, the net force and moment of every particle.
-void evaluate_forces(const Model& model, double friction, State& state);
+void evaluate_forces(const Model& model, const Friction& friction, State& state);
 
 }  // namespace celldem

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The README's pictures, copied (and scaled down) into docs/figures/ from fresh runs. Produce the runs first:
+# The README's pictures, copied (and scaled down) into docs/figures/ from fresh runs. The small deck
+# (tests/run/small_run.json, 150 spheres: seconds) is run here into results/small/; produce the others first:
 #   bash tools/paper.sh                                              -> results/paper/figures/overview.png
 #   build/celldem run inputs/failure_surface.json --out results/failure_surface
 #   /usr/bin/python3 tools/failure_surface.py results/failure_surface --with results/paper
@@ -16,15 +17,22 @@ copy() {  # source destination-name
     /usr/bin/python3 - "$1" "$out/$2" <<'PY'
 import sys
 from PIL import Image  # comes with Debian's matplotlib
-img = Image.open(sys.argv[1])
-img.thumbnail((900, 900))  # small PNGs: at most 900 pixels a side
-img.save(sys.argv[2], optimize=True)
+img = Image.open(sys.argv[1]).convert("RGB")
+img.thumbnail((900, 900))  # small PNGs: at most 900 pixels a side, 256 colours
+img.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(sys.argv[2], optimize=True)
 PY
     echo "docs/figures/$2 <- $1"
   else
     echo "docs/figures/$2: $1 is missing (run it first; the old picture, if any, is kept)"
   fi
 }
+if [[ -x build/celldem ]]; then
+  build/celldem run tests/run/small_run.json --out results/small --force --quiet --threads 1
+  /usr/bin/python3 tools/report.py results/small --refresh-figures >/dev/null
+fi
+copy results/small/figures/overview.png small_overview.png
+copy results/small/figures/force_chains.png small_force_chains.png
+copy results/small/figures/prepare.png small_prepare.png
 copy results/paper/figures/overview.png paper_overview.png
 copy results/failure_surface/figures/failure_surface_phi_b.png failure_surface_phi_b.png
 copy results/failure_surface/figures/failure_surface_pi_plane.png failure_surface_pi_plane.png

@@ -84,7 +84,7 @@ Command add_bench_command(CLI::App& app) {
     std::vector<std::string> extra_states;
     std::int64_t steps = 20000, warmup = 1000;
     int repeats = 3;
-    bool vs_lammps = false, scaling = false, force = false;
+    bool vs_lammps = false, scaling = false, laws = false, force = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("bench", "Time the shear phase of a test on a prepared sample (particle-steps/s)");
@@ -102,6 +102,8 @@ Command add_bench_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--extra-state", a->extra_states, "Other prepared samples to add to the scaling table (e.g. a "
                   "1000-sphere one)")->check(CLI::ExistingFile);
+  cmd->add_flag("--laws", a->laws, "Also time the scene with each contact law (hertz, mindlin, rolling, twisting) "
+                "against the deck's linear one, alternated, on the first of --threads");
   cmd->add_option("--out", a->out, "Folder for bench.json (and the LAMMPS scene)")->capture_default_str();
   cmd->add_flag("--force", a->force, "Overwrite an earlier bench.json in --out");
   return [cmd, a]() -> int {
@@ -162,6 +164,25 @@ Command add_bench_command(CLI::App& app) {
                 last.pairs_per_particle, last.contacts_per_particle, static_cast<long long>(last.rebuilds),
                 static_cast<long long>(a->steps));
 
+    if (a->laws) {
+      const auto variants = contact_law_variants(deck);
+      std::map<std::string, std::vector<double>> law_samples;
+      for (int r = 0; r < a->repeats; ++r)
+        for (const auto& [name, variant] : variants)  // alternated, so that every law sees the same load
+          law_samples[name].push_back(
+              time_shear(variant, variant.tests[static_cast<std::size_t>(test - deck.tests.data())], state,
+                         threads.front(), a->steps, a->warmup).particle_steps_per_second);
+      const double linear = median(law_samples["linear"]);
+      std::printf("contact laws (%d thread%s, medians; cost relative to linear):\n", threads.front(),
+                  threads.front() > 1 ? "s" : "");
+      for (const auto& [name, variant] : variants) {
+        const double pss = median(law_samples[name]);
+        report["laws"][name] = {{"particle_steps_per_s", pss}, {"cost_relative_to_linear", linear / pss},
+                                {"samples", law_samples[name]}};
+        std::printf("  %-32s %.4g particle-steps/s  cost %.2f x linear\n", name.c_str(), pss, linear / pss);
+        std::fflush(stdout);
+      }
+    }
     if (a->scaling) {
       std::printf("scaling (about %lld particle-steps per point):\n", static_cast<long long>(a->steps * n));
       std::vector<State> samples_to_time;

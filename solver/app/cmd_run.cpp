@@ -55,7 +55,7 @@ Command add_check_command(CLI::App& app) {
     const Deck deck = read_deck(*path);
     for (const std::string& w : preflight(deck)) std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
     std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s)\n", path->c_str(),
-                deck.sample.count, deck.tests.size(), critical_time_step(deck.sample, deck.contact.kn));
+                deck.sample.count, deck.tests.size(), critical_time_step(deck.sample, deck.contact));
     return 0;
   };
 }

@@ -72,11 +72,11 @@ Json plan_json(const Deck& deck) {
   for (double d : deck.sample.diameters) {
     if (std::find(seen.begin(), seen.end(), d) != seen.end()) continue;
     seen.push_back(d);
-    const BodyProperties b = body_properties(0.5 * d, deck.sample.density, deck.damping, deck.contact);
+    const BodyProperties b = body_properties(0.5 * d, deck.sample.density, deck.damping, reference_stiffness(deck.contact, deck.sample));
     types.push_back({{"diameter", d}, {"mass", b.mass}, {"inertia", b.inertia},
                      {"translational_drag", b.translational_drag}, {"rotational_drag", b.rotational_drag}});
   }
-  const double dt_crit = critical_time_step(deck.sample, deck.contact.kn);
+  const double dt_crit = critical_time_step(deck.sample, deck.contact);
   Json out = {{"deck", deck.source},
               {"time_step", deck.time_step},
               {"critical_time_step", dt_crit},

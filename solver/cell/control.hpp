@@ -28,7 +28,7 @@ namespace celldem {
 
 struct Loading {
   std::array<AxisControl, 3> axes;  // x1, x2, x3
-  double friction = 0.0;
+  Friction friction;  // sliding and rolling
 };
 
 // Starts a stage from the state as it stands: step counters and servo memory reset, strains and volume

@@ -1,6 +1,7 @@
 #include "contact/contact_forces.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -66,25 +67,37 @@ void gather_chunk(const Particles& p, const PairList& pl, Index q0, int m, Chunk
 // The law for every pair of the chunk, one SIMD lane each. tangential, force and torque_j are the chunk's
 // slices of the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
 // knows no store in the loop changes the parameters or the cell.
-template <Kinematics K, bool Diagonal>
+template <class Law, Kinematics K, bool Diagonal>
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
-                    double* __restrict tangential, double* __restrict force, double* __restrict torque_j,
-                    ChunkOut& __restrict o) {
+                    double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
+                    double* __restrict force, double* __restrict torque_j, ChunkOut& __restrict o) {
+  constexpr bool kRotational = Law::rolling != RollingModel::None || Law::twisting != TwistingModel::None;
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
     if constexpr (K == Kinematics::Affine) dv = dv + apply<Diagonal>(L, branch);  // images move apart with the cell
-    const Real3 xi{tangential[3 * k], tangential[3 * k + 1], tangential[3 * k + 2]};
-    const PairContact r = contact_law(law, branch, c.ri[k], c.rj[k], dv, {c.wi[0][k], c.wi[1][k], c.wi[2][k]},
-                                      {c.wj[0][k], c.wj[1][k], c.wj[2][k]}, xi, dt);
-    tangential[3 * k] = r.tangential.x, tangential[3 * k + 1] = r.tangential.y, tangential[3 * k + 2] = r.tangential.z;
+    ContactHistory before;
+    before.tangential = {tangential[3 * k], tangential[3 * k + 1], tangential[3 * k + 2]};
+    if constexpr (kRotational) {
+      before.rolling = {rolling[3 * k], rolling[3 * k + 1], rolling[3 * k + 2]};
+      before.twist = twist[k];
+    }
+    const PairContact r = contact_law<Law>(law, branch, c.ri[k], c.rj[k], dv, {c.wi[0][k], c.wi[1][k], c.wi[2][k]},
+                                           {c.wj[0][k], c.wj[1][k], c.wj[2][k]}, before, dt);
+    const Real3& xi = r.history.tangential;
+    tangential[3 * k] = xi.x, tangential[3 * k + 1] = xi.y, tangential[3 * k + 2] = xi.z;
+    if constexpr (kRotational) {
+      const Real3& xr = r.history.rolling;
+      rolling[3 * k] = xr.x, rolling[3 * k + 1] = xr.y, rolling[3 * k + 2] = xr.z;
+      twist[k] = r.history.twist;
+    }
     force[3 * k] = r.force.x, force[3 * k + 1] = r.force.y, force[3 * k + 2] = r.force.z;
     torque_j[3 * k] = r.torque_j.x, torque_j[3 * k + 1] = r.torque_j.y, torque_j[3 * k + 2] = r.torque_j.z;
     o.torque_i[0][k] = r.torque_i.x, o.torque_i[1][k] = r.torque_i.y, o.torque_i[2][k] = r.torque_i.z;
     o.normal[0][k] = r.force.x * branch.x, o.normal[1][k] = r.force.y * branch.y, o.normal[2][k] = r.force.z * branch.z;
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
-    const double kn = r.touching ? law.kn : 0.0;
+    const double kn = r.normal_stiffness;
     o.stiffness[0][k] = kn * (nl.x * nl.x), o.stiffness[1][k] = kn * (nl.y * nl.y), o.stiffness[2][k] = kn * (nl.z * nl.z);
     o.flags[k] = (r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0);
   }
@@ -129,7 +142,7 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
 
 // Diagonal: the cell and the velocity gradient are diagonal (principal-axis loading, the common case); the
 // products with h and L then skip their zero terms, which gives the same numbers bit for bit.
-template <Kinematics K, bool Diagonal>
+template <class Law, Kinematics K, bool Diagonal>
 std::size_t pair_loop(const ContactParams& law, State& state, double dt, const BlocksDone& blocks_done) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
@@ -139,6 +152,10 @@ std::size_t pair_loop(const ContactParams& law, State& state, double dt, const B
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   std::vector<Partial> partial(blocks);
   std::size_t handed_over = 0;
+  // The rotational springs (rebuild_pairs sizes them for a law that has them).
+  const bool rotational = !pl.rolling.empty();
+  double* const rolling = rotational ? pl.rolling.data()->data() : nullptr;
+  double* const twist = rotational ? pl.twist.data() : nullptr;
 
 #pragma omp parallel
   {
@@ -162,8 +179,8 @@ std::size_t pair_loop(const ContactParams& law, State& state, double dt, const B
       for (Index q0 = begin; q0 < end; q0 += kChunk) {
         const int m = std::min<Index>(kChunk, end - q0);
         gather_chunk(p, pl, q0, m, in);
-        evaluate_chunk<K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(), pl.force[q0].data(),
-                                    pl.torque_j[q0].data(), out);
+        evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(), rolling ? rolling + 3 * q0 : nullptr,
+                                         twist ? twist + q0 : nullptr, pl.force[q0].data(), pl.torque_j[q0].data(), out);
         sum_chunk(out, q0, m, pl, pl.flags.data(), p.force.data()->data(), p.torque.data()->data(), sums);
       }
       partial[b].normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
@@ -215,18 +232,22 @@ Mat3 contact_stress(const State& state) {
   return 0.5 * (total + total.transpose()) / state.cell.volume();
 }
 
-std::size_t compute_contact_forces(const Model& model, double friction, State& state, bool advance_slip,
+std::size_t compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip,
                                    const BlocksDone& blocks_done) {
   const double dt = advance_slip ? model.dt : 0.0;
-  const ContactParams law{model.contact.kn, model.contact.kt, friction, model.contact.rotation,
-                          model.contact.moment_arm};
+  const ContactParams params = contact_params(model.contact, friction);
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
-  if (model.kinematics == Kinematics::Affine)
-    return diagonal ? pair_loop<Kinematics::Affine, true>(law, state, dt, blocks_done)
-                    : pair_loop<Kinematics::Affine, false>(law, state, dt, blocks_done);
-  return diagonal ? pair_loop<Kinematics::Lammps, true>(law, state, dt, blocks_done)
-                  : pair_loop<Kinematics::Lammps, false>(law, state, dt, blocks_done);
+  if (model.contact.rotational_history() && state.pairs.rolling.size() != state.pairs.size())
+    throw std::logic_error("compute_contact_forces: the pair list has no rotational springs (rebuild it first)");
+  return with_law(model.contact, [&](auto law) {
+    using Law = decltype(law);
+    if (model.kinematics == Kinematics::Affine)
+      return diagonal ? pair_loop<Law, Kinematics::Affine, true>(params, state, dt, blocks_done)
+                      : pair_loop<Law, Kinematics::Affine, false>(params, state, dt, blocks_done);
+    return diagonal ? pair_loop<Law, Kinematics::Lammps, true>(params, state, dt, blocks_done)
+                    : pair_loop<Law, Kinematics::Lammps, false>(params, state, dt, blocks_done);
+  });
 }
 
 }  // namespace celldem

@@ -3,7 +3,7 @@
 #pragma once
 #include <functional>
 
-#include "contact/linear_spring.hpp"
+#include "contact/contact_law.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
 
@@ -19,7 +19,7 @@ namespace celldem {
 // Returns how many particles, from the first, were handed over (0 on more threads: there a neighbour of
 // one thread's pairs may belong to another thread's range).
 using BlocksDone = std::function<void(std::size_t begin, std::size_t end)>;
-std::size_t compute_contact_forces(const Model& model, double friction, State& state, bool advance_slip = true,
+std::size_t compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true,
                                    const BlocksDone& blocks_done = {});
 
 // The full contact stress tensor [Pa] (symmetric part, compression positive) of the last force

@@ -9,6 +9,11 @@ namespace celldem {
 enum class TangentialRotation { Rotate, Project };  // keep |xi| when the tangent plane turns, or not (LAMMPS)
 enum class MomentArm { ContactPoint, Radius };      // lever arm of the tangential force
 enum class Kinematics { Affine, Lammps };           // contacts see the affine velocity difference, or not
+// The contact law's sub-models (contact/contact_law.hpp has the equations).
+enum class NormalModel { Linear, Hertz };              // kn overlap, or 4/3 E* sqrt(R*) overlap^3/2
+enum class TangentialModel { LinearHistory, Mindlin }; // kt, or the no-slip Mindlin 8 G* a
+enum class RollingModel { None, Sds };                 // no rolling resistance, or spring-dashpot-slider
+enum class TwistingModel { None, Marshall };           // no twisting resistance, or Marshall's (from the tangential law)
 // How an axis of the cell is driven during a leg (cell/control.hpp has the laws).
 enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume };
 // What ends a leg.
@@ -17,6 +22,10 @@ enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium
 inline constexpr std::array<std::string_view, 2> kTangentialRotationNames = {"rotate", "project"};
 inline constexpr std::array<std::string_view, 2> kMomentArmNames = {"contact_point", "radius"};
 inline constexpr std::array<std::string_view, 2> kKinematicsNames = {"affine", "lammps"};
+inline constexpr std::array<std::string_view, 2> kNormalModelNames = {"linear", "hertz"};
+inline constexpr std::array<std::string_view, 2> kTangentialModelNames = {"linear_history", "mindlin"};
+inline constexpr std::array<std::string_view, 2> kRollingModelNames = {"none", "sds"};
+inline constexpr std::array<std::string_view, 2> kTwistingModelNames = {"none", "marshall"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
 
 template <class Enum, std::size_t N>

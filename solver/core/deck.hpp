@@ -27,11 +27,36 @@ struct SampleDef {
   double grid_spacing = 0.0;       // [m] spacing of the initial cubic grid (> largest diameter)
 };
 
+// The contact law: its sub-models and their parameters (contact/contact_law.hpp has the equations).
 struct ContactDef {
-  double kn = 0.0;  // [N/m] normal spring
-  double kt = 0.0;  // [N/m] tangential spring
+  NormalModel normal = NormalModel::Linear;
+  TangentialModel tangential = TangentialModel::LinearHistory;
+  RollingModel rolling = RollingModel::None;
+  TwistingModel twisting = TwistingModel::None;
+  double kn = 0.0;                 // [N/m] normal spring (linear)
+  double kt = 0.0;                 // [N/m] tangential spring (linear_history)
+  double youngs_modulus = 0.0;     // [Pa] E (hertz, mindlin)
+  double poisson_ratio = 0.0;      // [-] nu (hertz, mindlin)
+  double rolling_stiffness = 0.0;  // [N/m] (sds)
+  double rolling_damping = 0.0;    // [N s/m] (sds)
+  double rolling_friction = 0.0;   // [-] the tests' default (sds)
+  double reference_overlap = 0.0;  // [m] where hertz/mindlin stiffnesses set dt and damping (core/plan.hpp)
   TangentialRotation rotation = TangentialRotation::Rotate;
   MomentArm moment_arm = MomentArm::ContactPoint;
+  // E* and G* of two spheres of this material.
+  double effective_modulus() const { return youngs_modulus / (2.0 * (1.0 - poisson_ratio * poisson_ratio)); }
+  double effective_shear_modulus() const {
+    return youngs_modulus / (4.0 * (2.0 - poisson_ratio) * (1.0 + poisson_ratio));
+  }
+  bool rotational_history() const { return rolling != RollingModel::None || twisting != TwistingModel::None; }
+};
+
+// The friction coefficients of a stage: the sliders of the tangential and the rolling springs. A plain number
+// converts to a sliding friction without rolling resistance.
+struct Friction {
+  Friction(double sliding_mu = 0.0, double rolling_mu = 0.0) : sliding(sliding_mu), rolling(rolling_mu) {}  // NOLINT
+  double sliding;  // [-] mu
+  double rolling;  // [-] mu_roll (with contact.rolling = sds)
 };
 
 struct DampingDef {
@@ -93,12 +118,14 @@ struct SnapshotDef {
 
 struct PrepareDef {
   double friction = keys::prepare_friction.fallback;  // interparticle mu during preparation
+  double rolling_friction = keys::prepare_rolling_friction.fallback;
   double target_pressure = 1e5;                       // [Pa] (required in a deck without legs)
   double fast_solid_fraction = keys::prepare_fast_solid_fraction.fallback;
   double fast_strain_increment = keys::prepare_fast_strain_increment.fallback;
   EquilibriumDef equilibrium;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
   SnapshotDef snapshots;
+  Friction stage_friction() const { return {friction, rolling_friction}; }
   // The program; when a deck gives none, the two legs above: fast isotropic compression to the solid
   // fraction, then the isotropic servo at the target pressure to equilibrium (preparation_legs()).
   std::vector<Leg> legs;
@@ -108,9 +135,11 @@ struct PrepareDef {
 struct TestDef {
   std::string name;
   double friction = 0.0;
+  double rolling_friction = 0.0;  // contact.rolling_friction unless the test says
   std::vector<Leg> legs;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::test_output_interval.fallback);
   SnapshotDef snapshots;
+  Friction stage_friction() const { return {friction, rolling_friction}; }
 };
 
 struct Deck {

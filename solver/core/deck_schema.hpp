@@ -66,10 +66,47 @@ inline constexpr KeySpec sample_grid_spacing{.path = "sample.grid_spacing", .kin
     .meaning = "spacing of the initial cubic grid, > largest diameter"};
 
 inline constexpr KeySpec contact{.path = "contact", .kind = KeyKind::Object, .meaning = "the contact law"};
-inline constexpr KeySpec contact_kn{.path = "contact.kn", .kind = KeyKind::Number, .positive = true, .unit = "N/m",
+inline constexpr KeySpec contact_normal{.path = "contact.normal", .kind = KeyKind::Choice, .required = false,
+    .choices = kNormalModelNames,
+    .meaning = "normal law: `linear` (kn overlap) or `hertz` (4/3 E* sqrt(R*) overlap^3/2, from `youngs_modulus` "
+               "and `poisson_ratio`)"};
+inline constexpr KeySpec contact_tangential{.path = "contact.tangential", .kind = KeyKind::Choice, .required = false,
+    .choices = kTangentialModelNames,
+    .meaning = "tangential spring: `linear_history` (kt) or `mindlin` (8 G* a, a = sqrt(R* overlap)); Coulomb-capped"};
+inline constexpr KeySpec contact_rolling{.path = "contact.rolling", .kind = KeyKind::Choice, .required = false,
+    .choices = kRollingModelNames,
+    .meaning = "rolling resistance: `none` or `sds` (spring-dashpot-slider on the rolling displacement, as LAMMPS "
+               "`rolling sds`)"};
+inline constexpr KeySpec contact_twisting{.path = "contact.twisting", .kind = KeyKind::Choice, .required = false,
+    .choices = kTwistingModelNames,
+    .meaning = "twisting resistance: `none` or `marshall` (0.5 kt a^2, capped at 2/3 a mu fn, as LAMMPS `twisting "
+               "marshall`)"};
+inline constexpr KeySpec contact_kn{.path = "contact.kn", .kind = KeyKind::Number, .positive = true,
+    .required = false, .default_text = "required with `normal: linear`", .unit = "N/m",
     .meaning = "normal spring stiffness"};
-inline constexpr KeySpec contact_kt{.path = "contact.kt", .kind = KeyKind::Number, .min = 0, .unit = "N/m",
+inline constexpr KeySpec contact_kt{.path = "contact.kt", .kind = KeyKind::Number, .min = 0, .required = false,
+    .default_text = "required with `tangential: linear_history`", .unit = "N/m",
     .meaning = "tangential spring stiffness"};
+inline constexpr KeySpec contact_youngs_modulus{.path = "contact.youngs_modulus", .kind = KeyKind::Number,
+    .positive = true, .required = false, .default_text = "required with `hertz` or `mindlin`", .unit = "Pa",
+    .meaning = "Young's modulus E of the particles (E* = E / (2 (1 - nu^2)))"};
+inline constexpr KeySpec contact_poisson_ratio{.path = "contact.poisson_ratio", .kind = KeyKind::Number, .min = 0,
+    .max = 0.49, .required = false, .default_text = "required with `hertz` or `mindlin`",
+    .meaning = "Poisson's ratio nu of the particles (G* = E / (4 (2 - nu) (1 + nu)))"};
+inline constexpr KeySpec contact_rolling_stiffness{.path = "contact.rolling_stiffness", .kind = KeyKind::Number,
+    .positive = true, .required = false, .default_text = "required with `rolling: sds`", .unit = "N/m",
+    .meaning = "rolling spring: force -k_roll xi_roll, its moment R* n x f_roll"};
+inline constexpr KeySpec contact_rolling_damping{.path = "contact.rolling_damping", .kind = KeyKind::Number,
+    .min = 0, .required = false, .fallback = 0.0, .unit = "N s/m",
+    .meaning = "rolling dashpot on the rolling velocity (LAMMPS's gamma_roll)"};
+inline constexpr KeySpec contact_rolling_friction{.path = "contact.rolling_friction", .kind = KeyKind::Number,
+    .min = 0, .max = 1e3, .required = false, .default_text = "required with `rolling: sds`",
+    .meaning = "rolling slider: |f_roll| <= mu_roll fn in every test (`tests[].rolling_friction` overrides)"};
+inline constexpr KeySpec contact_reference_overlap{.path = "contact.reference_overlap", .kind = KeyKind::Number,
+    .positive = true, .required = false,
+    .default_text = "overlap under 10 x the mean contact force at 3 x the deck's largest stress", .unit = "m",
+    .meaning = "hertz/mindlin: the overlap whose stiffnesses set the time-step limit and the damping's critical "
+               "values (the largest expected)"};
 inline constexpr KeySpec contact_tangential_rotation{.path = "contact.tangential_rotation", .kind = KeyKind::Choice,
     .required = false, .choices = kTangentialRotationNames,
     .meaning = "when the tangent plane turns, `rotate` the spring keeping its length, or `project` it (as LAMMPS)"};
@@ -113,6 +150,9 @@ inline constexpr KeySpec prepare{.path = "prepare", .kind = KeyKind::Object, .re
                "`prepare` and `initial_state`)"};
 inline constexpr KeySpec prepare_friction{.path = "prepare.friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .required = false, .fallback = 0.0, .meaning = "interparticle friction coefficient while preparing"};
+inline constexpr KeySpec prepare_rolling_friction{.path = "prepare.rolling_friction", .kind = KeyKind::Number,
+    .min = 0, .max = 1e3, .required = false, .fallback = 0.0,
+    .meaning = "rolling friction coefficient while preparing (with `contact.rolling: sds`)"};
 inline constexpr KeySpec prepare_target_pressure{.path = "prepare.target_pressure", .kind = KeyKind::Number,
     .positive = true, .required = false, .default_text = "required without `legs`", .unit = "Pa",
     .meaning = "isotropic stress of the prepared sample"};
@@ -168,6 +208,9 @@ inline constexpr KeySpec test_name{.path = "tests[].name", .kind = KeyKind::Stri
     .meaning = "letters, digits, `_` or `-`; unique; not `prepare`"};
 inline constexpr KeySpec test_friction{.path = "tests[].friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .meaning = "interparticle friction coefficient"};
+inline constexpr KeySpec test_rolling_friction{.path = "tests[].rolling_friction", .kind = KeyKind::Number,
+    .min = 0, .max = 1e3, .required = false, .default_text = "`contact.rolling_friction`",
+    .meaning = "rolling friction coefficient of this test (with `contact.rolling: sds`)"};
 inline constexpr KeySpec test_legs{.path = "tests[].legs", .kind = KeyKind::Array, .required = false,
     .default_text = "one leg: `axes`, `end`",
     .meaning = "instead of `axes` and `end`: a load program, legs `{\"axes\", \"end\"}` run in order, each from where "
@@ -228,14 +271,16 @@ inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval",
 inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &format, &description, &sample, &sample_count, &sample_diameters, &sample_diameters_list,
     &sample_diameters_min, &sample_diameters_max, &sample_diameters_count, &sample_density, &sample_seed,
-    &sample_grid_spacing, &contact, &contact_kn, &contact_kt, &contact_tangential_rotation, &contact_moment_arm,
+    &sample_grid_spacing, &contact, &contact_normal, &contact_tangential, &contact_rolling, &contact_twisting, &contact_kn, &contact_kt,
+    &contact_youngs_modulus, &contact_poisson_ratio, &contact_rolling_stiffness, &contact_rolling_damping,
+    &contact_rolling_friction, &contact_reference_overlap, &contact_tangential_rotation, &contact_moment_arm,
     &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &servo, &servo_gain,
     &servo_integral_gain, &servo_max_strain_increment, &neighbor_skin, &checkpoint_interval, &prepare,
-    &prepare_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
+    &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
     &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &tests,
-    &test_name, &test_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
+    &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
     &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,
     &snapshots_e1, &test_output_interval});

@@ -13,6 +13,7 @@ Model make_model(const Deck& deck, const std::vector<double>& radius) {
   m.contact = deck.contact;
   m.kinematics = deck.kinematics;
   m.servo = deck.servo;
+  const ContactStiffness stiffness = reference_stiffness(deck.contact, deck.sample);
   const std::size_t n = radius.size();
   m.mass.resize(n);
   m.velocity_keep.resize(n);
@@ -20,7 +21,7 @@ Model make_model(const Deck& deck, const std::vector<double>& radius) {
   m.spin_keep.resize(n);
   m.spin_gain.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const BodyProperties b = body_properties(radius[i], deck.sample.density, deck.damping, deck.contact);
+    const BodyProperties b = body_properties(radius[i], deck.sample.density, deck.damping, stiffness);
     const double at = 0.5 * b.translational_drag * m.dt / b.mass;
     const double ar = 0.5 * b.rotational_drag * m.dt / b.inertia;
     m.mass[i] = b.mass;

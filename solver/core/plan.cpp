@@ -57,19 +57,59 @@ double loading_rate(const Deck& deck, const TestDef& test) {
   return rate;
 }
 
-BodyProperties body_properties(double r, double density, const DampingDef& damping, const ContactDef& contact) {
+namespace {
+double largest_radius(const SampleDef& sample) {
+  return 0.5 * *std::max_element(sample.diameters.begin(), sample.diameters.end());
+}
+}  // namespace
+
+ContactStiffness reference_stiffness(const ContactDef& c, const SampleDef& sample) {
+  const double r_eff = 0.5 * largest_radius(sample);  // R* of the two largest spheres
+  const double a = std::sqrt(r_eff * c.reference_overlap);
+  ContactStiffness k;
+  k.normal = c.normal == NormalModel::Linear ? c.kn : 2.0 * c.effective_modulus() * a;
+  k.tangential = c.tangential == TangentialModel::LinearHistory ? c.kt : 8.0 * c.effective_shear_modulus() * a;
+  k.rolling = c.rolling == RollingModel::Sds ? c.rolling_stiffness : 0.0;
+  return k;
+}
+
+double default_reference_overlap(const Deck& deck) {
+  double p = 0.0;
+  const auto scan = [&p](const std::vector<Leg>& legs) {
+    for (const Leg& leg : legs) {
+      for (const AxisControl& a : leg.axes)
+        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) p = std::max(p, std::abs(a.value));
+      if (leg.end.kind == LegEndKind::Stress) p = std::max(p, std::abs(leg.end.value));
+    }
+  };
+  if (deck.prepare) {
+    p = std::max(p, deck.prepare->target_pressure);
+    scan(deck.prepare->legs);
+  }
+  for (const TestDef& t : deck.tests) scan(t.legs);
+  if (p == 0.0) return 0.0;
+  const double d = mean_diameter(deck.sample);
+  const double force = 10.0 * M_PI * d * d * (3.0 * p) / 3.6;
+  const ContactDef& c = deck.contact;
+  const double r_eff = 0.5 * largest_radius(deck.sample);
+  if (c.normal == NormalModel::Linear) return force / c.kn;
+  return std::pow(3.0 * force / (4.0 * c.effective_modulus() * std::sqrt(r_eff)), 2.0 / 3.0);  // Hertz inverted
+}
+
+BodyProperties body_properties(double r, double density, const DampingDef& damping, const ContactStiffness& k) {
   BodyProperties b;
   b.volume = 4.0 / 3.0 * M_PI * r * r * r;
   b.mass = density * b.volume;
   b.inertia = 0.4 * b.mass * r * r;  // solid sphere
-  b.translational_drag = damping.translational * 2.0 * std::sqrt(b.mass * contact.kn);
-  b.rotational_drag = damping.rotational * 2.0 * r * std::sqrt(b.inertia * contact.kt);
+  b.translational_drag = damping.translational * 2.0 * std::sqrt(b.mass * k.normal);
+  b.rotational_drag = damping.rotational * 2.0 * r * std::sqrt(b.inertia * k.tangential);
   return b;
 }
 
-double critical_time_step(const SampleDef& sample, double kn) {
+double critical_time_step(const SampleDef& sample, const ContactDef& contact) {
   const double d_min = *std::min_element(sample.diameters.begin(), sample.diameters.end());
-  return std::sqrt(body_properties(0.5 * d_min, sample.density, {}, {}).mass / kn);
+  const ContactStiffness k = reference_stiffness(contact, sample);
+  return std::sqrt(body_properties(0.5 * d_min, sample.density, {}, {}).mass / std::max(k.normal, k.rolling));
 }
 
 double skin_length(const Deck& deck) {

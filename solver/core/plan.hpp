@@ -34,9 +34,24 @@ TestPlan plan_test(const Deck& deck, const TestDef& test);
 // The fastest strain rate [1/s] of the test's strain-driven axes over its legs (the inertial number's rate).
 double loading_rate(const Deck& deck, const TestDef& test);
 
+// The contact stiffnesses that set the time-step limit and the damping's critical values [N/m]: kn and kt of
+// the linear laws; for hertz and mindlin the tangent stiffnesses 2 E* a and 8 G* a at the reference overlap of
+// the two largest spheres (a = sqrt(R* overlap)); the rolling spring as given.
+struct ContactStiffness {
+  double normal = 0.0;
+  double tangential = 0.0;
+  double rolling = 0.0;
+};
+ContactStiffness reference_stiffness(const ContactDef& contact, const SampleDef& sample);
+
+// The default reference overlap [m]: the overlap of the two largest spheres under 10 times the mean contact
+// force at 3 times the deck's largest stress (mean force pi d^2 p / (Z phi), Z phi = 3.6); 0 when the deck
+// names no stress.
+double default_reference_overlap(const Deck& deck);
+
 // Mass, rotational inertia and body-damping coefficients of a solid sphere. Damping is a fraction of
 // critical: c_t = translational 2 sqrt(m kn) on the fluctuating velocity, c_r = rotational 2 r sqrt(I kt) on
-// the spin.
+// the spin, with kn and kt from reference_stiffness().
 struct BodyProperties {
   double volume = 0.0;             // [m^3]
   double mass = 0.0;               // [kg]
@@ -44,10 +59,12 @@ struct BodyProperties {
   double translational_drag = 0.0; // c_t [kg/s]
   double rotational_drag = 0.0;    // c_r [kg m^2/s]
 };
-BodyProperties body_properties(double radius, double density, const DampingDef& damping, const ContactDef& contact);
+BodyProperties body_properties(double radius, double density, const DampingDef& damping,
+                               const ContactStiffness& stiffness);
 
-// The stable time step for the lightest particle, sqrt(m_min / kn) (no safety factor).
-double critical_time_step(const SampleDef& sample, double kn);
+// The stable time step for the lightest particle, sqrt(m_min / k) with k the larger of the reference normal
+// and rolling stiffnesses (no safety factor).
+double critical_time_step(const SampleDef& sample, const ContactDef& contact);
 // Above this fraction of critical_time_step the run is warned: the measured stability map (results/study)
 // shows results drifting from about 0.55 of it and the packing boiling from 0.65 (kt ~ kn).
 inline constexpr double kStableTimeStepFraction = 0.5;

@@ -43,6 +43,9 @@ struct PairList {
   std::vector<Index> neighbor;                   // (P) j of each pair, j > i or an image of a lower id
   std::vector<std::array<std::int32_t, 3>> image; // (P) integer shift n: branch = h (s_j - s_i + n)
   std::vector<Vec3> tangential;                  // (P) xi [m], stored tangential spring displacement
+  // The rotational springs, only with a law that has them (ContactDef::rotational_history(); else empty).
+  std::vector<Vec3> rolling;                     // (P or 0) [m] stored rolling displacement
+  std::vector<double> twist;                     // (P or 0) [rad] stored twist angle
   std::vector<std::uint8_t> flags;               // (P) PairFlag bits of the last force evaluation
   // Per-pair results of the last force evaluation (zero where the pair does not touch).
   // (The moment on i is summed into the owner by the pair loop and not kept.)
@@ -63,6 +66,8 @@ struct StoredContact {
   Index i, j;
   Vec3 tangential;
   std::uint8_t flags;
+  Vec3 rolling = Vec3::Zero();  // (laws with rotational springs)
+  double twist = 0.0;
 };
 
 // Mixed control memory: what the loading stage needs to continue exactly. A stage starts from

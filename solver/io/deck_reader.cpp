@@ -196,10 +196,50 @@ SampleDef read_sample(ObjectReader r) {
   return s;
 }
 
+// A key that the chosen sub-models need: present, or an error naming it and the choice that needs it.
+double needed_number(ObjectReader& r, const KeySpec& spec, const std::string& needed_by) {
+  if (!r.has(spec)) fail(r.at(spec), "missing; required with " + needed_by);
+  return r.number(spec);
+}
+
+// A key that the chosen sub-models do not use is an error (never silently ignored).
+void unused_number(ObjectReader& r, const KeySpec& spec, const std::string& why) {
+  if (r.has(spec)) fail(r.at(spec), "not used " + why);
+}
+
 ContactDef read_contact(ObjectReader r) {
   ContactDef c;
-  c.kn = r.number(keys::contact_kn);
-  c.kt = r.number(keys::contact_kt);
+  c.normal = r.choice_of<NormalModel>(keys::contact_normal);
+  c.tangential = r.choice_of<TangentialModel>(keys::contact_tangential);
+  c.rolling = r.choice_of<RollingModel>(keys::contact_rolling);
+  c.twisting = r.choice_of<TwistingModel>(keys::contact_twisting);
+  const bool linear = c.normal == NormalModel::Linear, history = c.tangential == TangentialModel::LinearHistory;
+  const bool material = !linear || !history;
+  if (linear) c.kn = needed_number(r, keys::contact_kn, "\"normal\": \"linear\"");
+  else unused_number(r, keys::contact_kn, "with \"normal\": \"hertz\" (the stiffness follows youngs_modulus)");
+  if (history) c.kt = needed_number(r, keys::contact_kt, "\"tangential\": \"linear_history\"");
+  else unused_number(r, keys::contact_kt, "with \"tangential\": \"mindlin\" (the stiffness follows youngs_modulus)");
+  if (material) {
+    const std::string by = linear ? "\"tangential\": \"mindlin\"" : "\"normal\": \"hertz\"";
+    c.youngs_modulus = needed_number(r, keys::contact_youngs_modulus, by);
+    c.poisson_ratio = needed_number(r, keys::contact_poisson_ratio, by);
+    if (r.has(keys::contact_reference_overlap)) c.reference_overlap = r.number(keys::contact_reference_overlap);
+  } else {
+    const std::string why = "by the linear law (give \"normal\": \"hertz\" or \"tangential\": \"mindlin\")";
+    unused_number(r, keys::contact_youngs_modulus, why);
+    unused_number(r, keys::contact_poisson_ratio, why);
+    unused_number(r, keys::contact_reference_overlap, why);
+  }
+  if (c.rolling == RollingModel::Sds) {
+    c.rolling_stiffness = needed_number(r, keys::contact_rolling_stiffness, "\"rolling\": \"sds\"");
+    c.rolling_damping = r.number(keys::contact_rolling_damping);
+    c.rolling_friction = needed_number(r, keys::contact_rolling_friction, "\"rolling\": \"sds\"");
+  } else {
+    const std::string why = "without rolling resistance (give \"rolling\": \"sds\")";
+    unused_number(r, keys::contact_rolling_stiffness, why);
+    unused_number(r, keys::contact_rolling_damping, why);
+    unused_number(r, keys::contact_rolling_friction, why);
+  }
   c.rotation = r.choice_of<TangentialRotation>(keys::contact_tangential_rotation);
   c.moment_arm = r.choice_of<MomentArm>(keys::contact_moment_arm);
   r.finish();
@@ -368,7 +408,7 @@ SnapshotDef read_snapshots(ObjectReader r) {
   return s;
 }
 
-TestDef read_test(ObjectReader r) {
+TestDef read_test(ObjectReader r, const ContactDef& contact) {
   TestDef t;
   t.name = r.string(keys::test_name);
   if (t.name.empty() || t.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
@@ -377,6 +417,12 @@ TestDef read_test(ObjectReader r) {
   if (is_reserved_stage_name(t.name))
     fail(r.at(keys::test_name), "\"" + t.name + "\" is reserved (the preparation stage); choose another name");
   t.friction = r.number(keys::test_friction);
+  t.rolling_friction = contact.rolling_friction;
+  if (r.has(keys::test_rolling_friction)) {
+    if (contact.rolling == RollingModel::None)
+      fail(r.at(keys::test_rolling_friction), "not used without rolling resistance (contact.rolling is \"none\")");
+    t.rolling_friction = r.number(keys::test_rolling_friction);
+  }
   if (r.has(keys::test_legs)) {
     if (r.has(keys::test_axes) || r.has(keys::test_end))
       fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" and \"end\", not both");
@@ -413,6 +459,7 @@ const Bindings<E, std::int64_t> kEquilibriumSteps = {{&keys::equilibrium_min_ste
                                                      {&keys::equilibrium_check_interval, &E::check_interval},
                                                      {&keys::equilibrium_max_steps, &E::max_steps}};
 const Bindings<P, double> kPrepareNumbers = {{&keys::prepare_friction, &P::friction},
+                                             {&keys::prepare_rolling_friction, &P::rolling_friction},
                                              {&keys::prepare_target_pressure, &P::target_pressure},
                                              {&keys::prepare_fast_solid_fraction, &P::fast_solid_fraction},
                                              {&keys::prepare_fast_strain_increment, &P::fast_strain_increment}};
@@ -513,6 +560,22 @@ Json parse_json(const std::string& json_text) {
   }
 }
 
+// The reference overlap of hertz/mindlin (from the deck's stresses unless given), then the time step against
+// the stability limit of the stiffest contact.
+void check_time_step(Deck& d) {
+  ContactDef& c = d.contact;
+  if ((c.normal != NormalModel::Linear || c.tangential != TangentialModel::LinearHistory) && c.reference_overlap == 0.0) {
+    c.reference_overlap = default_reference_overlap(d);
+    if (c.reference_overlap == 0.0)
+      fail("contact.reference_overlap", "missing; the deck names no stress to estimate the largest overlap from");
+  }
+  const double dt_crit = critical_time_step(d.sample, c);
+  if (d.time_step > dt_crit)
+    fail("time_step", "exceeds the stability limit sqrt(m_min/k) = " + fmt(dt_crit) +
+                          " s of the lightest particle and the stiffest contact (k = kn, or hertz's at "
+                          "contact.reference_overlap, or the rolling spring)");
+}
+
 }  // namespace
 
 Deck parse_deck(const std::string& json_text, const std::string& source) {
@@ -531,9 +594,6 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
   d.damping = read_damping(r.object(keys::damping));
   d.kinematics = r.choice_of<Kinematics>(keys::kinematics);
   d.time_step = r.number(keys::time_step);
-  const double dt_crit = critical_time_step(d.sample, d.contact.kn);
-  if (d.time_step > dt_crit)
-    fail("time_step", "exceeds the stability limit sqrt(m_min/kn) = " + fmt(dt_crit) + " s of the lightest particle");
   if (r.has(keys::servo)) d.servo = read_servo(r.object(keys::servo));
   d.neighbor_skin = r.number(keys::neighbor_skin);
   d.checkpoint_interval = r.integer(keys::checkpoint_interval);
@@ -552,12 +612,15 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
     std::set<std::string> names;
     for (std::size_t i = 0; i < tests.size(); ++i) {
       const std::string path = "tests[" + std::to_string(i) + "]";
-      d.tests.push_back(read_test(ObjectReader(tests[i], path)));
+      d.tests.push_back(read_test(ObjectReader(tests[i], path), d.contact));
       if (!names.insert(d.tests.back().name).second)
         fail(path + ".name", "duplicate test name \"" + d.tests.back().name + "\"");
     }
   }
   if (!has_prepare && d.tests.empty()) fail("tests", "a deck without \"prepare\" needs at least one test");
+  if (d.prepare && d.prepare->rolling_friction > 0.0 && d.contact.rolling == RollingModel::None)
+    fail("prepare.rolling_friction", "not used without rolling resistance (contact.rolling is \"none\")");
+  check_time_step(d);
   r.finish();
   return d;
 }

@@ -91,6 +91,7 @@ class Reader {
 std::string serialize_state(const State& s, const std::string& label) {
   Writer w;
   const std::vector<StoredContact> contacts = stored_contacts(s);
+  const bool rotational = !s.pairs.rolling.empty();
   w.put_string(label);
   w.put(static_cast<std::uint64_t>(s.particles.size()));
   w.put(static_cast<std::uint64_t>(contacts.size()));
@@ -122,11 +123,15 @@ std::string serialize_state(const State& s, const std::string& label) {
     w.put(c.j);
     w.put(c.tangential);
     w.put(c.flags);
+    if (rotational) {
+      w.put(c.rolling);
+      w.put(c.twist);
+    }
   }
   std::string payload = std::move(w.bytes());
   Writer file;
   file.bytes().append(kMagic, sizeof kMagic);
-  file.put(kStateFormatVersion);
+  file.put(rotational ? kStateFormatVersion : std::uint32_t{2});
   file.put(static_cast<std::uint64_t>(payload.size()));
   file.bytes() += payload;
   file.put(fnv1a(payload.data(), payload.size()));
@@ -199,6 +204,10 @@ State parse_state(const std::string& bytes, std::string* label) {
     k.j = r.get<Index>();
     k.tangential = r.vec();
     k.flags = r.get<std::uint8_t>();
+    if (version >= 3) {
+      k.rolling = r.vec();
+      k.twist = r.finite();
+    }
     const bool ordered = c == 0 || contacts[c - 1].i < k.i || (contacts[c - 1].i == k.i && contacts[c - 1].j < k.j);
     if (k.i < 0 || k.j <= k.i || static_cast<std::uint64_t>(k.j) >= n || !ordered)
       throw StateFileError("state file contact list is invalid (indices out of range or unsorted)");

@@ -12,8 +12,10 @@ struct StateFileError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// 2: the control holds the current leg's start (strains, volume). Format 1 files are still read.
-inline constexpr std::uint32_t kStateFormatVersion = 2;
+// 2: the control holds the current leg's start (strains, volume). 3: format 2 plus each contact's rotational
+// springs (rolling displacement, twist angle), written only for laws that have them (a state of the linear law
+// is still written as format 2). Formats 1 and 2 are still read.
+inline constexpr std::uint32_t kStateFormatVersion = 3;
 
 // label says what the state is (e.g. "prepared", "checkpoint:ttc"); it is stored and returned. Written
 // atomically; a failed write throws IoError (io/files.hpp).

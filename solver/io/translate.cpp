@@ -351,7 +351,7 @@ std::vector<AtomType> atom_types(const Deck& deck) {
     if (std::any_of(types.begin(), types.end(), [d](const AtomType& t) { return t.diameter == d; })) continue;
     AtomType t;
     t.diameter = d;
-    const BodyProperties b = body_properties(0.5 * d, deck.sample.density, deck.damping, deck.contact);
+    const BodyProperties b = body_properties(0.5 * d, deck.sample.density, deck.damping, reference_stiffness(deck.contact, deck.sample));
     t.mass = b.mass;
     t.inertia = b.inertia;
     t.c_t = b.translational_drag;

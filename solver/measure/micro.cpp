@@ -1,5 +1,6 @@
 #include "measure/micro.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -121,15 +122,28 @@ double kinetic_energy(const Model& model, const State& state) {
   return e;
 }
 
+// Normal spring: fn^2 / (2 kn), or Hertz's 2/5 fn overlap; tangential spring: |ft|^2 / (2 kt) with kt the
+// law's stiffness at this contact (mindlin: 8 G* a); rolling spring: k_roll |xi_r|^2 / 2; twist: k_tw theta^2 / 2.
 double elastic_energy(const Model& model, const State& state) {
   const PairList& pl = state.pairs;
+  const ContactDef& c = model.contact;
+  const bool rotational = pl.rolling.size() == pl.size();
   double e = 0.0;
   for (std::size_t q = 0; q < pl.size(); ++q) {
     if (!(pl.flags[q] & kTouching)) continue;
-    const Vec3 n = branch_of(state, q).normalized();
+    const Vec3 branch = branch_of(state, q);
+    const Vec3 n = branch.normalized();
     const double fn = pl.force[q].dot(n);
     const double ft2 = (pl.force[q] - fn * n).squaredNorm();
-    e += 0.5 * fn * fn / model.contact.kn + (model.contact.kt > 0.0 ? 0.5 * ft2 / model.contact.kt : 0.0);
+    const Index i = pl.owner[q], j = pl.neighbor[q];
+    const double ri = state.particles.radius[i], rj = state.particles.radius[j];
+    const double overlap = ri + rj - branch.norm();
+    const double a = std::sqrt(ri * rj / (ri + rj) * std::max(overlap, 0.0));
+    const double kt = c.tangential == TangentialModel::Mindlin ? 8.0 * c.effective_shear_modulus() * a : c.kt;
+    const double normal = c.normal == NormalModel::Hertz ? 0.4 * fn * overlap : 0.5 * fn * fn / c.kn;
+    e += normal + (kt > 0.0 ? 0.5 * ft2 / kt : 0.0);
+    if (rotational && c.rolling == RollingModel::Sds) e += 0.5 * c.rolling_stiffness * pl.rolling[q].squaredNorm();
+    if (rotational && c.twisting == TwistingModel::Marshall) e += 0.25 * kt * a * a * pl.twist[q] * pl.twist[q];
   }
   return e;
 }

@@ -133,6 +133,10 @@ void rebuild_pairs(const Model& model, State& state) {
   next.neighbor.resize(count);
   next.image.resize(count);
   next.tangential.assign(count, Vec3::Zero());
+  const bool rotational = model.contact.rotational_history();
+  next.rolling.assign(rotational ? count : 0, Vec3::Zero());
+  next.twist.assign(rotational ? count : 0, 0.0);
+  const bool carry_rotational = rotational && pl.rolling.size() == pl.size();
   next.flags.assign(count, 0);
   next.force.assign(count, Vec3::Zero());
   next.torque_j.assign(count, Vec3::Zero());
@@ -152,6 +156,10 @@ void rebuild_pairs(const Model& model, State& state) {
       if (q_old < q_old_end && pl.neighbor[q_old] == j) {
         next.tangential[q] = pl.tangential[q_old];
         next.flags[q] = pl.flags[q_old];
+        if (carry_rotational) {
+          next.rolling[q] = pl.rolling[q_old];
+          next.twist[q] = pl.twist[q_old];
+        }
       }
     }
   }
@@ -193,6 +201,10 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   pl.owner.resize(contacts.size());
   pl.neighbor.resize(contacts.size());
   pl.tangential.resize(contacts.size());
+  const bool rotational = std::any_of(contacts.begin(), contacts.end(),
+                                      [](const StoredContact& c) { return !c.rolling.isZero(0.0) || c.twist != 0.0; });
+  pl.rolling.assign(rotational ? contacts.size() : 0, Vec3::Zero());
+  pl.twist.assign(rotational ? contacts.size() : 0, 0.0);
   pl.flags.resize(contacts.size());
   pl.image.assign(contacts.size(), {0, 0, 0});  // unknown until the next rebuild, which must come first
   pl.force.assign(contacts.size(), Vec3::Zero());
@@ -204,6 +216,10 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
     pl.neighbor[q] = c.j;
     pl.tangential[q] = c.tangential;
     pl.flags[q] = c.flags;
+    if (rotational) {
+      pl.rolling[q] = c.rolling;
+      pl.twist[q] = c.twist;
+    }
   }
 }
 
@@ -211,7 +227,14 @@ std::vector<StoredContact> stored_contacts(const State& state) {
   const PairList& pl = state.pairs;
   std::vector<StoredContact> out;
   for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.flags[q] & kTouching) out.push_back({pl.owner[q], pl.neighbor[q], pl.tangential[q], pl.flags[q]});
+    if (pl.flags[q] & kTouching) {
+      StoredContact c{pl.owner[q], pl.neighbor[q], pl.tangential[q], pl.flags[q]};
+      if (pl.rolling.size() == pl.size()) {
+        c.rolling = pl.rolling[q];
+        c.twist = pl.twist[q];
+      }
+      out.push_back(c);
+    }
   return out;
 }
 

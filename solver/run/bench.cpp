@@ -47,7 +47,7 @@ State tile_state(const State& s, int copies) {
         // contacts inside the copy (those across are rebuilt from zero, a negligible warm-up difference).
         for (const StoredContact& cc : contacts)
           tiled.push_back({static_cast<Index>(copy * n + cc.i), static_cast<Index>(copy * n + cc.j),
-                           cc.tangential, cc.flags});
+                           cc.tangential, cc.flags, cc.rolling, cc.twist});
       }
   begin_stage(t);
   set_stored_contacts(t, tiled);
@@ -65,8 +65,8 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   begin_stage(state);
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);
-  const Loading loading{test.legs.front().axes, test.friction};
-  evaluate_forces(model, test.friction, state);
+  const Loading loading{test.legs.front().axes, test.stage_friction()};
+  evaluate_forces(model, test.stage_friction(), state);
   for (std::int64_t k = 0; k < warmup; ++k) advance_one_step(model, loading, state);
 
   ShearTiming t;
@@ -95,6 +95,39 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   return t;
 }
 
+std::vector<std::pair<std::string, Deck>> contact_law_variants(const Deck& deck) {
+  if (deck.contact.normal != NormalModel::Linear || deck.contact.tangential != TangentialModel::LinearHistory ||
+      deck.contact.rotational_history())
+    throw DeckError("contact: the law comparison starts from a deck with the linear law");
+  std::vector<std::pair<std::string, Deck>> out{{"linear", deck}};
+  Deck d = deck;
+  ContactDef& c = d.contact;
+  // The mean contact force at the deck's largest stress, its linear overlap, and the modulus whose Hertz
+  // tangent stiffness 2 E* sqrt(R* overlap) is kn there (R* of two mean spheres).
+  const double d_mean = mean_diameter(d.sample);
+  c.normal = NormalModel::Hertz;
+  c.youngs_modulus = 1.0;
+  c.poisson_ratio = 0.25;
+  const double largest_force_overlap = default_reference_overlap(deck);  // linear: 10 F(3 p) / kn
+  const double overlap = largest_force_overlap / 30.0;                    // F(p) / kn
+  const double e_eff = deck.contact.kn / (2.0 * std::sqrt(0.25 * d_mean * overlap));
+  c.youngs_modulus = e_eff * 2.0 * (1.0 - c.poisson_ratio * c.poisson_ratio);
+  c.kn = 0.0;
+  c.reference_overlap = default_reference_overlap(d);
+  out.emplace_back("hertz", d);
+  c.tangential = TangentialModel::Mindlin;
+  c.kt = 0.0;
+  out.emplace_back("hertz+mindlin", d);
+  c.rolling = RollingModel::Sds;
+  c.rolling_stiffness = deck.contact.kt > 0.0 ? deck.contact.kt : deck.contact.kn;
+  c.rolling_friction = 0.1;
+  for (TestDef& t : d.tests) t.rolling_friction = 0.1;
+  out.emplace_back("hertz+mindlin+rolling", d);
+  c.twisting = TwistingModel::Marshall;
+  out.emplace_back("hertz+mindlin+rolling+twisting", d);
+  return out;
+}
+
 namespace {
 double state_bytes_per_particle(const State& s) {
   const Particles& p = s.particles;
@@ -104,8 +137,8 @@ double state_bytes_per_particle(const State& s) {
                                 bytes(p.force) + bytes(p.torque) + bytes(pl.scaled_at_build) + bytes(pl.first) +
                                 bytes(pl.incoming_first);
   const double pair_bytes = bytes(pl.owner) + bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) +
-                            bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_j) +
-                            bytes(pl.incoming);
+                            bytes(pl.rolling) + bytes(pl.twist) + bytes(pl.flags) + bytes(pl.force) +
+                            bytes(pl.torque_j) + bytes(pl.incoming);
   return (particle_bytes + pair_bytes) / static_cast<double>(p.size());
 }
 }  // namespace

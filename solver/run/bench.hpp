@@ -3,6 +3,7 @@
 // same machine load.
 #pragma once
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/state.hpp"
@@ -32,5 +33,10 @@ struct ShearTiming {
 ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& state, int threads, std::int64_t steps,
                        std::int64_t warmup);
 
+// The deck with each contact law in turn, for timing their cost against the deck's own (linear) law:
+// "linear", "hertz", "hertz+mindlin", "hertz+mindlin+rolling", "hertz+mindlin+rolling+twisting". The Hertz
+// modulus makes its tangent stiffness equal kn at the mean contact force of the deck's largest stress
+// (pi d^2 p / 3.6), nu = 0.25; the rolling spring is kt (mu_roll 0.1). Same scene, comparable forces.
+std::vector<std::pair<std::string, Deck>> contact_law_variants(const Deck& deck);
 
 }  // namespace celldem

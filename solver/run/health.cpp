@@ -96,7 +96,7 @@ std::vector<std::string> control_warnings(const TestDef& test, const std::vector
 
 std::vector<std::string> deck_warnings(const Deck& deck) {
   std::vector<std::string> out;
-  const double dt_ratio = deck.time_step / critical_time_step(deck.sample, deck.contact.kn);
+  const double dt_ratio = deck.time_step / critical_time_step(deck.sample, deck.contact);
   if (dt_ratio > kStableTimeStepFraction)
     out.push_back("time_step is " + std::to_string(dt_ratio) + " of sqrt(m_min/kn); results drift above "
                   "about 0.55 of it and the packing boils above 0.65 (measured): use <= 0.5");

@@ -87,7 +87,7 @@ std::string initial_state_path(const Deck& deck) {
 }
 
 std::vector<std::string> preflight(const Deck& deck) {
-  const double dt_fraction = deck.time_step / critical_time_step(deck.sample, deck.contact.kn);
+  const double dt_fraction = deck.time_step / critical_time_step(deck.sample, deck.contact);
   if (dt_fraction < kMinTimeStepFraction)
     throw DeckError("time_step: " + fmt(deck.time_step) + " s is " + fmt(dt_fraction) + " of sqrt(m_min/kn), below " +
                     fmt(kMinTimeStepFraction) + " of it: the run would take more than a thousand times the steps "

@@ -27,7 +27,7 @@ ControlErrors control_errors_from_json(const nlohmann::json& j);
 
 struct Program {
   const std::vector<Leg>& legs;
-  double friction = 0.0;
+  Friction friction;  // sliding and rolling
   const EquilibriumDef* equilibrium = nullptr;  // for legs that end in equilibrium (the preparation)
   std::int64_t planned_steps = -1;              // all legs, when known (progress and ETA)
 };

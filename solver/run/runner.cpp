@@ -33,10 +33,10 @@ void on_stop_signal(int) { g_stop_requested = 1; }
 void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& options, State& state, bool resumed) {
   const PrepareDef& prep = *deck.prepare;
   const Model model = make_model(deck, state.particles.radius);
-  if (!resumed) evaluate_forces(model, prep.friction, state);
+  if (!resumed) evaluate_forces(model, prep.stage_friction(), state);
   StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false, prep.snapshots);
   out.open(state, resumed);
-  run_program(model, {prep.legs, prep.friction, &prep.equilibrium}, state, out, out.control_errors());
+  run_program(model, {prep.legs, prep.stage_friction(), &prep.equilibrium}, state, out, out.control_errors());
   out.finish(state);
   write_state(run.prepared_state().string(), state, "prepared");
   const Json prepared = summarize_preparation(model, state, prep, out.elapsed());
@@ -52,10 +52,10 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   if (!resumed) begin_stage(state);
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
-  if (!resumed) evaluate_forces(model, test.friction, state);  // the first row: the state as loaded
+  if (!resumed) evaluate_forces(model, test.stage_friction(), state);  // the first row: the state as loaded
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
   out.open(state, resumed);
-  const Program program{test.legs, test.friction, nullptr, plan_test(deck, test).steps};
+  const Program program{test.legs, test.stage_friction(), nullptr, plan_test(deck, test).steps};
   run_program(model, program, state, out, out.control_errors());
   out.finish(state);
   write_state((out.dir() / "final.state").string(), state, "test:" + test.name);

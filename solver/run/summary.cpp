@@ -160,6 +160,24 @@ Json summarize_preparation(const Model& model, const State& state, const Prepare
 }
 
 Json run_settings(const Deck& deck, int threads) {
+  const ContactDef& c = deck.contact;
+  const ContactStiffness k = reference_stiffness(c, deck.sample);
+  Json law = {{"normal", name_of(c.normal, kNormalModelNames)},
+              {"tangential", name_of(c.tangential, kTangentialModelNames)},
+              {"rolling", name_of(c.rolling, kRollingModelNames)},
+              {"twisting", name_of(c.twisting, kTwistingModelNames)},
+              {"reference_normal_stiffness", k.normal},
+              {"reference_tangential_stiffness", k.tangential}};
+  if (c.normal == NormalModel::Hertz || c.tangential == TangentialModel::Mindlin) {
+    law["youngs_modulus"] = c.youngs_modulus;
+    law["poisson_ratio"] = c.poisson_ratio;
+    law["reference_overlap"] = c.reference_overlap;
+  }
+  if (c.rolling == RollingModel::Sds) {
+    law["rolling_stiffness"] = c.rolling_stiffness;
+    law["rolling_damping"] = c.rolling_damping;
+    law["rolling_friction"] = c.rolling_friction;
+  }
   return {{"deck", deck.source},
           {"particles", deck.sample.count},
           {"diameters_m", deck.sample.diameters},
@@ -168,6 +186,7 @@ Json run_settings(const Deck& deck, int threads) {
           {"time_step", deck.time_step},
           {"kn", deck.contact.kn},
           {"kt", deck.contact.kt},
+          {"contact_law", law},
           {"tangential_rotation", name_of(deck.contact.rotation, kTangentialRotationNames)},
           {"moment_arm", name_of(deck.contact.moment_arm, kMomentArmNames)},
           {"kinematics", name_of(deck.kinematics, kKinematicsNames)},

@@ -1,11 +1,11 @@
-// The linear spring contact law driven along prescribed paths (solver/contact/linear_spring.hpp):
+// The linear spring contact law (LinearLaw of solver/contact/contact_law.hpp) driven along prescribed paths:
 // normal spring, stick then Coulomb slip, unloading, moments about each centre, and what happens to the
 // stored tangential displacement when the contact normal turns.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "contact/linear_spring.hpp"
+#include "contact/contact_law.hpp"
 
 namespace celldem {
 namespace {

@@ -115,7 +115,9 @@ TEST(Deck, CriticalTimeStepIsSqrtOfLightestMassOverKn) {
   s.density = 2650;
   s.diameters = {4e-3, 3e-3, 5e-3};
   const double m = 2650 * M_PI / 6.0 * 27e-9;
-  EXPECT_NEAR(critical_time_step(s, 1e6), std::sqrt(m / 1e6), 1e-18);
+  ContactDef c;
+  c.kn = 1e6;
+  EXPECT_NEAR(critical_time_step(s, c), std::sqrt(m / 1e6), 1e-18);
 }
 
 // Parses a mutated deck and checks the error names `path` (the message is "path: what").
@@ -128,6 +130,83 @@ void expect_error(const Json& j, const std::string& path, const std::string& als
     EXPECT_EQ(what.rfind(path + ":", 0), 0u) << "message does not start with \"" << path << ":\": " << what;
     if (!also.empty()) { EXPECT_NE(what.find(also), std::string::npos) << what; }
   }
+}
+
+// The contact law's sub-models: a Hertz-Mindlin deck with rolling and twisting resistance, the tests' rolling
+// friction from contact unless a test says, and the reference overlap from the deck's largest stress.
+Json hertz_deck() {
+  Json j = minimal_deck();
+  j["contact"] = {{"normal", "hertz"}, {"tangential", "mindlin"}, {"rolling", "sds"}, {"twisting", "marshall"},
+                  {"youngs_modulus", 7e10}, {"poisson_ratio", 0.25}, {"rolling_stiffness", 1e6},
+                  {"rolling_friction", 0.1}};
+  j["time_step"] = 1e-7;
+  return j;
+}
+
+TEST(Deck, ContactSubModelsAndTheirParameters) {
+  Json j = hertz_deck();
+  j["tests"][1]["rolling_friction"] = 0.3;
+  const Deck d = parse_deck(j.dump());
+  const ContactDef& c = d.contact;
+  EXPECT_EQ(c.normal, NormalModel::Hertz);
+  EXPECT_EQ(c.tangential, TangentialModel::Mindlin);
+  EXPECT_EQ(c.rolling, RollingModel::Sds);
+  EXPECT_EQ(c.twisting, TwistingModel::Marshall);
+  EXPECT_EQ(c.rolling_damping, 0.0);
+  EXPECT_EQ(d.tests[0].rolling_friction, 0.1);
+  EXPECT_EQ(d.tests[1].rolling_friction, 0.3);
+  EXPECT_EQ(d.prepare->rolling_friction, 0.0);
+  EXPECT_DOUBLE_EQ(c.effective_modulus(), 7e10 / (2.0 * (1.0 - 0.0625)));
+  // The reference overlap: Hertz inverted at 10 x the mean contact force at 3 x the largest stress.
+  double p = 0.0;
+  for (const TestDef& t : d.tests)
+    for (const AxisControl& a : t.legs[0].axes)
+      if (a.mode == AxisMode::Stress) p = std::max(p, a.value);
+  p = std::max(p, d.prepare->target_pressure);
+  double d_mean = 0.0;
+  for (double x : d.sample.diameters) d_mean += x / static_cast<double>(d.sample.diameters.size());
+  const double force = 10.0 * M_PI * d_mean * d_mean * 3.0 * p / 3.6;
+  const double r_eff = 0.25 * *std::max_element(d.sample.diameters.begin(), d.sample.diameters.end());
+  const double overlap = std::pow(3.0 * force / (4.0 * c.effective_modulus() * std::sqrt(r_eff)), 2.0 / 3.0);
+  EXPECT_NEAR(c.reference_overlap, overlap, 1e-12 * overlap);
+  const ContactStiffness k = reference_stiffness(c, d.sample);
+  EXPECT_NEAR(k.normal, 2.0 * c.effective_modulus() * std::sqrt(r_eff * overlap), 1e-9 * k.normal);
+  // Given explicitly, it is kept.
+  j["contact"]["reference_overlap"] = 1e-6;
+  EXPECT_EQ(parse_deck(j.dump()).contact.reference_overlap, 1e-6);
+}
+
+TEST(DeckErrors, ContactSubModelsNeedTheirParametersAndNothingElse) {
+  Json j = hertz_deck();
+  j["contact"].erase("youngs_modulus");
+  expect_error(j, "contact.youngs_modulus", "required with");
+  j = hertz_deck();
+  j["contact"]["kn"] = 1e6;
+  expect_error(j, "contact.kn", "not used");
+  j = hertz_deck();
+  j["contact"]["normal"] = "jkr";
+  expect_error(j, "contact.normal", "hertz");
+  j = hertz_deck();
+  j["contact"].erase("rolling_friction");
+  expect_error(j, "contact.rolling_friction", "required with");
+  j = hertz_deck();
+  j["contact"]["poisson_ratio"] = 0.5;
+  expect_error(j, "contact.poisson_ratio");
+  j = minimal_deck();
+  j["contact"]["rolling_friction"] = 0.1;
+  expect_error(j, "contact.rolling_friction", "not used");
+  j = minimal_deck();
+  j["tests"][0]["rolling_friction"] = 0.1;
+  expect_error(j, "tests[0].rolling_friction", "not used");
+  j = minimal_deck();
+  j["contact"]["youngs_modulus"] = 1e9;
+  expect_error(j, "contact.youngs_modulus", "not used");
+  j = minimal_deck();
+  j["contact"]["tangential"] = "mindlin";
+  expect_error(j, "contact.kt", "not used");  // mindlin's stiffness comes from the modulus
+  j = hertz_deck();
+  j["time_step"] = 1e-5;  // above sqrt(m_min / k) at the reference overlap
+  expect_error(j, "time_step", "stiffest contact");
 }
 
 TEST(DeckErrors, UnknownKeysTopLevelAndNested) {

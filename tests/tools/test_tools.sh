@@ -148,17 +148,47 @@ echo "2. run whose tests diverge: report.py alone draws the missing figures"
 check_pngs "$TMP/diverging/figures"
 check_report "$TMP/diverging" diverging || fail "report of the diverging run"
 
-echo "3. one test, optional columns and the prepared stage missing: n/a, not a crash"
+echo "3. one test, optional columns and the prepared stage missing: no empty figure, no row of n/a, not a crash"
 "$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/partial" --only ttc --no-prepared --no-columns-json \
   --reverse-columns --drop-columns Hs11_Hs33,Hs11,Hw11_Hw33,DI,Zm,sin_phi,kinetic_energy,unbalanced_force
 "$PY" "$ROOT/tools/report.py" "$TMP/partial" >/dev/null || fail "report.py failed on a partial run"
-check_pngs "$TMP/partial/figures"
-grep -q "| PSC b at peak σ1/σ3 | 0.396 | n/a | n/a |" "$TMP/partial/report.md" || fail "partial run: PSC b not n/a"
-grep -q "first row of ttc/series.csv" "$TMP/partial/report.md" || fail "partial run: no fallback for prepared"
+r="$TMP/partial/report.md"
+for f in fig02_stress_ratio fig04_volumetric_strain fig06_b_value fig07_coordination test_ttc; do
+  [[ -s "$TMP/partial/figures/$f.png" ]] || fail "partial run: $f.png missing"
+done
+for f in fig05_dilatancy_index fig10_fabric_strong fig12_macro_micro extra_balance; do  # Hw11_Hw33 comes back from Hw11/Hw33
+  [[ ! -e "$TMP/partial/figures/$f.png" ]] || fail "partial run: $f.png drawn without its columns"
+  if grep -q "$f.png" "$r"; then fail "partial run: report links $f.png"; fi
+done
+grep -q "^Not judged .*PSC b at peak σ1/σ3" "$r" || fail "partial run: PSC findings not listed as not judged"
+if grep -q "| PSC b at peak σ1/σ3 |" "$r"; then fail "partial run: a row of n/a for PSC b"; fi
+if grep -q "| max Hs11/Hs33 (–) |" "$r"; then fail "partial run: a per-test row of n/a"; fi
+grep -q "first row of ttc/series.csv" "$r" || fail "partial run: no fallback for prepared"
 
 echo "4. figures.py --out writes elsewhere"
 "$PY" "$ROOT/tools/figures.py" "$TMP/alike" --out "$TMP/elsewhere" >/dev/null || fail "figures.py --out failed"
 check_pngs "$TMP/elsewhere"
+
+echo "4b. the paper's scene with tests under other names is not the paper's deck: per-test figures, no paper table"
+"$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/renamed"
+mv "$TMP/renamed/ttc" "$TMP/renamed/Squash_1"
+mv "$TMP/renamed/psc" "$TMP/renamed/plane-2"
+"$PY" - "$TMP/renamed/summary.json" <<'EOF'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["tests"] = {"Squash_1": s["tests"]["ttc"], "plane-2": s["tests"]["psc"]}
+json.dump(s, open(sys.argv[1], "w"))
+EOF
+"$PY" "$ROOT/tools/report.py" "$TMP/renamed" >/dev/null || fail "report.py failed on renamed tests"
+r="$TMP/renamed/report.md"
+if grep -q "Comparison with the paper" "$r"; then fail "renamed tests: paper table"; fi
+for t in Squash_1 plane-2; do
+  [[ -s "$TMP/renamed/figures/test_$t.png" ]] || fail "renamed tests: no figure of test $t"
+  grep -qF "](figures/test_$t.png)" "$r" || fail "renamed tests: test $t's figure not in the report"
+done
+grep -q "^## Per-test values" "$r" || fail "renamed tests: no per-test values"
+"$PY" "$ROOT/tools/report.py" "$TMP/renamed" --paper >/dev/null || fail "report.py --paper failed"
+grep -q "^## Comparison with the paper" "$TMP/renamed/report.md" || fail "--paper: no paper table"
 
 echo "5. a missing run directory or summary.json is an error with a message"
 for tool in figures.py report.py; do

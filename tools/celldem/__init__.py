@@ -8,7 +8,10 @@ Modules, from the bottom up:
   binary    the celldem binary: `celldem plan DECK --json`
   decks     decks as data: load, edit, write with a generic JSON layout
   plotting  matplotlib without a display, thinning long curves, axis units from series.columns.json
-  figures, report                 tools/figures.py and tools/report.py
+  stats     t-test verdicts over the seeds of an ensemble (the statistics of ensemble.json, for curve measures)
+  scenes    what a run holds: the paper's deck, constant-b (failure-surface) tests
+  force_chains                    the strong force chains at each test's peak (peak_contacts.csv)
+  figures, report, ensemble_report  tools/figures.py and tools/report.py (runs and seed ensembles)
   study_scene, study_runs, study_analysis, study_report   tools/study.py
   crosscheck                      crosscheck/run_crosscheck.py
   bench, failure_surface          tools/plot_bench.py and tools/failure_surface.py

@@ -19,10 +19,12 @@ from . import plotting
 from .tables import md_table
 
 
-def peaks(summary):
-    """(name, s1, s2, s3) at each test's peak, from summary.json's peak_state."""
+def peaks(summary, tests=None):
+    """(name, s1, s2, s3) at each test's peak (of `tests`, default all), from summary.json's peak_state."""
     out = []
     for name, t in summary.get("tests", {}).items():
+        if tests is not None and name not in tests:
+            continue
         ps = t.get("peak_state") or {}
         if all(ps.get(k) is not None for k in ("sigma1", "sigma2", "sigma3")):
             out.append((name, ps["sigma1"], ps["sigma2"], ps["sigma3"]))
@@ -115,9 +117,10 @@ def surface_curve(criterion, constant):
     return np.array(curve)
 
 
-def write(run_dir, points, extra=()):
-    """Figures and RUN_DIR/failure_surface.md from the peaks of the run (`points`) and of a paper run (`extra`);
-    returns the paths of failure_surface.md and the two figures, and the text to print."""
+def analyse(run_dir, points, extra=()):
+    """Fits the criteria to the peaks of the run (`points`) and of a paper run (`extra`), draws the two figures
+    into RUN_DIR/figures; returns (Markdown lines: the peak table, the fits, the best; path of the φ-b figure,
+    path of the π-plane figure). tools/report.py puts these in a run's report."""
     plt = plotting.pyplot()
     if len(points) < 2:
         raise ValueError(f"{run_dir}/summary.json has fewer than two finished tests with peak states")
@@ -159,10 +162,7 @@ def write(run_dir, points, extra=()):
     ax.axis("off")
     pi_png = plotting.save(fig, os.path.join(fig_dir, "failure_surface_pi_plane.png"))
 
-    lines = ["# Failure surface", "",
-             f"Run: `{run_dir}`. Peaks are celldem's (`summary.json`, `peak_state`: the row of the largest "
-             "σ11/σ33); b and φ from the principal stresses there.", "",
-             md_table(("test", "σ1 (kPa)", "σ2 (kPa)", "σ3 (kPa)", "b", "φ (°)"),
+    lines = [md_table(("test", "σ1 (kPa)", "σ2 (kPa)", "σ3 (kPa)", "b", "φ (°)"),
                       [(name, f"{s1 / 1e3:.1f}", f"{s2 / 1e3:.1f}", f"{s3 / 1e3:.1f}", f"{b_of(s1, s2, s3):.3f}",
                         f"{phi_of(s1, s3):.2f}") for name, s1, s2, s3 in list(points) + list(extra)], align="lrrrrr"),
              "",
@@ -175,9 +175,20 @@ def write(run_dir, points, extra=()):
         on_curve = predicted_phi(best, fits[best][0], b)
         lines.append(f"- paper run `{name}`: φ = {phi_of(s1, s3):.2f}° at b = {b:.3f}; the {best} fit to the "
                      f"constant-b tests gives {on_curve:.2f}° there ({phi_of(s1, s3) - on_curve:+.2f}°).")
-    lines += ["", f"![φ against b](figures/{os.path.basename(phi_png)})",
-              f"![π-plane](figures/{os.path.basename(pi_png)})", ""]
+    return lines, phi_png, pi_png
+
+
+HOW = ("Peaks are celldem's (`summary.json`, `peak_state`: the row of the largest σ11/σ33); b and φ from the "
+       "principal stresses there.")
+
+
+def write(run_dir, points, extra=()):
+    """analyse(), then RUN_DIR/failure_surface.md; returns the paths of failure_surface.md and the two figures,
+    and the text to print."""
+    body, phi_png, pi_png = analyse(run_dir, points, extra)
+    lines = ["# Failure surface", "", f"Run: `{run_dir}`. {HOW}", ""] + body
     out = os.path.join(run_dir, "failure_surface.md")
     with open(out, "w", encoding="utf-8") as f:
-        f.write("\n".join(lines))
-    return out, phi_png, pi_png, "\n".join(lines[:-3])
+        f.write("\n".join(lines + ["", f"![φ against b](figures/{os.path.basename(phi_png)})",
+                                   f"![π-plane](figures/{os.path.basename(pi_png)})", ""]))
+    return out, phi_png, pi_png, "\n".join(lines)

@@ -1,13 +1,20 @@
-"""The paper's figures (Figures 2-12) of a celldem run, every test overlaid on the same axes, two diagnostic
-figures and an overview (tools/figures.py, tools/report.py)."""
+"""The figures of a celldem run or seed ensemble (tools/figures.py, tools/report.py):
+  - one figure per test, whatever its name, with a panel for each quantity its series holds (test_<name>.png);
+  - the preparation against steps (prepare.png): p, void ratio, Z, unbalanced force, kinetic energy;
+  - the paper's Figures 2-12 and two diagnostic figures, every test overlaid (for the paper's deck, or any run
+    with two tests or more), and an overview of them;
+  - the strong force chains at each test's peak (force_chains.png, tools/celldem/force_chains.py).
+A figure or panel whose quantity the run does not hold is not drawn. For an ensemble every curve is the mean
+over the seeds in bins of its x with a band of ± 1 standard deviation (metrics.seed_band).
+"""
 
+import collections
 import os
 
 import numpy as np
 
-from . import plotting
+from . import force_chains, metrics, plotting
 from .plotting import thin
-from .results import column
 
 PERCENT = 100.0
 KPA = 1e-3
@@ -27,24 +34,52 @@ def e1_label(run):
     return r"axial strain $\varepsilon_1$ " + unit(run, "e1", PERCENT)
 
 
+BAND_TEXT = "mean over the seeds in bins of the x axis, band ± 1 standard deviation"
+
+
 def test_color(run, name):
     return f"C{run.test_names.index(name) % 10}"
 
 
+def with_data(curves, x_max=None):
+    """The curves that hold finite values (up to x_max), cut at x_max."""
+    out = []
+    for x, y in curves:
+        keep = np.isfinite(x) & np.isfinite(y)
+        if x_max is not None:
+            keep &= x <= x_max * (1 + 1e-9)
+        if np.any(keep):
+            out.append((x[keep], y[keep]))
+    return out
+
+
+def draw_curves(ax, curves, color, label=None, linestyle="-", x_scale=1.0, y_scale=1.0):
+    """One run: its curve. Several (the seeds of an ensemble): the mean curve and a band of ± 1 std."""
+    if len(curves) == 1:
+        x, y = thin(curves[0][0] * x_scale, curves[0][1] * y_scale)
+        ax.plot(x, y, linestyle=linestyle, color=color, label=label, linewidth=1.2)
+        return
+    x, mean, std, _ = metrics.seed_band(curves)
+    ax.fill_between(x * x_scale, (mean - std) * y_scale, (mean + std) * y_scale, color=color, alpha=0.2, lw=0)
+    ax.plot(x * x_scale, mean * y_scale, linestyle=linestyle, color=color, label=label, linewidth=1.2)
+
+
 def plot_vs_e1(ax, run, name, scale=1.0, e1_max=None, linestyle="-", label_suffix="", label_tests=True):
-    """Plots column `name` of every test against ε1 (%); returns how many tests had the column."""
+    """Plots column `name` of every test against ε1 (%); returns how many tests had data for it."""
     plotted = 0
     for test in run.test_names:
-        series = run.test(test)
-        e1, y = column(series, "e1"), column(series, name)
-        if e1 is None or y is None:
+        curves = with_data(run.curves(test, name), e1_max)
+        if not curves:
             continue
-        keep = np.ones_like(e1, dtype=bool) if e1_max is None else e1 <= e1_max * (1 + 1e-9)
         label = f"{test}{label_suffix}" if label_tests else None
-        x_plot, y_plot = thin(e1[keep] * PERCENT, y[keep] * scale)
-        ax.plot(x_plot, y_plot, linestyle=linestyle, color=test_color(run, test), label=label, linewidth=1.2)
+        draw_curves(ax, curves, test_color(run, test), label, linestyle, PERCENT, scale)
         plotted += 1
     return plotted
+
+
+def has_data(run, tests, names, x="e1"):
+    """Whether any of `tests` holds finite values of any column in `names`."""
+    return any(with_data(run.curves(t, n, x)) for t in tests for n in names)
 
 
 def finish(ax, plotted, xlabel, ylabel, title):
@@ -117,12 +152,22 @@ def draw_fabric(column, symbol, title):
 def draw_macro_micro(ax, run):
     n = 0
     for test in run.test_names:
-        series = run.test(test)
-        e1, hs, r = (column(series, c) for c in ("e1", "Hs11_Hs33", "ratio13"))
-        if e1 is None or hs is None or r is None:
+        hs = with_data(run.curves(test, "Hs11_Hs33"), FIG12_E1_MAX)
+        ratio = with_data(run.curves(test, "ratio13"), FIG12_E1_MAX)
+        if not hs or not ratio:
             continue
-        keep = e1 <= FIG12_E1_MAX * (1 + 1e-9)
-        ax.plot(*thin(hs[keep], r[keep]), "-o", markersize=2.0, linewidth=0.8, color=test_color(run, test), label=test)
+        color = test_color(run, test)
+        if len(hs) == 1:
+            x, y = hs[0][1], metrics.on_grid(hs[0][0], *ratio[0])
+            ax.plot(*thin(x, y), "-o", markersize=2.0, linewidth=0.8, color=color, label=test)
+        else:  # seed means of both in bins of ε1; the band is the spread of σ1/σ3
+            edges = metrics.bin_edges(hs)
+            hs_t, r_t = metrics.seed_table(hs, edges), metrics.seed_table(ratio, edges)
+            keep = np.sum(np.isfinite(hs_t) & np.isfinite(r_t), axis=0) >= 2
+            x, y = np.nanmean(hs_t[:, keep], axis=0), np.nanmean(r_t[:, keep], axis=0)
+            std = np.nanstd(r_t[:, keep], axis=0, ddof=1)
+            ax.fill_between(x, y - std, y + std, color=color, alpha=0.2, lw=0)
+            ax.plot(x, y, "-o", markersize=2.0, linewidth=0.8, color=color, label=test)
         n += 1
     finish(ax, n, r"strong-contact fabric ratio $H^s_{11}/H^s_{33}$ " + unit(run, "Hs11_Hs33"),
            r"stress ratio $\sigma_1/\sigma_3$ " + unit(run, "ratio13"),
@@ -139,64 +184,199 @@ def draw_stresses(ax, run):
 
 def draw_balance(ax, run):
     n = plot_vs_e1(ax, run, "unbalanced_force")
-    values = [run.column(t, "unbalanced_force") for t in run.test_names]
-    if any(v is not None and np.any(v > 0) for v in values):
+    if n:
         ax.set_yscale("log")  # it spans decades between shear start and steady flow
     finish(ax, n, e1_label(run), "unbalanced force ratio " + unit(run, "unbalanced_force"), "Extra  Quasi-static check")
 
 
-# (file stem, caption, drawing function); the order is the overview's panel order.
+# The overlaid figures: (file stem, paper figure number or None, caption, columns it needs, drawing function);
+# the order is the overview's panel order. The drawing functions title their axes as the paper numbers them.
 FIGURES = (
-    ("fig02_stress_ratio", "Figure 2: stress ratio σ1/σ3 vs ε1", draw_stress_ratio),
-    ("fig03_strains", "Figure 3: strains ε1, ε2, ε3 vs ε1 (first 5 % of ε1)", draw_strains),
-    ("fig04_volumetric_strain", "Figure 4: volumetric strain εv vs ε1", draw_volumetric),
-    ("fig05_dilatancy_index", "Figure 5: dilatancy index DI vs ε1", draw_dilatancy),
-    ("fig06_b_value", "Figure 6: b value vs ε1", draw_b),
-    ("fig07_coordination", "Figure 7: coordination number Z (solid) and Zm (dashed) vs ε1", draw_coordination),
-    ("fig08_sliding_fraction", "Figure 8: sliding contact fraction vs ε1", draw_sliding),
-    ("fig09_fabric_all", "Figure 9: fabric ratio H11/H33 (all contacts) vs ε1",
+    ("fig02_stress_ratio", 2, "stress ratio σ1/σ3 vs ε1", ("ratio13",), draw_stress_ratio),
+    ("fig03_strains", 3, "strains ε1, ε2, ε3 vs ε1 (first 5 % of ε1)", ("e2", "e3"), draw_strains),
+    ("fig04_volumetric_strain", 4, "volumetric strain εv vs ε1", ("ev",), draw_volumetric),
+    ("fig05_dilatancy_index", 5, "dilatancy index DI vs ε1", ("DI",), draw_dilatancy),
+    ("fig06_b_value", 6, "b value vs ε1", ("b",), draw_b),
+    ("fig07_coordination", 7, "coordination number Z (solid) and Zm (dashed) vs ε1", ("Z", "Zm"),
+     draw_coordination),
+    ("fig08_sliding_fraction", 8, "sliding contact fraction vs ε1", ("sliding_fraction",), draw_sliding),
+    ("fig09_fabric_all", 9, "fabric ratio H11/H33 (all contacts) vs ε1", ("H11_H33",),
      draw_fabric("H11_H33", r"$H_{11}/H_{33}$", "Fig. 9  Fabric ratio, all contacts")),
-    ("fig10_fabric_strong", "Figure 10: fabric ratio Hs11/Hs33 (strong contacts) vs ε1",
+    ("fig10_fabric_strong", 10, "fabric ratio Hs11/Hs33 (strong contacts) vs ε1", ("Hs11_Hs33",),
      draw_fabric("Hs11_Hs33", r"$H^s_{11}/H^s_{33}$", "Fig. 10  Fabric ratio, strong contacts")),
-    ("fig11_fabric_weak", "Figure 11: fabric ratio Hw11/Hw33 (weak contacts) vs ε1",
+    ("fig11_fabric_weak", 11, "fabric ratio Hw11/Hw33 (weak contacts) vs ε1", ("Hw11_Hw33",),
      draw_fabric("Hw11_Hw33", r"$H^w_{11}/H^w_{33}$", "Fig. 11  Fabric ratio, weak contacts")),
-    ("fig12_macro_micro", "Figure 12: σ1/σ3 vs Hs11/Hs33 for ε1 ≤ 1 %", draw_macro_micro),
-    ("extra_stresses", "Not in the paper: stress components σ11, σ22, σ33 vs ε1 (checks the stress control)",
-     draw_stresses),
-    ("extra_balance", "Not in the paper: unbalanced force ratio vs ε1 (checks the loading is quasi-static)",
-     draw_balance),
+    ("fig12_macro_micro", 12, "σ1/σ3 vs Hs11/Hs33 for ε1 ≤ 1 %", ("Hs11_Hs33",), draw_macro_micro),
+    ("extra_stresses", None, "stress components σ11, σ22, σ33 vs ε1 (checks the stress control)",
+     ("s11", "s22", "s33"), draw_stresses),
+    ("extra_balance", None, "unbalanced force ratio vs ε1 (checks the loading is quasi-static)",
+     ("unbalanced_force",), draw_balance),
 )
 OVERVIEW = "overview"
+FORCE_CHAINS = "force_chains"
+PREPARE = "prepare"
+
+# A panel of a per-test or preparation figure: its y label, its curves (column, scale, line style, legend
+# label), log scale, y limits. Drawn only when the series holds one of its columns.
+Panel = collections.namedtuple("Panel", "ylabel curves log ylim", defaults=(False, None))
+
+TEST_PANELS = (
+    Panel(r"stress ratio $\sigma_{11}/\sigma_{33}$ (–)", (("ratio13", 1.0, "-", None),)),
+    Panel("p, q (kPa)", (("p", KPA, "-", "p"), ("q", KPA, "--", "q"))),
+    Panel(r"volumetric strain $\varepsilon_v$ (%, compression +)", (("ev", PERCENT, "-", None),)),
+    Panel("b (–)", (("b", 1.0, "-", "b (axis stresses)"), ("b_principal", 1.0, "--", "b (principal)")),
+          ylim=(-0.2, 1.05)),
+    Panel("coordination number (–)", (("Z", 1.0, "-", "Z"), ("Zm", 1.0, "--", r"$Z_m$"))),
+    Panel("sliding contacts (% of contacts)", (("sliding_fraction", PERCENT, "-", None),)),
+    Panel("fabric ratio (–)", (("H11_H33", 1.0, "-", r"$H_{11}/H_{33}$"), ("Hs11_Hs33", 1.0, "--", "strong"),
+                               ("Hw11_Hw33", 1.0, ":", "weak"))),
+    Panel(r"dilatancy index $-d\varepsilon_v/d\varepsilon_1$ (–)", (("DI", 1.0, "-", None),)),
+)
+
+PREPARE_PANELS = (
+    Panel("mean stress p (kPa)", (("p", KPA, "-", None),)),
+    Panel("void ratio e (–)", (("void_ratio", 1.0, "-", None),)),
+    Panel("coordination number (–)", (("Z", 1.0, "-", "Z"), ("Zm", 1.0, "--", r"$Z_m$"))),
+    Panel("unbalanced force ratio (–)", (("unbalanced_force", 1.0, "-", None),), log=True),
+    Panel("kinetic energy (J)", (("kinetic_energy", 1.0, "-", None),), log=True),
+)
 
 
-def figure_paths(fig_dir):
-    stems = [stem for stem, _, _ in FIGURES] + [OVERVIEW]
-    return [os.path.join(fig_dir, stem + ".png") for stem in stems]
+def x_axis(run, stage):
+    """(column, scale, label) of a stage's x axis: ε1 (%) for a test whose e1 moves, else the step."""
+    if stage != PREPARE:
+        spans = [np.ptp(x) for x, _ in with_data(run.curves(stage, "e1"))]
+        if spans and max(spans) > 1e-6:
+            return "e1", PERCENT, e1_label(run)
+    return "step", 1.0, "step"
 
 
-def write_figures(run, fig_dir):
-    """Writes every figure of `run` into fig_dir; returns the paths written."""
+def panels_with_data(run, stage, panels):
+    x = x_axis(run, stage)[0]
+    return [p for p in panels if has_data(run, [stage], [c[0] for c in p.curves], x)]
+
+
+def draw_panels(plt, run, stage, panels, title):
+    """A figure with one panel per entry of `panels` that the stage's series holds."""
+    x_name, x_scale, x_label = x_axis(run, stage)
+    rows = -(-len(panels) // 4)
+    cols = -(-len(panels) // rows)  # 5 panels: 2 rows of 3, 8: 2 of 4
+    fig, axes = plt.subplots(rows, cols, figsize=(4.0 * cols, 3.2 * rows), squeeze=False)
+    for ax, panel in zip(axes.flat, panels):
+        labelled = False
+        for k, (name, scale, style, label) in enumerate(panel.curves):
+            curves = with_data(run.curves(stage, name, x_name))
+            if curves:
+                draw_curves(ax, curves, f"C{k}", label, style, x_scale, scale)
+                labelled |= label is not None
+        if panel.log:
+            ax.set_yscale("log")
+        if panel.ylim:
+            low, high = ax.get_ylim()
+            ax.set_ylim(max(low, panel.ylim[0]), min(high, panel.ylim[1]))
+        ax.set_xlabel(x_label)
+        if x_name == "step":
+            ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 3))
+        ax.set_ylabel(panel.ylabel, fontsize=9)
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+        if labelled:
+            ax.legend(fontsize=8)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.axis("off")
+    fig.suptitle(title, fontsize=11)
+    return fig
+
+
+def is_ensemble(run):
+    return len(run.runs) > 1
+
+
+def run_label(run):
+    name = os.path.basename(os.path.abspath(run.directory))
+    if is_ensemble(run):
+        return f"{name} ({len(run.runs)} seeds; {BAND_TEXT})"
+    return name
+
+
+# One figure to write: file stem, caption, report section ("tests", "compare", "prepare", "force_chains",
+# "overview"), and a function of pyplot that returns the figure.
+Plan = collections.namedtuple("Plan", "stem caption section make")
+
+
+def overlay_figure(run, draw, title_number, paper):
+    def make(plt):
+        fig, ax = plt.subplots(figsize=(6.4, 4.6))
+        draw(ax, run)
+        if not paper:  # "Fig. 2  Stress–strain" -> "Stress–strain": the paper's numbers only for the paper's deck
+            ax.set_title(ax.get_title().split("  ", 1)[-1], fontsize=10)
+        if is_ensemble(run):
+            ax.text(0.01, 0.01, f"{len(run.runs)} seeds: {BAND_TEXT}", transform=ax.transAxes, fontsize=6,
+                    color="0.4")
+        return fig
+    return make
+
+
+def overview_figure(run, chosen, paper):
+    def make(plt):
+        cols = 4
+        rows = -(-len(chosen) // cols)
+        fig, axes = plt.subplots(rows, cols, figsize=(5.0 * cols, 3.9 * rows), squeeze=False)
+        for ax, (_, number, _, _, draw) in zip(axes.flat, chosen):
+            draw(ax, run)
+            if not paper:
+                ax.set_title(ax.get_title().split("  ", 1)[-1], fontsize=10)
+        for ax in list(axes.flat)[len(chosen):]:
+            ax.axis("off")
+        fig.suptitle(f"celldem {run_label(run)}: tests " + ", ".join(run.test_names), fontsize=12)
+        return fig
+    return make
+
+
+def plan(run, paper=False):
+    """What to draw for this run: every figure it holds data for, in the report's order."""
+    out = []
+    for test in run.test_names:
+        panels = panels_with_data(run, test, TEST_PANELS)
+        if panels:
+            out.append(Plan(f"test_{test}", f"test {test}: every quantity its series holds", "tests",
+                            lambda plt, t=test, p=panels: draw_panels(plt, run, t, p, f"test {t}: {run_label(run)}")))
+    if paper or len(run.test_names) > 1:
+        chosen = [f for f in FIGURES if has_data(run, run.test_names, f[3])]
+        for stem, number, caption, _, draw in chosen:
+            caption = f"Figure {number}: {caption}" if paper and number else caption
+            out.append(Plan(stem, caption, "compare", overlay_figure(run, draw, number, paper)))
+        if chosen:
+            out.append(Plan(OVERVIEW, "all the panels above", "overview", overview_figure(run, chosen, paper)))
+    chains = force_chains.tests_with_contacts(run.runs[0])
+    if chains:
+        seed = f" (seed {run.seeds[0]})" if is_ensemble(run) else ""
+        out.append(Plan(FORCE_CHAINS, f"strong force chains at the peak of {', '.join(chains)}{seed}",
+                        "force_chains", lambda plt: force_chains.draw(plt, run.runs[0], chains, seed)))
+    panels = panels_with_data(run, PREPARE, PREPARE_PANELS)
+    if panels:
+        out.append(Plan(PREPARE, "the preparation against steps: p, void ratio, Z, unbalanced force, kinetic energy",
+                        "prepare", lambda plt: draw_panels(plt, run, PREPARE, panels,
+                                                           f"preparation: {run_label(run)}")))
+    return out
+
+
+def figure_paths(fig_dir, planned):
+    return [os.path.join(fig_dir, p.stem + ".png") for p in planned]
+
+
+def write_figures(run, fig_dir, paper=False):
+    """Writes every figure of `run` (a Run or an Ensemble) into fig_dir; returns the paths written."""
     plt = plotting.pyplot()
     os.makedirs(fig_dir, exist_ok=True)
     written = []
-    for stem, _, draw in FIGURES:
-        fig, ax = plt.subplots(figsize=(6.4, 4.6))
-        draw(ax, run)
-        written.append(plotting.save(fig, os.path.join(fig_dir, stem + ".png"), dpi=130))
-
-    cols = 4
-    rows = -(-len(FIGURES) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.0 * cols, 3.9 * rows))
-    for ax, (_, _, draw) in zip(axes.flat, FIGURES):
-        draw(ax, run)
-    for ax in list(axes.flat)[len(FIGURES):]:
-        ax.axis("off")
-    fig.suptitle(f"celldem run {os.path.basename(os.path.abspath(run.directory))}: tests "
-                 + ", ".join(run.test_names), fontsize=12)
-    written.append(plotting.save(fig, os.path.join(fig_dir, OVERVIEW + ".png"), dpi=90, rect=(0, 0, 1, 0.98)))
+    for p in plan(run, paper):
+        fig = p.make(plt)
+        dpi = {"overview": 90, "compare": 130}.get(p.section, 110)
+        layout = {} if p.section == "compare" else {"rect": (0, 0, 1, 0.96)}  # room for the suptitle
+        written.append(plotting.save(fig, os.path.join(fig_dir, p.stem + ".png"), dpi=dpi, **layout))
     return written
 
 
-def missing(fig_dir):
-    """Whether any figure is missing from fig_dir."""
-    return not all(os.path.isfile(p) for p in figure_paths(fig_dir))
+def missing(fig_dir, planned):
+    """Whether any planned figure is missing from fig_dir."""
+    return not all(os.path.isfile(p) for p in figure_paths(fig_dir, planned))

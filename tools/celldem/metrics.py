@@ -74,6 +74,24 @@ def binned_means(x, y, edges):
     return means
 
 
+def binned_pair(xa, ya, xb, yb, bins=100):
+    """Two noisy curves y(x) averaged in `bins` equal bins of the x range both cover: (means of a, means of b) over
+    the bins both have data in, or None without overlap."""
+    if xa is None or ya is None or xb is None or yb is None:
+        return None
+    xa, ya = finite_pair(xa, ya)
+    xb, yb = finite_pair(xb, yb)
+    if xa.size < 2 or xb.size < 2:
+        return None
+    lo, hi = max(xa.min(), xb.min()), min(xa.max(), xb.max())
+    if not hi > lo:
+        return None
+    edges = np.linspace(lo, hi, bins + 1)
+    ma, mb = binned_means(xa, ya, edges), binned_means(xb, yb, edges)
+    both = np.isfinite(ma) & np.isfinite(mb)
+    return (ma[both], mb[both]) if np.count_nonzero(both) >= 2 else None
+
+
 def curve_difference(xa, ya, xb, yb, bins=100, relative_to="range"):
     """RMS difference of two noisy curves y(x) over the x range both cover.
 
@@ -81,30 +99,64 @@ def curve_difference(xa, ya, xb, yb, bins=100, relative_to="range"):
     span of the binned curves (max - min); relative_to="value" takes the RMS of the pointwise difference
     divided by the mean of the two values. Returns (difference, bins used) or (None, 0) without overlap.
     """
-    if xa is None or ya is None or xb is None or yb is None:
+    pair = binned_pair(xa, ya, xb, yb, bins)
+    if pair is None:
         return None, 0
-    xa, ya = finite_pair(xa, ya)
-    xb, yb = finite_pair(xb, yb)
-    if xa.size < 2 or xb.size < 2:
-        return None, 0
-    lo, hi = max(xa.min(), xb.min()), min(xa.max(), xb.max())
-    if not hi > lo:
-        return None, 0
-    edges = np.linspace(lo, hi, bins + 1)
-    ma, mb = binned_means(xa, ya, edges), binned_means(xb, yb, edges)
-    both = np.isfinite(ma) & np.isfinite(mb)
-    if np.count_nonzero(both) < 2:
-        return None, 0
-    ma, mb = ma[both], mb[both]
+    ma, mb = pair
     if relative_to == "range":
         span = max(ma.max(), mb.max()) - min(ma.min(), mb.min())
         if span <= 0:
-            return 0.0, int(both.sum())
-        return float(math.sqrt(np.mean((ma - mb) ** 2)) / span), int(both.sum())
+            return 0.0, ma.size
+        return float(math.sqrt(np.mean((ma - mb) ** 2)) / span), ma.size
     mean = 0.5 * (ma + mb)
-    return float(math.sqrt(np.mean(((ma - mb) / mean) ** 2))), int(both.sum())
+    return float(math.sqrt(np.mean(((ma - mb) / mean) ** 2))), ma.size
+
+
+def mean_difference(xa, ya, xb, yb, bins=100, relative=False):
+    """The signed mean of b - a over the binned curves (binned_pair), divided by the mean value when `relative`;
+    None without overlap. Over seeds, its spread says whether two tests' curves differ."""
+    pair = binned_pair(xa, ya, xb, yb, bins)
+    if pair is None:
+        return None
+    ma, mb = pair
+    return float(np.mean((mb - ma) / (0.5 * (ma + mb)) if relative else mb - ma))
 
 
 def all_finite(series, names=("e1", "s11", "s22", "s33")):
     """Whether the named columns of a series (those it has) hold finite values only: a run that blew up has not."""
     return bool(all(np.all(np.isfinite(series[c])) for c in names if c in series))
+
+
+def seed_table(curves, edges):
+    """Binned means of y (rows: curves, columns: bins of x; NaN where a curve has no data in a bin)."""
+    return np.array([binned_means(np.asarray(x, float), np.asarray(y, float), edges) for x, y in curves])
+
+
+def bin_edges(curves, bins=None):
+    """Equal bins over the x range the curves cover together; by default about two rows of a curve per bin
+    (10 to 100 bins). None when no curve has finite x."""
+    xs = [np.asarray(x, float)[np.isfinite(x)] for x, _ in curves]
+    xs = [x for x in xs if x.size]
+    if not xs:
+        return None
+    lo, hi = min(x.min() for x in xs), max(x.max() for x in xs)
+    if not hi > lo:
+        return None
+    if bins is None:
+        bins = int(np.clip(min(x.size for x in xs) // 2, 10, 100))
+    return np.linspace(lo, hi, bins + 1)
+
+
+def seed_band(curves, edges=None):
+    """The mean curve of several runs (one per seed) and its band: in each bin of x, the mean over the seeds of
+    each seed's binned mean of y, and their sample standard deviation (n - 1). Bins where fewer than two seeds
+    have data are left out. Returns (bin centres, mean, std, seeds per bin), empty arrays without data."""
+    edges = bin_edges(curves) if edges is None else edges
+    if edges is None:
+        return (np.empty(0),) * 4
+    table = seed_table(curves, edges)
+    count = np.sum(np.isfinite(table), axis=0)
+    keep = count >= 2
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    sub = table[:, keep]
+    return centres[keep], np.nanmean(sub, axis=0), np.nanstd(sub, axis=0, ddof=1), count[keep]

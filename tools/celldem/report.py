@@ -1,5 +1,7 @@
-"""RUN_DIR/report.md (tools/report.py): the run's results beside the paper's, its settings and timings, its
-figures and the speed–accuracy study when one lies beside it.
+"""RUN_DIR/report.md (tools/report.py): the run's own tests first (values and figures, whatever they are named),
+its preparation, the force chains at the peaks, the failure surface of a constant-b deck, the paper's findings
+beside the run's for the paper's deck (scenes.is_paper, or --paper), its settings and timings, and the
+speed–accuracy study when one lies beside it. An ensemble folder gets ensemble_report.py's report instead.
 
 The peak of s11/s33, ε1 and b there, the final and end-window values come from summary.json (celldem computes
 them); maxima, start values, interpolated values and the comparisons of curves are measured on series.csv.
@@ -10,8 +12,8 @@ import os
 
 import numpy as np
 
-from . import figures, metrics
-from .results import read_json
+from . import failure_surface, figures, metrics, scenes
+from .results import Ensemble, read_json
 from .tables import fmt, md_table, scaled, yes_no
 
 PERCENT = 100.0
@@ -92,7 +94,7 @@ def b_rows(run):
                 ("PSC b falls after the peak", "yes", "n/a", *na)]
     e1 = run.column("psc", "e1")
     b_peak = run.quantity("psc", "b_at_peak")
-    b_10 = metrics.value_at(e1, run.column("psc", "b"), B_STRAIN)
+    b_10 = psc_b_at_10(run)
     falls = None if b_peak is None or b_10 is None else b_10 < b_peak
     end = "n/a" if e1 is None or not e1.size else f"{np.nanmax(e1) * PERCENT:.2f} %"
     return [
@@ -115,20 +117,48 @@ def peak_rows(run):
              "summary.json peak_ratio13 (max σ1/σ3) of each test")]
 
 
+def psc_b_at_10(run):
+    """PSC's b interpolated at ε1 = 10 % (None when the test ends before)."""
+    return metrics.value_at(run.column("psc", "e1"), run.column("psc", "b"), B_STRAIN)
+
+
+def ttc_max_b(run):
+    """max |b| of TTC once b is defined (ε1 ≥ 0.1 %)."""
+    b, e1 = run.column("ttc", "b"), run.column("ttc", "e1")
+    if b is None or e1 is None or not np.any(e1 >= B_DEFINED_MIN_E1):
+        return None
+    return metrics.max_of(np.abs(b[e1 >= B_DEFINED_MIN_E1]))
+
+
+def psc_max_e2(run):
+    e2 = run.column("psc", "e2")
+    return metrics.max_of(np.abs(e2)) if e2 is not None else None
+
+
+def fabric_peak_lag(run, test):
+    """ε1 at max H11/H33 minus summary.json's ε1 at the peak of σ1/σ3 (None when either is missing)."""
+    e1_ratio = run.quantity(test, "e1_at_peak")
+    e1_fabric = metrics.x_at_max(run.column(test, "e1"), run.column(test, "H11_H33"))
+    return None if e1_ratio is None or e1_fabric is None else e1_fabric - e1_ratio
+
+
+def tracks_r(run, test, name):
+    """Pearson correlation of column `name` with σ1/σ3 over ε1 ≥ 0.1 %."""
+    e1, y, ratio = run.column(test, "e1"), run.column(test, name), run.column(test, "ratio13")
+    if e1 is None or y is None or ratio is None:
+        return None
+    keep = e1 >= B_DEFINED_MIN_E1
+    return metrics.pearson(y[keep], ratio[keep])
+
+
 def control_rows(run):
     """The loading paths themselves: σ2 = σ3 in TTC (b = 0) and ε2 = 0 in PSC."""
     rows = []
-    b, e1 = run.column("ttc", "b"), run.column("ttc", "e1")
-    if b is not None and e1 is not None:
-        keep = e1 >= B_DEFINED_MIN_E1
-        b_max = metrics.max_of(np.abs(b[keep])) if np.any(keep) else None
-    else:
-        b_max = None
+    b_max = ttc_max_b(run)
     ok = None if b_max is None else b_max < ZERO_B_TOL
     rows.append(("TTC b stays 0", "yes", answer(ok, f"max |b| = {fmt(b_max)}"), verdict(ok, True),
                  f"max |b| for ε1 ≥ {B_DEFINED_MIN_E1 * PERCENT:g} % below {ZERO_B_TOL}"))
-    e2 = run.column("psc", "e2")
-    e2_max = metrics.max_of(np.abs(e2)) if e2 is not None else None
+    e2_max = psc_max_e2(run)
     ok = None if e2_max is None else e2_max < ZERO_STRAIN_TOL
     rows.append(("PSC ε2 stays 0", "yes", answer(ok, f"max |ε2| = {fmt(e2_max)}"), verdict(ok, True),
                  f"max |ε2| below {ZERO_STRAIN_TOL * PERCENT:g} %"))
@@ -183,27 +213,20 @@ def peak_order_row(run):
     label = "H11/H33 peaks at a larger ε1 than σ1/σ3"
     parts, answers = [], []
     for test in run.test_names:
-        e1_ratio = run.quantity(test, "e1_at_peak")
-        e1_fabric = metrics.x_at_max(run.column(test, "e1"), run.column(test, "H11_H33"))
-        if e1_ratio is None or e1_fabric is None:
+        lag = fabric_peak_lag(run, test)
+        if lag is None:
             continue
-        answers.append(e1_fabric > e1_ratio)
-        parts.append(f"{test}: {e1_fabric * PERCENT:.1f} % vs {e1_ratio * PERCENT:.1f} %")
+        e1_ratio = run.quantity(test, "e1_at_peak")
+        answers.append(lag > 0)
+        parts.append(f"{test}: {(e1_ratio + lag) * PERCENT:.1f} % vs {e1_ratio * PERCENT:.1f} %")
     later = all(answers) if answers else None
     return (label, "yes", answer(later, "; ".join(parts)), verdict(later, True),
             "ε1 at max H11/H33 vs summary.json e1_at_peak (ε1 at max σ1/σ3), every test")
 
 
 def tracks_row(run, label, name, tests):
-    rs = []
-    for test in tests:
-        e1, y, ratio = run.column(test, "e1"), run.column(test, name), run.column(test, "ratio13")
-        if e1 is None or y is None or ratio is None:
-            continue
-        keep = e1 >= B_DEFINED_MIN_E1
-        r = metrics.pearson(y[keep], ratio[keep])
-        if r is not None:
-            rs.append((test, r))
+    rs = [(test, tracks_r(run, test, name)) for test in tests]
+    rs = [(test, r) for test, r in rs if r is not None]
     tracks = min(r for _, r in rs) >= TRACKS_MIN_R if rs else None
     detail = ", ".join(f"{t} r = {r:.2f}" for t, r in rs)
     return (label, "yes", answer(tracks, detail), verdict(tracks, True),
@@ -226,7 +249,14 @@ def paper_table(run):
              tracks_row(run, "Hs11/Hs33 tracks σ1/σ3 over ε1", "Hs11_Hs33", [t for t in ("ttc", "psc")
                                                                             if run.test(t) is not None]),
              tracks_row(run, "PSC b tracks σ1/σ3 over ε1", "b", ["psc"] if run.test("psc") is not None else [])]
-    return md_table(("Quantity", "Paper", "This run", "Matches qualitatively", "How computed"), rows)
+    # A finding the run cannot judge (a test missing, a column missing) is named once, not a row of n/a.
+    judged = [r for r in rows if not (r[2] == "n/a" and r[3] == "n/a")]
+    skipped = [r[0] for r in rows if r not in judged]
+    out = md_table(("Quantity", "Paper", "This run", "Matches qualitatively", "How computed"), judged)
+    if skipped:
+        out += ("\n\nNot judged (the run lacks the test or the series column they need): "
+                + "; ".join(skipped) + ".")
+    return out
 
 
 # --- the other sections ------------------------------------------------------------------------------------
@@ -313,7 +343,31 @@ def peaks_section(run):
         return "No series.csv found."
     columns = [test_values(run, t) for t in run.test_names]
     rows = [(label, *(values[k][1] for values in columns)) for k, (label, _) in enumerate(columns[0])]
-    return md_table(("Quantity", *run.test_names), rows)
+    return md_table(("Quantity", *run.test_names), [r for r in rows if not all(is_missing(c) for c in r[1:])])
+
+
+def is_missing(cell):
+    """A table cell with no number in it ('n/a', 'n/a / n/a', 'n/a–n/a, n/a')."""
+    return not any(ch.isdigit() for ch in cell.replace("n/a", ""))
+
+
+PREPARED_VALUES = (("void ratio e (–)", "void_ratio", 1.0, 3), ("coordination number Z (–)", "Z", 1.0, 2),
+                   ("mechanical coordination number Zm (–)", "Zm", 1.0, 2), ("rattlers", "rattlers", 1.0, 0),
+                   ("mean stress p (kPa)", "p", 1e-3, 2), ("unbalanced force ratio (–)", "unbalanced_force", 1.0, 3),
+                   ("steps", "steps", 1.0, 0))
+
+
+def prepared_section(run):
+    """summary.json's prepared state, and where the preparation's figure is; None without a preparation."""
+    prepared = run.summary.get("prepared")
+    if not isinstance(prepared, dict):
+        return None
+    rows = [(label, fmt(scaled(prepared.get(key), factor), digits) if digits else fmt(prepared.get(key)))
+            for label, key, factor, digits in PREPARED_VALUES if prepared.get(key) is not None]
+    out = md_table(("Prepared sample (summary.json)", "Value"), rows)
+    if prepared.get("equilibrium_criterion"):
+        out += f"\n\nEquilibrium: {prepared['equilibrium_criterion']}."
+    return out
 
 
 def end_window_text(run):
@@ -322,12 +376,46 @@ def end_window_text(run):
     return f"the end window is {width} of the strain of the test's end axis"
 
 
-def figures_section(fig_dir_name="figures"):
+SECTION_TITLES = {"tests": "Each test", "compare": "Tests compared", "overview": "Overview",
+                  "force_chains": "Force chains at the peak", "prepare": "Preparation"}
+
+
+def figures_section(planned, sections=("tests", "compare", "overview", "prepare"), fig_dir_name="figures",
+                    headings=True):
+    """The planned figures (figures.plan) of the given sections, under a heading per section."""
     out = []
-    for stem, caption, _ in figures.FIGURES:
-        out += [f"### {caption}", "", f"![{caption}]({fig_dir_name}/{stem}.png)", ""]
-    out += ["### Overview", "", f"![All panels]({fig_dir_name}/{figures.OVERVIEW}.png)", ""]
+    for section in sections:
+        chosen = [p for p in planned if p.section == section]
+        if not chosen:
+            continue
+        out += [f"### {SECTION_TITLES[section]}", ""] if headings else []
+        for p in chosen:
+            out += [f"{p.caption}:", "", f"![{p.caption}]({fig_dir_name}/{p.stem}.png)", ""]
     return "\n".join(out)
+
+
+def force_chain_section(planned):
+    if not any(p.section == "force_chains" for p in planned):
+        return None
+    return "\n".join([
+        "Each test's contact network on the row of its largest σ1/σ3 (celldem's `<test>/peak_contacts.csv`): the "
+        "contacts whose normal force exceeds the mean of all contacts, drawn between the centres (along the branch "
+        "vector, from the centre inside the slab for contacts across the periodic boundary) in a slab 1.5 mean "
+        "diameters thick through the cell's centre, normal to x2; line width proportional to the force, on one "
+        "scale for all the tests.", "", figures_section(planned, ("force_chains",), headings=False)])
+
+
+def failure_surface_section(run):
+    """The failure surface of the run's constant-b tests (tools/failure_surface.py's table and figures); None
+    unless the deck has two or more of them with peak states."""
+    tests = scenes.constant_b_tests(run)
+    points = failure_surface.peaks(run.summary, tests)
+    if len(points) < 2:
+        return None
+    body, phi_png, pi_png = failure_surface.analyse(run.directory, points)
+    return "\n".join([f"Tests with a constant-b axis: {', '.join(tests)}. {failure_surface.HOW}", ""] + body + [
+        "", f"![peak friction angle against b](figures/{os.path.basename(phi_png)})", "",
+        f"![peak states in the π-plane](figures/{os.path.basename(pi_png)})", ""])
 
 
 def study_section(run):
@@ -358,51 +446,53 @@ def study_section(run):
     return "\n".join(out)
 
 
-def build_report(run):
+def section(title, body):
+    return [] if body is None else [f"## {title}", "", body, ""]
+
+
+def build_report(run, paper, planned):
     name = os.path.basename(os.path.abspath(run.directory))
-    tests = ", ".join(run.test_names) or "none"
+    tests = ", ".join(run.test_names) or "none (a preparation only)"
+    out = [f"# celldem run report: {name}", "",
+           f"Deck: `{run.summary.get('deck', 'n/a')}`. Tests: {tests}. Strains are compression positive and relative "
+           "to each test's start.", ""]
+    if paper:
+        out += ["## Comparison with the paper", "",
+                "Paper: *A comparison between true triaxial and plane strain compression by 3D DEM*. The comparisons "
+                "between tests use the tests named `ttc` and `psc`. \"Matches qualitatively\" says whether the run "
+                "shows what the paper reports, by the criterion in the last column.", "",
+                paper_table(run), ""]
+    if run.test_names:
+        out += ["## Per-test values", "",
+                "The peak of σ1/σ3, ε1, b, p, q and the friction angle there, the final values and the end-window "
+                f"means are celldem's (summary.json; {end_window_text(run)}); maxima, start values and the final "
+                "σ1/σ3 are read from each series.csv.", "",
+                peaks_section(run), ""]
+    out += section("Preparation", prepared_section(run))
+    out += section("Force chains", force_chain_section(planned))
+    out += section("Failure surface", failure_surface_section(run))
+    out += section("Figures", figures_section(planned) or None)
     study = study_section(run)
-    return "\n".join([
-        f"# celldem run report: {name}",
-        "",
-        f"Tests: {tests}. Strains are compression positive and relative to each test's start.",
-        "",
-        "## Comparison with the paper",
-        "",
-        "Paper: *A comparison between true triaxial and plane strain compression by 3D DEM*. The comparisons "
-        "between tests use the tests named `ttc` and `psc`. \"Matches qualitatively\" says whether the run "
-        "shows what the paper reports, by the criterion in the last column.",
-        "",
-        paper_table(run),
-        "",
-        "## Run settings",
-        "",
-        settings_section(run),
-        "",
-        "## Wall times",
-        "",
-        timing_section(run),
-        "",
-        "## Per-test values",
-        "",
-        "The peak of σ1/σ3, ε1, b, p, q and the friction angle there, the final values and the end-window means "
-        f"are celldem's (summary.json; {end_window_text(run)}); maxima, start values and the final σ1/σ3 are "
-        "read from each series.csv.",
-        "",
-        peaks_section(run),
-        "",
-        "## Figures",
-        "",
-        figures_section(),
-    ] + ([] if study is None else ["## Speed–accuracy study", "", study, ""]))
+    out += section("Run settings", settings_section(run)) + section("Wall times", timing_section(run))
+    out += section("Speed–accuracy study", study)
+    return "\n".join(out)
 
 
-def write_report(run, refresh_figures=False):
-    """Draws the figures when any is missing (or always with refresh_figures), writes report.md; returns its path."""
+def write_report(run, refresh_figures=False, paper=None):
+    """Draws the figures when any is missing (or always with refresh_figures), writes report.md; returns its path.
+    paper None: the paper's comparison when the run is the paper's deck (scenes.is_paper); True forces it. An
+    Ensemble gets ensemble_report's report."""
+    paper = scenes.is_paper(run) if paper is None else paper
+    planned = figures.plan(run, paper)
     fig_dir = os.path.join(run.directory, "figures")
-    if refresh_figures or figures.missing(fig_dir):
-        figures.write_figures(run, fig_dir)
+    if refresh_figures or figures.missing(fig_dir, planned):
+        figures.write_figures(run, fig_dir, paper)
+    if isinstance(run, Ensemble):
+        from . import ensemble_report  # imports this module
+        text = ensemble_report.build_report(run, paper, planned)
+    else:
+        text = build_report(run, paper, planned)
     path = os.path.join(run.directory, "report.md")
     with open(path, "w", encoding="utf-8") as f:
-        f.write(build_report(run))
+        f.write(text)
     return path

@@ -1,9 +1,17 @@
-"""Loading celldem run directories.
+"""Loading celldem run directories and seed ensembles.
 
-A run directory holds summary.json (celldem's scalars per stage and test: read them, never recompute them) and
-one <test>/series.csv per test, whose columns are named by its header row. celldem also writes
+A run directory holds summary.json (celldem's scalars per stage and test: read them, never recompute them),
+prepare/series.csv when the run prepared its sample, one <test>/series.csv per test, whose columns are named by
+its header row, and progress.json (the deck as celldem read it). celldem also writes
 <stage>/series.columns.json beside each series ({"columns": [{"name", "unit", "meaning"}, ...]}); older runs
 lack it, so units are optional. Strains are dimensionless and stresses in Pa, both compression positive.
+
+An ensemble directory (`celldem run DECK --seeds 1-8`) holds ensemble.json (celldem's mean, std, sem and 95 %
+interval of every summary quantity over the seeds, and the paired differences between tests) and one run
+directory per seed, seed-<k>/.
+
+Figures ask either kind for `curves(test, column)`: a list of (e1, values) pairs, one per run (one for a run,
+one per seed for an ensemble).
 """
 
 import argparse
@@ -54,11 +62,15 @@ class Run:
     """One run directory: its summary (dict), its series (test name -> {column -> array}) and the units of
     the series columns (column -> {"unit", "meaning"}; empty for runs older than series.columns.json)."""
 
-    def __init__(self, directory, summary, series, columns=None):
+    def __init__(self, directory, summary, series, columns=None, prepare=None, deck=None):
         self.directory = directory
         self.summary = summary
         self.series = series
         self.columns = columns or {}
+        self.prepare = prepare  # prepare/series.csv ({column -> array}), None when the run did not prepare
+        self.deck = deck        # the deck as celldem read it (progress.json), None when unknown
+
+    runs = property(lambda self: [self])  # what an Ensemble holds: one run here
 
     @property
     def test_names(self):
@@ -86,6 +98,68 @@ class Run:
     def unit(self, name):
         """The unit of series column `name` from series.columns.json, or None when unknown."""
         return (self.columns.get(name) or {}).get("unit")
+
+    def curves(self, test, name, x="e1"):
+        """[(x, column)] of test `test` (test "prepare": the preparation), [] when either column is missing."""
+        series = self.prepare if test == "prepare" else self.test(test)
+        xs, ys = column(series, x), column(series, name)
+        return [] if xs is None or ys is None else [(xs, ys)]
+
+    def deck_test(self, name):
+        """The deck's entry for test `name` (progress.json), {} when the deck is unknown."""
+        for test in (self.deck or {}).get("tests") or []:
+            if isinstance(test, dict) and test.get("name") == name:
+                return test
+        return {}
+
+    def mean_diameter(self):
+        """The mean sphere diameter [m]: each size of summary.json's settings.diameters_m is equally likely."""
+        sizes = [number(d) for d in (self.summary.get("settings") or {}).get("diameters_m") or []]
+        sizes = [d for d in sizes if d]
+        return sum(sizes) / len(sizes) if sizes else None
+
+
+class Ensemble:
+    """A seed ensemble: ensemble.json (`stats`: celldem's statistics) and the Run of each seed-<k>/ (`runs`)."""
+
+    def __init__(self, directory, stats, runs):
+        self.directory = directory
+        self.stats = stats
+        self.runs = runs
+
+    @property
+    def seeds(self):
+        return list(self.stats.get("seeds") or [])
+
+    @property
+    def test_names(self):
+        names = []
+        for run in self.runs:
+            names += [n for n in run.test_names if n not in names]
+        return names
+
+    @property
+    def prepare(self):
+        return next((r.prepare for r in self.runs if r.prepare is not None), None)
+
+    def test(self, name):
+        """The first seed's series of `name` (for what needs one series: which columns exist)."""
+        return next((r.test(name) for r in self.runs if r.test(name) is not None), None)
+
+    def unit(self, name):
+        return next((r.unit(name) for r in self.runs if r.unit(name)), None)
+
+    def curves(self, test, name, x="e1"):
+        return [c for run in self.runs for c in run.curves(test, name, x)]
+
+    def statistic(self, group, *keys):
+        """ensemble.json's entry {"n", "mean", "std", "sem", "ci95", "values"} under `group` ("prepared", "tests",
+        "paired") and keys: statistic("tests", "psc", "b_at_peak"), statistic("paired", "ttc-psc", "peak_ratio13");
+        None when it has none."""
+        node = self.stats.get(group)
+        for key in keys:
+            node = node.get(key) if isinstance(node, dict) else None
+        return node if isinstance(node, dict) and "mean" in node else None
 
 
 def load_summary(run_dir):
@@ -146,6 +220,16 @@ def discover_tests(run_dir, summary):
     return listed + [d for d in found if d not in listed]
 
 
+def load_deck(run_dir):
+    """The deck celldem ran, from progress.json (canonical JSON text), or None."""
+    progress = read_json(os.path.join(run_dir, "progress.json"))
+    try:
+        deck = json.loads(progress["deck"]) if isinstance(progress, dict) else None
+    except (KeyError, TypeError, json.JSONDecodeError):
+        return None
+    return deck if isinstance(deck, dict) else None
+
+
 def load_run(run_dir):
     summary = load_summary(run_dir)
     series, columns = {}, {}
@@ -156,20 +240,44 @@ def load_run(run_dir):
             continue
         series[name] = load_series(path)
         columns.update(load_columns(path))
-    return Run(run_dir, summary, series, columns)
+    prepare_path = os.path.join(run_dir, "prepare", "series.csv")
+    prepare = None
+    if os.path.isfile(prepare_path):
+        prepare = load_series(prepare_path)
+        columns.update(load_columns(prepare_path))
+    return Run(run_dir, summary, series, columns, prepare, load_deck(run_dir))
+
+
+def is_ensemble(directory):
+    return os.path.isfile(os.path.join(directory, "ensemble.json"))
+
+
+def load_ensemble(directory):
+    """An ensemble directory: ensemble.json and each seed-<k>/ run that has a summary.json."""
+    stats = read_json(os.path.join(directory, "ensemble.json"))
+    if not isinstance(stats, dict):
+        raise RunError(f"cannot read {os.path.join(directory, 'ensemble.json')}")
+    seeds = stats.get("seeds") or []
+    runs = [load_run(os.path.join(directory, f"seed-{k}")) for k in seeds
+            if os.path.isfile(os.path.join(directory, f"seed-{k}", "summary.json"))]
+    if not runs:
+        raise RunError(f"{directory}: ensemble.json names seeds {seeds} but no seed-<k>/summary.json is there")
+    return Ensemble(directory, stats, runs)
 
 
 def run_dir_parser(doc):
     """An argparse parser for a tool that reads one run directory: its description is the docstring's first line."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
-    parser.add_argument("run_dir", help="run directory holding summary.json and <test>/series.csv")
+    parser.add_argument("run_dir", help="run directory holding summary.json and <test>/series.csv, or an ensemble "
+                        "directory holding ensemble.json and seed-<k>/")
     return parser
 
 
 def load_run_or_report(run_dir, tool):
-    """load_run, or None after printing '<tool>: error: ...' on stderr (the entry scripts then exit 2)."""
+    """load_run (load_ensemble for a folder with ensemble.json), or None after printing '<tool>: error: ...' on
+    stderr (the entry scripts then exit 2)."""
     try:
-        return load_run(run_dir)
+        return load_ensemble(run_dir) if is_ensemble(run_dir) else load_run(run_dir)
     except RunError as err:
         print(f"{tool}: error: {err}", file=sys.stderr)
         return None
