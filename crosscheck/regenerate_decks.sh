@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates crosscheck/decks/: the LAMMPS and LIGGGHTS scripts of the paper deck's tests, written by
+# Regenerates crosscheck/decks/: the LAMMPS and LIGGGHTS scripts of the paper deck's tests and preparation, written by
 # `celldem translate --no-data` (they depend on the deck only), and the warnings it prints for each code.
 # The data file is not kept here: make it from a prepared state with
 #   celldem translate inputs/paper.json --to lammps --state results/paper/prepared.state --out DIR

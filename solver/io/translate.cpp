@@ -1,12 +1,14 @@
 #include "io/translate.hpp"
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 
+#include "cell/control.hpp"
 #include "core/plan.hpp"
 #include "neighbor/neighbor_list.hpp"
 
@@ -22,16 +24,37 @@ std::string num(double x) {
 
 const char* kAxisName[3] = {"x", "y", "z"};
 
-bool any_stress_axis(const TestDef& t) {
-  for (const Leg& leg : t.legs)
-    for (const AxisControl& a : leg.axes)
-      if (a.stress_driven()) return true;
-  return false;
-}
-bool any_stress_axis(const Deck& d) {
-  return std::any_of(d.tests.begin(), d.tests.end(), [](const TestDef& t) { return any_stress_axis(t); });
-}
+// The run of a leg checked while running that the deck does not limit (a solid-fraction end): nominal length.
+constexpr std::int64_t kUnboundedSteps = 1000000000;
 
+// What the programs of a script (or of every test of a deck) use, for the differences and notes they imply.
+struct ProgramFeatures {
+  bool stress = false;   // a stress-driven axis (stress, b, mean_stress)
+  bool coupled = false;  // b or mean_stress axes: targets from the measured stresses
+  bool volume = false;   // constant-volume axes
+  bool halts = false;    // a leg whose end only running tells (ratio, stress, strain of a servo axis, solid fraction)
+  bool programs = false; // more than one leg
+  void add(const std::vector<Leg>& legs) {
+    programs = programs || legs.size() > 1;
+    for (const Leg& leg : legs) {
+      for (const AxisControl& a : leg.axes) {
+        stress = stress || a.stress_driven();
+        coupled = coupled || a.mode == AxisMode::B || a.mode == AxisMode::MeanStress;
+        volume = volume || a.mode == AxisMode::ConstantVolume;
+      }
+      const LegEnd& e = leg.end;
+      halts = halts || e.kind == LegEndKind::Ratio || e.kind == LegEndKind::Stress ||
+              e.kind == LegEndKind::SolidFraction ||
+              (e.kind == LegEndKind::Strain && !leg.axes[e.axis].strain_driven());
+    }
+  }
+};
+
+ProgramFeatures test_features(const Deck& d) {
+  ProgramFeatures f;
+  for (const TestDef& t : d.tests) f.add(t.legs);
+  return f;
+}
 
 // fix deform erate [1/s] of a strain-controlled axis (compression positive in the deck, L = L0 (1 + erate t)).
 double engineering_rate(const Deck& deck, const AxisControl& a) {
@@ -117,38 +140,528 @@ void comment_block(std::ostringstream& o, const std::string& title, const std::v
   }
 }
 
+// ---- load programs: how each leg runs ----
+
+// What a script translates: a test's program, or the preparation's.
+struct ScriptProgram {
+  std::string name;                               // the test's name, or "prepare"
+  const std::vector<Leg>& legs;
+  double friction = 0.0;
+  std::int64_t output_interval = 1000;
+  const EquilibriumDef* equilibrium = nullptr;    // the preparation only
+  bool preparation() const { return equilibrium != nullptr; }
+  // The one-leg form of a test: the script of a single leg, as before load programs (`-var steps N`).
+  bool one_leg() const { return legs.size() == 1 && !preparation(); }
+};
+
+ScriptProgram test_program(const TestDef& test) {
+  return {test.name, test.legs, test.friction, test.output_interval, nullptr};
+}
+
+// How a leg's length is decided in the script.
+enum class LegLength {
+  Known,        // run N: a step end, or the strain end of a strain-driven axis whose start strain is known here
+  FromStrain,   // the strain end of a strain-driven axis that starts where only the run knows: N at run time
+  Halt,         // ratio, stress, the strain of an axis that is not strain-driven, solid fraction: checked running
+  Equilibrium,  // the preparation's equilibrium: checked every check_interval steps of the leg
+};
+
+struct LegRun {
+  LegLength length = LegLength::Known;
+  std::int64_t steps = 0;  // Known: the leg's steps (core/plan's leg_steps)
+  std::int64_t limit = 0;  // the others: the most steps (0: none)
+};
+
+// Each leg's length, following the strains of the strain-driven axes from the program's start (exactly as
+// celldem's legs start: e = e(leg start) + n d) for as long as every leg's length is known.
+std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
+  std::vector<LegRun> runs;
+  std::array<bool, 3> known = {true, true, true};
+  std::array<double, 3> strain = {0.0, 0.0, 0.0};
+  for (std::size_t j = 0; j < p.legs.size(); ++j) {
+    const Leg& leg = p.legs[j];
+    const LegEnd& e = leg.end;
+    LegRun r;
+    if (e.kind == LegEndKind::Steps) {
+      r.steps = e.steps;
+    } else if (e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven()) {
+      if (known[e.axis]) {
+        const double per_step = leg.strain_per_step(e.axis, deck.time_step);
+        if ((e.value - strain[e.axis]) * per_step < 0.0)
+          throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
+                          std::to_string(j + 1) + ": axis " + std::string(kAxisNames[e.axis]) +
+                          " moves away from its end strain " + num(e.value) + " (it starts the leg at " +
+                          num(strain[e.axis]) + ")");
+        r.steps = leg_steps(leg, deck.time_step, strain[e.axis]);
+      } else {
+        r.length = LegLength::FromStrain;
+        r.limit = e.max_steps;
+      }
+    } else if (e.kind == LegEndKind::Equilibrium) {
+      r.length = LegLength::Equilibrium;
+      r.limit = e.max_steps > 0 ? e.max_steps : p.equilibrium->max_steps;
+    } else {
+      r.length = LegLength::Halt;
+      r.limit = e.max_steps;
+    }
+    for (int k = 0; k < 3; ++k) {
+      known[k] = known[k] && r.length == LegLength::Known && leg.axes[k].strain_driven();
+      if (known[k]) strain[k] += static_cast<double>(r.steps) * leg.strain_per_step(k, deck.time_step);
+    }
+    runs.push_back(r);
+  }
+  return runs;
+}
+
+// The end of a leg as the scripts check it: the value watched (a formula of the state after the step's box
+// move and of the step's contact stresses) and whether celldem decides the side at the leg start.
+struct EndWatch {
+  std::string value;
+  bool sided = true;  // reached from the side the leg starts on (a solid fraction: when value >= target)
+};
+
+EndWatch end_watch(const Deck& deck, const LegEnd& e) {
+  const std::string i = std::to_string(e.axis + 1);
+  switch (e.kind) {
+    case LegEndKind::Strain: return {"1.0-l" + std::string(kAxisName[e.axis]) + "/v_L0" + i, true};
+    case LegEndKind::Ratio: return {"f_obs[4]/f_obs[6]", true};
+    case LegEndKind::Stress: return {"f_obs[" + std::to_string(4 + e.axis) + "]", true};
+    case LegEndKind::SolidFraction: return {"mass(all)/(" + num(deck.sample.density) + "*vol)", false};
+    default: return {"", false};
+  }
+}
+
+// A number inside a formula (negative ones in parentheses).
+std::string lit(double x) {
+  if (x >= 0.0) return num(x);
+  std::string s = "(";  // built in steps: GCC 12 warns (-Wrestrict) about "(" + num(x) + ")"
+  s += num(x);
+  s += ')';
+  return s;
+}
+
+std::string end_text(const Leg& leg, const LegRun& run) {
+  const LegEnd& e = leg.end;
+  const std::string i = std::to_string(e.axis + 1);
+  std::string s;
+  switch (e.kind) {
+    case LegEndKind::Strain: s = "until e" + i + " = " + num(e.value); break;
+    case LegEndKind::Ratio: s = "until s11/s33 = " + num(e.value); break;
+    case LegEndKind::Stress: s = "until s" + i + i + " = " + num(e.value) + " Pa"; break;
+    case LegEndKind::Steps: s = "for " + std::to_string(e.steps) + " steps"; break;
+    case LegEndKind::SolidFraction: s = "until the solid fraction reaches " + num(e.value); break;
+    case LegEndKind::Equilibrium: s = "until equilibrium"; break;
+  }
+  const std::string most = run.limit > 0 ? ", at most " + std::to_string(run.limit) + " steps" : "";
+  switch (run.length) {
+    case LegLength::Known:
+      if (e.kind != LegEndKind::Steps) s += " (" + std::to_string(run.steps) + " steps)";
+      break;
+    case LegLength::FromStrain: s += " (steps counted at run time from the strain at the leg start" + most + ")"; break;
+    case LegLength::Halt: s += " (checked while running" + most + ")"; break;
+    case LegLength::Equilibrium: s += " (checked every check_interval steps" + most + ")"; break;
+  }
+  return s;
+}
+
+std::string leg_text(const Leg& leg, const LegRun& run) {
+  return "x1 " + axis_text(leg.axes[0]) + ", x2 " + axis_text(leg.axes[1]) + ", x3 " + axis_text(leg.axes[2]) + "; " +
+         end_text(leg, run);
+}
+
+// celldem's stress_targets() (cell/control.hpp) as formulas of this step's contact stresses c_P[1..3]: the
+// target of each stress-driven axis (empty for the others). A mean_stress minor axis beside a b axis is
+// referred to by its variable t<tag><axis>.
+std::array<std::string, 3> servo_targets(const Leg& leg, const std::string& tag) {
+  std::array<std::string, 3> target;
+  int major = -1, b_axis = -1, minor = -1, mean_axes = 0;
+  double mean = 0.0;
+  std::string known;  // the stresses of the axes that are neither mean_stress nor b
+  for (int k = 0; k < 3; ++k) {
+    const AxisControl& a = leg.axes[k];
+    if (a.strain_driven()) major = k;
+    if (a.mode == AxisMode::B) b_axis = k;
+    if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) minor = k;
+    if (a.mode == AxisMode::Stress) target[k] = lit(a.value);
+    if (a.mode == AxisMode::MeanStress) {
+      ++mean_axes, mean = a.value;
+    } else if (a.mode != AxisMode::B) {
+      known += (known.empty() ? "" : "+") +
+               (a.mode == AxisMode::Stress ? lit(a.value) : "c_P[" + std::to_string(k + 1) + "]");
+    }
+  }
+  if (b_axis >= 0) {
+    const double b = leg.axes[b_axis].value;
+    const std::string s_major = "c_P[" + std::to_string(major + 1) + "]";
+    std::string t_minor = target[minor];
+    if (leg.axes[minor].mode == AxisMode::MeanStress) {
+      target[minor] = "(" + lit(3.0 * mean) + "-" + lit(1.0 + b) + "*" + s_major + ")/" + lit(2.0 - b);
+      t_minor = "v_t" + tag + kAxisName[minor];
+    }
+    target[b_axis] = t_minor + "+" + lit(b) + "*(" + s_major + "-" + t_minor + ")";
+  } else if (mean_axes > 0) {
+    for (int k = 0; k < 3; ++k)
+      if (leg.axes[k].mode == AxisMode::MeanStress)
+        target[k] = "(" + lit(3.0 * mean) + (known.empty() ? "" : "-(" + known + ")") + ")/" + std::to_string(mean_axes);
+  }
+  return target;
+}
+
+bool has_mode(const Leg& leg, AxisMode mode) {
+  return std::any_of(leg.axes.begin(), leg.axes.end(), [mode](const AxisControl& a) { return a.mode == mode; });
+}
+
+std::string pad(const std::string& command) {
+  return command + std::string(command.size() < 16 ? 16 - command.size() : 1, ' ');
+}
+
+// Writes the control and the run of each leg.
+class ProgramWriter {
+ public:
+  ProgramWriter(std::ostringstream& o, const Deck& deck, const ScriptProgram& p, TargetCode code)
+      : o_(o), deck_(deck), p_(p), lmp_(code == TargetCode::Lammps), runs_(plan_runs(deck, p)) {}
+
+  const std::vector<LegRun>& runs() const { return runs_; }
+
+  // Before the series output is defined: the stresses of the state for the first leg's end (LAMMPS; LIGGGHTS
+  // runs 0 steps at the start of each leg it checks while running). fix print would write step 0 twice.
+  void state_stresses() {
+    const LegEndKind k = p_.legs[0].end.kind;
+    if (!lmp_ || runs_[0].length != LegLength::Halt || (k != LegEndKind::Ratio && k != LegEndKind::Stress)) return;
+    o_ << "\n# the contact stresses of the state, for the first leg's end condition (a run of 0 steps moves nothing)\n"
+       << pad("run") << "0 post no\n";
+  }
+
+  // The one-leg form: the leg's controls (the end follows the series output, see end()).
+  void controls_of_one_leg() { controls(0); }
+
+  // The load program: one block per leg.
+  void program() {
+    const std::size_t n = p_.legs.size();
+    for (std::size_t j = 0; j < n; ++j) {
+      o_ << "\n# ---- leg " << j + 1 << " of " << n << ": " << leg_text(p_.legs[j], runs_[j]) << "\n";
+      if (!fixes_.empty()) {
+        for (const std::string& f : fixes_) o_ << pad("unfix") << f << "\n";
+        fixes_.clear();
+      }
+      controls(static_cast<int>(j));
+      end(static_cast<int>(j));
+    }
+  }
+
+  // How the leg ends (the one-leg form of a leg of known length ends with `run ${steps}` in output()).
+  void end(int j) {
+    switch (runs_[j].length) {
+      case LegLength::Known:
+        if (!p_.one_leg()) o_ << pad("run") << runs_[j].steps << "\n";
+        break;
+      case LegLength::FromStrain: from_strain(j); break;
+      case LegLength::Halt: lmp_ ? halt(j) : chunks(j); break;
+      case LegLength::Equilibrium: equilibrium(j); break;
+    }
+  }
+
+ private:
+  std::string tag(int j) const { return p_.one_leg() ? "" : std::to_string(j + 1); }
+  // Runs of the leg in chunks, checked between them (LIGGGHTS halts, equilibrium): fix deform must not
+  // depend on the run's start then (its variable style does not, erate and vel do).
+  bool chunked(int j) const {
+    return runs_[j].length == LegLength::Equilibrium || (!lmp_ && runs_[j].length == LegLength::Halt);
+  }
+
+  void var(const std::string& name, const std::string& formula) { o_ << pad("variable") << name << " equal " << formula << "\n"; }
+  // `variable NAME equal <the formula's value when the script reaches this line>`: LAMMPS $(...) with 17
+  // digits; LIGGGHTS has no immediate variables: ${} of a helper (15 significant digits).
+  void freeze(const std::string& name, const std::string& formula) {
+    if (lmp_) {
+      var(name, "$(" + formula + ":%.17g)");
+    } else {
+      var(name + "_f", formula);
+      var(name, "${" + name + "_f}");
+    }
+  }
+  void fail(const std::string& condition, const std::string& message) {
+    o_ << pad("if") << "\"" << condition << "\" then \"print 'celldem translate: " << message << "'\" \""
+       << (lmp_ ? "quit 1" : "quit") << "\"\n";
+  }
+  std::string leg_name(int j) const { return p_.one_leg() ? "the test" : "leg " + std::to_string(j + 1); }
+
+  void controls(int j) {
+    const Leg& leg = p_.legs[j];
+    const std::string t = tag(j);
+    const bool volume = has_mode(leg, AxisMode::ConstantVolume);
+    // Strain axes by erate in a first leg of known length (L = L0 (1 + rate t), its run starting at the test
+    // start). Otherwise LAMMPS uses vel (erate refuses a nominal run longer than the box allows), LIGGGHTS a fix
+    // deform variable (independent of how the leg's runs are cut into chunks).
+    const bool by_erate = j == 0 && runs_[j].length == LegLength::Known;
+    const bool strain_variable = !lmp_ && !by_erate;
+    const bool strain_vel = lmp_ && !by_erate;
+    const TranslatedServo servo = translated_servo(deck_);
+    const std::array<std::string, 3> target = servo_targets(leg, t);
+    if (strain_variable || chunked(j)) freeze("S" + t, "step");
+
+    std::string deform, baro, vars;
+    bool units_box = false, coupled = false;
+    for (int k = 0; k < 3; ++k) {
+      const AxisControl& a = leg.axes[k];
+      const std::string ax = kAxisName[k], i = std::to_string(k + 1), l0 = "v_L0" + i;
+      switch (a.mode) {
+        case AxisMode::StrainIncrement:
+        case AxisMode::StrainRate: {
+          const double rate = engineering_rate(deck_, a);  // [1/s]: L = L0 (1 + rate t) from the test start
+          if (rate == 0.0 && !volume) break;                // a fixed axis is left alone
+          if (strain_variable) {
+            vars += pad("variable") + "d" + t + ax + " equal " + lit(-leg.strain_per_step(k, deck_.time_step)) + "*" +
+                    l0 + "*(step-v_S" + t + ")\n" + pad("variable") + "r" + t + ax + " equal " + lit(rate) + "*" + l0 +
+                    "\n";
+            deform += " " + ax + " variable v_d" + t + ax + " v_r" + t + ax;
+          } else if (strain_vel) {
+            deform += " " + ax + " vel $(" + lit(rate) + "*" + l0 + ":%.17g)";
+            units_box = true;
+          } else {
+            deform += " " + ax + " erate " + num(rate);
+          }
+          break;
+        }
+        case AxisMode::Stress:
+          if (lmp_ && !volume) {
+            baro += " " + ax + " " + num(a.value) + " " + num(a.value) + " " + num(servo.pdamp);
+            break;
+          }
+          [[fallthrough]];
+        case AxisMode::B:
+        case AxisMode::MeanStress: {
+          std::string goal = target[k];
+          if (a.mode != AxisMode::Stress) {
+            vars += pad("variable") + "t" + t + ax + " equal " + target[k] + "\n";
+            goal = "v_t" + t + ax;
+            coupled = true;
+          }
+          std::string start = l0;  // the box length at the leg start (fix deform variable: L = L_start + d)
+          if (j > 0) {
+            std::ostringstream f;
+            std::swap(f, o_);  // freeze() writes to o_; collect into vars to keep the order
+            freeze("Ls" + t + ax, "l" + ax);
+            std::swap(f, o_);
+            vars += f.str();
+            start = "v_Ls" + t + ax;
+          }
+          vars += pad("variable") + "d" + t + ax + " equal l" + ax + "*(1.0-" + num(deck_.time_step) + "/" +
+                  num(servo.pdamp) + "*(" + goal + "-c_P[" + i + "])/" + num(servo.modulus) + ")^(1.0/3.0)-" +
+                  start + "\n" + pad("variable") + "r" + t + ax + " equal 0.0\n";
+          deform += " " + ax + " variable v_d" + t + ax + " v_r" + t + ax;
+          break;
+        }
+        case AxisMode::ConstantVolume:
+          deform += " " + ax + " volume";
+          break;
+      }
+    }
+    if (p_.one_leg() && !coupled && !volume) {  // the scripts of one-leg tests, as they were before programs
+      if (lmp_) {
+        o_ << "\n# control: strain axes by fix deform (remap x: positions follow the box affinely, v is the non-affine\n"
+           << "# velocity), stress axes by press/berendsen on the contact stress; a fixed axis is left alone\n";
+      } else {
+        o_ << "\n# control: strain axes by fix deform erate (remap x); stress axes by the press/berendsen law written as a\n"
+           << "# fix deform variable (L = L_start + d): L *= (1 - dt/pdamp (target - s)/modulus)^(1/3) per step,\n"
+           << "# celldem's proportional gain " << num(deck_.servo.gain) << " at stiffness " << num(servo.modulus)
+           << " Pa\n";
+      }
+    } else if (p_.one_leg()) {
+      o_ << "\n# control: strain axes by fix deform erate (remap x); stress, b and mean_stress axes by the press/berendsen\n"
+         << "# law, L *= (1 - dt/pdamp (target - s)/modulus)^(1/3) per step, "
+         << (lmp_ ? "fix press/berendsen for a stress axis beside no\n# constant-volume axis, otherwise "
+                  : "")
+         << "as a fix deform variable (L = L_start + d);\n# constant-volume axes by fix deform volume\n";
+    }
+    if (coupled)
+      o_ << "# b / mean_stress targets from this step's contact stresses, as celldem's stress_targets()\n";
+    if (!lmp_ || !vars.empty()) o_ << vars;
+    if (!deform.empty()) {
+      o_ << pad("fix") << "dfm all deform 1" << deform << " remap x" << (units_box ? " units box" : "") << "\n";
+      fixes_.push_back("dfm");
+    }
+    if (!baro.empty()) {
+      o_ << "# per step L *= (1 - dt/pdamp (target - s)/modulus)^(1/3): celldem's proportional gain "
+         << num(deck_.servo.gain) << " at stiffness " << num(servo.modulus) << " Pa\n"
+         << pad("fix") << "srv all press/berendsen" << baro << " couple none modulus " << num(servo.modulus)
+         << " dilate all\n"
+         << pad("fix_modify") << "srv press P\n";
+      fixes_.push_back("srv");
+    }
+  }
+
+  // A strain end of a strain-driven axis whose start strain only the run knows: celldem's leg_steps, at run time.
+  void from_strain(int j) {
+    const Leg& leg = p_.legs[j];
+    const LegEnd& e = leg.end;
+    const std::string t = tag(j), now = "(" + num(e.value) + "-(" + end_watch(deck_, e).value + "))";
+    const double per_step = leg.strain_per_step(e.axis, deck_.time_step);
+    o_ << "# the steps to e" << e.axis + 1 << " = " << num(e.value) << " from the strain at the leg start (celldem's leg_steps)\n";
+    var("n" + t, "round(" + now + "/" + lit(per_step) + ")");
+    var("away" + t, now + "*" + lit(per_step) + "<0.0");
+    fail("${away" + t + "}", leg_name(j) + ": axis x" + std::to_string(e.axis + 1) + " moves away from its end strain " +
+                                 num(e.value));
+    std::string steps = "n" + t;
+    if (runs_[j].limit > 0) {
+      const std::string m = std::to_string(runs_[j].limit);
+      var("m" + t, "v_n" + t + "-(v_n" + t + "-" + m + ")*(v_n" + t + ">" + m + ")");
+      steps = "m" + t;
+    }
+    o_ << pad("run") << "${" << steps << "}\n";
+  }
+
+  // LAMMPS: fix halt on the leg's end condition, checked every step.
+  void halt(int j) {
+    const Leg& leg = p_.legs[j];
+    const LegEnd& e = leg.end;
+    const EndWatch w = end_watch(deck_, e);
+    const std::string t = tag(j);
+    const std::int64_t limit = runs_[j].limit > 0 ? runs_[j].limit : kUnboundedSteps;
+    o_ << "# the end, checked by fix halt every 1 step (LAMMPS checks halt every N steps, N as set here; 1 is\n"
+       << "# celldem's check before every step), after the step's box move; error continue ends the run only\n";
+    var("now" + t, w.value);
+    if (w.sided) {
+      freeze("side" + t, "2*(v_now" + t + "<" + lit(e.value) + ")-1");
+      var("end" + t, "v_side" + t + "*(v_now" + t + "-" + lit(e.value) + ")");
+    } else {
+      var("end" + t, "v_now" + t + "-" + lit(e.value));
+    }
+    o_ << pad("fix") << "hlt all halt 1 v_end" << t << " >= 0.0 error continue message yes\n";
+    fixes_.push_back("hlt");
+    o_ << "# celldem checks before each step: a leg whose end holds at its start runs 0 steps\n";
+    var("run" + t, "(v_end" + t + "<0.0)*" + std::to_string(limit) + (runs_[j].limit > 0 ? "" : "    # no limit in the deck"));
+    o_ << pad("run") << "${run" << t << "}\n";
+    if (runs_[j].limit > 0)
+      fail("$(v_end" + t + ") < 0.0", leg_name(j) + " did not reach its end condition in " + std::to_string(limit) +
+                                          " steps (end.max_steps)");
+  }
+
+  // LIGGGHTS (no fix halt): the leg in chunks of kLiggghtsCheckSteps, its end checked before each.
+  void chunks(int j) {
+    const Leg& leg = p_.legs[j];
+    const LegEnd& e = leg.end;
+    const EndWatch w = end_watch(deck_, e);
+    const std::string t = tag(j), label = "leg" + (t.empty() ? std::string("1") : t);
+    o_ << "# the end: LIGGGHTS 3.8 has no fix halt, so the leg runs in chunks of " << kLiggghtsCheckSteps
+       << " steps and is checked before each\n# (a run of 0 steps sets the leg's fixes up; the chunks run with pre no)\n"
+       << pad("run") << "0 post no\n";
+    var("now" + t, w.value);
+    if (w.sided) {
+      freeze("side" + t, "2*(v_now" + t + "<" + lit(e.value) + ")-1");
+      var("done" + t, "v_side" + t + "*(v_now" + t + "-" + lit(e.value) + ")>=0.0");
+    } else {
+      var("done" + t, "v_now" + t + ">=" + lit(e.value));
+    }
+    if (runs_[j].limit > 0) var("over" + t, "step-v_S" + t + ">=" + std::to_string(runs_[j].limit));
+    o_ << pad("label") << label << "\n"
+       << pad("if") << "\"${done" << t << "}\" then \"jump SELF " << label << "_end\"\n";
+    if (runs_[j].limit > 0)
+      fail("${over" + t + "}", leg_name(j) + " did not reach its end condition in " + std::to_string(runs_[j].limit) +
+                                   " steps (end.max_steps)");
+    o_ << pad("run") << kLiggghtsCheckSteps << " pre no post no\n"
+       << pad("jump") << "SELF " << label << "\n"
+       << pad("label") << label << "_end\n";
+  }
+
+  // The preparation's equilibrium (measure/quasi_static.hpp): every check_interval steps of the leg, once
+  // min_steps are done; the run stops with an error at the limit.
+  void equilibrium(int j) {
+    const Leg& leg = p_.legs[j];
+    const EquilibriumDef& c = *p_.equilibrium;
+    const std::string t = tag(j), label = "leg" + t;
+    const Vec3 target = stress_targets(leg.axes, Vec3::Zero());  // stress and mean_stress axes only: constants
+    const double p = target[0] == target[1] && target[1] == target[2] ? target[0] : target.mean();
+    o_ << "# equilibrium, celldem's criterion (prepare.equilibrium): |p - p*|/p* <= " << num(c.pressure_tolerance)
+       << ", every |s_kk - t_k|/t_k <= " << num(c.stress_tolerance) << ",\n# unbalanced force ratio <= "
+       << num(c.unbalanced_force_ratio) << " (v_ubf), at least one contact; checked every " << c.check_interval
+       << " steps of the leg after " << c.min_steps << "\n";
+    std::string eq = "(f_obs[7]>0)&&(abs((f_obs[4]+f_obs[5]+f_obs[6])/3-" + num(p) + ")/" + num(p) +
+                     "<=" + num(c.pressure_tolerance) + ")";
+    for (int k = 0; k < 3; ++k)
+      eq += "&&(abs(f_obs[" + std::to_string(4 + k) + "]-" + num(target[k]) + ")/" + num(target[k]) + "<=" +
+            num(c.stress_tolerance) + ")";
+    eq += "&&(v_ubf<=" + num(c.unbalanced_force_ratio) + ")";
+    var("eq" + t, eq);
+    var("done" + t, "(step-v_S" + t + ">=" + std::to_string(c.min_steps) + ")&&v_eq" + t);
+    var("over" + t, "step-v_S" + t + ">=" + std::to_string(runs_[j].limit));
+    o_ << pad("run") << c.check_interval << " post no\n"
+       << pad("label") << label << "\n"
+       << pad("if") << "\"${done" << t << "}\" then \"jump SELF " << label << "_end\"\n";
+    fail("${over" + t + "}", leg_name(j) + " did not reach equilibrium in " + std::to_string(runs_[j].limit) +
+                                 " steps; raise prepare.equilibrium.max_steps or relax its tolerances");
+    o_ << pad("run") << c.check_interval << " pre no post no\n"
+       << pad("jump") << "SELF " << label << "\n"
+       << pad("label") << label << "_end\n";
+  }
+
+  std::ostringstream& o_;
+  const Deck& deck_;
+  const ScriptProgram& p_;
+  bool lmp_;
+  std::vector<LegRun> runs_;
+  std::vector<std::string> fixes_;  // the control fixes of the leg now defined
+};
+
 // ---- the parts of a script ----
 
-void header(std::ostringstream& o, const Deck& deck, const TestDef& test, TargetCode code) {
+void header(std::ostringstream& o, const Deck& deck, const ScriptProgram& p, TargetCode code,
+            const std::vector<LegRun>& runs) {
   const bool lmp = code == TargetCode::Lammps;
   const std::string exe = lmp ? "lmp" : "liggghts";
+  const std::string script = p.preparation() ? preparation_script_name(code) : p.name + "." + target_code_name(code) + ".in";
+  const std::string series = p.preparation() ? preparation_series_name(code) : p.name + "." + target_code_name(code) + ".csv";
+  const bool known = p.one_leg() && runs[0].length == LegLength::Known;
   o << "# ==============================================================================================\n"
-    << "# " << (lmp ? "LAMMPS (29 Sep 2021)" : "LIGGGHTS-PUBLIC (3.8.0)") << " input for test \"" << test.name
-    << "\" of the celldem deck " << deck_name(deck) << "\n"
-    << "# Written by `celldem translate`; it depends on the deck only. Regenerate it rather than edit it.\n"
-    << "# Data file: `celldem translate DECK --to " << target_code_name(code)
-    << " --state FILE --out DIR` writes DIR/" << kTranslatedDataName << "\n"
-    << "# (atom type k = k-th diameter of sample.diameters, one type per diameter for per-type damping).\n"
-    << "# Run in DIR:  " << exe << " -in " << script_file_name(test, code) << "   [-var data FILE] [-var out FILE] [-var steps N]\n";
-  o << "#   in parallel, unchanged:  mpirun -np 4 " << exe << " -in " << script_file_name(test, code)
+    << "# " << (lmp ? "LAMMPS (29 Sep 2021)" : "LIGGGHTS-PUBLIC (3.8.0)") << " input for "
+    << (p.preparation() ? std::string("the preparation") : "test \"" + p.name + "\"") << " of the celldem deck "
+    << deck_name(deck) << "\n"
+    << "# Written by `celldem translate`; it depends on the deck only. Regenerate it rather than edit it.\n";
+  if (p.preparation()) {
+    o << "# Data file: `celldem translate DECK --to " << target_code_name(code) << " --out DIR` writes DIR/"
+      << kTranslatedSampleName << ", celldem's initial grid sample\n"
+      << "# (atom type k = k-th diameter of sample.diameters, one type per diameter for per-type damping).\n"
+      << "# Run in DIR:  " << exe << " -in " << script << "   [-var data FILE] [-var out FILE] [-var prepared FILE]\n"
+      << "#   then the tests from the prepared sample:  " << exe << " -in TEST." << target_code_name(code)
+      << ".in -var data " << kTranslatedPreparedName << "\n";
+  } else {
+    o << "# Data file: `celldem translate DECK --to " << target_code_name(code)
+      << " --state FILE --out DIR` writes DIR/" << kTranslatedDataName << "\n"
+      << "# (atom type k = k-th diameter of sample.diameters, one type per diameter for per-type damping).\n"
+      << "# Run in DIR:  " << exe << " -in " << script << "   [-var data FILE] [-var out FILE]" << (known ? " [-var steps N]" : "")
+      << "\n";
+  }
+  o << "#   in parallel, unchanged:  mpirun -np 4 " << exe << " -in " << script
     << "   (as root: mpirun --allow-run-as-root ...)\n";
-  o << "# Writes " << series_file_name(test, code) << ": " << kTranslatedSeriesHeader << "\n"
+  o << "# Writes " << series << ": " << kTranslatedSeriesHeader << "\n"
     << "#   e = 1 - L/L0 (compression +), ev = 1 - V/V0, s = contact stress [Pa] (compression +), Z = 2 contacts/N,\n"
     << "#   kinetic energy [J] translation + rotation; lengths l [m] and stresses are those of the step's force\n"
     << "#   evaluation (taken before fix deform / the servo move the box at the end of the step).\n"
-    << "#\n"
-    << "# Test: x1 " << axis_text(test.legs[0].axes[0]) << ", x2 " << axis_text(test.legs[0].axes[1]) << ", x3 "
-    << axis_text(test.legs[0].axes[2]) << "; friction " << num(test.friction) << "; " << plan_test(deck, test).steps
-    << " steps (e" << test.legs[0].end.axis + 1 << " = " << num(test.legs[0].end.value) << "), output every "
-    << test.output_interval << "\n";
-  std::vector<std::string> differences = model_differences(deck, code);
-  differences.push_back("contact history cannot be carried by a data file: the run starts with zero tangential "
-                        "springs (exact only when the state's history is zero, e.g. after a frictionless "
-                        "preparation; celldem translate checks the state and warns otherwise)");
+    << "#\n";
+  if (p.one_leg()) {
+    const Leg& leg = p.legs[0];
+    o << "# Test: x1 " << axis_text(leg.axes[0]) << ", x2 " << axis_text(leg.axes[1]) << ", x3 " << axis_text(leg.axes[2])
+      << "; friction " << num(p.friction) << "; ";
+    if (known && leg.end.kind == LegEndKind::Strain)
+      o << runs[0].steps << " steps (e" << leg.end.axis + 1 << " = " << num(leg.end.value) << ")";
+    else
+      o << end_text(leg, runs[0]);
+    o << ", output every " << p.output_interval << "\n";
+  } else {
+    o << "# " << (p.preparation() ? "Preparation" : "Test") << ": a load program of " << p.legs.size()
+      << " leg(s), run one after the other; friction " << num(p.friction) << "; output every " << p.output_interval
+      << "\n";
+    for (std::size_t j = 0; j < p.legs.size(); ++j) o << "#   leg " << j + 1 << ": " << leg_text(p.legs[j], runs[j]) << "\n";
+  }
+  std::vector<std::string> differences = p.preparation() ? preparation_differences(deck, code) : model_differences(deck, code);
+  if (!p.preparation())
+    differences.push_back("contact history cannot be carried by a data file: the run starts with zero tangential "
+                          "springs (exact only when the state's history is zero, e.g. after a frictionless "
+                          "preparation; celldem translate checks the state and warns otherwise)");
   comment_block(o, "Differences from the deck's physics that " + std::string(lmp ? "LAMMPS" : "LIGGGHTS") +
                        " cannot express (celldem translate also prints these):",
                 differences);
-  comment_block(o, "Notes (discretisation and output):", model_notes(deck, code));
+  comment_block(o, "Notes (discretisation and output):", p.preparation() ? preparation_notes(deck, code) : model_notes(deck, code));
   o << "# ==============================================================================================\n";
 }
 
@@ -186,43 +699,108 @@ void observation(std::ostringstream& o, const Deck& deck, TargetCode code) {
     << "variable        l3 equal f_obs[3]\n";
 }
 
-void output(std::ostringstream& o, const Deck& deck, const TestDef& test, TargetCode code) {
+// The preparation's unbalanced force ratio (measure/micro.hpp): mean |net contact force| over the particles
+// (fix store/force, defined before the damping fixes, holds the pair forces) over the mean contact normal force.
+void unbalanced_force(std::ostringstream& o, const Deck& deck, TargetCode code) {
   const bool lmp = code == TargetCode::Lammps;
-  (void)deck;
+  o << "\n# unbalanced force ratio: mean |net contact force| / mean contact normal force (celldem's; v_ubf is in the\n"
+    << "# thermo output so that its computes are current at the end of each run)\n"
+    << "variable        fnet atom sqrt(f_sf[1]^2+f_sf[2]^2+f_sf[3]^2)\n"
+    << "compute         fnetm all reduce ave v_fnet\n";
+  if (lmp) {
+    o << "compute         pfn all pair/local force\n"
+      << "compute         fns all reduce sum c_pfn\n"
+      << "variable        fnsum equal c_fns\n";
+  } else {
+    o << "# normal forces: kn * overlap (hooke/stiffness without damping), summed over the contacts\n"
+      << "compute         pdl all pair/gran/local delta\n"
+      << "compute         dls all reduce sum c_pdl[1]\n"
+      << "variable        fnsum equal " << num(deck.contact.kn) << "*c_dls\n";
+  }
+  o << "variable        ubf equal c_fnetm*0.5*f_obs[7]/(v_fnsum+(v_fnsum<=0.0))\n";
+}
+
+// The series output; the one-leg form of a test of known length also runs here.
+void output(std::ostringstream& o, const ScriptProgram& p, TargetCode code, bool run_steps) {
+  const bool lmp = code == TargetCode::Lammps;
   o << "\n# series (LAMMPS prints step 0 too; LIGGGHTS starts at the first output step)\n";
   if (lmp) {
-    o << "fix             out all print " << test.output_interval
+    o << "fix             out all print " << p.output_interval
       << " \"$(step),$(v_time:%.10g),$(v_e1:%.10g),$(v_e2:%.10g),$(v_e3:%.10g),$(v_ev:%.10g),"
          "$(v_s11:%.10g),$(v_s22:%.10g),$(v_s33:%.10g),$(v_Z:%.10g),$(v_nc:%.0f),$(v_ek:%.10g),"
          "$(v_l1:%.17g),$(v_l2:%.17g),$(v_l3:%.17g)\" file ${out} screen no title \""
       << kTranslatedSeriesHeader << "\"\n";
   } else {
     o << "variable        st equal step\n"
-      << "fix             out all print " << test.output_interval
+      << "fix             out all print " << p.output_interval
       << " \"${st},${time},${e1},${e2},${e3},${ev},${s11},${s22},${s33},${Z},${nc},${ek},${l1},${l2},${l3}\""
          " file ${out} screen no title \""
       << kTranslatedSeriesHeader << "\"\n";
   }
-  o << "thermo_style    custom step v_e1 v_e2 v_e3 v_s11 v_s22 v_s33 v_Z\n"
+  o << "thermo_style    custom step v_e1 v_e2 v_e3 v_s11 v_s22 v_s33 v_Z" << (p.preparation() ? " v_ubf" : "") << "\n"
     << "thermo_modify   norm no\n"
-    << "thermo          " << test.output_interval << "\n"
-    << "# one run per test: fix deform strains are relative to the box at the start of the run\n"
-    << "run             ${steps}\n";
+    << "thermo          " << p.output_interval << "\n";
+  if (run_steps)
+    o << "# one run per test: fix deform strains are relative to the box at the start of the run\n"
+      << "run             ${steps}\n";
 }
 
 // The file names and run length, each overridable with -var NAME VALUE on the command line.
-void script_variables(std::ostringstream& o, const Deck& deck, const TestDef& test, TargetCode code) {
-  o << "variable        data index " << kTranslatedDataName << "\n"
-    << "variable        out index " << series_file_name(test, code) << "\n"
-    << "variable        steps index " << plan_test(deck, test).steps << "\n"
-    << "read_data       ${data}\n"
+void script_variables(std::ostringstream& o, const Deck& deck, const ScriptProgram& p, TargetCode code,
+                      const std::vector<LegRun>& runs) {
+  if (p.preparation()) {
+    o << "variable        data index " << kTranslatedSampleName << "\n"
+      << "variable        out index " << preparation_series_name(code) << "\n"
+      << "variable        prepared index " << kTranslatedPreparedName << "\n";
+  } else {
+    o << "variable        data index " << kTranslatedDataName << "\n"
+      << "variable        out index " << p.name << "." << target_code_name(code) << ".csv\n";
+    if (p.one_leg() && runs[0].length == LegLength::Known) o << "variable        steps index " << runs[0].steps << "\n";
+  }
+  o << "read_data       ${data}\n"
     << "neighbor        " << num(skin_length(deck)) << " bin\n"
     << "neigh_modify    delay 0 every 1 check yes\n";
 }
 
-std::string lammps_script(const Deck& deck, const TestDef& test) {
+// What follows the measurements: the control, the series and the runs of every leg.
+void program_body(std::ostringstream& o, const Deck& deck, const ScriptProgram& p, TargetCode code,
+                  ProgramWriter& w) {
+  const bool lmp = code == TargetCode::Lammps;
+  if (p.preparation()) unbalanced_force(o, deck, code);
+  if (p.one_leg()) {
+    w.controls_of_one_leg();
+    w.state_stresses();
+    output(o, p, code, w.runs()[0].length == LegLength::Known);
+    w.end(0);
+    return;
+  }
+  w.state_stresses();
+  output(o, p, code, false);
+  o << "\n# load program: one block per leg; each removes the previous leg's control fixes and defines its own.\n"
+    << "# Strain axes follow celldem's engineering strain against the TEST start exactly, L = L0 (1 - e(leg start) - n d):\n";
+  if (lmp)
+    o << "# a first leg of known length by erate (its run starts at the test start), other legs by vel V = -L0 d/dt\n"
+      << "# (L0 = v_L0k, the test start), which adds -L0 d per step to the box at the leg start.\n";
+  else
+    o << "# a first leg of known length by erate (one run from the test start), other legs by a fix deform variable\n"
+      << "# -L0 d (step - S), S the leg's first step (independent of how the leg's runs are cut into chunks).\n";
+  o << "# Stress, b and mean_stress axes: the press/berendsen law " << (lmp ? "(fix press/berendsen for stress axes, a fix\n# deform variable for the others)" : "as a fix deform variable")
+    << "; constant-volume axes: fix deform volume (the leg start's volume).\n";
+  if (lmp)
+    o << "# A leg that ends on an output step writes that step's row twice (the same values: fix print at the end\n"
+      << "# of one run and at the start of the next).\n";
+  w.program();
+  if (p.preparation()) {
+    o << "\n# the prepared sample, for the tests: " << (lmp ? "lmp" : "liggghts") << " -in TEST." << target_code_name(code)
+      << ".in -var data " << kTranslatedPreparedName << "\n"
+      << "write_data      ${prepared}" << (lmp ? " nocoeff" : "") << "\n";
+  }
+}
+
+std::string lammps_script(const Deck& deck, const ScriptProgram& p) {
   std::ostringstream o;
-  header(o, deck, test, TargetCode::Lammps);
+  ProgramWriter w(o, deck, p, TargetCode::Lammps);
+  header(o, deck, p, TargetCode::Lammps, w.runs());
   const LammpsDamping damping = lammps_damping(deck);
   const std::size_t ntypes = atom_types(deck).size();
   o << "units           si\n"
@@ -231,14 +809,17 @@ std::string lammps_script(const Deck& deck, const TestDef& test) {
     << "boundary        p p p\n"
     << "newton          off\n"
     << "comm_modify     vel yes\n";
-  script_variables(o, deck, test, TargetCode::Lammps);
+  script_variables(o, deck, p, TargetCode::Lammps, w.runs());
   o << "\n# contact: F_n = kn overlap, incremental tangential spring kt with Coulomb limit, no contact damping\n"
     << "pair_style      gran/hooke/history " << num(deck.contact.kn) << " " << num(deck.contact.kt) << " 0.0 0.0 "
-    << num(test.friction) << " 0\n"
+    << num(p.friction) << " 0\n"
     << "pair_coeff      * *\n"
     << "timestep        " << num(deck.time_step) << "\n"
-    << "fix             int all nve/sphere\n"
-    << "\n# body damping per type (" << ntypes << " types): c_t = " << num(deck.damping.translational)
+    << "fix             int all nve/sphere\n";
+  if (p.preparation())
+    o << "# the pair (contact) forces of each particle, before the damping fixes add theirs: the unbalanced force\n"
+      << "fix             sf all store/force\n";
+  o << "\n# body damping per type (" << ntypes << " types): c_t = " << num(deck.damping.translational)
     << " * 2 sqrt(m kn) on v, c_r = " << num(deck.damping.rotational) << " * 2 r sqrt(I kt) on omega\n";
   if (!damping.langevin_scale.empty())
     o << "# langevin at T = 0 is a pure drag: F = -m/s v, T = -(10/3) I/s omega; s = (10/3) I / c_r\n"
@@ -247,35 +828,14 @@ std::string lammps_script(const Deck& deck, const TestDef& test) {
   if (deck.damping.translational > 0.0 || damping.clamped)
     o << "fix             bdt all viscous 1.0" << scales(damping.viscous_scale) << "\n";
   observation(o, deck, TargetCode::Lammps);
-
-  std::string deform, baro;
-  for (int k = 0; k < 3; ++k) {
-    const AxisControl& a = test.legs[0].axes[k];
-    if (a.mode == AxisMode::Stress) {
-      baro += std::string(" ") + kAxisName[k] + " " + num(a.value) + " " + num(a.value) + " " +
-              num(translated_servo(deck).pdamp);
-    } else if (const double rate = engineering_rate(deck, a); rate != 0.0) {
-      deform += std::string(" ") + kAxisName[k] + " erate " + num(rate);
-    }
-  }
-  o << "\n# control: strain axes by fix deform (remap x: positions follow the box affinely, v is the non-affine\n"
-    << "# velocity), stress axes by press/berendsen on the contact stress; a fixed axis is left alone\n";
-  if (!deform.empty()) o << "fix             dfm all deform 1" << deform << " remap x\n";
-  if (!baro.empty()) {
-    const TranslatedServo servo = translated_servo(deck);
-    o << "# per step L *= (1 - dt/pdamp (target - s)/modulus)^(1/3): celldem's proportional gain "
-      << num(deck.servo.gain) << " at stiffness " << num(servo.modulus) << " Pa\n"
-      << "fix             srv all press/berendsen" << baro << " couple none modulus " << num(servo.modulus)
-      << " dilate all\n"
-      << "fix_modify      srv press P\n";
-  }
-  output(o, deck, test, TargetCode::Lammps);
+  program_body(o, deck, p, TargetCode::Lammps, w);
   return o.str();
 }
 
-std::string liggghts_script(const Deck& deck, const TestDef& test) {
+std::string liggghts_script(const Deck& deck, const ScriptProgram& p) {
   std::ostringstream o;
-  header(o, deck, test, TargetCode::Liggghts);
+  ProgramWriter w(o, deck, p, TargetCode::Liggghts);
+  header(o, deck, p, TargetCode::Liggghts, w.runs());
   const std::vector<AtomType> types = atom_types(deck);
   const std::size_t n = types.size();
   o << "units           si\n"
@@ -284,46 +844,29 @@ std::string liggghts_script(const Deck& deck, const TestDef& test) {
     << "boundary        p p p\n"
     << "newton          off\n"
     << "communicate     single vel yes\n";
-  script_variables(o, deck, test, TargetCode::Liggghts);
+  script_variables(o, deck, p, TargetCode::Liggghts, w.runs());
   o << "\n# contact: hooke/stiffness F_n = kn overlap (absolute kn), history tangential spring kt, Coulomb limit;\n"
     << "# gamman and gammat must be given (per type pair) even when zero\n"
     << "fix             m1 all property/global kn peratomtypepair " << matrix(n, deck.contact.kn) << "\n"
     << "fix             m2 all property/global kt peratomtypepair " << matrix(n, deck.contact.kt) << "\n"
     << "fix             m3 all property/global gamman peratomtypepair " << matrix(n, 0.0) << "\n"
     << "fix             m4 all property/global gammat peratomtypepair " << matrix(n, 0.0) << "\n"
-    << "fix             m5 all property/global coefficientFriction peratomtypepair " << matrix(n, test.friction)
+    << "fix             m5 all property/global coefficientFriction peratomtypepair " << matrix(n, p.friction)
     << "\n"
     << "pair_style      gran model hooke/stiffness tangential history tangential_damping off\n"
     << "pair_coeff      * *\n"
     << "timestep        " << num(deck.time_step) << "\n"
     << "fix             integr all nve/sphere\n";
+  if (p.preparation())
+    o << "# the pair (contact) forces of each particle, before the damping fix adds its own: the unbalanced force\n"
+      << "fix             sf all store/force\n";
   std::vector<double> ct;
   for (const AtomType& t : types) ct.push_back(t.c_t);
   o << "\n# body damping per type: c_t = " << num(deck.damping.translational)
     << " * 2 sqrt(m kn) on v; no rotational body damping exists in LIGGGHTS\n";
   if (deck.damping.translational > 0.0) o << "fix             bdt all viscous 1.0" << scales(ct) << "\n";
   observation(o, deck, TargetCode::Liggghts);
-
-  std::string deform, servo_vars;
-  const TranslatedServo servo = translated_servo(deck);
-  for (int k = 0; k < 3; ++k) {
-    const AxisControl& a = test.legs[0].axes[k];
-    const std::string ax = kAxisName[k], i = std::to_string(k + 1);
-    if (a.mode == AxisMode::Stress) {
-      servo_vars += "variable        d" + ax + " equal l" + ax + "*(1.0-" + num(deck.time_step) + "/" +
-                    num(servo.pdamp) + "*(" + num(a.value) + "-c_P[" + i + "])/" + num(servo.modulus) +
-                    ")^(1.0/3.0)-v_L0" + i + "\n" + "variable        r" + ax + " equal 0.0\n";
-      deform += " " + ax + " variable v_d" + ax + " v_r" + ax;
-    } else if (const double rate = engineering_rate(deck, a); rate != 0.0) {
-      deform += " " + ax + " erate " + num(rate);
-    }
-  }
-  o << "\n# control: strain axes by fix deform erate (remap x); stress axes by the press/berendsen law written as a\n"
-    << "# fix deform variable (L = L_start + d): L *= (1 - dt/pdamp (target - s)/modulus)^(1/3) per step,\n"
-    << "# celldem's proportional gain " << num(deck.servo.gain) << " at stiffness " << num(servo.modulus) << " Pa\n"
-    << servo_vars;
-  if (!deform.empty()) o << "fix             dfm all deform 1" << deform << " remap x\n";
-  output(o, deck, test, TargetCode::Liggghts);
+  program_body(o, deck, p, TargetCode::Liggghts, w);
   return o.str();
 }
 
@@ -344,6 +887,10 @@ std::string script_file_name(const TestDef& test, TargetCode code) {
 std::string series_file_name(const TestDef& test, TargetCode code) {
   return test.name + "." + target_code_name(code) + ".csv";
 }
+
+std::string preparation_script_name(TargetCode code) { return std::string("prepare.") + target_code_name(code) + ".in"; }
+
+std::string preparation_series_name(TargetCode code) { return std::string("prepare.") + target_code_name(code) + ".csv"; }
 
 std::vector<AtomType> atom_types(const Deck& deck) {
   std::vector<AtomType> types;
@@ -378,7 +925,10 @@ TranslatedServo translated_servo(const Deck& deck) {
   return s;
 }
 
-std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
+namespace {
+
+// The contact model and the damping: the same in every script of the deck.
+std::vector<std::string> contact_differences(const Deck& deck, TargetCode code) {
   const bool lmp = code == TargetCode::Lammps;
   const std::string target = lmp ? "LAMMPS" : "LIGGGHTS";
   std::vector<std::string> out;
@@ -406,7 +956,13 @@ std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
     out.push_back("damping: fix langevin (omega yes) brings a translational drag 0.3 m c_r / I with the rotational "
                   "one, which exceeds c_t for some types here (kt/kn or rotational/translational too large); the "
                   "translational drag is larger than the deck's");
-  if (any_stress_axis(deck)) {
+  return out;
+}
+
+// The controls and the ends of the legs.
+void program_differences(const Deck& deck, TargetCode code, const ProgramFeatures& f, std::vector<std::string>& out) {
+  const bool lmp = code == TargetCode::Lammps;
+  if (f.stress) {
     const TranslatedServo s = translated_servo(deck);
     out.push_back("servo: celldem's stress servo is proportional-integral with the stiffness measured from the "
                   "contacts each step (gain " + num(deck.servo.gain) + ", integral_gain " +
@@ -417,10 +973,22 @@ std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
                   "dilating sample by about modulus * (lateral strain per step) / gain (compare curves in the "
                   "stresses each code actually held)");
   }
-  return out;
+  if (f.coupled)
+    out.push_back("b and mean_stress axes: their targets are celldem's (stress_targets: s_minor + b (s_major - "
+                  "s_minor), with a mean_stress minor axis s_minor = (3p - (1 + b) s_major)/(2 - b); mean_stress "
+                  "alone: 3p minus the other axes' stresses), computed each step from the contact stresses c_P, "
+                  "and the proportional law of the stress axes moves the box towards them as a fix deform variable. "
+                  "Unlike celldem's PI servo it has no integral term and no cap, and its stiffness is the nominal "
+                  "modulus: while the major stress rises the targets move and the axes trail them, so b and p are "
+                  "held less tightly (compare b and p as each code held them)");
+  if (!lmp && f.halts)
+    out.push_back("leg ends that only running tells (ratio, stress, the strain of an axis that is not strain-driven, "
+                  "solid fraction): LIGGGHTS 3.8 has no fix halt, so such a leg runs in chunks of " +
+                  std::to_string(kLiggghtsCheckSteps) + " steps and its end is checked between them: it ends up to " +
+                  std::to_string(kLiggghtsCheckSteps - 1) + " steps after celldem's (which checks before every step)");
 }
 
-std::vector<std::string> model_notes(const Deck& deck, TargetCode code) {
+std::vector<std::string> common_notes(const Deck& deck, TargetCode code) {
   const bool lmp = code == TargetCode::Lammps;
   std::vector<std::string> out;
   out.push_back("time integration: velocity Verlet with the body drag evaluated explicitly on the half-step "
@@ -438,6 +1006,89 @@ std::vector<std::string> model_notes(const Deck& deck, TargetCode code) {
     out.push_back("LIGGGHTS fix print does not write step 0; the first row is the first output step");
   }
   out.push_back("neighbour skin: neighbor_skin x the largest diameter, as celldem; it changes speed only");
+  return out;
+}
+
+void program_notes(TargetCode code, const ProgramFeatures& f, std::vector<std::string>& out) {
+  const bool lmp = code == TargetCode::Lammps;
+  if (f.programs)
+    out.push_back("load programs: one block per leg in one script (unfix the previous leg's control fixes, define "
+                  "the leg's, run); legs of known length run their steps (core/plan's leg_steps, counted from the "
+                  "strain at the leg start, at run time when only the run knows it); strain axes follow celldem's "
+                  "engineering strain against the test start exactly (erate in a first leg of known length; other legs " +
+                  std::string(lmp ? "fix deform vel -L0 d/dt" : "a fix deform variable -L0 d (step - S)") +
+                  " from the box at the leg start)");
+  if (f.volume)
+    out.push_back("constant_volume axes: fix deform volume holds the volume of the leg start exactly (two such axes "
+                  "scale by one common factor, as celldem's); it sees only the axes fix deform moves itself, so " +
+                  std::string(lmp ? "a stress axis beside them is servo-controlled by the same fix deform (variable) "
+                                    "instead of press/berendsen"
+                                  : "every axis of such a leg is in the one fix deform"));
+  if (f.halts || f.programs) {
+    if (lmp)
+      out.push_back("ends checked while running: fix halt every 1 step (LAMMPS checks halt every N steps, N as set "
+                    "in the script; 1 is celldem's check before every step) at the end of the step, after the box "
+                    "moved, on the stresses of the step's force evaluation (one step behind celldem's, see the box "
+                    "lag above); a leg not ended within end.max_steps stops the script with exit status 1 (celldem: "
+                    "a run error)");
+    else
+      out.push_back("a leg not ended within end.max_steps (or whose strain end moves away) stops the script with a "
+                    "message and quit, whose exit status is 0 in LIGGGHTS (quit takes no status): check the log");
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
+  std::vector<std::string> out = contact_differences(deck, code);
+  program_differences(deck, code, test_features(deck), out);
+  if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.snapshots.any(); }))
+    out.push_back("snapshots (tests[].snapshots): not translated; the scripts write the series only (add a dump "
+                  "for particle snapshots)");
+  return out;
+}
+
+std::vector<std::string> model_notes(const Deck& deck, TargetCode code) {
+  std::vector<std::string> out = common_notes(deck, code);
+  program_notes(code, test_features(deck), out);
+  return out;
+}
+
+std::vector<std::string> preparation_differences(const Deck& deck, TargetCode code) {
+  if (!deck.prepare) throw DeckError("prepare: the deck has no preparation to translate");
+  std::vector<std::string> out = contact_differences(deck, code);
+  ProgramFeatures f;
+  f.add(deck.prepare->legs);
+  program_differences(deck, code, f, out);
+  if (deck.prepare->snapshots.any())
+    out.push_back("snapshots (prepare.snapshots): not translated; the script writes the series only (add a dump "
+                  "for particle snapshots)");
+  if (deck.prepare->friction > 0.0)
+    out.push_back("prepare.friction = " + num(deck.prepare->friction) + ": write_data cannot carry the contact "
+                  "history, so tests from the prepared data file start with zero tangential springs (celldem's "
+                  "prepared.state keeps them)");
+  return out;
+}
+
+std::vector<std::string> preparation_notes(const Deck& deck, TargetCode code) {
+  if (!deck.prepare) throw DeckError("prepare: the deck has no preparation to translate");
+  const bool lmp = code == TargetCode::Lammps;
+  std::vector<std::string> out = common_notes(deck, code);
+  ProgramFeatures f;
+  f.add(deck.prepare->legs);
+  f.programs = true;
+  program_notes(code, f, out);
+  out.push_back("the data file holds celldem's initial grid sample (make_grid_sample: the same sizes, positions and "
+                "zero velocities), but a preparation is chaotic, so the prepared samples differ in detail; for "
+                "code-to-code comparisons of tests prepare with celldem and translate with --state");
+  out.push_back(std::string("equilibrium: celldem's criterion, checked every check_interval steps of the leg once "
+                            "min_steps are done: |p - p*|/p*, every |s_kk - t_k|/t_k and the unbalanced force ratio "
+                            "= mean |net contact force| over the particles (fix store/force before the damping "
+                            "fixes: the pair forces only) / mean contact normal force (") +
+                (lmp ? "compute pair/local force" : "kn times the sum of the overlaps of compute pair/gran/local delta, "
+                                                    "exact for hooke/stiffness without damping") +
+                "), with at least one contact: the same number as celldem's on the same state (checked to 1e-10 on a "
+                "300-sphere state" + (lmp ? "" : " on one rank") + ")");
   return out;
 }
 
@@ -515,7 +1166,15 @@ std::string translate_data(const Deck& deck, const State& state, TargetCode code
 }
 
 std::string translate_test(const Deck& deck, const TestDef& test, TargetCode code) {
-  return code == TargetCode::Lammps ? lammps_script(deck, test) : liggghts_script(deck, test);
+  const ScriptProgram p = test_program(test);
+  return code == TargetCode::Lammps ? lammps_script(deck, p) : liggghts_script(deck, p);
+}
+
+std::string translate_preparation(const Deck& deck, TargetCode code) {
+  if (!deck.prepare) throw DeckError("prepare: the deck has no preparation to translate");
+  const PrepareDef& prep = *deck.prepare;
+  const ScriptProgram p{"prepare", prep.legs, prep.friction, prep.output_interval, &prep.equilibrium};
+  return code == TargetCode::Lammps ? lammps_script(deck, p) : liggghts_script(deck, p);
 }
 
 }  // namespace celldem

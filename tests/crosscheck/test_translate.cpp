@@ -5,10 +5,15 @@
 // is checked against the real codes by crosscheck_reduced.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <regex>
 #include <sstream>
 
+#include "cell/control.hpp"
+#include "core/plan.hpp"
 #include "io/deck_reader.hpp"
 #include "io/translate.hpp"
 #include "neighbor/neighbor_list.hpp"
@@ -241,6 +246,415 @@ TEST(Translate, ScriptsDependOnTheDeckOnly) {
   EXPECT_EQ(script_file_name(a.tests[0], TargetCode::Liggghts), "ttc.liggghts.in");
   EXPECT_EQ(series_file_name(a.tests[0], TargetCode::Lammps), "ttc.lammps.csv");
   EXPECT_THROW(parse_target_code("gromacs"), DeckError);
+}
+
+// ---- load programs ----
+
+// A deck whose tests are the given JSON (comma-separated test objects).
+Deck program_deck(const std::string& tests, const std::string& top_extra = R"("kinematics": "lammps")") {
+  return parse_deck(R"({"format": 1,
+    "sample": {"count": 3, "diameters": {"list": [0.003, 0.004]}, "density": 2500, "grid_spacing": 0.005},
+    "contact": {"kn": 1e6, "kt": 1e6, "tangential_rotation": "project", "moment_arm": "radius"},
+    "damping": {"translational": 0.05, "rotational": 0.05}, )" + top_extra + R"(,
+    "time_step": 1e-6, "initial_state": "x.state", "tests": [)" + tests + "]}",
+                    "dir/program.json");
+}
+
+// The script cut into its leg blocks ("# ---- leg k of n: ..." up to the next one); [0] is what comes before.
+std::vector<std::string> leg_blocks(const std::string& script) {
+  std::vector<std::string> blocks;
+  std::size_t at = 0;
+  for (;;) {
+    const std::size_t next = script.find("\n# ---- leg ", at);
+    blocks.push_back(script.substr(at, next == std::string::npos ? std::string::npos : next + 1 - at));
+    if (next == std::string::npos) return blocks;
+    at = next + 1;
+  }
+}
+
+// The lines of `text` that start with `command` (padded as the scripts write it).
+std::vector<std::string> command_lines(const std::string& text, const std::string& command) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(command + " ", 0) == 0) out.push_back(line);
+  return out;
+}
+
+// The formula of `variable NAME equal FORMULA` in `text` ("" when there is none).
+std::string formula(const std::string& text, const std::string& name) {
+  for (const std::string& line : command_lines(text, "variable")) {
+    std::istringstream in(line);
+    std::string cmd, n, style;
+    in >> cmd >> n >> style;
+    if (n == name && style == "equal") {
+      std::string rest;
+      std::getline(in, rest);
+      return rest.substr(rest.find_first_not_of(' '));
+    }
+  }
+  return "";
+}
+
+// Evaluates a LAMMPS equal-style formula of numbers, + - * / ^, parentheses, c_P[k] (from `stress`) and v_NAME
+// (the formula of NAME in `script`, evaluated the same way): enough for the servo targets.
+class Formula {
+ public:
+  Formula(const std::string& script, const Vec3& stress) : script_(script), stress_(stress) {}
+  double eval(const std::string& f) {
+    const std::string saved = text_;
+    const std::size_t saved_at = at_;
+    text_ = f, at_ = 0;
+    const double x = sum();
+    EXPECT_EQ(at_, text_.size()) << "unparsed rest of " << f;
+    text_ = saved, at_ = saved_at;
+    return x;
+  }
+
+ private:
+  double sum() {
+    double x = product();
+    while (at_ < text_.size() && (text_[at_] == '+' || text_[at_] == '-')) {
+      const char op = text_[at_++];
+      const double y = product();
+      x = op == '+' ? x + y : x - y;
+    }
+    return x;
+  }
+  double product() {
+    double x = power();
+    while (at_ < text_.size() && (text_[at_] == '*' || text_[at_] == '/')) {
+      const char op = text_[at_++];
+      const double y = power();
+      x = op == '*' ? x * y : x / y;
+    }
+    return x;
+  }
+  double power() {
+    const double x = unary();
+    if (at_ < text_.size() && text_[at_] == '^') return ++at_, std::pow(x, unary());
+    return x;
+  }
+  double unary() {
+    if (text_[at_] == '-') return ++at_, -unary();
+    if (text_[at_] == '(') {
+      ++at_;
+      const double x = sum();
+      EXPECT_EQ(text_[at_], ')');
+      ++at_;
+      return x;
+    }
+    if (text_.compare(at_, 4, "c_P[") == 0) {
+      const int k = text_[at_ + 4] - '1';
+      at_ += 6;
+      return stress_[k];
+    }
+    if (text_.compare(at_, 2, "v_") == 0) {
+      std::size_t end = at_ + 2;
+      while (end < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[end])) || text_[end] == '_')) ++end;
+      const std::string name = text_.substr(at_ + 2, end - at_ - 2);
+      at_ = end;
+      const std::string f = formula(script_, name);
+      EXPECT_FALSE(f.empty()) << "no variable " << name;
+      return f.empty() ? std::nan("") : eval(f);
+    }
+    std::size_t used = 0;
+    const double x = std::stod(text_.substr(at_), &used);
+    at_ += used;
+    return x;
+  }
+
+  const std::string& script_;
+  Vec3 stress_;
+  std::string text_;
+  std::size_t at_ = 0;
+};
+
+const char* kTwoLegs = R"({"name": "load_unload", "friction": 0.5, "output_interval": 100, "legs": [
+    {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+     "end": {"axis": "x1", "strain": 0.001}},
+    {"axes": {"x1": {"strain_increment": -2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+     "end": {"axis": "x1", "strain": 0.0006}},
+    {"axes": {"x1": {"strain_increment": -1e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+     "end": {"ratio": 1.1, "max_steps": 4000}},
+    {"axes": {"x1": {"stress": 1.2e5}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+     "end": {"axis": "x1", "stress": 1.2e5, "max_steps": 3000}}]})";
+
+TEST(TranslateProgram, LegsRunOneAfterTheOtherWithCelldemsLengths) {
+  const Deck deck = program_deck(kTwoLegs);
+  const TestDef& test = deck.tests[0];
+  ASSERT_EQ(test.legs.size(), 4u);
+  const std::string s = translate_test(deck, test, TargetCode::Lammps);
+  const std::vector<std::string> blocks = leg_blocks(s);
+  ASSERT_EQ(blocks.size(), 5u);  // what comes before, then one block per leg
+  EXPECT_FALSE(contains(s, "variable        steps index"));  // the one-leg form's run length is not used
+  EXPECT_TRUE(command_lines(blocks[0], "run").empty());
+  EXPECT_TRUE(command_lines(blocks[0], "unfix").empty());
+
+  // Leg 1: compression to e1 = 0.1 % from the test start, by erate; leg 2: unloading to e1 = 0.06 % from where
+  // leg 1 ended: the lengths celldem's leg_steps gives from each leg's start strain.
+  const std::int64_t n1 = leg_steps(test.legs[0], deck.time_step, 0.0);
+  const std::int64_t n2 = leg_steps(test.legs[1], deck.time_step, n1 * 2e-7);
+  EXPECT_EQ(n1, 5000);
+  EXPECT_EQ(n2, 2000);
+  EXPECT_EQ(command_lines(blocks[1], "run"), std::vector<std::string>{"run             " + std::to_string(n1)});
+  EXPECT_EQ(command_lines(blocks[2], "run"), std::vector<std::string>{"run             " + std::to_string(n2)});
+  EXPECT_TRUE(contains(blocks[1], "\nfix             dfm all deform 1 x erate -0.2 remap x\n"));
+  EXPECT_TRUE(contains(blocks[1], "\nfix             srv all press/berendsen y 1e+05 1e+05 "));
+  // Every later leg first removes the previous leg's fixes, then defines its own; strain axes by vel from the
+  // box at the leg start (-L0 d per step, L0 the test start: celldem's exact engineering strain).
+  for (int j = 2; j <= 4; ++j) {
+    const std::vector<std::string> unfix = command_lines(blocks[j], "unfix");
+    const std::vector<std::string> fix = command_lines(blocks[j], "fix");
+    ASSERT_FALSE(unfix.empty()) << "leg " << j;
+    ASSERT_FALSE(fix.empty()) << "leg " << j;
+    EXPECT_LT(blocks[j].find(unfix.back()), blocks[j].find(fix.front())) << "leg " << j;
+    EXPECT_LT(blocks[j].find(fix.back()), blocks[j].find("\nrun ")) << "leg " << j;
+  }
+  EXPECT_EQ(command_lines(blocks[2], "unfix"), (std::vector<std::string>{"unfix           dfm", "unfix           srv"}));
+  EXPECT_TRUE(contains(blocks[2], "\nfix             dfm all deform 1 x vel $(0.2*v_L01:%.17g) remap x units box\n"));
+  EXPECT_TRUE(contains(blocks[3], "\nfix             dfm all deform 1 x vel $(0.1*v_L01:%.17g) remap x units box\n"));
+
+  // Leg 3 ends on s11/s33 = 1.1, leg 4 on s11 = 1.2e5: fix halt every step, from the side the leg starts on,
+  // at most end.max_steps, then the script stops with an error if the end was not reached.
+  EXPECT_EQ(formula(blocks[3], "now3"), "f_obs[4]/f_obs[6]");
+  EXPECT_EQ(formula(blocks[3], "side3"), "$(2*(v_now3<1.1)-1:%.17g)");
+  EXPECT_EQ(formula(blocks[3], "end3"), "v_side3*(v_now3-1.1)");
+  EXPECT_TRUE(contains(blocks[3], "\nfix             hlt all halt 1 v_end3 >= 0.0 error continue message yes\n"));
+  EXPECT_EQ(formula(blocks[3], "run3"), "(v_end3<0.0)*4000");
+  EXPECT_EQ(command_lines(blocks[3], "run"), std::vector<std::string>{"run             ${run3}"});
+  EXPECT_TRUE(contains(blocks[3], "\nif              \"$(v_end3) < 0.0\" then "));
+  EXPECT_EQ(formula(blocks[4], "now4"), "f_obs[4]");
+  EXPECT_EQ(formula(blocks[4], "run4"), "(v_end4<0.0)*3000");
+  EXPECT_EQ(command_lines(blocks[4], "unfix"),
+            (std::vector<std::string>{"unfix           dfm", "unfix           srv", "unfix           hlt"}));
+  // Leg 4 has no strain axis: no fix deform, all three axes on press/berendsen.
+  EXPECT_TRUE(command_lines(blocks[4], "fix             dfm").empty());
+  EXPECT_TRUE(contains(blocks[4], "press/berendsen x 120000 120000 "));
+}
+
+TEST(TranslateProgram, LiggghtsChecksInChunksWhereLammpsHalts) {
+  const Deck deck = program_deck(kTwoLegs);
+  const std::string lmp = translate_test(deck, deck.tests[0], TargetCode::Lammps);
+  const std::string lig = translate_test(deck, deck.tests[0], TargetCode::Liggghts);
+  const std::vector<std::string> blocks = leg_blocks(lig);
+  ASSERT_EQ(blocks.size(), 5u);
+  EXPECT_EQ(command_lines(lmp, "fix             hlt").size(), 2u);
+  EXPECT_TRUE(command_lines(lig, "fix             hlt").empty());
+  // Legs of known length: one run each, as in LAMMPS.
+  EXPECT_EQ(command_lines(blocks[1], "run"), std::vector<std::string>{"run             5000"});
+  EXPECT_EQ(command_lines(blocks[2], "run"), std::vector<std::string>{"run             2000"});
+  // Ratio and stress ends: a run of 0 steps, then chunks of kLiggghtsCheckSteps between checks of the end.
+  for (int j : {3, 4}) {
+    const std::string t = std::to_string(j);
+    EXPECT_EQ(command_lines(blocks[j], "run"),
+              (std::vector<std::string>{"run             0 post no",
+                                        "run             " + std::to_string(kLiggghtsCheckSteps) + " pre no post no"}));
+    EXPECT_TRUE(contains(blocks[j], "\nlabel           leg" + t + "\nif              \"${done" + t +
+                                        "}\" then \"jump SELF leg" + t + "_end\"\n"));
+    EXPECT_TRUE(contains(blocks[j], "\njump            SELF leg" + t + "\nlabel           leg" + t + "_end\n"));
+    EXPECT_TRUE(contains(blocks[j], "\nvariable        S" + t + "_f equal step\n"));
+  }
+  EXPECT_EQ(formula(blocks[3], "over3"), "step-v_S3>=4000");
+  // Strain axes of later legs: a fix deform variable counted from the leg's first step (chunks do not restart it).
+  EXPECT_EQ(formula(blocks[3], "d3x"), "1e-07*v_L01*(step-v_S3)");
+  EXPECT_TRUE(contains(blocks[3], "\nfix             dfm all deform 1 x variable v_d3x v_r3x "));
+  // The difference is listed.
+  bool listed = false;
+  for (const std::string& d : model_differences(deck, TargetCode::Liggghts))
+    listed = listed || contains(d, "no fix halt");
+  EXPECT_TRUE(listed);
+  for (const std::string& d : model_differences(deck, TargetCode::Lammps)) EXPECT_FALSE(contains(d, "no fix halt"));
+}
+
+TEST(TranslateProgram, StrainEndsWhoseStartOnlyTheRunKnowsAreCountedAtRunTime) {
+  // Leg 2's start strain depends on where leg 1's ratio end stopped: its steps are celldem's leg_steps at run time.
+  const Deck deck = program_deck(R"({"name": "t", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"ratio": 2.0, "max_steps": 10000}},
+      {"axes": {"x1": {"strain_increment": -2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.0001, "max_steps": 7000}}]})");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    const std::vector<std::string> blocks = leg_blocks(translate_test(deck, deck.tests[0], code));
+    ASSERT_EQ(blocks.size(), 3u);
+    EXPECT_EQ(formula(blocks[2], "n2"), "round((1e-04-(1.0-lx/v_L01))/(-2e-07))");
+    EXPECT_EQ(formula(blocks[2], "away2"), "(1e-04-(1.0-lx/v_L01))*(-2e-07)<0.0");
+    EXPECT_EQ(formula(blocks[2], "m2"), "v_n2-(v_n2-7000)*(v_n2>7000)");  // capped at max_steps, as leg_steps
+    EXPECT_EQ(command_lines(blocks[2], "run"), std::vector<std::string>{"run             ${m2}"});
+    EXPECT_TRUE(contains(blocks[2], "\nif              \"${away2}\" then \"print 'celldem translate: leg 2: axis "
+                                    "x1 moves away from its end strain 1e-04'\""));
+  }
+}
+
+TEST(TranslateProgram, LegMovingAwayFromItsEndStrainIsAnError) {
+  // Leg 1 ends at e1 = 0.1 %; leg 2 keeps compressing towards e1 = 0.05 %: celldem stops there (RunError).
+  const Deck deck = program_deck(R"({"name": "away", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.001}},
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.0005}}]})");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    try {
+      translate_test(deck, deck.tests[0], code);
+      ADD_FAILURE() << "no DeckError";
+    } catch (const DeckError& e) {
+      EXPECT_TRUE(contains(e.what(), "leg 2: axis x1 moves away from its end strain 5e-04")) << e.what();
+    }
+  }
+  // Moving towards it is fine, and an axis other than the end axis may move either way.
+  const Deck back = program_deck(R"({"name": "back", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"strain_increment": -1e-7}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.001}},
+      {"axes": {"x1": {"strain_increment": -2e-7}, "x2": {"strain_increment": -1e-7}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.0005}}]})");
+  EXPECT_NO_THROW(translate_test(back, back.tests[0], TargetCode::Lammps));
+}
+
+// b and mean_stress: the translated targets, evaluated for a known stress state, are celldem's stress_targets().
+TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
+  const Deck deck = program_deck(R"({"name": "bp", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"b": 0.25}, "x3": {"mean_stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.001}},
+      {"axes": {"x1": {"strain_increment": -2e-7}, "x2": {"b": 0.75}, "x3": {"stress": 8e4}},
+       "end": {"axis": "x1", "strain": 0.0005}},
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"mean_stress": 1.5e5}, "x3": {"mean_stress": 1.5e5}},
+       "end": {"axis": "x1", "strain": 0.001}},
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"b": 0.5}, "x3": {"stress": 2e4}},
+       "end": {"axis": "x1", "strain": 0.0015}}]})");
+  const TestDef& test = deck.tests[0];
+  const Vec3 s(1.6e5, 1.1e5, 4.0e4);  // the contact stresses c_P[1..3] of some step
+  // By hand: leg 1, b = 0.25, p = 1e5: s3 = (3p - 1.25 s1)/1.75 = (3e5 - 2e5)/1.75, s2 = s3 + 0.25 (s1 - s3).
+  const double t3 = (3e5 - 1.25 * 1.6e5) / 1.75;
+  const std::vector<Vec3> by_hand = {Vec3(NAN, t3 + 0.25 * (1.6e5 - t3), t3),
+                                     Vec3(NAN, 8e4 + 0.75 * (1.6e5 - 8e4), 8e4),  // 140 kPa
+                                     Vec3(NAN, (4.5e5 - 1.6e5) / 2, (4.5e5 - 1.6e5) / 2),  // 145 kPa
+                                     Vec3(NAN, 2e4 + 0.5 * (1.6e5 - 2e4), 2e4)};
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    const std::string script = translate_test(deck, test, code);
+    const std::vector<std::string> blocks = leg_blocks(script);
+    ASSERT_EQ(blocks.size(), 5u);
+    for (int j = 0; j < 4; ++j) {
+      const std::string& block = blocks[j + 1];
+      Formula f(block, s);
+      const Vec3 celldem = stress_targets(test.legs[j].axes, s);
+      for (int k = 1; k < 3; ++k) {
+        std::string name = "t";  // built in steps: GCC 12 warns (-Wrestrict) about "t" + ... + "y"
+        name += std::to_string(j + 1);
+        name += k == 1 ? 'y' : 'z';
+        const AxisMode mode = test.legs[j].axes[k].mode;
+        std::string target = formula(block, name);
+        if (mode == AxisMode::Stress) {  // a constant: press/berendsen (LAMMPS) or in the servo formula
+          EXPECT_TRUE(target.empty()) << name;
+          continue;
+        }
+        ASSERT_FALSE(target.empty()) << name << " in leg " << j + 1;
+        const double value = f.eval(target);
+        EXPECT_NEAR(value, by_hand[j][k], 1e-9 * std::abs(by_hand[j][k])) << name << " = " << target;
+        EXPECT_NEAR(value, celldem[k], 1e-9 * std::abs(celldem[k])) << name;
+        // The servo moves the axis by the press/berendsen law towards this target.
+        const std::string d = formula(block, "d" + name.substr(1));
+        EXPECT_TRUE(contains(d, "*(v_" + name + "-c_P[" + std::to_string(k + 1) + "])/")) << d;
+      }
+    }
+    // The stress axis beside a b axis is a press/berendsen axis in LAMMPS, a variable servo in LIGGGHTS.
+    if (code == TargetCode::Lammps)
+      EXPECT_TRUE(contains(blocks[2], "press/berendsen z 80000 80000 "));
+    else
+      EXPECT_TRUE(contains(formula(blocks[2], "d2z"), "*(80000-c_P[3])/"));
+  }
+  // The targets are listed as a difference: no integral term, nominal stiffness.
+  bool listed = false;
+  for (const std::string& d : model_differences(deck, TargetCode::Lammps))
+    listed = listed || d.rfind("b and mean_stress axes", 0) == 0;
+  EXPECT_TRUE(listed);
+}
+
+TEST(TranslateProgram, ConstantVolumeIsFixDeformVolume) {
+  const Deck deck = program_deck(R"({"name": "undrained", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"constant_volume": true}, "x3": {"stress": 1e5}},
+       "end": {"steps": 1000}},
+      {"axes": {"x1": {"strain_increment": -2e-7}, "x2": {"constant_volume": true}, "x3": {"constant_volume": true}},
+       "end": {"axis": "x1", "strain": 0.0001}}]})");
+  const std::string lmp = translate_test(deck, deck.tests[0], TargetCode::Lammps);
+  const std::vector<std::string> blocks = leg_blocks(lmp);
+  ASSERT_EQ(blocks.size(), 3u);
+  // Leg 1: y by volume; the stress axis z in the same fix deform (a variable servo), not press/berendsen,
+  // which fix deform volume would not see.
+  EXPECT_TRUE(contains(blocks[1], "\nfix             dfm all deform 1 x erate -0.2 y volume z variable v_d1z v_r1z "
+                                  "remap x\n"));
+  EXPECT_FALSE(contains(blocks[1], "press/berendsen"));
+  EXPECT_EQ(command_lines(blocks[1], "run"), std::vector<std::string>{"run             1000"});
+  // Leg 2: two volume axes scale together; 500 steps from e1 = 0.02 % back to 0.01 % (known here).
+  EXPECT_TRUE(contains(blocks[2], "\nfix             dfm all deform 1 x vel $(0.2*v_L01:%.17g) y volume z volume "
+                                  "remap x units box\n"));
+  EXPECT_EQ(command_lines(blocks[2], "run"),
+            std::vector<std::string>{"run             " +
+                                     std::to_string(leg_steps(deck.tests[0].legs[1], deck.time_step, 1000 * 2e-7))});
+  EXPECT_EQ(leg_steps(deck.tests[0].legs[1], deck.time_step, 1000 * 2e-7), 500);
+  const std::string lig = translate_test(deck, deck.tests[0], TargetCode::Liggghts);
+  EXPECT_TRUE(contains(lig, "\nfix             dfm all deform 1 x erate -0.2 y volume z variable v_d1z v_r1z remap x\n"));
+  EXPECT_TRUE(contains(lig, " y volume z volume remap x\n"));
+}
+
+TEST(TranslateProgram, OneLegTestsKeepTheirForm) {
+  // A one-leg test written as "legs" is the one-leg script: run length overridable with -var steps.
+  const Deck a = program_deck(R"({"name": "t", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.001}}]})");
+  const Deck b = program_deck(R"({"name": "t", "friction": 0.5,
+      "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+      "end": {"axis": "x1", "strain": 0.001}})");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    const std::string s = translate_test(a, a.tests[0], code);
+    EXPECT_EQ(s, translate_test(b, b.tests[0], code));
+    EXPECT_TRUE(contains(s, "\nvariable        steps index 5000\n"));
+    EXPECT_FALSE(contains(s, "# ---- leg "));
+    EXPECT_FALSE(contains(s, "unfix"));
+  }
+}
+
+TEST(TranslateProgram, SnapshotsAreListedAsNotTranslated) {
+  auto listed = [](const Deck& d) {
+    for (const std::string& w : model_differences(d, TargetCode::Lammps))
+      if (w.rfind("snapshots", 0) == 0) return true;
+    return false;
+  };
+  const char* test = R"({"name": "t", "friction": 0.5, %s
+      "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+      "end": {"axis": "x1", "strain": 0.001}})";
+  char with[512], without[512];
+  std::snprintf(with, sizeof with, test, R"("snapshots": {"interval": 1000},)");
+  std::snprintf(without, sizeof without, test, "");
+  EXPECT_TRUE(listed(program_deck(with)));
+  EXPECT_FALSE(listed(program_deck(without)));
+}
+
+TEST(TranslateProgram, PreparationScript) {
+  const Deck deck = parse_deck(R"({"format": 1,
+    "sample": {"count": 8, "diameters": {"list": [0.003, 0.004]}, "density": 2500, "grid_spacing": 0.005},
+    "contact": {"kn": 1e6, "kt": 1e6}, "damping": {"translational": 0.05, "rotational": 0.05},
+    "time_step": 1e-6,
+    "prepare": {"target_pressure": 1e5, "fast_solid_fraction": 0.5,
+                "equilibrium": {"unbalanced_force_ratio": 0.01, "min_steps": 2000, "check_interval": 500}},
+    "tests": []})",
+                               "dir/prep.json");
+  EXPECT_THROW(translate_preparation(deck_with(), TargetCode::Lammps), DeckError);  // no prepare
+  const std::string lmp = translate_preparation(deck, TargetCode::Lammps);
+  const std::vector<std::string> blocks = leg_blocks(lmp);
+  ASSERT_EQ(blocks.size(), 3u);  // the default program: fast compression, then the servo to equilibrium
+  EXPECT_TRUE(contains(lmp, "\nvariable        data index sample.data\n"));
+  EXPECT_TRUE(contains(lmp, "\nwrite_data      ${prepared} nocoeff\n"));
+  EXPECT_EQ(formula(blocks[1], "now1"), "mass(all)/(2500*vol)");
+  EXPECT_TRUE(contains(blocks[1], "halt 1 v_end1 >= 0.0"));
+  EXPECT_TRUE(contains(blocks[2], "press/berendsen x 1e+05 1e+05 "));
+  EXPECT_TRUE(contains(formula(blocks[2], "eq2"), "(v_ubf<=0.01)"));
+  EXPECT_EQ(formula(blocks[2], "done2"), "(step-v_S2>=2000)&&v_eq2");
+  EXPECT_EQ(command_lines(blocks[2], "run"),
+            (std::vector<std::string>{"run             500 post no", "run             500 pre no post no"}));
+  const std::string lig = translate_preparation(deck, TargetCode::Liggghts);
+  EXPECT_TRUE(contains(lig, "\nwrite_data      ${prepared}\n"));
+  EXPECT_TRUE(command_lines(lig, "fix             hlt").empty());
+  EXPECT_EQ(command_lines(lig, "run").size(), 4u);  // leg 1 and leg 2 in chunks after a run of 0 steps
 }
 
 }  // namespace
