@@ -84,7 +84,7 @@ Command add_bench_command(CLI::App& app) {
     std::vector<std::string> extra_states;
     std::int64_t steps = 20000, warmup = 1000;
     int repeats = 3;
-    bool vs_lammps = false, scaling = false, laws = false, force = false;
+    bool vs_lammps = false, scaling = false, laws = false, contention = false, force = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("bench", "Time the shear phase of a test on a prepared sample (particle-steps/s)");
@@ -104,6 +104,8 @@ Command add_bench_command(CLI::App& app) {
                   "1000-sphere one)")->check(CLI::ExistingFile);
   cmd->add_flag("--laws", a->laws, "Also time the scene with each contact law (hertz, mindlin, rolling, twisting) "
                 "against the deck's linear one, alternated, on the first of --threads");
+  cmd->add_flag("--contention", a->contention, "Also time 1 thread, the largest of --threads fixed and the same governed "
+                "(a run's default) while another CPU-bound process runs, alternated");
   cmd->add_option("--out", a->out, "Folder for bench.json (and the LAMMPS scene)")->capture_default_str();
   cmd->add_flag("--force", a->force, "Overwrite an earlier bench.json in --out");
   return [cmd, a]() -> int {
@@ -182,6 +184,27 @@ Command add_bench_command(CLI::App& app) {
         std::printf("  %-32s %.4g particle-steps/s  cost %.2f x linear\n", name.c_str(), pss, linear / pss);
         std::fflush(stdout);
       }
+    }
+    if (a->contention) {
+      const int many = *std::max_element(threads.begin(), threads.end());
+      const std::vector<std::pair<std::string, std::pair<int, bool>>> cases = {
+          {"1 thread", {1, false}},
+          {std::to_string(many) + " threads fixed", {many, false}},
+          {std::to_string(many) + " threads governed", {many, true}}};
+      std::map<std::string, std::vector<double>> busy;
+      {
+        const BusyProcess other;  // another job on one of the cores
+        for (int r = 0; r < a->repeats; ++r)
+          for (const auto& [name, how] : cases)
+            busy[name].push_back(
+                time_shear(deck, *test, state, how.first, a->steps, a->warmup, how.second).particle_steps_per_second);
+      }
+      std::printf("under contention (another busy process; medians):\n");
+      for (const auto& [name, how] : cases) {
+        report["contention"][name] = {{"particle_steps_per_s", median(busy[name])}, {"samples", busy[name]}};
+        std::printf("  %-24s %.4g particle-steps/s\n", name.c_str(), median(busy[name]));
+      }
+      std::fflush(stdout);
     }
     if (a->scaling) {
       std::printf("scaling (about %lld particle-steps per point):\n", static_cast<long long>(a->steps * n));

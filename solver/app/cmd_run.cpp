@@ -21,6 +21,9 @@ Command add_run_command(CLI::App& app) {
   cmd->add_option("--out", args->options.out_dir, "Run directory for results")->required();
   cmd->add_option("--threads", args->options.threads, "Worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  cmd->add_flag("--fixed-threads", args->options.fixed_threads,
+                "Keep the thread count: no trials of one thread (by default a stage times one thread against its "
+                "count now and then and keeps the faster: same results, faster under contention)");
   cmd->add_flag("--force", args->options.force, "Overwrite results already in the run directory");
   cmd->add_flag("--resume", args->options.resume, "Continue an interrupted run from its last checkpoint");
   cmd->add_flag("--quiet", args->options.quiet, "No progress or stage messages");

@@ -2,6 +2,10 @@
 
 #include <omp.h>
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <stdexcept>
 
@@ -9,6 +13,7 @@
 #include "core/plan.hpp"
 #include "measure/series.hpp"
 #include "neighbor/neighbor_list.hpp"
+#include "run/thread_governor.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -59,7 +64,7 @@ double state_bytes_per_particle(const State& s);
 }
 
 ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initial, int threads, std::int64_t steps,
-                       std::int64_t warmup) {
+                       std::int64_t warmup, bool governed) {
   omp_set_num_threads(threads);
   State state = initial;
   begin_stage(state);
@@ -74,9 +79,11 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   double row_seconds = 0.0;
   std::int64_t rows = 0;
   using Clock = std::chrono::steady_clock;
+  ThreadGovernor governor(governed ? threads : 1);
   const auto start = Clock::now();
   for (std::int64_t k = 1; k <= steps; ++k) {
     t.rebuilds += advance_one_step(model, loading, state);
+    governor.step_done();
     if (k % test.output_interval == 0) {
       const auto r0 = Clock::now();
       sink += format_series_row(measure_series_row(model, state));
@@ -93,6 +100,20 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   t.pairs_per_particle = static_cast<double>(state.pairs.size()) / static_cast<double>(state.particles.size());
   t.contacts_per_particle = static_cast<double>(state.touching) / static_cast<double>(state.particles.size());
   return t;
+}
+
+BusyProcess::BusyProcess() {
+  pid_ = fork();
+  if (pid_ == 0) {  // the child spins until it is killed
+    volatile std::uint64_t x = 0;
+    for (;;) x = x + 1;
+  }
+  if (pid_ < 0) throw std::runtime_error("bench: cannot start a busy process (fork failed)");
+}
+
+BusyProcess::~BusyProcess() {
+  kill(pid_, SIGKILL);
+  waitpid(pid_, nullptr, 0);
 }
 
 std::vector<std::pair<std::string, Deck>> contact_law_variants(const Deck& deck) {

@@ -30,8 +30,21 @@ struct ShearTiming {
 
 // Runs `steps` steps of the deck's test `test` from `state` with `threads` threads, writing a row every
 // output_interval steps to memory (as a run would to its file), after `warmup` untimed steps.
+// governed: with a ThreadGovernor, as a run has by default (else the thread count is fixed).
 ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& state, int threads, std::int64_t steps,
-                       std::int64_t warmup);
+                       std::int64_t warmup, bool governed = false);
+
+// A CPU-bound process (a busy loop) until the object goes: the contention of another job on the machine.
+class BusyProcess {
+ public:
+  BusyProcess();
+  ~BusyProcess();
+  BusyProcess(const BusyProcess&) = delete;
+  BusyProcess& operator=(const BusyProcess&) = delete;
+
+ private:
+  int pid_ = -1;
+};
 
 // The deck with each contact law in turn, for timing their cost against the deck's own (linear) law:
 // "linear", "hertz", "hertz+mindlin", "hertz+mindlin+rolling", "hertz+mindlin+rolling+twisting". The Hertz

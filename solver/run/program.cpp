@@ -1,5 +1,7 @@
 #include "run/program.hpp"
 
+#include <omp.h>
+
 #include <cmath>
 
 #include "cell/control.hpp"
@@ -7,6 +9,7 @@
 #include "measure/quasi_static.hpp"
 #include "run/runner.hpp"
 #include "run/stage_output.hpp"
+#include "run/thread_governor.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -40,7 +43,7 @@ class LegEndWatch {
                        std::to_string(e.value) + " (it starts the leg at " + std::to_string(from) + ")");
       steps_ = leg_steps(leg, model.dt, from);
     } else if (e.kind == LegEndKind::Steps) {
-      steps_ = e.steps;
+      steps_ = leg_steps(leg, model.dt, 0.0);  // as planned: max_steps, when given, caps it
     }
     side_ = value(model, state) < e.value ? 1 : -1;
   }
@@ -109,6 +112,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   ControlState& c = state.control;
   bool rebuild = true;
   std::string status;
+  ThreadGovernor governor(program.adaptive_threads ? omp_get_max_threads() : 1);
   for (;;) {
     const Leg& leg = program.legs[c.phase];
     const LegEndWatch watch(leg, model, state);
@@ -120,6 +124,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
         break;
       }
       advance_one_step(model, loading, state, rebuild);
+      governor.step_done();
       track_errors(leg, state, errors[c.phase]);
       if (leg.end.kind == LegEndKind::Equilibrium && c.phase_steps % program.equilibrium->check_interval == 0) {
         const EquilibriumDef& criterion = *program.equilibrium;

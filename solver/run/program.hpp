@@ -30,6 +30,7 @@ struct Program {
   Friction friction;  // sliding and rolling
   const EquilibriumDef* equilibrium = nullptr;  // for legs that end in equilibrium (the preparation)
   std::int64_t planned_steps = -1;              // all legs, when known (progress and ETA)
+  bool adaptive_threads = true;                 // a ThreadGovernor may drop to one thread under contention
 };
 
 // Runs the program from the state's current leg (state.control.phase) to its end. `errors` holds one entry

@@ -36,7 +36,9 @@ void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& opti
   if (!resumed) evaluate_forces(model, prep.stage_friction(), state);
   StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false, prep.snapshots);
   out.open(state, resumed);
-  run_program(model, {prep.legs, prep.stage_friction(), &prep.equilibrium}, state, out, out.control_errors());
+  Program program{prep.legs, prep.stage_friction(), &prep.equilibrium};
+  program.adaptive_threads = !options.fixed_threads;
+  run_program(model, program, state, out, out.control_errors());
   out.finish(state);
   write_state(run.prepared_state().string(), state, "prepared");
   const Json prepared = summarize_preparation(model, state, prep, out.elapsed());
@@ -55,7 +57,8 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   if (!resumed) evaluate_forces(model, test.stage_friction(), state);  // the first row: the state as loaded
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
   out.open(state, resumed);
-  const Program program{test.legs, test.stage_friction(), nullptr, plan_test(deck, test).steps};
+  Program program{test.legs, test.stage_friction(), nullptr, plan_test(deck, test).steps};
+  program.adaptive_threads = !options.fixed_threads;
   run_program(model, program, state, out, out.control_errors());
   out.finish(state);
   write_state((out.dir() / "final.state").string(), state, "test:" + test.name);

@@ -17,6 +17,7 @@ struct RunOptions {
   ProgressMode progress = ProgressMode::Off;  // on stderr
   double progress_interval = 30.0;            // [s] between progress lines in a log
   bool quiet = false;     // no stage messages on stdout
+  bool fixed_threads = false;  // keep the thread count (no ThreadGovernor trials of one thread)
 };
 
 // Thrown after SIGINT/SIGTERM once a checkpoint has been written.

@@ -1,0 +1,53 @@
+#include "run/thread_governor.hpp"
+
+#include <omp.h>
+
+namespace celldem {
+
+ThreadGovernor::ThreadGovernor(int threads, std::int64_t period, std::int64_t window)
+    : threads_(threads), period_(period), window_(window), current_(threads), chosen_(threads) {}
+
+ThreadGovernor::~ThreadGovernor() {
+  if (threads_ > 1) omp_set_num_threads(threads_);
+}
+
+void ThreadGovernor::use(int threads) {
+  if (threads != current_) omp_set_num_threads(threads);
+  current_ = threads;
+}
+
+void ThreadGovernor::step_done() {
+  if (threads_ <= 1) return;
+  ++steps_;
+  switch (phase_) {
+    case Phase::Running:
+      // The first trial comes soon (a few windows in, past the stage's start-up), the others every period.
+      if (steps_ >= (trials_ == 0 ? 4 * window_ : period_)) {
+        phase_ = Phase::TryingMany, steps_ = 0;
+        use(threads_);
+        start_ = Clock::now();
+      }
+      break;
+    case Phase::TryingMany:
+      if (steps_ >= window_) {
+        many_seconds_ = std::chrono::duration<double>(Clock::now() - start_).count();
+        phase_ = Phase::TryingOne, steps_ = 0;
+        use(1);
+        start_ = Clock::now();
+      }
+      break;
+    case Phase::TryingOne:
+      if (steps_ >= window_) {
+        const double one_seconds = std::chrono::duration<double>(Clock::now() - start_).count();
+        const int faster = one_seconds < many_seconds_ ? 1 : threads_;
+        switches_ += faster != chosen_;
+        chosen_ = faster;
+        ++trials_;
+        use(faster);
+        phase_ = Phase::Running, steps_ = 0;
+      }
+      break;
+  }
+}
+
+}  // namespace celldem

@@ -1,0 +1,42 @@
+// Keeps a stage on the faster of its thread count and one thread while it runs. Results are the same bits
+// on any thread count, so switching costs nothing but the trial. Under contention (another busy process
+// on one of the cores) the threads of a parallel loop wait for the slowest at every barrier and two
+// threads run slower than one; the governor finds that within one period and finds its way back when the
+// other process is gone.
+#pragma once
+#include <chrono>
+#include <cstdint>
+
+namespace celldem {
+
+class ThreadGovernor {
+ public:
+  // threads: the stage's thread count (1: the governor does nothing). Every `period` steps it times
+  // `window` steps on each count and keeps the faster until the next trial.
+  explicit ThreadGovernor(int threads, std::int64_t period = 20000, std::int64_t window = 400);
+  ~ThreadGovernor();  // leaves OpenMP at the stage's thread count
+  ThreadGovernor(const ThreadGovernor&) = delete;
+  ThreadGovernor& operator=(const ThreadGovernor&) = delete;
+
+  void step_done();  // after each step: counts it, times trials, sets the OpenMP thread count
+  int current() const { return current_; }
+  int switches() const { return switches_; }  // trials that changed the count
+  int trials() const { return trials_; }
+
+ private:
+  enum class Phase { Running, TryingMany, TryingOne };
+  void use(int threads);
+
+  using Clock = std::chrono::steady_clock;
+  int threads_;
+  std::int64_t period_, window_;
+  int current_;  // the OpenMP thread count now
+  int chosen_;   // the count the last trial chose
+  int switches_ = 0, trials_ = 0;
+  Phase phase_ = Phase::Running;
+  std::int64_t steps_ = 0;  // in the current phase
+  Clock::time_point start_;
+  double many_seconds_ = 0.0;
+};
+
+}  // namespace celldem
