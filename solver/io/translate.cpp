@@ -84,7 +84,8 @@ struct LammpsDamping {
 
 LammpsDamping lammps_damping(const Deck& deck) {
   LammpsDamping d;
-  const bool rotational = deck.damping.rotational > 0.0 && deck.contact.kt > 0.0;
+  const bool rotational =
+      deck.damping.rotational > 0.0 && reference_stiffness(deck.contact, deck.sample).tangential > 0.0;
   for (const AtomType& t : atom_types(deck)) {
     double g = t.c_t;
     if (rotational) {
@@ -111,6 +112,58 @@ std::string matrix(std::size_t n, double value) {
   const std::string v = num(value);
   std::string s = std::to_string(n);
   for (std::size_t k = 0; k < n * n; ++k) {
+    s += ' ';
+    s += v;
+  }
+  return s;
+}
+
+// ---- the contact law in the target codes ----
+
+// The paper's law (linear normal spring, linear tangential history, no rolling or twisting resistance): the
+// scripts use gran/hooke/history (LAMMPS) and hooke/stiffness (LIGGGHTS), as they always did. Any other
+// composition goes to LAMMPS's pair granular with the matching sub-models, and to LIGGGHTS's closest models.
+bool plain_linear(const ContactDef& c) {
+  return c.normal == NormalModel::Linear && c.tangential == TangentialModel::LinearHistory &&
+         c.rolling == RollingModel::None && c.twisting == TwistingModel::None;
+}
+
+std::string law_text(const ContactDef& c) {
+  std::string s = c.normal == NormalModel::Hertz ? "hertz" : "linear";
+  s += c.tangential == TangentialModel::Mindlin ? " + mindlin" : " + linear_history";
+  if (c.rolling == RollingModel::Sds) s += " + rolling sds";
+  if (c.twisting == TwistingModel::Marshall) s += " + twisting marshall";
+  return s;
+}
+
+// LAMMPS pair granular coefficients of the deck's law (pair_coeff * * ...), all damping coefficients 0:
+// the deck's damping is body damping. Normal: `hooke kn 0` (F = kn d) or `hertz/material E 0 nu`
+// (F = 4/3 E* a d, E* = E / (2 (1 - nu^2)) by LAMMPS's mixing of one material); `damping viscoelastic` with
+// coefficient 0 is no damping. Tangential: `linear_history kt 0 mu` or `mindlin kt 0 mu` (k = kt a; kt = NULL
+// gives 8 G*, G* = E / (4 (2 - nu)(1 + nu)), but only after a material normal model: after hooke it is written
+// as the number). Rolling `sds k_roll gamma_roll mu_roll`, twisting `marshall` (no coefficients).
+std::string lammps_granular_coeffs(const ContactDef& c, double mu, double mu_roll) {
+  std::ostringstream o;
+  if (c.normal == NormalModel::Hertz)
+    o << "hertz/material " << num(c.youngs_modulus) << " 0.0 " << num(c.poisson_ratio);
+  else
+    o << "hooke " << num(c.kn) << " 0.0";
+  o << " damping viscoelastic tangential ";
+  if (c.tangential == TangentialModel::Mindlin)
+    o << "mindlin " << (c.normal == NormalModel::Hertz ? std::string("NULL") : num(8.0 * c.effective_shear_modulus()));
+  else
+    o << "linear_history " << num(c.kt);
+  o << " 0.0 " << num(mu);
+  if (c.rolling == RollingModel::Sds)
+    o << " rolling sds " << num(c.rolling_stiffness) << " " << num(c.rolling_damping) << " " << num(mu_roll);
+  if (c.twisting == TwistingModel::Marshall) o << " twisting marshall";
+  return o.str();
+}
+
+std::string vector_of(std::size_t n, double value) {
+  std::string s;
+  const std::string v = num(value);
+  for (std::size_t k = 0; k < n; ++k) {
     s += ' ';
     s += v;
   }
@@ -149,13 +202,14 @@ struct ScriptProgram {
   double friction = 0.0;
   std::int64_t output_interval = 1000;
   const EquilibriumDef* equilibrium = nullptr;    // the preparation only
+  double rolling_friction = 0.0;                  // mu_roll (contact.rolling sds)
   bool preparation() const { return equilibrium != nullptr; }
   // The one-leg form of a test: the script of a single leg, as before load programs (`-var steps N`).
   bool one_leg() const { return legs.size() == 1 && !preparation(); }
 };
 
 ScriptProgram test_program(const TestDef& test) {
-  return {test.name, test.legs, test.friction, test.output_interval, nullptr};
+  return {test.name, test.legs, test.friction, test.output_interval, nullptr, test.rolling_friction};
 }
 
 // How a leg's length is decided in the script.
@@ -711,11 +765,17 @@ void unbalanced_force(std::ostringstream& o, const Deck& deck, TargetCode code) 
     o << "compute         pfn all pair/local force\n"
       << "compute         fns all reduce sum c_pfn\n"
       << "variable        fnsum equal c_fns\n";
-  } else {
+  } else if (deck.contact.normal == NormalModel::Linear) {
     o << "# normal forces: kn * overlap (hooke/stiffness without damping), summed over the contacts\n"
       << "compute         pdl all pair/gran/local delta\n"
       << "compute         dls all reduce sum c_pdl[1]\n"
       << "variable        fnsum equal " << num(deck.contact.kn) << "*c_dls\n";
+  } else {
+    // Hertz: no per-contact product can be reduced in LIGGGHTS; sum fn l = trace(sigma) V exactly (l parallel
+    // to n), so sum fn ~ trace(sigma) V / <l> with <l> ~ the mean diameter (a named difference).
+    o << "# normal forces (hertz): sum fn |l| = (s11 + s22 + s33) V exactly, so sum fn ~ that / mean diameter "
+         "(approximate)\n"
+      << "variable        fnsum equal (f_obs[4]+f_obs[5]+f_obs[6])*vol/" << num(mean_diameter(deck.sample)) << "\n";
   }
   o << "variable        ubf equal c_fnetm*0.5*f_obs[7]/(v_fnsum+(v_fnsum<=0.0))\n";
 }
@@ -810,11 +870,21 @@ std::string lammps_script(const Deck& deck, const ScriptProgram& p) {
     << "newton          off\n"
     << "comm_modify     vel yes\n";
   script_variables(o, deck, p, TargetCode::Lammps, w.runs());
-  o << "\n# contact: F_n = kn overlap, incremental tangential spring kt with Coulomb limit, no contact damping\n"
-    << "pair_style      gran/hooke/history " << num(deck.contact.kn) << " " << num(deck.contact.kt) << " 0.0 0.0 "
-    << num(p.friction) << " 0\n"
-    << "pair_coeff      * *\n"
-    << "timestep        " << num(deck.time_step) << "\n"
+  if (plain_linear(deck.contact)) {
+    o << "\n# contact: F_n = kn overlap, incremental tangential spring kt with Coulomb limit, no contact damping\n"
+      << "pair_style      gran/hooke/history " << num(deck.contact.kn) << " " << num(deck.contact.kt) << " 0.0 0.0 "
+      << num(p.friction) << " 0\n"
+      << "pair_coeff      * *\n";
+  } else {
+    o << "\n# contact: " << law_text(deck.contact) << " as pair granular sub-models, every contact damping "
+      << "coefficient 0\n# (the deck's damping is body damping, below). The stored tangential"
+      << (deck.contact.rotational_history() ? ", rolling and twisting" : "")
+      << " history follows\n# the pairs across neighbour-list rebuilds (pair granular's own fix NEIGH_HISTORY; "
+         "it needs comm_modify vel yes).\n"
+      << "pair_style      granular\n"
+      << "pair_coeff      * * " << lammps_granular_coeffs(deck.contact, p.friction, p.rolling_friction) << "\n";
+  }
+  o << "timestep        " << num(deck.time_step) << "\n"
     << "fix             int all nve/sphere\n";
   if (p.preparation())
     o << "# the pair (contact) forces of each particle, before the damping fixes add theirs: the unbalanced force\n"
@@ -845,17 +915,46 @@ std::string liggghts_script(const Deck& deck, const ScriptProgram& p) {
     << "newton          off\n"
     << "communicate     single vel yes\n";
   script_variables(o, deck, p, TargetCode::Liggghts, w.runs());
-  o << "\n# contact: hooke/stiffness F_n = kn overlap (absolute kn), history tangential spring kt, Coulomb limit;\n"
-    << "# gamman and gammat must be given (per type pair) even when zero\n"
-    << "fix             m1 all property/global kn peratomtypepair " << matrix(n, deck.contact.kn) << "\n"
-    << "fix             m2 all property/global kt peratomtypepair " << matrix(n, deck.contact.kt) << "\n"
-    << "fix             m3 all property/global gamman peratomtypepair " << matrix(n, 0.0) << "\n"
-    << "fix             m4 all property/global gammat peratomtypepair " << matrix(n, 0.0) << "\n"
-    << "fix             m5 all property/global coefficientFriction peratomtypepair " << matrix(n, p.friction)
-    << "\n"
-    << "pair_style      gran model hooke/stiffness tangential history tangential_damping off\n"
-    << "pair_coeff      * *\n"
-    << "timestep        " << num(deck.time_step) << "\n"
+  const ContactDef& c = deck.contact;
+  const bool rolling = c.rolling == RollingModel::Sds;
+  if (c.normal == NormalModel::Hertz) {
+    o << "\n# contact: " << law_text(c) << " as LIGGGHTS models: hertz F_n = 4/3 Y* sqrt(R* overlap) overlap, history "
+      << "tangential spring\n# 8 G* sqrt(R* overlap) (Mindlin's, no rescaling), Coulomb limit"
+      << (rolling ? ", rolling_friction epsd2 (an elastic-plastic torque spring, the closest to sds)" : "")
+      << ";\n# coefficientRestitution 1 gives zero damping (beta = ln e / sqrt(ln^2 e + pi^2) = 0)\n";
+    // LIGGGHTS refuses youngsModulus outside 5e6-1e9 Pa (SI) unless told.
+    if (c.youngs_modulus > 1e9) o << "hard_particles  yes\n";
+    if (c.youngs_modulus < 5e6) o << "soft_particles  yes\n";
+    o
+      << "fix             m1 all property/global youngsModulus peratomtype" << vector_of(n, c.youngs_modulus) << "\n"
+      << "fix             m2 all property/global poissonsRatio peratomtype" << vector_of(n, c.poisson_ratio) << "\n"
+      << "fix             m3 all property/global coefficientRestitution peratomtypepair " << matrix(n, 1.0) << "\n"
+      << "fix             m4 all property/global coefficientFriction peratomtypepair " << matrix(n, p.friction) << "\n";
+    if (rolling)
+      o << "fix             m5 all property/global coefficientRollingFriction peratomtypepair "
+        << matrix(n, p.rolling_friction) << "\n";
+    o << "pair_style      gran model hertz tangential history" << (rolling ? " rolling_friction epsd2" : "")
+      << " tangential_damping off\n"
+      << "pair_coeff      * *\n";
+  } else {
+    o << "\n# contact: hooke/stiffness F_n = kn overlap (absolute kn), history tangential spring kt, Coulomb limit;\n"
+      << "# gamman and gammat must be given (per type pair) even when zero\n"
+      << "fix             m1 all property/global kn peratomtypepair " << matrix(n, deck.contact.kn) << "\n"
+      << "fix             m2 all property/global kt peratomtypepair "
+      << matrix(n, c.tangential == TangentialModel::Mindlin ? reference_stiffness(c, deck.sample).tangential : c.kt)
+      << "\n"
+      << "fix             m3 all property/global gamman peratomtypepair " << matrix(n, 0.0) << "\n"
+      << "fix             m4 all property/global gammat peratomtypepair " << matrix(n, 0.0) << "\n"
+      << "fix             m5 all property/global coefficientFriction peratomtypepair " << matrix(n, p.friction)
+      << "\n";
+    if (rolling)
+      o << "fix             m6 all property/global coefficientRollingFriction peratomtypepair "
+        << matrix(n, p.rolling_friction) << "\n";
+    o << "pair_style      gran model hooke/stiffness tangential history" << (rolling ? " rolling_friction epsd2" : "")
+      << " tangential_damping off\n"
+      << "pair_coeff      * *\n";
+  }
+  o << "timestep        " << num(deck.time_step) << "\n"
     << "fix             integr all nve/sphere\n";
   if (p.preparation())
     o << "# the pair (contact) forces of each particle, before the damping fix adds its own: the unbalanced force\n"
@@ -908,6 +1007,35 @@ std::vector<AtomType> atom_types(const Deck& deck) {
   return types;
 }
 
+namespace {
+// The contact normal stiffness of the servo's nominal modulus: kn; for hertz the tangent stiffness 2 E* a at the
+// mean contact force pi d^2 p / 3.6 of the deck's largest stress p (mean diameter d, R* = d/4), which is what
+// celldem's servo measures on average (its axis stiffness sums the contacts' tangent stiffnesses).
+double nominal_normal_stiffness(const Deck& deck) {
+  const ContactDef& c = deck.contact;
+  if (c.normal == NormalModel::Linear) return c.kn;
+  double p = 0.0;
+  const auto scan = [&p](const std::vector<Leg>& legs) {
+    for (const Leg& leg : legs) {
+      for (const AxisControl& a : leg.axes)
+        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) p = std::max(p, std::abs(a.value));
+      if (leg.end.kind == LegEndKind::Stress) p = std::max(p, std::abs(leg.end.value));
+    }
+  };
+  if (deck.prepare) {
+    p = std::max(p, deck.prepare->target_pressure);
+    scan(deck.prepare->legs);
+  }
+  for (const TestDef& t : deck.tests) scan(t.legs);
+  const double d = mean_diameter(deck.sample);
+  const double r_eff = 0.25 * d;
+  if (p == 0.0) return reference_stiffness(c, deck.sample).normal;
+  const double force = M_PI * d * d * p / 3.6;
+  const double overlap = std::pow(3.0 * force / (4.0 * c.effective_modulus() * std::sqrt(r_eff)), 2.0 / 3.0);
+  return 2.0 * c.effective_modulus() * std::sqrt(r_eff * overlap);
+}
+}  // namespace
+
 TranslatedServo translated_servo(const Deck& deck) {
   // Nominal affine axis stiffness of a dense random packing, K = (1/V) sum kn (n_k l_k)^2 with <n_k^4> = 1/5:
   // K = kn Z phi <l^2> / (10 <v_s>), Z = 6, phi = 0.64, l = r_i + r_j, sizes drawn with equal probability.
@@ -918,7 +1046,7 @@ TranslatedServo translated_servo(const Deck& deck) {
   d1 /= n, d2 /= n, d3 /= n;
   const double l2 = 0.5 * (d2 + d1 * d1), vs = M_PI / 6.0 * d3;
   TranslatedServo s;
-  const double k = deck.contact.kn * 6.0 * 0.64 * l2 / (10.0 * vs);
+  const double k = nominal_normal_stiffness(deck) * 6.0 * 0.64 * l2 / (10.0 * vs);
   const double decade = std::pow(10.0, std::floor(std::log10(k)) - 2.0);
   s.modulus = std::round(k / decade) * decade;  // 3 significant digits: it is a nominal value
   s.pdamp = deck.time_step / (3.0 * deck.servo.gain);
@@ -926,6 +1054,66 @@ TranslatedServo translated_servo(const Deck& deck) {
 }
 
 namespace {
+
+// What LAMMPS's pair granular does differently from celldem's law (pair_granular.cpp of 2021, read in the source;
+// crosscheck/README.md "Other contact laws" has the measured effect). Same in both: hertz/material's
+// F = 4/3 E* a d and mindlin's 8 G* a (NULL: LAMMPS's mixing of one material gives E/(2(1 - nu^2)) and
+// E/(4(2 - nu)(1 + nu))), mindlin's displacement history without rescaling when a changes, the Coulomb cap
+// mu |F_n| with the spring set back, the sds rolling velocity R* (w_i - w_j) x n, its spring-dashpot-slider and
+// moment R* n x f_r, Marshall's k_tw = 0.5 k_t a^2 and cap 2/3 a mu F_n.
+void granular_differences(const Deck& deck, std::vector<std::string>& out) {
+  const ContactDef& c = deck.contact;
+  out.push_back(std::string("contact.moment_arm: LAMMPS pair granular takes the tangential slip velocity with the "
+                            "full radii, (v_i - v_j)_t + n x (r_i w_i + r_j w_j), and the torque of the tangential "
+                            "force with the arm r - overlap/2; celldem uses one arm for both (the deck: \"") +
+                (c.moment_arm == MomentArm::ContactPoint ? "contact_point\", r - overlap/2: the slip differs"
+                                                         : "radius\", r: the torque differs") +
+                " by the overlap/2 part, a relative 1e-3-1e-2 of the rotational terms)");
+  if (c.rotation == TangentialRotation::Project)
+    out.push_back("contact.tangential_rotation: the deck says \"project\"; pair granular brings the tangential "
+                  "history into the new tangent plane and restores its length (celldem \"rotate\")");
+  out.push_back("tangential frame update: pair granular turns the stored tangential displacement into the tangent "
+                "plane only when |xi . n| k_t > 1e-10 mu F_n (celldem: every step); below that the out-of-plane "
+                "part stays in the spring");
+  if (c.rolling == RollingModel::Sds)
+    out.push_back("rolling sds: as celldem's law, except that the rolling displacement is turned into the tangent "
+                  "plane (keeping its length) only when |xi_r . n| k_roll > 1e-10 mu_roll F_n (celldem: every "
+                  "step)");
+  if (c.twisting == TwistingModel::Marshall)
+    out.push_back("twisting marshall: at the cap LAMMPS sets the moment to -sign(twist rate) 2/3 a mu F_n and the "
+                  "angle to sign(rate) M_crit / k_tw, celldem keeps the sign of the spring moment -k_tw theta "
+                  "(they differ only in a step where the twist rate opposes the stored twist while the cap is "
+                  "exceeded)");
+}
+
+// The closest LIGGGHTS 3.8 models of a law other than the plain linear one, and what they cannot express.
+void liggghts_law_differences(const Deck& deck, std::vector<std::string>& out) {
+  const ContactDef& c = deck.contact;
+  if (c.normal == NormalModel::Hertz && c.tangential == TangentialModel::LinearHistory)
+    out.push_back("contact.tangential: the deck says \"linear_history\" (constant kt = " + num(c.kt) +
+                  " N/m) with hertz; LIGGGHTS's hertz model always sets the tangential stiffness to Mindlin's "
+                  "8 G* sqrt(R* overlap): the scripts use that (celldem \"mindlin\" matches)");
+  if (c.normal == NormalModel::Linear && c.tangential == TangentialModel::Mindlin)
+    out.push_back("contact.tangential: the deck says \"mindlin\" (8 G* a, following the contact radius) with a "
+                  "linear normal spring; LIGGGHTS's hooke/stiffness takes a constant kt: the scripts use 8 G* a at "
+                  "contact.reference_overlap, " + num(reference_stiffness(c, deck.sample).tangential) + " N/m");
+  if (c.normal == NormalModel::Hertz)
+    out.push_back("hertz: LIGGGHTS's history tangential spring projects the stored displacement onto the new "
+                  "tangent plane after adding the step's slip, without restoring its length; its torque arm and "
+                  "rotational slip use r - overlap/2 (see contact.moment_arm)");
+  if (c.rolling == RollingModel::Sds)
+    out.push_back("contact.rolling: LIGGGHTS 3.8 has no sds rolling model; the scripts use rolling_friction epsd2, "
+                  "an incremental torque spring on the tangential relative spin capped at mu_roll R* |F_n| (the "
+                  "same cap as sds), but with the rotational stiffness k_t R*^2 (k_t the tangential stiffness" +
+                  std::string(c.tangential == TangentialModel::Mindlin ? ", 8 G* a" : "") +
+                  ") instead of k_roll R*^2 = " + num(c.rolling_stiffness) + " R*^2, no dashpot (rolling_damping " +
+                  num(c.rolling_damping) + " ignored), the stored torque neither turned into the tangent plane nor "
+                  "rescaled when k_t changes");
+  if (c.twisting == TwistingModel::Marshall)
+    out.push_back("contact.twisting: LIGGGHTS 3.8 cannot express twisting resistance at all (no twisting model; "
+                  "epsd2 drops the normal part of the relative spin): the scripts run without Marshall's twisting "
+                  "moment");
+}
 
 // The contact model and the damping: the same in every script of the deck.
 std::vector<std::string> contact_differences(const Deck& deck, TargetCode code) {
@@ -937,11 +1125,16 @@ std::vector<std::string> contact_differences(const Deck& deck, TargetCode code) 
                   "but with fix deform remap x " + target + " contacts see only the non-affine velocities, so the "
                   "affine part of the relative motion never loads the tangential springs (celldem "
                   "\"kinematics\": \"lammps\" matches " + target + ")");
-  if (deck.contact.rotation == TangentialRotation::Rotate)
+  if (lmp && !plain_linear(deck.contact)) {
+    granular_differences(deck, out);
+  } else if (!lmp && !plain_linear(deck.contact)) {
+    liggghts_law_differences(deck, out);
+  }
+  if (deck.contact.rotation == TangentialRotation::Rotate && !(lmp && !plain_linear(deck.contact)))
     out.push_back("contact.tangential_rotation: the deck says \"rotate\" (the spring keeps its length when the "
                   "tangent plane turns), " + target + " projects it onto the new plane without restoring the length "
                   "(celldem \"project\")");
-  if (lmp && deck.contact.moment_arm == MomentArm::ContactPoint)
+  if (lmp && plain_linear(deck.contact) && deck.contact.moment_arm == MomentArm::ContactPoint)
     out.push_back("contact.moment_arm: the deck says \"contact_point\" (lever arm r - overlap/2), LAMMPS "
                   "gran/hooke/history uses the full radius r for the torque and the rotational slip (celldem "
                   "\"radius\")");
@@ -1006,6 +1199,21 @@ std::vector<std::string> common_notes(const Deck& deck, TargetCode code) {
     out.push_back("LIGGGHTS fix print does not write step 0; the first row is the first output step");
   }
   out.push_back("neighbour skin: neighbor_skin x the largest diameter, as celldem; it changes speed only");
+  const ContactDef& c = deck.contact;
+  if (!plain_linear(c)) {
+    if (c.normal != NormalModel::Linear || c.tangential != TangentialModel::LinearHistory) {
+      const ContactStiffness k = reference_stiffness(c, deck.sample);
+      out.push_back("body damping constants: kn and kt in 2 sqrt(m kn) and 2 r sqrt(I kt) are the tangent "
+                    "stiffnesses at contact.reference_overlap (" + num(c.reference_overlap) + " m: " + num(k.normal) +
+                    " and " + num(k.tangential) + " N/m), as celldem's");
+    }
+    if (lmp)
+      out.push_back("pair granular computes as celldem: hertz/material F_n = 4/3 E* a d, mindlin 8 G* a with the "
+                    "displacement history not rescaled when a changes, the Coulomb cap with the spring set back, "
+                    "sds rolling (velocity R* (w_j - w_i) x n, spring-dashpot-slider, moment R* n x f_r), Marshall "
+                    "twisting (0.5 k_t a^2, cap 2/3 a mu F_n); every damping coefficient 0; its histories are not "
+                    "incremented in the setup force call of a run (as gran/hooke/history)");
+  }
   return out;
 }
 
@@ -1063,6 +1271,11 @@ std::vector<std::string> preparation_differences(const Deck& deck, TargetCode co
   if (deck.prepare->snapshots.any())
     out.push_back("snapshots (prepare.snapshots): not translated; the script writes the series only (add a dump "
                   "for particle snapshots)");
+  if (code == TargetCode::Liggghts && deck.contact.normal == NormalModel::Hertz &&
+      deck.prepare->equilibrium.unbalanced_force_ratio > 0.0)
+    out.push_back("equilibrium (hertz): LIGGGHTS cannot sum the contacts' Hertz forces, so the unbalanced force "
+                  "ratio's mean normal force is estimated as (s11 + s22 + s33) V / (contacts x the mean diameter), "
+                  "exact only when every branch has the mean length");
   if (deck.prepare->friction > 0.0)
     out.push_back("prepare.friction = " + num(deck.prepare->friction) + ": write_data cannot carry the contact "
                   "history, so tests from the prepared data file start with zero tangential springs (celldem's "
@@ -1173,7 +1386,8 @@ std::string translate_test(const Deck& deck, const TestDef& test, TargetCode cod
 std::string translate_preparation(const Deck& deck, TargetCode code) {
   if (!deck.prepare) throw DeckError("prepare: the deck has no preparation to translate");
   const PrepareDef& prep = *deck.prepare;
-  const ScriptProgram p{"prepare", prep.legs, prep.friction, prep.output_interval, &prep.equilibrium};
+  const ScriptProgram p{"prepare", prep.legs, prep.friction, prep.output_interval, &prep.equilibrium,
+                        prep.rolling_friction};
   return code == TargetCode::Lammps ? lammps_script(deck, p) : liggghts_script(deck, p);
 }
 

@@ -5,6 +5,7 @@
 // is checked against the real codes by crosscheck_reduced.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -655,6 +656,129 @@ TEST(TranslateProgram, PreparationScript) {
   EXPECT_TRUE(contains(lig, "\nwrite_data      ${prepared}\n"));
   EXPECT_TRUE(command_lines(lig, "fix             hlt").empty());
   EXPECT_EQ(command_lines(lig, "run").size(), 4u);  // leg 1 and leg 2 in chunks after a run of 0 steps
+}
+
+// ---- contact laws other than the plain linear one ----
+
+Deck law_deck(const std::string& contact, const std::string& second_test_extra = "") {
+  std::string text = R"({"format": 1,
+    "sample": {"count": 3, "diameters": {"list": [0.003, 0.004]}, "density": 2500, "grid_spacing": 0.005},
+    "contact": {)";
+  text += contact;
+  text += R"(},
+    "damping": {"translational": 0.05, "rotational": 0.04},
+    "time_step": 1e-7,
+    "initial_state": "x.state",
+    "tests": [{"name": "ttc", "friction": 0.5,
+               "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+               "end": {"axis": "x1", "strain": 0.001}, "output_interval": 100},
+              {"name": "strain", "friction": 0.3)";
+  text += second_test_extra;
+  text += R"(,
+               "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"strain_increment": 0.0},
+                        "x3": {"strain_increment": 0.0}},
+               "end": {"axis": "x1", "strain": 0.0004}}]})";
+  return parse_deck(text, "dir/law.json");
+}
+
+const char* kHertzMindlin = R"("normal": "hertz", "tangential": "mindlin", "youngs_modulus": 7e10, "poisson_ratio": 0.25)";
+const char* kRolling = R"(, "rolling": "sds", "rolling_stiffness": 1e6, "rolling_damping": 2, "rolling_friction": 0.1)";
+
+// Concatenation by appending (GCC 12 warns -Wrestrict on chains of string + literal).
+std::string cat(std::initializer_list<const char*> parts) {
+  std::string s;
+  for (const char* p : parts) s += p;
+  return s;
+}
+
+std::string line_of(const std::string& script, const std::string& prefix) {
+  const auto at = script.find("\n" + prefix);
+  if (at == std::string::npos) return "";
+  return script.substr(at + 1, script.find('\n', at + 1) - at - 1);
+}
+
+TEST(TranslateLaws, LinearDeckKeepsGranHookeHistory) {
+  // Naming the plain law's sub-models changes nothing: the script is byte-identical, gran/hooke/history.
+  const Deck plain = deck_with();
+  const Deck named = deck_with(R"(, "normal": "linear", "tangential": "linear_history", "rolling": "none", "twisting": "none")");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts})
+    for (std::size_t t = 0; t < plain.tests.size(); ++t)
+      EXPECT_EQ(translate_test(plain, plain.tests[t], code), translate_test(named, named.tests[t], code));
+  const std::string s = translate_test(named, named.tests[0], TargetCode::Lammps);
+  EXPECT_EQ(line_of(s, "pair_style"), "pair_style      gran/hooke/history 1e+06 5e+05 0.0 0.0 0.5 0");
+  EXPECT_FALSE(contains(s, "granular"));
+}
+
+TEST(TranslateLaws, LammpsPairGranularPerLaw) {
+  {  // hertz + mindlin: material parameters, NULL = LAMMPS's 8 G*, damping coefficients 0, per-test friction
+    const Deck d = law_deck(kHertzMindlin);
+    const std::string s = translate_test(d, d.tests[0], TargetCode::Lammps);
+    EXPECT_EQ(line_of(s, "pair_style"), "pair_style      granular");
+    EXPECT_EQ(line_of(s, "pair_coeff"),
+              "pair_coeff      * * hertz/material 7e+10 0.0 0.25 damping viscoelastic tangential mindlin NULL 0.0 0.5");
+    EXPECT_FALSE(contains(s, "\npair_style      gran/hooke/history"));
+    EXPECT_EQ(line_of(translate_test(d, d.tests[1], TargetCode::Lammps), "pair_coeff"),
+              "pair_coeff      * * hertz/material 7e+10 0.0 0.25 damping viscoelastic tangential mindlin NULL 0.0 0.3");
+    // Rotational damping from mindlin's reference stiffness (contact.kt is not given), a finite servo.
+    EXPECT_EQ(scales(s, "fix             bdr").size(), 2u);
+    const TranslatedServo servo = translated_servo(d);
+    EXPECT_GT(servo.modulus, 0.0);
+    EXPECT_TRUE(std::isfinite(servo.modulus));
+  }
+  {  // + rolling sds: k_roll gamma_roll mu_roll, the test's rolling friction
+    const Deck d = law_deck(cat({kHertzMindlin, kRolling}), R"(, "rolling_friction": 0.2)");
+    EXPECT_EQ(line_of(translate_test(d, d.tests[0], TargetCode::Lammps), "pair_coeff"),
+              "pair_coeff      * * hertz/material 7e+10 0.0 0.25 damping viscoelastic tangential mindlin NULL 0.0 0.5 "
+              "rolling sds 1e+06 2 0.1");
+    EXPECT_EQ(line_of(translate_test(d, d.tests[1], TargetCode::Lammps), "pair_coeff"),
+              "pair_coeff      * * hertz/material 7e+10 0.0 0.25 damping viscoelastic tangential mindlin NULL 0.0 0.3 "
+              "rolling sds 1e+06 2 0.2");
+  }
+  {  // + twisting marshall
+    const Deck d = law_deck(cat({kHertzMindlin, kRolling, R"(, "twisting": "marshall")"}));
+    EXPECT_EQ(line_of(translate_test(d, d.tests[0], TargetCode::Lammps), "pair_coeff"),
+              "pair_coeff      * * hertz/material 7e+10 0.0 0.25 damping viscoelastic tangential mindlin NULL 0.0 0.5 "
+              "rolling sds 1e+06 2 0.1 twisting marshall");
+    const std::vector<std::string> diff = model_differences(d, TargetCode::Lammps);
+    EXPECT_TRUE(std::any_of(diff.begin(), diff.end(), [](const std::string& w) { return contains(w, "twisting marshall: at the cap"); }));
+    EXPECT_TRUE(std::any_of(diff.begin(), diff.end(), [](const std::string& w) { return contains(w, "rolling sds:"); }));
+    EXPECT_TRUE(std::any_of(diff.begin(), diff.end(), [](const std::string& w) { return contains(w, "full radii"); }));
+  }
+  {  // linear normal with rolling: hooke; linear normal with mindlin: 8 G* as a number (NULL needs a material)
+    const Deck d = law_deck(cat({R"("kn": 1e6, "kt": 5e5)", kRolling}));
+    EXPECT_EQ(line_of(translate_test(d, d.tests[0], TargetCode::Lammps), "pair_coeff"),
+              "pair_coeff      * * hooke 1e+06 0.0 damping viscoelastic tangential linear_history 5e+05 0.0 0.5 "
+              "rolling sds 1e+06 2 0.1");
+    const Deck m = law_deck(R"("kn": 1e6, "tangential": "mindlin", "youngs_modulus": 7e10, "poisson_ratio": 0.25)");
+    const std::string line = line_of(translate_test(m, m.tests[0], TargetCode::Lammps), "pair_coeff");
+    const std::vector<double> g = numbers(line.substr(line.find("mindlin ") + 8));
+    ASSERT_GE(g.size(), 1u);
+    EXPECT_DOUBLE_EQ(g[0], 8.0 * 7e10 / (4.0 * 1.75 * 1.25));
+  }
+}
+
+TEST(TranslateLaws, LiggghtsClosestModelsAndWhatItCannotExpress) {
+  const Deck d = law_deck(cat({kHertzMindlin, kRolling, R"(, "twisting": "marshall")"}));
+  const std::string s = translate_test(d, d.tests[0], TargetCode::Liggghts);
+  EXPECT_EQ(line_of(s, "pair_style"),
+            "pair_style      gran model hertz tangential history rolling_friction epsd2 tangential_damping off");
+  EXPECT_EQ(line_of(s, "fix             m1"), "fix             m1 all property/global youngsModulus peratomtype 7e+10 7e+10");
+  EXPECT_EQ(line_of(s, "fix             m3"),
+            "fix             m3 all property/global coefficientRestitution peratomtypepair 2 1 1 1 1");
+  EXPECT_EQ(line_of(s, "fix             m5"),
+            "fix             m5 all property/global coefficientRollingFriction peratomtypepair 2 0.1 0.1 0.1 0.1");
+  EXPECT_TRUE(contains(s, "\nhard_particles  yes\n"));
+  const std::vector<std::string> diff = model_differences(d, TargetCode::Liggghts);
+  EXPECT_TRUE(std::any_of(diff.begin(), diff.end(), [](const std::string& w) { return contains(w, "cannot express twisting"); }));
+  EXPECT_TRUE(std::any_of(diff.begin(), diff.end(), [](const std::string& w) { return contains(w, "no sds rolling model"); }));
+  // ... and the header lists them.
+  EXPECT_TRUE(contains(s, "cannot express twisting"));
+  // hertz + mindlin alone: no rolling model, no difference about rolling or twisting.
+  const Deck hm = law_deck(kHertzMindlin);
+  EXPECT_EQ(line_of(translate_test(hm, hm.tests[0], TargetCode::Liggghts), "pair_style"),
+            "pair_style      gran model hertz tangential history tangential_damping off");
+  for (const std::string& w : model_differences(hm, TargetCode::Liggghts))
+    EXPECT_FALSE(contains(w, "rolling") || contains(w, "twisting")) << w;
 }
 
 }  // namespace
