@@ -1,12 +1,13 @@
 """The study's charts (figures/pareto.png, stability.png, reference.png) and study.md, from the dict that
-study_analysis.analyse returns (tools/study.py analyse)."""
+study_analysis.analyse returns (tools/study.py analyse); study.md includes the model-sufficiency tables
+(tools/sufficiency.py) found beside the study root."""
 
 import math
 import os
 
 import numpy as np
 
-from . import plotting
+from . import plotting, sufficiency
 from .study_analysis import pareto_front
 from .study_scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, PAPER_DT, QUANTITIES,
                           QUANTITY_LABELS, QUASI_STATIC_I, SCENE_COUNT, SERVO_INC, SERVO_OUTPUT_INTERVAL,
@@ -382,6 +383,7 @@ def write_markdown(study, root, fig_paths, ref_fig):
         mrows.append((m["label"], m["seeds"], *cells, ", ".join(changes) or "none beyond the noise floor"))
     out += [md_table(("choice (paper: rotate, contact_point, rot. damping 0.05, affine)", "seeds",
                       "Δ peak σ1/σ3", "Δ εv at end (%)", "Δ Z at end", "changes"), mrows), ""]
+    out += sufficiency.study_section(root)  # sufficiency*/sufficiency.md beside the study root, when present
     if ref_fig:
         out += ["## Reference curves", "", f"![reference]({os.path.relpath(ref_fig, root)})", ""]
     path = os.path.join(root, "study.md")

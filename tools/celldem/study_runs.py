@@ -190,7 +190,12 @@ def build_plan(tc):
 
 
 def deck_of(spec, paper=None, state_path="prepared.state"):
-    """The deck a spec runs (a test run's deck starts from `state_path`)."""
+    """The deck a spec runs (a test run's deck starts from `state_path`). A spec that carries its own "deck"
+    (tools/sufficiency.py) runs that: a sample its preparation only, a test its tests from the sample."""
+    if spec.get("deck") is not None:
+        if spec["kind"] == "sample":
+            return decks.edited(spec["deck"], {"tests": []})
+        return decks.edited(spec["deck"], {"prepare": None, "initial_state": state_path})
     paper = paper or decks.load()
     return sample_deck(paper, spec) if spec["kind"] == "sample" else run_deck(paper, spec, state_path)
 

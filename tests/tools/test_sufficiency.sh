@@ -1,0 +1,167 @@
+#!/usr/bin/env bash
+# Tests tools/sufficiency.py (tools/celldem/sufficiency.py): the switches' decks (linear equivalents at the mean
+# contact force, unused keys removed, drag kept, every variant accepted by celldem), the change measure and its
+# verdicts on known numbers; then a real run of the tool on a tiny scene of inputs/paper.json (40 spheres, tests to
+# ε1 = 0.5 %, 2 seeds, a few seconds): sufficiency.json and sufficiency.md, the switches the paper deck does not
+# use reported as skipped; and that `study.py analyse` includes the table in the study's report.
+# Usage: bash tests/tools/test_sufficiency.sh [CELLDEM]      (exits non-zero on the first failure)
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+CELLDEM="${1:-$ROOT/build/celldem}"
+[[ -x $CELLDEM ]] || fail "no celldem binary at $CELLDEM"
+export CELLDEM
+
+echo "1. the switches and the change measure on known inputs"
+"$PY" - "$ROOT" "$TMP" <<'EOF' || fail "switches and change measure"
+import json, math, os, subprocess, sys
+from celldem import binary, decks, sufficiency as su
+from checking import check, done, error
+
+repo, tmp = sys.argv[1], sys.argv[2]
+celldem = os.environ["CELLDEM"]
+rolling = su.reduce_deck(decks.load(os.path.join(repo, "inputs", "rolling.json")), 300, 0.04)
+check("reduced count", rolling["sample"]["count"], 300)
+check("reduced end strains", [t["end"]["strain"] for t in rolling["tests"]], [0.04, 0.04])
+
+# The mean contact at 100 kPa, by hand: F = pi d^2 p / 3.6, Hertz overlap of two mean spheres (R* = d/4).
+d, p, e, nu = 3.75e-3, 1.0e5, 7.0e10, 0.25
+force = math.pi * d * d * p / 3.6
+e_star, g_star = e / (2 * (1 - nu * nu)), e / (4 * (2 - nu) * (1 + nu))
+overlap = (3 * force / (4 * e_star * math.sqrt(d / 4))) ** (2 / 3)
+cm = su.mean_contact(rolling, d)
+check("mean force", cm["force"], force, 1e-12)
+check("hertz overlap", cm["overlap"], overlap, 1e-12)
+check("secant kn", cm["kn_secant"], force / overlap, 1e-12)
+check("mindlin kt", cm["kt_mindlin"], 8 * g_star * math.sqrt(d / 4 * overlap), 1e-12)
+
+configs = {key: (vdeck, info) for key, _, vdeck, info in su.variants(rolling, celldem)}
+check("rolling deck: every switch applies", sorted(k for k, (v, _) in configs.items() if v is None), [])
+n, t, r, w = (configs[k][0]["contact"] for k in ("normal", "tangential", "rolling", "twisting"))
+check("normal → linear", n["normal"], "linear")
+check("secant kn set", n["kn"], cm["kn_secant"], 1e-12)
+check("tangential → linear_history", t["tangential"], "linear_history")
+check("mindlin kt set", t["kt"], cm["kt_mindlin"], 1e-12)
+check("rolling → none, its keys gone", (r["rolling"], sorted(k for k in r if k.startswith("rolling_"))), ("none", []))
+check("twisting → none", (w["twisting"], w["rolling"]), ("none", "sds"))
+check("rotational damping → 0", configs["rotational_damping"][0]["damping"]["rotational"], 0.0)
+check("kinematics → lammps", configs["kinematics"][0]["kinematics"], "lammps")
+base_plan = binary.plan_deck(rolling, None, celldem)["particle_types"][0]
+for key, (vdeck, info) in configs.items():
+    if vdeck is None:
+        continue
+    path = os.path.join(tmp, f"{key}.json")
+    decks.write(path, vdeck)
+    r_ = subprocess.run([celldem, "check", path], capture_output=True, text=True)
+    if r_.returncode != 0:
+        error(f"celldem check refuses the {key} variant: {r_.stderr.strip()}")
+    if key in ("normal", "tangential"):  # a contact-law switch keeps the baseline's drag coefficients
+        vp = binary.plan_deck(vdeck, None, celldem)["particle_types"][0]
+        check(f"{key}: translational drag kept", vp["translational_drag"], base_plan["translational_drag"], 1e-9)
+        check(f"{key}: rotational drag kept", vp["rotational_drag"], base_plan["rotational_drag"], 1e-9)
+check("normal switch rescales the damping", configs["normal"][1]["damping_factors"]["translational"] > 1.5, True)
+
+paper = decks.load(os.path.join(repo, "inputs", "paper.json"))
+skipped = {k: i.get("skipped") for k, _, v, i in su.variants(su.reduce_deck(paper, 40, 0.005), celldem) if v is None}
+check("paper deck: skipped switches", sorted(skipped), ["normal", "rolling", "tangential", "twisting"])
+check("skip reason", skipped["normal"], "skipped: normal is linear")
+check("b only for the non-axisymmetric test", [q for q in su.quantities_of(paper) if q[1] == "b_peak"],
+      [("psc", "b_peak")])
+
+# The change: delta of seed-means, / floor, z = delta / (floor sqrt(1/nb + 1/nv)); needed above the threshold.
+base = [1.0, 2.0, 3.0, 4.0]
+floor = math.sqrt(5.0 / 3.0)
+c = su.change(base, [v + 2.0 for v in base], floor)
+check("delta", c["delta"], 2.0, 1e-12)
+check("noise units", c["noise_units"], 2.0 / floor, 1e-12)
+check("z", c["z"], 2.0 / (floor * math.sqrt(0.5)), 1e-12)
+check("verdict needed", c["verdict"], "needed")
+check("verdict not needed", su.change(base, [v + 0.5 for v in base], floor)["verdict"], "not needed")
+check("threshold", su.change(base, [v + 2.0 for v in base], floor, threshold=3.0)["verdict"], "not needed")
+check("no spread", su.change([1.0, 1.0], [1.0, 2.0], 0.0)["verdict"], "undetermined (no seed-to-seed spread)")
+check("no values", su.change([], [1.0], 1.0), None)
+
+# Robust peak fields when summary.json has them, the plain ones otherwise.
+info = {"peak_ratio13": 3.0, "e1_at_peak": 0.01, "b_at_peak": 0.4, "final_e1": 0.03,
+        "end_window": {"ev": -0.02, "Z": 4.4}, "peak_robust": {"ratio13": 2.9, "e1": 0.012, "b_mean": 0.38}}
+m = su.run_metrics({"tests": {"psc": info}}, 0.03)["psc"]
+check("robust peak", (m["peak_ratio"], m["e1_peak"], m["b_peak"], m["ev_end"], m["Z_end"]),
+      (2.9, 0.012, 0.38, -0.02, 4.4))
+info.pop("peak_robust")
+check("plain peak", su.run_metrics({"tests": {"psc": info}}, 0.03)["psc"]["peak_ratio"], 3.0)
+done()
+EOF
+
+echo "2. the tool on a tiny scene of the paper deck (2 seeds)"
+out="$TMP/sufficiency-tiny"
+"$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$out" --seeds 2 --count 40 --end-strain 0.005 \
+  --celldem "$CELLDEM" >"$TMP/log" 2>&1 || { cat "$TMP/log"; fail "sufficiency.py failed"; }
+for f in sufficiency.json sufficiency.md; do [[ -s "$out/$f" ]] || fail "no $f"; done
+"$PY" - "$out" <<'EOF' || fail "sufficiency.json and .md"
+import json, sys
+from checking import check, done, error
+root = sys.argv[1]
+r = json.load(open(f"{root}/sufficiency.json"))
+check("seeds", r["seeds"], [1, 2])
+check("scene", (r["scene"]["count"], r["scene"]["end_strain"]), (40, 0.005))
+qs = ["ttc.peak_ratio", "ttc.e1_peak", "ttc.ev_end", "ttc.Z_end",
+      "psc.peak_ratio", "psc.e1_peak", "psc.ev_end", "psc.Z_end", "psc.b_peak"]
+check("quantities", r["quantities"], qs)
+rows = {x["key"]: x for x in r["rows"]}
+check("rows", [x["key"] for x in r["rows"]],
+      ["baseline", "normal", "tangential", "rolling", "twisting", "rotational_damping", "kinematics"])
+for k in ("normal", "tangential", "rolling", "twisting"):
+    if not rows[k]["verdict"].startswith("skipped"):
+        error(f"{k} should be skipped for the paper deck, verdict {rows[k]['verdict']!r}")
+for k in ("rotational_damping", "kinematics"):
+    row = rows[k]
+    check(f"{k} seeds", row.get("seeds"), [1, 2])
+    if row["verdict"] not in ("needed", "not needed", "not needed (some quantities undetermined)", "undetermined"):
+        error(f"{k}: verdict {row['verdict']!r}")
+    check(f"{k} quantities", sorted(row["changes"]), sorted(qs))
+    c = row["changes"]["ttc.peak_ratio"]
+    if c is None or c["base"]["n"] != 2 or c["variant"]["n"] != 2:
+        error(f"{k}: TTC peak change over 2 + 2 seeds missing: {c}")
+    elif c["z"] is not None:
+        want = "needed" if abs(c["z"]) > r["threshold"] else "not needed"
+        check(f"{k} TTC peak verdict follows z", c["verdict"], want)
+    needed = [q for q, c in row["changes"].items() if c and c["verdict"] == "needed"]
+    check(f"{k} needed_for", row["needed_for"], needed)
+    check(f"{k} verdict", row["verdict"] == "needed", bool(needed))
+for q in qs:
+    if r["noise_floor"][q]["mean"] is None:
+        error(f"no baseline mean of {q}")
+check("failed runs", r["failed"], [])
+check("runs counted", r["cost"]["runs"], 2 + 3 * 2)
+if not r["cost"]["cpu_s"] > 0 or not r["cost"]["wall_s"] > 0:
+    error(f"cost missing: {r['cost']}")
+md = open(f"{root}/sufficiency.md", encoding="utf-8").read()
+for needle in ("# Model sufficiency: ", "| switch | seeds | verdict | TTC peak σ1/σ3 |", "PSC b at peak |",
+               "| normal: hertz → linear | — | skipped: normal is linear |",
+               "| twisting: marshall → none | — | skipped: twisting is none |",
+               "| baseline: mean (noise floor) | 1,2 |", "| rotational damping → 0 | 1,2 |", "|z| > 2",
+               "Cost: 8 runs"):
+    if needle not in md:
+        error(f"sufficiency.md lacks {needle!r}")
+done()
+EOF
+# A second call finds every run done and runs nothing again.
+"$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$out" --seeds 2 --count 40 --end-strain 0.005 \
+  --celldem "$CELLDEM" >"$TMP/log2" 2>&1 || fail "second call failed"
+grep -q "0 runs to do of 8" "$TMP/log2" || fail "a second call ran again: $(head -1 "$TMP/log2")"
+
+echo "3. refusals"
+if "$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$TMP/x" --seeds 1 2>/dev/null; then
+  fail "one seed accepted (no noise floor)"
+fi
+
+echo "4. the study's report includes the sufficiency table found beside the study root"
+"$PY" "$ROOT/tests/tools/make_fake_study.py" "$TMP/study" >/dev/null
+"$PY" "$ROOT/tools/study.py" analyse --root "$TMP/study" >/dev/null || fail "study.py analyse failed"
+grep -q "^## Model sufficiency$" "$TMP/study/study.md" || fail "study.md has no Model sufficiency section"
+grep -q "^### Model sufficiency: .*paper.json$" "$TMP/study/study.md" || fail "study.md does not include the table"
+grep -q "| normal: hertz → linear | — | skipped: normal is linear |" "$TMP/study/study.md" \
+  || fail "study.md lacks the table's rows"
+rm -rf "$out"
+"$PY" "$ROOT/tools/study.py" analyse --root "$TMP/study" >/dev/null || fail "study.py analyse failed"
+if grep -q "Model sufficiency" "$TMP/study/study.md"; then fail "a section without any sufficiency results"; fi
+
+echo "PASS: sufficiency tests"

@@ -1,0 +1,550 @@
+"""Model sufficiency (tools/sufficiency.py): which of a deck's sub-models and model terms change its results.
+
+A deck is run on a reduced scene (sample.count and the tests' end strain lowered, everything else the deck's)
+over several seeds, once as it is (the baseline) and once per switch, each switch making one sub-model or term
+one step simpler, the others as the deck has them:
+
+    normal      hertz -> linear, kn = the secant stiffness F/overlap at the mean contact force
+    tangential  mindlin -> linear_history, kt = 8 G* a at that same overlap (a = sqrt(R* overlap))
+    rolling     sds -> none
+    twisting    marshall -> none
+    rotational damping  damping.rotational -> 0
+    kinematics  affine -> lammps (contacts across periodic images do not see the affine velocity difference)
+
+The mean contact force under the deck's confining stress p (its largest stress target) is pi d^2 p / 3.6
+(Z phi = 3.6, as celldem's reference overlap), d the sample's mean diameter (`celldem plan`), its overlap that
+of two spheres of that diameter (R* = d / 4). A switch that changes the reference stiffness (normal, tangential)
+would change the absolute body damping, which celldem scales with it; the variant's damping fractions are
+rescaled so that its drag coefficients (`celldem plan` particle_types[].translational_drag, rotational_drag)
+stay the baseline's: the switch changes the contact law only.
+
+Each seed's sample is prepared once, with the baseline deck (the preparation is frictionless: friction, rolling
+and twisting resistance act in the tests only), and the baseline and every variant run their tests from it, as
+the speed–accuracy study's modelling runs do (tools/study.py). Running is study_runs.run_all's (resumable,
+`--jobs` runs at once, each single-threaded); the quantities are summary.json's (celldem's definitions: the
+robust peak fields peak_robust.ratio13, .e1 and .b_mean when present, end_window.ev and .Z), the noise floor
+study_analysis.noise_floor's (the seed-to-seed standard deviation of the baseline, ddof 1).
+
+The change of a variant: delta = its seed-mean - the baseline's seed-mean; delta / floor (noise units), and
+z = delta / (floor sqrt(1/n_base + 1/n_variant)), the change in units of the standard error of a difference of
+two seed-means whose seeds scatter by the noise floor. |z| > THRESHOLD: the sub-model is "needed" for that
+quantity; a switch is needed when any quantity needs it.
+"""
+
+import copy
+import hashlib
+import json
+import math
+import os
+import shutil
+import time
+
+from . import binary, decks, study_runs
+from .results import number, read_json
+from .stats import describe
+from .study_analysis import noise_floor, test_metrics
+from .study_scene import QUANTITY_LABELS
+from .tables import fmt, md_table
+
+DEFAULT_COUNT = 300          # spheres of the reduced scene
+DEFAULT_END_STRAIN = 0.04    # the tests' end strain on the reduced scene (rolling resistance moves the peak late)
+DEFAULT_SEEDS = (1, 2, 3, 4)
+THRESHOLD = 2.0              # |z| above this: needed
+Z_PHI = 3.6                  # mean contact force pi d^2 p / (Z phi), as celldem's default reference overlap
+
+QUANTITY_ORDER = ("peak_ratio", "e1_peak", "ev_end", "Z_end", "b_peak")
+PERCENT = {"e1_peak", "ev_end"}
+ROBUST_KEYS = {"peak_ratio": "peak_robust.ratio13", "e1_peak": "peak_robust.e1", "b_peak": "peak_robust.b_mean"}
+SUMMARY_TEXT = {"peak_ratio": "peak_robust.ratio13 (else peak_ratio13)", "e1_peak": "peak_robust.e1 (else e1_at_peak)",
+                "b_peak": "peak_robust.b_mean (else b_at_peak)", "ev_end": "end_window.ev", "Z_end": "end_window.Z"}
+
+SWITCHES = (
+    ("normal", "normal: hertz → linear"),
+    ("tangential", "tangential: mindlin → linear_history"),
+    ("rolling", "rolling: sds → none"),
+    ("twisting", "twisting: marshall → none"),
+    ("rotational_damping", "rotational damping → 0"),
+    ("kinematics", "kinematics: affine → lammps (affine term off)"),
+)
+
+# contact keys and the choices that use them (celldem refuses a key its choice does not use)
+CONTACT_KEY_USERS = {
+    "kn": lambda c: c.get("normal", "linear") == "linear",
+    "kt": lambda c: c.get("tangential", "linear_history") == "linear_history",
+    "youngs_modulus": lambda c: c.get("normal") == "hertz" or c.get("tangential") == "mindlin",
+    "poisson_ratio": lambda c: c.get("normal") == "hertz" or c.get("tangential") == "mindlin",
+    "reference_overlap": lambda c: c.get("normal") == "hertz" or c.get("tangential") == "mindlin",
+    "rolling_stiffness": lambda c: c.get("rolling", "none") == "sds",
+    "rolling_damping": lambda c: c.get("rolling", "none") == "sds",
+    "rolling_friction": lambda c: c.get("rolling", "none") == "sds",
+}
+
+
+# ---- the reduced scene and the variants -----------------------------------------------------------------------
+
+def reduce_deck(deck, count, end_strain):
+    """The deck on the reduced scene: sample.count = count, each test's strain end at end_strain (a test given by
+    legs is kept as it is); everything else the deck's."""
+    out = decks.edited(deck, {"sample.count": count})
+    for t in out.get("tests", []):
+        end = t.get("end")
+        if isinstance(end, dict) and "strain" in end:
+            end["strain"] = math.copysign(end_strain, end["strain"])
+    return out
+
+
+def confining_stress(deck):
+    """[Pa] the deck's largest stress target (tests' stress and mean_stress axes, prepare.target_pressure), as
+    celldem's reference overlap reads it; None when it names none."""
+    p = 0.0
+    prep = deck.get("prepare") or {}
+    p = max(p, number(prep.get("target_pressure")) or 0.0)
+    legs = []
+    for t in deck.get("tests", []) + [prep]:
+        legs += [t] if "axes" in t else t.get("legs", [])
+    for leg in legs:
+        for ctl in (leg.get("axes") or {}).values():
+            if isinstance(ctl, dict):
+                for k in ("stress", "mean_stress"):
+                    p = max(p, abs(number(ctl.get(k)) or 0.0))
+    return p or None
+
+
+def moduli(contact):
+    """(E*, G*) of celldem's definitions (`celldem schema`): E / (2 (1 - nu^2)), E / (4 (2 - nu) (1 + nu))."""
+    e, nu = contact["youngs_modulus"], contact["poisson_ratio"]
+    return e / (2.0 * (1.0 - nu * nu)), e / (4.0 * (2.0 - nu) * (1.0 + nu))
+
+
+def mean_contact(deck, d_mean):
+    """The mean contact under the deck's confining stress: force pi d^2 p / 3.6, its overlap for two spheres of
+    the mean diameter (R* = d/4) by the deck's normal law, the secant kn = F/overlap, a = sqrt(R* overlap) and the
+    Mindlin kt = 8 G* a there (None without E and nu)."""
+    c = deck["contact"]
+    p = confining_stress(deck)
+    if p is None:
+        return None
+    force = math.pi * d_mean ** 2 * p / Z_PHI
+    r_eff = d_mean / 4.0
+    if c.get("normal", "linear") == "hertz":
+        e_star, _ = moduli(c)
+        overlap = (3.0 * force / (4.0 * e_star * math.sqrt(r_eff))) ** (2.0 / 3.0)
+    else:
+        overlap = force / c["kn"]
+    a = math.sqrt(r_eff * overlap)
+    kt = 8.0 * moduli(c)[1] * a if "youngs_modulus" in c and "poisson_ratio" in c else None
+    return {"pressure": p, "mean_diameter": d_mean, "force": force, "r_eff": r_eff, "overlap": overlap,
+            "kn_secant": force / overlap, "contact_radius": a, "kt_mindlin": kt}
+
+
+def clean_contact(contact):
+    """contact without the keys its choices do not use."""
+    return {k: v for k, v in contact.items() if k not in CONTACT_KEY_USERS or CONTACT_KEY_USERS[k](contact)}
+
+
+def switch_applies(deck, key):
+    """(applies, why not) of a switch for a deck."""
+    c = deck["contact"]
+    have = {"normal": (c.get("normal", "linear") == "hertz", f"normal is {c.get('normal', 'linear')}"),
+            "tangential": (c.get("tangential", "linear_history") == "mindlin",
+                           f"tangential is {c.get('tangential', 'linear_history')}"),
+            "rolling": (c.get("rolling", "none") == "sds", f"rolling is {c.get('rolling', 'none')}"),
+            "twisting": (c.get("twisting", "none") == "marshall", f"twisting is {c.get('twisting', 'none')}"),
+            "rotational_damping": ((number(deck["damping"].get("rotational")) or 0.0) > 0.0,
+                                   "damping.rotational is 0"),
+            "kinematics": (deck.get("kinematics", "affine") == "affine", f"kinematics is {deck.get('kinematics')}")}
+    ok, why = have[key]
+    return ok, None if ok else f"skipped: {why}"
+
+
+def switched(deck, key, contact_mean):
+    """(the deck with switch `key` applied, {what was set}); the damping is rescaled later (keep_drag)."""
+    out = copy.deepcopy(deck)
+    c = out["contact"]
+    note = {}
+    if key == "normal":
+        c["normal"] = "linear"
+        c["kn"] = contact_mean["kn_secant"]
+        note = {"kn": c["kn"]}
+    elif key == "tangential":
+        c["tangential"] = "linear_history"
+        c["kt"] = contact_mean["kt_mindlin"]
+        note = {"kt": c["kt"]}
+    elif key == "rolling":
+        c["rolling"] = "none"
+        out.get("prepare", {}).pop("rolling_friction", None)
+        for t in out.get("tests", []):
+            t.pop("rolling_friction", None)
+    elif key == "twisting":
+        c["twisting"] = "none"
+    elif key == "rotational_damping":
+        out["damping"]["rotational"] = 0.0
+    elif key == "kinematics":
+        out["kinematics"] = "lammps"
+    out["contact"] = clean_contact(c)
+    return out, note
+
+
+def keep_drag(base_plan, variant, celldem):
+    """The variant with its damping fractions rescaled so that its drag coefficients are the baseline's (a
+    contact-law switch changes the reference stiffness that celldem scales the damping with); returns
+    (deck, {"translational": factor, "rotational": factor}) with the factors applied (1 when unchanged)."""
+    plan = binary.plan_deck(variant, None, celldem)
+    factors = {}
+    out = copy.deepcopy(variant)
+    for kind in ("translational", "rotational"):
+        b = base_plan["particle_types"][0][f"{kind}_drag"]
+        v = plan["particle_types"][0][f"{kind}_drag"]
+        f = b / v if v > 0 and b > 0 else 1.0
+        if abs(f - 1.0) > 1e-9:
+            out["damping"][kind] = out["damping"][kind] * f
+        factors[kind] = f if abs(f - 1.0) > 1e-9 else 1.0
+    return out, factors
+
+
+def variants(deck, celldem):
+    """[(key, label, deck or None, info)] for the baseline ("baseline") and each switch; deck None: skipped
+    (info["skipped"] says why). `deck` is the reduced deck."""
+    plan = binary.plan_deck(deck, None, celldem)
+    d_mean = plan["sample"]["mean_diameter"]
+    cm = mean_contact(deck, d_mean)
+    out = [("baseline", "baseline (the deck as it is)", deck, {"mean_contact": cm})]
+    for key, label in SWITCHES:
+        ok, why = switch_applies(deck, key)
+        no_mean = cm is None or (key == "tangential" and cm["kt_mindlin"] is None)
+        if ok and key in ("normal", "tangential") and no_mean:
+            ok, why = False, "skipped: the deck names no stress to place the mean contact force"
+        if not ok:
+            out.append((key, label, None, {"skipped": why}))
+            continue
+        v, set_ = switched(deck, key, cm)
+        v, factors = keep_drag(plan, v, celldem)
+        out.append((key, label, v, {"set": set_, "damping_factors": factors,
+                                    "damping": dict(v["damping"]), "contact": v["contact"],
+                                    "kinematics": v.get("kinematics", "affine")}))
+    return out
+
+
+# ---- the runs ----------------------------------------------------------------------------------------------------
+
+def deck_hash(deck):
+    return hashlib.sha256(json.dumps(deck, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def build_plan(deck, configs, seeds):
+    """Specs for study_runs.run_all: one preparation per seed (the baseline deck without tests), then the baseline's
+    and each variant's tests from it. Each spec carries its deck (study_runs.deck_of uses it)."""
+    count = deck["sample"]["count"]
+    specs = []
+    for seed in seeds:
+        sd = decks.edited(deck, {"sample.seed": seed})
+        specs.append({"name": f"sample_s{seed}", "kind": "sample", "group": "sample",
+                      "label": f"{count} spheres, seed {seed}", "count": count, "seed": seed, "priority": 0,
+                      "deck": sd, "tests": []})
+    for i, (key, label, vdeck, _) in enumerate(configs):
+        if vdeck is None:
+            continue
+        for seed in seeds:
+            sd = decks.edited(vdeck, {"sample.seed": seed})
+            specs.append({"name": f"{key}_s{seed}", "kind": "test", "group": key, "label": label,
+                          "count": count, "seed": seed, "priority": 1 + i, "sample": f"sample_s{seed}",
+                          "sample_deck": deck_hash(decks.edited(deck, {"sample.seed": seed})), "deck": sd,
+                          "tests": [t["name"] for t in sd.get("tests", [])]})
+    order = {s["name"]: i for i, s in enumerate(specs)}
+    # seeds first, so that every configuration has some seeds early (the runs of one seed share its sample)
+    return sorted(specs, key=lambda s: (s["kind"] != "sample", s["seed"], order[s["name"]]))
+
+
+def drop_stale(root, specs):
+    """Removes the run folders whose spec.json differs from the spec now planned (another deck or scene)."""
+    removed = 0
+    for s in specs:
+        d = study_runs.run_dir(root, s)
+        old = read_json(os.path.join(d, "spec.json"))
+        if old is not None and json.loads(json.dumps(s)) != old:
+            shutil.rmtree(d)
+            removed += 1
+    return removed
+
+
+def run(root, deck, configs, seeds, celldem, jobs=2):
+    """Runs what is missing (`jobs` at a time); its wall time goes into ROOT/timing.json (the cost the report
+    states). Returns the specs."""
+    specs = build_plan(deck, configs, seeds)
+    os.makedirs(root, exist_ok=True)
+    stale = drop_stale(root, specs)
+    if stale:
+        print(f"sufficiency: {stale} runs of another deck or scene removed", flush=True)
+        study_runs.remove_quietly(os.path.join(root, "timing.json"))  # its times were of those runs
+    todo = [s for s in specs if not study_runs.is_done(root, s)]
+    n_todo = len(todo)
+    print(f"sufficiency: {len(todo)} runs to do of {len(specs)} ({jobs} at a time); results in {root}", flush=True)
+    study_runs.record_binary(root, celldem)
+    t0 = time.monotonic()
+    study_runs.run_all(root, None, specs, todo, celldem, jobs)
+    wall = time.monotonic() - t0
+    timing = read_json(os.path.join(root, "timing.json")) or {"invocations": []}
+    if n_todo:
+        timing["invocations"].append({"runs": n_todo, "jobs": jobs, "wall_s": wall,
+                                      "finished": time.strftime("%Y-%m-%d %H:%M:%S")})
+    study_runs.write_json(os.path.join(root, "timing.json"), timing)
+    return specs
+
+
+# ---- the analysis ----------------------------------------------------------------------------------------------
+
+def quantities_of(deck):
+    """[(test, quantity)] compared for a deck: peak ratio, e1 at peak, ev and Z at the end for every test; b at
+    the peak for tests whose two lateral axes differ (not axisymmetric) and whose b is not prescribed."""
+    out = []
+    for t in deck.get("tests", []):
+        qs = ["peak_ratio", "e1_peak", "ev_end", "Z_end"]
+        axes = t.get("axes") or ((t.get("legs") or [{}])[0].get("axes") or {})
+        x2, x3 = axes.get("x2"), axes.get("x3")
+        prescribed = any(isinstance(a, dict) and "b" in a for a in axes.values())
+        if x2 is not None and x2 != x3 and not prescribed:
+            qs.append("b_peak")
+        out += [(t["name"], q) for q in qs]
+    return out
+
+
+def summary_value(info, path):
+    v = info
+    for part in path.split("."):
+        v = v.get(part) if isinstance(v, dict) else None
+    return number(v)
+
+
+def run_metrics(summary, end_strain):
+    """{test: {quantity: value}} of a run's summary.json: the study's (test_metrics: e1_at_peak, end_window, ...,
+    end values only when the run reached its end), the peak ones replaced by summary.json's robust peak fields
+    where it has them."""
+    out = {}
+    for test, info in (summary.get("tests") or {}).items():
+        if not isinstance(info, dict):
+            continue
+        m = test_metrics(info, end_strain)
+        for q, path in ROBUST_KEYS.items():
+            v = summary_value(info, path)
+            if v is not None:
+                m[q] = v
+        out[test] = m
+    return out
+
+
+def change(base_values, variant_values, floor, threshold=THRESHOLD):
+    """The change of a variant's seed-mean from the baseline's, in noise units: {"delta", "noise_units"
+    (delta / floor), "z" (delta / (floor sqrt(1/nb + 1/nv))), "verdict"}; None without values."""
+    b, v = describe(base_values), describe(variant_values)
+    if b is None or v is None:
+        return None
+    delta = v["mean"] - b["mean"]
+    out = {"delta": delta, "base": b, "variant": v, "floor": floor, "noise_units": None, "z": None}
+    if floor is None or floor <= 0.0:
+        out["verdict"] = "undetermined (no seed-to-seed spread)" if floor == 0.0 else "undetermined (one seed)"
+        return out
+    out["noise_units"] = delta / floor
+    out["z"] = delta / (floor * math.sqrt(1.0 / b["n"] + 1.0 / v["n"]))
+    out["verdict"] = "needed" if abs(out["z"]) > threshold else "not needed"
+    return out
+
+
+def analyse(root, deck_path, deck, configs, seeds, scene, threshold=THRESHOLD):
+    """The result dict of the runs under `root` (sufficiency.json)."""
+    specs = build_plan(deck, configs, seeds)
+    end_strain = scene["end_strain"]
+    runs, samples, failed = {}, [], []
+    for s in specs:
+        d = study_runs.run_dir(root, s)
+        out = study_runs.outcome(root, s)
+        entry = {"name": s["name"], "seed": s["seed"], "rc": None if out is None else out.get("rc"),
+                 "cpu_s": None if out is None else out.get("cpu_s"),
+                 "wall_s": None if out is None else out.get("wall_s")}
+        summary = read_json(os.path.join(d, "summary.json")) or {}
+        if s["kind"] == "sample":
+            prep = summary.get("prepared") or {}
+            entry.update(void_ratio=number(prep.get("void_ratio")), Z=number(prep.get("Z")),
+                         steps=prep.get("steps"))
+            samples.append(entry)
+            continue
+        if entry["rc"] != 0:
+            failed.append(s["name"])
+            continue
+        entry["metrics"] = run_metrics(summary, end_strain)
+        entry["peak_at_end"] = {}
+        for test, info in (summary.get("tests") or {}).items():
+            plateau = (info.get("peak_robust") or {}).get("plateau_e1") if isinstance(info, dict) else None
+            final = number(info.get("final_e1")) if isinstance(info, dict) else None
+            if plateau and final is not None:
+                entry["peak_at_end"][test] = plateau[1] >= final * (1 - 1e-9)
+        entry["contact_law"] = (summary.get("settings") or {}).get("contact_law")
+        runs.setdefault(s["group"], []).append(entry)
+
+    quantities = quantities_of(deck)
+    base_runs = runs.get("baseline", [])
+    mean, floor = noise_floor([r["metrics"] for r in base_runs], quantities)
+
+    def values(rs, q):
+        return [r["metrics"].get(q[0], {}).get(q[1]) for r in rs if r["metrics"].get(q[0], {}).get(q[1]) is not None]
+
+    rows = []
+    for key, label, vdeck, info in configs:
+        row = {"key": key, "label": label, "info": info}
+        if vdeck is None:
+            row["verdict"] = info["skipped"]
+            rows.append(row)
+            continue
+        rs = runs.get(key, [])
+        row["seeds"] = sorted(r["seed"] for r in rs)
+        row["cpu_s"] = sum(r["cpu_s"] or 0.0 for r in rs)
+        row["contact_law"] = rs[0]["contact_law"] if rs else None
+        row["peak_at_end"] = {t: sum(1 for r in rs if r["peak_at_end"].get(t)) for t in deck_tests(deck)}
+        row["seed_means"] = {f"{t}.{q}": (describe(values(rs, (t, q))) or {}).get("mean") for t, q in quantities}
+        if key != "baseline":
+            row["changes"] = {f"{t}.{q}": change(values(base_runs, (t, q)), values(rs, (t, q)), floor[(t, q)],
+                                                 threshold) for t, q in quantities}
+            verdicts = [c["verdict"] for c in row["changes"].values() if c]
+            row["needed_for"] = [k for k, c in row["changes"].items() if c and c["verdict"] == "needed"]
+            row["verdict"] = ("needed" if row["needed_for"] else
+                              "not needed" if verdicts and all(v == "not needed" for v in verdicts) else
+                              "not needed (some quantities undetermined)" if "not needed" in verdicts else
+                              "undetermined")
+            if not rs:
+                row["verdict"] = "not run"
+        rows.append(row)
+
+    timing = read_json(os.path.join(root, "timing.json")) or {"invocations": []}
+    all_runs = [r for rs in runs.values() for r in rs] + samples
+    cost = {"cpu_s": sum(r["cpu_s"] or 0.0 for r in all_runs),
+            "run_wall_s": sum(r["wall_s"] or 0.0 for r in all_runs),
+            "runs": len(all_runs), "invocations": timing["invocations"],
+            "wall_s": sum(i["wall_s"] for i in timing["invocations"])}
+    return {"deck": deck_path, "scene": scene, "seeds": list(seeds), "threshold": threshold,
+            "quantities": [f"{t}.{q}" for t, q in quantities],
+            "summary_fields": SUMMARY_TEXT,
+            "noise_floor": {f"{t}.{q}": {"mean": mean[(t, q)], "std": floor[(t, q)]} for t, q in quantities},
+            "mean_contact": configs[0][3].get("mean_contact"), "rows": rows, "samples": samples,
+            "failed": failed, "cost": cost}
+
+
+def deck_tests(deck):
+    return [t["name"] for t in deck.get("tests", [])]
+
+
+# ---- the report ----------------------------------------------------------------------------------------------
+
+def quantity_label(key):
+    test, q = key.split(".")
+    return f"{test.upper()} {QUANTITY_LABELS.get(q, q)}" + (" (%)" if q in PERCENT else "")
+
+
+def scaled_value(key, v):
+    return None if v is None else v * (100.0 if key.split(".")[1] in PERCENT else 1.0)
+
+
+def cell(c, key):
+    if c is None:
+        return "n/a"
+    if c["z"] is None:
+        return f"{fmt(scaled_value(key, c['delta']))} (—)"
+    mark = " **✗**" if c["verdict"] == "needed" else ""
+    return f"{fmt(scaled_value(key, c['delta']))} ({c['noise_units']:+.2f}; z {c['z']:+.2f}){mark}"
+
+
+def markdown(result, heading="#"):
+    sc = result["scene"]
+    cm = result.get("mean_contact") or {}
+    cost = result["cost"]
+    qs = result["quantities"]
+    out = [f"{heading} Model sufficiency: {result['deck']}", ""]
+    out += [f"Reduced scene: **{sc['count']} spheres** (the deck: {sc['deck_count']}), tests to "
+            f"**ε1 = {sc['end_strain']:.1%}** (the deck: {', '.join(f'{x:.0%}' for x in sc['deck_end_strains'])}), "
+            f"everything else the deck's; seeds {', '.join(str(s) for s in result['seeds'])}. Each seed's sample is "
+            "prepared once with the deck (frictionless preparation) and every configuration runs its tests from it, "
+            "so a switch acts on the tests only (hertz → linear starts from a sample compressed with Hertz contacts, "
+            "which the servo re-balances at the test's start; affine → lammps from one prepared with the affine "
+            "term).",
+            "",
+            "Each row switches one sub-model or term one step simpler, the others as the deck has them." +
+            (" Linear equivalents at the mean contact force "
+             f"F = π d² p / 3.6 = {fmt(cm.get('force'))} N "
+             f"(d = {fmt(cm.get('mean_diameter') and cm['mean_diameter'] * 1e3)} "
+             f"mm the mean diameter, p = {fmt(cm.get('pressure'))} Pa the confining stress), overlap δ = "
+             f"{fmt(cm.get('overlap'))} m of two mean spheres (R* = d/4): kn = F/δ (secant), kt = 8 G* a, "
+             "a = sqrt(R* δ). Contact-law switches keep the baseline's drag coefficients (damping fractions "
+             "rescaled)." if any((r.get("info") or {}).get("set") for r in result["rows"]) else ""),
+            "",
+            f"Cells: Δ = variant seed-mean − baseline seed-mean (strains in %); in parentheses Δ / noise floor "
+            f"(the baseline's seed-to-seed std) and z = Δ / (floor · sqrt(1/n_b + 1/n_v)), the change in standard "
+            f"errors of the difference; **✗** and \"needed\": |z| > {result['threshold']:g}. Quantities from "
+            "summary.json: " + "; ".join(f"{k}: {v}" for k, v in result["summary_fields"].items()) + ".", ""]
+    headers = ["switch", "seeds", "verdict"] + [quantity_label(k) for k in qs]
+    rows = []
+    for r in result["rows"]:
+        if r["key"] == "baseline":
+            rows.append(["baseline: mean (noise floor)", ",".join(map(str, r.get("seeds", []))), "—"] +
+                        [f"{fmt(scaled_value(k, result['noise_floor'][k]['mean']))} "
+                         f"({fmt(scaled_value(k, result['noise_floor'][k]['std']))})" for k in qs])
+            continue
+        if "changes" not in r:
+            rows.append([r["label"], "—", r["verdict"]] + ["—"] * len(qs))
+            continue
+        rows.append([r["label"], ",".join(map(str, r["seeds"])), r["verdict"]] +
+                    [cell(r["changes"].get(k), k) for k in qs])
+    out += [md_table(headers, rows), ""]
+    notes = []
+    for r in result["rows"]:
+        info = r.get("info") or {}
+        set_ = info.get("set") or {}
+        f = info.get("damping_factors") or {}
+        bits = [f"{k} = {fmt(v)} N/m" for k, v in set_.items()]
+        bits += [f"{k} damping × {fmt(x)} (→ {fmt(info['damping'][k])})" for k, x in f.items() if x != 1.0]
+        if bits:
+            notes.append(f"- {r['label']}: " + ", ".join(bits) + ".")
+    late = [f"{r['key']} {t.upper()} {n}/{len(r['seeds'])}" for r in result["rows"]
+            for t, n in (r.get("peak_at_end") or {}).items() if n]
+    if late:
+        notes.append("- Seeds whose robust peak plateau reaches the reduced test's end (the peak may lie beyond it; "
+                     "its ε1 is then the end's): " + ", ".join(late) + ".")
+    if result["failed"]:
+        notes.append(f"- Failed runs (left out): {', '.join(result['failed'])}.")
+    waits = cost["invocations"]
+    notes.append(f"- Cost: {cost['runs']} runs ({len(result['samples'])} preparations), "
+                 f"{fmt(cost['cpu_s'], 0)} CPU s in all; wall {fmt(cost['wall_s'], 0)} s with "
+                 f"{', '.join(str(i['jobs']) for i in waits) or 'n/a'} runs at a time"
+                 f"{' over ' + str(len(waits)) + ' invocations' if len(waits) > 1 else ''}.")
+    out += notes + [""]
+    return "\n".join(out)
+
+
+def write(root, result):
+    study_runs.write_json(os.path.join(root, "sufficiency.json"), result)
+    path = os.path.join(root, "sufficiency.md")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(markdown(result))
+    return path
+
+
+def study_section(study_root):
+    """The "Model sufficiency" section of the study's report: sufficiency.md of each folder named sufficiency*
+    beside the study root or inside it, headings one level down; [] when there is none."""
+    found = []
+    for base in (os.path.dirname(os.path.abspath(study_root)), os.path.abspath(study_root)):
+        if not os.path.isdir(base):
+            continue
+        for name in sorted(os.listdir(base)):
+            path = os.path.join(base, name, "sufficiency.md")
+            if name.startswith("sufficiency") and os.path.isfile(path):
+                found.append(path)
+    if not found:
+        return []
+    out = ["## Model sufficiency", "",
+           "`tools/sufficiency.py DECK --out DIR`: each sub-model or term of a deck switched one step simpler, one "
+           "at a time, on a reduced scene over several seeds; a change beyond the noise floor (by a standard-error "
+           "measure) marks the sub-model as needed. Included from:", ""]
+    out += [f"- `{os.path.relpath(p, study_root)}`" for p in found] + [""]
+    for p in found:
+        with open(p, encoding="utf-8") as f:
+            text = f.read()
+        out += [("#" * 2 + line) if line.startswith("#") else line for line in text.splitlines()] + [""]
+    return out
