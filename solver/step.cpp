@@ -8,14 +8,15 @@ namespace celldem {
 
 bool advance_one_step(const Model& model, const Loading& loading, State& state, bool force_rebuild) {
   const Mat3 h_before = state.cell.h;
-  advance_cell(model, loading, state);     // 1. control: the cell at the end of the step (strain or servo)
-  drift(model, h_before, state);           // 2. particles move by their fluctuating velocity
-  const bool rebuild = force_rebuild || pairs_need_rebuild(model, state);
-  if (rebuild) rebuild_pairs(model, state);  // 3. neighbours, with contact history carried over
-  // 4. contact forces, history, stress; 5. net forces -> damped velocities and spins. On one thread the
-  // pair loop hands each block of particles over as soon as their forces are complete, so that their kick
-  // finds them in cache; the particles not handed over are kicked after.
-  const auto kick = [&](std::size_t begin, std::size_t end) { gather_and_kick_range(model, state, begin, end); };
+  advance_cell(model, loading, state);                 // 1. control: the cell at the end of the step
+  const double moved = drift(model, h_before, state);  // 2. particles move by their fluctuating velocity
+  const bool rebuild = force_rebuild || pairs_need_rebuild(model, state, moved);
+  if (rebuild) rebuild_pairs(model, state);            // 3. neighbours, with contact history carried over
+  // 4. contact forces, history, stress; 5. net forces -> damped velocities and spins, inside the pair loop's
+  // parallel region: on one thread each block of particles as soon as its forces are complete (in cache), on
+  // more each thread its share once all pairs are done. Whatever was not handed over is kicked after.
+  const Handover kick{[&](std::size_t begin, std::size_t end) { gather_and_kick_range(model, state, begin, end); },
+                      [&] { gather_and_kick_share(model, state); }};
   const std::size_t kicked = compute_contact_forces(model, loading.friction, state, true, kick);
   gather_and_kick(model, state, kicked);
   state.time += model.dt;

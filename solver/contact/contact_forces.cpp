@@ -143,7 +143,7 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
 // Diagonal: the cell and the velocity gradient are diagonal (principal-axis loading, the common case); the
 // products with h and L then skip their zero terms, which gives the same numbers bit for bit.
 template <class Law, Kinematics K, bool Diagonal>
-std::size_t pair_loop(const ContactParams& law, State& state, double dt, const BlocksDone& blocks_done) {
+std::size_t pair_loop(const ContactParams& law, State& state, double dt, const Handover& handover) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
   const Mat3 h = state.cell.h;
@@ -159,7 +159,8 @@ std::size_t pair_loop(const ContactParams& law, State& state, double dt, const B
 
 #pragma omp parallel
   {
-    const bool hand_over = blocks_done && omp_get_num_threads() == 1;
+    const bool one_thread = omp_get_num_threads() == 1;
+    const bool hand_over_blocks = one_thread && handover.blocks_done;
     ChunkIn in;
     ChunkOut out;
     // Each thread a contiguous run of blocks with about equal numbers of pairs. The sums do not depend on
@@ -186,10 +187,16 @@ std::size_t pair_loop(const ContactParams& law, State& state, double dt, const B
       partial[b].normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
       partial[b].stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
       partial[b].touching = sums.touching;
-      if (hand_over) {
-        blocks_done(first_owner, last_owner);
+      if (hand_over_blocks) {
+        handover.blocks_done(first_owner, last_owner);
         handed_over = last_owner;
       }
+    }
+    if (!one_thread && handover.share_done) {
+#pragma omp barrier
+      handover.share_done();
+#pragma omp single nowait
+      handed_over = n;
     }
   }
 
@@ -233,7 +240,7 @@ Mat3 contact_stress(const State& state) {
 }
 
 std::size_t compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip,
-                                   const BlocksDone& blocks_done) {
+                                   const Handover& handover) {
   const double dt = advance_slip ? model.dt : 0.0;
   const ContactParams params = contact_params(model.contact, friction);
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
@@ -243,10 +250,10 @@ std::size_t compute_contact_forces(const Model& model, const Friction& friction,
   return with_law(model.contact, [&](auto law) {
     using Law = decltype(law);
     if (model.kinematics == Kinematics::Affine)
-      return diagonal ? pair_loop<Law, Kinematics::Affine, true>(params, state, dt, blocks_done)
-                      : pair_loop<Law, Kinematics::Affine, false>(params, state, dt, blocks_done);
-    return diagonal ? pair_loop<Law, Kinematics::Lammps, true>(params, state, dt, blocks_done)
-                    : pair_loop<Law, Kinematics::Lammps, false>(params, state, dt, blocks_done);
+      return diagonal ? pair_loop<Law, Kinematics::Affine, true>(params, state, dt, handover)
+                      : pair_loop<Law, Kinematics::Affine, false>(params, state, dt, handover);
+    return diagonal ? pair_loop<Law, Kinematics::Lammps, true>(params, state, dt, handover)
+                    : pair_loop<Law, Kinematics::Lammps, false>(params, state, dt, handover);
   });
 }
 

@@ -13,14 +13,17 @@ namespace celldem {
 // moments and the new history, and sets state.normal_stress, state.axis_stiffness and state.touching.
 // With advance_slip = false no slip is added (the forces of the state as it stands, e.g. at a stage start).
 //
-// On one thread, blocks_done(begin, end) is called after each block of owners: every pair of the
-// particles in [begin, end) has then been evaluated (a pair's owner has the lower id), so their net forces
-// can be completed and used while their data are still in cache; later pairs never read them again.
-// Returns how many particles, from the first, were handed over (0 on more threads: there a neighbour of
-// one thread's pairs may belong to another thread's range).
-using BlocksDone = std::function<void(std::size_t begin, std::size_t end)>;
+// What may follow inside the loop's parallel region, while the data are in cache and without another fork:
+// on one thread, blocks_done(begin, end) after each block of owners (every pair of the particles in
+// [begin, end) has then been evaluated: a pair's owner has the lower id, so their net forces can be
+// completed; later pairs never read them again); on more threads, share_done() by every thread once all
+// pairs are evaluated (after a barrier). Returns how many particles, from the first, were handed over.
+struct Handover {
+  std::function<void(std::size_t begin, std::size_t end)> blocks_done;  // one thread
+  std::function<void()> share_done;                                     // more threads: this thread's share
+};
 std::size_t compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true,
-                                   const BlocksDone& blocks_done = {});
+                                   const Handover& handover = {});
 
 // The full contact stress tensor [Pa] (symmetric part, compression positive) of the last force
 // evaluation, sum of force (x) branch over the contacts divided by the cell volume. The step keeps only

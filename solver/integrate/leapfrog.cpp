@@ -1,5 +1,9 @@
 #include "integrate/leapfrog.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 #include "core/parallel.hpp"
 
 namespace celldem {
@@ -46,6 +50,11 @@ void gather_and_kick_range(const Model& model, State& state, std::size_t begin, 
   }
 }
 
+void gather_and_kick_share(const Model& model, State& state) {
+  const auto [begin, end] = gather_share(state.pairs, 0, state.particles.size());
+  gather_and_kick_range(model, state, begin, end);
+}
+
 void gather_and_kick(const Model& model, State& state, std::size_t first) {
   const std::size_t n = state.particles.size();
   if (first >= n) return;
@@ -56,12 +65,20 @@ void gather_and_kick(const Model& model, State& state, std::size_t first) {
   }
 }
 
-void drift(const Model& model, const Mat3& h_before, State& state) {
+double drift(const Model& model, const Mat3& h_before, State& state) {
   Particles& p = state.particles;
+  const PairList& pl = state.pairs;
   const Mat3 step_map = model.dt * (0.5 * (h_before + state.cell.h)).inverse();
+  const Mat3& h = state.cell.h;
   const std::size_t n = p.size();
-#pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < n; ++i) p.scaled[i] += step_map * p.velocity[i];
+  const bool built = pl.first.size() == n + 1 && pl.scaled_at_build.size() == n;
+  double max_disp2 = 0.0;  // a maximum: the same whatever the order
+#pragma omp parallel for schedule(static) reduction(max : max_disp2)
+  for (std::size_t i = 0; i < n; ++i) {
+    p.scaled[i] += step_map * p.velocity[i];
+    if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i])).squaredNorm());
+  }
+  return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
 }
 
 }  // namespace celldem

@@ -16,8 +16,13 @@ void gather_and_kick(const Model& model, State& state, std::size_t first = 0);
 // The same for particles [begin, end), on the calling thread.
 void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end);
 
+// The same for the calling thread's share of all particles; called by every thread of a parallel region.
+void gather_and_kick_share(const Model& model, State& state);
+
 // Moves particles by their fluctuating velocity in scaled coordinates, s += dt h_mid^-1 v', where h_mid
 // is the cell halfway between h_before and the current cell (the affine part is carried by the cell).
-void drift(const Model& model, const Mat3& h_before, State& state);
+// Returns, measured on the way, the largest distance [m] a particle has moved since the neighbour list was
+// built (largest_move_since_build(), for the rebuild criterion).
+double drift(const Model& model, const Mat3& h_before, State& state);
 
 }  // namespace celldem

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -169,15 +170,12 @@ void rebuild_pairs(const Model& model, State& state) {
   pl = std::move(next);
 }
 
-bool pairs_need_rebuild(const Model& model, const State& state) {
+double largest_move_since_build(const State& state) {
   const PairList& pl = state.pairs;
   const Particles& p = state.particles;
-  if (pl.first.size() != p.size() + 1) return true;
-  // A pair left out at the build was at least r_i + r_j + skin apart. Since then its branch has been
-  // mapped by F = h h_build^-1 and each end moved by at most max_disp, so it is still apart while
-  // (1 - |F - I|) (r_i + r_j + skin) - 2 max_disp > r_i + r_j, hardest for the largest pair.
+  if (pl.first.size() != p.size() + 1 || pl.scaled_at_build.size() != p.size())
+    return std::numeric_limits<double>::infinity();
   const Mat3& h = state.cell.h;
-  const double strain = (h * pl.h_at_build.inverse() - Mat3::Identity()).norm();  // Frobenius >= spectral
   double max_disp2 = 0.0;  // a maximum: the same whatever the order, so the threads may split the work
   const std::size_t n = p.size();
 #pragma omp parallel for schedule(static) reduction(max : max_disp2)
@@ -185,8 +183,22 @@ bool pairs_need_rebuild(const Model& model, const State& state) {
     const Vec3 ds = p.scaled[i] - pl.scaled_at_build[i];
     max_disp2 = std::max(max_disp2, (h * ds).squaredNorm());
   }
+  return std::sqrt(max_disp2);
+}
+
+bool pairs_need_rebuild(const Model& model, const State& state) {
+  return pairs_need_rebuild(model, state, largest_move_since_build(state));
+}
+
+bool pairs_need_rebuild(const Model& model, const State& state, double largest_move) {
+  const PairList& pl = state.pairs;
+  if (pl.first.size() != state.particles.size() + 1 || !std::isfinite(largest_move)) return true;
+  // A pair left out at the build was at least r_i + r_j + skin apart. Since then its branch has been
+  // mapped by F = h h_build^-1 and each end moved by at most largest_move, so it is still apart while
+  // (1 - |F - I|) (r_i + r_j + skin) - 2 largest_move > r_i + r_j, hardest for the largest pair.
+  const double strain = (state.cell.h * pl.h_at_build.inverse() - Mat3::Identity()).norm();  // Frobenius >= spectral
   const double reach = 2.0 * model.max_radius;
-  return (1.0 - strain) * (reach + pl.skin) - 2.0 * std::sqrt(max_disp2) <= reach;
+  return (1.0 - strain) * (reach + pl.skin) - 2.0 * largest_move <= reach;
 }
 
 void set_stored_contacts(State& state, const std::vector<StoredContact>& contacts) {

@@ -11,8 +11,12 @@ namespace celldem {
 // Throws std::runtime_error if the cell has become too small for its particles (a pair would touch twice).
 void rebuild_pairs(const Model& model, State& state);
 
-// True when a pair outside the list could have come into contact since the last build.
+// True when a pair outside the list could have come into contact since the last build, given the largest
+// distance a particle has moved since then (drift() measures it on its way; largest_move_since_build()
+// measures it on its own).
+bool pairs_need_rebuild(const Model& model, const State& state, double largest_move);
 bool pairs_need_rebuild(const Model& model, const State& state);
+double largest_move_since_build(const State& state);  // [m]; infinity when the list was never built
 
 // Replace the list with exactly the given contacts (history only), e.g. after reading a state file.
 // The next rebuild_pairs() call merges them into the full list.
