@@ -73,7 +73,7 @@ ContactStiffness reference_stiffness(const ContactDef& c, const SampleDef& sampl
   return k;
 }
 
-double default_reference_overlap(const Deck& deck) {
+double largest_deck_stress(const Deck& deck) {
   double p = 0.0;
   const auto scan = [&p](const std::vector<Leg>& legs) {
     for (const Leg& leg : legs) {
@@ -87,13 +87,25 @@ double default_reference_overlap(const Deck& deck) {
     scan(deck.prepare->legs);
   }
   for (const TestDef& t : deck.tests) scan(t.legs);
+  return p;
+}
+
+double mean_contact_force(const SampleDef& sample, double p) {
+  const double d = mean_diameter(sample);
+  return M_PI * d * d * p / 3.6;
+}
+
+double hertz_overlap(const ContactDef& c, double force, double r_eff) {
+  return std::pow(3.0 * force / (4.0 * c.effective_modulus() * std::sqrt(r_eff)), 2.0 / 3.0);
+}
+
+double default_reference_overlap(const Deck& deck) {
+  const double p = largest_deck_stress(deck);
   if (p == 0.0) return 0.0;
-  const double d = mean_diameter(deck.sample);
-  const double force = 10.0 * M_PI * d * d * (3.0 * p) / 3.6;
+  const double force = 10.0 * mean_contact_force(deck.sample, 3.0 * p);
   const ContactDef& c = deck.contact;
-  const double r_eff = 0.5 * largest_radius(deck.sample);
   if (c.normal == NormalModel::Linear) return force / c.kn;
-  return std::pow(3.0 * force / (4.0 * c.effective_modulus() * std::sqrt(r_eff)), 2.0 / 3.0);  // Hertz inverted
+  return hertz_overlap(c, force, 0.5 * largest_radius(deck.sample));
 }
 
 BodyProperties body_properties(double r, double density, const DampingDef& damping, const ContactStiffness& k) {

@@ -44,6 +44,14 @@ struct ContactStiffness {
 };
 ContactStiffness reference_stiffness(const ContactDef& contact, const SampleDef& sample);
 
+// The largest stress the deck names [Pa]: the preparation's target, stress and mean_stress axes, stress
+// ends (0 when none).
+double largest_deck_stress(const Deck& deck);
+// The mean contact normal force [N] at mean stress p: pi d^2 p / (Z phi) with Z phi = 3.6 (d the mean size).
+double mean_contact_force(const SampleDef& sample, double p);
+// The Hertz overlap [m] under normal force `force` between spheres of effective radius r_eff.
+double hertz_overlap(const ContactDef& contact, double force, double r_eff);
+
 // The default reference overlap [m]: the overlap of the two largest spheres under 10 times the mean contact
 // force at 3 times the deck's largest stress (mean force pi d^2 p / (Z phi), Z phi = 3.6); 0 when the deck
 // names no stress.

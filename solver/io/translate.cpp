@@ -1014,24 +1014,10 @@ namespace {
 double nominal_normal_stiffness(const Deck& deck) {
   const ContactDef& c = deck.contact;
   if (c.normal == NormalModel::Linear) return c.kn;
-  double p = 0.0;
-  const auto scan = [&p](const std::vector<Leg>& legs) {
-    for (const Leg& leg : legs) {
-      for (const AxisControl& a : leg.axes)
-        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) p = std::max(p, std::abs(a.value));
-      if (leg.end.kind == LegEndKind::Stress) p = std::max(p, std::abs(leg.end.value));
-    }
-  };
-  if (deck.prepare) {
-    p = std::max(p, deck.prepare->target_pressure);
-    scan(deck.prepare->legs);
-  }
-  for (const TestDef& t : deck.tests) scan(t.legs);
-  const double d = mean_diameter(deck.sample);
-  const double r_eff = 0.25 * d;
+  const double p = largest_deck_stress(deck);
   if (p == 0.0) return reference_stiffness(c, deck.sample).normal;
-  const double force = M_PI * d * d * p / 3.6;
-  const double overlap = std::pow(3.0 * force / (4.0 * c.effective_modulus() * std::sqrt(r_eff)), 2.0 / 3.0);
+  const double r_eff = 0.25 * mean_diameter(deck.sample);
+  const double overlap = hertz_overlap(c, mean_contact_force(deck.sample, p), r_eff);
   return 2.0 * c.effective_modulus() * std::sqrt(r_eff * overlap);
 }
 }  // namespace
