@@ -210,16 +210,8 @@ TEST(ContactForces, LatticeStressAndStiffnessMatchAnalytic) {
 // 256 owners, so the blocked sums really are split).
 TEST(ContactForces, ResultsIndependentOfThreadCount) {
   const int n = 7;  // 343 spheres
-  std::mt19937_64 gen(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
   const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, 0.5));
-  State base = testing::lattice_state(n, 0.5, Vec3(0.98, 0.98, 0.98), 0.1);
-  const Mat3 hinv = base.cell.h.inverse();
-  for (std::size_t i = 0; i < base.particles.size(); ++i) {
-    base.particles.scaled[i] += hinv * Vec3(u(gen), u(gen), u(gen)) * 0.02;
-    base.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen));
-    base.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * 5.0;
-  }
+  State base = testing::jostled_lattice(n, 11, 0.02, 1.0, 5.0);
   base.cell.velocity_gradient = Mat3::Identity() * 0.1;
   const int saved = omp_get_max_threads();
   std::vector<State> results;

@@ -212,25 +212,12 @@ Deck everything_deck() {
   return deck;
 }
 
-State jostled_lattice(int n, std::uint64_t seed) {
-  std::mt19937_64 gen(seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  State s = testing::lattice_state(n, 0.5, Vec3(0.98, 0.98, 0.98), 0.1);
-  const Mat3 hinv = s.cell.h.inverse();
-  for (std::size_t i = 0; i < s.particles.size(); ++i) {
-    s.particles.scaled[i] += hinv * Vec3(u(gen), u(gen), u(gen)) * 0.01;
-    s.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen)) * 0.01;
-    s.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * 5.0;
-  }
-  return s;
-}
-
 // The rolling and twisting springs are carried across a rebuild and through a state file (format 3), so that
 // a resumed state computes the same forces; a law without them writes format 2 as before.
 TEST(ContactForces, RotationalSpringsSurviveRebuildAndStateFile) {
   const Deck deck = everything_deck();
   const Model model = make_model(deck, std::vector<double>(27, 0.5));
-  State s = jostled_lattice(3, 5);
+  State s = testing::jostled_lattice(3, 5, 0.01, 0.01, 5.0);
   rebuild_pairs(model, s);
   for (int k = 0; k < 5; ++k) compute_contact_forces(model, Friction(0.5, 0.1), s);
   ASSERT_EQ(s.pairs.rolling.size(), s.pairs.size());
@@ -261,7 +248,7 @@ TEST(ContactForces, RotationalSpringsSurviveRebuildAndStateFile) {
   std::memcpy(&version, bytes.data() + 8, sizeof version);
   EXPECT_EQ(version, 3u);
   const Model linear = make_model(testing::model_deck(1e4, 1e4, 1e-5), std::vector<double>(27, 0.5));
-  State plain = jostled_lattice(3, 5);
+  State plain = testing::jostled_lattice(3, 5, 0.01, 0.01, 5.0);
   rebuild_pairs(linear, plain);
   compute_contact_forces(linear, 0.5, plain);
   std::memcpy(&version, serialize_state(plain, "test").data() + 8, sizeof version);
@@ -271,7 +258,7 @@ TEST(ContactForces, RotationalSpringsSurviveRebuildAndStateFile) {
 // Every law's results are the same bits on 1, 2 and 3 threads.
 TEST(ContactForces, RotationalLawIndependentOfThreadCount) {
   const Model model = make_model(everything_deck(), std::vector<double>(343, 0.5));
-  const State base = jostled_lattice(7, 11);
+  const State base = testing::jostled_lattice(7, 11, 0.01, 0.01, 5.0);
   const int saved = omp_get_max_threads();
   std::vector<State> results;
   for (int threads : {1, 2, 3}) {

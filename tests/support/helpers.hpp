@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -67,6 +68,21 @@ inline State lattice_state(int n, double radius, const Vec3& spacing, double ski
         x.push_back(Vec3((i + 0.5) * spacing[0], (j + 0.5) * spacing[1], (k + 0.5) * spacing[2]));
       }
   return make_state(h, r, x, skin);
+}
+
+// A 0.98-spaced lattice of n^3 unit spheres, each moved by up to `jitter` (scaled), with random velocities
+// up to `speed` and spins up to `spin` per component: many contacts, some sliding, all different.
+inline State jostled_lattice(int n, std::uint64_t seed, double jitter, double speed, double spin) {
+  std::mt19937_64 gen(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  State s = lattice_state(n, 0.5, Vec3(0.98, 0.98, 0.98), 0.1);
+  const Mat3 hinv = s.cell.h.inverse();
+  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+    s.particles.scaled[i] += hinv * Vec3(u(gen), u(gen), u(gen)) * jitter;
+    s.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen)) * speed;
+    s.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * spin;
+  }
+  return s;
 }
 
 inline Loading fixed_cell(double friction = 0.0) {
