@@ -37,7 +37,6 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -46,6 +45,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 from celldem import results  # noqa: E402
+
+import xc_common  # noqa: E402
 
 D = 2.0e-7       # strain increment of x1 per step
 E1_END = 0.005   # 25 000 steps
@@ -70,13 +71,6 @@ TOL = {"lammps": {"stress": 1e-3, "hold": 0.002, "ratio": 0.05, "ev": 5e-4, "z":
        "liggghts": {"stress": 1e-3, "hold": 0.001, "ratio": 0.05, "ev": 5e-4, "z": 0.15}}
 
 
-def need(*exes):
-    missing = [e for e in exes if not shutil.which(e)]
-    if missing:
-        print("skipped: %s not installed (tools/install-deps.sh --with-crosscheck)" % ", ".join(missing))
-        sys.exit(77)
-
-
 def base_deck():
     deck = json.load(open(os.path.join(HERE, "small.json")))
     deck["contact"] = dict(CONTACT, normal="hertz", tangential="mindlin", rolling="sds", twisting="marshall")
@@ -86,16 +80,7 @@ def base_deck():
 
 def prepare(celldem, work):
     """The state: frictionless (mu = mu_roll = 0), so its tangential, rolling and twisting springs are all zero."""
-    state = os.path.join(work, "prep", "prepared.state")
-    if os.path.exists(state):  # kept in --work
-        return state
-    deck = base_deck()
-    deck["tests"] = []
-    path = os.path.join(work, "prepare.json")
-    json.dump(deck, open(path, "w"), indent=2)
-    subprocess.run([celldem, "run", path, "--out", os.path.join(work, "prep"), "--threads", "1", "--quiet"],
-                   check=True)
-    return os.path.join(work, "prep", "prepared.state")
+    return xc_common.prepare_state(celldem, work, base_deck())
 
 
 def derived(state, law, code):
@@ -217,17 +202,9 @@ def main():
     p.add_argument("--codes", default="lammps,liggghts", help="comma-separated: lammps, liggghts")
     args = p.parse_args()
     codes = args.codes.split(",")
-    need(*[{"lammps": "lmp", "liggghts": "liggghts"}[c] for c in codes])
+    xc_common.need(*[xc_common.CODE_BINARIES[c] for c in codes])
     celldem = os.path.abspath(args.celldem)
-    with tempfile.TemporaryDirectory(prefix="celldem-law-xc-") as tmp:
-        work = os.path.abspath(args.work) if args.work else tmp
-        os.makedirs(work, exist_ok=True)
-        rc = run(celldem, work, codes)
-        if rc != 0 and not args.work:
-            keep = tempfile.mkdtemp(prefix="celldem-law-xc-failed-")
-            shutil.copytree(work, keep, dirs_exist_ok=True)
-            print("the failed run is kept in %s" % keep)
-    return rc
+    return xc_common.in_work_folder(args.work, "celldem-law-xc-", lambda work: run(celldem, work, codes))
 
 
 if __name__ == "__main__":

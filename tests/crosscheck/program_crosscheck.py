@@ -31,10 +31,8 @@ import copy
 import json
 import os
 import re
-import shutil
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
@@ -42,6 +40,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 from celldem import crosscheck, results  # noqa: E402
+
+import xc_common  # noqa: E402
 
 DECK = os.path.join(HERE, "small.json")
 P = 1.0e5       # mean stress held in both legs [Pa]
@@ -66,21 +66,9 @@ TOL = {
 }
 
 
-def need(*exes):
-    missing = [e for e in exes if not shutil.which(e)]
-    if missing:
-        print("skipped: %s not installed (tools/install-deps.sh --with-crosscheck)" % ", ".join(missing))
-        sys.exit(77)
-
-
 def prepare(celldem, work):
-    deck = json.load(open(DECK))
-    deck["tests"] = []
-    path = os.path.join(work, "prepare.json")
-    json.dump(deck, open(path, "w"), indent=2)
-    subprocess.run([celldem, "run", path, "--out", os.path.join(work, "prep"), "--threads", "1", "--quiet"],
-                   check=True)
-    return os.path.join(work, "prep", "prepared.state")
+    with open(DECK) as f:
+        return xc_common.prepare_state(celldem, work, json.load(f))
 
 
 def with_derived(series):
@@ -213,17 +201,9 @@ def main():
     p.add_argument("--codes", default="lammps,liggghts", help="comma-separated: lammps, liggghts")
     args = p.parse_args()
     codes = args.codes.split(",")
-    need(*[{"lammps": "lmp", "liggghts": "liggghts"}[c] for c in codes])
+    xc_common.need(*[xc_common.CODE_BINARIES[c] for c in codes])
     celldem = os.path.abspath(args.celldem)
-    with tempfile.TemporaryDirectory(prefix="celldem-program-xc-") as tmp:
-        work = os.path.abspath(args.work) if args.work else tmp
-        os.makedirs(work, exist_ok=True)
-        rc = run(celldem, work, codes)
-        if rc != 0 and not args.work:
-            keep = tempfile.mkdtemp(prefix="celldem-program-xc-failed-")
-            shutil.copytree(work, keep, dirs_exist_ok=True)
-            print("the failed run is kept in %s" % keep)
-    return rc
+    return xc_common.in_work_folder(args.work, "celldem-program-xc-", lambda work: run(celldem, work, codes))
 
 
 if __name__ == "__main__":

@@ -25,10 +25,8 @@ import argparse
 import copy
 import json
 import os
-import shutil
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
@@ -39,24 +37,14 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 import run_crosscheck  # noqa: E402
 from celldem import crosscheck, mirror, results  # noqa: E402
 
+import xc_common  # noqa: E402
+
 DECK = os.path.join(HERE, "small.json")
 
 
-def need(*exes):
-    missing = [e for e in exes if not shutil.which(e)]
-    if missing:
-        print("skipped: %s not installed (tools/install-deps.sh --with-crosscheck)" % ", ".join(missing))
-        sys.exit(77)
-
-
 def prepare(celldem, work):
-    deck = json.load(open(DECK))
-    deck["tests"] = []
-    path = os.path.join(work, "prepare.json")
-    json.dump(deck, open(path, "w"), indent=2)
-    subprocess.run([celldem, "run", path, "--out", os.path.join(work, "prep"), "--threads", "1", "--quiet"],
-                   check=True)
-    return os.path.join(work, "prep", "prepared.state")
+    with open(DECK) as f:
+        return xc_common.prepare_state(celldem, work, json.load(f))
 
 
 def reduced(celldem, work, state):
@@ -115,20 +103,17 @@ def main():
     p.add_argument("--mpi", action="store_true")
     p.add_argument("--work", help="keep the files in this folder (default: a temporary folder)")
     args = p.parse_args()
-    need("lmp", "mpirun") if args.mpi else need("lmp", "liggghts")
+    xc_common.need("lmp", "mpirun") if args.mpi else xc_common.need("lmp", "liggghts")
     celldem = os.path.abspath(args.celldem)
-    with tempfile.TemporaryDirectory(prefix="celldem-xc-") as tmp:
-        work = os.path.abspath(args.work) if args.work else tmp
-        os.makedirs(work, exist_ok=True)
+
+    def check(work):
         state = prepare(celldem, work)
         rc = mpi(celldem, work, state) if args.mpi else reduced(celldem, work, state)
-        if rc != 0 and not args.work:
-            keep = tempfile.mkdtemp(prefix="celldem-xc-failed-")
-            shutil.copytree(work, keep, dirs_exist_ok=True)
-            print("the failed run is kept in %s" % keep)
-        elif not args.mpi:
+        if rc == 0 and not args.mpi:
             print(open(os.path.join(work, "xc", "report.md")).read())
-    return rc
+        return rc
+
+    return xc_common.in_work_folder(args.work, "celldem-xc-", check)
 
 
 if __name__ == "__main__":
