@@ -30,7 +30,6 @@ Prints a table and exits 1 when a check fails, 77 (ctest: skipped) without lmp /
 
 usage: law_crosscheck.py --celldem BIN [--work DIR] [--codes lammps,liggghts]
 """
-import argparse
 import copy
 import json
 import os
@@ -196,15 +195,7 @@ def run(celldem, work, codes):
 
 
 def main():
-    p = argparse.ArgumentParser()
-    p.add_argument("--celldem", required=True)
-    p.add_argument("--work", help="keep the files in this folder (default: a temporary folder)")
-    p.add_argument("--codes", default="lammps,liggghts", help="comma-separated: lammps, liggghts")
-    args = p.parse_args()
-    codes = args.codes.split(",")
-    xc_common.need(*[xc_common.CODE_BINARIES[c] for c in codes])
-    celldem = os.path.abspath(args.celldem)
-    return xc_common.in_work_folder(args.work, "celldem-law-xc-", lambda work: run(celldem, work, codes))
+    return xc_common.main_for_codes("celldem-law-xc-", run)
 
 
 if __name__ == "__main__":

@@ -43,3 +43,17 @@ def in_work_folder(kept, prefix, check):
             shutil.copytree(work, keep, dirs_exist_ok=True)
             print("the failed run is kept in %s" % keep)
     return rc
+
+
+def main_for_codes(prefix, run):
+    """The command line of a check that runs run(celldem, work, codes) for LAMMPS and/or LIGGGHTS."""
+    import argparse
+    p = argparse.ArgumentParser()
+    p.add_argument("--celldem", required=True)
+    p.add_argument("--work", help="keep the files in this folder (default: a temporary folder)")
+    p.add_argument("--codes", default="lammps,liggghts", help="comma-separated: lammps, liggghts")
+    args = p.parse_args()
+    codes = args.codes.split(",")
+    need(*[CODE_BINARIES[c] for c in codes])
+    celldem = os.path.abspath(args.celldem)
+    return in_work_folder(args.work, prefix, lambda work: run(celldem, work, codes))
