@@ -2,6 +2,7 @@
 # The README's pictures, copied (and scaled down) into docs/figures/ from fresh runs. The small deck
 # (tests/run/small_run.json, 150 spheres: seconds) is run here into results/small/; produce the others first:
 #   bash tools/paper.sh                                              -> results/paper/figures/overview.png
+#   build/celldem run inputs/paper.json --out results/paper-ensemble --seeds 1-8 && tools/report.py results/paper-ensemble
 #   build/celldem run inputs/failure_surface.json --out results/failure_surface
 #   /usr/bin/python3 tools/failure_surface.py results/failure_surface --with results/paper
 #   /usr/bin/python3 tools/study.py run && /usr/bin/python3 tools/study.py analyse   (hours: optional)
@@ -34,6 +35,8 @@ copy results/small/figures/overview.png small_overview.png
 copy results/small/figures/force_chains.png small_force_chains.png
 copy results/small/figures/prepare.png small_prepare.png
 copy results/paper/figures/overview.png paper_overview.png
+copy results/paper/figures/force_chains.png paper_force_chains.png
+copy results/paper-ensemble/figures/overview.png paper_ensemble_overview.png
 copy results/failure_surface/figures/failure_surface_phi_b.png failure_surface_phi_b.png
 copy results/failure_surface/figures/failure_surface_pi_plane.png failure_surface_pi_plane.png
 copy results/study/figures/pareto.png study_pareto.png
