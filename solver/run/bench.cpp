@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -59,10 +60,6 @@ State tile_state(const State& s, int copies) {
   return t;
 }
 
-namespace {
-double state_bytes_per_particle(const State& s);
-}
-
 ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initial, int threads, std::int64_t steps,
                        std::int64_t warmup, bool governed) {
   omp_set_num_threads(threads);
@@ -96,7 +93,8 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   t.particle_steps_per_second = static_cast<double>(state.particles.size()) * steps / t.seconds;
   t.row_seconds = rows ? row_seconds / rows : 0.0;
   t.step_seconds = (t.seconds - row_seconds) / steps;
-  t.bytes_per_particle = state_bytes_per_particle(state);
+  t.memory = memory_per_particle(state, model);
+  t.bytes_per_particle = t.memory.total();
   t.pairs_per_particle = static_cast<double>(state.pairs.size()) / static_cast<double>(state.particles.size());
   t.contacts_per_particle = static_cast<double>(state.touching) / static_cast<double>(state.particles.size());
   return t;
@@ -149,19 +147,19 @@ std::vector<std::pair<std::string, Deck>> contact_law_variants(const Deck& deck)
   return out;
 }
 
-namespace {
-double state_bytes_per_particle(const State& s) {
+MemoryPerParticle memory_per_particle(const State& s, const Model& m) {
   const Particles& p = s.particles;
   const PairList& pl = s.pairs;
   auto bytes = [](const auto& v) { return static_cast<double>(v.capacity() * sizeof(v[0])); };
-  const double particle_bytes = bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) +
-                                bytes(p.force) + bytes(p.torque) + bytes(pl.scaled_at_build) + bytes(pl.first) +
-                                bytes(pl.incoming_first);
-  const double pair_bytes = bytes(pl.owner) + bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) +
-                            bytes(pl.rolling) + bytes(pl.twist) + bytes(pl.flags) + bytes(pl.force) +
-                            bytes(pl.torque_j) + bytes(pl.incoming);
-  return (particle_bytes + pair_bytes) / static_cast<double>(p.size());
+  const double n = static_cast<double>(std::max<std::size_t>(p.size(), 1));
+  MemoryPerParticle out;
+  out.particles = (bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) + bytes(p.force) +
+                   bytes(p.torque) + bytes(pl.first) + bytes(pl.incoming_first) + bytes(pl.scaled_at_build)) / n;
+  out.pairs = (bytes(pl.owner) + bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) +
+               bytes(pl.twist) + bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_j) + bytes(pl.incoming)) / n;
+  out.model = (bytes(m.mass) + bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +
+               bytes(m.spin_gain)) / n;
+  return out;
 }
-}  // namespace
 
 }  // namespace celldem

@@ -8,6 +8,7 @@
 
 #include "core/state.hpp"
 #include "core/deck.hpp"
+#include "core/model.hpp"
 
 namespace celldem {
 
@@ -17,12 +18,25 @@ namespace celldem {
 // order, so the result is as spatially ordered as the original.
 State tile_state(const State& state, int copies);
 
+// Memory per particle [bytes] of the arrays that grow with the sample (capacities, not sizes): the State's
+// per-particle arrays (Particles and the neighbour list's CSR offsets, reverse offsets and positions at the
+// last build), its per-pair arrays (pairs, images, springs, flags, per-pair results, reverse index), and
+// the Model's per-particle constants (mass, damping factors). Transients of a rebuild are not counted.
+struct MemoryPerParticle {
+  double particles = 0.0;
+  double pairs = 0.0;
+  double model = 0.0;
+  double total() const { return particles + pairs + model; }
+};
+MemoryPerParticle memory_per_particle(const State& state, const Model& model);
+
 struct ShearTiming {
   double seconds = 0.0;                  // wall time of the timed steps (rows included)
   double particle_steps_per_second = 0.0;
   double row_seconds = 0.0;              // mean time of one series row (measurements + formatting)
   double step_seconds = 0.0;             // mean time of one step without rows
-  double bytes_per_particle = 0.0;       // state memory (particles, pairs, history) per particle
+  double bytes_per_particle = 0.0;       // all of the below: the memory a step touches, per particle
+  MemoryPerParticle memory;              // its parts
   double pairs_per_particle = 0.0;       // neighbour-list pairs at the end
   double contacts_per_particle = 0.0;    // touching pairs at the end
   std::int64_t rebuilds = 0;             // neighbour-list rebuilds during the timed steps

@@ -21,8 +21,9 @@ void ThreadGovernor::step_done() {
   ++steps_;
   switch (phase_) {
     case Phase::Running:
-      // The first trial comes soon (a few windows in, past the stage's start-up), the others every period.
-      if (steps_ >= (trials_ == 0 ? 4 * window_ : period_)) {
+      // The first trial comes soon (two windows in: under contention two threads can be ten times slower
+      // than one), the others every period.
+      if (steps_ >= (trials_ == 0 ? 2 * window_ : period_)) {
         phase_ = Phase::TryingMany, steps_ = 0;
         use(threads_);
         start_ = Clock::now();

@@ -13,7 +13,7 @@ class ThreadGovernor {
  public:
   // threads: the stage's thread count (1: the governor does nothing). Every `period` steps it times
   // `window` steps on each count and keeps the faster until the next trial.
-  explicit ThreadGovernor(int threads, std::int64_t period = 20000, std::int64_t window = 400);
+  explicit ThreadGovernor(int threads, std::int64_t period = 10000, std::int64_t window = 100);
   ~ThreadGovernor();  // leaves OpenMP at the stage's thread count
   ThreadGovernor(const ThreadGovernor&) = delete;
   ThreadGovernor& operator=(const ThreadGovernor&) = delete;

@@ -14,7 +14,7 @@ TEST(ThreadGovernor, TrialsOnScheduleAndRestoresTheCount) {
   omp_set_num_threads(2);
   {
     ThreadGovernor g(2, /*period=*/50, /*window=*/5);
-    for (int k = 0; k < 20; ++k) g.step_done();  // the first trial starts after 4 windows
+    for (int k = 0; k < 10; ++k) g.step_done();  // the first trial starts after 2 windows
     EXPECT_EQ(g.trials(), 0);
     EXPECT_EQ(g.current(), 2);                    // timing the full count first
     for (int k = 0; k < 5; ++k) g.step_done();

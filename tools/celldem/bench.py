@@ -8,19 +8,49 @@ from . import plotting
 from .tables import md_table
 
 
+def _mega(value):
+    return f"{value / 1e6:.3g} M"
+
+
 def scaling_markdown(bench):
     rows = bench.get("scaling", [])
-    lines = [md_table(("particles", "threads", "steps", "particle-steps/s", "bytes/particle"),
+    lines = [md_table(("particles", "threads", "steps", "particle-steps/s", "bytes/particle",
+                       "particles / pairs / model", "peak RSS [MiB]"),
                       [(r["particles"], r["threads"], r["steps"], f"{r['particle_steps_per_s']:.3g}",
-                        f"{r['bytes_per_particle']:.0f}") for r in rows], align="rrrrr")]
+                        f"{r['bytes_per_particle']:.0f}",
+                        " / ".join(f"{r['bytes_per_particle_breakdown'][k]:.0f}" for k in ("particles", "pairs", "model"))
+                        if "bytes_per_particle_breakdown" in r else "",
+                        r.get("max_rss_mib", "")) for r in rows], align="rrrrrrr")]
     medians = bench.get("median_particle_steps_per_s", {})
     lines += ["", md_table(("run", "median particle-steps/s"), [(k, f"{v:.3g}") for k, v in sorted(medians.items())],
                            align="lr")]
     if "ratio" in bench:
         lines += ["", f"ratio (celldem, most threads / LAMMPS, most ranks): {bench['ratio']:.2f}"]
-    if bench.get("step_seconds"):
+    if "lammps_settings" in bench:
+        settings = bench["lammps_settings"]
+        lines += ["", "LAMMPS settings (the bench's copy of the translated script): " +
+                  "; ".join(f"{k} {v}" for k, v in settings.items())]
+    if "bytes_per_particle_breakdown" in bench:
+        parts = bench["bytes_per_particle_breakdown"]
+        lines += ["", f"memory: {bench['bytes_per_particle']:.0f} bytes per particle (particles {parts['particles']:.0f}, "
+                      f"pairs {parts['pairs']:.0f}, model {parts['model']:.0f})"]
+    if bench.get("step_seconds") and bench.get("row_seconds"):
         lines += ["", f"one series row costs {bench['row_seconds']:.3g} s = "
                       f"{bench['row_seconds'] / bench['step_seconds']:.2f} steps"]
+    if "contention" in bench:
+        lines += ["", md_table(("beside a busy process", "particle-steps/s"),
+                               [(k, _mega(v["particle_steps_per_s"])) for k, v in bench["contention"].items()],
+                               align="lr")]
+    if "laws" in bench:
+        lines += ["", md_table(("contact law", "particle-steps/s", "cost vs linear"),
+                               [(k, _mega(v["particle_steps_per_s"]), f"{v['cost_relative_to_linear']:.2f}")
+                                for k, v in bench["laws"].items()], align="lrr")]
+    if "whole_process" in bench:
+        wp = bench["whole_process"]
+        lines += ["", f"whole processes, {wp['steps']} steps from the state (wall time, medians):", "",
+                  md_table(("celldem threads", "LAMMPS ranks", "celldem run [s]", "lmp [s]", "LAMMPS / celldem"),
+                           [(p["threads"], p["ranks"], f"{p['celldem_seconds']:.2f}", f"{p['lammps_seconds']:.2f}",
+                             f"{p['ratio']:.2f}") for p in wp.get("pairs", [])], align="rrrrr")]
     return "\n".join(lines) + "\n"
 
 
