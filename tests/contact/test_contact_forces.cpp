@@ -213,17 +213,7 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
   const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, 0.5));
   State base = testing::jostled_lattice(n, 11, 0.02, 1.0, 5.0);
   base.cell.velocity_gradient = Mat3::Identity() * 0.1;
-  const int saved = omp_get_max_threads();
-  std::vector<State> results;
-  for (int threads : {1, 2, 3}) {
-    omp_set_num_threads(threads);
-    State s = base;
-    rebuild_pairs(model, s);
-    for (int k = 0; k < 3; ++k) compute_contact_forces(model, 0.4, s);
-    gather_and_kick(model, s);
-    results.push_back(std::move(s));
-  }
-  omp_set_num_threads(saved);
+  const std::vector<State> results = testing::on_thread_counts(model, base, 0.4, {1, 2, 3});
   ASSERT_GT(results[0].touching, 500);
   for (std::size_t r = 1; r < results.size(); ++r) {
     EXPECT_EQ(contact_stress(results[r]), contact_stress(results[0]));

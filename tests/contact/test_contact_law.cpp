@@ -259,17 +259,7 @@ TEST(ContactForces, RotationalSpringsSurviveRebuildAndStateFile) {
 TEST(ContactForces, RotationalLawIndependentOfThreadCount) {
   const Model model = make_model(everything_deck(), std::vector<double>(343, 0.5));
   const State base = testing::jostled_lattice(7, 11, 0.01, 0.01, 5.0);
-  const int saved = omp_get_max_threads();
-  std::vector<State> results;
-  for (int threads : {1, 2, 3}) {
-    omp_set_num_threads(threads);
-    State s = base;
-    rebuild_pairs(model, s);
-    for (int k = 0; k < 3; ++k) compute_contact_forces(model, Friction(0.4, 0.1), s);
-    gather_and_kick(model, s);
-    results.push_back(std::move(s));
-  }
-  omp_set_num_threads(saved);
+  const std::vector<State> results = testing::on_thread_counts(model, base, Friction(0.4, 0.1), {1, 2, 3});
   ASSERT_GT(results[0].touching, 500);
   for (std::size_t r = 1; r < results.size(); ++r) {
     EXPECT_EQ(results[r].normal_stress, results[0].normal_stress);

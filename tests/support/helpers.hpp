@@ -1,11 +1,13 @@
 // Shared helpers for the unit and physics tests: small models, states and temporary folders.
 // Nothing here computes a physical answer: the expected values live in the tests, derived by hand.
 #pragma once
+#include <omp.h>
 #include <stdlib.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -13,9 +15,12 @@
 #include <vector>
 
 #include "cell/control.hpp"
+#include "contact/contact_forces.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
+#include "integrate/leapfrog.hpp"
 #include "io/deck_reader.hpp"
+#include "neighbor/neighbor_list.hpp"
 
 namespace celldem::testing {
 
@@ -68,6 +73,23 @@ inline State lattice_state(int n, double radius, const Vec3& spacing, double ski
         x.push_back(Vec3((i + 0.5) * spacing[0], (j + 0.5) * spacing[1], (k + 0.5) * spacing[2]));
       }
   return make_state(h, r, x, skin);
+}
+
+// The state after three force evaluations and a kick from `base`, once per thread count: for comparing bits.
+inline std::vector<State> on_thread_counts(const Model& model, const State& base, const Friction& friction,
+                                           std::initializer_list<int> thread_counts) {
+  const int saved = omp_get_max_threads();
+  std::vector<State> results;
+  for (int threads : thread_counts) {
+    omp_set_num_threads(threads);
+    State s = base;
+    rebuild_pairs(model, s);
+    for (int k = 0; k < 3; ++k) compute_contact_forces(model, friction, s);
+    gather_and_kick(model, s);
+    results.push_back(std::move(s));
+  }
+  omp_set_num_threads(saved);
+  return results;
 }
 
 // A 0.98-spaced lattice of n^3 unit spheres, each moved by up to `jitter` (scaled), with random velocities
