@@ -72,14 +72,13 @@ template <class Law, Kinematics K, bool Diagonal>
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
                     double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
                     double* __restrict force, double* __restrict torque_j, ChunkOut& __restrict o) {
-  constexpr bool kRotational = Law::rolling != RollingModel::None || Law::twisting != TwistingModel::None;
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
     if constexpr (K == Kinematics::Affine) dv = dv + apply<Diagonal>(L, branch);  // images move apart with the cell
     ContactHistory before;
     before.tangential = {tangential[3 * k], tangential[3 * k + 1], tangential[3 * k + 2]};
-    if constexpr (kRotational) {
+    if constexpr (Law::rotational) {
       before.rolling = {rolling[3 * k], rolling[3 * k + 1], rolling[3 * k + 2]};
       before.twist = twist[k];
     }
@@ -87,7 +86,7 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
                                            {c.wj[0][k], c.wj[1][k], c.wj[2][k]}, before, dt);
     const Real3& xi = r.history.tangential;
     tangential[3 * k] = xi.x, tangential[3 * k + 1] = xi.y, tangential[3 * k + 2] = xi.z;
-    if constexpr (kRotational) {
+    if constexpr (Law::rotational) {
       const Real3& xr = r.history.rolling;
       rolling[3 * k] = xr.x, rolling[3 * k + 1] = xr.y, rolling[3 * k + 2] = xr.z;
       twist[k] = r.history.twist;
@@ -153,9 +152,8 @@ std::size_t pair_loop(const ContactParams& law, State& state, double dt, const H
   std::vector<Partial> partial(blocks);
   std::size_t handed_over = 0;
   // The rotational springs (rebuild_pairs sizes them for a law that has them).
-  const bool rotational = !pl.rolling.empty();
-  double* const rolling = rotational ? pl.rolling.data()->data() : nullptr;
-  double* const twist = rotational ? pl.twist.data() : nullptr;
+  double* const rolling = Law::rotational ? pl.rolling.data()->data() : nullptr;
+  double* const twist = Law::rotational ? pl.twist.data() : nullptr;
 
 #pragma omp parallel
   {

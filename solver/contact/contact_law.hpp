@@ -41,6 +41,7 @@ struct Law {
   static constexpr TwistingModel twisting = W;
   static constexpr bool contact_radius = N == NormalModel::Hertz || T == TangentialModel::Mindlin ||
                                          W == TwistingModel::Marshall;  // a = sqrt(R* d) is needed
+  static constexpr bool rotational = R != RollingModel::None || W != TwistingModel::None;  // rolling/twist springs
 };
 using LinearLaw = Law<NormalModel::Linear, TangentialModel::LinearHistory, RollingModel::None, TwistingModel::None>;
 

@@ -125,10 +125,8 @@ std::vector<std::pair<std::string, Deck>> contact_law_variants(const Deck& deck)
   // tangent stiffness 2 E* sqrt(R* overlap) is kn there (R* of two mean spheres).
   const double d_mean = mean_diameter(d.sample);
   c.normal = NormalModel::Hertz;
-  c.youngs_modulus = 1.0;
   c.poisson_ratio = 0.25;
-  const double largest_force_overlap = default_reference_overlap(deck);  // linear: 10 F(3 p) / kn
-  const double overlap = largest_force_overlap / 30.0;                    // F(p) / kn
+  const double overlap = mean_contact_force(deck.sample, largest_deck_stress(deck)) / deck.contact.kn;
   const double e_eff = deck.contact.kn / (2.0 * std::sqrt(0.25 * d_mean * overlap));
   c.youngs_modulus = e_eff * 2.0 * (1.0 - c.poisson_ratio * c.poisson_ratio);
   c.kn = 0.0;
