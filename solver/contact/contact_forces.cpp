@@ -17,12 +17,6 @@ constexpr std::size_t kBlock = 256;
 // Pairs evaluated together by the SIMD loop before their in-order sums (small enough to stay in L1).
 constexpr int kChunk = 64;
 
-struct Partial {
-  Vec3 normal_sum = Vec3::Zero();     // sum of force_k branch_k [N m]
-  Vec3 stiffness_sum = Vec3::Zero();  // sum of kn (n_k l_k)^2 [N m]
-  std::int64_t touching = 0;
-};
-
 // A chunk of pairs in SIMD form: the particle data of both ends gathered component-major, one lane per
 // pair, so that the law runs on unit-stride loads; the pair arrays themselves are read and written in place.
 struct ChunkIn {
@@ -139,76 +133,54 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
   block = s;
 }
 
-// Diagonal: the cell and the velocity gradient are diagonal (principal-axis loading, the common case); the
-// products with h and L then skip their zero terms, which gives the same numbers bit for bit.
+// The calling thread's share of the pairs (a contiguous run of blocks with about equal numbers of pairs;
+// the sums do not depend on which thread takes which block). Diagonal: the cell and the velocity gradient
+// are diagonal (principal-axis loading, the common case); the products with h and L then skip their zero
+// terms, which gives the same numbers bit for bit.
 template <class Law, Kinematics K, bool Diagonal>
-std::size_t pair_loop(const ContactParams& law, State& state, double dt, const Handover& handover) {
+void evaluate_share(const ContactParams& law, State& state, double dt, std::vector<ContactBlockSums>& partial,
+                    const BlocksDone& blocks_done) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
   const Mat3 h = state.cell.h;
   const Mat3 L = state.cell.velocity_gradient;
   const std::size_t n = p.size();
-  const std::size_t blocks = (n + kBlock - 1) / kBlock;
-  std::vector<Partial> partial(blocks);
-  std::size_t handed_over = 0;
+  const std::size_t blocks = partial.size();
   // The rotational springs (rebuild_pairs sizes them for a law that has them).
   double* const rolling = Law::rotational ? pl.rolling.data()->data() : nullptr;
   double* const twist = Law::rotational ? pl.twist.data() : nullptr;
-
-#pragma omp parallel
-  {
-    const bool one_thread = omp_get_num_threads() == 1;
-    const bool hand_over_blocks = one_thread && handover.blocks_done;
-    ChunkIn in;
-    ChunkOut out;
-    // Each thread a contiguous run of blocks with about equal numbers of pairs. The sums do not depend on
-    // which thread takes which block.
-    const auto [first_block, last_block] =
-        thread_share(blocks, [&](std::size_t b) { return pl.first[std::min(n, b * kBlock)]; });
-    for (std::size_t b = first_block; b < last_block; ++b) {
-      BlockSums sums;
-      const std::size_t first_owner = b * kBlock, last_owner = std::min(n, (b + 1) * kBlock);
-      // The owner's share of the net force and moment, summed here in pair order; the gather adds the pairs
-      // where the particle is the neighbour.
-      for (std::size_t i = first_owner; i < last_owner; ++i) {
-        p.force[i].setZero();
-        p.torque[i].setZero();
-      }
-      const Index begin = pl.first[first_owner], end = pl.first[last_owner];
-      for (Index q0 = begin; q0 < end; q0 += kChunk) {
-        const int m = std::min<Index>(kChunk, end - q0);
-        gather_chunk(p, pl, q0, m, in);
-        evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(), rolling ? rolling + 3 * q0 : nullptr,
-                                         twist ? twist + q0 : nullptr, pl.force[q0].data(), pl.torque_j[q0].data(), out);
-        sum_chunk(out, q0, m, pl, pl.flags.data(), p.force.data()->data(), p.torque.data()->data(), sums);
-      }
-      partial[b].normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
-      partial[b].stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
-      partial[b].touching = sums.touching;
-      if (hand_over_blocks) {
-        handover.blocks_done(first_owner, last_owner);
-        handed_over = last_owner;
-      }
+  ChunkIn in;
+  ChunkOut out;
+  const auto [first_block, last_block] =
+      thread_share(blocks, [&](std::size_t b) { return pl.first[std::min(n, b * kBlock)]; });
+  for (std::size_t b = first_block; b < last_block; ++b) {
+    BlockSums sums;
+    const std::size_t first_owner = b * kBlock, last_owner = std::min(n, (b + 1) * kBlock);
+    // The owner's share of the net force and moment, summed here in pair order; the gather adds the pairs
+    // where the particle is the neighbour.
+    for (std::size_t i = first_owner; i < last_owner; ++i) {
+      p.force[i].setZero();
+      p.torque[i].setZero();
     }
-    if (!one_thread && handover.share_done) {
-#pragma omp barrier
-      handover.share_done();
-#pragma omp single nowait
-      handed_over = n;
+    const Index begin = pl.first[first_owner], end = pl.first[last_owner];
+    for (Index q0 = begin; q0 < end; q0 += kChunk) {
+      const int m = std::min<Index>(kChunk, end - q0);
+      gather_chunk(p, pl, q0, m, in);
+      evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(), rolling ? rolling + 3 * q0 : nullptr,
+                                       twist ? twist + q0 : nullptr, pl.force[q0].data(), pl.torque_j[q0].data(), out);
+      sum_chunk(out, q0, m, pl, pl.flags.data(), p.force.data()->data(), p.torque.data()->data(), sums);
     }
+    partial[b].normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
+    partial[b].stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
+    partial[b].touching = sums.touching;
+    if (blocks_done) blocks_done(first_owner, last_owner);
   }
+}
 
-  Partial total;
-  for (const Partial& part : partial) {
-    total.normal_sum += part.normal_sum;
-    total.stiffness_sum += part.stiffness_sum;
-    total.touching += part.touching;
-  }
-  const double volume = state.cell.volume();
-  state.normal_stress = total.normal_sum / volume;
-  state.axis_stiffness = total.stiffness_sum / volume;
-  state.touching = total.touching;
-  return handed_over;
+// The law's share function for the deck's law and the cell's shape: the one run-time choice of the loop.
+template <class Law, Kinematics K>
+ContactForceEvaluation::ShareFn share_for(bool diagonal) {
+  return diagonal ? &evaluate_share<Law, K, true> : &evaluate_share<Law, K, false>;
 }
 
 }  // namespace
@@ -237,22 +209,45 @@ Mat3 contact_stress(const State& state) {
   return 0.5 * (total + total.transpose()) / state.cell.volume();
 }
 
-std::size_t compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip,
-                                   const Handover& handover) {
-  const double dt = advance_slip ? model.dt : 0.0;
-  const ContactParams params = contact_params(model.contact, friction);
+ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Friction& friction, State& state,
+                                               bool advance_slip)
+    : params_(contact_params(model.contact, friction)),
+      state_(state),
+      dt_(advance_slip ? model.dt : 0.0),
+      partial_((state.particles.size() + kBlock - 1) / kBlock) {
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
   if (model.contact.rotational_history() && state.pairs.rolling.size() != state.pairs.size())
     throw std::logic_error("compute_contact_forces: the pair list has no rotational springs (rebuild it first)");
-  return with_law(model.contact, [&](auto law) {
+  share_ = with_law(model.contact, [&](auto law) {
     using Law = decltype(law);
-    if (model.kinematics == Kinematics::Affine)
-      return diagonal ? pair_loop<Law, Kinematics::Affine, true>(params, state, dt, handover)
-                      : pair_loop<Law, Kinematics::Affine, false>(params, state, dt, handover);
-    return diagonal ? pair_loop<Law, Kinematics::Lammps, true>(params, state, dt, handover)
-                    : pair_loop<Law, Kinematics::Lammps, false>(params, state, dt, handover);
+    return model.kinematics == Kinematics::Affine ? share_for<Law, Kinematics::Affine>(diagonal)
+                                                  : share_for<Law, Kinematics::Lammps>(diagonal);
   });
+}
+
+void ContactForceEvaluation::evaluate_share(const BlocksDone& blocks_done) {
+  share_(params_, state_, dt_, partial_, blocks_done);
+}
+
+void ContactForceEvaluation::finish() {
+  ContactBlockSums total;
+  for (const ContactBlockSums& part : partial_) {
+    total.normal_sum += part.normal_sum;
+    total.stiffness_sum += part.stiffness_sum;
+    total.touching += part.touching;
+  }
+  const double volume = state_.cell.volume();
+  state_.normal_stress = total.normal_sum / volume;
+  state_.axis_stiffness = total.stiffness_sum / volume;
+  state_.touching = total.touching;
+}
+
+void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip) {
+  ContactForceEvaluation forces(model, friction, state, advance_slip);
+#pragma omp parallel
+  forces.evaluate_share();
+  forces.finish();
 }
 
 }  // namespace celldem

@@ -2,6 +2,7 @@
 // control needs (stress, axis stiffness, contact count).
 #pragma once
 #include <functional>
+#include <vector>
 
 #include "contact/contact_law.hpp"
 #include "core/model.hpp"
@@ -12,18 +13,34 @@ namespace celldem {
 // Evaluates all pairs at the current positions with the half-step velocities, stores per-pair forces and
 // moments and the new history, and sets state.normal_stress, state.axis_stiffness and state.touching.
 // With advance_slip = false no slip is added (the forces of the state as it stands, e.g. at a stage start).
-//
-// What may follow inside the loop's parallel region, while the data are in cache and without another fork:
-// on one thread, blocks_done(begin, end) after each block of owners (every pair of the particles in
-// [begin, end) has then been evaluated: a pair's owner has the lower id, so their net forces can be
-// completed; later pairs never read them again); on more threads, share_done() by every thread once all
-// pairs are evaluated (after a barrier). Returns how many particles, from the first, were handed over.
-struct Handover {
-  std::function<void(std::size_t begin, std::size_t end)> blocks_done;  // one thread
-  std::function<void()> share_done;                                     // more threads: this thread's share
+void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
+
+// The same evaluation inside a parallel region the caller owns (the time step's, which spans many steps):
+// every thread calls evaluate_share() once, then one thread calls finish() once all have returned.
+// blocks_done(begin, end), if given, is called after each block of owners: every pair of the particles in
+// [begin, end) has then been evaluated by this thread; on one thread their net forces can then be
+// completed while in cache (a pair's owner has the lower id; later pairs never read them again).
+using BlocksDone = std::function<void(std::size_t begin, std::size_t end)>;
+struct ContactBlockSums {             // one block of owners' share of the reductions
+  Vec3 normal_sum = Vec3::Zero();     // sum of force_k branch_k [N m]
+  Vec3 stiffness_sum = Vec3::Zero();  // sum of kn (n_k l_k)^2 [N m]
+  std::int64_t touching = 0;
 };
-std::size_t compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true,
-                                   const Handover& handover = {});
+class ContactForceEvaluation {
+ public:
+  ContactForceEvaluation(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
+  void evaluate_share(const BlocksDone& blocks_done = {});
+  void finish();  // the reductions, summed block by block in order: the same for any thread count
+
+  using ShareFn = void (*)(const ContactParams&, State&, double, std::vector<ContactBlockSums>&, const BlocksDone&);
+
+ private:
+  ContactParams params_;
+  State& state_;
+  double dt_;
+  std::vector<ContactBlockSums> partial_;
+  ShareFn share_;
+};
 
 // The full contact stress tensor [Pa] (symmetric part, compression positive) of the last force
 // evaluation, sum of force (x) branch over the contacts divided by the cell volume. The step keeps only

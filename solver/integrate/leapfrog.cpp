@@ -65,20 +65,27 @@ void gather_and_kick(const Model& model, State& state, std::size_t first) {
   }
 }
 
-double drift(const Model& model, const Mat3& h_before, State& state) {
+double drift_share(const Model& model, const Mat3& h_before, State& state) {
   Particles& p = state.particles;
   const PairList& pl = state.pairs;
   const Mat3 step_map = model.dt * (0.5 * (h_before + state.cell.h)).inverse();
   const Mat3& h = state.cell.h;
   const std::size_t n = p.size();
   const bool built = pl.first.size() == n + 1 && pl.scaled_at_build.size() == n;
-  double max_disp2 = 0.0;  // a maximum: the same whatever the order
-#pragma omp parallel for schedule(static) reduction(max : max_disp2)
-  for (std::size_t i = 0; i < n; ++i) {
+  const auto [begin, end] = thread_share(n, [](std::size_t k) { return k; });
+  double max_disp2 = 0.0;
+  for (std::size_t i = begin; i < end; ++i) {
     p.scaled[i] += step_map * p.velocity[i];
     if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i])).squaredNorm());
   }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
+}
+
+double drift(const Model& model, const Mat3& h_before, State& state) {
+  double largest = 0.0;  // a maximum: the same whatever the order
+#pragma omp parallel reduction(max : largest)
+  largest = std::max(largest, drift_share(model, h_before, state));
+  return largest;
 }
 
 }  // namespace celldem

@@ -25,4 +25,8 @@ void gather_and_kick_share(const Model& model, State& state);
 // built (largest_move_since_build(), for the rebuild criterion).
 double drift(const Model& model, const Mat3& h_before, State& state);
 
+// The same for the calling thread's share of the particles, inside a parallel region; returns the largest
+// distance moved in that share.
+double drift_share(const Model& model, const Mat3& h_before, State& state);
+
 }  // namespace celldem

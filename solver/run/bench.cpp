@@ -69,7 +69,9 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   state.pairs.skin = skin_length(deck);
   const Loading loading{test.legs.front().axes, test.stage_friction()};
   evaluate_forces(model, test.stage_friction(), state);
-  for (std::int64_t k = 0; k < warmup; ++k) advance_one_step(model, loading, state);
+  bool rebuild = false;
+  std::int64_t done = 0;
+  if (warmup > 0) advance_steps(model, loading, state, rebuild, [&](bool) { return ++done < warmup; }, threads);
 
   ShearTiming t;
   std::string sink;
@@ -77,18 +79,22 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   std::int64_t rows = 0;
   using Clock = std::chrono::steady_clock;
   ThreadGovernor governor(governed ? threads : 1);
-  const auto start = Clock::now();
-  for (std::int64_t k = 1; k <= steps; ++k) {
-    t.rebuilds += advance_one_step(model, loading, state);
-    governor.step_done();
-    if (k % test.output_interval == 0) {
+  // As a run does: rows on one thread between steps, the region left when the governor changes the count.
+  done = 0;
+  const AfterStep after_step = [&](bool rebuilt) {
+    t.rebuilds += rebuilt;
+    const bool threads_changed = governor.step_done();
+    if (++done % test.output_interval == 0) {
       const auto r0 = Clock::now();
       sink += format_series_row(measure_series_row(model, state));
       row_seconds += std::chrono::duration<double>(Clock::now() - r0).count();
       ++rows;
       if (sink.size() > (1u << 20)) sink.clear();
     }
-  }
+    return done < steps && !threads_changed;
+  };
+  const auto start = Clock::now();
+  while (done < steps) advance_steps(model, loading, state, rebuild, after_step, governed ? governor.current() : threads);
   t.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   t.particle_steps_per_second = static_cast<double>(state.particles.size()) * steps / t.seconds;
   t.row_seconds = rows ? row_seconds / rows : 0.0;

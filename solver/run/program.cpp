@@ -112,26 +112,28 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   ControlState& c = state.control;
   bool rebuild = true;
   std::string status;
-  ThreadGovernor governor(program.adaptive_threads ? omp_get_max_threads() : 1);
+  const int threads = omp_get_max_threads();
+  ThreadGovernor governor(program.adaptive_threads ? threads : 1);
   for (;;) {
     const Leg& leg = program.legs[c.phase];
     const LegEndWatch watch(leg, model, state);
     const Loading loading{leg.axes, program.friction};
-    bool leg_over = false;
-    for (;;) {
-      if (watch.ended(model, state)) {  // on the state as it stands
-        leg_over = true;
-        break;
-      }
-      advance_one_step(model, loading, state, rebuild);
-      governor.step_done();
+    bool leg_over = watch.ended(model, state);  // on the state as it stands
+    bool leg_done = leg_over;                   // (or an equilibrium leg that is not the last reached it)
+    // After each step, on one thread; false to leave the steps' parallel region (the leg is over, or the
+    // governor changed the thread count: the loop goes on with the new count).
+    const AfterStep after_step = [&](bool) {
+      const bool threads_changed = governor.step_done();
       track_errors(leg, state, errors[c.phase]);
       if (leg.end.kind == LegEndKind::Equilibrium && c.phase_steps % program.equilibrium->check_interval == 0) {
         const EquilibriumDef& criterion = *program.equilibrium;
         const EquilibriumCheck eq =
             check_equilibrium(model, state, criterion, stress_targets(leg.axes, state.normal_stress));
         status = eq.describe();
-        if (eq.reached && c.phase_steps >= criterion.min_steps) break;  // before the step's row
+        if (eq.reached && c.phase_steps >= criterion.min_steps) {  // before the step's row
+          leg_done = true;
+          return false;
+        }
         if (c.phase_steps >= (leg.end.max_steps > 0 ? leg.end.max_steps : criterion.max_steps))
           throw RunError("the preparation did not reach equilibrium in " + std::to_string(c.phase_steps) +
                          " servo steps (" + status + "); raise prepare.equilibrium.max_steps or relax its tolerances");
@@ -140,7 +142,11 @@ void run_program(const Model& model, const Program& program, State& state, Stage
                                   ? static_cast<double>(c.stage_steps) / static_cast<double>(program.planned_steps)
                                   : -1.0;
       rebuild = out.after_step(state, fraction, status);
-    }
+      leg_over = leg_done = watch.ended(model, state);  // for the next step
+      return !leg_over && !threads_changed;
+    };
+    while (!leg_done)
+      advance_steps(model, loading, state, rebuild, after_step, program.adaptive_threads ? governor.current() : threads);
     if (static_cast<std::size_t>(c.phase) + 1 == program.legs.size()) return;
     if (!leg_over) rebuild = out.after_step(state, -1.0, status);  // an equilibrium leg that is not the last
     begin_leg(state, c.phase + 1);

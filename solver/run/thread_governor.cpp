@@ -1,23 +1,18 @@
 #include "run/thread_governor.hpp"
 
-#include <omp.h>
-
 namespace celldem {
 
 ThreadGovernor::ThreadGovernor(int threads, std::int64_t period, std::int64_t window)
     : threads_(threads), period_(period), window_(window), current_(threads), chosen_(threads) {}
 
-ThreadGovernor::~ThreadGovernor() {
-  if (threads_ > 1) omp_set_num_threads(threads_);
-}
-
-void ThreadGovernor::use(int threads) {
-  if (threads != current_) omp_set_num_threads(threads);
+bool ThreadGovernor::use(int threads) {
+  const bool changed = threads != current_;
   current_ = threads;
+  return changed;
 }
 
-void ThreadGovernor::step_done() {
-  if (threads_ <= 1) return;
+bool ThreadGovernor::step_done() {
+  if (threads_ <= 1) return false;
   ++steps_;
   switch (phase_) {
     case Phase::Running:
@@ -25,16 +20,16 @@ void ThreadGovernor::step_done() {
       // than one), the others every period.
       if (steps_ >= (trials_ == 0 ? 2 * window_ : period_)) {
         phase_ = Phase::TryingMany, steps_ = 0;
-        use(threads_);
         start_ = Clock::now();
+        return use(threads_);
       }
       break;
     case Phase::TryingMany:
       if (steps_ >= window_) {
         many_seconds_ = std::chrono::duration<double>(Clock::now() - start_).count();
         phase_ = Phase::TryingOne, steps_ = 0;
-        use(1);
         start_ = Clock::now();
+        return use(1);
       }
       break;
     case Phase::TryingOne:
@@ -44,11 +39,12 @@ void ThreadGovernor::step_done() {
         switches_ += faster != chosen_;
         chosen_ = faster;
         ++trials_;
-        use(faster);
         phase_ = Phase::Running, steps_ = 0;
+        return use(faster);
       }
       break;
   }
+  return false;
 }
 
 }  // namespace celldem

@@ -14,23 +14,22 @@ class ThreadGovernor {
   // threads: the stage's thread count (1: the governor does nothing). Every `period` steps it times
   // `window` steps on each count and keeps the faster until the next trial.
   explicit ThreadGovernor(int threads, std::int64_t period = 10000, std::int64_t window = 100);
-  ~ThreadGovernor();  // leaves OpenMP at the stage's thread count
-  ThreadGovernor(const ThreadGovernor&) = delete;
-  ThreadGovernor& operator=(const ThreadGovernor&) = delete;
 
-  void step_done();  // after each step: counts it, times trials, sets the OpenMP thread count
+  // After each step: counts it and times trials. Returns true when the thread count for the next steps,
+  // current(), has changed (the caller's parallel region must end for it to take effect).
+  bool step_done();
   int current() const { return current_; }
   int switches() const { return switches_; }  // trials that changed the count
   int trials() const { return trials_; }
 
  private:
   enum class Phase { Running, TryingMany, TryingOne };
-  void use(int threads);
+  bool use(int threads);
 
   using Clock = std::chrono::steady_clock;
   int threads_;
   std::int64_t period_, window_;
-  int current_;  // the OpenMP thread count now
+  int current_;  // the thread count for the steps now
   int chosen_;   // the count the last trial chose
   int switches_ = 0, trials_ = 0;
   Phase phase_ = Phase::Running;

@@ -1,0 +1,116 @@
+// The step loop (solver/step.cpp, advance_steps): many steps in one parallel region give the same bits as
+// one step at a time, on any thread count and however the run is cut into regions; an exception from
+// between the steps ends the region and reaches the caller; the spin barrier it relies on orders every
+// thread's writes before the others' reads.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <stdexcept>
+
+#include "core/parallel.hpp"
+#include "helpers.hpp"
+#include "step.hpp"
+
+namespace celldem {
+namespace {
+
+constexpr int kSteps = 60;
+
+// Jostled spheres under an axial strain: the cell moves, contacts form, slide and part, and the list is
+// rebuilt now and then.
+struct Scene {
+  Model model;
+  Loading loading;
+  State state;
+};
+Scene scene() {
+  State s = testing::jostled_lattice(6, 7, 0.02, 0.5, 0.5);
+  const Deck deck = testing::model_deck(1e4, 1e4, 1e-3, testing::kUnitMassDensity, 0.1, 0.1);
+  const AxisControl fixed{AxisMode::StrainIncrement, 0.0};
+  const Loading loading{{AxisControl{AxisMode::StrainIncrement, 5e-4}, fixed, fixed}, 0.3};
+  return {make_model(deck, s.particles.radius), loading, std::move(s)};
+}
+
+void expect_same_bits(const State& a, const State& b) {
+  ASSERT_EQ(a.particles.size(), b.particles.size());
+  EXPECT_EQ(a.cell.h, b.cell.h);
+  EXPECT_EQ(a.normal_stress, b.normal_stress);
+  EXPECT_EQ(a.touching, b.touching);
+  EXPECT_EQ(a.control.stage_steps, b.control.stage_steps);
+  EXPECT_EQ(a.time, b.time);
+  for (std::size_t i = 0; i < a.particles.size(); ++i) {
+    EXPECT_EQ(a.particles.scaled[i], b.particles.scaled[i]) << i;
+    EXPECT_EQ(a.particles.velocity[i], b.particles.velocity[i]) << i;
+    EXPECT_EQ(a.particles.spin[i], b.particles.spin[i]) << i;
+  }
+  ASSERT_EQ(a.pairs.size(), b.pairs.size());
+  for (std::size_t q = 0; q < a.pairs.size(); ++q) EXPECT_EQ(a.pairs.tangential[q], b.pairs.tangential[q]) << q;
+}
+
+TEST(StepLoop, ManyStepsInOneRegionEqualOneStepAtATime) {
+  Scene one_at_a_time = scene();
+  int rebuilds = 0;
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  for (int k = 0; k < kSteps; ++k)
+    rebuilds += advance_one_step(one_at_a_time.model, one_at_a_time.loading, one_at_a_time.state, k == 0);
+  omp_set_num_threads(saved);
+  ASSERT_GT(one_at_a_time.state.touching, 0);
+  ASSERT_GT(rebuilds, 1);  // the list was rebuilt on the way, not only at the start
+
+  for (int threads : {1, 2, 3}) {
+    Scene s = scene();
+    bool rebuild = true;
+    int done = 0;
+    while (done < kSteps)
+      advance_steps(s.model, s.loading, s.state, rebuild, [&](bool) { return ++done < kSteps; }, threads);
+    SCOPED_TRACE(threads);
+    expect_same_bits(one_at_a_time.state, s.state);
+  }
+  // Cut into regions of 7 steps with the team changing between them, as the thread governor does.
+  Scene s = scene();
+  bool rebuild = true;
+  int done = 0;
+  for (int region = 0; done < kSteps; ++region)
+    advance_steps(s.model, s.loading, s.state, rebuild, [&](bool) { return ++done % 7 != 0 && done < kSteps; },
+                  1 + region % 3);
+  expect_same_bits(one_at_a_time.state, s.state);
+}
+
+TEST(StepLoop, AnExceptionBetweenStepsEndsTheRegionAndReachesTheCaller) {
+  for (int threads : {1, 2}) {
+    Scene s = scene();
+    bool rebuild = true;
+    int done = 0;
+    EXPECT_THROW(advance_steps(s.model, s.loading, s.state, rebuild,
+                               [&](bool) -> bool {
+                                 if (++done == 5) throw std::runtime_error("stop");
+                                 return true;
+                               },
+                               threads),
+                 std::runtime_error);
+    EXPECT_EQ(s.state.control.stage_steps, 5);  // no step after the one that threw
+  }
+}
+
+TEST(SpinBarrier, EveryThreadSeesTheOthersWritesOfThePhase) {
+  constexpr int kThreads = 3, kRounds = 300;
+  SpinBarrier barrier(kThreads);
+  int slot[kThreads] = {};
+  int wrong = 0;
+#pragma omp parallel num_threads(kThreads) reduction(+ : wrong)
+  {
+    const int t = omp_get_thread_num();
+    if (omp_get_num_threads() == kThreads)
+      for (int round = 1; round <= kRounds; ++round) {
+        slot[t] = round;
+        barrier.wait();
+        for (int u = 0; u < kThreads; ++u) wrong += slot[u] != round;
+        barrier.wait();  // nobody writes the next round before all have read this one
+      }
+  }
+  EXPECT_EQ(wrong, 0);
+}
+
+}  // namespace
+}  // namespace celldem

@@ -1,0 +1,158 @@
+#!/usr/bin/env bash
+# Tests tools/roofline.py (tools/celldem/roofline.py): the flop classifier on a synthetic objdump listing, the
+# callgrind parser on a synthetic profile (name compression, relative positions, the inclusive cost after calls=),
+# exact flop, division and step counts from the two together, the compulsory-bytes table, the command line's
+# refusals; then, where valgrind, objdump and g++ are installed and the paper's prepared sample exists, a short
+# real run (5 steps under callgrind, a 50-step bench: about 20 s) whose counts must be plausible.
+# Usage: bash tests/tools/test_roofline.sh [CELLDEM]      (exits non-zero on the first failure)
+source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
+CELLDEM="${1:-$ROOT/build/celldem}"
+
+echo "1. classifier, parser and counts on synthetic inputs"
+"$PY" - <<'EOF' || fail "classifier and parser"
+from celldem import roofline as rl
+from checking import check, done, error
+
+# One instruction per line as `objdump -d --no-show-raw-insn -C` prints it; flops per execution beside.
+listing = """
+0000000000001000 <celldem::(anonymous namespace)::evaluate_chunk<Law>(double*) [clone .arch_x86_64_v4]>:
+    1000:	vfmadd231pd %zmm1,%zmm2,%zmm3
+    1006:	vaddsd %xmm1,%xmm2,%xmm3
+    100a:	vmulpd %ymm1,%ymm2,%ymm3
+    100e:	vdivpd 0x40(%rax),%xmm1,%xmm2
+    1013:	vsqrtpd %zmm4,%zmm5{%k1}{z}
+    1019:	vcmppd $0x1,%ymm1,%ymm2,%ymm3
+    101e:	vxorpd %xmm0,%xmm0,%xmm0
+    1022:	vmovapd %zmm0,(%rdi)
+    1028:	addsd  %xmm1,%xmm0
+    102c:	vfnmadd213sd %xmm1,%xmm2,%xmm3
+    1031:	vmaxpd 0x8(%rip){1to8},%zmm2,%zmm3        # 2000 <kConstant>
+    1037:	vaddps %ymm1,%ymm2,%ymm3
+    103b:	vpaddq %zmm1,%zmm2,%zmm3
+    1041:	vcvtsi2sd %eax,%xmm1,%xmm1
+    1045:	ret
+
+0000000000002000 <celldem::advance_cell(celldem::Model const&)>:
+    2000:	vsubsd %xmm1,%xmm2,%xmm3
+    2004:	ret
+"""
+table = rl.flop_table(listing)
+want = {0x1000: (16, True, "fma"), 0x1006: (1, False, "add"), 0x100a: (4, True, "mul"), 0x100e: (2, True, "div"),
+        0x1013: (8, True, "sqrt"), 0x1028: (1, False, "add"), 0x102c: (2, False, "fma"), 0x1031: (8, True, "max"),
+        0x2000: (1, False, "sub")}
+check("flop table", table, want)
+check("one zmm FMA", rl.flops_of("vfmadd231pd", "%zmm1,%zmm2,%zmm3"), (16, True, "fma"))
+one = rl.parse_callgrind("positions: instr line\nevents: Ir\nsummary: 10\nob=(1) /fake/celldem\nfn=(1) f\n0x1000 0 10\n")
+check("one zmm FMA executed 10 times", rl.attribute(one, table, {"/fake/celldem"})["other"]["flops"], 160)
+check("single precision is not counted", rl.flops_of("vfmadd231ps", "%zmm1,%zmm2,%zmm3"), None)
+
+# A callgrind profile of those addresses: name compression "(id) name", relative positions, and a call whose
+# inclusive cost (the line after calls=) must not count as the caller's own.
+profile_text = """# callgrind format
+version: 1
+creator: test
+positions: instr line
+events: Ir
+summary: 57
+
+ob=(1) /fake/celldem
+fl=(1) ???
+fn=(1) celldem::(anonymous namespace)::evaluate_chunk<Law>(double*) [clone .arch_x86_64_v3]
+0x1000 0 10
++6 0 3
++4 0 5
++4 0 2
++5 0 1
+* 0 1
++6 0 4
++24 0 7
+-49 0 6
+cfn=(2) celldem::advance_cell(celldem::Model const&)
+calls=7 0x2000 0
+* 0 14
+fn=(2)
+0x2000 0 7
++4 0 7
+ob=(2) /usr/lib/libc.so.6
+fn=(3) memcpy
+0x500 0 4
+"""
+p = rl.parse_callgrind(profile_text)
+check("steps (calls of advance_cell)", p.calls_into(rl.STEP_COUNTER), 7)
+per = rl.attribute(p, table, {"/fake/celldem"})
+law, other = per["evaluate_chunk"], per["other"]
+# Positions: 0x1000, 0x1006, 0x100a, 0x100e, 0x1013 twice, 0x1019 (compare: no flop), 0x1031, 0x1000 again.
+check("evaluate_chunk flops", law["flops"], 16 * 16 + 3 * 1 + 5 * 4 + 2 * 2 + 2 * 8 + 7 * 8)
+check("evaluate_chunk instructions", law["instructions"], 10 + 3 + 5 + 2 + 1 + 1 + 4 + 7 + 6)
+check("division lanes", law["div_lanes"], 4)
+check("square-root lanes", law["sqrt_lanes"], 16)
+check("packed flops", law["packed_flops"], 16 * 16 + 5 * 4 + 2 * 2 + 2 * 8 + 7 * 8)
+check("advance_cell: own cost only, its flops", (other["instructions"], other["flops"]), (14 + 4, 7))
+check("libc: instructions, not flops", other["instructions_elsewhere"], 4)
+try:
+    rl.attribute(rl.parse_callgrind(profile_text.replace("summary: 57", "summary: 58")), table, {"/fake/celldem"})
+    error("a profile whose self costs do not sum to its summary is accepted")
+except rl.RooflineError:
+    pass
+
+# Kernels by name, callgrind's and perf's spellings.
+for name, kernel in (("celldem::drift_share(celldem::Model const&)", "drift"),
+                     ("celldem::(anonymous namespace)::gather_chunk", "gather_chunk"),
+                     ("void celldem::(anonymous namespace)::evaluate_share<Law, true>(...)", "pair_loop"),
+                     ("celldem::gather_and_kick_range(celldem::Model const&, ...)", "gather_and_kick_range"),
+                     ("celldem::(anonymous namespace)::find_candidates(...)", "neighbour"),
+                     ("GOMP_parallel", "other")):
+    check(f"kernel of {name}", rl.kernel_of(name), kernel)
+
+# The layout table: 200 B per particle and 97 per pair of memory (the bench's count), 260 + 121 moved per step,
+# 188 + 97 touched.
+b = rl.compulsory_bytes(1.0)
+check("footprint, one pair per particle", b["footprint"], 297.0)
+check("compulsory bytes, one pair per particle", b["step"], 381.0)
+check("touched bytes, one pair per particle", b["touched"], 285.0)
+check("evaluate_chunk's compulsory bytes per pair", rl.compulsory_bytes(2.0)["kernels"]["evaluate_chunk"], 192.0)
+done()
+EOF
+
+echo "2. the command line's refusals"
+mkdir -p "$TMP/out" "$TMP/bin"
+echo '{}' > "$TMP/out/roofline.json"
+if "$PY" "$ROOT/tools/roofline.py" --out "$TMP/out" --celldem /bin/true --deck "$TMP/out/roofline.json" \
+     --state "$TMP/out/roofline.json" 2> "$TMP/err"; then fail "overwrote roofline.json without --force"; fi
+grep -q "exists (give --force" "$TMP/err" || fail "no clear message for an existing roofline.json: $(cat "$TMP/err")"
+if PATH="$TMP/bin" "$PY" "$ROOT/tools/roofline.py" --out "$TMP/out" --force --celldem /bin/true \
+     --deck "$TMP/out/roofline.json" --state "$TMP/out/roofline.json" 2> "$TMP/err"; then
+  fail "ran without valgrind"
+fi
+grep -q "roofline needs valgrind" "$TMP/err" || fail "no clear message without valgrind: $(cat "$TMP/err")"
+
+echo "3. a short real run"
+STATE="$ROOT/results/paper/prepared.state"
+if ! command -v valgrind > /dev/null || ! command -v objdump > /dev/null || ! command -v g++ > /dev/null; then
+  echo "   skipped: valgrind, objdump or g++ is not installed"
+elif [[ ! -x $CELLDEM || ! -f $STATE ]]; then
+  echo "   skipped: no $CELLDEM or no $STATE (tools/paper.sh prepares it)"
+else
+  "$PY" "$ROOT/tools/roofline.py" --out "$TMP/real" --celldem "$CELLDEM" --state "$STATE" --callgrind-steps 5 \
+    --bench-steps 50 --bench-warmup 5 --bench-repeats 1 --copies 0 > "$TMP/log" 2>&1 \
+    || fail "the tool failed: $(tail -5 "$TMP/log")"
+  for f in roofline.json roofline.md roofline.png; do [[ -s $TMP/real/$f ]] || fail "no $f"; done
+  "$PY" - "$TMP/real/roofline.json" <<'EOF' || fail "implausible counts in a real run"
+import json, sys
+from checking import check, done, error
+r = json.load(open(sys.argv[1]))
+law = r["pair_law"]["flops_per_pair"]["value"]
+if not 100 <= law <= 250:
+    error(f"the linear law's flops per listed pair: {law:.1f}, expected 100 to 250")
+step = r["per_particle_step"]
+if not step["flops"]["value"] < step["instructions"]["value"] < 3000:
+    error(f"instructions per particle-step {step['instructions']['value']:.0f}, flops {step['flops']['value']:.0f}")
+if any("layout table" in n for n in r["notes"]):
+    error("the layout table disagrees with the bench's bytes per particle: " + str(r["notes"]))
+check("kernels", [k["kernel"] for k in r["kernels"]][:4], ["drift", "neighbour", "gather_chunk", "evaluate_chunk"])
+check("every instruction attributed", round(sum(k["instructions_per_particle_step"] for k in r["kernels"]), 6),
+      round(step["instructions"]["value"], 6))
+done()
+EOF
+fi
+echo "test_roofline: all passed"
