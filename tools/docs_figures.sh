@@ -7,6 +7,7 @@
 #   /usr/bin/python3 tools/failure_surface.py results/failure_surface --with results/paper
 #   /usr/bin/python3 tools/study.py run && /usr/bin/python3 tools/study.py analyse   (hours: optional)
 #   build/celldem bench --scaling --out results/bench-scaling && /usr/bin/python3 tools/plot_bench.py results/bench-scaling
+#   /usr/bin/python3 tools/roofline.py                               -> results/roofline/roofline.png (minutes)
 #   crosscheck/run_crosscheck.py ... (crosscheck/README.md; its reports are kept in crosscheck/reports/)
 # then: bash tools/docs_figures.sh. A picture whose run is missing is left as it is (and named).
 set -euo pipefail
@@ -44,3 +45,4 @@ copy results/study/figures/stability.png study_stability.png
 copy crosscheck/reports/paper-lammps/ttc.png crosscheck_lammps_ttc.png
 copy crosscheck/reports/paper-lammps/psc.png crosscheck_lammps_psc.png
 copy results/bench-scaling/scaling.png bench_scaling.png
+copy results/roofline/roofline.png roofline.png
