@@ -35,13 +35,18 @@ struct Particles {
 // Pair flags.
 enum PairFlag : std::uint8_t { kTouching = 1, kSliding = 2 };
 
+// A pair's periodic image in whole cells. Positions are never wrapped, so this is the difference of the two
+// particles' unwrapped cells: a few at most; 16 bits leave room for particles that crossed the cell thousands
+// of times (rebuild_pairs refuses more) and keep the pair arrays small.
+using PairImage = std::array<std::int16_t, 3>;
+
 // Half neighbour list in CSR form, pair p = (i, neighbor[p]) for p in [first[i], first[i+1]), sorted by j,
 // each pair with its periodic image and the history of its contact. Pairs not touching have zero history.
 struct PairList {
   std::vector<Index> first;                      // (N+1) offsets into the pair arrays
   std::vector<Index> owner;                      // (P) i of each pair
   std::vector<Index> neighbor;                   // (P) j of each pair, j > i or an image of a lower id
-  std::vector<std::array<std::int32_t, 3>> image; // (P) integer shift n: branch = h (s_j - s_i + n)
+  std::vector<PairImage> image;                  // (P) integer shift n: branch = h (s_j - s_i + n)
   std::vector<Vec3> tangential;                  // (P) xi [m], stored tangential spring displacement
   // The rotational springs, only with a law that has them (ContactDef::rotational_history(); else empty).
   std::vector<Vec3> rolling;                     // (P or 0) [m] stored rolling displacement

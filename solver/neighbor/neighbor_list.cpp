@@ -1,6 +1,7 @@
 #include "neighbor/neighbor_list.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -19,7 +20,7 @@ namespace {
 
 struct Candidate {
   Index j;
-  std::array<std::int32_t, 3> image;
+  PairImage image;
 };
 
 // Lists, for each particle, the neighbours j > i (any image) within r_i + r_j + skin.
@@ -63,6 +64,7 @@ void find_candidates(const State& state, double skin, double max_radius,
   }
 
   out.assign(n, {});
+  std::atomic<bool> image_overflow{false};
   // Each particle's list is its own, sorted by j: the result does not depend on the threads.
 #pragma omp parallel for schedule(dynamic, 64)
   for (std::size_t i = 0; i < n; ++i) {
@@ -76,7 +78,14 @@ void find_candidates(const State& state, double skin, double max_radius,
       for (int k = 0; k < 3; ++k) n[k] = img[k] + cell_of[i][k] - cell_of[j][k];
       const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(n[0], n[1], n[2]);
       const double reach = ri + p.radius[j] + skin;
-      if ((h * ds).squaredNorm() < reach * reach) out[i].push_back({j, n});
+      if ((h * ds).squaredNorm() >= reach * reach) return;
+      PairImage stored;
+      for (int k = 0; k < 3; ++k) {
+        if (n[k] < std::numeric_limits<std::int16_t>::min() || n[k] > std::numeric_limits<std::int16_t>::max())
+          image_overflow.store(true, std::memory_order_relaxed);  // (no throwing out of a parallel loop)
+        stored[k] = static_cast<std::int16_t>(n[k]);
+      }
+      out[i].push_back({j, stored});
     };
     if (use_bins) {
       for (int dz = -1; dz <= 1; ++dz)
@@ -105,6 +114,10 @@ void find_candidates(const State& state, double skin, double max_radius,
     }
     std::sort(out[i].begin(), out[i].end(), [](const Candidate& a, const Candidate& b) { return a.j < b.j; });
   }
+  if (image_overflow)
+    throw std::runtime_error("two neighbours are more than 32767 cells apart in their unwrapped positions (more "
+                             "than a pair image holds): particles have crossed the periodic cell that often only "
+                             "if the sample was stirred far beyond any granular test");
 }
 
 void build_incoming_index(PairList& pl, std::size_t n) {

@@ -54,7 +54,7 @@ void expect_same_pair_result(const PairSetup& straddling, const PairSetup& inter
   const int qa = find_pair(a.pairs, 0, 1), qb = find_pair(b.pairs, 0, 1);
   ASSERT_GE(qa, 0);
   ASSERT_GE(qb, 0);
-  EXPECT_NE(a.pairs.image[qa], (std::array<std::int32_t, 3>{0, 0, 0}));  // really across the boundary
+  EXPECT_NE(a.pairs.image[qa], (PairImage{0, 0, 0}));  // really across the boundary
   compute_contact_forces(model, 0.5, a);
   compute_contact_forces(model, 0.5, b);
   ASSERT_EQ(a.pairs.flags[qa] & kTouching, kTouching);

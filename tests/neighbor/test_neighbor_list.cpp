@@ -123,6 +123,21 @@ TEST(NeighborList, CellTooSmallForParticlesThrows) {
   EXPECT_THROW(rebuild_pairs(model, s), std::runtime_error);
 }
 
+TEST(NeighborList, ImagesBeyondSixteenBitsAreRefusedNotWrapped) {
+  // Two touching spheres, one of them carried 40,000 cells away in its unwrapped position: the same
+  // contact, but an image the pair arrays cannot hold.
+  State s = testing::lattice_state(4, 0.5, Vec3(0.98, 0.98, 0.98), 0.1);
+  const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-3), s.particles.radius);
+  rebuild_pairs(model, s);
+  EXPECT_GT(s.pairs.size(), 0u);
+  s.particles.scaled[5].x() += 40000.0;
+  EXPECT_THROW(rebuild_pairs(model, s), std::runtime_error);
+  s.particles.scaled[5].x() -= 40000.0 - 30000.0;  // 30,000 cells: still held, and the same pairs
+  const std::size_t pairs = s.pairs.size();
+  rebuild_pairs(model, s);
+  EXPECT_EQ(s.pairs.size(), pairs);
+}
+
 TEST(NeighborList, HistoryCarriedOverRebuild) {
   State s = random_state(Mat3::Identity() * 8.0, 200, 0.35, 0.55, 9, 0.2);
   const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
