@@ -4,7 +4,8 @@ results beside the paper's; for an ensemble folder (ensemble.json, seed-<k>/) th
 and statistical verdicts.
 
 Usage: /usr/bin/python3 tools/report.py RUN_DIR [--refresh-figures] [--paper | --no-paper]
-The figures are (re)drawn into RUN_DIR/figures when any is missing, or always with --refresh-figures.
+The figures are (re)drawn into RUN_DIR/figures when any is missing or older than a file of the run (a test that went
+on, an ensemble that gained seeds), or always with --refresh-figures.
 The paper's comparison is made when the run is the paper's deck (its scene, tests named ttc/psc); --paper forces
 it, --no-paper leaves it out. The report is tools/celldem/report.py (ensembles: ensemble_report.py).
 """

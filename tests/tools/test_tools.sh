@@ -148,6 +148,17 @@ echo "2. run whose tests diverge: report.py alone draws the missing figures"
 check_pngs "$TMP/diverging/figures"
 check_report "$TMP/diverging" diverging || fail "report of the diverging run"
 
+echo "2b. figures older than the run's data are redrawn; up-to-date ones are kept"
+fig="$TMP/diverging/figures/fig02_stress_ratio.png"
+touch -d "2000-01-01" "$TMP/diverging/figures/"*.png
+touch -d "2000-01-02" $(find "$TMP/diverging" -type f ! -path "*/figures/*")
+"$PY" "$ROOT/tools/report.py" "$TMP/diverging" >/dev/null || fail "report.py failed"
+[[ $(stat -c %Y "$fig") -gt $(date -d "2001-01-01" +%s) ]] || fail "a figure older than the run's series was not redrawn"
+touch -d "2000-01-01" $(find "$TMP/diverging" -type f ! -path "*/figures/*")
+before=$(stat -c %Y "$fig")
+"$PY" "$ROOT/tools/report.py" "$TMP/diverging" >/dev/null || fail "report.py failed"
+[[ $(stat -c %Y "$fig") -eq $before ]] || fail "an up-to-date figure was redrawn"
+
 echo "3. one test, optional columns and the prepared stage missing: no empty figure, no row of n/a, not a crash"
 "$PY" "$ROOT/tests/tools/make_fake_run.py" "$TMP/partial" --only ttc --no-prepared --no-columns-json \
   --reverse-columns --drop-columns Hs11_Hs33,Hs11,Hw11_Hw33,DI,Zm,sin_phi,kinetic_energy,unbalanced_force

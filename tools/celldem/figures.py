@@ -380,3 +380,18 @@ def write_figures(run, fig_dir, paper=False):
 def missing(fig_dir, planned):
     """Whether any planned figure is missing from fig_dir."""
     return not all(os.path.isfile(p) for p in figure_paths(fig_dir, planned))
+
+
+def stale(fig_dir, planned, run_dir):
+    """Whether any planned figure is missing, or older than a file of the run it is drawn from (a test that
+    went on, an ensemble that gained seeds): every file under run_dir but figures and reports (an ensemble's
+    members have their own)."""
+    if missing(fig_dir, planned):
+        return True
+    oldest_figure = min(os.path.getmtime(p) for p in figure_paths(fig_dir, planned))
+    for root, dirs, files in os.walk(run_dir):
+        dirs[:] = [d for d in dirs if d != "figures"]
+        for name in files:
+            if name != "report.md" and os.path.getmtime(os.path.join(root, name)) > oldest_figure:
+                return True
+    return False

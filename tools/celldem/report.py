@@ -479,13 +479,14 @@ def build_report(run, paper, planned):
 
 
 def write_report(run, refresh_figures=False, paper=None):
-    """Draws the figures when any is missing (or always with refresh_figures), writes report.md; returns its path.
+    """Draws the figures when any is missing or older than the run's files (or always with refresh_figures), writes
+    report.md; returns its path.
     paper None: the paper's comparison when the run is the paper's deck (scenes.is_paper); True forces it. An
     Ensemble gets ensemble_report's report."""
     paper = scenes.is_paper(run) if paper is None else paper
     planned = figures.plan(run, paper)
     fig_dir = os.path.join(run.directory, "figures")
-    if refresh_figures or figures.missing(fig_dir, planned):
+    if refresh_figures or figures.stale(fig_dir, planned, run.directory):
         figures.write_figures(run, fig_dir, paper)
     if isinstance(run, Ensemble):
         from . import ensemble_report  # imports this module
