@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
-# Configures and builds celldem (Release) into build/ (or $CELLDEM_BUILD_DIR).
+# Configures and builds celldem (Release) into build/ (or $CELLDEM_BUILD_DIR): everything, or only the
+# targets named in $CELLDEM_TARGETS (e.g. CELLDEM_TARGETS=celldem: the binary without the test suite).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir="${CELLDEM_BUILD_DIR:-build}"
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
-cmake --build "$build_dir" -j "$(nproc)"
+targets=()
+for t in ${CELLDEM_TARGETS:-}; do targets+=(--target "$t"); done
+cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}"
