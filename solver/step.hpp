@@ -10,8 +10,9 @@
 namespace celldem {
 
 // What runs after each step, on one thread while the others wait (series rows, checks, the thread
-// governor: it may only choose the team of the next call). rebuilt: whether the step rebuilt the neighbour list. Returns whether to go on in the same
-// parallel region; it sets force_rebuild (advance_steps' argument) for the next step.
+// governor, which can only choose the team of the next call). rebuilt: whether the step rebuilt the
+// neighbour list. Returns whether to go on in the same parallel region; it may set force_rebuild
+// (advance_steps' argument) for the next step.
 using AfterStep = std::function<bool(bool rebuilt)>;
 
 // Advances the state step after step until after_step says stop, and the control's step counters with it.

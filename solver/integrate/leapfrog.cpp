@@ -23,20 +23,17 @@ inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   p.torque[i] = t;
 }
 
-// The calling thread's share of particles [first, N): a contiguous range with about equal work (incoming
-// pairs plus the particle itself).
-std::pair<std::size_t, std::size_t> gather_share(const PairList& pl, std::size_t first, std::size_t n) {
-  const auto [begin, end] = thread_share(n - first, [&](std::size_t k) {
-    return static_cast<std::size_t>(pl.incoming_first[first + k] - pl.incoming_first[first]) + k;
-  });
-  return {first + begin, first + end};
+// The calling thread's share of the particles: a contiguous range with about equal work (incoming pairs
+// plus the particle itself).
+std::pair<std::size_t, std::size_t> gather_share(const PairList& pl, std::size_t n) {
+  return thread_share(n, [&](std::size_t k) { return static_cast<std::size_t>(pl.incoming_first[k]) + k; });
 }
 }  // namespace
 
 void gather_forces(State& state) {
 #pragma omp parallel
   {
-    const auto [begin, end] = gather_share(state.pairs, 0, state.particles.size());
+    const auto [begin, end] = gather_share(state.pairs, state.particles.size());
     for (std::size_t i = begin; i < end; ++i) gather(state.pairs, state.particles, i);
   }
 }
@@ -51,18 +48,13 @@ void gather_and_kick_range(const Model& model, State& state, std::size_t begin, 
 }
 
 void gather_and_kick_share(const Model& model, State& state) {
-  const auto [begin, end] = gather_share(state.pairs, 0, state.particles.size());
+  const auto [begin, end] = gather_share(state.pairs, state.particles.size());
   gather_and_kick_range(model, state, begin, end);
 }
 
-void gather_and_kick(const Model& model, State& state, std::size_t first) {
-  const std::size_t n = state.particles.size();
-  if (first >= n) return;
+void gather_and_kick(const Model& model, State& state) {
 #pragma omp parallel
-  {
-    const auto [begin, end] = gather_share(state.pairs, first, n);
-    gather_and_kick_range(model, state, begin, end);
-  }
+  gather_and_kick_share(model, state);
 }
 
 double drift_share(const Model& model, const Mat3& h_before, State& state) {

@@ -9,9 +9,9 @@ namespace celldem {
 // this adds those where it is j, in a fixed order).
 void gather_forces(State& state);
 
-// For particles [first, N), split among the threads: completes the net force and moment as gather_forces
-// does, then advances the fluctuating velocity and the spin by one step with implicit body damping.
-void gather_and_kick(const Model& model, State& state, std::size_t first = 0);
+// Split among the threads: completes each particle's net force and moment as gather_forces does, then
+// advances its fluctuating velocity and spin by one step with implicit body damping.
+void gather_and_kick(const Model& model, State& state);
 
 // The same for particles [begin, end), on the calling thread.
 void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end);

@@ -124,8 +124,8 @@ TEST(NeighborList, CellTooSmallForParticlesThrows) {
 }
 
 TEST(NeighborList, ImagesBeyondSixteenBitsAreRefusedNotWrapped) {
-  // Two touching spheres, one of them carried 40,000 cells away in its unwrapped position: the same
-  // contact, but an image the pair arrays cannot hold.
+  // A lattice with one sphere carried 40,000 cells away in its unwrapped position: the same contacts,
+  // but images the pair arrays cannot hold.
   State s = testing::lattice_state(4, 0.5, Vec3(0.98, 0.98, 0.98), 0.1);
   const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-3), s.particles.radius);
   rebuild_pairs(model, s);

@@ -66,7 +66,7 @@ ARRAYS = (
     ("model.mass", 8, "particle", "", {}),
     ("pairs.owner", 4, "pair", "R", {"gather_chunk": "R", "sum_chunk": "R"}),
     ("pairs.neighbor", 4, "pair", "R", {"gather_chunk": "R"}),
-    ("pairs.image", 12, "pair", "R", {"gather_chunk": "R"}),
+    ("pairs.image", 6, "pair", "R", {"gather_chunk": "R"}),  # PairImage: 3 x int16
     ("pairs.tangential", 24, "pair", "RW", {"evaluate_chunk": "RW"}),
     ("pairs.flags", 1, "pair", "W", {"sum_chunk": "W"}),
     ("pairs.force", 24, "pair", "W", {"evaluate_chunk": "W", "sum_chunk": "R", "gather_and_kick_range": "R"}),
