@@ -45,7 +45,7 @@ Impact collide(double r0, double r1, double v0, double v1, double damping, doubl
   const Model model = make_model(deck, s.particles.radius);
   const Loading loading = testing::fixed_cell();
   const auto momentum = [&] {
-    return model.mass[0] * s.particles.velocity[0] + model.mass[1] * s.particles.velocity[1];
+    return model.mass_of(s.particles.radius[0]) * s.particles.velocity[0] + model.mass_of(s.particles.radius[1]) * s.particles.velocity[1];
   };
   const Vec3 p0 = momentum();
 

@@ -360,6 +360,7 @@ Command add_bench_command(CLI::App& app) {
                                                      {"model", last.memory.model}}},
                    {"row_seconds", last.row_seconds}, {"step_seconds", last.step_seconds},
                    {"pairs_per_particle", last.pairs_per_particle},
+                   {"crossings_per_particle", last.crossings_per_particle},
                    {"contacts_per_particle", last.contacts_per_particle}, {"rebuilds", last.rebuilds}};
     std::printf("medians (particle-steps/s):\n");
     for (const auto& [name, v] : samples) {
@@ -462,6 +463,7 @@ Command add_bench_command(CLI::App& app) {
                                                                          {"pairs", s.memory.pairs},
                                                                          {"model", s.memory.model}}},
                                        {"pairs_per_particle", s.pairs_per_particle},
+                                       {"crossings_per_particle", s.crossings_per_particle},
                                        {"seconds_per_run", static_cast<double>(count) * steps / median(v)},
                                        {"max_rss_mib", rss}});
           std::printf("  %8zu particles  %d thread%s  %5lld steps  %.4g particle-steps/s  %.0f bytes/particle  "

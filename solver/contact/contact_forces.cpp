@@ -1,7 +1,9 @@
 #include "contact/contact_forces.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <stdexcept>
+#include <type_traits>
 #include <vector>
 
 #include "core/parallel.hpp"
@@ -30,6 +32,7 @@ struct ChunkIn {
 // What the in-order sums after the SIMD loop need besides the pair arrays.
 struct ChunkOut {
   alignas(64) double torque_i[3][kChunk];   // moment on the owner
+  alignas(64) double torque_j[3][kChunk];   // moment on the neighbour
   alignas(64) double normal[3][kChunk];     // force_k * branch_k
   alignas(64) double stiffness[3][kChunk];  // kn (n_k l_k)^2
   alignas(64) std::int64_t flags[kChunk];   // PairFlag bits
@@ -58,14 +61,14 @@ void gather_chunk(const Particles& p, const PairList& pl, Index q0, int m, Chunk
   }
 }
 
-// The law for every pair of the chunk, one SIMD lane each. tangential, force and torque_j are the chunk's
-// slices of the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
+// The law for every pair of the chunk, one SIMD lane each. tangential and force are the chunk's slices of
+// the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
 // knows no store in the loop changes the parameters or the cell.
 template <class Law, Kinematics K, bool Diagonal>
 [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
                     double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
-                    double* __restrict force, double* __restrict torque_j, ChunkOut& __restrict o) {
+                    double* __restrict force, ChunkOut& __restrict o) {
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
@@ -86,7 +89,7 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
       twist[k] = r.history.twist;
     }
     force[3 * k] = r.force.x, force[3 * k + 1] = r.force.y, force[3 * k + 2] = r.force.z;
-    torque_j[3 * k] = r.torque_j.x, torque_j[3 * k + 1] = r.torque_j.y, torque_j[3 * k + 2] = r.torque_j.z;
+    o.torque_j[0][k] = r.torque_j.x, o.torque_j[1][k] = r.torque_j.y, o.torque_j[2][k] = r.torque_j.z;
     o.torque_i[0][k] = r.torque_i.x, o.torque_i[1][k] = r.torque_i.y, o.torque_i[2][k] = r.torque_i.z;
     o.normal[0][k] = r.force.x * branch.x, o.normal[1][k] = r.force.y * branch.y, o.normal[2][k] = r.force.z * branch.z;
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
@@ -106,37 +109,67 @@ struct BlockSums {
   double torque[3] = {};
 };
 
-// Stores the chunk's flags and adds its pairs, in pair order, to the owners' net force and moment and to
-// the block's sums. Pairs apart have all their terms zero, so adding them changes no sum (no branch). The
-// owner sums restart at each new owner and are stored after every pair (the last store is the total), so
-// they stay in registers.
+// Where sum_chunk hands the neighbours' share: the force block being evaluated, and where its next
+// crossing pair's force and moment go.
+struct HandOver {
+  Index block_begin, block_size;  // the force block's particles
+  double* crossing_force;
+  double* crossing_torque;
+};
+
+// Stores the chunk's flags and adds its pairs, in pair order, to both ends' net force and moment and to
+// the block's sums. The owner's sums run in registers from what its block's earlier pairs handed it, and
+// are stored after every pair (the last store is the total); the neighbour's share goes straight into its
+// net force and moment when it is in the force block, else into the next crossing slot. Pairs apart add zeros,
+// so they change no sum: there is no branch.
 void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint8_t* __restrict flags,
-               double* __restrict net_force, double* __restrict net_torque, BlockSums& block) {
+               double* __restrict net_force, double* __restrict net_torque, BlockSums& block, HandOver& to) {
   BlockSums s = block;
   const Index* __restrict owner = pl.owner.data() + q0;
+  const Index* __restrict neighbor = pl.neighbor.data() + q0;
   const double* __restrict pair_force = pl.force[q0].data();
+  using Unsigned = std::make_unsigned_t<Index>;
+  const Index block_begin = to.block_begin;
+  const Unsigned block_size = static_cast<Unsigned>(to.block_size);
+  double* const crossing_force = to.crossing_force;
+  double* const crossing_torque = to.crossing_torque;
+  Index crossed = 0;
   for (int k = 0; k < m; ++k) {
-    const Index i = owner[k];
+    const Index i = owner[k], j = neighbor[k];
     const bool same = i == s.owner;
     s.owner = i;
+    // (Every load is made whichever way the selects go, so that they need no branch.)
+    const double f_owner[3] = {net_force[3 * i], net_force[3 * i + 1], net_force[3 * i + 2]};
+    const double t_owner[3] = {net_torque[3 * i], net_torque[3 * i + 1], net_torque[3 * i + 2]};
     for (int a = 0; a < 3; ++a) {
-      s.force[a] = (same ? s.force[a] : 0.0) - pair_force[3 * k + a];
-      s.torque[a] = (same ? s.torque[a] : 0.0) + c.torque_i[a][k];
+      s.force[a] = (same ? s.force[a] : f_owner[a]) - pair_force[3 * k + a];
+      s.torque[a] = (same ? s.torque[a] : t_owner[a]) + c.torque_i[a][k];
       net_force[3 * i + a] = s.force[a];
       net_torque[3 * i + a] = s.torque[a];
     }
+    const bool crossing = static_cast<Unsigned>(j - block_begin) >= block_size;
+    double* const f = crossing ? crossing_force + 3 * crossed : net_force + 3 * j;
+    double* const t = crossing ? crossing_torque + 3 * crossed : net_torque + 3 * j;
+    const double f_before[3] = {f[0], f[1], f[2]}, t_before[3] = {t[0], t[1], t[2]};
+    for (int a = 0; a < 3; ++a) {  // a crossing slot starts from zero
+      f[a] = (crossing ? 0.0 : f_before[a]) + pair_force[3 * k + a];
+      t[a] = (crossing ? 0.0 : t_before[a]) + c.torque_j[a][k];
+    }
+    crossed += crossing;
     for (int a = 0; a < 3; ++a) s.normal[a] += c.normal[a][k];
     for (int a = 0; a < 3; ++a) s.stiffness[a] += c.stiffness[a][k];
     s.touching += c.flags[k] & kTouching;
   }
   for (int k = 0; k < m; ++k) flags[q0 + k] = static_cast<std::uint8_t>(c.flags[k]);
   block = s;
+  to.crossing_force += 3 * crossed;
+  to.crossing_torque += 3 * crossed;
 }
 
-// The calling thread's share of the pairs (a contiguous run of blocks with about equal numbers of pairs;
-// the sums do not depend on which thread takes which block). Diagonal: the cell and the velocity gradient
-// are diagonal (principal-axis loading, the common case); the products with h and L then skip their zero
-// terms, which gives the same numbers bit for bit.
+// The calling thread's share of the pairs: force blocks with about equal numbers of pairs (thread_blocks). Within a force block the reductions are summed over smaller blocks of kBlock owners; neither
+// depends on which thread takes which block. Diagonal: the cell and the velocity gradient are diagonal
+// (principal-axis loading, the common case); the products with h and L then skip their zero terms, which
+// gives the same numbers bit for bit.
 template <class Law, Kinematics K, bool Diagonal>
 void evaluate_share(const ContactParams& law, State& state, double dt, std::vector<ContactBlockSums>& partial,
                     const BlocksDone& blocks_done) {
@@ -145,35 +178,43 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
   const Mat3 h = state.cell.h;
   const Mat3 L = state.cell.velocity_gradient;
   const std::size_t n = p.size();
-  const std::size_t blocks = partial.size();
+  const std::size_t force_blocks = (n + kForceBlock - 1) / kForceBlock;
   // The rotational springs (rebuild_pairs sizes them for a law that has them).
   double* const rolling = Law::rotational ? pl.rolling.data()->data() : nullptr;
   double* const twist = Law::rotational ? pl.twist.data() : nullptr;
+  double* const net_force = p.force.data()->data();
+  double* const net_torque = p.torque.data()->data();
   ChunkIn in;
   ChunkOut out;
-  const auto [first_block, last_block] =
-      thread_share(blocks, [&](std::size_t b) { return pl.first[std::min(n, b * kBlock)]; });
-  for (std::size_t b = first_block; b < last_block; ++b) {
-    BlockSums sums;
-    const std::size_t first_owner = b * kBlock, last_owner = std::min(n, (b + 1) * kBlock);
-    // The owner's share of the net force and moment, summed here in pair order; the gather adds the pairs
-    // where the particle is the neighbour.
-    for (std::size_t i = first_owner; i < last_owner; ++i) {
-      p.force[i].setZero();
-      p.torque[i].setZero();
+  const std::vector<std::size_t> my_blocks = thread_blocks(force_blocks, [&](std::size_t b) {
+    return pl.first[std::min(n, (b + 1) * kForceBlock)] - pl.first[b * kForceBlock];
+  });
+  for (const std::size_t fb : my_blocks) {
+    const std::size_t block_begin = fb * kForceBlock, block_end = std::min(n, (fb + 1) * kForceBlock);
+    // The net forces and moments start from zero; the block's pairs add to both ends.
+    std::fill(net_force + 3 * block_begin, net_force + 3 * block_end, 0.0);
+    std::fill(net_torque + 3 * block_begin, net_torque + 3 * block_end, 0.0);
+    HandOver to{static_cast<Index>(block_begin), static_cast<Index>(block_end - block_begin),
+                pl.crossing_force.data()->data() + 3 * pl.block_crossings[fb],
+                pl.crossing_torque.data()->data() + 3 * pl.block_crossings[fb]};
+    for (std::size_t first_owner = block_begin; first_owner < block_end; first_owner += kBlock) {
+      const std::size_t last_owner = std::min(block_end, first_owner + kBlock);
+      BlockSums sums;
+      const Index begin = pl.first[first_owner], end = pl.first[last_owner];
+      for (Index q0 = begin; q0 < end; q0 += kChunk) {
+        const int m = std::min<Index>(kChunk, end - q0);
+        gather_chunk(p, pl, q0, m, in);
+        evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(),
+                                         rolling ? rolling + 3 * q0 : nullptr, twist ? twist + q0 : nullptr,
+                                         pl.force[q0].data(), out);
+        sum_chunk(out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
+      }
+      ContactBlockSums& part = partial[first_owner / kBlock];
+      part.normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
+      part.stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
+      part.touching = sums.touching;
     }
-    const Index begin = pl.first[first_owner], end = pl.first[last_owner];
-    for (Index q0 = begin; q0 < end; q0 += kChunk) {
-      const int m = std::min<Index>(kChunk, end - q0);
-      gather_chunk(p, pl, q0, m, in);
-      evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(), rolling ? rolling + 3 * q0 : nullptr,
-                                       twist ? twist + q0 : nullptr, pl.force[q0].data(), pl.torque_j[q0].data(), out);
-      sum_chunk(out, q0, m, pl, pl.flags.data(), p.force.data()->data(), p.torque.data()->data(), sums);
-    }
-    partial[b].normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
-    partial[b].stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
-    partial[b].touching = sums.touching;
-    if (blocks_done) blocks_done(first_owner, last_owner);
+    if (blocks_done) blocks_done(block_begin, block_end);
   }
 }
 
@@ -217,6 +258,7 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
       partial_((state.particles.size() + kBlock - 1) / kBlock) {
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
+  static_assert(kForceBlock % kBlock == 0, "force blocks are made of whole reduction blocks");
   if (model.contact.rotational_history() && state.pairs.rolling.size() != state.pairs.size())
     throw std::logic_error("compute_contact_forces: the pair list has no rotational springs (rebuild it first)");
   share_ = with_law(model.contact, [&](auto law) {

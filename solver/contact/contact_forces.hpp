@@ -17,9 +17,10 @@ void compute_contact_forces(const Model& model, const Friction& friction, State&
 
 // The same evaluation inside a parallel region the caller owns (the time step's, which spans many steps):
 // every thread calls evaluate_share() once, then one thread calls finish() once all have returned.
-// blocks_done(begin, end), if given, is called after each block of owners: every pair of the particles in
-// [begin, end) has then been evaluated by this thread; on one thread their net forces can then be
-// completed while in cache (a pair's owner has the lower id; later pairs never read them again).
+// blocks_done(begin, end), if given, is called after each force block (kForceBlock): every pair owned by the
+// particles in [begin, end) has then been evaluated by this thread. On one thread their net forces can then
+// be completed while in cache: the pairs that cross into a block are owned by earlier blocks (a pair's
+// owner has the lower id), and later pairs never touch the block's sums again.
 using BlocksDone = std::function<void(std::size_t begin, std::size_t end)>;
 struct ContactBlockSums {             // one block of owners' share of the reductions
   Vec3 normal_sum = Vec3::Zero();     // sum of force_k branch_k [N m]

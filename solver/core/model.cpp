@@ -6,6 +6,8 @@
 
 namespace celldem {
 
+double Model::mass_of(double radius) const { return body_properties(radius, density, {}, {}).mass; }
+
 Model make_model(const Deck& deck, const std::vector<double>& radius) {
   Model m;
   m.dt = deck.time_step;
@@ -15,7 +17,6 @@ Model make_model(const Deck& deck, const std::vector<double>& radius) {
   m.servo = deck.servo;
   const ContactStiffness stiffness = reference_stiffness(deck.contact, deck.sample);
   const std::size_t n = radius.size();
-  m.mass.resize(n);
   m.velocity_keep.resize(n);
   m.velocity_gain.resize(n);
   m.spin_keep.resize(n);
@@ -24,7 +25,6 @@ Model make_model(const Deck& deck, const std::vector<double>& radius) {
     const BodyProperties b = body_properties(radius[i], deck.sample.density, deck.damping, stiffness);
     const double at = 0.5 * b.translational_drag * m.dt / b.mass;
     const double ar = 0.5 * b.rotational_drag * m.dt / b.inertia;
-    m.mass[i] = b.mass;
     m.velocity_keep[i] = (1.0 - at) / (1.0 + at);
     m.velocity_gain[i] = m.dt / (b.mass * (1.0 + at));
     m.spin_keep[i] = (1.0 - ar) / (1.0 + ar);

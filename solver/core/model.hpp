@@ -18,9 +18,10 @@ struct Model {
   double solid_volume = 0.0;       // [m^3] sum of sphere volumes
   // Per particle (N). Leapfrog with implicit body damping:
   //   v(t+dt/2) = keep * v(t-dt/2) + gain * F(t), keep = (1 - c dt/2m)/(1 + c dt/2m), gain = dt/(m (1 + c dt/2m))
-  std::vector<double> mass;        // [kg]
   std::vector<double> velocity_keep, velocity_gain;  // [-], [s/kg]
   std::vector<double> spin_keep, spin_gain;          // [-], [s/(kg m^2)]
+  // A sphere's mass [kg] (what the factors above were made from; computed when needed, not stored).
+  double mass_of(double radius) const;
 };
 
 Model make_model(const Deck& deck, const std::vector<double>& radius);

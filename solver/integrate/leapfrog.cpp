@@ -5,28 +5,29 @@
 #include <limits>
 
 #include "core/parallel.hpp"
+#include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
 
 namespace {
-// Completes particle i's net force and moment: the pair loop left the sums over the pairs where i is the
-// owner; the pairs where it is the neighbour come here, in ascending pair order. Pairs apart hold zero
-// force and moment, so adding them changes nothing (and needs no branch).
+// Completes particle i's net force and moment: the pair loop summed the pairs of i's force block (kForceBlock)
+// where i is either end; the pairs that cross into it from other blocks come here, in ascending pair order.
+// Pairs apart hold zero force and moment, so adding them changes nothing (and needs no branch).
 inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   Vec3 f = p.force[i], t = p.torque[i];
-  for (Index k = pl.incoming_first[i]; k < pl.incoming_first[i + 1]; ++k) {
-    const Index q = pl.incoming[k];
-    f += pl.force[q];
-    t += pl.torque_j[q];
+  for (Index k = pl.crossing_first[i]; k < pl.crossing_first[i + 1]; ++k) {
+    const Index c = pl.crossing[k];
+    f += pl.crossing_force[c];
+    t += pl.crossing_torque[c];
   }
   p.force[i] = f;
   p.torque[i] = t;
 }
 
-// The calling thread's share of the particles: a contiguous range with about equal work (incoming pairs
+// The calling thread's share of the particles: a contiguous range with about equal work (crossing pairs
 // plus the particle itself).
 std::pair<std::size_t, std::size_t> gather_share(const PairList& pl, std::size_t n) {
-  return thread_share(n, [&](std::size_t k) { return static_cast<std::size_t>(pl.incoming_first[k]) + k; });
+  return thread_share(n, [&](std::size_t k) { return static_cast<std::size_t>(pl.crossing_first[k]) + k; });
 }
 }  // namespace
 
@@ -68,7 +69,7 @@ double drift_share(const Model& model, const Mat3& h_before, State& state) {
   double max_disp2 = 0.0;
   for (std::size_t i = begin; i < end; ++i) {
     p.scaled[i] += step_map * p.velocity[i];
-    if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i])).squaredNorm());
+    if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - at_build(pl, i))).squaredNorm());
   }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
 }

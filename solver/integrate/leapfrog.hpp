@@ -5,8 +5,8 @@
 
 namespace celldem {
 
-// Completes each particle's net contact force and moment (the pair loop summed the pairs where it is i;
-// this adds those where it is j, in a fixed order).
+// Completes each particle's net contact force and moment (the pair loop summed the pairs within its force
+// block; this adds those that cross into it from other blocks, in a fixed order).
 void gather_forces(State& state);
 
 // Split among the threads: completes each particle's net force and moment as gather_forces does, then

@@ -119,7 +119,7 @@ double kinetic_energy(const Model& model, const State& state) {
   double e = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double r = p.radius[i];
-    e += 0.5 * model.mass[i] * (p.velocity[i].squaredNorm() + 0.4 * r * r * p.spin[i].squaredNorm());
+    e += 0.5 * model.mass_of(r) * (p.velocity[i].squaredNorm() + 0.4 * r * r * p.spin[i].squaredNorm());
   }
   return e;
 }

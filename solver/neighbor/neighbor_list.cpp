@@ -120,13 +120,23 @@ void find_candidates(const State& state, double skin, double max_radius,
                              "if the sample was stirred far beyond any granular test");
 }
 
-void build_incoming_index(PairList& pl, std::size_t n) {
-  pl.incoming_first.assign(n + 1, 0);
-  for (Index j : pl.neighbor) ++pl.incoming_first[j + 1];
-  for (std::size_t k = 0; k < n; ++k) pl.incoming_first[k + 1] += pl.incoming_first[k];
-  pl.incoming.resize(pl.neighbor.size());
-  std::vector<Index> fill(pl.incoming_first.begin(), pl.incoming_first.end() - 1);
-  for (std::size_t q = 0; q < pl.neighbor.size(); ++q) pl.incoming[fill[pl.neighbor[q]]++] = static_cast<Index>(q);
+// The crossing pairs (PairList): ranked in pair order, and listed by neighbour.
+void build_crossings(PairList& pl, std::size_t n) {
+  const std::size_t blocks = (n + kForceBlock - 1) / kForceBlock;
+  const auto crossing = [&](std::size_t q) { return pl.owner[q] / kForceBlock != pl.neighbor[q] / kForceBlock; };
+  pl.block_crossings.assign(blocks + 1, 0);
+  pl.crossing_first.assign(n + 1, 0);
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    if (crossing(q)) ++pl.block_crossings[pl.owner[q] / kForceBlock + 1], ++pl.crossing_first[pl.neighbor[q] + 1];
+  for (std::size_t b = 0; b < blocks; ++b) pl.block_crossings[b + 1] += pl.block_crossings[b];
+  for (std::size_t k = 0; k < n; ++k) pl.crossing_first[k + 1] += pl.crossing_first[k];
+  const std::size_t count = pl.crossing_first[n];
+  pl.crossing.resize(count);
+  std::vector<Index> fill(pl.crossing_first.begin(), pl.crossing_first.end() - 1);
+  for (std::size_t q = 0, rank = 0; q < pl.size(); ++q)
+    if (crossing(q)) pl.crossing[fill[pl.neighbor[q]]++] = static_cast<Index>(rank++);
+  pl.crossing_force.assign(count, Vec3::Zero());
+  pl.crossing_torque.assign(count, Vec3::Zero());
 }
 
 }  // namespace
@@ -153,7 +163,6 @@ void rebuild_pairs(const Model& model, State& state) {
   const bool carry_rotational = rotational && pl.rolling.size() == pl.size();
   next.flags.assign(count, 0);
   next.force.assign(count, Vec3::Zero());
-  next.torque_j.assign(count, Vec3::Zero());
 
   const bool have_old = pl.first.size() == n + 1;
   for (std::size_t i = 0; i < n; ++i) {
@@ -177,8 +186,14 @@ void rebuild_pairs(const Model& model, State& state) {
       }
     }
   }
-  build_incoming_index(next, n);
-  next.scaled_at_build = p.scaled;
+  build_crossings(next, n);
+  next.scaled_at_build.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      next.scaled_at_build[i][k] = static_cast<float>(p.scaled[i][k]);
+      next.build_rounding =
+          std::max(next.build_rounding, std::abs(p.scaled[i][k] - static_cast<double>(next.scaled_at_build[i][k])));
+    }
   next.h_at_build = state.cell.h;
   pl = std::move(next);
 }
@@ -193,7 +208,7 @@ double largest_move_since_build(const State& state) {
   const std::size_t n = p.size();
 #pragma omp parallel for schedule(static) reduction(max : max_disp2)
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec3 ds = p.scaled[i] - pl.scaled_at_build[i];
+    const Vec3 ds = p.scaled[i] - at_build(pl, i);
     max_disp2 = std::max(max_disp2, (h * ds).squaredNorm());
   }
   return std::sqrt(max_disp2);
@@ -211,7 +226,10 @@ bool pairs_need_rebuild(const Model& model, const State& state, double largest_m
   // (1 - |F - I|) (r_i + r_j + skin) - 2 largest_move > r_i + r_j, hardest for the largest pair.
   const double strain = (state.cell.h * pl.h_at_build.inverse() - Mat3::Identity()).norm();  // Frobenius >= spectral
   const double reach = 2.0 * model.max_radius;
-  return (1.0 - strain) * (reach + pl.skin) - 2.0 * largest_move <= reach;
+  // The move was measured from the build positions as stored (single precision): add what their rounding
+  // can hide, |h e| <= |h|_F sqrt(3) build_rounding.
+  const double hidden = state.cell.h.norm() * std::sqrt(3.0) * pl.build_rounding;
+  return (1.0 - strain) * (reach + pl.skin) - 2.0 * (largest_move + hidden) <= reach;
 }
 
 void set_stored_contacts(State& state, const std::vector<StoredContact>& contacts) {
@@ -233,7 +251,6 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   pl.flags.resize(contacts.size());
   pl.image.assign(contacts.size(), {0, 0, 0});  // unknown until the next rebuild, which must come first
   pl.force.assign(contacts.size(), Vec3::Zero());
-  pl.torque_j.assign(contacts.size(), Vec3::Zero());
   std::vector<Index> fill(pl.first.begin(), pl.first.end() - 1);
   for (const auto& c : contacts) {  // contacts arrive sorted by (i, j), so each row stays sorted
     const Index q = fill[c.i]++;

@@ -102,6 +102,8 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   t.memory = memory_per_particle(state, model);
   t.bytes_per_particle = t.memory.total();
   t.pairs_per_particle = static_cast<double>(state.pairs.size()) / static_cast<double>(state.particles.size());
+  t.crossings_per_particle =
+      static_cast<double>(state.pairs.crossing.size()) / static_cast<double>(state.particles.size());
   t.contacts_per_particle = static_cast<double>(state.touching) / static_cast<double>(state.particles.size());
   return t;
 }
@@ -158,10 +160,11 @@ MemoryPerParticle memory_per_particle(const State& s, const Model& m) {
   const double n = static_cast<double>(std::max<std::size_t>(p.size(), 1));
   MemoryPerParticle out;
   out.particles = (bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) + bytes(p.force) +
-                   bytes(p.torque) + bytes(pl.first) + bytes(pl.incoming_first) + bytes(pl.scaled_at_build)) / n;
+                   bytes(p.torque) + bytes(pl.first) + bytes(pl.crossing_first) + bytes(pl.scaled_at_build)) / n;
   out.pairs = (bytes(pl.owner) + bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) +
-               bytes(pl.twist) + bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_j) + bytes(pl.incoming)) / n;
-  out.model = (bytes(m.mass) + bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +
+               bytes(pl.twist) + bytes(pl.flags) + bytes(pl.force) + bytes(pl.block_crossings) +
+               bytes(pl.crossing_force) + bytes(pl.crossing_torque) + bytes(pl.crossing)) / n;
+  out.model = (bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +
                bytes(m.spin_gain)) / n;
   return out;
 }

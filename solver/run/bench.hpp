@@ -38,6 +38,7 @@ struct ShearTiming {
   double bytes_per_particle = 0.0;       // all of the below: the memory a step touches, per particle
   MemoryPerParticle memory;              // its parts
   double pairs_per_particle = 0.0;       // neighbour-list pairs at the end
+  double crossings_per_particle = 0.0;   // of which crossing between force blocks (PairList)
   double contacts_per_particle = 0.0;    // touching pairs at the end
   std::int64_t rebuilds = 0;             // neighbour-list rebuilds during the timed steps
 };

@@ -62,7 +62,7 @@ void expect_same_pair_result(const PairSetup& straddling, const PairSetup& inter
   ASSERT_GT(a.pairs.tangential[qa].norm(), 0.0);  // velocities, spins and L all add slip
   EXPECT_EQ(a.pairs.force[qa], b.pairs.force[qb]);
   EXPECT_EQ(a.particles.torque[0], b.particles.torque[0]);
-  EXPECT_EQ(a.pairs.torque_j[qa], b.pairs.torque_j[qb]);
+  EXPECT_EQ(a.particles.torque[1], b.particles.torque[1]);  // (one force block: j's share handed over at once)
   EXPECT_EQ(a.pairs.tangential[qa], b.pairs.tangential[qb]);
   EXPECT_EQ(a.pairs.flags[qa], b.pairs.flags[qb]);
   EXPECT_EQ(contact_stress(a), contact_stress(b));
@@ -206,15 +206,17 @@ TEST(ContactForces, LatticeStressAndStiffnessMatchAnalytic) {
   EXPECT_NEAR((t.normal_stress[0] - s.normal_stress[0]) / eps, s.axis_stiffness[0], 1e-6 * s.axis_stiffness[0]);
 }
 
-// The reductions and per-pair results do not depend on the number of threads (more than one block of
-// 256 owners, so the blocked sums really are split).
+// The reductions, per-pair results and net forces do not depend on the number of threads: 4913 spheres
+// make three force blocks (kForceBlock), so blocks are dealt to threads and pairs cross between blocks.
 TEST(ContactForces, ResultsIndependentOfThreadCount) {
-  const int n = 7;  // 343 spheres
+  const int n = 17;
+  ASSERT_GT(static_cast<std::size_t>(n * n * n), 2 * kForceBlock);
   const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, 0.5));
   State base = testing::jostled_lattice(n, 11, 0.02, 1.0, 5.0);
   base.cell.velocity_gradient = Mat3::Identity() * 0.1;
-  const std::vector<State> results = testing::on_thread_counts(model, base, 0.4, {1, 2, 3});
-  ASSERT_GT(results[0].touching, 500);
+  const std::vector<State> results = testing::on_thread_counts(model, base, 0.4, {1, 2, 3, 4});
+  ASSERT_GT(results[0].touching, 10000);
+  ASSERT_GT(results[0].pairs.crossing.size(), 500u);
   for (std::size_t r = 1; r < results.size(); ++r) {
     EXPECT_EQ(contact_stress(results[r]), contact_stress(results[0]));
     EXPECT_EQ(results[r].normal_stress, results[0].normal_stress);
@@ -222,7 +224,42 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
     EXPECT_EQ(results[r].pairs.force, results[0].pairs.force);
     EXPECT_EQ(results[r].pairs.tangential, results[0].pairs.tangential);
     EXPECT_EQ(results[r].particles.force, results[0].particles.force);
+    EXPECT_EQ(results[r].particles.torque, results[0].particles.torque);
     EXPECT_EQ(results[r].particles.velocity, results[0].particles.velocity);
+  }
+}
+
+// Every pair reaches both its ends once, whichever way it is handed over (at once within a force block, or
+// through the crossing arrays): the net forces and moments equal plain sums over the pairs, up to the
+// order of the additions. The moments are summed from each pair's law, evaluated again on its own.
+TEST(ContactForces, NetForcesAreTheSumsOfTheirPairs) {
+  const int n = 17;
+  const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, 0.5));
+  State s = testing::jostled_lattice(n, 5, 0.02, 1.0, 5.0);
+  rebuild_pairs(model, s);
+  const State before = s;
+  compute_contact_forces(model, 0.4, s);
+  gather_forces(s);
+  ASSERT_GT(s.pairs.crossing.size(), 500u);
+  const ContactParams params = contact_params(model.contact, Friction{0.4});
+  std::vector<Vec3> force(s.particles.size(), Vec3::Zero()), torque(s.particles.size(), Vec3::Zero());
+  for (std::size_t q = 0; q < s.pairs.size(); ++q) {
+    const Index i = s.pairs.owner[q], j = s.pairs.neighbor[q];
+    const Vec3 ds = before.particles.scaled[j] - before.particles.scaled[i] +
+                    Vec3(s.pairs.image[q][0], s.pairs.image[q][1], s.pairs.image[q][2]);
+    const ContactResult c = linear_spring_contact(params, s.cell.h * ds, 0.5, 0.5,
+                                                  before.particles.velocity[j] - before.particles.velocity[i],
+                                                  before.particles.spin[i], before.particles.spin[j],
+                                                  before.pairs.tangential[q], model.dt);
+    EXPECT_EQ(c.force, s.pairs.force[q]) << q;
+    force[i] -= c.force, force[j] += c.force;
+    torque[i] += c.torque_i, torque[j] += c.torque_j;
+  }
+  double largest = 0.0;
+  for (const Vec3& f : force) largest = std::max(largest, f.norm());
+  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+    EXPECT_LT((s.particles.force[i] - force[i]).norm(), 1e-12 * largest) << i;
+    EXPECT_LT((s.particles.torque[i] - torque[i]).norm(), 1e-12 * largest) << i;
   }
 }
 

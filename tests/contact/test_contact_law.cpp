@@ -97,7 +97,7 @@ TEST(Hertz, CollisionDurationAndRestitutionMatchHertzTheory) {
   deck.contact.poisson_ratio = kNu;
   deck.sample.diameters = {2.0 * kRi, 2.0 * kRj};
   const Model probe = make_model(deck, {kRi, kRj});
-  const double m_eff = probe.mass[0] * probe.mass[1] / (probe.mass[0] + probe.mass[1]);
+  const double m_eff = probe.mass_of(kRi) * probe.mass_of(kRj) / (probe.mass_of(kRi) + probe.mass_of(kRj));
   const double v = 0.1;
   const double d_max = std::pow(15.0 * m_eff * v * v / (16.0 * e_star() * std::sqrt(kReff)), 0.4);
   const double t_contact = 2.943275 * d_max / v;  // 2 Gamma(7/5) Gamma(1/2) / Gamma(9/10)
@@ -105,8 +105,8 @@ TEST(Hertz, CollisionDurationAndRestitutionMatchHertzTheory) {
   const Model model = make_model(deck, {kRi, kRj});
   State s = testing::make_state(Mat3::Identity() * 10.0, {kRi, kRj}, {Vec3(5, 5, 5), Vec3(5, 5, 5.0 + kRi + kRj + 1e-12)},
                                 0.05);
-  s.particles.velocity[0] = Vec3(0, 0, v * probe.mass[1] / (probe.mass[0] + probe.mass[1]));
-  s.particles.velocity[1] = Vec3(0, 0, -v * probe.mass[0] / (probe.mass[0] + probe.mass[1]));
+  s.particles.velocity[0] = Vec3(0, 0, v * probe.mass_of(kRj) / (probe.mass_of(kRi) + probe.mass_of(kRj)));
+  s.particles.velocity[1] = Vec3(0, 0, -v * probe.mass_of(kRi) / (probe.mass_of(kRi) + probe.mass_of(kRj)));
   evaluate_forces(model, Friction(0.5), s);
   int touching_steps = 0;
   for (int k = 0; k < 20000 && (touching_steps == 0 || s.touching > 0); ++k) {

@@ -11,17 +11,21 @@ deck matched to LAMMPS's contact model (tools/celldem/crosscheck.py's derived_de
   leg 2: x1 unloaded at -2e-7 per step, same b and p, until s11/s33 = 1.2 (max_steps 30 000): an end that only
          running tells, fix halt in LAMMPS.
 
-Checks (tolerances from the known model differences, crosscheck/README.md "Load programs"):
+Checks (tolerances from the known model differences, crosscheck/README.md "Load programs", set about 30 %
+above the largest value measured over 12 realizations of the 300-sphere sample: seeds 1-6 of small.json,
+each prepared with two summation orders of the net forces; a 300-sphere sample is noisy from one
+realization to the next, LIGGGHTS's the most, as it lacks the rotational body damping):
   - leg lengths: leg 1 runs exactly celldem's leg_steps (15 000) in both codes;
-  - the end of leg 2: e1 where s11/s33 reached 1.2, within 1e-4 (absolute strain; measured ~3e-5). LAMMPS's
-    proportional servo trails the moving targets by about K * (lateral strain per step) / gain (~1 kPa on
-    s33 while unloading), which shifts s11/s33 by ~1 % and the end by ~1e-5-3e-5 of strain;
+  - the end of leg 2: e1 where s11/s33 reached 1.2, within 1.5e-4 (absolute strain; measured up to 9.8e-5).
+    LAMMPS's proportional servo trails the moving targets by about K * (lateral strain per step) / gain
+    (~1 kPa on s33 while unloading), which shifts s11/s33 by ~1 % and the end by ~1e-5-1e-4 of strain;
   - the controls as each code held them, over each leg after its first 0.05 % of strain: celldem (PI servo)
-    |b - 0.5| < 0.005 and |p/p* - 1| < 2e-3; LAMMPS (proportional, nominal stiffness, no integral term)
-    |b - 0.5| < 0.05 and |p/p* - 1| < 1.5e-2 (predicted lag ~1 % of p at this rate, measured ~0.5 %);
-  - the macro curves against e1 in each leg (LAMMPS interpolated at celldem's e1): s11/s33 within 3 % relative
-    (as run_crosscheck's peak ratio; measured ~1 %), s11, s22, s33 within 3 % of p (servo lag, measured
-    ~1.5 %), e2, e3 and ev within 2e-4 absolute (measured ~1e-4; the TTC cross-check's ev tolerance is 5e-4).
+    |b - 0.5| < 0.012 and |p/p* - 1| < 2e-3 (measured up to 0.009 and 4.4e-4); LAMMPS and LIGGGHTS
+    (proportional, nominal stiffness, no integral term) |b - 0.5| < 0.09 and |p/p* - 1| < 1.5e-2 (measured
+    up to 0.068 and 0.006);
+  - the macro curves against e1 in each leg (the other code interpolated at celldem's e1): s11/s33 within
+    8.5 % relative (measured up to 6.6 %, median 2 %), s11, s22, s33 within 5 % of p (servo lag; measured up
+    to 3.7 %, median 1.8 %), e2, e3 and ev within 3.5e-4 absolute (measured up to 2.6e-4, median 8e-5).
 Prints a table of the measured values and exits 1 when a check fails, 77 (ctest: skipped) without lmp.
 
 usage: program_crosscheck.py --celldem BIN [--work DIR]
@@ -57,11 +61,11 @@ TEST = {"name": "bp", "friction": 0.5, "output_interval": 100, "legs": [
      "end": {"ratio": RATIO_END, "max_steps": 30000}}]}
 
 TOL = {
-    "b_celldem": 5e-3, "p_celldem": 2e-3,  # celldem's own control (PI servo)
+    "b_celldem": 1.2e-2, "p_celldem": 2e-3,  # celldem's own control (PI servo)
     # e1_end: absolute strain; b: |b - 0.5|; p: |p/p* - 1|; ratio: relative; stress: of p; strain: absolute
-    "lammps": {"e1_end": 1e-4, "b": 5e-2, "p": 1.5e-2, "ratio": 0.05, "stress": 0.03, "strain": 2e-4},
+    "lammps": {"e1_end": 1.5e-4, "b": 9e-2, "p": 1.5e-2, "ratio": 0.085, "stress": 0.05, "strain": 3.5e-4},
     # LIGGGHTS: no rotational body damping (chaotic, see crosscheck/README.md) and ends checked every 100 steps
-    "liggghts": {"e1_end": 1e-4, "b": 5e-2, "p": 1.5e-2, "ratio": 0.05, "stress": 0.03, "strain": 2e-4},
+    "liggghts": {"e1_end": 1.5e-4, "b": 9e-2, "p": 1.5e-2, "ratio": 0.085, "stress": 0.05, "strain": 3.5e-4},
 }
 
 

@@ -1,6 +1,7 @@
 // The neighbour list (solver/neighbor/neighbor_list.hpp) against a brute-force search over all pairs and
 // all periodic images; the rebuild criterion against the same brute force along a random trajectory of a
 // deforming cell; history carried over a rebuild; and the stored-contact round trip.
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <array>
@@ -73,16 +74,32 @@ void expect_list_consistent(const PairList& pl, std::size_t n) {
       EXPECT_GT(pl.neighbor[q], static_cast<Index>(i));
       if (q > pl.first[i]) { EXPECT_LT(pl.neighbor[q - 1], pl.neighbor[q]); }  // sorted by j, one image each
     }
-  // The reverse index lists each pair once, under its neighbour, in ascending order.
-  ASSERT_EQ(pl.incoming_first.size(), n + 1);
-  ASSERT_EQ(pl.incoming.size(), pl.size());
-  std::vector<int> seen(pl.size(), 0);
+  // The crossing index: every pair whose ends lie in two force blocks once, under its neighbour, by its rank
+  // among the crossing pairs in pair order (ascending under each neighbour); each block's count in order.
+  std::vector<std::size_t> pair_of_rank;
+  Index crossings = 0;
+  const std::size_t blocks = (n + kForceBlock - 1) / kForceBlock;
+  ASSERT_EQ(pl.block_crossings.size(), blocks + 1);
+  for (std::size_t q = 0; q < pl.size(); ++q)
+    if (pl.owner[q] / kForceBlock != pl.neighbor[q] / kForceBlock) pair_of_rank.push_back(q), ++crossings;
+  for (std::size_t b = 0; b <= blocks; ++b) {
+    const auto block_start = static_cast<std::size_t>(pl.first[std::min(n, b * kForceBlock)]);
+    EXPECT_EQ(pl.block_crossings[b], std::count_if(pair_of_rank.begin(), pair_of_rank.end(),
+                                                   [&](std::size_t q) { return q < block_start; }));
+  }
+  ASSERT_EQ(pl.crossing_first.size(), n + 1);
+  ASSERT_EQ(pl.crossing.size(), static_cast<std::size_t>(crossings));
+  ASSERT_EQ(pl.crossing_force.size(), static_cast<std::size_t>(crossings));
+  std::vector<int> seen(crossings, 0);
   for (std::size_t j = 0; j < n; ++j)
-    for (Index k = pl.incoming_first[j]; k < pl.incoming_first[j + 1]; ++k) {
-      const Index q = pl.incoming[k];
+    for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
+      const Index c = pl.crossing[k];
+      ASSERT_GE(c, 0);
+      ASSERT_LT(c, crossings);
+      const std::size_t q = pair_of_rank[c];
       EXPECT_EQ(pl.neighbor[q], static_cast<Index>(j));
-      if (k > pl.incoming_first[j]) { EXPECT_LT(pl.incoming[k - 1], q); }
-      ++seen[q];
+      if (k > pl.crossing_first[j]) { EXPECT_LT(pl.crossing[k - 1], c); }
+      ++seen[c];
     }
   for (int c : seen) EXPECT_EQ(c, 1);
 }
@@ -97,6 +114,7 @@ TEST(NeighborList, MatchesBruteForceInCubicShearedAndSmallCells) {
   const CellCase cases[] = {
       {"cubic, binned", Mat3::Identity() * 10.0, 400},
       {"sheared, binned", (Mat3() << 9.0, 2.5, -1.0, 0.0, 10.0, 1.5, 0.0, 0.0, 9.5).finished(), 400},
+      {"cubic, two force blocks", Mat3::Identity() * 18.5, 2600},
       {"small, all pairs", Mat3::Identity() * 3.0, 20},
       {"thin sheared, all pairs", (Mat3() << 3.0, 1.0, 0.0, 0.0, 3.2, 0.0, 0.0, 0.0, 8.0).finished(), 40},
   };
@@ -107,6 +125,7 @@ TEST(NeighborList, MatchesBruteForceInCubicShearedAndSmallCells) {
     const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
     rebuild_pairs(model, s);
     expect_list_consistent(s.pairs, s.particles.size());
+    if (s.particles.size() > kForceBlock) { EXPECT_GT(s.pairs.crossing.size(), 100u); }
     const std::set<Key> expected = brute_force(s, skin);
     EXPECT_EQ(listed(s.pairs), expected);
     EXPECT_GT(expected.size(), 10u);

@@ -57,21 +57,22 @@ ARRAYS = (
     ("scaled", 24, "particle", "RW", {"drift": "RW", "gather_chunk": "R"}),
     ("velocity", 24, "particle", "RW", {"drift": "R", "gather_chunk": "R", "gather_and_kick_range": "RW"}),
     ("spin", 24, "particle", "RW", {"gather_chunk": "R", "gather_and_kick_range": "RW"}),
-    ("force", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "W", "gather_and_kick_range": "RW"}),
-    ("torque", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "W", "gather_and_kick_range": "RW"}),
-    ("pairs.scaled_at_build", 24, "particle", "R", {"drift": "R"}),
+    ("force", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "RW", "gather_and_kick_range": "RW"}),
+    ("torque", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "RW", "gather_and_kick_range": "RW"}),
+    ("pairs.scaled_at_build", 12, "particle", "R", {"drift": "R"}),  # 3 x float
     ("pairs.first", 4, "particle", "", {}),  # read at block bounds only
-    ("pairs.incoming_first", 4, "particle", "R", {"gather_and_kick_range": "R"}),
+    ("pairs.crossing_first", 4, "particle", "R", {"gather_and_kick_range": "R"}),
     ("model.velocity_keep, velocity_gain, spin_keep, spin_gain", 32, "particle", "R", {"gather_and_kick_range": "R"}),
-    ("model.mass", 8, "particle", "", {}),
     ("pairs.owner", 4, "pair", "R", {"gather_chunk": "R", "sum_chunk": "R"}),
-    ("pairs.neighbor", 4, "pair", "R", {"gather_chunk": "R"}),
+    ("pairs.neighbor", 4, "pair", "R", {"gather_chunk": "R", "sum_chunk": "R"}),
     ("pairs.image", 6, "pair", "R", {"gather_chunk": "R"}),  # PairImage: 3 x int16
     ("pairs.tangential", 24, "pair", "RW", {"evaluate_chunk": "RW"}),
     ("pairs.flags", 1, "pair", "W", {"sum_chunk": "W"}),
-    ("pairs.force", 24, "pair", "W", {"evaluate_chunk": "W", "sum_chunk": "R", "gather_and_kick_range": "R"}),
-    ("pairs.torque_j", 24, "pair", "W", {"evaluate_chunk": "W", "gather_and_kick_range": "R"}),
-    ("pairs.incoming", 4, "pair", "R", {"gather_and_kick_range": "R"}),
+    ("pairs.force", 24, "pair", "W", {"evaluate_chunk": "W", "sum_chunk": "R"}),
+    # Pairs whose ends lie in two force blocks (state.hpp, kForceBlock) hand j's share over through these.
+    ("pairs.crossing_force", 24, "crossing", "W", {"sum_chunk": "W", "gather_and_kick_range": "R"}),
+    ("pairs.crossing_torque", 24, "crossing", "W", {"sum_chunk": "W", "gather_and_kick_range": "R"}),
+    ("pairs.crossing", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
 )
 
 CALLGRIND_STEPS = 200     # steps under callgrind (about 20 s with the cache simulation on 8000 spheres)
@@ -287,12 +288,12 @@ def attribute(profile, flops_at, objects):
 
 # ---- bytes ----
 
-def compulsory_bytes(pairs_per_particle):
+def compulsory_bytes(pairs_per_particle, crossings_per_particle=0.0):
     """Bytes per particle-step that each kernel and the whole step must move at least (ARRAYS: a read and a write
     count twice), the bytes of the arrays the step touches (each once: what a cache must bring in, write-backs
-    aside) and the footprint of all the arrays, per particle."""
+    aside) and the footprint of all the arrays, per particle (crossings: pairs across force blocks)."""
     def size(nbytes, per):
-        return nbytes * (pairs_per_particle if per == "pair" else 1.0)
+        return nbytes * {"pair": pairs_per_particle, "crossing": crossings_per_particle}.get(per, 1.0)
     kernels = Counter()
     step = touched = footprint = 0.0
     for _, nbytes, per, step_access, access in ARRAYS:
@@ -459,10 +460,11 @@ def large_sample(celldem, deck, state, workdir, copies, toggle, flops_at, object
     steps = steps_in(profile, path)
     particle_steps = steps * row["particles"]
     return {"particles": row["particles"], "steps": steps, "pairs_per_particle": row["pairs_per_particle"],
+            "crossings_per_particle": row["crossings_per_particle"],
             "footprint_bytes": row["bytes_per_particle"] * row["particles"],
             "instructions_per_particle_step": whole["instructions"] / particle_steps,
             "flops_per_particle_step": whole["flops"] / particle_steps,
-            "compulsory_bytes_per_particle_step": compulsory_bytes(row["pairs_per_particle"])["step"],
+            "compulsory_bytes_per_particle_step": compulsory_bytes(row["pairs_per_particle"], row["crossings_per_particle"])["step"],
             "d1_miss_bytes_per_particle_step": LINE * whole["d1_misses"] / particle_steps,
             "ll_miss_bytes_per_particle_step": LINE * whole["ll_misses"] / particle_steps}
 
@@ -579,7 +581,7 @@ def summarise(m):
         notes.append(f"{elsewhere:.3g} instructions per particle-step ran outside the celldem binary (libc, libgomp): "
                      "counted as instructions, their flops (if any) not")
 
-    compulsory = compulsory_bytes(pairs)
+    compulsory = compulsory_bytes(pairs, sample["crossings_per_particle"])
     if abs(compulsory["footprint"] - sample["bytes_per_particle"]) > 0.02 * sample["bytes_per_particle"]:
         notes.append(f"WARNING: the layout table (ARRAYS in tools/celldem/roofline.py) holds "
                      f"{compulsory['footprint']:.0f} bytes per particle, the bench counts "
@@ -589,7 +591,7 @@ def summarise(m):
               f"{particles} spheres"]
     if m["large"]:
         large = m["large"]
-        touched = compulsory_bytes(large["pairs_per_particle"])["touched"]
+        touched = compulsory_bytes(large["pairs_per_particle"], large["crossings_per_particle"])["touched"]
         ratios.append(f"{large['ll_miss_bytes_per_particle_step'] / touched:.2f} x on {large['particles']}")
     notes.append(f"the simulated L2-miss bytes are {' and '.join(ratios)} the bytes of the arrays the step touches "
                  f"({compulsory['touched']:.0f} B per particle-step, each array once, write-backs aside)")
