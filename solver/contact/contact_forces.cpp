@@ -19,6 +19,9 @@ constexpr std::size_t kBlock = 256;
 // Pairs evaluated together by the SIMD loop before their in-order sums (small enough to stay in L1).
 constexpr int kChunk = 64;
 
+// The doubles of an array of 3-vectors (null when it is empty: no pairs cross, say).
+inline double* doubles(std::vector<Vec3>& v) { return v.empty() ? nullptr : v.front().data(); }
+
 // A chunk of pairs in SIMD form: the particle data of both ends gathered component-major, one lane per
 // pair, so that the law runs on unit-stride loads; the pair arrays themselves are read and written in place.
 struct ChunkIn {
@@ -180,10 +183,10 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
   const std::size_t n = p.size();
   const std::size_t force_blocks = (n + kForceBlock - 1) / kForceBlock;
   // The rotational springs (rebuild_pairs sizes them for a law that has them).
-  double* const rolling = Law::rotational ? pl.rolling.data()->data() : nullptr;
+  double* const rolling = Law::rotational ? doubles(pl.rolling) : nullptr;
   double* const twist = Law::rotational ? pl.twist.data() : nullptr;
-  double* const net_force = p.force.data()->data();
-  double* const net_torque = p.torque.data()->data();
+  double* const net_force = doubles(p.force);
+  double* const net_torque = doubles(p.torque);
   ChunkIn in;
   ChunkOut out;
   const std::vector<std::size_t> my_blocks = thread_blocks(force_blocks, [&](std::size_t b) {
@@ -195,8 +198,8 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
     std::fill(net_force + 3 * block_begin, net_force + 3 * block_end, 0.0);
     std::fill(net_torque + 3 * block_begin, net_torque + 3 * block_end, 0.0);
     HandOver to{static_cast<Index>(block_begin), static_cast<Index>(block_end - block_begin),
-                pl.crossing_force.data()->data() + 3 * pl.block_crossings[fb],
-                pl.crossing_torque.data()->data() + 3 * pl.block_crossings[fb]};
+                doubles(pl.crossing_force) + 3 * pl.block_crossings[fb],
+                doubles(pl.crossing_torque) + 3 * pl.block_crossings[fb]};
     for (std::size_t first_owner = block_begin; first_owner < block_end; first_owner += kBlock) {
       const std::size_t last_owner = std::min(block_end, first_owner + kBlock);
       BlockSums sums;
