@@ -64,11 +64,20 @@ void gather_chunk(const Particles& p, const PairList& pl, Index q0, int m, Chunk
   }
 }
 
+// The pair law is compiled for AVX-512, AVX2 and the baseline, chosen at load time. Under the sanitizers
+// only the baseline: the clones are the same source, and three instrumented copies of every law made the
+// sanitizer build's slowest file take minutes.
+#if defined(__SANITIZE_ADDRESS__)
+#define CELLDEM_ISA_CLONES
+#else
+#define CELLDEM_ISA_CLONES [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+#endif
+
 // The law for every pair of the chunk, one SIMD lane each. tangential and force are the chunk's slices of
 // the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
 // knows no store in the loop changes the parameters or the cell.
 template <class Law, Kinematics K, bool Diagonal>
-[[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+CELLDEM_ISA_CLONES
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
                     double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
                     double* __restrict force, ChunkOut& __restrict o) {
