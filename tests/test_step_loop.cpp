@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <stdexcept>
+#include <vector>
 
 #include "core/parallel.hpp"
 #include "helpers.hpp"
@@ -110,6 +112,41 @@ TEST(SpinBarrier, EveryThreadSeesTheOthersWritesOfThePhase) {
       }
   }
   EXPECT_EQ(wrong, 0);
+}
+
+// Every block goes to exactly one thread, in ascending order within a thread. Four blocks of the paper
+// sample's pair counts on two threads are dealt {0, 3} and {1, 2} (the best split: 13 128 and 13 804 pairs;
+// contiguous runs can do no better than 14 488 and 12 444); many blocks go out as contiguous runs.
+TEST(ThreadBlocks, EachBlockToOneThreadAndFewBlocksBalanced) {
+  const auto deal = [](const std::vector<std::size_t>& before, int threads) {
+    std::vector<std::vector<std::size_t>> dealt(threads);
+#pragma omp parallel num_threads(threads)
+    if (omp_get_num_threads() == threads)
+      dealt[omp_get_thread_num()] =
+          thread_blocks(before.size() - 1, [&](std::size_t b) { return before[b]; });
+    return dealt;
+  };
+  const std::vector<std::size_t> paper = {0, 7598, 14488, 21402, 26932};  // pairs before each block
+  const auto two = deal(paper, 2);
+  EXPECT_EQ(two[0], (std::vector<std::size_t>{0, 3}));
+  EXPECT_EQ(two[1], (std::vector<std::size_t>{1, 2}));
+
+  std::vector<std::size_t> many(41);
+  for (std::size_t b = 1; b < many.size(); ++b) many[b] = many[b - 1] + 100 + 37 * (b % 5);
+  for (const auto& before : {paper, many})
+    for (int threads : {1, 2, 3, 5}) {
+      SCOPED_TRACE(threads);
+      std::vector<int> seen(before.size() - 1, 0);
+      for (const auto& mine : deal(before, threads)) {
+        EXPECT_TRUE(std::is_sorted(mine.begin(), mine.end()));
+        for (std::size_t b : mine) ++seen[b];
+      }
+      for (int c : seen) EXPECT_EQ(c, 1);
+    }
+  const auto runs = deal(many, 2);  // 40 blocks >= 8 per thread: contiguous
+  ASSERT_FALSE(runs[0].empty());
+  EXPECT_EQ(runs[0].front(), 0u);
+  EXPECT_EQ(runs[1].front(), runs[0].back() + 1);
 }
 
 }  // namespace

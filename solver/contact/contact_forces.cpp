@@ -18,6 +18,7 @@ namespace {
 constexpr std::size_t kBlock = 256;
 // Pairs evaluated together by the SIMD loop before their in-order sums (small enough to stay in L1).
 constexpr int kChunk = 64;
+static_assert(kForceBlock % kBlock == 0, "force blocks are made of whole reduction blocks");
 
 // The doubles of an array of 3-vectors (null when it is empty: no pairs cross, say).
 inline double* doubles(std::vector<Vec3>& v) { return v.empty() ? nullptr : v.front().data(); }
@@ -132,8 +133,8 @@ struct HandOver {
 // Stores the chunk's flags and adds its pairs, in pair order, to both ends' net force and moment and to
 // the block's sums. The owner's sums run in registers from what its block's earlier pairs handed it, and
 // are stored after every pair (the last store is the total); the neighbour's share goes straight into its
-// net force and moment when it is in the force block, else into the next crossing slot. Pairs apart add zeros,
-// so they change no sum: there is no branch.
+// net force and moment when it is in the force block, else into the next crossing slot. Pairs apart add
+// zeros, so they change no sum: nothing depends on whether a pair touches.
 void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint8_t* __restrict flags,
                double* __restrict net_force, double* __restrict net_torque, BlockSums& block, HandOver& to) {
   BlockSums s = block;
@@ -150,7 +151,7 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
     const Index i = owner[k], j = neighbor[k];
     const bool same = i == s.owner;
     s.owner = i;
-    // (Every load is made whichever way the selects go, so that they need no branch.)
+    // (Both sides of each select are valid to load: the compiler may choose either a branch or a blend.)
     const double f_owner[3] = {net_force[3 * i], net_force[3 * i + 1], net_force[3 * i + 2]};
     const double t_owner[3] = {net_torque[3 * i], net_torque[3 * i + 1], net_torque[3 * i + 2]};
     for (int a = 0; a < 3; ++a) {
@@ -178,8 +179,9 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
   to.crossing_torque += 3 * crossed;
 }
 
-// The calling thread's share of the pairs: force blocks with about equal numbers of pairs (thread_blocks). Within a force block the reductions are summed over smaller blocks of kBlock owners; neither
-// depends on which thread takes which block. Diagonal: the cell and the velocity gradient are diagonal
+// The calling thread's share of the pairs: force blocks with about equal numbers of pairs (thread_blocks).
+// Within a force block the reductions are summed over smaller blocks of kBlock owners; neither depends on
+// which thread takes which block. Diagonal: the cell and the velocity gradient are diagonal
 // (principal-axis loading, the common case); the products with h and L then skip their zero terms, which
 // gives the same numbers bit for bit.
 template <class Law, Kinematics K, bool Diagonal>
@@ -198,9 +200,8 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
   double* const net_torque = doubles(p.torque);
   ChunkIn in;
   ChunkOut out;
-  const std::vector<std::size_t> my_blocks = thread_blocks(force_blocks, [&](std::size_t b) {
-    return pl.first[std::min(n, (b + 1) * kForceBlock)] - pl.first[b * kForceBlock];
-  });
+  const std::vector<std::size_t> my_blocks =
+      thread_blocks(force_blocks, [&](std::size_t b) { return pl.first[std::min(n, b * kForceBlock)]; });
   for (const std::size_t fb : my_blocks) {
     const std::size_t block_begin = fb * kForceBlock, block_end = std::min(n, (fb + 1) * kForceBlock);
     // The net forces and moments start from zero; the block's pairs add to both ends.
@@ -270,7 +271,6 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
       partial_((state.particles.size() + kBlock - 1) / kBlock) {
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
-  static_assert(kForceBlock % kBlock == 0, "force blocks are made of whole reduction blocks");
   if (model.contact.rotational_history() && state.pairs.rolling.size() != state.pairs.size())
     throw std::logic_error("compute_contact_forces: the pair list has no rotational springs (rebuild it first)");
   share_ = with_law(model.contact, [&](auto law) {

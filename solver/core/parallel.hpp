@@ -34,28 +34,27 @@ std::pair<std::size_t, std::size_t> thread_share(std::size_t count, CostBefore c
   return {boundary(t), boundary(t + 1)};
 }
 
-// The calling thread's share of `count` blocks of work, in ascending order, where cost(b) is block b's cost.
-// Many blocks per thread: a contiguous run, as thread_share gives. Few: whole blocks are too coarse for
-// contiguous runs to balance (four blocks of unequal cost on two threads), so they are dealt out, the
-// costliest first, each to the least loaded thread. Every thread computes the same deal.
-template <class Cost>
-std::vector<std::size_t> thread_blocks(std::size_t count, Cost cost) {
+// The calling thread's share of `count` blocks of work, in ascending order, with cost_before as for
+// thread_share. Many blocks per thread: the contiguous run thread_share gives. Few: whole blocks are too
+// coarse for contiguous runs to balance (four blocks of unequal cost on two threads), so they are dealt out,
+// the costliest first, each to the least loaded thread. Every thread computes the same deal.
+template <class CostBefore>
+std::vector<std::size_t> thread_blocks(std::size_t count, CostBefore cost_before) {
   const auto t = static_cast<std::size_t>(omp_get_thread_num()), threads = static_cast<std::size_t>(omp_get_num_threads());
   std::vector<std::size_t> mine;
   if (threads == 1 || count >= 8 * threads) {
-    std::vector<double> before(count + 1, 0.0);
-    for (std::size_t b = 0; b < count; ++b) before[b + 1] = before[b] + static_cast<double>(cost(b));
-    const auto [begin, end] = thread_share(count, [&](std::size_t b) { return before[b]; });
+    const auto [begin, end] = thread_share(count, cost_before);
     for (std::size_t b = begin; b < end; ++b) mine.push_back(b);
     return mine;
   }
+  const auto cost = [&](std::size_t b) { return static_cast<double>(cost_before(b + 1) - cost_before(b)); };
   std::vector<std::size_t> order(count);
   for (std::size_t b = 0; b < count; ++b) order[b] = b;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cost(a) > cost(b); });
   std::vector<double> load(threads, 0.0);
   for (const std::size_t b : order) {
-    const std::size_t least = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
-    load[least] += static_cast<double>(cost(b));
+    const auto least = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[least] += cost(b);
     if (least == t) mine.push_back(b);
   }
   std::sort(mine.begin(), mine.end());

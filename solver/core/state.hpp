@@ -71,7 +71,7 @@ struct PairList {
   // Positions and cell at the last build, for the rebuild criterion. The positions are kept in single
   // precision (half the memory and the drift's traffic); build_rounding bounds what that rounding hides, and
   // the criterion adds it to the distance moved, so the list is rebuilt no later than with exact positions.
-  std::vector<std::array<float, 3>> scaled_at_build;  // (N)
+  std::vector<Vec3f> scaled_at_build;            // (N)
   double build_rounding = 0.0;                   // [-] largest |s - float(s)| of a component at the build
   Mat3 h_at_build = Mat3::Identity();
   double skin = 0.0;                             // [m] extra cutoff beyond contact

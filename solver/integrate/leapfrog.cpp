@@ -5,7 +5,6 @@
 #include <limits>
 
 #include "core/parallel.hpp"
-#include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
 
@@ -69,7 +68,7 @@ double drift_share(const Model& model, const Mat3& h_before, State& state) {
   double max_disp2 = 0.0;
   for (std::size_t i = begin; i < end; ++i) {
     p.scaled[i] += step_map * p.velocity[i];
-    if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - at_build(pl, i))).squaredNorm());
+    if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i].cast<double>())).squaredNorm());
   }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
 }

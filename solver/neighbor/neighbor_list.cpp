@@ -188,12 +188,11 @@ void rebuild_pairs(const Model& model, State& state) {
   }
   build_crossings(next, n);
   next.scaled_at_build.resize(n);
-  for (std::size_t i = 0; i < n; ++i)
-    for (int k = 0; k < 3; ++k) {
-      next.scaled_at_build[i][k] = static_cast<float>(p.scaled[i][k]);
-      next.build_rounding =
-          std::max(next.build_rounding, std::abs(p.scaled[i][k] - static_cast<double>(next.scaled_at_build[i][k])));
-    }
+  for (std::size_t i = 0; i < n; ++i) {
+    next.scaled_at_build[i] = p.scaled[i].cast<float>();
+    next.build_rounding = std::max(next.build_rounding,
+                                   (p.scaled[i] - next.scaled_at_build[i].cast<double>()).cwiseAbs().maxCoeff());
+  }
   next.h_at_build = state.cell.h;
   pl = std::move(next);
 }
@@ -208,7 +207,7 @@ double largest_move_since_build(const State& state) {
   const std::size_t n = p.size();
 #pragma omp parallel for schedule(static) reduction(max : max_disp2)
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec3 ds = p.scaled[i] - at_build(pl, i);
+    const Vec3 ds = p.scaled[i] - pl.scaled_at_build[i].cast<double>();
     max_disp2 = std::max(max_disp2, (h * ds).squaredNorm());
   }
   return std::sqrt(max_disp2);

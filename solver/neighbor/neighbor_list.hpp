@@ -18,12 +18,6 @@ bool pairs_need_rebuild(const Model& model, const State& state, double largest_m
 bool pairs_need_rebuild(const Model& model, const State& state);
 double largest_move_since_build(const State& state);  // [m]; infinity when the list was never built
 
-// Particle i's scaled position at the last build, as stored (single precision).
-inline Vec3 at_build(const PairList& pl, std::size_t i) {
-  const std::array<float, 3>& s = pl.scaled_at_build[i];
-  return {static_cast<double>(s[0]), static_cast<double>(s[1]), static_cast<double>(s[2])};
-}
-
 // Replace the list with exactly the given contacts (history only), e.g. after reading a state file.
 // The next rebuild_pairs() call merges them into the full list.
 void set_stored_contacts(State& state, const std::vector<StoredContact>& contacts);

@@ -255,11 +255,13 @@ TEST(ContactForces, NetForcesAreTheSumsOfTheirPairs) {
     force[i] -= c.force, force[j] += c.force;
     torque[i] += c.torque_i, torque[j] += c.torque_j;
   }
-  double largest = 0.0;
-  for (const Vec3& f : force) largest = std::max(largest, f.norm());
+  double largest_force = 0.0, largest_torque = 0.0;
+  for (const Vec3& f : force) largest_force = std::max(largest_force, f.norm());
+  for (const Vec3& t : torque) largest_torque = std::max(largest_torque, t.norm());
+  ASSERT_GT(largest_torque, 0.0);
   for (std::size_t i = 0; i < s.particles.size(); ++i) {
-    EXPECT_LT((s.particles.force[i] - force[i]).norm(), 1e-12 * largest) << i;
-    EXPECT_LT((s.particles.torque[i] - torque[i]).norm(), 1e-12 * largest) << i;
+    EXPECT_LT((s.particles.force[i] - force[i]).norm(), 1e-12 * largest_force) << i;
+    EXPECT_LT((s.particles.torque[i] - torque[i]).norm(), 1e-12 * largest_torque) << i;
   }
 }
 
