@@ -26,6 +26,7 @@ inline double* doubles(std::vector<Vec3>& v) { return v.empty() ? nullptr : v.fr
 // A chunk of pairs in SIMD form: the particle data of both ends gathered component-major, one lane per
 // pair, so that the law runs on unit-stride loads; the pair arrays themselves are read and written in place.
 struct ChunkIn {
+  alignas(64) Index owner[kChunk + 8];  // i of each pair (chunk_owners; it writes eight at a time)
   alignas(64) double ds[3][kChunk];  // s_j - s_i + image (scaled branch)
   alignas(64) double dv[3][kChunk];  // v_j - v_i (fluctuating velocities)
   alignas(64) double wi[3][kChunk];
@@ -51,9 +52,30 @@ inline Real3 apply(const Mat3& m, Real3 v) {
             m(2, 0) * v.x + m(2, 1) * v.y + m(2, 2) * v.z};
 }
 
+// The owners of pairs q0 .. q0+m-1, from the list's offsets (it stores no owner per pair). owner: an owner
+// whose row reaches the chunk (first[owner] <= q0 <= first[owner + 1]) on entry, the same for the next chunk
+// on return. The rows are written eight entries at a time, in owner order: a row's last eight run over into
+// the rows after it, which overwrite them (a row without pairs writes eight that its successor overwrites),
+// so a row of up to eight pairs costs one store and no branch that depends on its length.
+void chunk_owners(const Index* __restrict first, Index q0, int m, Index& owner, Index* __restrict owners) {
+  Index i = owner, start = 0;
+  for (;;) {
+    const Index end = first[i + 1] - q0;
+    Index k = start;
+    do {
+      for (int t = 0; t < 8; ++t) owners[k + t] = i;
+      k += 8;
+    } while (k < end && k < m);
+    if (end >= m) break;
+    start = end;
+    ++i;
+  }
+  owner = i;
+}
+
 void gather_chunk(const Particles& p, const PairList& pl, Index q0, int m, ChunkIn& c) {
   for (int k = 0; k < m; ++k) {
-    const Index q = q0 + k, i = pl.owner[q], j = pl.neighbor[q];
+    const Index q = q0 + k, i = c.owner[k], j = pl.neighbor[q];
     for (int d = 0; d < 3; ++d) {
       c.ds[d][k] = p.scaled[j][d] - p.scaled[i][d] + pl.image[q][d];
       c.dv[d][k] = p.velocity[j][d] - p.velocity[i][d];
@@ -123,28 +145,28 @@ struct BlockSums {
 };
 
 // Where sum_chunk hands the neighbours' share: the force block being evaluated, and where its next
-// crossing pair's force and moment go.
+// crossing pair's moment goes (its force stays in the pair's own slot).
 struct HandOver {
   Index block_begin, block_size;  // the force block's particles
-  double* crossing_force;
   double* crossing_torque;
 };
 
 // Stores the chunk's flags and adds its pairs, in pair order, to both ends' net force and moment and to
 // the block's sums. The owner's sums run in registers from what its block's earlier pairs handed it, and
 // are stored after every pair (the last store is the total); the neighbour's share goes straight into its
-// net force and moment when it is in the force block, else into the next crossing slot. Pairs apart add
-// zeros, so they change no sum: nothing depends on whether a pair touches.
-void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint8_t* __restrict flags,
-               double* __restrict net_force, double* __restrict net_torque, BlockSums& block, HandOver& to) {
+// net force and moment when it is in the force block, else (the moment) into the next crossing slot and
+// (the force) nowhere: the kick reads it from the pair. Pairs apart add zeros, so they change no sum:
+// nothing depends on whether a pair touches.
+void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const PairList& pl,
+               std::uint8_t* __restrict flags, double* __restrict net_force, double* __restrict net_torque,
+               BlockSums& block, HandOver& to) {
   BlockSums s = block;
-  const Index* __restrict owner = pl.owner.data() + q0;
+  const Index* __restrict owner = in.owner;
   const Index* __restrict neighbor = pl.neighbor.data() + q0;
   const double* __restrict pair_force = pl.force[q0].data();
   using Unsigned = std::make_unsigned_t<Index>;
   const Index block_begin = to.block_begin;
   const Unsigned block_size = static_cast<Unsigned>(to.block_size);
-  double* const crossing_force = to.crossing_force;
   double* const crossing_torque = to.crossing_torque;
   Index crossed = 0;
   for (int k = 0; k < m; ++k) {
@@ -161,11 +183,13 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
       net_torque[3 * i + a] = s.torque[a];
     }
     const bool crossing = static_cast<Unsigned>(j - block_begin) >= block_size;
-    double* const f = crossing ? crossing_force + 3 * crossed : net_force + 3 * j;
+    // A crossing pair leaves j's force in the pair (the kick adds it from there) and stores the owner's net
+    // force back as it stands instead, so that the stores need no branch.
+    double* const f = net_force + 3 * (crossing ? i : j);
     double* const t = crossing ? crossing_torque + 3 * crossed : net_torque + 3 * j;
     const double f_before[3] = {f[0], f[1], f[2]}, t_before[3] = {t[0], t[1], t[2]};
     for (int a = 0; a < 3; ++a) {  // a crossing slot starts from zero
-      f[a] = (crossing ? 0.0 : f_before[a]) + pair_force[3 * k + a];
+      f[a] = crossing ? f_before[a] : f_before[a] + pair_force[3 * k + a];
       t[a] = (crossing ? 0.0 : t_before[a]) + c.torque_j[a][k];
     }
     crossed += crossing;
@@ -175,7 +199,6 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, const PairList& pl, std::uint
   }
   for (int k = 0; k < m; ++k) flags[q0 + k] = static_cast<std::uint8_t>(c.flags[k]);
   block = s;
-  to.crossing_force += 3 * crossed;
   to.crossing_torque += 3 * crossed;
 }
 
@@ -208,19 +231,20 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
     std::fill(net_force + 3 * block_begin, net_force + 3 * block_end, 0.0);
     std::fill(net_torque + 3 * block_begin, net_torque + 3 * block_end, 0.0);
     HandOver to{static_cast<Index>(block_begin), static_cast<Index>(block_end - block_begin),
-                doubles(pl.crossing_force) + 3 * pl.block_crossings[fb],
                 doubles(pl.crossing_torque) + 3 * pl.block_crossings[fb]};
     for (std::size_t first_owner = block_begin; first_owner < block_end; first_owner += kBlock) {
       const std::size_t last_owner = std::min(block_end, first_owner + kBlock);
       BlockSums sums;
       const Index begin = pl.first[first_owner], end = pl.first[last_owner];
+      Index owner = static_cast<Index>(first_owner);
       for (Index q0 = begin; q0 < end; q0 += kChunk) {
         const int m = std::min<Index>(kChunk, end - q0);
+        chunk_owners(pl.first.data(), q0, m, owner, in.owner);
         gather_chunk(p, pl, q0, m, in);
         evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(),
                                          rolling ? rolling + 3 * q0 : nullptr, twist ? twist + q0 : nullptr,
                                          pl.force[q0].data(), out);
-        sum_chunk(out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
+        sum_chunk(in, out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
       }
       ContactBlockSums& part = partial[first_owner / kBlock];
       part.normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
@@ -250,14 +274,15 @@ Mat3 contact_stress(const State& state) {
   Mat3 total = Mat3::Zero();
   for (std::size_t b = 0; b < blocks; ++b) {
     Mat3 block = Mat3::Zero();
-    for (Index q = pl.first[b * kBlock]; q < pl.first[std::min(n, (b + 1) * kBlock)]; ++q) {
-      const Index i = pl.owner[q], j = pl.neighbor[q];
-      const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]);
-      const Real3 branch = apply<false>(h, real3(ds));
-      const double l[3] = {branch.x, branch.y, branch.z};
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) block(r, c) += pl.force[q][r] * l[c];
-    }
+    for (std::size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i)
+      for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
+        const Index j = pl.neighbor[q];
+        const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]);
+        const Real3 branch = apply<false>(h, real3(ds));
+        const double l[3] = {branch.x, branch.y, branch.z};
+        for (int r = 0; r < 3; ++r)
+          for (int c = 0; c < 3; ++c) block(r, c) += pl.force[q][r] * l[c];
+      }
     total += block;
   }
   return 0.5 * (total + total.transpose()) / state.cell.volume();

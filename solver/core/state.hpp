@@ -1,6 +1,7 @@
 // The mutable state of a simulation: periodic cell, particles, contacts (with history) and control memory.
 // Everything here goes into the state file; everything else is derived from it and the Model.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -47,8 +48,7 @@ using PairImage = std::array<std::int16_t, 3>;
 // Half neighbour list in CSR form, pair p = (i, neighbor[p]) for p in [first[i], first[i+1]), sorted by j,
 // each pair with its periodic image and the history of its contact. Pairs not touching have zero history.
 struct PairList {
-  std::vector<Index> first;                      // (N+1) offsets into the pair arrays
-  std::vector<Index> owner;                      // (P) i of each pair
+  std::vector<Index> first;                      // (N+1) offsets into the pair arrays: i owns [first[i], first[i+1])
   std::vector<Index> neighbor;                   // (P) j of each pair, j > i or an image of a lower id
   std::vector<PairImage> image;                  // (P) integer shift n: branch = h (s_j - s_i + n)
   std::vector<Vec3> tangential;                  // (P) xi [m], stored tangential spring displacement
@@ -60,14 +60,15 @@ struct PairList {
   std::vector<Vec3> force;                       // (P) [N] force on j by i
   // How the pair loop hands a pair's force and moment to its neighbour j. Particles are grouped in fixed
   // blocks of kForceBlock ids. A pair whose ends are in one block adds them to j's net force and moment at
-  // once; a crossing pair (ends in two blocks, the owner's first: j > i) leaves them in the crossing arrays,
-  // in pair order, and j's kick adds them once the pair loop is done. Every particle's sum thus runs in one
-  // fixed order for any number of threads (the threads share whole blocks, each writing its own crossings).
+  // once; for a crossing pair (ends in two blocks, the owner's first: j > i) the pair loop leaves j's moment
+  // in crossing_torque, in pair order (its force is the pair's own), and j's kick adds both once the pair
+  // loop is done. Every particle's sum thus runs in one fixed order for any number of threads (the threads
+  // share whole blocks, each writing its own crossings).
   std::vector<Index> block_crossings;            // (blocks + 1) crossing pairs owned by earlier blocks
-  std::vector<Vec3> crossing_force;              // (C) [N] force on j of each crossing pair, in pair order
-  std::vector<Vec3> crossing_torque;             // (C) [N m] moment on j
-  std::vector<Index> crossing_first;             // (N + 1) CSR by j into crossing: the pairs crossing into j
-  std::vector<Index> crossing;                   // (C) their ranks in crossing_force, ascending
+  std::vector<Vec3> crossing_torque;             // (C) [N m] moment on j of each crossing pair, in pair order
+  std::vector<Index> crossing_first;             // (N + 1) CSR by j: the pairs crossing into j, in pair order,
+  std::vector<Index> crossing;                   // (C)   their ranks in crossing_torque
+  std::vector<Index> crossing_pair;              // (C)   and their pair indices
   // Positions and cell at the last build, for the rebuild criterion. The positions are kept in single
   // precision (half the memory and the drift's traffic); build_rounding bounds what that rounding hides, and
   // the criterion adds it to the distance moved, so the list is rebuilt no later than with exact positions.
@@ -76,7 +77,18 @@ struct PairList {
   Mat3 h_at_build = Mat3::Identity();
   double skin = 0.0;                             // [m] extra cutoff beyond contact
   std::size_t size() const { return neighbor.size(); }
+  // The owner of pair q: a binary search of first, for checks and measurements (the pair loop walks first).
+  Index owner_of(std::size_t q) const {
+    return static_cast<Index>(std::upper_bound(first.begin(), first.end(), static_cast<Index>(q)) - first.begin()) - 1;
+  }
 };
+
+// Calls f(i, q) for every listed pair q, in list order, with its owner i.
+template <class F>
+void for_each_pair(const PairList& pl, F&& f) {
+  for (std::size_t i = 0; i + 1 < pl.first.size(); ++i)
+    for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) f(static_cast<Index>(i), q);
+}
 
 // One stored contact (the history that must survive a neighbour rebuild or a restart).
 struct StoredContact {

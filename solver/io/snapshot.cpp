@@ -127,11 +127,11 @@ Vec3 wrapped_position(const Cell& cell, const Vec3& s) { return cell.h * wrapped
 std::vector<std::int32_t> contacts_per_particle(const State& state) {
   std::vector<std::int32_t> count(state.particles.size(), 0);
   const PairList& pl = state.pairs;
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.flags[q] & kTouching) {
-      ++count[pl.owner[q]];
-      ++count[pl.neighbor[q]];
-    }
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (!(pl.flags[q] & kTouching)) return;
+    ++count[i];
+    ++count[pl.neighbor[q]];
+  });
   return count;
 }
 
@@ -139,10 +139,10 @@ std::vector<ContactSnapshot> touching_contacts(const State& state) {
   const PairList& pl = state.pairs;
   const Mat3& h = state.cell.h;
   std::vector<ContactSnapshot> out;
-  for (std::size_t q = 0; q < pl.size(); ++q) {
-    if (!(pl.flags[q] & kTouching)) continue;
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (!(pl.flags[q] & kTouching)) return;
     ContactSnapshot c;
-    c.i = pl.owner[q];
+    c.i = i;
     c.j = pl.neighbor[q];
     const Vec3 image(pl.image[q][0], pl.image[q][1], pl.image[q][2]);
     c.branch = h * (state.particles.scaled[c.j] - state.particles.scaled[c.i] + image);
@@ -152,7 +152,7 @@ std::vector<ContactSnapshot> touching_contacts(const State& state) {
     c.tangential_force = f - c.normal_force * n;
     c.sliding = (pl.flags[q] & kSliding) != 0;
     out.push_back(c);
-  }
+  });
   return out;
 }
 

@@ -9,10 +9,11 @@
 namespace celldem {
 namespace {
 
-Vec3 branch_of(const State& state, std::size_t q) {
+// The branch vector of pair q, owned by i.
+Vec3 branch_of(const State& state, Index i, Index q) {
   const PairList& pl = state.pairs;
   const auto& img = pl.image[q];
-  const Vec3 ds = state.particles.scaled[pl.neighbor[q]] - state.particles.scaled[pl.owner[q]] +
+  const Vec3 ds = state.particles.scaled[pl.neighbor[q]] - state.particles.scaled[i] +
                   Vec3(img[0], img[1], img[2]);
   return state.cell.h * ds;
 }
@@ -51,12 +52,12 @@ Fabric contact_fabric(const Model&, const State& state) {
   std::vector<double> forces;
   normals.reserve(state.touching);
   forces.reserve(state.touching);
-  for (std::size_t q = 0; q < pl.size(); ++q) {
-    if (!(pl.flags[q] & kTouching)) continue;
-    const Vec3 n = branch_of(state, q).normalized();
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (!(pl.flags[q] & kTouching)) return;
+    const Vec3 n = branch_of(state, i, q).normalized();
     normals.push_back(n);
     forces.push_back(pl.force[q].dot(n));
-  }
+  });
   return fabric_of(normals, forces);
 }
 
@@ -99,8 +100,9 @@ Coordination coordination(const State& state, int min_contacts) {
   const PairList& pl = state.pairs;
   std::vector<std::pair<Index, Index>> contacts;
   contacts.reserve(state.touching);
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.flags[q] & kTouching) contacts.emplace_back(pl.owner[q], pl.neighbor[q]);
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (pl.flags[q] & kTouching) contacts.emplace_back(i, pl.neighbor[q]);
+  });
   return coordination_of(state.particles.size(), contacts, min_contacts);
 }
 
@@ -131,13 +133,13 @@ double elastic_energy(const Model& model, const State& state) {
   const ContactDef& c = model.contact;
   const bool rotational = pl.rolling.size() == pl.size();
   double e = 0.0;
-  for (std::size_t q = 0; q < pl.size(); ++q) {
-    if (!(pl.flags[q] & kTouching)) continue;
-    const Vec3 branch = branch_of(state, q);
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (!(pl.flags[q] & kTouching)) return;
+    const Vec3 branch = branch_of(state, i, q);
     const Vec3 n = branch.normalized();
     const double fn = pl.force[q].dot(n);
     const double ft2 = (pl.force[q] - fn * n).squaredNorm();
-    const Index i = pl.owner[q], j = pl.neighbor[q];
+    const Index j = pl.neighbor[q];
     const double ri = state.particles.radius[i], rj = state.particles.radius[j];
     const double overlap = ri + rj - branch.norm();
     const double a = std::sqrt(ri * rj / (ri + rj) * std::max(overlap, 0.0));
@@ -146,7 +148,7 @@ double elastic_energy(const Model& model, const State& state) {
     e += normal + (kt > 0.0 ? 0.5 * ft2 / kt : 0.0);
     if (rotational && c.rolling == RollingModel::Sds) e += 0.5 * c.rolling_stiffness * pl.rolling[q].squaredNorm();
     if (rotational && c.twisting == TwistingModel::Marshall) e += 0.25 * kt * a * a * pl.twist[q] * pl.twist[q];
-  }
+  });
   return e;
 }
 
@@ -156,11 +158,11 @@ double unbalanced_force_ratio(const Model& model, const State& state) {
   double net = 0.0, normal = 0.0;
   std::int64_t touching = 0;
   for (std::size_t i = 0; i < p.size(); ++i) net += p.force[i].norm();
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.flags[q] & kTouching) {
-      normal += pl.force[q].dot(branch_of(state, q).normalized());
-      ++touching;
-    }
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (!(pl.flags[q] & kTouching)) return;
+    normal += pl.force[q].dot(branch_of(state, i, q).normalized());
+    ++touching;
+  });
   (void)model;
   if (touching == 0 || normal <= 0.0) return 0.0;
   return (net / static_cast<double>(p.size())) / (normal / static_cast<double>(touching));

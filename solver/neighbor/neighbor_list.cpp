@@ -123,19 +123,30 @@ void find_candidates(const State& state, double skin, double max_radius,
 // The crossing pairs (PairList): ranked in pair order, and listed by neighbour.
 void build_crossings(PairList& pl, std::size_t n) {
   const std::size_t blocks = (n + kForceBlock - 1) / kForceBlock;
-  const auto crossing = [&](std::size_t q) { return pl.owner[q] / kForceBlock != pl.neighbor[q] / kForceBlock; };
+  // Calls f(i, q, rank) for each crossing pair q (owner i), in pair order.
+  const auto for_each_crossing = [&](auto f) {
+    Index rank = 0;
+    for_each_pair(pl, [&](Index i, Index q) {
+      if (i / kForceBlock != pl.neighbor[q] / kForceBlock) f(i, q, rank++);
+    });
+  };
   pl.block_crossings.assign(blocks + 1, 0);
   pl.crossing_first.assign(n + 1, 0);
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    if (crossing(q)) ++pl.block_crossings[pl.owner[q] / kForceBlock + 1], ++pl.crossing_first[pl.neighbor[q] + 1];
+  for_each_crossing([&](Index i, Index q, Index) {
+    ++pl.block_crossings[i / kForceBlock + 1];
+    ++pl.crossing_first[pl.neighbor[q] + 1];
+  });
   for (std::size_t b = 0; b < blocks; ++b) pl.block_crossings[b + 1] += pl.block_crossings[b];
   for (std::size_t k = 0; k < n; ++k) pl.crossing_first[k + 1] += pl.crossing_first[k];
   const std::size_t count = pl.crossing_first[n];
   pl.crossing.resize(count);
+  pl.crossing_pair.resize(count);
   std::vector<Index> fill(pl.crossing_first.begin(), pl.crossing_first.end() - 1);
-  for (std::size_t q = 0, rank = 0; q < pl.size(); ++q)
-    if (crossing(q)) pl.crossing[fill[pl.neighbor[q]]++] = static_cast<Index>(rank++);
-  pl.crossing_force.assign(count, Vec3::Zero());
+  for_each_crossing([&](Index, Index q, Index rank) {
+    const Index k = fill[pl.neighbor[q]]++;
+    pl.crossing[k] = rank;
+    pl.crossing_pair[k] = q;
+  });
   pl.crossing_torque.assign(count, Vec3::Zero());
 }
 
@@ -153,7 +164,6 @@ void rebuild_pairs(const Model& model, State& state) {
   next.first.assign(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i) next.first[i + 1] = next.first[i] + static_cast<Index>(candidates[i].size());
   const std::size_t count = next.first[n];
-  next.owner.resize(count);
   next.neighbor.resize(count);
   next.image.resize(count);
   next.tangential.assign(count, Vec3::Zero());
@@ -172,7 +182,6 @@ void rebuild_pairs(const Model& model, State& state) {
     for (std::size_t c = 0; c < candidates[i].size(); ++c) {
       const Index q = next.first[i] + static_cast<Index>(c);
       const Index j = candidates[i][c].j;
-      next.owner[q] = static_cast<Index>(i);
       next.neighbor[q] = j;
       next.image[q] = candidates[i][c].image;
       while (q_old < q_old_end && pl.neighbor[q_old] < j) ++q_old;
@@ -240,7 +249,6 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   pl.first.assign(n + 1, 0);
   for (const auto& c : contacts) ++pl.first[c.i + 1];
   for (std::size_t k = 0; k < n; ++k) pl.first[k + 1] += pl.first[k];
-  pl.owner.resize(contacts.size());
   pl.neighbor.resize(contacts.size());
   pl.tangential.resize(contacts.size());
   const bool rotational = std::any_of(contacts.begin(), contacts.end(),
@@ -253,7 +261,6 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   std::vector<Index> fill(pl.first.begin(), pl.first.end() - 1);
   for (const auto& c : contacts) {  // contacts arrive sorted by (i, j), so each row stays sorted
     const Index q = fill[c.i]++;
-    pl.owner[q] = c.i;
     pl.neighbor[q] = c.j;
     pl.tangential[q] = c.tangential;
     pl.flags[q] = c.flags;
@@ -267,15 +274,15 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
 std::vector<StoredContact> stored_contacts(const State& state) {
   const PairList& pl = state.pairs;
   std::vector<StoredContact> out;
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.flags[q] & kTouching) {
-      StoredContact c{pl.owner[q], pl.neighbor[q], pl.tangential[q], pl.flags[q]};
-      if (pl.rolling.size() == pl.size()) {
-        c.rolling = pl.rolling[q];
-        c.twist = pl.twist[q];
-      }
-      out.push_back(c);
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (!(pl.flags[q] & kTouching)) return;
+    StoredContact c{i, pl.neighbor[q], pl.tangential[q], pl.flags[q]};
+    if (pl.rolling.size() == pl.size()) {
+      c.rolling = pl.rolling[q];
+      c.twist = pl.twist[q];
     }
+    out.push_back(c);
+  });
   return out;
 }
 

@@ -161,9 +161,9 @@ MemoryPerParticle memory_per_particle(const State& s, const Model& m) {
   MemoryPerParticle out;
   out.particles = (bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) + bytes(p.force) +
                    bytes(p.torque) + bytes(pl.first) + bytes(pl.crossing_first) + bytes(pl.scaled_at_build)) / n;
-  out.pairs = (bytes(pl.owner) + bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) +
-               bytes(pl.twist) + bytes(pl.flags) + bytes(pl.force) + bytes(pl.block_crossings) +
-               bytes(pl.crossing_force) + bytes(pl.crossing_torque) + bytes(pl.crossing)) / n;
+  out.pairs = (bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) + bytes(pl.twist) +
+               bytes(pl.flags) + bytes(pl.force) + bytes(pl.block_crossings) + bytes(pl.crossing_torque) +
+               bytes(pl.crossing) + bytes(pl.crossing_pair)) / n;
   out.model = (bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +
                bytes(m.spin_gain)) / n;
   return out;

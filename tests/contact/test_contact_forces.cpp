@@ -118,7 +118,7 @@ TEST(ContactForces, ForcesDoNotDependOnWhichImageHoldsAParticle) {
   EXPECT_EQ(a.touching, b.touching);
   for (std::size_t q = 0; q < a.pairs.size(); ++q) {
     if (!(a.pairs.flags[q] & kTouching)) continue;
-    const int qb = find_pair(b.pairs, a.pairs.owner[q], a.pairs.neighbor[q]);
+    const int qb = find_pair(b.pairs, a.pairs.owner_of(q), a.pairs.neighbor[q]);
     ASSERT_GE(qb, 0);
     EXPECT_NEAR((a.pairs.force[q] - b.pairs.force[qb]).norm(), 0.0, 1e-9 * a.pairs.force[q].norm());
     EXPECT_NEAR((a.pairs.tangential[q] - b.pairs.tangential[qb]).norm(), 0.0, 1e-12);
@@ -232,24 +232,21 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
 // Every pair reaches both its ends once, whichever way it is handed over (at once within a force block, or
 // through the crossing arrays): the net forces and moments equal plain sums over the pairs, up to the
 // order of the additions. The moments are summed from each pair's law, evaluated again on its own.
-TEST(ContactForces, NetForcesAreTheSumsOfTheirPairs) {
-  const int n = 17;
-  const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, 0.5));
-  State s = testing::jostled_lattice(n, 5, 0.02, 1.0, 5.0);
+// Evaluates every listed pair of s again on its own (at the state before the pair loop) and checks that each
+// particle's net force and moment are the sums of its pairs': every pair reaches both ends, once.
+void expect_net_forces_are_pair_sums(const Model& model, State s) {
   rebuild_pairs(model, s);
   const State before = s;
   compute_contact_forces(model, 0.4, s);
   gather_forces(s);
-  ASSERT_GT(s.pairs.crossing.size(), 500u);
   const ContactParams params = contact_params(model.contact, Friction{0.4});
-  std::vector<Vec3> force(s.particles.size(), Vec3::Zero()), torque(s.particles.size(), Vec3::Zero());
+  const Particles& p = before.particles;
+  std::vector<Vec3> force(p.size(), Vec3::Zero()), torque(p.size(), Vec3::Zero());
   for (std::size_t q = 0; q < s.pairs.size(); ++q) {
-    const Index i = s.pairs.owner[q], j = s.pairs.neighbor[q];
-    const Vec3 ds = before.particles.scaled[j] - before.particles.scaled[i] +
-                    Vec3(s.pairs.image[q][0], s.pairs.image[q][1], s.pairs.image[q][2]);
-    const ContactResult c = linear_spring_contact(params, s.cell.h * ds, 0.5, 0.5,
-                                                  before.particles.velocity[j] - before.particles.velocity[i],
-                                                  before.particles.spin[i], before.particles.spin[j],
+    const Index i = s.pairs.owner_of(q), j = s.pairs.neighbor[q];
+    const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(s.pairs.image[q][0], s.pairs.image[q][1], s.pairs.image[q][2]);
+    const ContactResult c = linear_spring_contact(params, s.cell.h * ds, p.radius[i], p.radius[j],
+                                                  p.velocity[j] - p.velocity[i], p.spin[i], p.spin[j],
                                                   before.pairs.tangential[q], model.dt);
     EXPECT_EQ(c.force, s.pairs.force[q]) << q;
     force[i] -= c.force, force[j] += c.force;
@@ -259,10 +256,39 @@ TEST(ContactForces, NetForcesAreTheSumsOfTheirPairs) {
   for (const Vec3& f : force) largest_force = std::max(largest_force, f.norm());
   for (const Vec3& t : torque) largest_torque = std::max(largest_torque, t.norm());
   ASSERT_GT(largest_torque, 0.0);
-  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+  for (std::size_t i = 0; i < p.size(); ++i) {
     EXPECT_LT((s.particles.force[i] - force[i]).norm(), 1e-12 * largest_force) << i;
     EXPECT_LT((s.particles.torque[i] - torque[i]).norm(), 1e-12 * largest_torque) << i;
   }
+}
+
+TEST(ContactForces, NetForcesAreTheSumsOfTheirPairs) {
+  const int n = 17;  // 4913 spheres: three force blocks, pairs crossing between them
+  const State s = testing::jostled_lattice(n, 5, 0.02, 1.0, 5.0);
+  const Model model = make_model(model_deck(kKn, kKt, kDt), s.particles.radius);
+  State listed = s;
+  rebuild_pairs(model, listed);
+  ASSERT_GT(listed.pairs.crossing.size(), 500u);
+  expect_net_forces_are_pair_sums(model, s);
+}
+
+// The pair loop finds each pair's owner from the list's offsets: rows far longer than a chunk (a large
+// sphere among small ones), and owners without pairs (tiny spheres, many in a row, and the last id).
+TEST(ContactForces, NetForcesAreTheSumsOfTheirPairsWithLongAndEmptyRows) {
+  State s = testing::jostled_lattice(16, 7, 0.02, 1.0, 5.0);
+  for (const std::size_t big : {0u, 1u, 1500u, 3000u}) s.particles.radius[big] = 2.4;
+  for (std::size_t loner = 100; loner < 140; ++loner) s.particles.radius[loner] = 0.05;  // reach no one
+  const Model model = make_model(model_deck(kKn, kKt, kDt), s.particles.radius);
+  State listed = s;
+  rebuild_pairs(model, listed);
+  Index longest = 0, empty = 0;
+  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+    longest = std::max(longest, listed.pairs.first[i + 1] - listed.pairs.first[i]);
+    empty += listed.pairs.first[i + 1] == listed.pairs.first[i];
+  }
+  ASSERT_GT(longest, 100);  // (chunks of 64 pairs)
+  ASSERT_GT(empty, 10);
+  expect_net_forces_are_pair_sums(model, s);
 }
 
 }  // namespace

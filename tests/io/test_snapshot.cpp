@@ -188,7 +188,7 @@ Vec3 primary_position(const State& s, std::size_t i) {
 std::vector<int> contact_count(const State& s) {
   std::vector<int> count(s.particles.size(), 0);
   for (std::size_t q = 0; q < s.pairs.size(); ++q)
-    if (s.pairs.flags[q] & kTouching) count[s.pairs.owner[q]]++, count[s.pairs.neighbor[q]]++;
+    if (s.pairs.flags[q] & kTouching) count[s.pairs.owner_of(q)]++, count[s.pairs.neighbor[q]]++;
   return count;
 }
 
@@ -278,7 +278,7 @@ TEST(Snapshot, ContactFileHoldsEveryTouchingPairWithItsForces) {
   int across_boundary = 0, sliding_count = 0;
   for (std::size_t c = 0; c < m; ++c) {
     const std::size_t q = touching[c];
-    const Index i = s.pairs.owner[q], j = s.pairs.neighbor[q];
+    const Index i = s.pairs.owner_of(q), j = s.pairs.neighbor[q];
     EXPECT_EQ(pi[c], i);
     EXPECT_EQ(pj[c], j);
     EXPECT_EQ(connectivity[2 * c], 2.0 * c);

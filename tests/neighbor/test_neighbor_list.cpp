@@ -44,7 +44,7 @@ std::set<Key> brute_force(const State& s, double extra, int range = 1) {
 std::set<Key> listed(const PairList& pl) {
   std::set<Key> out;
   for (std::size_t q = 0; q < pl.size(); ++q)
-    out.insert({pl.owner[q], pl.neighbor[q], pl.image[q][0], pl.image[q][1], pl.image[q][2]});
+    out.insert({pl.owner_of(q), pl.neighbor[q], pl.image[q][0], pl.image[q][1], pl.image[q][2]});
   return out;
 }
 
@@ -70,18 +70,19 @@ void expect_list_consistent(const PairList& pl, std::size_t n) {
   EXPECT_EQ(static_cast<std::size_t>(pl.first[n]), pl.size());
   for (std::size_t i = 0; i < n; ++i)
     for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
-      EXPECT_EQ(pl.owner[q], static_cast<Index>(i));
+      EXPECT_EQ(pl.owner_of(q), static_cast<Index>(i));
       EXPECT_GT(pl.neighbor[q], static_cast<Index>(i));
       if (q > pl.first[i]) { EXPECT_LT(pl.neighbor[q - 1], pl.neighbor[q]); }  // sorted by j, one image each
     }
   // The crossing index: every pair whose ends lie in two force blocks once, under its neighbour, by its rank
-  // among the crossing pairs in pair order (ascending under each neighbour); each block's count in order.
+  // among the crossing pairs in pair order (ascending under each neighbour) and its pair index; each block's
+  // count in order.
   std::vector<std::size_t> pair_of_rank;
   Index crossings = 0;
   const std::size_t blocks = (n + kForceBlock - 1) / kForceBlock;
   ASSERT_EQ(pl.block_crossings.size(), blocks + 1);
   for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.owner[q] / kForceBlock != pl.neighbor[q] / kForceBlock) pair_of_rank.push_back(q), ++crossings;
+    if (pl.owner_of(q) / kForceBlock != pl.neighbor[q] / kForceBlock) pair_of_rank.push_back(q), ++crossings;
   for (std::size_t b = 0; b <= blocks; ++b) {
     const auto block_start = static_cast<std::size_t>(pl.first[std::min(n, b * kForceBlock)]);
     EXPECT_EQ(pl.block_crossings[b], std::count_if(pair_of_rank.begin(), pair_of_rank.end(),
@@ -89,7 +90,8 @@ void expect_list_consistent(const PairList& pl, std::size_t n) {
   }
   ASSERT_EQ(pl.crossing_first.size(), n + 1);
   ASSERT_EQ(pl.crossing.size(), static_cast<std::size_t>(crossings));
-  ASSERT_EQ(pl.crossing_force.size(), static_cast<std::size_t>(crossings));
+  ASSERT_EQ(pl.crossing_torque.size(), static_cast<std::size_t>(crossings));
+  ASSERT_EQ(pl.crossing_pair.size(), static_cast<std::size_t>(crossings));
   std::vector<int> seen(crossings, 0);
   for (std::size_t j = 0; j < n; ++j)
     for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
@@ -97,6 +99,7 @@ void expect_list_consistent(const PairList& pl, std::size_t n) {
       ASSERT_GE(c, 0);
       ASSERT_LT(c, crossings);
       const std::size_t q = pair_of_rank[c];
+      EXPECT_EQ(static_cast<std::size_t>(pl.crossing_pair[k]), q);
       EXPECT_EQ(pl.neighbor[q], static_cast<Index>(j));
       if (k > pl.crossing_first[j]) { EXPECT_LT(pl.crossing[k - 1], c); }
       ++seen[c];
@@ -163,7 +166,7 @@ TEST(NeighborList, HistoryCarriedOverRebuild) {
   rebuild_pairs(model, s);
   // Plant a history on every listed pair, keyed by its ids.
   for (std::size_t q = 0; q < s.pairs.size(); ++q) {
-    s.pairs.tangential[q] = Vec3(s.pairs.owner[q], s.pairs.neighbor[q], 1.0) * 1e-6;
+    s.pairs.tangential[q] = Vec3(s.pairs.owner_of(q), s.pairs.neighbor[q], 1.0) * 1e-6;
     s.pairs.flags[q] = kTouching | (q % 2 ? kSliding : 0);
   }
   const PairList before = s.pairs;
@@ -174,7 +177,7 @@ TEST(NeighborList, HistoryCarriedOverRebuild) {
   rebuild_pairs(model, s);
   int kept = 0;
   for (std::size_t q = 0; q < s.pairs.size(); ++q) {
-    const int old = testing::find_pair(before, s.pairs.owner[q], s.pairs.neighbor[q]);
+    const int old = testing::find_pair(before, s.pairs.owner_of(q), s.pairs.neighbor[q]);
     if (old < 0) {
       EXPECT_EQ(s.pairs.tangential[q], Vec3::Zero());
       EXPECT_EQ(s.pairs.flags[q], 0);
@@ -259,7 +262,7 @@ TEST(NeighborList, StoredContactsRoundTrip) {
   rebuild_pairs(model, t);
   EXPECT_EQ(listed(t.pairs), listed(s.pairs));
   for (std::size_t q = 0; q < s.pairs.size(); ++q) {
-    const int r = testing::find_pair(t.pairs, s.pairs.owner[q], s.pairs.neighbor[q]);
+    const int r = testing::find_pair(t.pairs, s.pairs.owner_of(q), s.pairs.neighbor[q]);
     ASSERT_GE(r, 0);
     if (s.pairs.flags[q] & kTouching) {
       EXPECT_EQ(t.pairs.tangential[r], s.pairs.tangential[q]);

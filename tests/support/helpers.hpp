@@ -114,8 +114,9 @@ inline Loading fixed_cell(double friction = 0.0) {
 
 // Index of the pair (i, j) in the list, or -1.
 inline int find_pair(const PairList& pl, Index i, Index j) {
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.owner[q] == i && pl.neighbor[q] == j) return static_cast<int>(q);
+  if (i < 0 || static_cast<std::size_t>(i) + 1 >= pl.first.size()) return -1;
+  for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q)
+    if (pl.neighbor[q] == j) return q;
   return -1;
 }
 

@@ -37,7 +37,7 @@ KERNELS = (
     ("drift", "drift", ("celldem::drift",)),
     ("neighbour", "neighbour list (check, rebuild)", ("find_candidates", "rebuild_pairs", "pairs_need_rebuild",
                                                       "Candidate")),
-    ("gather_chunk", "gather_chunk", ("gather_chunk",)),
+    ("gather_chunk", "gather_chunk, chunk_owners", ("gather_chunk", "chunk_owners")),
     ("evaluate_chunk", "evaluate_chunk (pair law)", ("evaluate_chunk",)),
     ("sum_chunk", "sum_chunk", ("sum_chunk",)),
     ("pair_loop", "pair loop, rest (blocks, zeroing)", ("pair_loop", "evaluate_share", "ContactForceEvaluation")),
@@ -60,19 +60,19 @@ ARRAYS = (
     ("force", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "RW", "gather_and_kick_range": "RW"}),
     ("torque", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "RW", "gather_and_kick_range": "RW"}),
     ("pairs.scaled_at_build", 12, "particle", "R", {"drift": "R"}),  # 3 x float
-    ("pairs.first", 4, "particle", "", {}),  # read at block bounds only
+    ("pairs.first", 4, "particle", "R", {"gather_chunk": "R"}),  # the owners of each chunk's pairs
     ("pairs.crossing_first", 4, "particle", "R", {"gather_and_kick_range": "R"}),
     ("model.velocity_keep, velocity_gain, spin_keep, spin_gain", 32, "particle", "R", {"gather_and_kick_range": "R"}),
-    ("pairs.owner", 4, "pair", "R", {"gather_chunk": "R", "sum_chunk": "R"}),
     ("pairs.neighbor", 4, "pair", "R", {"gather_chunk": "R", "sum_chunk": "R"}),
     ("pairs.image", 6, "pair", "R", {"gather_chunk": "R"}),  # PairImage: 3 x int16
     ("pairs.tangential", 24, "pair", "RW", {"evaluate_chunk": "RW"}),
     ("pairs.flags", 1, "pair", "W", {"sum_chunk": "W"}),
     ("pairs.force", 24, "pair", "W", {"evaluate_chunk": "W", "sum_chunk": "R"}),
     # Pairs whose ends lie in two force blocks (state.hpp, kForceBlock) hand j's share over through these.
-    ("pairs.crossing_force", 24, "crossing", "W", {"sum_chunk": "W", "gather_and_kick_range": "R"}),
+    # (Their forces are read again from pairs.force, a second time for those pairs: not counted.)
     ("pairs.crossing_torque", 24, "crossing", "W", {"sum_chunk": "W", "gather_and_kick_range": "R"}),
     ("pairs.crossing", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
+    ("pairs.crossing_pair", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
 )
 
 CALLGRIND_STEPS = 200     # steps under callgrind (about 20 s with the cache simulation on 8000 spheres)
