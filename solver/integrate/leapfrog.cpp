@@ -15,8 +15,8 @@ namespace {
 inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   Vec3 f = p.force[i], t = p.torque[i];
   for (Index k = pl.crossing_first[i]; k < pl.crossing_first[i + 1]; ++k) {
-    // The pair's force on j is the pair's own; 0 + it, as the sum of a slot that started from zero (a -0
-    // component adds as +0).
+    // The force on j is the pair's own. It is added as 0 + force, the value a zeroed hand-over slot held
+    // before the pair list lost its copies, so the bits stay those of earlier runs (a -0 adds as +0).
     const Vec3& pair_force = pl.force[pl.crossing_pair[k]];
     f += Vec3(0.0 + pair_force[0], 0.0 + pair_force[1], 0.0 + pair_force[2]);
     t += pl.crossing_torque[pl.crossing[k]];

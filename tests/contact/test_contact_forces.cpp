@@ -231,9 +231,8 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
 
 // Every pair reaches both its ends once, whichever way it is handed over (at once within a force block, or
 // through the crossing arrays): the net forces and moments equal plain sums over the pairs, up to the
-// order of the additions. The moments are summed from each pair's law, evaluated again on its own.
-// Evaluates every listed pair of s again on its own (at the state before the pair loop) and checks that each
-// particle's net force and moment are the sums of its pairs': every pair reaches both ends, once.
+// order of the additions. Each listed pair's law is evaluated again on its own, at the state before the
+// pair loop, for the moments.
 void expect_net_forces_are_pair_sums(const Model& model, State s) {
   rebuild_pairs(model, s);
   const State before = s;

@@ -90,10 +90,10 @@ TEST(Leapfrog, GatherConservesMomentumAndAngularMomentum) {
   EXPECT_NEAR(moment.norm(), 0.0, 1e-11 * scale * 10.0);
   // Each particle's net force is the sum of its pair forces (j gets +F, i gets -F).
   std::vector<Vec3> sum(n, Vec3::Zero());
-  for (std::size_t q = 0; q < s.pairs.size(); ++q) {
-    sum[s.pairs.owner_of(q)] -= s.pairs.force[q];
+  for_each_pair(s.pairs, [&](Index i, Index q) {
+    sum[i] -= s.pairs.force[q];
     sum[s.pairs.neighbor[q]] += s.pairs.force[q];
-  }
+  });
   for (int i = 0; i < n; ++i) EXPECT_NEAR((sum[i] - s.particles.force[i]).norm(), 0.0, 1e-12 * scale);
 }
 

@@ -187,8 +187,9 @@ Vec3 primary_position(const State& s, std::size_t i) {
 // Touching pairs per particle, counted here from the pair list.
 std::vector<int> contact_count(const State& s) {
   std::vector<int> count(s.particles.size(), 0);
-  for (std::size_t q = 0; q < s.pairs.size(); ++q)
-    if (s.pairs.flags[q] & kTouching) count[s.pairs.owner_of(q)]++, count[s.pairs.neighbor[q]]++;
+  for_each_pair(s.pairs, [&](Index i, Index q) {
+    if (s.pairs.flags[q] & kTouching) count[i]++, count[s.pairs.neighbor[q]]++;
+  });
   return count;
 }
 

@@ -43,8 +43,9 @@ std::set<Key> brute_force(const State& s, double extra, int range = 1) {
 
 std::set<Key> listed(const PairList& pl) {
   std::set<Key> out;
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    out.insert({pl.owner_of(q), pl.neighbor[q], pl.image[q][0], pl.image[q][1], pl.image[q][2]});
+  for_each_pair(pl, [&](Index i, Index q) {
+    out.insert({i, pl.neighbor[q], pl.image[q][0], pl.image[q][1], pl.image[q][2]});
+  });
   return out;
 }
 
@@ -81,8 +82,9 @@ void expect_list_consistent(const PairList& pl, std::size_t n) {
   Index crossings = 0;
   const std::size_t blocks = (n + kForceBlock - 1) / kForceBlock;
   ASSERT_EQ(pl.block_crossings.size(), blocks + 1);
-  for (std::size_t q = 0; q < pl.size(); ++q)
-    if (pl.owner_of(q) / kForceBlock != pl.neighbor[q] / kForceBlock) pair_of_rank.push_back(q), ++crossings;
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (i / kForceBlock != pl.neighbor[q] / kForceBlock) pair_of_rank.push_back(q), ++crossings;
+  });
   for (std::size_t b = 0; b <= blocks; ++b) {
     const auto block_start = static_cast<std::size_t>(pl.first[std::min(n, b * kForceBlock)]);
     EXPECT_EQ(pl.block_crossings[b], std::count_if(pair_of_rank.begin(), pair_of_rank.end(),
