@@ -43,6 +43,12 @@ class ContactForceEvaluation {
   ShareFn share_;
 };
 
+// The pair loop gathers each chunk's particle data with AVX2 where the CPU has it, else with portable code;
+// both give the same bits. use_portable_gather(true) makes every later evaluation use the portable code
+// (for tests that compare the two).
+bool vector_gather_available();
+void use_portable_gather(bool portable);
+
 // The full contact stress tensor [Pa] (symmetric part, compression positive) of the last force
 // evaluation, sum of force (x) branch over the contacts divided by the cell volume. The step keeps only
 // its diagonal (state.normal_stress: all that the control needs); this sums the same terms in the same

@@ -229,6 +229,30 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
   }
 }
 
+// The AVX2 gather and the portable one give the same bits: the same chunk data, so the same results. A
+// sheared cell (images in every direction) with an affine velocity field, over three force blocks' edges.
+TEST(ContactForces, PortableGatherGivesTheSameBits) {
+  if (!vector_gather_available()) GTEST_SKIP() << "no AVX2 here: the portable gather is the only one";
+  const int n = 17;
+  const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(n * n * n, 0.5));
+  State base = testing::jostled_lattice(n, 3, 0.02, 1.0, 5.0);
+  base.cell.h(0, 1) = 0.02 * base.cell.h(1, 1);
+  base.cell.velocity_gradient = Mat3::Identity() * 0.1;
+  base.cell.velocity_gradient(0, 2) = 0.05;
+  const State vector_gather = testing::on_thread_counts(model, base, 0.4, {1}).front();
+  use_portable_gather(true);
+  const State portable = testing::on_thread_counts(model, base, 0.4, {1}).front();
+  use_portable_gather(false);
+  ASSERT_GT(vector_gather.touching, 5000);
+  EXPECT_EQ(portable.touching, vector_gather.touching);
+  EXPECT_EQ(portable.normal_stress, vector_gather.normal_stress);
+  EXPECT_EQ(portable.pairs.force, vector_gather.pairs.force);
+  EXPECT_EQ(portable.pairs.tangential, vector_gather.pairs.tangential);
+  EXPECT_EQ(portable.particles.torque, vector_gather.particles.torque);
+  EXPECT_EQ(portable.particles.velocity, vector_gather.particles.velocity);
+  EXPECT_EQ(portable.particles.spin, vector_gather.particles.spin);
+}
+
 // Every pair reaches both its ends once, whichever way it is handed over (at once within a force block, or
 // through the crossing arrays): the net forces and moments equal plain sums over the pairs, up to the
 // order of the additions. Each listed pair's law is evaluated again on its own, at the state before the
