@@ -206,6 +206,20 @@ TEST(ContactForces, LatticeStressAndStiffnessMatchAnalytic) {
   EXPECT_NEAR((t.normal_stress[0] - s.normal_stress[0]) / eps, s.axis_stiffness[0], 1e-6 * s.axis_stiffness[0]);
 }
 
+// Two evaluations of one scene agree to the bit: reductions, per-pair results, net forces, kicked velocities.
+void expect_same_bits(const State& a, const State& b) {
+  EXPECT_EQ(a.touching, b.touching);
+  EXPECT_EQ(contact_stress(a), contact_stress(b));
+  EXPECT_EQ(a.normal_stress, b.normal_stress);
+  EXPECT_EQ(a.axis_stiffness, b.axis_stiffness);
+  EXPECT_EQ(a.pairs.force, b.pairs.force);
+  EXPECT_EQ(a.pairs.tangential, b.pairs.tangential);
+  EXPECT_EQ(a.particles.force, b.particles.force);
+  EXPECT_EQ(a.particles.torque, b.particles.torque);
+  EXPECT_EQ(a.particles.velocity, b.particles.velocity);
+  EXPECT_EQ(a.particles.spin, b.particles.spin);
+}
+
 // The reductions, per-pair results and net forces do not depend on the number of threads: 4913 spheres
 // make three force blocks (kForceBlock), so blocks are dealt to threads and pairs cross between blocks.
 TEST(ContactForces, ResultsIndependentOfThreadCount) {
@@ -217,16 +231,7 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
   const std::vector<State> results = testing::on_thread_counts(model, base, 0.4, {1, 2, 3, 4});
   ASSERT_GT(results[0].touching, 10000);
   ASSERT_GT(results[0].pairs.crossing.size(), 500u);
-  for (std::size_t r = 1; r < results.size(); ++r) {
-    EXPECT_EQ(contact_stress(results[r]), contact_stress(results[0]));
-    EXPECT_EQ(results[r].normal_stress, results[0].normal_stress);
-    EXPECT_EQ(results[r].axis_stiffness, results[0].axis_stiffness);
-    EXPECT_EQ(results[r].pairs.force, results[0].pairs.force);
-    EXPECT_EQ(results[r].pairs.tangential, results[0].pairs.tangential);
-    EXPECT_EQ(results[r].particles.force, results[0].particles.force);
-    EXPECT_EQ(results[r].particles.torque, results[0].particles.torque);
-    EXPECT_EQ(results[r].particles.velocity, results[0].particles.velocity);
-  }
+  for (std::size_t r = 1; r < results.size(); ++r) expect_same_bits(results[r], results[0]);
 }
 
 // The AVX2 gather and the portable one give the same bits: the same chunk data, so the same results. A
@@ -244,13 +249,7 @@ TEST(ContactForces, PortableGatherGivesTheSameBits) {
   const State portable = testing::on_thread_counts(model, base, 0.4, {1}).front();
   use_portable_gather(false);
   ASSERT_GT(vector_gather.touching, 5000);
-  EXPECT_EQ(portable.touching, vector_gather.touching);
-  EXPECT_EQ(portable.normal_stress, vector_gather.normal_stress);
-  EXPECT_EQ(portable.pairs.force, vector_gather.pairs.force);
-  EXPECT_EQ(portable.pairs.tangential, vector_gather.pairs.tangential);
-  EXPECT_EQ(portable.particles.torque, vector_gather.particles.torque);
-  EXPECT_EQ(portable.particles.velocity, vector_gather.particles.velocity);
-  EXPECT_EQ(portable.particles.spin, vector_gather.particles.spin);
+  expect_same_bits(portable, vector_gather);
 }
 
 // Every pair reaches both its ends once, whichever way it is handed over (at once within a force block, or
