@@ -1,11 +1,14 @@
 #include "neighbor/neighbor_list.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "core/parallel.hpp"
 
 namespace celldem {
 
@@ -23,9 +26,28 @@ struct Candidate {
   PairImage image;
 };
 
-// Lists, for each particle, the neighbours j > i (any image) within r_i + r_j + skin.
-void find_candidates(const State& state, double skin, double max_radius,
-                     std::vector<std::vector<Candidate>>& out) {
+// Each particle's neighbours j > i (any image) within r_i + r_j + skin, sorted by j: the rows of a CSR.
+struct Candidates {
+  std::vector<Index> first;  // (N+1)
+  std::vector<Candidate> list;
+};
+
+// A particle as the search reads it, stored in bin order so that a bin's members lie side by side: its
+// position wrapped into the cell, in metres (x = h w, w = s - floor(s)), its radius and id.
+struct Member {
+  double x[3];
+  double radius;
+  Index id;
+};
+
+// The search tests |x_j + h m - x_i| < r_i + r_j + skin on the wrapped positions (m: the image between the
+// bins): a subtraction and a dot product per candidate instead of h times a scaled difference. Its rounding
+// differs from that of h (s_j - s_i + n) by some 1e-16 of the reach, so the reach is widened by far more:
+// a pair at exactly r_i + r_j + skin may be listed (apart, it adds nothing), never one closer left out,
+// which the rebuild criterion relies on.
+constexpr double kReachMargin = 1.0 + 1e-12;
+
+void find_candidates(const State& state, double skin, double max_radius, Candidates& out) {
   const Particles& p = state.particles;
   const Mat3& h = state.cell.h;
   const std::size_t n = p.size();
@@ -46,78 +68,119 @@ void find_candidates(const State& state, double skin, double max_radius,
   const int nbins = bins[0] * bins[1] * bins[2];
   std::vector<int> bin_of(n);
   std::vector<std::array<std::int32_t, 3>> cell_of(n);  // floor of the unwrapped scaled position
-  std::vector<Index> bin_first(nbins + 1, 0), bin_members(n);
+  std::vector<Vec3> wrapped(n);                          // h (s - floor(s)) [m]
+  std::vector<Index> bin_first(nbins + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
     int b[3];
+    Vec3 w;
     for (int k = 0; k < 3; ++k) {
       const double whole = std::floor(p.scaled[i][k]);
       cell_of[i][k] = static_cast<std::int32_t>(whole);
-      b[k] = std::clamp(static_cast<int>((p.scaled[i][k] - whole) * bins[k]), 0, bins[k] - 1);
+      w[k] = p.scaled[i][k] - whole;
+      b[k] = std::clamp(static_cast<int>(w[k] * bins[k]), 0, bins[k] - 1);
     }
+    wrapped[i] = h * w;
     bin_of[i] = (b[2] * bins[1] + b[1]) * bins[0] + b[0];
     ++bin_first[bin_of[i] + 1];
   }
   for (int b = 0; b < nbins; ++b) bin_first[b + 1] += bin_first[b];
+  std::vector<Member> members(n);
   {
     std::vector<Index> fill(bin_first.begin(), bin_first.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) bin_members[fill[bin_of[i]]++] = static_cast<Index>(i);
+    for (std::size_t i = 0; i < n; ++i)
+      members[fill[bin_of[i]]++] = {{wrapped[i][0], wrapped[i][1], wrapped[i][2]}, p.radius[i], static_cast<Index>(i)};
   }
+  // The shift h m of each image m in {-1, 0, 1}^3, at (m_z + 1) * 9 + (m_y + 1) * 3 + m_x + 1.
+  std::array<Vec3, 27> shift;
+  for (int m = 0; m < 27; ++m) shift[m] = h * Vec3(m % 3 - 1.0, m / 3 % 3 - 1.0, m / 9 - 1.0);
 
-  out.assign(n, {});
+  // Each thread searches a contiguous range of particles into a list of its own; the lists are joined in
+  // thread order, so the rows come out in particle order and the result does not depend on the threads.
+  std::vector<std::vector<Candidate>> found(omp_get_max_threads());
+  out.first.assign(n + 1, 0);
   std::atomic<bool> image_overflow{false};
-  // Each particle's list is its own, sorted by j: the result does not depend on the threads.
-#pragma omp parallel for schedule(dynamic, 64)
-  for (std::size_t i = 0; i < n; ++i) {
-    const int bi = bin_of[i];
-    const int b[3] = {bi % bins[0], (bi / bins[0]) % bins[1], bi / (bins[0] * bins[1])};
-    const double ri = p.radius[i];
-    // img is the shift between wrapped positions; the stored image adds back the whole cells that the
-    // unwrapped positions carry, so that s_j - s_i + n is the same vector.
-    auto consider = [&](Index j, const std::array<std::int32_t, 3>& img) {
-      std::array<std::int32_t, 3> n;
-      for (int k = 0; k < 3; ++k) n[k] = img[k] + cell_of[i][k] - cell_of[j][k];
-      const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(n[0], n[1], n[2]);
-      const double reach = ri + p.radius[j] + skin;
-      if ((h * ds).squaredNorm() >= reach * reach) return;
-      PairImage stored;
-      for (int k = 0; k < 3; ++k) {
-        if (n[k] < std::numeric_limits<std::int16_t>::min() || n[k] > std::numeric_limits<std::int16_t>::max())
-          image_overflow.store(true, std::memory_order_relaxed);  // (no throwing out of a parallel loop)
-        stored[k] = static_cast<std::int16_t>(n[k]);
-      }
-      out[i].push_back({j, stored});
-    };
-    if (use_bins) {
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int u[3] = {b[0] + dx, b[1] + dy, b[2] + dz};
-            std::array<std::int32_t, 3> img{0, 0, 0};
+#pragma omp parallel
+  {
+    std::vector<Candidate>& mine = found[omp_get_thread_num()];
+    const auto [begin, end] = thread_share(n, [](std::size_t k) { return k; });
+    std::vector<Index> hits;  // the members that pass, by index into members
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::size_t row = mine.size();
+      hits.clear();
+      std::size_t hits_done = 0;
+      const Vec3& xi = wrapped[i];
+      const double ri = p.radius[i];
+      // Members [from, to) of the bin seen through image m (components -1, 0, 1). The test has no branch
+      // (half the members fail j > i, at random): each member is written to the end of the row, which
+      // grows only when it passes; the images are worked out for those alone.
+      const auto search = [&](Index from, Index to, const std::array<std::int32_t, 3>& m) {
+        const Vec3 target = xi - shift[(m[2] + 1) * 9 + (m[1] + 1) * 3 + m[0] + 1];  // x_j + h m - x_i = x_j - target
+        std::size_t passed = hits.size();
+        hits.resize(passed + static_cast<std::size_t>(to - from));
+        for (Index k = from; k < to; ++k) {
+          const Member& c = members[k];
+          const double dx = c.x[0] - target[0], dy = c.x[1] - target[1], dz = c.x[2] - target[2];
+          const double reach = (ri + c.radius + skin) * kReachMargin;
+          hits[passed] = k;
+          passed += static_cast<std::size_t>((c.id > static_cast<Index>(i)) & (dx * dx + dy * dy + dz * dz < reach * reach));
+        }
+        hits.resize(passed);
+        for (std::size_t hit = hits_done; hit < passed; ++hit) {
+          const Index j = members[hits[hit]].id;
+          // The stored image adds back the whole cells that the unwrapped positions carry, so that
+          // s_j - s_i + n is the same vector.
+          PairImage stored;
+          for (int d = 0; d < 3; ++d) {
+            const std::int32_t whole = m[d] + cell_of[i][d] - cell_of[j][d];
+            if (whole < std::numeric_limits<std::int16_t>::min() || whole > std::numeric_limits<std::int16_t>::max())
+              image_overflow.store(true, std::memory_order_relaxed);  // (no throwing out of a parallel loop)
+            stored[d] = static_cast<std::int16_t>(whole);
+          }
+          mine.push_back({j, stored});
+        }
+        hits_done = passed;
+      };
+      if (use_bins) {
+        const int bi = bin_of[i];
+        const int b[3] = {bi % bins[0], (bi / bins[0]) % bins[1], bi / (bins[0] * bins[1])};
+        // The three bins of a row along x are consecutive in bin order: one range of members, or two where
+        // the row wraps around the cell (the part beyond the face seen through the image m_x = -1 or 1).
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy) {
+            std::array<std::int32_t, 3> m{0, 0, 0};
             int w[3];
-            for (int k = 0; k < 3; ++k) {
-              img[k] = u[k] < 0 ? -1 : (u[k] >= bins[k] ? 1 : 0);
-              w[k] = u[k] - img[k] * bins[k];
+            for (int k = 1; k < 3; ++k) {
+              const int u = b[k] + (k == 1 ? dy : dz);
+              m[k] = u < 0 ? -1 : (u >= bins[k] ? 1 : 0);
+              w[k] = u - m[k] * bins[k];
             }
-            const int nb = (w[2] * bins[1] + w[1]) * bins[0] + w[0];
-            for (Index q = bin_first[nb]; q < bin_first[nb + 1]; ++q) {
-              const Index j = bin_members[q];
-              if (j > static_cast<Index>(i)) consider(j, img);
+            const int row_bin = (w[2] * bins[1] + w[1]) * bins[0];  // bin of x = 0 in this row
+            const auto bins_x = [&](int lo, int hi) { return std::pair{bin_first[row_bin + lo], bin_first[row_bin + hi + 1]}; };
+            const auto [from, to] = bins_x(std::max(b[0] - 1, 0), std::min(b[0] + 1, bins[0] - 1));
+            search(from, to, m);
+            if (b[0] == 0 || b[0] == bins[0] - 1) {
+              m[0] = b[0] == 0 ? -1 : 1;
+              const auto [wrap_from, wrap_to] = bins_x(b[0] == 0 ? bins[0] - 1 : 0, b[0] == 0 ? bins[0] - 1 : 0);
+              search(wrap_from, wrap_to, m);
             }
           }
-    } else {
-      // Few bins: try every image of every pair. The width check above allows at most one in reach.
-      for (Index j = static_cast<Index>(i) + 1; j < static_cast<Index>(n); ++j)
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx)
-              consider(j, {dx, dy, dz});
+      } else {
+        // Few bins: every image of every pair. The width check above allows at most one in reach.
+        for (int m = 0; m < 27; ++m) search(0, static_cast<Index>(n), {m % 3 - 1, m / 3 % 3 - 1, m / 9 - 1});
+      }
+      std::sort(mine.begin() + static_cast<std::ptrdiff_t>(row), mine.end(),
+                [](const Candidate& a, const Candidate& b) { return a.j < b.j; });
+      out.first[i + 1] = static_cast<Index>(mine.size() - row);
     }
-    std::sort(out[i].begin(), out[i].end(), [](const Candidate& a, const Candidate& b) { return a.j < b.j; });
   }
   if (image_overflow)
     throw std::runtime_error("two neighbours are more than 32767 cells apart in their unwrapped positions (more "
                              "than a pair image holds): particles have crossed the periodic cell that often only "
                              "if the sample was stirred far beyond any granular test");
+  for (std::size_t i = 0; i < n; ++i) out.first[i + 1] += out.first[i];
+  out.list.clear();
+  out.list.reserve(static_cast<std::size_t>(out.first[n]));
+  for (const std::vector<Candidate>& f : found) out.list.insert(out.list.end(), f.begin(), f.end());
 }
 
 // The crossing pairs (PairList): ranked in pair order, and listed by neighbour.
@@ -156,13 +219,12 @@ void rebuild_pairs(const Model& model, State& state) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
   const std::size_t n = p.size();
-  std::vector<std::vector<Candidate>> candidates;
+  Candidates candidates;
   find_candidates(state, pl.skin, model.max_radius, candidates);
 
   PairList next;
   next.skin = pl.skin;
-  next.first.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) next.first[i + 1] = next.first[i] + static_cast<Index>(candidates[i].size());
+  next.first = std::move(candidates.first);
   const std::size_t count = next.first[n];
   next.neighbor.resize(count);
   next.image.resize(count);
@@ -179,11 +241,10 @@ void rebuild_pairs(const Model& model, State& state) {
     // Both lists are sorted by j within i: a merge finds the persisting contacts.
     Index q_old = have_old ? pl.first[i] : 0;
     const Index q_old_end = have_old ? pl.first[i + 1] : 0;
-    for (std::size_t c = 0; c < candidates[i].size(); ++c) {
-      const Index q = next.first[i] + static_cast<Index>(c);
-      const Index j = candidates[i][c].j;
+    for (Index q = next.first[i]; q < next.first[i + 1]; ++q) {
+      const Index j = candidates.list[q].j;
       next.neighbor[q] = j;
-      next.image[q] = candidates[i][c].image;
+      next.image[q] = candidates.list[q].image;
       while (q_old < q_old_end && pl.neighbor[q_old] < j) ++q_old;
       if (q_old < q_old_end && pl.neighbor[q_old] == j) {
         next.tangential[q] = pl.tangential[q_old];
