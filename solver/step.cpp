@@ -53,8 +53,10 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
       // 3. neighbours, with contact history carried over
       if (!one_thread([&] {
             const double largest = *std::max_element(moved.begin(), moved.end());
-            rebuilt = force_rebuild || pairs_need_rebuild(model, state, largest);
+            const bool needed = pairs_need_rebuild(model, state, largest);
+            rebuilt = force_rebuild || needed;
             force_rebuild = false;
+            if (needed) adapt_skin(state);  // (not after a forced rebuild: the list had not run its course)
             if (rebuilt) rebuild_pairs(model, state);
             forces.emplace(model, loading.friction, state);
           }))

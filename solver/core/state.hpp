@@ -75,7 +75,12 @@ struct PairList {
   std::vector<Vec3f> scaled_at_build;            // (N)
   double build_rounding = 0.0;                   // [-] largest |s - float(s)| of a component at the build
   Mat3 h_at_build = Mat3::Identity();
-  double skin = 0.0;                             // [m] extra cutoff beyond contact
+  double skin = 0.0;                             // [m] the largest extra cutoff beyond contact (the deck's)
+  // The skin of the current list (adapt_skin: at most skin; 0 for skin itself) and the step of its build.
+  // State files keep neither: the list never changes results, only their cost.
+  double build_skin = 0.0;                       // [m]
+  std::int64_t built_at_step = 0;                // steps_since_creation at the build
+  double current_skin() const { return build_skin > 0.0 ? std::min(build_skin, skin) : skin; }
   std::size_t size() const { return neighbor.size(); }
   // The owner of pair q: a binary search of first, for checks and measurements (the pair loop walks first).
   Index owner_of(std::size_t q) const {

@@ -220,10 +220,12 @@ void rebuild_pairs(const Model& model, State& state) {
   PairList& pl = state.pairs;
   const std::size_t n = p.size();
   Candidates candidates;
-  find_candidates(state, pl.skin, model.max_radius, candidates);
+  find_candidates(state, pl.current_skin(), model.max_radius, candidates);
 
   PairList next;
   next.skin = pl.skin;
+  next.build_skin = pl.current_skin();
+  next.built_at_step = state.steps_since_creation;
   next.first = std::move(candidates.first);
   const std::size_t count = next.first[n];
   next.neighbor.resize(count);
@@ -298,7 +300,15 @@ bool pairs_need_rebuild(const Model& model, const State& state, double largest_m
   // The move was measured from the build positions as stored (single precision): add what their rounding
   // can hide, |h e| <= |h|_F sqrt(3) build_rounding.
   const double hidden = state.cell.h.norm() * std::sqrt(3.0) * pl.build_rounding;
-  return (1.0 - strain) * (reach + pl.skin) - 2.0 * (largest_move + hidden) <= reach;
+  return (1.0 - strain) * (reach + pl.current_skin()) - 2.0 * (largest_move + hidden) <= reach;
+}
+
+void adapt_skin(State& state) {
+  PairList& pl = state.pairs;
+  const auto lasted = static_cast<double>(state.steps_since_creation - pl.built_at_step);
+  if (pl.first.empty() || lasted <= 0.0) return;
+  const double factor = std::clamp(kSkinLifetime / lasted, 0.5, 2.0);
+  pl.build_skin = std::clamp(pl.current_skin() * factor, pl.skin * kSmallestSkin, pl.skin);
 }
 
 void set_stored_contacts(State& state, const std::vector<StoredContact>& contacts) {

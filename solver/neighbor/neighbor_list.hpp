@@ -15,6 +15,15 @@ void rebuild_pairs(const Model& model, State& state);
 // distance a particle has moved since then (drift() measures it on its way; largest_move_since_build()
 // measures it on its own).
 bool pairs_need_rebuild(const Model& model, const State& state, double largest_move);
+
+// Sets the skin of the next build (state.pairs.build_skin) from how long the current list lasted: scaled
+// toward a lifetime of kSkinLifetime steps (at most halved or doubled at once), between kSmallestSkin of the
+// deck's skin and the deck's skin. Call before a rebuild that pairs_need_rebuild asked for. A smaller skin
+// lists fewer pairs apart and rebuilds more often; the best trade is a lifetime of some hundred steps, far
+// shorter under a slow shear than the deck's skin gives, longer under a fast compression.
+inline constexpr double kSkinLifetime = 150.0;  // [steps]
+inline constexpr double kSmallestSkin = 1.0 / 32.0;
+void adapt_skin(State& state);
 bool pairs_need_rebuild(const Model& model, const State& state);
 double largest_move_since_build(const State& state);  // [m]; infinity when the list was never built
 

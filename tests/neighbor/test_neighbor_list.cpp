@@ -225,6 +225,64 @@ TEST(NeighborList, RebuildCriterionNeverMissesAContact) {
   EXPECT_GT(rebuilds, 2);  // ...and asks for rebuilds
 }
 
+// The skin adapts to the list's lifetime: halved at most when a list lasted long, doubled at most when it
+// lasted briefly, never above the deck's skin nor below kSmallestSkin of it.
+TEST(NeighborList, AdaptedSkinFollowsTheListsLifetime) {
+  State s = random_state(Mat3::Identity() * 7.0, 30, 0.3, 0.5, 2, 0.1);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+  rebuild_pairs(model, s);
+  EXPECT_EQ(s.pairs.current_skin(), 0.1);  // the first build: the deck's skin
+  const auto lasting = [&](double steps) {
+    s.steps_since_creation = s.pairs.built_at_step + static_cast<std::int64_t>(steps);
+    adapt_skin(s);
+    rebuild_pairs(model, s);
+    return s.pairs.current_skin();
+  };
+  EXPECT_DOUBLE_EQ(lasting(kSkinLifetime * 1.5), 0.1 / 1.5);
+  EXPECT_DOUBLE_EQ(lasting(kSkinLifetime * 10.0), 0.1 / 1.5 / 2.0);  // at most halved
+  EXPECT_DOUBLE_EQ(lasting(kSkinLifetime / 10.0), 0.1 / 1.5);         // at most doubled
+  EXPECT_DOUBLE_EQ(lasting(kSkinLifetime / 10.0), 0.1);               // never above the deck's
+  for (int k = 0; k < 10; ++k) lasting(kSkinLifetime * 10.0);
+  EXPECT_DOUBLE_EQ(s.pairs.current_skin(), 0.1 * kSmallestSkin);
+  s.pairs.skin = 0.002;  // a new stage's deck with a smaller skin caps the adapted one
+  EXPECT_EQ(s.pairs.current_skin(), 0.002);
+}
+
+// As RebuildCriterionNeverMissesAContact, with the skin adapted at every rebuild under slow motion (lists
+// that last long, so the skin shrinks to a fraction of the deck's).
+TEST(NeighborList, AdaptedSkinNeverMissesAContact) {
+  State s = random_state(Mat3::Identity() * 6.0, 150, 0.3, 0.5, 21, 0.1);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
+  std::mt19937_64 gen(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  rebuild_pairs(model, s);
+  std::set<Key> have = listed(s.pairs);
+  // Each particle drifts at its own steady velocity, the cell at a steady rate of stretch and shear.
+  std::vector<Vec3> velocity(s.particles.size());
+  for (Vec3& v : velocity) v = Vec3(g(gen), g(gen), g(gen)) * 2e-5;
+  Mat3 F = Mat3::Identity();
+  for (int k = 0; k < 9; ++k) F.data()[k] += 1e-5 * g(gen);
+  int checks = 0, rebuilds = 0;
+  for (int step = 0; step < 3000; ++step, ++s.steps_since_creation) {
+    s.cell.h = F * s.cell.h;
+    const Mat3 hinv = s.cell.h.inverse();
+    for (std::size_t i = 0; i < velocity.size(); ++i) s.particles.scaled[i] += hinv * velocity[i];
+    if (pairs_need_rebuild(model, s)) {
+      adapt_skin(s);
+      rebuild_pairs(model, s);
+      have = listed(s.pairs);
+      ++rebuilds;
+      continue;
+    }
+    if (step % 20 != 0) continue;
+    ++checks;
+    for (const Key& k : brute_force(s, 0.0)) EXPECT_TRUE(have.count(k)) << "missed pair " << std::get<0>(k) << "-" << std::get<1>(k);
+  }
+  EXPECT_LT(s.pairs.current_skin(), 0.05);  // it did shrink...
+  EXPECT_GT(rebuilds, 5);                   // ...and the shrunk lists were rebuilt in time
+  EXPECT_GT(checks, 100);
+}
+
 TEST(NeighborList, NeedsRebuildWhenListDoesNotMatchParticles) {
   State s = random_state(Mat3::Identity() * 7.0, 30, 0.3, 0.5, 2, 0.1);
   const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
