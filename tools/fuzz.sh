@@ -7,7 +7,8 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 out=build-fuzz
 mkdir -p "$out"
-flags=(-std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
+# -fopenmp: the neighbour search the state reader rebuilds with runs in OpenMP (clang's libomp, libomp-dev).
+flags=(-std=c++20 -O1 -g -fopenmp -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I solver -I /usr/include/eigen3)
 common=(solver/io/deck_reader.cpp solver/core/plan.cpp solver/io/files.cpp solver/io/state_file.cpp solver/neighbor/neighbor_list.cpp solver/core/state.cpp)
 for target in deck state; do

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Installs the Debian packages celldem needs. Safe to run repeatedly.
-# Usage: tools/install-deps.sh [--with-crosscheck]
+# Usage: tools/install-deps.sh [--with-crosscheck]   (with the cross-check codes and the fuzzers' compiler)
 set -euo pipefail
 pkgs=(build-essential cmake libeigen3-dev nlohmann-json3-dev libgtest-dev libgmock-dev libcli11-dev
       python3-numpy python3-matplotlib)
 if [[ "${1:-}" == "--with-crosscheck" ]]; then
-  pkgs+=(lammps liggghts openmpi-bin)
+  # The test suite's extras: the codes of the cross-checks, and clang with its sanitizer runtimes and libomp
+  # for the fuzzers (tools/fuzz.sh).
+  pkgs+=(lammps liggghts openmpi-bin clang libclang-rt-14-dev libomp-dev)
 fi
 missing=()
 for p in "${pkgs[@]}"; do
