@@ -280,7 +280,6 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
   const Mat3 h = state.cell.h;
   const Mat3 L = state.cell.velocity_gradient;
   const std::size_t n = p.size();
-  const std::size_t force_blocks = (n + kForceBlock - 1) / kForceBlock;
   // The rotational springs (rebuild_pairs sizes them for a law that has them).
   double* const rolling = Law::rotational ? doubles(pl.rolling) : nullptr;
   double* const twist = Law::rotational ? pl.twist.data() : nullptr;
@@ -294,9 +293,7 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
 #else
   const GatherFn gather = &gather_chunk;
 #endif
-  const std::vector<std::size_t> my_blocks =
-      thread_blocks(force_blocks, [&](std::size_t b) { return pl.first[std::min(n, b * kForceBlock)]; });
-  for (const std::size_t fb : my_blocks) {
+  for (const std::size_t fb : thread_force_blocks(pl, n)) {
     const std::size_t block_begin = fb * kForceBlock, block_end = std::min(n, (fb + 1) * kForceBlock);
     // The net forces and moments start from zero; the block's pairs add to both ends.
     std::fill(net_force + 3 * block_begin, net_force + 3 * block_end, 0.0);

@@ -95,6 +95,13 @@ void for_each_pair(const PairList& pl, F&& f) {
     for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) f(static_cast<Index>(i), q);
 }
 
+// The force blocks the calling thread takes inside a parallel region, in ascending order: thread_blocks
+// (core/parallel.hpp) over the blocks of n particles by their pairs (by their particles while the list is
+// not built). The pair loop, the drift and the kick all take these, so a thread mostly works on data it
+// wrote itself in the step's previous phase (with contiguous shares of particles instead, half of what the
+// kick read came from the other core on two threads).
+std::vector<std::size_t> thread_force_blocks(const PairList& pl, std::size_t n);
+
 // One stored contact (the history that must survive a neighbour rebuild or a restart).
 struct StoredContact {
   Index i, j;

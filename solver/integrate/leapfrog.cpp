@@ -50,8 +50,9 @@ void gather_and_kick_range(const Model& model, State& state, std::size_t begin, 
 }
 
 void gather_and_kick_share(const Model& model, State& state) {
-  const auto [begin, end] = gather_share(state.pairs, state.particles.size());
-  gather_and_kick_range(model, state, begin, end);
+  const std::size_t n = state.particles.size();
+  for (const std::size_t b : thread_force_blocks(state.pairs, n))
+    gather_and_kick_range(model, state, b * kForceBlock, std::min(n, (b + 1) * kForceBlock));
 }
 
 void gather_and_kick(const Model& model, State& state) {
@@ -66,12 +67,12 @@ double drift_share(const Model& model, const Mat3& h_before, State& state) {
   const Mat3& h = state.cell.h;
   const std::size_t n = p.size();
   const bool built = pl.first.size() == n + 1 && pl.scaled_at_build.size() == n;
-  const auto [begin, end] = thread_share(n, [](std::size_t k) { return k; });
   double max_disp2 = 0.0;
-  for (std::size_t i = begin; i < end; ++i) {
-    p.scaled[i] += step_map * p.velocity[i];
-    if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i].cast<double>())).squaredNorm());
-  }
+  for (const std::size_t b : thread_force_blocks(pl, n))
+    for (std::size_t i = b * kForceBlock; i < std::min(n, (b + 1) * kForceBlock); ++i) {
+      p.scaled[i] += step_map * p.velocity[i];
+      if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i].cast<double>())).squaredNorm());
+    }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
 }
 

@@ -16,7 +16,8 @@ void gather_and_kick(const Model& model, State& state);
 // The same for particles [begin, end), on the calling thread.
 void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end);
 
-// The same for the calling thread's share of all particles; called by every thread of a parallel region.
+// The same for the calling thread's force blocks (thread_force_blocks); called by every thread of a parallel
+// region.
 void gather_and_kick_share(const Model& model, State& state);
 
 // Moves particles by their fluctuating velocity in scaled coordinates, s += dt h_mid^-1 v', where h_mid
@@ -25,8 +26,8 @@ void gather_and_kick_share(const Model& model, State& state);
 // built (largest_move_since_build(), for the rebuild criterion).
 double drift(const Model& model, const Mat3& h_before, State& state);
 
-// The same for the calling thread's share of the particles, inside a parallel region; returns the largest
-// distance moved in that share.
+// The same for the calling thread's force blocks (thread_force_blocks), inside a parallel region; returns the
+// largest distance moved in them.
 double drift_share(const Model& model, const Mat3& h_before, State& state);
 
 }  // namespace celldem
