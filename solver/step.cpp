@@ -20,6 +20,7 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
   std::exception_ptr failure;
   std::optional<SpinBarrier> barrier;
   std::vector<double> moved;  // per thread: the largest distance moved since the list was built [m]
+  std::optional<PairSearch> search;
   std::optional<ContactForceEvaluation> forces;
   Mat3 h_before;
   bool rebuilt = false, go_on = true;
@@ -50,14 +51,22 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
       // 2. particles move by their fluctuating velocity
       moved[thread] = drift_share(model, h_before, state);
       barrier->wait();
-      // 3. neighbours, with contact history carried over
+      // 3. neighbours, with contact history carried over (the search shared among the threads)
       if (!one_thread([&] {
             const double largest = *std::max_element(moved.begin(), moved.end());
             const bool needed = pairs_need_rebuild(model, state, largest);
             rebuilt = force_rebuild || needed;
             force_rebuild = false;
             if (needed) adapt_skin(state);  // (not after a forced rebuild: the list had not run its course)
-            if (rebuilt) rebuild_pairs(model, state);
+            if (rebuilt) search.emplace(model, state);
+          }))
+        break;
+      if (rebuilt) {
+        search->search_share();
+        barrier->wait();
+      }
+      if (!one_thread([&] {
+            if (rebuilt) rebuild_pairs(model, state, *search), search.reset();
             forces.emplace(model, loading.friction, state);
           }))
         break;

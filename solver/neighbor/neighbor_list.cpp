@@ -21,25 +21,6 @@ Vec3 Cell::face_widths() const {
 
 namespace {
 
-struct Candidate {
-  Index j;
-  PairImage image;
-};
-
-// Each particle's neighbours j > i (any image) within r_i + r_j + skin, sorted by j: the rows of a CSR.
-struct Candidates {
-  std::vector<Index> first;  // (N+1)
-  std::vector<Candidate> list;
-};
-
-// A particle as the search reads it, stored in bin order so that a bin's members lie side by side: its
-// position wrapped into the cell, in metres (x = h w, w = s - floor(s)), its radius and id.
-struct Member {
-  double x[3];
-  double radius;
-  Index id;
-};
-
 // The search tests |x_j + h m - x_i| < r_i + r_j + skin on the wrapped positions (m: the image between the
 // bins): a subtraction and a dot product per candidate instead of h times a scaled difference. Its rounding
 // differs from that of h (s_j - s_i + n) by some 1e-16 of the reach, so the reach is widened by far more:
@@ -47,11 +28,14 @@ struct Member {
 // which the rebuild criterion relies on.
 constexpr double kReachMargin = 1.0 + 1e-12;
 
-void find_candidates(const State& state, double skin, double max_radius, Candidates& out) {
+}  // namespace
+
+PairSearch::PairSearch(const Model& model, const State& state)
+    : state_(state), skin_(state.pairs.current_skin()), found_(omp_in_parallel() ? omp_get_num_threads() : omp_get_max_threads()) {
   const Particles& p = state.particles;
   const Mat3& h = state.cell.h;
   const std::size_t n = p.size();
-  const double reach_max = 2.0 * max_radius + skin;
+  const double reach_max = 2.0 * model.max_radius + skin_;
   const Vec3 widths = state.cell.face_widths();
   for (int k = 0; k < 3; ++k)
     if (widths[k] <= 2.0 * reach_max)
@@ -59,129 +43,134 @@ void find_candidates(const State& state, double skin, double max_radius, Candida
                                " m) is too small for its particles: it must exceed twice the largest "
                                "diameter plus skin (" + std::to_string(2.0 * reach_max) + " m)");
 
-  std::array<int, 3> bins;
-  for (int k = 0; k < 3; ++k) bins[k] = std::max(1, static_cast<int>(std::floor(widths[k] / reach_max)));
-  const bool use_bins = bins[0] >= 3 && bins[1] >= 3 && bins[2] >= 3;
-  if (!use_bins) bins = {1, 1, 1};
+  for (int k = 0; k < 3; ++k) bins_[k] = std::max(1, static_cast<int>(std::floor(widths[k] / reach_max)));
+  use_bins_ = bins_[0] >= 3 && bins_[1] >= 3 && bins_[2] >= 3;
+  if (!use_bins_) bins_ = {1, 1, 1};
 
   // Counting sort of particles into bins (CSR), particle order kept within a bin.
-  const int nbins = bins[0] * bins[1] * bins[2];
-  std::vector<int> bin_of(n);
-  std::vector<std::array<std::int32_t, 3>> cell_of(n);  // floor of the unwrapped scaled position
-  std::vector<Vec3> wrapped(n);                          // h (s - floor(s)) [m]
-  std::vector<Index> bin_first(nbins + 1, 0);
+  const int nbins = bins_[0] * bins_[1] * bins_[2];
+  bin_of_.resize(n);
+  cell_of_.resize(n);
+  wrapped_.resize(n);
+  bin_first_.assign(nbins + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
     int b[3];
     Vec3 w;
     for (int k = 0; k < 3; ++k) {
       const double whole = std::floor(p.scaled[i][k]);
-      cell_of[i][k] = static_cast<std::int32_t>(whole);
+      cell_of_[i][k] = static_cast<std::int32_t>(whole);
       w[k] = p.scaled[i][k] - whole;
-      b[k] = std::clamp(static_cast<int>(w[k] * bins[k]), 0, bins[k] - 1);
+      b[k] = std::clamp(static_cast<int>(w[k] * bins_[k]), 0, bins_[k] - 1);
     }
-    wrapped[i] = h * w;
-    bin_of[i] = (b[2] * bins[1] + b[1]) * bins[0] + b[0];
-    ++bin_first[bin_of[i] + 1];
+    wrapped_[i] = h * w;
+    bin_of_[i] = (b[2] * bins_[1] + b[1]) * bins_[0] + b[0];
+    ++bin_first_[bin_of_[i] + 1];
   }
-  for (int b = 0; b < nbins; ++b) bin_first[b + 1] += bin_first[b];
-  std::vector<Member> members(n);
+  for (int b = 0; b < nbins; ++b) bin_first_[b + 1] += bin_first_[b];
+  members_.resize(n);
   {
-    std::vector<Index> fill(bin_first.begin(), bin_first.end() - 1);
+    std::vector<Index> fill(bin_first_.begin(), bin_first_.end() - 1);
     for (std::size_t i = 0; i < n; ++i)
-      members[fill[bin_of[i]]++] = {{wrapped[i][0], wrapped[i][1], wrapped[i][2]}, p.radius[i], static_cast<Index>(i)};
+      members_[fill[bin_of_[i]]++] = {{wrapped_[i][0], wrapped_[i][1], wrapped_[i][2]}, p.radius[i], static_cast<Index>(i)};
   }
   // The shift h m of each image m in {-1, 0, 1}^3, at (m_z + 1) * 9 + (m_y + 1) * 3 + m_x + 1.
-  std::array<Vec3, 27> shift;
-  for (int m = 0; m < 27; ++m) shift[m] = h * Vec3(m % 3 - 1.0, m / 3 % 3 - 1.0, m / 9 - 1.0);
+  for (int m = 0; m < 27; ++m) shift_[m] = h * Vec3(m % 3 - 1.0, m / 3 % 3 - 1.0, m / 9 - 1.0);
+  row_length_.assign(n, 0);
+}
 
-  // Each thread searches a contiguous range of particles into a list of its own; the lists are joined in
-  // thread order, so the rows come out in particle order and the result does not depend on the threads.
-  std::vector<std::vector<Candidate>> found(omp_get_max_threads());
-  out.first.assign(n + 1, 0);
-  std::atomic<bool> image_overflow{false};
-#pragma omp parallel
-  {
-    std::vector<Candidate>& mine = found[omp_get_thread_num()];
-    const auto [begin, end] = thread_share(n, [](std::size_t k) { return k; });
-    std::vector<Index> hits;  // the members that pass, by index into members
-    for (std::size_t i = begin; i < end; ++i) {
-      const std::size_t row = mine.size();
-      hits.clear();
-      std::size_t hits_done = 0;
-      const Vec3& xi = wrapped[i];
-      const double ri = p.radius[i];
-      // Members [from, to) of the bin seen through image m (components -1, 0, 1). The test has no branch
-      // (half the members fail j > i, at random): each member is written to the end of the row, which
-      // grows only when it passes; the images are worked out for those alone.
-      const auto search = [&](Index from, Index to, const std::array<std::int32_t, 3>& m) {
-        const Vec3 target = xi - shift[(m[2] + 1) * 9 + (m[1] + 1) * 3 + m[0] + 1];  // x_j + h m - x_i = x_j - target
-        std::size_t passed = hits.size();
-        hits.resize(passed + static_cast<std::size_t>(to - from));
-        for (Index k = from; k < to; ++k) {
-          const Member& c = members[k];
-          const double dx = c.x[0] - target[0], dy = c.x[1] - target[1], dz = c.x[2] - target[2];
-          const double reach = (ri + c.radius + skin) * kReachMargin;
-          hits[passed] = k;
-          passed += static_cast<std::size_t>((c.id > static_cast<Index>(i)) & (dx * dx + dy * dy + dz * dz < reach * reach));
-        }
-        hits.resize(passed);
-        for (std::size_t hit = hits_done; hit < passed; ++hit) {
-          const Index j = members[hits[hit]].id;
-          // The stored image adds back the whole cells that the unwrapped positions carry, so that
-          // s_j - s_i + n is the same vector.
-          PairImage stored;
-          for (int d = 0; d < 3; ++d) {
-            const std::int32_t whole = m[d] + cell_of[i][d] - cell_of[j][d];
-            if (whole < std::numeric_limits<std::int16_t>::min() || whole > std::numeric_limits<std::int16_t>::max())
-              image_overflow.store(true, std::memory_order_relaxed);  // (no throwing out of a parallel loop)
-            stored[d] = static_cast<std::int16_t>(whole);
-          }
-          mine.push_back({j, stored});
-        }
-        hits_done = passed;
-      };
-      if (use_bins) {
-        const int bi = bin_of[i];
-        const int b[3] = {bi % bins[0], (bi / bins[0]) % bins[1], bi / (bins[0] * bins[1])};
-        // The three bins of a row along x are consecutive in bin order: one range of members, or two where
-        // the row wraps around the cell (the part beyond the face seen through the image m_x = -1 or 1).
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy) {
-            std::array<std::int32_t, 3> m{0, 0, 0};
-            int w[3];
-            for (int k = 1; k < 3; ++k) {
-              const int u = b[k] + (k == 1 ? dy : dz);
-              m[k] = u < 0 ? -1 : (u >= bins[k] ? 1 : 0);
-              w[k] = u - m[k] * bins[k];
-            }
-            const int row_bin = (w[2] * bins[1] + w[1]) * bins[0];  // bin of x = 0 in this row
-            const auto bins_x = [&](int lo, int hi) { return std::pair{bin_first[row_bin + lo], bin_first[row_bin + hi + 1]}; };
-            const auto [from, to] = bins_x(std::max(b[0] - 1, 0), std::min(b[0] + 1, bins[0] - 1));
-            search(from, to, m);
-            if (b[0] == 0 || b[0] == bins[0] - 1) {
-              m[0] = b[0] == 0 ? -1 : 1;
-              const auto [wrap_from, wrap_to] = bins_x(b[0] == 0 ? bins[0] - 1 : 0, b[0] == 0 ? bins[0] - 1 : 0);
-              search(wrap_from, wrap_to, m);
-            }
-          }
-      } else {
-        // Few bins: every image of every pair. The width check above allows at most one in reach.
-        for (int m = 0; m < 27; ++m) search(0, static_cast<Index>(n), {m % 3 - 1, m / 3 % 3 - 1, m / 9 - 1});
+void PairSearch::search_share() {
+  const Particles& p = state_.particles;
+  const std::size_t n = p.size();
+  const double skin = skin_;
+  std::vector<Candidate>& mine = found_[omp_get_thread_num()];
+  const auto [begin, end] = thread_share(n, [](std::size_t k) { return k; });
+  std::vector<Index> hits;  // the members that pass, by index into members_
+  for (std::size_t i = begin; i < end; ++i) {
+    const std::size_t row = mine.size();
+    hits.clear();
+    std::size_t hits_done = 0;
+    const Vec3& xi = wrapped_[i];
+    const double ri = p.radius[i];
+    // Members [from, to) of the bin seen through image m (components -1, 0, 1). The test has no branch
+    // (half the members fail j > i, at random): each member is written to the end of the row, which
+    // grows only when it passes; the images are worked out for those alone.
+    const auto search = [&](Index from, Index to, const std::array<std::int32_t, 3>& m) {
+      const Vec3 target = xi - shift_[(m[2] + 1) * 9 + (m[1] + 1) * 3 + m[0] + 1];  // x_j + h m - x_i = x_j - target
+      std::size_t passed = hits.size();
+      hits.resize(passed + static_cast<std::size_t>(to - from));
+      for (Index k = from; k < to; ++k) {
+        const Member& c = members_[k];
+        const double dx = c.x[0] - target[0], dy = c.x[1] - target[1], dz = c.x[2] - target[2];
+        const double reach = (ri + c.radius + skin) * kReachMargin;
+        hits[passed] = k;
+        passed += static_cast<std::size_t>((c.id > static_cast<Index>(i)) & (dx * dx + dy * dy + dz * dz < reach * reach));
       }
-      std::sort(mine.begin() + static_cast<std::ptrdiff_t>(row), mine.end(),
-                [](const Candidate& a, const Candidate& b) { return a.j < b.j; });
-      out.first[i + 1] = static_cast<Index>(mine.size() - row);
+      hits.resize(passed);
+      for (std::size_t hit = hits_done; hit < passed; ++hit) {
+        const Index j = members_[hits[hit]].id;
+        // The stored image adds back the whole cells that the unwrapped positions carry, so that
+        // s_j - s_i + n is the same vector.
+        PairImage stored;
+        for (int d = 0; d < 3; ++d) {
+          const std::int32_t whole = m[d] + cell_of_[i][d] - cell_of_[j][d];
+          if (whole < std::numeric_limits<std::int16_t>::min() || whole > std::numeric_limits<std::int16_t>::max())
+            image_overflow_.store(true, std::memory_order_relaxed);  // (no throwing out of a parallel loop)
+          stored[d] = static_cast<std::int16_t>(whole);
+        }
+        mine.push_back({j, stored});
+      }
+      hits_done = passed;
+    };
+    if (use_bins_) {
+      const int bi = bin_of_[i];
+      const int b[3] = {bi % bins_[0], (bi / bins_[0]) % bins_[1], bi / (bins_[0] * bins_[1])};
+      // The three bins of a row along x are consecutive in bin order: one range of members, or two where
+      // the row wraps around the cell (the part beyond the face seen through the image m_x = -1 or 1).
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy) {
+          std::array<std::int32_t, 3> m{0, 0, 0};
+          int w[3];
+          for (int k = 1; k < 3; ++k) {
+            const int u = b[k] + (k == 1 ? dy : dz);
+            m[k] = u < 0 ? -1 : (u >= bins_[k] ? 1 : 0);
+            w[k] = u - m[k] * bins_[k];
+          }
+          const int row_bin = (w[2] * bins_[1] + w[1]) * bins_[0];  // bin of x = 0 in this row
+          const auto bins_x = [&](int lo, int hi) { return std::pair{bin_first_[row_bin + lo], bin_first_[row_bin + hi + 1]}; };
+          const auto [from, to] = bins_x(std::max(b[0] - 1, 0), std::min(b[0] + 1, bins_[0] - 1));
+          search(from, to, m);
+          if (b[0] == 0 || b[0] == bins_[0] - 1) {
+            m[0] = b[0] == 0 ? -1 : 1;
+            const auto [wrap_from, wrap_to] = bins_x(b[0] == 0 ? bins_[0] - 1 : 0, b[0] == 0 ? bins_[0] - 1 : 0);
+            search(wrap_from, wrap_to, m);
+          }
+        }
+    } else {
+      // Few bins: every image of every pair. The width check above allows at most one in reach.
+      for (int m = 0; m < 27; ++m) search(0, static_cast<Index>(n), {m % 3 - 1, m / 3 % 3 - 1, m / 9 - 1});
     }
+    std::sort(mine.begin() + static_cast<std::ptrdiff_t>(row), mine.end(),
+              [](const Candidate& a, const Candidate& b) { return a.j < b.j; });
+    row_length_[i] = static_cast<Index>(mine.size() - row);
   }
-  if (image_overflow)
+}
+
+PairSearch::Candidates PairSearch::candidates() {
+  if (image_overflow_)
     throw std::runtime_error("two neighbours are more than 32767 cells apart in their unwrapped positions (more "
                              "than a pair image holds): particles have crossed the periodic cell that often only "
                              "if the sample was stirred far beyond any granular test");
-  for (std::size_t i = 0; i < n; ++i) out.first[i + 1] += out.first[i];
-  out.list.clear();
+  const std::size_t n = row_length_.size();
+  Candidates out;
+  out.first.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) out.first[i + 1] = out.first[i] + row_length_[i];
   out.list.reserve(static_cast<std::size_t>(out.first[n]));
-  for (const std::vector<Candidate>& f : found) out.list.insert(out.list.end(), f.begin(), f.end());
+  // The threads' lists hold contiguous ranges of rows: joined in thread order, the rows are in particle order.
+  for (const std::vector<Candidate>& f : found_) out.list.insert(out.list.end(), f.begin(), f.end());
+  return out;
 }
+
+namespace {
 
 // The crossing pairs (PairList): ranked in pair order, and listed by neighbour.
 void build_crossings(PairList& pl, std::size_t n) {
@@ -216,15 +205,21 @@ void build_crossings(PairList& pl, std::size_t n) {
 }  // namespace
 
 void rebuild_pairs(const Model& model, State& state) {
+  PairSearch search(model, state);
+#pragma omp parallel
+  search.search_share();
+  rebuild_pairs(model, state, search);
+}
+
+void rebuild_pairs(const Model& model, State& state, PairSearch& search) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
   const std::size_t n = p.size();
-  Candidates candidates;
-  find_candidates(state, pl.current_skin(), model.max_radius, candidates);
+  const PairSearch::Candidates candidates = search.candidates();
 
   PairList next;
   next.skin = pl.skin;
-  next.build_skin = pl.current_skin();
+  next.build_skin = search.skin();
   next.built_at_step = state.steps_since_creation;
   next.first = std::move(candidates.first);
   const std::size_t count = next.first[n];

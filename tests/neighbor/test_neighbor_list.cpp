@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <optional>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -138,6 +139,34 @@ TEST(NeighborList, MatchesBruteForceInCubicShearedAndSmallCells) {
       EXPECT_EQ(s.pairs.tangential[q], Vec3::Zero());
       EXPECT_EQ(s.pairs.flags[q], 0);
     }
+  }
+}
+
+// The search shared among the threads of a region the caller owns (as the time step runs it) gives the same
+// list, row for row, as rebuild_pairs on its own, on any number of threads.
+TEST(NeighborList, SearchSharedInACallersRegionGivesTheSameList) {
+  State reference = random_state((Mat3() << 9.0, 2.5, -1.0, 0.0, 10.0, 1.5, 0.0, 0.0, 9.5).finished(), 700, 0.3, 0.6, 9, 0.15);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), reference.particles.radius);
+  rebuild_pairs(model, reference);
+  for (int threads = 1; threads <= 4; ++threads) {
+    SCOPED_TRACE(threads);
+    State s = reference;
+    s.pairs = PairList{};
+    s.pairs.skin = reference.pairs.skin;
+    std::optional<PairSearch> search;
+#pragma omp parallel num_threads(threads)
+    {
+#pragma omp single
+      search.emplace(model, s);  // (an implicit barrier follows)
+      search->search_share();
+#pragma omp barrier
+#pragma omp single
+      rebuild_pairs(model, s, *search);
+    }
+    EXPECT_EQ(s.pairs.first, reference.pairs.first);
+    EXPECT_EQ(s.pairs.neighbor, reference.pairs.neighbor);
+    EXPECT_EQ(s.pairs.image, reference.pairs.image);
+    EXPECT_EQ(s.pairs.crossing_pair, reference.pairs.crossing_pair);
   }
 }
 
