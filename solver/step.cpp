@@ -59,17 +59,18 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
             force_rebuild = false;
             if (needed) adapt_skin(state);  // (not after a forced rebuild: the list had not run its course)
             if (rebuilt) search.emplace(model, state);
+            else forces.emplace(model, loading.friction, state);
           }))
         break;
       if (rebuilt) {
         search->search_share();
         barrier->wait();
+        if (!one_thread([&] {
+              rebuild_pairs(model, state, *search), search.reset();
+              forces.emplace(model, loading.friction, state);
+            }))
+          break;
       }
-      if (!one_thread([&] {
-            if (rebuilt) rebuild_pairs(model, state, *search), search.reset();
-            forces.emplace(model, loading.friction, state);
-          }))
-        break;
       // 4. contact forces and history; 5. net forces -> damped velocities and spins. On one thread each
       // block of particles is kicked as soon as its forces are complete (in cache); on more, each thread
       // kicks its share once all pairs are done.
