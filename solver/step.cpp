@@ -29,6 +29,8 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
     const int thread = omp_get_thread_num(), team = omp_get_num_threads();
 #pragma omp single
     barrier.emplace(team), moved.assign(team, 0.0);
+    // This thread's force blocks: its share of the pair loop, the drift and the kick, dealt anew at each rebuild.
+    std::vector<std::size_t> my_blocks = thread_force_blocks(state.pairs, state.particles.size());
     // Runs f on one thread while the others wait; false once anything has failed (then every thread leaves).
     const auto one_thread = [&](auto&& f) {
       if (thread == 0 && !failure) {
@@ -49,7 +51,7 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
       // 1. control: the cell at the end of the step
       if (!one_thread([&] { h_before = state.cell.h, advance_cell(model, loading, state); })) break;
       // 2. particles move by their fluctuating velocity
-      moved[thread] = drift_share(model, h_before, state);
+      moved[thread] = drift_share(model, h_before, state, my_blocks);
       barrier->wait();
       // 3. neighbours, with contact history carried over (the search shared among the threads)
       if (!one_thread([&] {
@@ -70,13 +72,14 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
               forces.emplace(model, loading.friction, state);
             }))
           break;
+        my_blocks = thread_force_blocks(state.pairs, state.particles.size());
       }
       // 4. contact forces and history; 5. net forces -> damped velocities and spins. On one thread each
       // block of particles is kicked as soon as its forces are complete (in cache); on more, each thread
       // kicks its share once all pairs are done.
-      forces->evaluate_share(team == 1 ? kick_blocks : BlocksDone{});
+      forces->evaluate_share(my_blocks, team == 1 ? kick_blocks : BlocksDone{});
       barrier->wait();
-      if (team > 1) gather_and_kick_share(model, state);
+      if (team > 1) gather_and_kick_share(model, state, my_blocks);
       barrier->wait();
       // 6. stress and clocks, then whatever the caller does between steps
       if (!one_thread([&] {

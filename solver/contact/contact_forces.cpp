@@ -274,7 +274,7 @@ void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const Pair
 // gives the same numbers bit for bit.
 template <class Law, Kinematics K, bool Diagonal>
 void evaluate_share(const ContactParams& law, State& state, double dt, std::vector<ContactBlockSums>& partial,
-                    const BlocksDone& blocks_done) {
+                    const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
   const Mat3 h = state.cell.h;
@@ -293,7 +293,7 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
 #else
   const GatherFn gather = &gather_chunk;
 #endif
-  for (const std::size_t fb : thread_force_blocks(pl, n)) {
+  for (const std::size_t fb : blocks) {
     const std::size_t block_begin = fb * kForceBlock, block_end = std::min(n, (fb + 1) * kForceBlock);
     // The net forces and moments start from zero; the block's pairs add to both ends.
     std::fill(net_force + 3 * block_begin, net_force + 3 * block_end, 0.0);
@@ -376,8 +376,8 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
   });
 }
 
-void ContactForceEvaluation::evaluate_share(const BlocksDone& blocks_done) {
-  share_(params_, state_, dt_, partial_, blocks_done);
+void ContactForceEvaluation::evaluate_share(const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done) {
+  share_(params_, state_, dt_, partial_, blocks, blocks_done);
 }
 
 void ContactForceEvaluation::finish() {
@@ -396,7 +396,7 @@ void ContactForceEvaluation::finish() {
 void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip) {
   ContactForceEvaluation forces(model, friction, state, advance_slip);
 #pragma omp parallel
-  forces.evaluate_share();
+  forces.evaluate_share(thread_force_blocks(state.pairs, state.particles.size()));
   forces.finish();
 }
 

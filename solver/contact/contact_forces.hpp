@@ -16,7 +16,8 @@ namespace celldem {
 void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
 
 // The same evaluation inside a parallel region the caller owns (the time step's, which spans many steps):
-// every thread calls evaluate_share() once, then one thread calls finish() once all have returned.
+// every thread calls evaluate_share() once with its force blocks (thread_force_blocks), then one thread calls
+// finish() once all have returned.
 // blocks_done(begin, end), if given, is called after each force block (kForceBlock): every pair owned by the
 // particles in [begin, end) has then been evaluated by this thread. On one thread their net forces can then
 // be completed while in cache: the pairs that cross into a block are owned by earlier blocks (a pair's
@@ -30,10 +31,11 @@ struct ContactBlockSums {             // one block of owners' share of the reduc
 class ContactForceEvaluation {
  public:
   ContactForceEvaluation(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
-  void evaluate_share(const BlocksDone& blocks_done = {});
+  void evaluate_share(const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done = {});
   void finish();  // the reductions, summed block by block in order: the same for any thread count
 
-  using ShareFn = void (*)(const ContactParams&, State&, double, std::vector<ContactBlockSums>&, const BlocksDone&);
+  using ShareFn = void (*)(const ContactParams&, State&, double, std::vector<ContactBlockSums>&,
+                           const std::vector<std::size_t>&, const BlocksDone&);
 
  private:
   ContactParams params_;

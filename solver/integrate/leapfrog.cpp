@@ -49,18 +49,18 @@ void gather_and_kick_range(const Model& model, State& state, std::size_t begin, 
   }
 }
 
-void gather_and_kick_share(const Model& model, State& state) {
+void gather_and_kick_share(const Model& model, State& state, const std::vector<std::size_t>& blocks) {
   const std::size_t n = state.particles.size();
-  for (const std::size_t b : thread_force_blocks(state.pairs, n))
+  for (const std::size_t b : blocks)
     gather_and_kick_range(model, state, b * kForceBlock, std::min(n, (b + 1) * kForceBlock));
 }
 
 void gather_and_kick(const Model& model, State& state) {
 #pragma omp parallel
-  gather_and_kick_share(model, state);
+  gather_and_kick_share(model, state, thread_force_blocks(state.pairs, state.particles.size()));
 }
 
-double drift_share(const Model& model, const Mat3& h_before, State& state) {
+double drift_share(const Model& model, const Mat3& h_before, State& state, const std::vector<std::size_t>& blocks) {
   Particles& p = state.particles;
   const PairList& pl = state.pairs;
   const Mat3 step_map = model.dt * (0.5 * (h_before + state.cell.h)).inverse();
@@ -68,7 +68,7 @@ double drift_share(const Model& model, const Mat3& h_before, State& state) {
   const std::size_t n = p.size();
   const bool built = pl.first.size() == n + 1 && pl.scaled_at_build.size() == n;
   double max_disp2 = 0.0;
-  for (const std::size_t b : thread_force_blocks(pl, n))
+  for (const std::size_t b : blocks)
     for (std::size_t i = b * kForceBlock; i < std::min(n, (b + 1) * kForceBlock); ++i) {
       p.scaled[i] += step_map * p.velocity[i];
       if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i].cast<double>())).squaredNorm());
@@ -79,7 +79,7 @@ double drift_share(const Model& model, const Mat3& h_before, State& state) {
 double drift(const Model& model, const Mat3& h_before, State& state) {
   double largest = 0.0;  // a maximum: the same whatever the order
 #pragma omp parallel reduction(max : largest)
-  largest = std::max(largest, drift_share(model, h_before, state));
+  largest = std::max(largest, drift_share(model, h_before, state, thread_force_blocks(state.pairs, state.particles.size())));
   return largest;
 }
 

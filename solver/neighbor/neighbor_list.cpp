@@ -75,7 +75,7 @@ PairSearch::PairSearch(const Model& model, const State& state)
   }
   // The shift h m of each image m in {-1, 0, 1}^3, at (m_z + 1) * 9 + (m_y + 1) * 3 + m_x + 1.
   for (int m = 0; m < 27; ++m) shift_[m] = h * Vec3(m % 3 - 1.0, m / 3 % 3 - 1.0, m / 9 - 1.0);
-  row_length_.assign(n, 0);
+  first_.assign(n + 1, 0);
 }
 
 void PairSearch::search_share() {
@@ -151,7 +151,7 @@ void PairSearch::search_share() {
     }
     std::sort(mine.begin() + static_cast<std::ptrdiff_t>(row), mine.end(),
               [](const Candidate& a, const Candidate& b) { return a.j < b.j; });
-    row_length_[i] = static_cast<Index>(mine.size() - row);
+    first_[i + 1] = static_cast<Index>(mine.size() - row);  // the row's length until candidates() sums them
   }
 }
 
@@ -160,10 +160,10 @@ PairSearch::Candidates PairSearch::candidates() {
     throw std::runtime_error("two neighbours are more than 32767 cells apart in their unwrapped positions (more "
                              "than a pair image holds): particles have crossed the periodic cell that often only "
                              "if the sample was stirred far beyond any granular test");
-  const std::size_t n = row_length_.size();
+  const std::size_t n = first_.size() - 1;
   Candidates out;
-  out.first.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) out.first[i + 1] = out.first[i] + row_length_[i];
+  out.first = std::move(first_);
+  for (std::size_t i = 0; i < n; ++i) out.first[i + 1] += out.first[i];
   out.list.reserve(static_cast<std::size_t>(out.first[n]));
   // The threads' lists hold contiguous ranges of rows: joined in thread order, the rows are in particle order.
   for (const std::vector<Candidate>& f : found_) out.list.insert(out.list.end(), f.begin(), f.end());

@@ -35,7 +35,7 @@ class PairSearch {
     std::vector<Index> first;  // (N+1)
     std::vector<Candidate> list;
   };
-  Candidates candidates();  // once every share is searched; throws if a pair image overflowed
+  Candidates candidates();  // once, after every share is searched; throws if a pair image overflowed
 
  private:
   // A particle as the search reads it, stored in bin order so that a bin's members lie side by side: its
@@ -56,7 +56,7 @@ class PairSearch {
   std::vector<Member> members_;                          // (N) in bin order
   std::array<Vec3, 27> shift_;                           // h m for each image m in {-1, 0, 1}^3 [m]
   std::vector<std::vector<Candidate>> found_;            // per thread: its rows, in particle order
-  std::vector<Index> row_length_;                        // (N)
+  std::vector<Index> first_;                             // (N+1) row lengths at i + 1, summed by candidates()
   std::atomic<bool> image_overflow_{false};
 };
 void rebuild_pairs(const Model& model, State& state, PairSearch& search);

@@ -101,6 +101,7 @@ for name, kernel in (("celldem::drift_share(celldem::Model const&)", "drift"),
                      ("void celldem::(anonymous namespace)::evaluate_share<Law, true>(...)", "pair_loop"),
                      ("celldem::gather_and_kick_range(celldem::Model const&, ...)", "gather_and_kick_range"),
                      ("celldem::(anonymous namespace)::find_candidates(...)", "neighbour"),
+                     ("celldem::PairSearch::search_share()", "neighbour"),
                      ("GOMP_parallel", "other")):
     check(f"kernel of {name}", rl.kernel_of(name), kernel)
 

@@ -35,8 +35,8 @@ REBUILD = "celldem::rebuild_pairs("
 # evaluate_share in the newer code) does around the three chunk functions (block bounds, zeroing the owners' sums).
 KERNELS = (
     ("drift", "drift", ("celldem::drift",)),
-    ("neighbour", "neighbour list (check, rebuild)", ("find_candidates", "rebuild_pairs", "pairs_need_rebuild",
-                                                      "Candidate")),
+    ("neighbour", "neighbour list (check, rebuild)", ("PairSearch", "find_candidates", "rebuild_pairs",
+                                                      "pairs_need_rebuild", "Candidate")),
     ("gather_chunk", "gather_chunk, chunk_owners", ("gather_chunk", "chunk_owners")),
     ("evaluate_chunk", "evaluate_chunk (pair law)", ("evaluate_chunk",)),
     ("sum_chunk", "sum_chunk", ("sum_chunk",)),
