@@ -12,8 +12,9 @@
 //                                                 at a1 to xi, unloaded at a2 < a1, it gives back
 //                                                 1/2 (k1 - k2) xi^2 less than it took, or more the other way)
 //               mindlin_rescale as mindlin, and when a shrinks below the last step's a_old the stored xi is first
-//                               scaled by a / a_old (not when a grows): the spring's force then never rises as
-//                               the contact unloads (LAMMPS's `tangential mindlin_rescale`; a_old kept per pair)
+//                               scaled by a / a_old (not when a grows; LAMMPS's `tangential mindlin_rescale`,
+//                               a_old kept per pair): unloading at a stretched spring loses energy (1/2 k xi^2
+//                               falls as a^3), loading still adds 1/2 (k2 - k1) xi^2 as with mindlin
 //   rolling     sds             v_roll = R* (w_j - w_i) x n, xi_r += v_roll dt (kept in the tangent plane, its
 //                               length kept), f_r = -k_roll xi_r - gamma_roll v_roll, |f_r| <= mu_roll fn (then
 //                               xi_r = -(f_r + gamma_roll v_roll) / k_roll); moment -R* n x f_r on i, +R* n x f_r on j
