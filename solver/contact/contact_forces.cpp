@@ -168,7 +168,7 @@ template <class Law, Kinematics K, bool Diagonal>
 CELLDEM_ISA_CLONES
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
                     double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
-                    double* __restrict force, ChunkOut& __restrict o) {
+                    double* __restrict radius, double* __restrict force, ChunkOut& __restrict o) {
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
@@ -179,6 +179,7 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
       before.rolling = {rolling[3 * k], rolling[3 * k + 1], rolling[3 * k + 2]};
       before.twist = twist[k];
     }
+    if constexpr (Law::radius_history) before.contact_radius = radius[k];
     const PairContact r = contact_law<Law>(law, branch, c.ri[k], c.rj[k], dv, {c.wi[0][k], c.wi[1][k], c.wi[2][k]},
                                            {c.wj[0][k], c.wj[1][k], c.wj[2][k]}, before, dt);
     const Real3& xi = r.history.tangential;
@@ -188,6 +189,7 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
       rolling[3 * k] = xr.x, rolling[3 * k + 1] = xr.y, rolling[3 * k + 2] = xr.z;
       twist[k] = r.history.twist;
     }
+    if constexpr (Law::radius_history) radius[k] = r.history.contact_radius;
     force[3 * k] = r.force.x, force[3 * k + 1] = r.force.y, force[3 * k + 2] = r.force.z;
     o.torque_j[0][k] = r.torque_j.x, o.torque_j[1][k] = r.torque_j.y, o.torque_j[2][k] = r.torque_j.z;
     o.torque_i[0][k] = r.torque_i.x, o.torque_i[1][k] = r.torque_i.y, o.torque_i[2][k] = r.torque_i.z;
@@ -283,6 +285,7 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
   // The rotational springs (rebuild_pairs sizes them for a law that has them).
   double* const rolling = Law::rotational ? doubles(pl.rolling) : nullptr;
   double* const twist = Law::rotational ? pl.twist.data() : nullptr;
+  double* const radius = Law::radius_history ? pl.contact_radius.data() : nullptr;  // (mindlin_rescale)
   double* const net_force = doubles(p.force);
   double* const net_torque = doubles(p.torque);
   ChunkIn in;
@@ -311,7 +314,7 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
         gather(p, pl, q0, m, in);
         evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(),
                                          rolling ? rolling + 3 * q0 : nullptr, twist ? twist + q0 : nullptr,
-                                         pl.force[q0].data(), out);
+                                         radius ? radius + q0 : nullptr, pl.force[q0].data(), out);
         sum_chunk(in, out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
       }
       ContactBlockSums& part = partial[first_owner / kBlock];
@@ -369,6 +372,8 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
   if (model.contact.rotational_history() && state.pairs.rolling.size() != state.pairs.size())
     throw std::logic_error("compute_contact_forces: the pair list has no rotational springs (rebuild it first)");
+  if (model.contact.radius_history() && state.pairs.contact_radius.size() != state.pairs.size())
+    throw std::logic_error("compute_contact_forces: the pair list has no contact radii (rebuild it first)");
   share_ = with_law(model.contact, [&](auto law) {
     using Law = decltype(law);
     return model.kinematics == Kinematics::Affine ? share_for<Law, Kinematics::Affine>(diagonal)

@@ -7,7 +7,14 @@
 //               hertz           fn = 4/3 E* a d  (= 4/3 E* sqrt(R*) d^3/2)  tangent stiffness 2 E* a
 //   tangential  linear_history  ft = -kt xi                               |ft| <= mu fn (xi rescaled with it)
 //               mindlin         ft = -8 G* a xi  (displacement history, no rescaling when a changes: LAMMPS's
-//                                                 `tangential mindlin`; the force follows the contact radius)
+//                                                 `tangential mindlin`; the force follows the contact radius, so a
+//                                                 closed cycle of overlap and slip can return energy: loaded
+//                                                 at a1 to xi, unloaded at a2 < a1, it gives back
+//                                                 1/2 (k1 - k2) xi^2 less than it took, or more the other way)
+//               mindlin_rescale as mindlin, and when a shrinks below the last step's a_old the stored xi is first
+//                               scaled by a / a_old (not when a grows; LAMMPS's `tangential mindlin_rescale`,
+//                               a_old kept per pair): unloading at a stretched spring loses energy (1/2 k xi^2
+//                               falls as a^3), loading still adds 1/2 (k2 - k1) xi^2 as with mindlin
 //   rolling     sds             v_roll = R* (w_j - w_i) x n, xi_r += v_roll dt (kept in the tangent plane, its
 //                               length kept), f_r = -k_roll xi_r - gamma_roll v_roll, |f_r| <= mu_roll fn (then
 //                               xi_r = -(f_r + gamma_roll v_roll) / k_roll); moment -R* n x f_r on i, +R* n x f_r on j
@@ -39,8 +46,9 @@ struct Law {
   static constexpr TangentialModel tangential = T;
   static constexpr RollingModel rolling = R;
   static constexpr TwistingModel twisting = W;
-  static constexpr bool contact_radius = N == NormalModel::Hertz || T == TangentialModel::Mindlin ||
+  static constexpr bool contact_radius = N == NormalModel::Hertz || is_mindlin(T) ||
                                          W == TwistingModel::Marshall;  // a = sqrt(R* d) is needed
+  static constexpr bool radius_history = T == TangentialModel::MindlinRescale;  // each pair keeps its last a
   static constexpr bool rotational = R != RollingModel::None || W != TwistingModel::None;  // rolling/twist springs
 };
 using LinearLaw = Law<NormalModel::Linear, TangentialModel::LinearHistory, RollingModel::None, TwistingModel::None>;
@@ -64,6 +72,8 @@ decltype(auto) with_law(const ContactDef& c, F&& f) {
   const auto ta = [&](auto normal) -> decltype(auto) {
     if (c.tangential == TangentialModel::Mindlin)
       return ro(normal, std::integral_constant<TangentialModel, TangentialModel::Mindlin>{});
+    if (c.tangential == TangentialModel::MindlinRescale)
+      return ro(normal, std::integral_constant<TangentialModel, TangentialModel::MindlinRescale>{});
     return ro(normal, std::integral_constant<TangentialModel, TangentialModel::LinearHistory>{});
   };
   if (c.normal == NormalModel::Hertz) return ta(std::integral_constant<NormalModel, NormalModel::Hertz>{});
@@ -110,6 +120,7 @@ struct ContactHistory {
   Real3 tangential{0.0, 0.0, 0.0};  // [m] tangential spring displacement
   Real3 rolling{0.0, 0.0, 0.0};     // [m] rolling displacement (sds)
   double twist = 0.0;               // [rad] twist angle (marshall)
+  double contact_radius = 0.0;      // [m] a of the last step (mindlin_rescale; 0 for a new contact)
 };
 
 struct PairContact {
@@ -137,6 +148,10 @@ inline NormalForce normal_hertz(double e_eff, double a, double overlap) {
 }
 
 inline double tangential_stiffness_mindlin(double g_eff, double a) { return 8.0 * g_eff * a; }
+
+// mindlin_rescale's factor on the stored displacement: a / a_old when the contact radius shrank since the last
+// step, else 1 (a new contact has a_old = 0). As LAMMPS, before the displacement is turned into the tangent plane.
+inline double mindlin_rescale_factor(double a, double a_old) { return a < a_old ? a / a_old : 1.0; }
 
 // Brings a stored displacement into the tangent plane of n: projected, and (rotate) rescaled to its former length.
 inline Real3 into_tangent_plane(Real3 xi, Real3 n, bool rotate) {
@@ -200,7 +215,9 @@ template <class L>
   const Real3 vt = vc - dot(vc, n) * n;
 
   // The stored displacement in the current tangent plane, plus this step's slip.
-  Real3 s = into_tangent_plane(h.tangential, n, p.rotation == TangentialRotation::Rotate);
+  Real3 s = h.tangential;
+  if constexpr (L::radius_history) s = mindlin_rescale_factor(a, h.contact_radius) * s;
+  s = into_tangent_plane(s, n, p.rotation == TangentialRotation::Rotate);
   s = s + dt * vt;
 
   NormalForce normal;
@@ -208,7 +225,7 @@ template <class L>
   else normal = normal_linear(p.kn, overlap);
   const double fn = normal.force;
   double kt = p.kt;
-  if constexpr (L::tangential == TangentialModel::Mindlin) kt = tangential_stiffness_mindlin(p.g_eff, a);
+  if constexpr (is_mindlin(L::tangential)) kt = tangential_stiffness_mindlin(p.g_eff, a);
 
   // Coulomb slider: cap the force, and the spring with it.
   Real3 ft = -kt * s;
@@ -245,6 +262,7 @@ template <class L>
   out.torque_i = select(touching, torque_i, zero);
   out.torque_j = select(touching, torque_j, zero);
   out.history.tangential = select(touching, s, zero);
+  if constexpr (L::radius_history) out.history.contact_radius = touching ? a : 0.0;
   out.normal = n;
   out.normal_force = touching ? fn : 0.0;
   out.normal_stiffness = touching ? normal.stiffness : 0.0;
@@ -265,6 +283,7 @@ struct ContactResult {
   Vec3 tangential = Vec3::Zero();
   Vec3 rolling = Vec3::Zero();
   double twist = 0.0;
+  double contact_radius = 0.0;  // (mindlin_rescale)
   Vec3 normal = Vec3::Zero();
   double normal_force = 0.0;
   double normal_stiffness = 0.0;
@@ -284,6 +303,7 @@ ContactResult evaluate_contact(const ContactParams& p, const Vec3& branch, doubl
   r.tangential = vec3(c.history.tangential);
   r.rolling = vec3(c.history.rolling);
   r.twist = c.history.twist;
+  r.contact_radius = c.history.contact_radius;
   r.normal = vec3(c.normal);
   r.normal_force = c.normal_force;
   r.normal_stiffness = c.normal_stiffness;

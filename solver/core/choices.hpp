@@ -11,7 +11,9 @@ enum class MomentArm { ContactPoint, Radius };      // lever arm of the tangenti
 enum class Kinematics { Affine, Lammps };           // contacts see the affine velocity difference, or not
 // The contact law's sub-models (contact/contact_law.hpp has the equations).
 enum class NormalModel { Linear, Hertz };              // kn overlap, or 4/3 E* sqrt(R*) overlap^3/2
-enum class TangentialModel { LinearHistory, Mindlin }; // kt, or the no-slip Mindlin 8 G* a
+// kt, or the no-slip Mindlin 8 G* a (its displacement kept as the contact radius changes, or rescaled by
+// a_new / a_old when it shrinks: LAMMPS's `mindlin` and `mindlin_rescale`)
+enum class TangentialModel { LinearHistory, Mindlin, MindlinRescale };
 enum class RollingModel { None, Sds };                 // no rolling resistance, or spring-dashpot-slider
 enum class TwistingModel { None, Marshall };           // no twisting resistance, or Marshall's (from the tangential law)
 // How an axis of the cell is driven during a leg (cell/control.hpp has the laws).
@@ -23,10 +25,16 @@ inline constexpr std::array<std::string_view, 2> kTangentialRotationNames = {"ro
 inline constexpr std::array<std::string_view, 2> kMomentArmNames = {"contact_point", "radius"};
 inline constexpr std::array<std::string_view, 2> kKinematicsNames = {"affine", "lammps"};
 inline constexpr std::array<std::string_view, 2> kNormalModelNames = {"linear", "hertz"};
-inline constexpr std::array<std::string_view, 2> kTangentialModelNames = {"linear_history", "mindlin"};
+inline constexpr std::array<std::string_view, 3> kTangentialModelNames = {"linear_history", "mindlin",
+                                                                          "mindlin_rescale"};
 inline constexpr std::array<std::string_view, 2> kRollingModelNames = {"none", "sds"};
 inline constexpr std::array<std::string_view, 2> kTwistingModelNames = {"none", "marshall"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
+
+// Mindlin's stiffness 8 G* a, with or without the rescaling.
+constexpr bool is_mindlin(TangentialModel t) {
+  return t == TangentialModel::Mindlin || t == TangentialModel::MindlinRescale;
+}
 
 template <class Enum, std::size_t N>
 constexpr std::string_view name_of(Enum value, const std::array<std::string_view, N>& names) {

@@ -49,6 +49,8 @@ struct ContactDef {
     return youngs_modulus / (4.0 * (2.0 - poisson_ratio) * (1.0 + poisson_ratio));
   }
   bool rotational_history() const { return rolling != RollingModel::None || twisting != TwistingModel::None; }
+  // The contact radius of each pair's last step is kept (mindlin_rescale).
+  bool radius_history() const { return tangential == TangentialModel::MindlinRescale; }
 };
 
 // The friction coefficients of a stage: the sliders of the tangential and the rolling springs. A plain number

@@ -72,7 +72,12 @@ inline constexpr KeySpec contact_normal{.path = "contact.normal", .kind = KeyKin
                "and `poisson_ratio`)"};
 inline constexpr KeySpec contact_tangential{.path = "contact.tangential", .kind = KeyKind::Choice, .required = false,
     .choices = kTangentialModelNames,
-    .meaning = "tangential spring: `linear_history` (kt) or `mindlin` (8 G* a, a = sqrt(R* overlap)); Coulomb-capped"};
+    .meaning = "tangential spring: `linear_history` (kt), `mindlin` (8 G* a, a = sqrt(R* overlap)) or `mindlin_rescale` "
+               "(mindlin, its displacement scaled by a / a_old whenever a shrinks, as LAMMPS's); Coulomb-capped. "
+               "Neither Mindlin law is conservative: a spring stretched by xi at stiffness k1, stiffened to k2 by a "
+               "larger overlap and let back returns 1/2 (k2 - k1) xi^2 more than it took (as LAMMPS documents for "
+               "`mindlin`); `mindlin_rescale` does the same, since it rescales only while the contact unloads, where "
+               "it makes the spring lose energy instead"};
 inline constexpr KeySpec contact_rolling{.path = "contact.rolling", .kind = KeyKind::Choice, .required = false,
     .choices = kRollingModelNames,
     .meaning = "rolling resistance: `none` or `sds` (spring-dashpot-slider on the rolling displacement, as LAMMPS "
@@ -88,10 +93,10 @@ inline constexpr KeySpec contact_kt{.path = "contact.kt", .kind = KeyKind::Numbe
     .default_text = "required with `tangential: linear_history`", .unit = "N/m",
     .meaning = "tangential spring stiffness"};
 inline constexpr KeySpec contact_youngs_modulus{.path = "contact.youngs_modulus", .kind = KeyKind::Number,
-    .positive = true, .required = false, .default_text = "required with `hertz` or `mindlin`", .unit = "Pa",
+    .positive = true, .required = false, .default_text = "required with `hertz`, `mindlin`, `mindlin_rescale`", .unit = "Pa",
     .meaning = "Young's modulus E of the particles (E* = E / (2 (1 - nu^2)))"};
 inline constexpr KeySpec contact_poisson_ratio{.path = "contact.poisson_ratio", .kind = KeyKind::Number, .min = 0,
-    .max = 0.49, .required = false, .default_text = "required with `hertz` or `mindlin`",
+    .max = 0.49, .required = false, .default_text = "required with `hertz`, `mindlin`, `mindlin_rescale`",
     .meaning = "Poisson's ratio nu of the particles (G* = E / (4 (2 - nu) (1 + nu)))"};
 inline constexpr KeySpec contact_rolling_stiffness{.path = "contact.rolling_stiffness", .kind = KeyKind::Number,
     .positive = true, .required = false, .default_text = "required with `rolling: sds`", .unit = "N/m",
@@ -109,10 +114,15 @@ inline constexpr KeySpec contact_reference_overlap{.path = "contact.reference_ov
                "values (the largest expected)"};
 inline constexpr KeySpec contact_tangential_rotation{.path = "contact.tangential_rotation", .kind = KeyKind::Choice,
     .required = false, .choices = kTangentialRotationNames,
-    .meaning = "when the tangent plane turns, `rotate` the spring keeping its length, or `project` it (as LAMMPS)"};
+    .meaning = "when the tangent plane turns, `rotate` the spring keeping its length (as LAMMPS pair granular's "
+               "`linear_history` and `mindlin`, which do it once the spring's normal part exceeds 1e-10 of the "
+               "Coulomb limit), or `project` it (as LAMMPS gran/hooke/history, gran/hertz/history and LIGGGHTS's "
+               "tangential history)"};
 inline constexpr KeySpec contact_moment_arm{.path = "contact.moment_arm", .kind = KeyKind::Choice,
     .required = false, .choices = kMomentArmNames,
-    .meaning = "lever arm of the tangential force: `contact_point` (r - overlap/2) or `radius` (as LAMMPS)"};
+    .meaning = "lever arm of the tangential force and of the spin in the slip: `contact_point` (r - overlap/2, as "
+               "LIGGGHTS) or `radius` (as LAMMPS gran/hooke/history and gran/hertz/history); LAMMPS pair granular "
+               "matches neither (full radii in the slip, r - overlap/2 for the moment)"};
 
 inline constexpr KeySpec damping{.path = "damping", .kind = KeyKind::Object, .meaning = "body damping"};
 inline constexpr KeySpec damping_translational{.path = "damping.translational", .kind = KeyKind::Number, .min = 0,

@@ -55,6 +55,8 @@ struct PairList {
   // The rotational springs, only with a law that has them (ContactDef::rotational_history(); else empty).
   std::vector<Vec3> rolling;                     // (P or 0) [m] stored rolling displacement
   std::vector<double> twist;                     // (P or 0) [rad] stored twist angle
+  // The contact radius of the last step, only with a law that rescales by it (ContactDef::radius_history()).
+  std::vector<double> contact_radius;            // (P or 0) [m] a = sqrt(R* overlap), 0 apart
   std::vector<std::uint8_t> flags;               // (P) PairFlag bits of the last force evaluation
   // Per-pair results of the last force evaluation (zero where the pair does not touch).
   std::vector<Vec3> force;                       // (P) [N] force on j by i
@@ -109,6 +111,7 @@ struct StoredContact {
   std::uint8_t flags;
   Vec3 rolling = Vec3::Zero();  // (laws with rotational springs)
   double twist = 0.0;
+  double contact_radius = 0.0;  // [m] (mindlin_rescale)
 };
 
 // Mixed control memory: what the loading stage needs to continue exactly. A stage starts from

@@ -217,10 +217,11 @@ ContactDef read_contact(ObjectReader r) {
   const bool material = !linear || !history;
   if (linear) c.kn = needed_number(r, keys::contact_kn, "\"normal\": \"linear\"");
   else unused_number(r, keys::contact_kn, "with \"normal\": \"hertz\" (the stiffness follows youngs_modulus)");
-  if (history) c.kt = needed_number(r, keys::contact_kt, "\"tangential\": \"linear_history\"");
-  else unused_number(r, keys::contact_kt, "with \"tangential\": \"mindlin\" (the stiffness follows youngs_modulus)");
+  const std::string tangential = "\"tangential\": \"" + std::string(name_of(c.tangential, kTangentialModelNames)) + "\"";
+  if (history) c.kt = needed_number(r, keys::contact_kt, tangential);
+  else unused_number(r, keys::contact_kt, "with " + tangential + " (the stiffness follows youngs_modulus)");
   if (material) {
-    const std::string by = linear ? "\"tangential\": \"mindlin\"" : "\"normal\": \"hertz\"";
+    const std::string by = linear ? tangential : "\"normal\": \"hertz\"";
     c.youngs_modulus = needed_number(r, keys::contact_youngs_modulus, by);
     c.poisson_ratio = needed_number(r, keys::contact_poisson_ratio, by);
     if (r.has(keys::contact_reference_overlap)) c.reference_overlap = r.number(keys::contact_reference_overlap);

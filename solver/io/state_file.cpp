@@ -92,6 +92,7 @@ std::string serialize_state(const State& s, const std::string& label) {
   Writer w;
   const std::vector<StoredContact> contacts = stored_contacts(s);
   const bool rotational = !s.pairs.rolling.empty();
+  const bool radius = !s.pairs.contact_radius.empty();
   w.put_string(label);
   w.put(static_cast<std::uint64_t>(s.particles.size()));
   w.put(static_cast<std::uint64_t>(contacts.size()));
@@ -111,6 +112,8 @@ std::string serialize_state(const State& s, const std::string& label) {
   w.put(s.axis_stiffness);
   w.put(s.touching);
   w.put(s.pairs.skin);
+  if (radius)  // format 4
+    w.put(static_cast<std::uint8_t>((rotational ? kStateRotationalFields : 0) | kStateRadiusField));
   const Particles& p = s.particles;
   for (std::size_t i = 0; i < p.size(); ++i) {
     w.put(p.radius[i]);
@@ -127,11 +130,12 @@ std::string serialize_state(const State& s, const std::string& label) {
       w.put(c.rolling);
       w.put(c.twist);
     }
+    if (radius) w.put(c.contact_radius);
   }
   std::string payload = std::move(w.bytes());
   Writer file;
   file.bytes().append(kMagic, sizeof kMagic);
-  file.put(rotational ? kStateFormatVersion : std::uint32_t{2});
+  file.put(radius ? kStateFormatVersion : rotational ? std::uint32_t{3} : std::uint32_t{2});
   file.put(static_cast<std::uint64_t>(payload.size()));
   file.bytes() += payload;
   file.put(fnv1a(payload.data(), payload.size()));
@@ -185,6 +189,10 @@ State parse_state(const std::string& bytes, std::string* label) {
   s.axis_stiffness = r.vec();
   s.touching = r.get<std::int64_t>();
   s.pairs.skin = r.finite();
+  // The optional fields of each contact: the rotational springs from format 3 on, as format 4 says.
+  const std::uint8_t fields = version >= 4 ? r.get<std::uint8_t>() : version == 3 ? kStateRotationalFields : 0;
+  if (fields & ~(kStateRotationalFields | kStateRadiusField))
+    throw StateFileError("state file names contact fields this version does not know");
   if (!(s.cell.volume() > 0.0)) throw StateFileError("state file cell has no positive volume");
   if (s.pairs.skin < 0.0 || s.steps_since_creation < 0 || s.control.phase_steps < 0 || s.control.stage_steps < 0)
     throw StateFileError("state file holds a negative step count or skin");
@@ -204,9 +212,13 @@ State parse_state(const std::string& bytes, std::string* label) {
     k.j = r.get<Index>();
     k.tangential = r.vec();
     k.flags = r.get<std::uint8_t>();
-    if (version >= 3) {
+    if (fields & kStateRotationalFields) {
       k.rolling = r.vec();
       k.twist = r.finite();
+    }
+    if (fields & kStateRadiusField) {
+      k.contact_radius = r.finite();
+      if (k.contact_radius < 0.0) throw StateFileError("state file holds a negative contact radius");
     }
     const bool ordered = c == 0 || contacts[c - 1].i < k.i || (contacts[c - 1].i == k.i && contacts[c - 1].j < k.j);
     if (k.i < 0 || k.j <= k.i || static_cast<std::uint64_t>(k.j) >= n || !ordered)

@@ -14,8 +14,11 @@ struct StateFileError : std::runtime_error {
 
 // 2: the control holds the current leg's start (strains, volume). 3: format 2 plus each contact's rotational
 // springs (rolling displacement, twist angle), written only for laws that have them (a state of the linear law
-// is still written as format 2). Formats 1 and 2 are still read.
-inline constexpr std::uint32_t kStateFormatVersion = 3;
+// is still written as format 2). 4: a byte after the skin says which of the optional contact fields follow each
+// contact (bit 0: the rotational springs, bit 1: the contact radius of mindlin_rescale); written only for laws
+// with a contact radius (the others still write format 2 or 3). Formats 1 to 3 are still read.
+inline constexpr std::uint32_t kStateFormatVersion = 4;
+inline constexpr std::uint8_t kStateRotationalFields = 1, kStateRadiusField = 2;
 
 // label says what the state is (e.g. "prepared", "checkpoint:ttc"); it is stored and returned. Written
 // atomically; a failed write throws IoError (io/files.hpp).

@@ -130,7 +130,7 @@ bool plain_linear(const ContactDef& c) {
 
 std::string law_text(const ContactDef& c) {
   std::string s = c.normal == NormalModel::Hertz ? "hertz" : "linear";
-  s += c.tangential == TangentialModel::Mindlin ? " + mindlin" : " + linear_history";
+  s += " + " + std::string(name_of(c.tangential, kTangentialModelNames));
   if (c.rolling == RollingModel::Sds) s += " + rolling sds";
   if (c.twisting == TwistingModel::Marshall) s += " + twisting marshall";
   return s;
@@ -139,9 +139,9 @@ std::string law_text(const ContactDef& c) {
 // LAMMPS pair granular coefficients of the deck's law (pair_coeff * * ...), all damping coefficients 0:
 // the deck's damping is body damping. Normal: `hooke kn 0` (F = kn d) or `hertz/material E 0 nu`
 // (F = 4/3 E* a d, E* = E / (2 (1 - nu^2)) by LAMMPS's mixing of one material); `damping viscoelastic` with
-// coefficient 0 is no damping. Tangential: `linear_history kt 0 mu` or `mindlin kt 0 mu` (k = kt a; kt = NULL
-// gives 8 G*, G* = E / (4 (2 - nu)(1 + nu)), but only after a material normal model: after hooke it is written
-// as the number). Rolling `sds k_roll gamma_roll mu_roll`, twisting `marshall` (no coefficients).
+// coefficient 0 is no damping. Tangential: `linear_history kt 0 mu`, `mindlin kt 0 mu` or `mindlin_rescale kt 0 mu`
+// (k = kt a; kt = NULL gives 8 G*, G* = E / (4 (2 - nu)(1 + nu)), but only after a material normal model: after
+// hooke it is written as the number). Rolling `sds k_roll gamma_roll mu_roll`, twisting `marshall` (no coefficients).
 std::string lammps_granular_coeffs(const ContactDef& c, double mu, double mu_roll) {
   std::ostringstream o;
   if (c.normal == NormalModel::Hertz)
@@ -149,8 +149,9 @@ std::string lammps_granular_coeffs(const ContactDef& c, double mu, double mu_rol
   else
     o << "hooke " << num(c.kn) << " 0.0";
   o << " damping viscoelastic tangential ";
-  if (c.tangential == TangentialModel::Mindlin)
-    o << "mindlin " << (c.normal == NormalModel::Hertz ? std::string("NULL") : num(8.0 * c.effective_shear_modulus()));
+  if (is_mindlin(c.tangential))
+    o << name_of(c.tangential, kTangentialModelNames) << " "
+      << (c.normal == NormalModel::Hertz ? std::string("NULL") : num(8.0 * c.effective_shear_modulus()));
   else
     o << "linear_history " << num(c.kt);
   o << " 0.0 " << num(mu);
@@ -941,7 +942,7 @@ std::string liggghts_script(const Deck& deck, const ScriptProgram& p) {
       << "# gamman and gammat must be given (per type pair) even when zero\n"
       << "fix             m1 all property/global kn peratomtypepair " << matrix(n, deck.contact.kn) << "\n"
       << "fix             m2 all property/global kt peratomtypepair "
-      << matrix(n, c.tangential == TangentialModel::Mindlin ? reference_stiffness(c, deck.sample).tangential : c.kt)
+      << matrix(n, is_mindlin(c.tangential) ? reference_stiffness(c, deck.sample).tangential : c.kt)
       << "\n"
       << "fix             m3 all property/global gamman peratomtypepair " << matrix(n, 0.0) << "\n"
       << "fix             m4 all property/global gammat peratomtypepair " << matrix(n, 0.0) << "\n"
@@ -1044,7 +1045,8 @@ namespace {
 // What LAMMPS's pair granular does differently from celldem's law (pair_granular.cpp of 2021, read in the source;
 // crosscheck/README.md "Other contact laws" has the measured effect). Same in both: hertz/material's
 // F = 4/3 E* a d and mindlin's 8 G* a (NULL: LAMMPS's mixing of one material gives E/(2(1 - nu^2)) and
-// E/(4(2 - nu)(1 + nu))), mindlin's displacement history without rescaling when a changes, the Coulomb cap
+// E/(4(2 - nu)(1 + nu))), mindlin's displacement history without rescaling when a changes (mindlin_rescale's
+// scaled by a / a_old when a shrinks, a_old the last step's, kept per pair as LAMMPS's history[3]), the Coulomb cap
 // mu |F_n| with the spring set back, the sds rolling velocity R* (w_i - w_j) x n, its spring-dashpot-slider and
 // moment R* n x f_r, Marshall's k_tw = 0.5 k_t a^2 and cap 2/3 a mu F_n.
 void granular_differences(const Deck& deck, std::vector<std::string>& out) {
@@ -1079,8 +1081,14 @@ void liggghts_law_differences(const Deck& deck, std::vector<std::string>& out) {
     out.push_back("contact.tangential: the deck says \"linear_history\" (constant kt = " + num(c.kt) +
                   " N/m) with hertz; LIGGGHTS's hertz model always sets the tangential stiffness to Mindlin's "
                   "8 G* sqrt(R* overlap): the scripts use that (celldem \"mindlin\" matches)");
-  if (c.normal == NormalModel::Linear && c.tangential == TangentialModel::Mindlin)
-    out.push_back("contact.tangential: the deck says \"mindlin\" (8 G* a, following the contact radius) with a "
+  if (c.tangential == TangentialModel::MindlinRescale)
+    out.push_back("contact.tangential: the deck says \"mindlin_rescale\"; LIGGGHTS 3.8 cannot express it (its "
+                  "tangential models are history and no_history, neither rescales the stored displacement when the "
+                  "contact radius shrinks): the scripts use Mindlin's stiffness without the rescaling (celldem "
+                  "\"mindlin\")");
+  if (c.normal == NormalModel::Linear && is_mindlin(c.tangential))
+    out.push_back("contact.tangential: the deck says \"" + std::string(name_of(c.tangential, kTangentialModelNames)) +
+                  "\" (8 G* a, following the contact radius) with a "
                   "linear normal spring; LIGGGHTS's hooke/stiffness takes a constant kt: the scripts use 8 G* a at "
                   "contact.reference_overlap, " + num(reference_stiffness(c, deck.sample).tangential) + " N/m");
   if (c.normal == NormalModel::Hertz)
@@ -1091,7 +1099,7 @@ void liggghts_law_differences(const Deck& deck, std::vector<std::string>& out) {
     out.push_back("contact.rolling: LIGGGHTS 3.8 has no sds rolling model; the scripts use rolling_friction epsd2, "
                   "an incremental torque spring on the tangential relative spin capped at mu_roll R* |F_n| (the "
                   "same cap as sds), but with the rotational stiffness k_t R*^2 (k_t the tangential stiffness" +
-                  std::string(c.tangential == TangentialModel::Mindlin ? ", 8 G* a" : "") +
+                  std::string(is_mindlin(c.tangential) ? ", 8 G* a" : "") +
                   ") instead of k_roll R*^2 = " + num(c.rolling_stiffness) + " R*^2, no dashpot (rolling_damping " +
                   num(c.rolling_damping) + " ignored), the stored torque neither turned into the tangent plane nor "
                   "rescaled when k_t changes");
@@ -1195,7 +1203,8 @@ std::vector<std::string> common_notes(const Deck& deck, TargetCode code) {
     }
     if (lmp)
       out.push_back("pair granular computes as celldem: hertz/material F_n = 4/3 E* a d, mindlin 8 G* a with the "
-                    "displacement history not rescaled when a changes, the Coulomb cap with the spring set back, "
+                    "displacement history not rescaled when a changes (mindlin_rescale: scaled by a / a_old when a "
+                    "shrinks, not when it grows), the Coulomb cap with the spring set back, "
                     "sds rolling (velocity R* (w_j - w_i) x n, spring-dashpot-slider, moment R* n x f_r), Marshall "
                     "twisting (0.5 k_t a^2, cap 2/3 a mu F_n); every damping coefficient 0; its histories are not "
                     "incremented in the setup force call of a run (as gran/hooke/history)");

@@ -143,7 +143,7 @@ double elastic_energy(const Model& model, const State& state) {
     const double ri = state.particles.radius[i], rj = state.particles.radius[j];
     const double overlap = ri + rj - branch.norm();
     const double a = std::sqrt(ri * rj / (ri + rj) * std::max(overlap, 0.0));
-    const double kt = c.tangential == TangentialModel::Mindlin ? tangential_stiffness_mindlin(c.effective_shear_modulus(), a) : c.kt;
+    const double kt = is_mindlin(c.tangential) ? tangential_stiffness_mindlin(c.effective_shear_modulus(), a) : c.kt;
     const double normal = c.normal == NormalModel::Hertz ? 0.4 * fn * overlap : 0.5 * fn * fn / c.kn;
     e += normal + (kt > 0.0 ? 0.5 * ft2 / kt : 0.0);
     if (rotational && c.rolling == RollingModel::Sds) e += 0.5 * c.rolling_stiffness * pl.rolling[q].squaredNorm();

@@ -230,6 +230,9 @@ void rebuild_pairs(const Model& model, State& state, PairSearch& search) {
   next.rolling.assign(rotational ? count : 0, Vec3::Zero());
   next.twist.assign(rotational ? count : 0, 0.0);
   const bool carry_rotational = rotational && pl.rolling.size() == pl.size();
+  const bool radius = model.contact.radius_history();
+  next.contact_radius.assign(radius ? count : 0, 0.0);
+  const bool carry_radius = radius && pl.contact_radius.size() == pl.size();
   next.flags.assign(count, 0);
   next.force.assign(count, Vec3::Zero());
 
@@ -250,6 +253,7 @@ void rebuild_pairs(const Model& model, State& state, PairSearch& search) {
           next.rolling[q] = pl.rolling[q_old];
           next.twist[q] = pl.twist[q_old];
         }
+        if (carry_radius) next.contact_radius[q] = pl.contact_radius[q_old];
       }
     }
   }
@@ -321,6 +325,9 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
                                       [](const StoredContact& c) { return !c.rolling.isZero(0.0) || c.twist != 0.0; });
   pl.rolling.assign(rotational ? contacts.size() : 0, Vec3::Zero());
   pl.twist.assign(rotational ? contacts.size() : 0, 0.0);
+  const bool radius = std::any_of(contacts.begin(), contacts.end(),
+                                  [](const StoredContact& c) { return c.contact_radius != 0.0; });
+  pl.contact_radius.assign(radius ? contacts.size() : 0, 0.0);
   pl.flags.resize(contacts.size());
   pl.image.assign(contacts.size(), {0, 0, 0});  // unknown until the next rebuild, which must come first
   pl.force.assign(contacts.size(), Vec3::Zero());
@@ -334,6 +341,7 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
       pl.rolling[q] = c.rolling;
       pl.twist[q] = c.twist;
     }
+    if (radius) pl.contact_radius[q] = c.contact_radius;
   }
 }
 
@@ -347,6 +355,7 @@ std::vector<StoredContact> stored_contacts(const State& state) {
       c.rolling = pl.rolling[q];
       c.twist = pl.twist[q];
     }
+    if (pl.contact_radius.size() == pl.size()) c.contact_radius = pl.contact_radius[q];
     out.push_back(c);
   });
   return out;

@@ -53,7 +53,7 @@ State tile_state(const State& s, int copies) {
         // contacts inside the copy (those across are rebuilt from zero, a negligible warm-up difference).
         for (const StoredContact& cc : contacts)
           tiled.push_back({static_cast<Index>(copy * n + cc.i), static_cast<Index>(copy * n + cc.j),
-                           cc.tangential, cc.flags, cc.rolling, cc.twist});
+                           cc.tangential, cc.flags, cc.rolling, cc.twist, cc.contact_radius});
       }
   begin_stage(t);
   set_stored_contacts(t, tiled);
@@ -162,6 +162,7 @@ MemoryPerParticle memory_per_particle(const State& s, const Model& m) {
   out.particles = (bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) + bytes(p.force) +
                    bytes(p.torque) + bytes(pl.first) + bytes(pl.crossing_first) + bytes(pl.scaled_at_build)) / n;
   out.pairs = (bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) + bytes(pl.twist) +
+               bytes(pl.contact_radius) +
                bytes(pl.flags) + bytes(pl.force) + bytes(pl.block_crossings) + bytes(pl.crossing_torque) +
                bytes(pl.crossing) + bytes(pl.crossing_pair)) / n;
   out.model = (bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +

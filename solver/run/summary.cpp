@@ -168,7 +168,7 @@ Json run_settings(const Deck& deck, int threads) {
               {"twisting", name_of(c.twisting, kTwistingModelNames)},
               {"reference_normal_stiffness", k.normal},
               {"reference_tangential_stiffness", k.tangential}};
-  if (c.normal == NormalModel::Hertz || c.tangential == TangentialModel::Mindlin) {
+  if (c.normal == NormalModel::Hertz || is_mindlin(c.tangential)) {
     law["youngs_modulus"] = c.youngs_modulus;
     law["poisson_ratio"] = c.poisson_ratio;
     law["reference_overlap"] = c.reference_overlap;

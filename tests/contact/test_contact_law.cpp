@@ -1,7 +1,8 @@
 // The composed contact law (solver/contact/contact_law.hpp) against analytic answers: Hertz's force-overlap
 // law and tangent stiffness, a Hertzian collision's duration and restitution, Mindlin's tangential stiffness
-// and its Coulomb cap, the rolling resistance moment and its cap, Marshall's twisting moment and its cap;
-// then the pair loop's rotational springs across rebuilds, state files and thread counts.
+// and its Coulomb cap, the rolling resistance moment and its cap, Marshall's twisting moment and its cap, the
+// work each tangential law returns over a closed load-unload cycle; then the pair loop's rotational springs and
+// mindlin_rescale's contact radii across rebuilds, state files and thread counts.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -28,6 +29,8 @@ using LinearRolling = Law<NormalModel::Linear, TangentialModel::LinearHistory, R
 using LinearTwisting =
     Law<NormalModel::Linear, TangentialModel::LinearHistory, RollingModel::None, TwistingModel::Marshall>;
 using Everything = Law<NormalModel::Hertz, TangentialModel::Mindlin, RollingModel::Sds, TwistingModel::Marshall>;
+using HertzMindlinRescale =
+    Law<NormalModel::Hertz, TangentialModel::MindlinRescale, RollingModel::None, TwistingModel::None>;
 
 // E* and G* written out independently of ContactDef's helpers.
 double e_star() { return 1.0 / (2.0 * (1.0 - kNu * kNu) / kE); }
@@ -55,7 +58,9 @@ ContactResult touch(const ContactParams& p, double overlap, const Vec3& dv = Vec
   return evaluate_contact<L>(p, branch_z(overlap), kRi, kRj, dv, wi, wj, h, dt);
 }
 
-ContactHistory history_of(const ContactResult& r) { return {real3(r.tangential), real3(r.rolling), r.twist}; }
+ContactHistory history_of(const ContactResult& r) {
+  return {real3(r.tangential), real3(r.rolling), r.twist, r.contact_radius};
+}
 
 TEST(ContactLaw, WithLawPicksTheNamedSubModels) {
   ContactDef c;
@@ -139,6 +144,127 @@ TEST(Mindlin, CoulombCapRescalesTheSpring) {
   EXPECT_NEAR(std::abs(r.force.y()), mu * r.normal_force, 1e-12 * r.normal_force);
   const double kt = 8.0 * g_star() * std::sqrt(kReff * d);
   EXPECT_NEAR(-kt * r.tangential.y(), r.force.y(), 1e-12 * r.normal_force);
+}
+
+// ---- a closed cycle of normal overlap and tangential displacement, without sliding ----
+//
+// Sphere i stays at the origin; j sits at (u, 0, ri + rj - d) as far as the work goes: the branch stays on z
+// (the normal does not turn) and the tangential displacement u enters the law as the slip dv = du/dt. The
+// cycle is a rectangle in (d, u) run in one of two orders, each leg in equal steps:
+//   stretch first:  u 0 -> U at d0,  d d0 -> d1 at u = U,  u U -> 0 at d1,  d d1 -> d0 at u = 0
+//   load first:     d d0 -> d1 at u = 0,  u 0 -> U at d1,  d d1 -> d0 at u = U,  u U -> 0 at d0
+// The work the contact force does on j, summed by the trapezoid rule over the steps, is what the cycle returns
+// (> 0: energy created). The normal force depends on d only and is sampled at the same d going and coming
+// back, so its work cancels to round-off; the tangential force is linear in u within a leg of constant d, so
+// the trapezoid rule is exact there. With k = kt (linear_history) or 8 G* a (mindlin, a = sqrt(R* d)),
+// k0 and k1 at d0 and d1, r = a0 / a1 = k0 / k1:
+//   linear_history   0 in both orders (one stiffness: a potential 1/2 kt u^2).
+//   mindlin          stretch first: the spring stretched at k0 takes 1/2 k0 U^2, stiffens to k1 at constant u
+//                    (no work) and gives back 1/2 k1 U^2: +1/2 (k1 - k0) U^2 created. Load first: -1/2 (k1 -
+//                    k0) U^2 (absorbed). The stored displacement is u throughout, so nothing is left at the end.
+//   mindlin_rescale  stretch first: as mindlin, +1/2 (k1 - k0) U^2: the spring is rescaled only when a shrinks,
+//                    and here the contact unloads at u = 0 (LAMMPS's mindlin_rescale does the same). Load first:
+//                    stretched at k1 (takes 1/2 k1 U^2), unloaded at constant u the spring shrinks to s0 = r U
+//                    (the step factors a_k / a_k-1 multiply to r), and going back by U at k0 it gives
+//                    1/2 k0 (s0^2 - (s0 - U)^2): in all 1/2 k1 U^2 (2 r^2 - r - 1) = 1/2 k1 U^2 (2r + 1)(r - 1) < 0,
+//                    and a spring s0 - U = -(1 - r) U is left (1/2 k0 (1 - r)^2 U^2 stored).
+struct CycleResult {
+  double work = 0.0;    // [J] done on j by the contact over the cycle
+  double spring = 0.0;  // [m] the stored tangential displacement (x) at the end
+  bool slid = false;
+};
+
+template <class L>
+CycleResult closed_cycle(const ContactParams& p, double d0, double d1, double stretch, bool stretch_first) {
+  constexpr int kSteps = 1000;
+  const double dt = 1e-4;
+  CycleResult out;
+  double d = d0, u = 0.0;
+  ContactResult c = touch<L>(p, d);  // the contact starts at rest at d0
+  ContactHistory h = history_of(c);
+  const auto go = [&](double d_end, double u_end) {  // one leg, from (d, u) to (d_end, u_end)
+    const double d_start = d, u_start = u;
+    for (int k = 1; k <= kSteps; ++k) {
+      const double f = static_cast<double>(k) / kSteps;
+      const double d_next = d_start + (d_end - d_start) * f, u_next = u_start + (u_end - u_start) * f;
+      const ContactResult next = touch<L>(p, d_next, Vec3((u_next - u) / dt, 0.0, 0.0), Vec3::Zero(), Vec3::Zero(),
+                                          h, dt);
+      out.work += 0.5 * (c.force + next.force).dot(Vec3(u_next - u, 0.0, d - d_next));  // j moves by (du, 0, -dd)
+      out.slid = out.slid || next.sliding;
+      c = next;
+      h = history_of(c);
+      d = d_next;
+      u = u_next;
+    }
+  };
+  if (stretch_first) {
+    go(d0, stretch);
+    go(d1, stretch);
+    go(d1, 0.0);
+    go(d0, 0.0);
+  } else {
+    go(d1, 0.0);
+    go(d1, stretch);
+    go(d0, stretch);
+    go(d0, 0.0);
+  }
+  out.spring = c.tangential.x();
+  return out;
+}
+
+constexpr double kD0 = 1e-4, kD1 = 4e-4, kStretch = 1e-6;  // a1 = 2 a0, r = 1/2
+constexpr double kCycleMu = 10.0;                            // |ft| / fn stays below 0.02: no sliding
+
+double mindlin_stiffness(double d) { return 8.0 * g_star() * std::sqrt(kReff * d); }
+
+// The round-off allowed on a cycle's work: 1e-9 of the spring energy 1/2 k1 U^2 (the normal force's work,
+// about 1e6 times larger, cancels to a few 1e-16 of itself).
+double cycle_tolerance(double k1) { return 1e-9 * 0.5 * k1 * kStretch * kStretch; }
+
+TEST(EnergyCycle, LinearHistoryReturnsNothing) {
+  const ContactParams p = params(kCycleMu);
+  for (bool stretch_first : {true, false}) {
+    const CycleResult r = closed_cycle<LinearLaw>(p, kD0, kD1, kStretch, stretch_first);
+    ASSERT_FALSE(r.slid);
+    EXPECT_NEAR(r.work, 0.0, cycle_tolerance(p.kt)) << stretch_first;
+    EXPECT_NEAR(r.spring, 0.0, 1e-12 * kStretch);
+  }
+}
+
+TEST(EnergyCycle, MindlinCreatesHalfDeltaKXiSquaredWhenStretchedBeforeLoading) {
+  const ContactParams p = params(kCycleMu);
+  const double k0 = mindlin_stiffness(kD0), k1 = mindlin_stiffness(kD1);
+  const double created = 0.5 * (k1 - k0) * kStretch * kStretch;
+  const CycleResult stretch_first = closed_cycle<HertzMindlin>(p, kD0, kD1, kStretch, true);
+  const CycleResult load_first = closed_cycle<HertzMindlin>(p, kD0, kD1, kStretch, false);
+  ASSERT_FALSE(stretch_first.slid || load_first.slid);
+  EXPECT_NEAR(stretch_first.work, created, cycle_tolerance(k1));
+  EXPECT_NEAR(load_first.work, -created, cycle_tolerance(k1));
+  EXPECT_NEAR(stretch_first.spring, 0.0, 1e-12 * kStretch);
+  EXPECT_NEAR(load_first.spring, 0.0, 1e-12 * kStretch);
+}
+
+TEST(EnergyCycle, MindlinRescaleShrinksTheSpringOnUnloadingOnly) {
+  const ContactParams p = params(kCycleMu);
+  const double k0 = mindlin_stiffness(kD0), k1 = mindlin_stiffness(kD1), r = std::sqrt(kD0 / kD1);
+  const double u2 = kStretch * kStretch;
+  const CycleResult stretch_first = closed_cycle<HertzMindlinRescale>(p, kD0, kD1, kStretch, true);
+  const CycleResult load_first = closed_cycle<HertzMindlinRescale>(p, kD0, kD1, kStretch, false);
+  ASSERT_FALSE(stretch_first.slid || load_first.slid);
+  // Loading at a stretched spring is not rescaled: the same energy as mindlin is created.
+  EXPECT_NEAR(stretch_first.work, 0.5 * (k1 - k0) * u2, cycle_tolerance(k1));
+  EXPECT_NEAR(stretch_first.spring, 0.0, 1e-12 * kStretch);
+  // Unloading at a stretched spring scales it by a / a_old: energy absorbed, a spring left.
+  EXPECT_NEAR(load_first.work, 0.5 * k1 * u2 * (2.0 * r + 1.0) * (r - 1.0), cycle_tolerance(k1));
+  EXPECT_NEAR(load_first.spring, -(1.0 - r) * kStretch, 1e-9 * kStretch);
+}
+
+// The factor itself: a / a_old when a shrank, 1 when it grew or stayed, and for a new contact (a_old = 0).
+TEST(EnergyCycle, MindlinRescaleFactor) {
+  EXPECT_EQ(mindlin_rescale_factor(1.0, 2.0), 0.5);
+  EXPECT_EQ(mindlin_rescale_factor(2.0, 1.0), 1.0);
+  EXPECT_EQ(mindlin_rescale_factor(1.0, 1.0), 1.0);
+  EXPECT_EQ(mindlin_rescale_factor(1.0, 0.0), 1.0);
 }
 
 // Sphere i rolls on j about x (normal z): the rolling spring grows as k_roll R* w t, its moment R* |f_roll|
@@ -255,6 +381,54 @@ TEST(ContactForces, RotationalSpringsSurviveRebuildAndStateFile) {
   EXPECT_EQ(version, 2u);
 }
 
+// mindlin_rescale keeps each pair's contact radius (only for that law), across a rebuild and through a state
+// file (format 4), so that a resumed state rescales as the run would have.
+TEST(ContactForces, MindlinRescaleRadiiSurviveRebuildAndStateFile) {
+  Deck deck = everything_deck();
+  deck.contact.tangential = TangentialModel::MindlinRescale;
+  deck.contact.rolling = RollingModel::None;
+  deck.contact.twisting = TwistingModel::None;
+  const Model model = make_model(deck, std::vector<double>(27, 0.5));
+  State s = testing::jostled_lattice(3, 5, 0.01, 0.01, 5.0);
+  rebuild_pairs(model, s);
+  EXPECT_TRUE(s.pairs.rolling.empty());
+  ASSERT_EQ(s.pairs.contact_radius.size(), s.pairs.size());
+  compute_contact_forces(model, 0.5, s);
+  std::size_t touching = 0;
+  for (std::size_t q = 0; q < s.pairs.size(); ++q) {
+    const bool touches = s.pairs.flags[q] & kTouching;
+    touching += touches;
+    EXPECT_EQ(s.pairs.contact_radius[q] > 0.0, touches) << q;
+  }
+  ASSERT_GT(touching, 0u);
+
+  State rebuilt = s;
+  rebuild_pairs(model, rebuilt);
+  const std::string bytes = serialize_state(s, "test");
+  std::uint32_t version = 0;
+  std::memcpy(&version, bytes.data() + 8, sizeof version);
+  EXPECT_EQ(version, 4u);
+  State loaded = parse_state(bytes);
+  rebuild_pairs(model, loaded);
+  EXPECT_EQ(rebuilt.pairs.contact_radius, s.pairs.contact_radius);
+  EXPECT_EQ(loaded.pairs.contact_radius, s.pairs.contact_radius);
+  for (State* t : {&s, &rebuilt, &loaded}) {  // the cell expands: every contact unloads and is rescaled
+    t->cell.h *= 1.0 + 1e-4;
+    compute_contact_forces(model, 0.5, *t);
+  }
+  EXPECT_EQ(rebuilt.pairs.tangential, s.pairs.tangential);
+  EXPECT_EQ(loaded.pairs.tangential, s.pairs.tangential);
+  EXPECT_EQ(loaded.pairs.force, s.pairs.force);
+
+  // Without the radii (a list built for mindlin) the law refuses to run rather than rescale from zero.
+  Deck plain = deck;
+  plain.contact.tangential = TangentialModel::Mindlin;
+  State other = testing::jostled_lattice(3, 5, 0.01, 0.01, 5.0);
+  rebuild_pairs(make_model(plain, std::vector<double>(27, 0.5)), other);
+  EXPECT_TRUE(other.pairs.contact_radius.empty());
+  EXPECT_THROW(compute_contact_forces(model, 0.5, other), std::logic_error);
+}
+
 // Every law's results are the same bits on 1, 2 and 3 threads.
 TEST(ContactForces, RotationalLawIndependentOfThreadCount) {
   const Model model = make_model(everything_deck(), std::vector<double>(343, 0.5));
@@ -265,6 +439,21 @@ TEST(ContactForces, RotationalLawIndependentOfThreadCount) {
     EXPECT_EQ(results[r].normal_stress, results[0].normal_stress);
     EXPECT_EQ(results[r].pairs.rolling, results[0].pairs.rolling);
     EXPECT_EQ(results[r].pairs.twist, results[0].pairs.twist);
+    EXPECT_EQ(results[r].particles.spin, results[0].particles.spin);
+  }
+}
+
+TEST(ContactForces, MindlinRescaleIndependentOfThreadCount) {
+  Deck deck = everything_deck();
+  deck.contact.tangential = TangentialModel::MindlinRescale;
+  const Model model = make_model(deck, std::vector<double>(343, 0.5));
+  const State base = testing::jostled_lattice(7, 11, 0.01, 0.01, 5.0);
+  const std::vector<State> results = testing::on_thread_counts(model, base, Friction(0.4, 0.1), {1, 2, 3});
+  ASSERT_GT(results[0].touching, 500);
+  for (std::size_t r = 1; r < results.size(); ++r) {
+    EXPECT_EQ(results[r].normal_stress, results[0].normal_stress);
+    EXPECT_EQ(results[r].pairs.contact_radius, results[0].pairs.contact_radius);
+    EXPECT_EQ(results[r].pairs.tangential, results[0].pairs.tangential);
     EXPECT_EQ(results[r].particles.spin, results[0].particles.spin);
   }
 }

@@ -10,6 +10,7 @@ in celldem and, translated by `celldem translate` (pair granular), in LAMMPS, on
   hertz + mindlin                      LAMMPS, and LIGGGHTS (model hertz, tangential history: the same law)
   hertz + mindlin + rolling sds        LAMMPS (LIGGGHTS has no sds: epsd2 is a different law, not compared)
   hertz + mindlin + sds + marshall     LAMMPS (LIGGGHTS has no twisting model)
+  hertz + mindlin_rescale              LAMMPS (LIGGGHTS has no rescaling tangential model)
 
 The deck is matched to each code as far as the codes allow: "kinematics": "lammps" (remap x), for LAMMPS
 "tangential_rotation": "rotate" (pair granular restores the length) and "moment_arm": "contact_point" (its torque
@@ -58,6 +59,7 @@ LAWS = [  # name, sub-models, codes that have the law
     ("hertz+mindlin+sds", {"normal": "hertz", "tangential": "mindlin", "rolling": "sds"}, ("lammps",)),
     ("hertz+mindlin+sds+marshall",
      {"normal": "hertz", "tangential": "mindlin", "rolling": "sds", "twisting": "marshall"}, ("lammps",)),
+    ("hertz+mindlin_rescale", {"normal": "hertz", "tangential": "mindlin_rescale"}, ("lammps",)),
 ]
 TEST = {"name": "ttc", "friction": 0.5, "output_interval": 250,
         "axes": {"x1": {"strain_increment": D}, "x2": {"stress": 1.0e5}, "x3": {"stress": 1.0e5}},

@@ -553,7 +553,9 @@ TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
         EXPECT_NEAR(value, by_hand[j][k], 1e-9 * std::abs(by_hand[j][k])) << name << " = " << target;
         EXPECT_NEAR(value, celldem[k], 1e-9 * std::abs(celldem[k])) << name;
         // The servo moves the axis by the press/berendsen law towards this target.
-        const std::string d = formula(block, "d" + name.substr(1));
+        std::string d_name = "d";  // (appended: GCC 12 warns -Wrestrict on "d" + string)
+        d_name += name.substr(1);
+        const std::string d = formula(block, d_name);
         EXPECT_TRUE(contains(d, "*(v_" + name + "-c_P[" + std::to_string(k + 1) + "])/")) << d;
       }
     }
@@ -755,6 +757,37 @@ TEST(TranslateLaws, LammpsPairGranularPerLaw) {
     ASSERT_GE(g.size(), 1u);
     EXPECT_DOUBLE_EQ(g[0], 8.0 * 7e10 / (4.0 * 1.75 * 1.25));
   }
+  {  // mindlin_rescale: LAMMPS's tangential model of that name, the same coefficients as mindlin
+    const Deck d = law_deck(R"("normal": "hertz", "tangential": "mindlin_rescale", "youngs_modulus": 7e10, )"
+                            R"("poisson_ratio": 0.25)");
+    const std::string s = translate_test(d, d.tests[0], TargetCode::Lammps);
+    EXPECT_EQ(line_of(s, "pair_coeff"), "pair_coeff      * * hertz/material 7e+10 0.0 0.25 damping viscoelastic "
+                                        "tangential mindlin_rescale NULL 0.0 0.5");
+    EXPECT_TRUE(contains(s, "hertz + mindlin_rescale"));
+    const Deck m = law_deck(R"("kn": 1e6, "tangential": "mindlin_rescale", "youngs_modulus": 7e10, )"
+                            R"("poisson_ratio": 0.25)");
+    const std::string line = line_of(translate_test(m, m.tests[0], TargetCode::Lammps), "pair_coeff");
+    ASSERT_NE(line.find("mindlin_rescale "), std::string::npos) << line;
+    const std::vector<double> g = numbers(line.substr(line.find("mindlin_rescale ") + 16));
+    ASSERT_GE(g.size(), 1u);
+    EXPECT_DOUBLE_EQ(g[0], 8.0 * 7e10 / (4.0 * 1.75 * 1.25));
+  }
+}
+
+// LIGGGHTS 3.8 has no rescaling tangential model: the scripts run Mindlin's spring without it, and say so.
+TEST(TranslateLaws, LiggghtsCannotExpressMindlinRescale) {
+  const Deck d = law_deck(R"("normal": "hertz", "tangential": "mindlin_rescale", "youngs_modulus": 7e10, )"
+                          R"("poisson_ratio": 0.25)");
+  const std::string s = translate_test(d, d.tests[0], TargetCode::Liggghts);
+  EXPECT_EQ(line_of(s, "pair_style"), "pair_style      gran model hertz tangential history tangential_damping off");
+  const std::vector<std::string> diff = model_differences(d, TargetCode::Liggghts);
+  EXPECT_TRUE(std::any_of(diff.begin(), diff.end(), [](const std::string& w) {
+    return contains(w, "\"mindlin_rescale\"; LIGGGHTS 3.8 cannot express it");
+  }));
+  EXPECT_TRUE(contains(s, "LIGGGHTS 3.8 cannot express it"));
+  // plain mindlin has no such line
+  for (const std::string& w : model_differences(law_deck(kHertzMindlin), TargetCode::Liggghts))
+    EXPECT_FALSE(contains(w, "mindlin_rescale")) << w;
 }
 
 TEST(TranslateLaws, LiggghtsClosestModelsAndWhatItCannotExpress) {

@@ -204,6 +204,13 @@ TEST(DeckErrors, ContactSubModelsNeedTheirParametersAndNothingElse) {
   j = minimal_deck();
   j["contact"]["tangential"] = "mindlin";
   expect_error(j, "contact.kt", "not used");  // mindlin's stiffness comes from the modulus
+  j["contact"]["tangential"] = "mindlin_rescale";
+  expect_error(j, "contact.kt", "with \"tangential\": \"mindlin_rescale\"");
+  j["contact"].erase("kt");
+  expect_error(j, "contact.youngs_modulus", "\"tangential\": \"mindlin_rescale\"");  // needed for 8 G* a
+  j = hertz_deck();
+  j["contact"]["tangential"] = "mindlin_rescale";
+  EXPECT_EQ(parse_deck(j.dump()).contact.tangential, TangentialModel::MindlinRescale);
   j = hertz_deck();
   j["time_step"] = 1e-5;  // above sqrt(m_min / k) at the reference overlap
   expect_error(j, "time_step", "stiffest contact");

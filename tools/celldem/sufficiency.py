@@ -5,7 +5,7 @@ over several seeds, once as it is (the baseline) and once per switch, each switc
 one step simpler, the others as the deck has them:
 
     normal      hertz -> linear, kn = the secant stiffness F/overlap at the mean contact force
-    tangential  mindlin -> linear_history, kt = 8 G* a at that same overlap (a = sqrt(R* overlap))
+    tangential  mindlin (or mindlin_rescale) -> linear_history, kt = 8 G* a at that same overlap (a = sqrt(R* overlap))
     rolling     sds -> none
     twisting    marshall -> none
     rotational damping  damping.rotational -> 0
@@ -71,9 +71,9 @@ SWITCHES = (
 CONTACT_KEY_USERS = {
     "kn": lambda c: c.get("normal", "linear") == "linear",
     "kt": lambda c: c.get("tangential", "linear_history") == "linear_history",
-    "youngs_modulus": lambda c: c.get("normal") == "hertz" or c.get("tangential") == "mindlin",
-    "poisson_ratio": lambda c: c.get("normal") == "hertz" or c.get("tangential") == "mindlin",
-    "reference_overlap": lambda c: c.get("normal") == "hertz" or c.get("tangential") == "mindlin",
+    "youngs_modulus": lambda c: c.get("normal") == "hertz" or c.get("tangential") in ("mindlin", "mindlin_rescale"),
+    "poisson_ratio": lambda c: c.get("normal") == "hertz" or c.get("tangential") in ("mindlin", "mindlin_rescale"),
+    "reference_overlap": lambda c: c.get("normal") == "hertz" or c.get("tangential") in ("mindlin", "mindlin_rescale"),
     "rolling_stiffness": lambda c: c.get("rolling", "none") == "sds",
     "rolling_damping": lambda c: c.get("rolling", "none") == "sds",
     "rolling_friction": lambda c: c.get("rolling", "none") == "sds",
@@ -146,7 +146,7 @@ def switch_applies(deck, key):
     """(applies, why not) of a switch for a deck."""
     c = deck["contact"]
     have = {"normal": (c.get("normal", "linear") == "hertz", f"normal is {c.get('normal', 'linear')}"),
-            "tangential": (c.get("tangential", "linear_history") == "mindlin",
+            "tangential": (c.get("tangential", "linear_history") in ("mindlin", "mindlin_rescale"),
                            f"tangential is {c.get('tangential', 'linear_history')}"),
             "rolling": (c.get("rolling", "none") == "sds", f"rolling is {c.get('rolling', 'none')}"),
             "twisting": (c.get("twisting", "none") == "marshall", f"twisting is {c.get('twisting', 'none')}"),
