@@ -125,7 +125,8 @@ inline constexpr KeySpec kinematics{.path = "kinematics", .kind = KeyKind::Choic
     .meaning = "`affine`: contacts see the affine velocity difference between periodic images; `lammps`: they do "
                "not (as LAMMPS/LIGGGHTS with `fix deform remap x`)"};
 inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number, .positive = true, .unit = "s",
-    .meaning = "refused above sqrt(m_min/kn), warned about above half of it"};
+    .meaning = "refused above the stability limit t_c (the smallest over the contact's normal, tangential-rotational, "
+               "rolling and twisting modes: `celldem plan`) and below 1e-3 t_c; warned about above 0.93 t_c"};
 
 inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
     .default_text = "defaults", .meaning = "the stress servo (README: Mixed control)"};

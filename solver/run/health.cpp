@@ -30,8 +30,8 @@ void RunawayMonitor::check(const Model& model, const State& state) {
       std::snprintf(buf, sizeof buf, "kinetic energy %.3g J exceeds %.3g x the elastic energy %.3g J", ke,
                     kMaxKineticToElastic, ee);
       throw RunError("runaway kinetic energy " + where + ": " + buf +
-                     " - time step too large (try <= 0.3 sqrt(m_min/kn)), damping too low or loading too fast; "
-                     "the last checkpoint holds the last good state");
+                     " - time step too large (`celldem plan` gives the stability limit per mode), damping too low "
+                     "or loading too fast; the last checkpoint holds the last good state");
     }
   }
   if (!(worst <= kMaxStepMotion)) {
@@ -96,10 +96,8 @@ std::vector<std::string> control_warnings(const TestDef& test, const std::vector
 
 std::vector<std::string> deck_warnings(const Deck& deck) {
   std::vector<std::string> out;
-  const double dt_ratio = deck.time_step / critical_time_step(deck.sample, deck.contact);
-  if (dt_ratio > kStableTimeStepFraction)
-    out.push_back("time_step is " + std::to_string(dt_ratio) + " of sqrt(m_min/kn); results drift above "
-                  "about 0.55 of it and the packing boils above 0.65 (measured): use <= 0.5");
+  for (const TimeStepFinding& f : time_step_findings(deck.time_step, critical_time_steps(deck.sample, deck.contact)))
+    if (!f.bound->refuse) out.push_back("time_step " + f.message);
   return out;
 }
 
