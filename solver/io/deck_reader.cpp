@@ -442,6 +442,7 @@ TestDef read_test(ObjectReader r, const ContactDef& contact) {
   }
   t.output_interval = r.integer(keys::test_output_interval);
   if (r.has(keys::snapshots)) t.snapshots = read_snapshots(r.object(keys::snapshots));
+  t.dynamic = r.boolean(keys::test_dynamic);
   r.finish();
   return t;
 }
