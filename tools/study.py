@@ -43,13 +43,20 @@ def error(message):
     return 2
 
 
+def normal_time_step(plan):
+    """The study's unit of time step, sqrt(m_min/kn) (`celldem plan`'s normal mode; older plans: the critical
+    time step, which was that)."""
+    return plan.get("normal_time_step", plan["critical_time_step"])
+
+
 def cmd_plan(args):
     paper_info = args.paper_plan
     ttc = binary.test_plan(paper_info, "ttc")
+    tc = normal_time_step(paper_info)
     print(f"scene: {SCENE_COUNT} spheres, tests to e1 = {END_STRAIN:g}; t_c = sqrt(m_min/kn) = "
-          f"{paper_info['critical_time_step']:.3e} s; paper dt = {paper_info['time_step_ratio']:.3f} t_c; paper I = "
+          f"{tc:.3e} s; paper dt = {paper_info['time_step'] / tc:.3f} t_c; paper I = "
           f"{ttc['inertial_number']:.2e}")
-    plan = study_runs.build_plan(paper_info["critical_time_step"])
+    plan = study_runs.build_plan(tc)
     cost = study_runs.costs(plan, decks.load(), args.celldem)
     total = 0
     for s in plan:
@@ -63,7 +70,7 @@ def cmd_plan(args):
 
 def cmd_run(args):
     paper = decks.load()
-    plan = study_runs.select(study_runs.build_plan(args.paper_plan["critical_time_step"]), args.only,
+    plan = study_runs.select(study_runs.build_plan(normal_time_step(args.paper_plan)), args.only,
                              args.max_priority)
     todo = [s for s in plan if not study_runs.is_done(args.root, s, args.retry_failed)]
     cost = study_runs.costs(todo, paper, args.celldem)

@@ -57,8 +57,9 @@ Command add_check_command(CLI::App& app) {
     if (!cmd->parsed()) return -1;
     const Deck deck = read_deck(*path);
     for (const std::string& w : preflight(deck)) std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
-    std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s)\n", path->c_str(),
-                deck.sample.count, deck.tests.size(), critical_time_step(deck.sample, deck.contact));
+    const CriticalTimeStep limit = critical_time_steps(deck.sample, deck.contact);
+    std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s, %s mode)\n", path->c_str(),
+                deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name);
     return 0;
   };
 }

@@ -1,5 +1,6 @@
 // celldem schema: the deck's keys and the series' columns, from the tables the code itself uses.
 // celldem plan: what a deck implies before it runs (steps, rows, particle properties), for people and tools.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -76,11 +77,24 @@ Json plan_json(const Deck& deck) {
     types.push_back({{"diameter", d}, {"mass", b.mass}, {"inertia", b.inertia},
                      {"translational_drag", b.translational_drag}, {"rotational_drag", b.rotational_drag}});
   }
-  const double dt_crit = critical_time_step(deck.sample, deck.contact);
+  const CriticalTimeStep limits = critical_time_steps(deck.sample, deck.contact);
+  const double dt_crit = limits.value();
+  Json modes = Json::object();
+  for (const ModeLimit& m : limits.modes)
+    modes[m.name] = {{"stiffness_name", m.stiffness_name}, {"stiffness", m.stiffness}, {"omega", m.omega},
+                     {"time_step", std::isfinite(m.time_step) ? Json(m.time_step) : Json(nullptr)}};
+  Json bounds = Json::array();
+  for (const TimeStepBound& b : kTimeStepBounds)
+    bounds.push_back({{"name", b.name}, {"action", b.refuse ? "refuse" : "warn"}, {"when", b.above ? "above" : "below"},
+                      {"fraction", b.fraction}, {"time_step", b.fraction * dt_crit}, {"why", b.why}});
   Json out = {{"deck", deck.source},
               {"time_step", deck.time_step},
               {"critical_time_step", dt_crit},
               {"time_step_ratio", deck.time_step / dt_crit},
+              {"limiting_mode", limits.limiting().name},
+              {"time_step_limits", modes},
+              {"normal_time_step", limits.modes[0].time_step},
+              {"time_step_bounds", bounds},
               {"skin", skin_length(deck)},
               {"sample", {{"count", deck.sample.count}, {"diameters", deck.sample.diameters},
                           {"density", deck.sample.density}, {"mean_diameter", mean_diameter(deck.sample)},
@@ -136,9 +150,26 @@ Command add_plan_command(CLI::App& app) {
       std::printf("%s\n", plan.dump(1).c_str());
       return 0;
     }
-    std::printf("%s: time step %.3g s = %.3f of sqrt(m_min/kn) = %.3g s; skin %.3g m\n", a->deck.c_str(),
-                plan["time_step"].get<double>(), plan["time_step_ratio"].get<double>(),
-                plan["critical_time_step"].get<double>(), plan["skin"].get<double>());
+    std::printf("%s: time step %.3g s = %.3f of the stability limit %.3g s (%s mode); skin %.3g m\n",
+                a->deck.c_str(), plan["time_step"].get<double>(), plan["time_step_ratio"].get<double>(),
+                plan["critical_time_step"].get<double>(), plan["limiting_mode"].get<std::string>().c_str(),
+                plan["skin"].get<double>());
+    std::printf("  stability limit per mode (sqrt(2)/omega, two smallest spheres sticking):\n");
+    for (const char* name : {"normal", "tangential-rotational", "rolling", "twisting"}) {
+      const Json& m = plan["time_step_limits"][name];
+      if (m["time_step"].is_null()) {
+        std::printf("    %-22s none (the law has no such spring)\n", name);
+        continue;
+      }
+      std::printf("    %-22s %.3g s  (%s = %.3g)%s\n", name, m["time_step"].get<double>(),
+                  m["stiffness_name"].get<std::string>().c_str(), m["stiffness"].get<double>(),
+                  name == plan["limiting_mode"].get<std::string>() ? "  limiting" : "");
+    }
+    std::printf("  time step bounds:\n");
+    for (const Json& b : plan["time_step_bounds"])
+      std::printf("    %-6s %-5s %5g t_c = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
+                  b["when"].get<std::string>().c_str(), b["fraction"].get<double>(), b["time_step"].get<double>(),
+                  b["name"].get<std::string>().c_str());
     for (const Json& t : plan["tests"]) {
       const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
       std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", t["name"].get<std::string>().c_str(), t["legs"].size(),

@@ -127,6 +127,7 @@ struct PrepareDef {
   EquilibriumDef equilibrium;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
   SnapshotDef snapshots;
+  bool dynamic = false;  // not held to quasi-static (run/health.hpp)
   Friction stage_friction() const { return {friction, rolling_friction}; }
   // The program; when a deck gives none, the two legs above: fast isotropic compression to the solid
   // fraction, then the isotropic servo at the target pressure to equilibrium (preparation_legs()).
@@ -141,6 +142,7 @@ struct TestDef {
   std::vector<Leg> legs;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::test_output_interval.fallback);
   SnapshotDef snapshots;
+  bool dynamic = false;  // not held to quasi-static (run/health.hpp)
   Friction stage_friction() const { return {friction, rolling_friction}; }
 };
 

@@ -135,7 +135,8 @@ inline constexpr KeySpec kinematics{.path = "kinematics", .kind = KeyKind::Choic
     .meaning = "`affine`: contacts see the affine velocity difference between periodic images; `lammps`: they do "
                "not (as LAMMPS/LIGGGHTS with `fix deform remap x`)"};
 inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number, .positive = true, .unit = "s",
-    .meaning = "refused above sqrt(m_min/kn), warned about above half of it"};
+    .meaning = "refused above the stability limit t_c (the smallest over the contact's normal, tangential-rotational, "
+               "rolling and twisting modes: `celldem plan`) and below 1e-3 t_c; warned about above 0.93 t_c"};
 
 inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
     .default_text = "defaults", .meaning = "the stress servo (README: Mixed control)"};
@@ -275,6 +276,9 @@ inline constexpr KeySpec snapshots_e1{.path = "tests[].snapshots.e1", .kind = Ke
     .default_text = "none", .meaning = "a snapshot at the first step whose e1 reaches each of these strains"};
 inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval", .kind = KeyKind::Integer, .min = 1,
     .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
+inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind::Boolean, .required = false,
+    .default_text = "false", .meaning = "`true`: the test is meant to be dynamic; otherwise a test whose unbalanced "
+    "force and kinetic energy stay high (not quasi-static) stops the run, naming the likely cause"};
 // clang-format on
 
 // Every key in table order (the order of the README's table).
@@ -293,7 +297,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
     &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,
-    &snapshots_e1, &test_output_interval});
+    &snapshots_e1, &test_output_interval, &test_dynamic});
 }  // namespace keys
 
 }  // namespace celldem

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 
 namespace celldem {
 
@@ -118,10 +120,71 @@ BodyProperties body_properties(double r, double density, const DampingDef& dampi
   return b;
 }
 
-double critical_time_step(const SampleDef& sample, const ContactDef& contact) {
-  const double d_min = *std::min_element(sample.diameters.begin(), sample.diameters.end());
+namespace {
+ModeLimit mode_limit(ContactMode mode, const char* name, const char* stiffness_name, double stiffness,
+                     double omega2) {
+  ModeLimit l{mode, name, stiffness_name, stiffness, std::sqrt(omega2), 0.0};
+  l.time_step = omega2 > 0.0 ? std::sqrt(2.0 / omega2) : std::numeric_limits<double>::infinity();
+  return l;
+}
+
+std::string fmt(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+}  // namespace
+
+std::string ModeLimit::describe() const {
+  return std::string(name) + " mode: " + stiffness_name + " = " + fmt(stiffness) +
+         (mode == ContactMode::Twisting ? " N m/rad" : " N/m");
+}
+
+const ModeLimit& CriticalTimeStep::limiting() const {
+  const ModeLimit* best = &modes[0];
+  for (const ModeLimit& m : modes)
+    if (m.time_step < best->time_step) best = &m;
+  return *best;
+}
+
+CriticalTimeStep critical_time_steps(const SampleDef& sample, const ContactDef& contact) {
+  const double r = 0.5 * *std::min_element(sample.diameters.begin(), sample.diameters.end());
+  const double m = body_properties(r, sample.density, {}, {}).mass;  // two equal spheres of the smallest size
   const ContactStiffness k = reference_stiffness(contact, sample);
-  return std::sqrt(body_properties(0.5 * d_min, sample.density, {}, {}).mass / std::max(k.normal, k.rolling));
+  const double r_eff = 0.5 * r;                                       // R* of the pair
+  // The contact radius of the twisting spring: at the reference overlap of the two largest spheres (as the
+  // reference stiffnesses), or its bound R* when the deck has none (linear laws).
+  const double r_eff_max = 0.5 * largest_radius(sample);
+  const double a2 = contact.reference_overlap > 0.0 ? r_eff_max * contact.reference_overlap : r_eff_max * r_eff_max;
+  const double k_twist = contact.twisting == TwistingModel::Marshall ? 0.5 * k.tangential * a2 : 0.0;
+  CriticalTimeStep c;
+  c.modes[0] = mode_limit(ContactMode::Normal, "normal", "kn", k.normal, 2.0 * k.normal / m);
+  c.modes[1] = mode_limit(ContactMode::TangentialRotational, "tangential-rotational", "kt", k.tangential,
+                          7.0 * k.tangential / m);
+  c.modes[2] = mode_limit(ContactMode::Rolling, "rolling", "k_roll", k.rolling,
+                          5.0 * k.rolling * r_eff * r_eff / (m * r * r));
+  c.modes[3] = mode_limit(ContactMode::Twisting, "twisting", "k_twist", k_twist, 5.0 * k_twist / (m * r * r));
+  return c;
+}
+
+double critical_time_step(const SampleDef& sample, const ContactDef& contact) {
+  return critical_time_steps(sample, contact).value();
+}
+
+std::vector<TimeStepFinding> time_step_findings(double time_step, const CriticalTimeStep& limit) {
+  std::vector<TimeStepFinding> out;
+  const double tc = limit.value();
+  const double fraction = time_step / tc;
+  for (const TimeStepBound& b : kTimeStepBounds) {
+    if (b.above ? !(fraction > b.fraction) : !(fraction < b.fraction)) continue;
+    std::string msg = fmt(time_step) + " s is " + fmt(fraction) + " of the stability limit " +
+                      fmt(tc) + " s (" + limit.limiting().describe() + "), " + (b.above ? "above " : "below ") +
+                      fmt(b.fraction) + " of it: " + b.why;
+    if (b.refuse && b.above) msg += "; use at most " + fmt(kStableTimeStepFraction * tc) + " s";
+    else if (!b.refuse && b.above) msg += "; use at most " + fmt(b.fraction * tc) + " s";
+    out.push_back({&b, std::move(msg)});
+  }
+  return out;
 }
 
 double skin_length(const Deck& deck) {

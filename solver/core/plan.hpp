@@ -3,8 +3,10 @@
 // test, the rows it writes, the properties and damping coefficients of each particle, the stability limit
 // of the time step and the neighbour skin.
 #pragma once
+#include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/deck.hpp"
 #include "core/types.hpp"
@@ -70,12 +72,76 @@ struct BodyProperties {
 BodyProperties body_properties(double radius, double density, const DampingDef& damping,
                                const ContactStiffness& stiffness);
 
-// The stable time step for the lightest particle, sqrt(m_min / k) with k the larger of the reference normal
-// and rolling stiffnesses (no safety factor).
+// The stability limit of the time step, per mode of a sticking contact between the two smallest spheres
+// (equal, solid: mass m, radius r, inertia I = 0.4 m r^2), undamped, at the reference stiffnesses of
+// reference_stiffness(). Each mode oscillates at omega; the leapfrog step is stable below 2/omega, and its
+// limit here is t_c = sqrt(2)/omega (so the normal mode gives sqrt(m/kn), as before the other modes counted):
+//   normal                 omega^2 = 2 kn / m                   (the relative normal motion, reduced mass m/2)
+//   tangential-rotational  omega^2 = kt (1/mi + 1/mj + ri^2/Ii + rj^2/Ij) = 7 kt / m   (sliding and spinning
+//                          together: both spheres take the same moment r ft, so the relative surface velocity
+//                          dv - r (wi + wj) x n has this stiffness; the lever arm r bounds the contact point's)
+//   rolling (sds)          omega^2 = k_roll R*^2 (1/Ii + 1/Ij) = 5 k_roll R*^2 / (m r^2) = 5 k_roll / (4 m)
+//                          (the spring stretches by R* times the relative rotation and acts on the arm R*:
+//                          a rotational spring k_roll R*^2 on wj - wi, R* = r / 2)
+//   twisting (marshall)    omega^2 = k_tw (1/Ii + 1/Ij) = 5 k_tw / (m r^2), k_tw = 0.5 kt a^2 [N m/rad]
+//                          (a: the contact radius at the reference overlap of the two largest spheres, or,
+//                          with no reference overlap, the bound a = R* of those spheres)
+// A mode the law does not have has no limit (+inf).
+enum class ContactMode { Normal, TangentialRotational, Rolling, Twisting };
+struct ModeLimit {
+  ContactMode mode = ContactMode::Normal;
+  const char* name = "";            // "normal", "tangential-rotational", "rolling", "twisting"
+  const char* stiffness_name = "";  // "kn", "kt", "k_roll", "k_twist"
+  double stiffness = 0.0;           // [N/m]; twisting [N m/rad]
+  double omega = 0.0;               // [rad/s]; 0 when the law has no such spring
+  double time_step = 0.0;           // sqrt(2)/omega [s]; +inf when omega is 0
+  std::string describe() const;     // "tangential-rotational mode: kt = 1e+07 N/m"
+};
+struct CriticalTimeStep {
+  std::array<ModeLimit, 4> modes;  // in ContactMode order
+  const ModeLimit& limiting() const;  // the smallest limit (the first of equal ones)
+  double value() const { return limiting().time_step; }
+};
+CriticalTimeStep critical_time_steps(const SampleDef& sample, const ContactDef& contact);
+// critical_time_steps(...).value(): the time step's unit in every bound below.
 double critical_time_step(const SampleDef& sample, const ContactDef& contact);
-// Above this fraction of critical_time_step the run is warned: the measured stability map (results/study)
-// shows results drifting from about 0.55 of it and the packing boiling from 0.65 (kt ~ kn).
-inline constexpr double kStableTimeStepFraction = 0.5;
+
+// The bounds of the time step, as fractions of critical_time_step; `check` and `run` apply them alike (the
+// deck reader refuses, preflight warns) and `celldem plan` prints them.
+// Refused above the stability limit of the stiffest mode.
+inline constexpr double kMaxTimeStepFraction = 1.0;
+// Warned above: the measured stability map (results/study, kt = kn) shows results drifting from about
+// 0.55 sqrt(m/kn) and the packing boiling from 0.65 sqrt(m/kn); kt = kn limits at the tangential-rotational
+// mode's sqrt(2m/(7kt)) = 0.5345 sqrt(m/kn), so the former warning at 0.5 sqrt(m/kn) is 0.935 of it.
+inline constexpr double kStableTimeStepFraction = 0.93;
+// Warned below: the run takes many times the steps it needs.
+inline constexpr double kSlowTimeStepFraction = 0.02;
+// Refused below: a thousand times the steps it needs (a typo such as 1e-300 would otherwise spin for ever).
+inline constexpr double kMinTimeStepFraction = 1e-3;
+
+struct TimeStepBound {
+  const char* name;  // "stability_limit", "stable_fraction", "slow", "minimum"
+  bool refuse;       // refuse the deck (else warn)
+  bool above;        // crossed when dt > fraction t_c (else when dt < fraction t_c)
+  double fraction;   // of critical_time_step
+  const char* why;
+};
+inline constexpr std::array<TimeStepBound, 4> kTimeStepBounds{{
+    {"stability_limit", true, true, kMaxTimeStepFraction,
+     "the leapfrog step is unstable for that mode of a sticking contact (2/omega = 1.41 t_c) and a packing's "
+     "stiffer clusters fail earlier"},
+    {"stable_fraction", false, true, kStableTimeStepFraction,
+     "results drift and the packing boils close to the limit (measured with kt = kn: drift from 1.03 t_c, "
+     "boiling from 1.2 t_c)"},
+    {"slow", false, false, kSlowTimeStepFraction, "the run takes many times the steps it needs"},
+    {"minimum", true, false, kMinTimeStepFraction, "the run would take more than a thousand times the steps it needs"},
+}};
+// A bound the time step crosses, with the message that names the limiting mode, the value and the fraction.
+struct TimeStepFinding {
+  const TimeStepBound* bound;
+  std::string message;  // "3e-06 s is 2.9 of the stability limit 1.03e-06 s (tangential-rotational mode: ...)"
+};
+std::vector<TimeStepFinding> time_step_findings(double time_step, const CriticalTimeStep& limit);
 
 // The neighbour-list skin in metres: neighbor_skin times the largest diameter.
 double skin_length(const Deck& deck);

@@ -443,6 +443,7 @@ TestDef read_test(ObjectReader r, const ContactDef& contact) {
   }
   t.output_interval = r.integer(keys::test_output_interval);
   if (r.has(keys::snapshots)) t.snapshots = read_snapshots(r.object(keys::snapshots));
+  t.dynamic = r.boolean(keys::test_dynamic);
   r.finish();
   return t;
 }
@@ -562,7 +563,7 @@ Json parse_json(const std::string& json_text) {
 }
 
 // The reference overlap of hertz/mindlin (from the deck's stresses unless given), then the time step against
-// the stability limit of the stiffest contact.
+// the bounds that refuse it (core/plan: above the stability limit of the stiffest mode, or far below it).
 void check_time_step(Deck& d) {
   ContactDef& c = d.contact;
   if ((c.normal != NormalModel::Linear || c.tangential != TangentialModel::LinearHistory) && c.reference_overlap == 0.0) {
@@ -570,11 +571,8 @@ void check_time_step(Deck& d) {
     if (c.reference_overlap == 0.0)
       fail("contact.reference_overlap", "missing; the deck names no stress to estimate the largest overlap from");
   }
-  const double dt_crit = critical_time_step(d.sample, c);
-  if (d.time_step > dt_crit)
-    fail("time_step", "exceeds the stability limit sqrt(m_min/k) = " + fmt(dt_crit) +
-                          " s of the lightest particle and the stiffest contact (k = kn, or hertz's at "
-                          "contact.reference_overlap, or the rolling spring)");
+  for (const TimeStepFinding& f : time_step_findings(d.time_step, critical_time_steps(d.sample, c)))
+    if (f.bound->refuse) fail("time_step", f.message);
 }
 
 }  // namespace

@@ -25,13 +25,29 @@ void RunawayMonitor::check(const Model& model, const State& state) {
     const double ke = kinetic_energy(model, state), ee = elastic_energy(model, state);
     const bool growing = previous_kinetic_energy_ >= 0.0 && ke > 2.0 * previous_kinetic_energy_;
     previous_kinetic_energy_ = ke;
+    if (!quasi_static_cause_.empty()) {
+      // Persisting over rows, not a spike; the first rows may still settle from the sample's preparation.
+      const double unbalanced = unbalanced_force_ratio(model, state), ratio = ke / ee;
+      const bool dynamic = !(unbalanced <= kMaxQuasiStaticUnbalanced) && !(ratio <= kMaxQuasiStaticKineticToElastic);
+      dynamic_rows_ = rows_ >= kQuasiStaticSettleRows && dynamic ? dynamic_rows_ + 1 : 0;
+      ++rows_;
+      if (dynamic_rows_ >= kQuasiStaticRows) {
+        char buf[256];
+        std::snprintf(buf, sizeof buf, "for %d rows the unbalanced force ratio is above %.3g (now %.3g) and the "
+                      "kinetic energy above %.3g of the elastic energy (now %.3g)", kQuasiStaticRows,
+                      kMaxQuasiStaticUnbalanced, unbalanced, kMaxQuasiStaticKineticToElastic, ratio);
+        throw RunError("not quasi-static " + where + ": " + buf + " - " + quasi_static_cause_ +
+                       "; a test meant to be dynamic says \"dynamic\": true; the last checkpoint holds the last "
+                       "good state");
+      }
+    }
     if (growing && !(ke <= kMaxKineticToElastic * ee)) {
       char buf[128];
       std::snprintf(buf, sizeof buf, "kinetic energy %.3g J exceeds %.3g x the elastic energy %.3g J", ke,
                     kMaxKineticToElastic, ee);
       throw RunError("runaway kinetic energy " + where + ": " + buf +
-                     " - time step too large (try <= 0.3 sqrt(m_min/kn)), damping too low or loading too fast; "
-                     "the last checkpoint holds the last good state");
+                     " - time step too large (`celldem plan` gives the stability limit per mode), damping too low "
+                     "or loading too fast; the last checkpoint holds the last good state");
     }
   }
   if (!(worst <= kMaxStepMotion)) {
@@ -94,12 +110,32 @@ std::vector<std::string> control_warnings(const TestDef& test, const std::vector
   return out;
 }
 
+std::string not_quasi_static_cause(const Deck& deck, const TestDef& test) {
+  const CriticalTimeStep limit = critical_time_steps(deck.sample, deck.contact);
+  const double fraction = deck.time_step / limit.value();
+  char step[256];
+  std::snprintf(step, sizeof step, "time step too large for the %s mode (time_step %.3g s is %.3g of its limit "
+                "%.3g s, %s = %.3g)", limit.limiting().name, deck.time_step, fraction, limit.value(),
+                limit.limiting().stiffness_name, limit.limiting().stiffness);
+  double p = 0.0;  // the first leg's stress target, for the inertial number
+  int n = 0;
+  for (const AxisControl& a : test.legs.front().axes)
+    if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) p += a.value, ++n;
+  const double inertia = n ? inertial_number(loading_rate(deck, test), mean_diameter(deck.sample),
+                                             deck.sample.density, p / n) : 0.0;
+  char rate[160];
+  std::snprintf(rate, sizeof rate, "loading too fast (inertial number %.3g, quasi-static below %.3g)", inertia,
+                kQuasiStaticInertia);
+  const bool step_likely = fraction > kStableTimeStepFraction, rate_likely = inertia > kQuasiStaticInertia;
+  if (step_likely && !rate_likely) return std::string("likely cause: ") + step;
+  if (rate_likely && !step_likely) return std::string("likely cause: ") + rate;
+  return std::string("likely causes: ") + step + ", or " + rate;
+}
+
 std::vector<std::string> deck_warnings(const Deck& deck) {
   std::vector<std::string> out;
-  const double dt_ratio = deck.time_step / critical_time_step(deck.sample, deck.contact);
-  if (dt_ratio > kStableTimeStepFraction)
-    out.push_back("time_step is " + std::to_string(dt_ratio) + " of sqrt(m_min/kn); results drift above "
-                  "about 0.55 of it and the packing boils above 0.65 (measured): use <= 0.5");
+  for (const TimeStepFinding& f : time_step_findings(deck.time_step, critical_time_steps(deck.sample, deck.contact)))
+    if (!f.bound->refuse) out.push_back("time_step " + f.message);
   return out;
 }
 

@@ -87,11 +87,6 @@ std::string initial_state_path(const Deck& deck) {
 }
 
 std::vector<std::string> preflight(const Deck& deck) {
-  const double dt_fraction = deck.time_step / critical_time_step(deck.sample, deck.contact);
-  if (dt_fraction < kMinTimeStepFraction)
-    throw DeckError("time_step: " + fmt(deck.time_step) + " s is " + fmt(dt_fraction) + " of sqrt(m_min/kn), below " +
-                    fmt(kMinTimeStepFraction) + " of it: the run would take more than a thousand times the steps "
-                    "it needs");
   if (deck.prepare) check_prepared_cell(deck);
   if (deck.initial_state) {
     const std::string path = initial_state_path(deck);
@@ -99,10 +94,6 @@ std::vector<std::string> preflight(const Deck& deck) {
     check_state(deck, path);
   }
   std::vector<std::string> warnings = deck_warnings(deck);
-  if (dt_fraction < kSlowTimeStepFraction)
-    warnings.push_back("time_step is only " + fmt(dt_fraction) + " of sqrt(m_min/kn): the run takes " +
-                       fmt(kSlowTimeStepFraction / dt_fraction) + " times the steps of a time step at " +
-                       fmt(kSlowTimeStepFraction) + " of it");
   return warnings;
 }
 

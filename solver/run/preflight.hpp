@@ -1,6 +1,6 @@
 // Everything that can be checked before a run does any work, beyond what the deck reader checks on its own:
 // the cell large enough for its particles, the initial state readable and agreeing with the deck's sample,
-// the time step against the lightest particle actually present and not so small that the run cannot end.
+// the time step's warnings (its bounds are core/plan's, refused by the deck reader).
 // `celldem check` and `celldem run` both call it, so check passes exactly what run accepts.
 #pragma once
 #include <string>
@@ -10,12 +10,6 @@
 #include "core/state.hpp"
 
 namespace celldem {
-
-// Below this fraction of sqrt(m_min/kn) a time step is refused: the run would take a thousand times the
-// steps it needs (a typo such as 1e-300 would otherwise spin for ever).
-inline constexpr double kMinTimeStepFraction = 1e-3;
-// Below this fraction it is warned about.
-inline constexpr double kSlowTimeStepFraction = 0.02;
 
 // Throws DeckError (or StateFileError for an unreadable state) naming the key and both values; returns the
 // warnings (printed by the caller, recorded in the summary by a run).

@@ -9,11 +9,21 @@
 namespace celldem {
 namespace fs = std::filesystem;
 
+namespace {
+// The likely cause a loading test that must stay quasi-static is stopped with; empty: not checked.
+std::string quasi_static_cause(const Deck& deck, const std::string& stage, bool loading_test) {
+  if (!loading_test) return "";
+  for (const TestDef& t : deck.tests)
+    if (t.name == stage && !t.dynamic) return not_quasi_static_cause(deck, t);
+  return "";
+}
+}  // namespace
+
 StageOutput::StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& options, const Model& model,
                          std::string stage, std::int64_t output_interval, bool loading_test,
                          const SnapshotDef& snapshots)
     : run_(run), deck_(deck), options_(options), model_(model), stage_(std::move(stage)), dir_(run.stage_dir(stage_)),
-      output_interval_(output_interval), monitor_(stage_, loading_test),
+      output_interval_(output_interval), monitor_(stage_, loading_test, quasi_static_cause(deck, stage_, loading_test)),
       progress_(stage_, options.progress, options.progress_interval), start_(std::chrono::steady_clock::now()),
       loading_test_(loading_test), snapshot_plan_(snapshots) {
   if (snapshot_plan_.any()) snapshots_ = std::make_unique<SnapshotWriter>(dir_ / "snapshots", stage_);

@@ -212,8 +212,8 @@ TEST(DeckErrors, ContactSubModelsNeedTheirParametersAndNothingElse) {
   j["contact"]["tangential"] = "mindlin_rescale";
   EXPECT_EQ(parse_deck(j.dump()).contact.tangential, TangentialModel::MindlinRescale);
   j = hertz_deck();
-  j["time_step"] = 1e-5;  // above sqrt(m_min / k) at the reference overlap
-  expect_error(j, "time_step", "stiffest contact");
+  j["time_step"] = 1e-5;  // above the stability limit at the reference overlap
+  expect_error(j, "time_step", "of the stability limit");
 }
 
 TEST(DeckErrors, UnknownKeysTopLevelAndNested) {

@@ -96,7 +96,8 @@ TEST(Reliability, SampleMustAgreeWithTheInitialState) {
   EXPECT_EQ(r.code, 2) << "run must refuse what check refuses";
   EXPECT_FALSE(fs::exists(dir / "run"));
 
-  expect_refused(dir, "sizes.json", replaced(deck_on_state("s.state"), "\"min\": 3.0e-3", "\"min\": 2.0e-3"),
+  // Larger spheres than the state's (smaller ones would lower the stability limit below the time step).
+  expect_refused(dir, "sizes.json", replaced(deck_on_state("s.state"), "\"min\": 3.0e-3", "\"min\": 4.0e-3"),
                  "sample.diameters");
 }
 
@@ -109,11 +110,33 @@ TEST(Reliability, TimeStepTooSmallToEverFinishIsRefused) {
   const fs::path dir = test_dir("tiny_step");
   const std::string deck = testing::small_deck_json(200, kTtc);
   expect_refused(dir, "deck.json", replaced(deck, "\"time_step\": 3.0e-6", "\"time_step\": 1e-300"), "time_step");
-  // A time step above half the stability limit is warned about by check, as by run.
-  write_bytes(dir / "large.json", replaced(deck, "\"time_step\": 3.0e-6", "\"time_step\": 4.0e-6"));
+  // A time step close to the stability limit (3.27e-6 s, the tangential-rotational mode at kt = kn) is warned
+  // about by check, as by run; 3e-6 s (0.917 of it) is not.
+  write_bytes(dir / "large.json", replaced(deck, "\"time_step\": 3.0e-6", "\"time_step\": 3.1e-6"));
   const Result r = check(dir, dir / "large.json");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("warning: time_step"), std::string::npos) << r.err;
+  write_bytes(dir / "fine.json", deck);
+  const Result fine = check(dir, dir / "fine.json");
+  EXPECT_EQ(fine.code, 0) << fine.err;
+  EXPECT_EQ(fine.err.find("warning"), std::string::npos) << fine.err;
+}
+
+// kt = 10 kn: the tangential-rotational mode limits the step at sqrt(2m/(7kt)) = 0.169 sqrt(m/kn) = 1.03e-6 s,
+// so both 0.9 sqrt(m/kn) (which ran away) and 3e-6 s (which boiled) are refused, naming the mode.
+TEST(Reliability, StiffTangentialSpringRefusesTheTimeStep) {
+  const fs::path dir = test_dir("stiff_kt");
+  const std::string deck = replaced(testing::small_deck_json(200, kTtc), "\"kt\": 1.0e6", "\"kt\": 1.0e7");
+  for (const char* dt : {"5.5e-6", "3.0e-6"}) {
+    const std::string name = std::string("dt") + dt + ".json";
+    expect_refused(dir, name, replaced(deck, "\"time_step\": 3.0e-6", std::string("\"time_step\": ") + dt),
+                   "time_step");
+    const Result r = check(dir, dir / name);
+    EXPECT_NE(r.err.find("tangential-rotational mode: kt = 1e+07 N/m"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("of the stability limit 1.03e-06 s"), std::string::npos) << r.err;
+  }
+  write_bytes(dir / "ok.json", replaced(deck, "\"time_step\": 3.0e-6", "\"time_step\": 9e-7"));
+  EXPECT_EQ(check(dir, dir / "ok.json").code, 0);
 }
 
 TEST(Reliability, ReservedStageNamesAndDuplicateKeysAreErrors) {

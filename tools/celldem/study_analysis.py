@@ -225,7 +225,9 @@ def run_cost(entry):
 
 def describe(entry):
     """What a run's deck implies, from its plan.json (None without one)."""
-    return {"dt_over_tc": planned(entry, "time_step_ratio"), "rate": planned(entry, "strain_rate"),
+    dt, t_c = planned(entry, "time_step"), planned(entry, "normal_time_step")
+    return {"dt_over_tc": dt / t_c if dt and t_c else planned(entry, "time_step_ratio"),  # in sqrt(m_min/kn)
+            "rate": planned(entry, "strain_rate"),
             "inertial_number": planned(entry, "inertial_number"),
             "steps_per_test": None if planned(entry, "steps") is None else int(planned(entry, "steps"))}
 
@@ -381,9 +383,12 @@ def analyse(root):
     servo_run = next((e for e in results.values() if e["spec"].get("group") == "stability_servo"), {})
     windows = {number(((e["summary"].get("tests") or {}).get(t) or {}).get("end_window", {}).get("strain"))
                for e in refs.values() for t in e["metrics"]} - {None}
-    return {"scene": {"count": SCENE_COUNT, "end_strain": END_STRAIN, "t_c": planned(ref, "critical_time_step"),
+    # The study's unit: sqrt(m_min/kn), the normal mode's limit (older plans: the critical time step, which was that).
+    t_c = planned(ref, "normal_time_step") or planned(ref, "critical_time_step")
+    dt = planned(ref, "time_step")
+    return {"scene": {"count": SCENE_COUNT, "end_strain": END_STRAIN, "t_c": t_c,
                       "d_mean": planned(ref, "mean_diameter"), "density": planned(ref, "density"),
-                      "p": P_REF, "paper_dt_over_tc": planned(ref, "time_step_ratio"),
+                      "p": P_REF, "paper_dt_over_tc": dt / t_c if dt and t_c else None,
                       "paper_inertial_number": planned(ref, "inertial_number"),
                       "servo_inertial_number": planned(servo_run, "inertial_number"),
                       "end_window": windows.pop() if len(windows) == 1 else None,

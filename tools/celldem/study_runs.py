@@ -70,8 +70,8 @@ MORE_SEEDS = ("inc_5e-07", "inc_1e-06", "dt_2e-06", "dt_3e-06", "combo_dt3e-06_i
 
 
 def build_plan(tc):
-    """Every run of the study, in order of importance (priority, then as listed); tc: the critical time step of
-    the paper deck [s] (`celldem plan` critical_time_step), which places the time steps of the stability map."""
+    """Every run of the study, in order of importance (priority, then as listed); tc: sqrt(m_min/kn) of the paper
+    deck [s] (`celldem plan` normal_time_step), which places the time steps of the stability map."""
     plan = []
     # Samples: the reference seeds first; the others when their runs come up. Seeds 5-8 only sharpen the noise
     # floor (a standard deviation from 4 samples is uncertain by a factor of 2); settings are run on seeds 1-4.
@@ -134,7 +134,8 @@ def build_plan(tc):
         for seed in seeds12:
             plan.append(test_spec(f"model_{key}_s{seed}", "modelling", label, 6, seed=seed, tests=("ttc",),
                                   role="modelling", knob="modelling", value=key, **kw))
-    # Stability map 1: time step (fraction of t_c) × damping, short TTC at the paper's strain rate.
+    # Stability map 1: time step (fraction of t_c) × damping, short TTC at the paper's strain rate. celldem now
+    # refuses (exit 2) a time step above the smallest limit over the contact modes, 0.5345 t_c with kt = kn.
     for alpha in (0.05, 0.01, 0.0):
         for frac in (PAPER_DT / tc, 0.3, 0.4, 0.5, 0.55, 0.6, 0.65, 0.8, 0.9, 0.999):
             if alpha != PAPER_DAMPING and frac in (0.4, 0.55, 0.6):
