@@ -18,6 +18,8 @@ The tests, each two-sided at level alpha unless said otherwise:
 
 import math
 
+import numpy as _np
+from scipy import optimize as _opt
 from scipy import stats as _st
 
 
@@ -142,15 +144,13 @@ def smallest_detectable(n, std, alpha=0.05, power=0.8):
 
     def power_at(delta):  # delta in units of std
         nc = delta * sqn
-        return float(_st.nct.sf(crit, dof, nc) + _st.nct.cdf(-crit, dof, nc))
+        with _np.errstate(divide="ignore", invalid="ignore"):  # scipy's nct warns on its far tail, harmlessly
+            return float(_st.nct.sf(crit, dof, nc) + _st.nct.cdf(-crit, dof, nc))
 
-    lo, hi = 0.0, 1.0
+    hi = 1.0
     while power_at(hi) < power:
         hi *= 2.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if power_at(mid) < power else (lo, mid)
-    return hi * std
+    return float(_opt.brentq(lambda d: power_at(d) - power, 0.0, hi, xtol=1e-10)) * std
 
 
 # ---- the report's verdict helpers ---------------------------------------------------------------------------
