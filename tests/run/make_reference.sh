@@ -27,6 +27,10 @@ pick = {"prepared": ["void_ratio", "Z"],
         "ttc": ["peak_robust.ratio13", "end_window.ev", "peak_robust.b_mean"],
         "psc": ["peak_robust.ratio13", "end_window.ev", "peak_robust.b_mean"]}
 m = sum(len(q) for q in pick.values())
+left_out = {t: x for t, x in ((e.get("excluded") or {}).get("tests") or {}).items()
+            if x.get("uncontrolled") or x.get("no_peak")}
+if left_out:  # a reference must describe tests that hold their controls and reach their peak, on every seed
+    sys.exit(f"make_reference.sh: the ensemble left seeds out: {left_out}; fix the deck, not the reference")
 values = {}
 for group, quantities in pick.items():
     source = e["prepared"] if group == "prepared" else e["tests"][group]
