@@ -46,7 +46,7 @@ out = {"deck": "tests/run/reference_deck.json", "ensemble_seeds": e["seeds"],
                   f"{len(e['seeds'])}-seed ensemble: t = (x - mean) / (std sqrt(1 + 1/n)), two-sided p from Student "
                   f"t with n - 1 dof; the {m} p-values are adjusted by Holm's step-down procedure and a quantity "
                   f"fails when its adjusted p < {ALPHA:g}, so the whole test raises a false alarm with probability "
-                  f"at most {ALPHA:.1%} (family-wise). tolerance: the half-width of the prediction interval at the "
+                  f"at most {ALPHA * 100:g} % (family-wise). tolerance: the half-width of the prediction interval at the "
                   f"Bonferroni level alpha / m (Holm's first step), t(1 - alpha / (2 m), n - 1) std sqrt(1 + 1/n), "
                   "for reading; the test decides on the p-values. Made by tests/run/make_reference.sh."),
        "values": values}

@@ -135,7 +135,7 @@ def paired_section(ens):
     return ("Per seed, the difference B − A of the two tests on the same sample (ensemble.json `paired`; tests whose "
             "control failed are left out by celldem). Test: paired t over the seeds, two-sided; the "
             f"{sum(p is not None for p in pvals)} tests of the table are one family, Holm-adjusted to a family-wise "
-            f"error rate of {ALPHA:.0%}: a difference is called when its Holm-adjusted p ≤ {ALPHA:g}.\n\n"
+            f"error rate of {ALPHA * 100:g} %: a difference is called when its Holm-adjusted p ≤ {ALPHA:g}.\n\n"
             + md_table(("Quantity", "Pair", "Difference: mean ± std [95 % interval]", "Paired t", "Verdict"), table))
 
 
@@ -308,7 +308,7 @@ def paper_section(ens):
         "Paper: *A comparison between true triaxial and plane strain compression by 3D DEM*. Each finding is judged "
         f"over the {len(ens.runs)} seeds, each by the test named in its row, two-sided; all "
         f"{sum(p is not None for c in claims for p in c.p)} hypotheses of the table are one family, Holm-adjusted "
-        f"to a family-wise error rate of {ALPHA:.0%} (a verdict is called when its Holm-adjusted p ≤ {ALPHA:g}). "
+        f"to a family-wise error rate of {ALPHA * 100:g} % (a verdict is called when its Holm-adjusted p ≤ {ALPHA:g}). "
         "A value of the paper comes from one sample, so it is compared with the prediction interval of one more "
         "seed, mean ± t(0.975, n − 1) s √(1 + 1/n) (PI95), not with the interval of the mean: \"consistent\" "
         "means the paper's sample could be one more of ours. A sameness (\"alike\") is judged by equivalence: two "
