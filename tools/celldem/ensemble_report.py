@@ -86,7 +86,7 @@ def controls_section(ens):
             legs = "; ".join(f"leg {leg.get('leg', k)}: {report.leg_errors_text(leg.get('control_errors'))}"
                              for k, leg in enumerate(info.get("legs") or []) if isinstance(leg, dict)) or "—"
             rows.append((seed_of(run), test, report.control_state(run, test),
-                         "n/a (not measured)" if servo is None else f"{fmt(servo * PERCENT)} %", legs,
+                         report.percent_text(servo), legs,
                          "yes" if run.peak_reached(test) else "**no**"))
     if not rows:
         return None

@@ -452,6 +452,11 @@ def study_section(run):
 CONTROL_ERROR_KINDS = (("stress", "stress"), ("b", "b"), ("mean_stress", "p"), ("volume", "volume"))
 
 
+def percent_text(value):
+    """'0.53 %', '138 %' (three significant digits); 'n/a (not measured)' for None."""
+    return "n/a (not measured)" if value is None else f"{value * PERCENT:.3g} %"
+
+
 def leg_errors_text(errors):
     """'stress 0.42 %, b 0.003' of a leg's control_errors (relative errors in %, b absolute); '—' where nothing was
     measured (null values, or none of a kind the leg controls)."""
@@ -462,7 +467,7 @@ def leg_errors_text(errors):
         v = errors.get(key)
         if v is None or (isinstance(v, (int, float)) and v == 0.0):
             continue
-        bits.append(f"{label} {fmt(v)}" if key == "b" else f"{label} {fmt(scaled(v, PERCENT))} %")
+        bits.append(f"{label} {v:.3g}" if key == "b" else f"{label} {percent_text(v)}")
     return ", ".join(bits) or "—"
 
 
@@ -486,7 +491,7 @@ def controls_section(run):
                              for k, leg in enumerate(legs) if isinstance(leg, dict)) or "—"
         servo = info.get("servo_max_error")
         rows.append((test, control_state(run, test),
-                     "n/a (not measured)" if servo is None else f"{fmt(scaled(number(servo), PERCENT))} %", leg_text,
+                     percent_text(number(servo)), leg_text,
                      "yes" if run.peak_reached(test) else "**no** (largest σ1/σ3 at the test's end)"))
     if not rows:
         return None
