@@ -429,6 +429,8 @@ def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_F
         # tests whose control failed (summary.json "controlled": false) are left out of the comparisons
         entry["excluded"] = {t: "uncontrolled" for t, info in (summary.get("tests") or {}).items()
                              if isinstance(info, dict) and info.get("controlled", True) is False}
+        for t in entry["excluded"]:  # nor in the noise floor
+            entry["metrics"].pop(t, None)
         entry["peak_at_end"] = {}
         for test, info in (summary.get("tests") or {}).items():
             plateau = (info.get("peak_robust") or {}).get("plateau_e1") if isinstance(info, dict) else None
@@ -447,7 +449,7 @@ def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_F
 
     def by_seed(rs, q):
         return {r["seed"]: r["metrics"][q[0]][q[1]] for r in rs
-                if r["metrics"].get(q[0], {}).get(q[1]) is not None and not r["excluded"].get(q[0])}
+                if r["metrics"].get(q[0], {}).get(q[1]) is not None}
 
     rows = []
     for key, label, vdeck, info in configs:
