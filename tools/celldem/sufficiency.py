@@ -66,6 +66,7 @@ POWER = 0.8                  # the smallest detectable change is given at this p
 Z_PHI = 3.6                  # mean contact force pi d^2 p / (Z phi), as celldem's default reference overlap
 
 QUANTITY_ORDER = ("peak_ratio", "e1_peak", "ev_end", "Z_end", "b_peak")
+PEAK_QUANTITIES = ("peak_ratio", "e1_peak", "b_peak")  # left out of a test whose summary says "peak_reached": false
 PERCENT = {"e1_peak", "ev_end"}
 ROBUST_KEYS = {"peak_ratio": "peak_robust.ratio13", "e1_peak": "peak_robust.e1", "b_peak": "peak_robust.b_mean"}
 SUMMARY_TEXT = {"peak_ratio": "peak_robust.ratio13 (else peak_ratio13)", "e1_peak": "peak_robust.e1 (else e1_at_peak)",
@@ -431,6 +432,10 @@ def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_F
                              if isinstance(info, dict) and info.get("controlled", True) is False}
         for t in entry["excluded"]:  # nor in the noise floor
             entry["metrics"].pop(t, None)
+        for t, info in (summary.get("tests") or {}).items():  # no peak reached: no peak quantities
+            if isinstance(info, dict) and info.get("peak_reached", True) is False and t in entry["metrics"]:
+                for q in PEAK_QUANTITIES:
+                    entry["metrics"][t].pop(q, None)
         entry["peak_at_end"] = {}
         for test, info in (summary.get("tests") or {}).items():
             plateau = (info.get("peak_robust") or {}).get("plateau_e1") if isinstance(info, dict) else None
