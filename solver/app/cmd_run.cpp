@@ -14,6 +14,7 @@ Command add_run_command(CLI::App& app) {
   struct Args {
     std::string deck, seeds;
     RunOptions options;
+    bool include_uncontrolled = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("run", "Run a deck: prepare a sample (or load one) and run its tests");
@@ -29,7 +30,10 @@ Command add_run_command(CLI::App& app) {
   cmd->add_flag("--quiet", args->options.quiet, "No progress or stage messages");
   cmd->add_option("--seeds", args->seeds,
                   "A seed ensemble: prepare one sample per seed (e.g. 1-8) into DIR/seed-<k>/ and write "
-                  "DIR/ensemble.json (mean, std, 95 % interval of every summary quantity)");
+                  "DIR/ensemble.json (mean, std, 95 % intervals of the mean and of one more sample of every summary "
+                  "quantity)");
+  cmd->add_flag("--include-uncontrolled", args->include_uncontrolled,
+                "With --seeds: keep tests whose control failed in the ensemble statistics (left out by default)");
   cmd->add_option("--progress-interval", args->options.progress_interval,
                   "Seconds between progress lines when stderr is not a terminal (a log file)")
       ->capture_default_str()
@@ -44,7 +48,7 @@ Command add_run_command(CLI::App& app) {
                                                     : ProgressMode::Log;
     install_stop_handlers();
     if (args->seeds.empty()) run_deck(deck, args->options);
-    else run_ensemble(deck, args->options, parse_seed_list(args->seeds));
+    else run_ensemble(deck, args->options, parse_seed_list(args->seeds), args->include_uncontrolled);
     return 0;
   };
 }

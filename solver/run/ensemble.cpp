@@ -7,6 +7,8 @@
 #include <map>
 #include <sstream>
 
+#include <boost/math/distributions/students_t.hpp>
+
 #include "io/files.hpp"
 
 namespace celldem {
@@ -15,12 +17,21 @@ using Json = nlohmann::json;
 
 namespace {
 
-// Two-sided 95 % quantiles of Student's t for 1..30 degrees of freedom; 1.96 beyond.
-double t95(std::size_t dof) {
-  static const double table[] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
-                                 2.201,  2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
-                                 2.080,  2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
-  return dof >= 1 && dof <= 30 ? table[dof - 1] : 1.96;
+// A quantity of the peak: meaningless when the test's largest s11/s33 is its last row (no peak reached).
+bool is_peak_quantity(const std::string& path) { return path.find("peak") != std::string::npos; }
+
+// The tests of a summary that the statistics may use, and what is left out of each (summary.json's
+// "controlled" and "peak_reached"; a summary without them, from before they existed, counts as both true).
+struct TestUse {
+  bool use = true;        // false: the test's control failed and uncontrolled tests are left out
+  bool peak = true;       // false: no peak reached, its peak quantities are left out
+};
+
+TestUse test_use(const Json& test, bool include_uncontrolled) {
+  TestUse u;
+  u.use = include_uncontrolled || test.value("controlled", true);
+  u.peak = test.value("peak_reached", true);
+  return u;
 }
 
 // Every numeric leaf of a summary object, by its dotted path ("peak_state.sigma1", "end_window.ev").
@@ -79,31 +90,57 @@ Json describe(const std::vector<double>& values) {
   for (double v : values) var += (v - mean) * (v - mean);
   const double sd = n > 1 ? std::sqrt(var / static_cast<double>(n - 1)) : 0.0;
   const double se = sd / std::sqrt(static_cast<double>(n));
-  const double half = n > 1 ? t95(n - 1) * se : 0.0;
+  const double t = n > 1 ? student_t_quantile(0.975, static_cast<double>(n - 1)) : 0.0;
+  const double half = t * se;                                                  // of the mean
+  const double half_one = t * sd * std::sqrt(1.0 + 1.0 / static_cast<double>(n));  // of one more sample
   return {{"n", n}, {"mean", mean}, {"std", sd}, {"sem", se}, {"ci95", {mean - half, mean + half}},
-          {"values", values}};
+          {"pi95", {mean - half_one, mean + half_one}}, {"values", values}};
 }
 
-Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vector<Json>& summaries) {
+double student_t_quantile(double p, double dof) {
+  return boost::math::quantile(boost::math::students_t_distribution<double>(dof), p);
+}
+
+Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vector<Json>& summaries,
+                         bool include_uncontrolled) {
   Columns prepared;
   std::map<std::string, Columns> tests;
   std::map<std::string, std::map<std::string, std::map<std::uint64_t, double>>> by_seed;  // test -> q -> seed
+  Json excluded = Json::object();  // test -> {"uncontrolled": [seeds], "no_peak": [seeds]}
   for (std::size_t k = 0; k < summaries.size(); ++k) {
     std::map<std::string, double> leaves;
     numeric_leaves(summaries[k].value("prepared", Json::object()), "", leaves);
     for (const auto& [q, v] : leaves) prepared[q].push_back(v);
     const Json tests_of_seed = summaries[k].value("tests", Json::object());  // items() needs a live object
     for (const auto& [name, test] : tests_of_seed.items()) {
+      if (!excluded.contains(name)) excluded[name] = {{"uncontrolled", Json::array()}, {"no_peak", Json::array()}};
+      const TestUse use = test_use(test, include_uncontrolled);
+      if (!use.use) {
+        excluded[name]["uncontrolled"].push_back(seeds[k]);
+        continue;
+      }
+      if (!use.peak) excluded[name]["no_peak"].push_back(seeds[k]);
       std::map<std::string, double> t;
       numeric_leaves(test, "", t);
       for (const auto& [q, v] : t) {
+        if (!use.peak && is_peak_quantity(q)) continue;
         tests[name][q].push_back(v);
         by_seed[name][q][seeds[k]] = v;
       }
     }
   }
   Json out = {{"seeds", seeds},
-              {"statistics", "mean, std (n - 1), sem = std / sqrt(n), ci95 = mean -+ t(0.975, n - 1) sem"},
+              {"statistics", "mean, std (n - 1), sem = std / sqrt(n), ci95 = mean -+ t(0.975, n - 1) sem (the "
+                             "interval of the mean), pi95 = mean -+ t(0.975, n - 1) std sqrt(1 + 1/n) (the "
+                             "interval of one more sample: compare a single published value with it); t from "
+                             "Boost.Math"},
+              {"excluded", {{"rule", include_uncontrolled
+                                         ? "no-peak tests' peak quantities left out; uncontrolled tests kept "
+                                           "(--include-uncontrolled)"
+                                         : "uncontrolled tests (summary.json \"controlled\": false) left out "
+                                           "entirely; no-peak tests (\"peak_reached\": false) left out of the "
+                                           "peak quantities"},
+                            {"tests", excluded}}},
               {"prepared", describe_all(prepared)},
               {"tests", Json::object()},
               {"paired", Json::object()}};
@@ -123,7 +160,8 @@ Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vec
   return out;
 }
 
-void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds) {
+void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds,
+                  bool include_uncontrolled) {
   if (!deck.prepare) throw DeckError("--seeds: the deck has no \"prepare\": a seed ensemble prepares its samples");
   const fs::path dir(options.out_dir);
   if (!options.resume && !options.force && fs::exists(dir / "ensemble.json"))
@@ -143,7 +181,19 @@ void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector
     run_deck(d, o);
     summaries.push_back(Json::parse(read_file(fs::path(o.out_dir) / "summary.json")));
   }
-  write_file_atomic(dir / "ensemble.json", ensemble_statistics(seeds, summaries).dump(1));
+  const Json statistics = ensemble_statistics(seeds, summaries, include_uncontrolled);
+  write_file_atomic(dir / "ensemble.json", statistics.dump(1));
+  // What was left out is printed whether or not the run is quiet: a mean over fewer seeds must be seen.
+  for (const auto& [name, ex] : statistics["excluded"]["tests"].items()) {
+    if (!ex["uncontrolled"].empty())
+      std::fprintf(stderr, "ensemble: %s: %zu of %zu seeds left out, their control failed (%s)\n", name.c_str(),
+                   ex["uncontrolled"].size(), seeds.size(),
+                   include_uncontrolled ? "kept: --include-uncontrolled" : "--include-uncontrolled keeps them");
+    if (!ex["no_peak"].empty())
+      std::fprintf(stderr, "ensemble: %s: %zu of %zu seeds reached no peak (largest s11/s33 at the test's end); "
+                           "their peak quantities left out\n",
+                   name.c_str(), ex["no_peak"].size(), seeds.size());
+  }
   if (!options.quiet) std::printf("wrote %s\n", (dir / "ensemble.json").c_str());
 }
 

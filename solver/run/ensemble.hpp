@@ -15,15 +15,24 @@ namespace celldem {
 std::vector<std::uint64_t> parse_seed_list(const std::string& text);
 
 // Runs the deck once per seed into DIR/seed-<k>/ (each a run directory of its own: --resume continues each
-// where it stopped, a finished one is kept) and writes DIR/ensemble.json.
-void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds);
+// where it stopped, a finished one is kept) and writes DIR/ensemble.json. Tests whose control failed are
+// left out of the statistics unless include_uncontrolled; what was left out is printed on stderr.
+void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds,
+                  bool include_uncontrolled = false);
 
-// Mean, standard deviation, standard error and the 95 % interval of the mean (Student t, n - 1 degrees of
-// freedom) of the values; {"n": 0} when there are none.
+// The p-quantile of Student's t with dof degrees of freedom (Boost.Math).
+double student_t_quantile(double p, double dof);
+
+// Mean, standard deviation, standard error, the 95 % interval of the mean (ci95, mean -+ t(0.975, n-1) sem)
+// and the 95 % prediction interval of one more sample (pi95, mean -+ t(0.975, n-1) std sqrt(1 + 1/n)) of the
+// values; {"n": 0} when there are none.
 nlohmann::json describe(const std::vector<double>& values);
 
 // ensemble.json from the per-seed summaries: per test (and for the prepared sample) and per numeric
 // quantity, describe() over the seeds; "paired": per pair of tests, the per-seed differences (B - A).
-nlohmann::json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vector<nlohmann::json>& summaries);
+// A test with "controlled": false is left out (unless include_uncontrolled), a test with "peak_reached":
+// false keeps all but its peak quantities (any path with "peak" in it); "excluded" lists the seeds of each.
+nlohmann::json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vector<nlohmann::json>& summaries,
+                                   bool include_uncontrolled = false);
 
 }  // namespace celldem

@@ -66,18 +66,19 @@ check("skip reason", skipped["normal"], "skipped: normal is linear")
 check("b only for the non-axisymmetric test", [q for q in su.quantities_of(paper) if q[1] == "b_peak"],
       [("psc", "b_peak")])
 
-# The change: delta of seed-means, / floor, z = delta / (floor sqrt(1/nb + 1/nv)); needed above the threshold.
-base = [1.0, 2.0, 3.0, 4.0]
-floor = math.sqrt(5.0 / 3.0)
-c = su.change(base, [v + 2.0 for v in base], floor)
-check("delta", c["delta"], 2.0, 1e-12)
-check("noise units", c["noise_units"], 2.0 / floor, 1e-12)
-check("z", c["z"], 2.0 / (floor * math.sqrt(0.5)), 1e-12)
-check("verdict needed", c["verdict"], "needed")
-check("verdict not needed", su.change(base, [v + 0.5 for v in base], floor)["verdict"], "not needed")
-check("threshold", su.change(base, [v + 2.0 for v in base], floor, threshold=3.0)["verdict"], "not needed")
-check("no spread", su.change([1.0, 1.0], [1.0, 2.0], 0.0)["verdict"], "undetermined (no seed-to-seed spread)")
-check("no values", su.change([], [1.0], 1.0), None)
+# The change: paired differences per seed, paired t, TOST within a noise floor; verdicts by judge_switch.
+floor = 1.0
+c = su.change([2.0, 2.1, 1.9, 2.05], floor)
+check("delta", c["delta"], 2.0125, 1e-12)
+check("noise units", c["noise_units"], 2.0125, 1e-12)
+check("margin", c["margin"], 1.0)
+check("verdict needed", su.judge_switch({"a": c}), "needed")
+check("quantity changes", c["verdict"], "changes")
+check("verdict not needed", su.judge_switch({"a": su.change([0.01, -0.02, 0.0, 0.01], floor)}), "not needed")
+check("undecided", su.judge_switch({"a": su.change([1.5, -1.4, 0.9, -0.2], floor)}), "undecided at 4 seeds")
+check("no spread", su.change([1.0, 2.0], 0.0)["margin"], None)
+check("no values", su.change([], 1.0), None)
+check("paired by seed", su.paired({1: 1.0, 2: 2.0, 3: 5.0}, {2: 2.5, 1: 0.5}), [-0.5, 0.5])
 
 # Robust peak fields when summary.json has them, the plain ones otherwise.
 info = {"peak_ratio13": 3.0, "e1_at_peak": 0.01, "b_at_peak": 0.4, "final_e1": 0.03,
@@ -114,16 +115,17 @@ for k in ("normal", "tangential", "rolling", "twisting"):
 for k in ("rotational_damping", "kinematics"):
     row = rows[k]
     check(f"{k} seeds", row.get("seeds"), [1, 2])
-    if row["verdict"] not in ("needed", "not needed", "not needed (some quantities undetermined)", "undetermined"):
+    if row["verdict"] not in ("needed", "not needed", "undecided at 2 seeds"):
         error(f"{k}: verdict {row['verdict']!r}")
     check(f"{k} quantities", sorted(row["changes"]), sorted(qs))
     c = row["changes"]["ttc.peak_ratio"]
-    if c is None or c["base"]["n"] != 2 or c["variant"]["n"] != 2:
-        error(f"{k}: TTC peak change over 2 + 2 seeds missing: {c}")
-    elif c["z"] is not None:
-        want = "needed" if abs(c["z"]) > r["threshold"] else "not needed"
-        check(f"{k} TTC peak verdict follows z", c["verdict"], want)
-    needed = [q for q, c in row["changes"].items() if c and c["verdict"] == "needed"]
+    if c is None or c["n"] != 2:
+        error(f"{k}: TTC peak change over 2 paired seeds missing: {c}")
+    elif c["p_holm"] is not None:
+        equivalent = c["p_tost"] is not None and c["p_tost"] <= r["alpha"]
+        want = "within margin" if equivalent else "changes" if c["p_holm"] <= r["alpha"] else "undecided"
+        check(f"{k} TTC peak verdict follows its tests", c["verdict"], want)
+    needed = [q for q, c in row["changes"].items() if c and c["verdict"] == "changes"]
     check(f"{k} needed_for", row["needed_for"], needed)
     check(f"{k} verdict", row["verdict"] == "needed", bool(needed))
 for q in qs:
@@ -137,7 +139,8 @@ md = open(f"{root}/sufficiency.md", encoding="utf-8").read()
 for needle in ("# Model sufficiency: ", "| switch | seeds | verdict | TTC peak σ1/σ3 |", "PSC b at peak |",
                "| normal: hertz → linear | — | skipped: normal is linear |",
                "| twisting: marshall → none | — | skipped: twisting is none |",
-               "| baseline: mean (noise floor) | 1,2 |", "| rotational damping → 0 | 1,2 |", "|z| > 2",
+               "| baseline: mean (noise floor) | 1,2 |", "| rotational damping → 0 | 1,2 |", "Holm",
+               "TOST",
                "Cost: 8 runs"):
     if needle not in md:
         error(f"sufficiency.md lacks {needle!r}")
@@ -147,6 +150,26 @@ EOF
 "$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$out" --seeds 2 --count 40 --end-strain 0.005 \
   --celldem "$CELLDEM" >"$TMP/log2" 2>&1 || fail "second call failed"
 grep -q "0 runs to do of 8" "$TMP/log2" || fail "a second call ran again: $(head -1 "$TMP/log2")"
+
+echo "2b. calibration: a switch that changes nothing physical (time_step x (1 + 1e-9)) is never needed"
+null="$TMP/sufficiency-null"
+"$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$null" --seeds 3 --count 40 --end-strain 0.005 \
+  --switches round_off --celldem "$CELLDEM" >"$TMP/log-null" 2>&1 || { cat "$TMP/log-null"; fail "null switch run failed"; }
+"$PY" - "$null" <<'EOF' || fail "null switch"
+import json, sys
+from checking import check, done, error
+r = json.load(open(f"{sys.argv[1]}/sufficiency.json"))
+rows = {x["key"]: x for x in r["rows"]}
+check("rows", sorted(rows), ["baseline", "round_off"])
+row = rows["round_off"]
+check("seeds", row["seeds"], [1, 2, 3])
+if row["verdict"] == "needed":
+    error(f"a round-off switch is called needed for {row['needed_for']}")
+units = [abs(c["noise_units"]) for c in row["changes"].values() if c and c["noise_units"] is not None]
+print(f"  round_off: {row['verdict']}; largest |change| {max(units):.2g} noise floors")
+done()
+EOF
+rm -rf "$null"
 
 echo "3. refusals"
 if "$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$TMP/x" --seeds 1 2>/dev/null; then

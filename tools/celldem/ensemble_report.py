@@ -60,24 +60,83 @@ def tests_section(ens):
     return table_of(TEST_QUANTITIES, columns)
 
 
-def paired_section(ens):
-    """Each pair of tests of ensemble.json's "paired" (B - A on the same seed): difference, paired t, verdict."""
+ALPHA = 0.05  # the family-wise error rate of each table's verdicts (Holm)
+
+
+def uncontrolled_seeds(ens, test):
+    """Seeds whose run of `test` failed a control (summary.json "controlled": false)."""
+    return [seed_of(run) for run in ens.runs if run.test_summary(test) and not run.controlled(test)]
+
+
+def seed_of(run):
+    name = os.path.basename(os.path.normpath(run.directory))
+    return name[len("seed-"):] if name.startswith("seed-") else name
+
+
+def controls_section(ens):
+    """Per seed and test: the largest servo error, each leg's control errors, whether the controls held and a peak
+    was reached (summary.json's)."""
     rows = []
+    for run in ens.runs:
+        for test in ens.test_names:
+            info = run.test_summary(test)
+            if not info:
+                continue
+            servo = info.get("servo_max_error")
+            legs = "; ".join(f"leg {leg.get('leg', k)}: {report.leg_errors_text(leg.get('control_errors'))}"
+                             for k, leg in enumerate(info.get("legs") or []) if isinstance(leg, dict)) or "—"
+            rows.append((seed_of(run), test, report.control_state(run, test),
+                         report.percent_text(servo), legs,
+                         "yes" if run.peak_reached(test) else "**no**"))
+    if not rows:
+        return None
+    excluded = (ens.stats.get("excluded") or {}).get("rule")
+    return ((f"ensemble.json: {excluded}.\n\n" if excluded else
+             "This ensemble.json predates celldem's exclusion of uncontrolled tests: pairs with an uncontrolled "
+             "test get no verdict.\n\n")
+            + md_table(("Seed", "Test", "Controls", "Largest servo error", "Control errors per leg", "Peak reached"),
+                       rows))
+
+
+def excluded_by_celldem(ens):
+    """True when ensemble.json left the uncontrolled tests out itself (celldem with "excluded")."""
+    return isinstance(ens.stats.get("excluded"), dict) and "kept" not in str(ens.stats["excluded"].get("rule", ""))
+
+
+def paired_section(ens):
+    """Each pair of tests of ensemble.json's "paired" (B - A on the same seed): difference, paired t, Holm over the
+    table, verdict. No verdict on a pair whose statistics may hold a test whose control failed."""
+    rows, pvals = [], []
     for pair in (ens.stats.get("paired") or {}):
+        b, a = pair.split("-", 1)
+        bad = sorted(set(uncontrolled_seeds(ens, a)) | set(uncontrolled_seeds(ens, b)))
+        refuse = bad and not excluded_by_celldem(ens)
         for key, label, scale, digits in TEST_QUANTITIES:
             stat = ens.statistic("paired", pair, key)
             if stat is None or key in ("servo_max_error", "inertial_number"):
                 continue
-            side = stats.compare(stat)
-            b, a = pair.split("-", 1)
-            verdict = (stats.not_distinguishable(stat) if side == 0 else "n/a" if side is None
-                       else f"{b} {'higher' if side > 0 else 'lower'} than {a}")
-            rows.append((label, f"{b} − {a}", spread(stat, scale, digits), stats.t_text(stat), verdict))
+            p = None if refuse else stats.one_sample_p(stat)
+            rows.append([label, f"{b} − {a}", spread(stat, scale, digits), stats.t_text(stat), stat, b, a, refuse])
+            pvals.append(p)
     if not rows:
         return None
-    return ("Per seed, the difference B − A of the two tests on the same sample (ensemble.json `paired`); test: "
-            "paired t over the seeds, two-sided at 5 % (a difference is called when its 95 % interval excludes 0).\n\n"
-            + md_table(("Quantity", "Pair", "Difference: mean ± std [95 % interval]", "Paired t", "Verdict"), rows))
+    adjusted, rejected = stats.holm(pvals, ALPHA)
+    table = []
+    for (label, pair, sp, t, stat, b, a, refuse), p, adj, rej in zip(rows, pvals, adjusted, rejected):
+        if refuse:
+            verdict = "not judged: uncontrolled runs in the pair"
+        elif p is None:
+            verdict = "n/a"
+        elif rej:
+            verdict = f"{b} {'higher' if stat['mean'] > 0 else 'lower'} than {a}"
+        else:
+            verdict = stats.not_distinguishable(stat)
+        table.append((label, pair, sp, f"{t}; {stats.p_text(p, adj)}", verdict))
+    return ("Per seed, the difference B − A of the two tests on the same sample (ensemble.json `paired`; tests whose "
+            "control failed are left out by celldem). Test: paired t over the seeds, two-sided; the "
+            f"{sum(p is not None for p in pvals)} tests of the table are one family, Holm-adjusted to a family-wise "
+            f"error rate of {ALPHA * 100:g} %: a difference is called when its Holm-adjusted p ≤ {ALPHA:g}.\n\n"
+            + md_table(("Quantity", "Pair", "Difference: mean ± std [95 % interval]", "Paired t", "Verdict"), table))
 
 
 def prepared_section(ens):
@@ -86,141 +145,183 @@ def prepared_section(ens):
 
 # --- the paper's findings, judged over the seeds ------------------------------------------------------------
 
-def per_seed(ens, measure):
-    """stats.describe of measure(run) over the seeds' runs."""
-    return stats.describe([measure(run) for run in ens.runs])
+def per_seed(ens, measure, tests=("ttc", "psc")):
+    """stats.describe of measure(run) over the seeds' runs, leaving out the runs in which one of `tests` failed a
+    control."""
+    return stats.describe([measure(run) for run in ens.runs if all(run.controlled(t) for t in tests)])
 
 
 def both(ens):
     return all(ens.test(t) is not None for t in ("ttc", "psc"))
 
 
-def vs_value(stat, value, digits=3):
-    """Verdict of a mean against the paper's value (one-sample t)."""
-    side = stats.compare(stat, value)
-    if side is None:
-        return None
-    return stats.not_distinguishable(stat) + " (consistent)" if side == 0 else \
-        f"no: {'above' if side > 0 else 'below'} the paper"
+# Sameness claims ("alike" in the paper) are judged by equivalence (TOST) against these margins, on the paired
+# per-seed difference psc − ttc averaged over ε1 bins: (margin, unit, why that size).
+ALIKE_MARGINS = {
+    "Z": (0.1, "contacts per particle",
+          "about 1/15 of Z's fall during a test (5.9 to 4.3) and 2 % of Z: below what the paper's Z figure resolves"),
+    "sliding_fraction": (0.01, "fraction of contacts",
+                         "one contact in a hundred, a line's width on the paper's sliding-fraction axis"),
+    "DI": (0.05, "(–)", "a tenth of the dilatancy index's largest values (about 0.5), a line's width in the paper"),
+    "macro_micro": (0.05, "relative", "5 % of σ1/σ3 at the same Hs11/Hs33, the scatter of one run's curve"),
+}
 
-
-def sign_verdict(stat, expected):
-    """Verdict of a difference whose sign the paper states (+1 or -1)."""
-    side = stats.compare(stat)
-    if side is None:
-        return None
-    return stats.not_distinguishable(stat) if side == 0 else ("yes" if side == expected else "no: the opposite")
-
-
-def alike_verdict(stat):
-    """Verdict of a difference the paper says is absent."""
-    side = stats.compare(stat)
-    if side is None:
-        return None
-    return stats.not_distinguishable(stat) + " (alike)" if side == 0 else "no: they differ"
-
-
-def threshold_verdict(stat, threshold, below):
-    """Verdict of a quantity the paper's criterion wants below (or above) a threshold."""
-    side = stats.compare(stat, threshold)
-    if side is None:
-        return None
-    if side == 0:
-        return stats.not_distinguishable(stat) + f" from {threshold:g}"
-    return "yes" if (side < 0) == below else "no"
-
-
-ONE_SAMPLE = "one-sample t vs the paper's value"
+ONE_SAMPLE = "one-sample t vs {}"
+PREDICTION = "prediction interval of one more seed vs the paper's single sample"
 PAIRED = "paired t (both tests on each seed's sample)"
 
 
+class Claim:
+    """A finding judged over the seeds: its statistic, the hypotheses it tests (p-values, adjusted together with
+    every other claim's by Holm) and how its verdict reads them."""
+
+    def __init__(self, label, paper_text, stat, scale, digits, kind, test, against=0.0, expected=None, below=None,
+                 margin=None):
+        self.label, self.paper_text, self.stat, self.scale, self.digits = label, paper_text, stat, scale, digits
+        self.kind, self.test, self.against, self.expected, self.below, self.margin = \
+            kind, test, against, expected, below, margin
+        if kind == "value":
+            self.p = [stats.prediction_p(stat, against)]
+        elif kind == "alike":
+            self.tost = stats.tost(stat, margin[0])
+            self.p = [stats.one_sample_p(stat), self.tost and self.tost["p"]]
+        else:
+            self.p = [stats.one_sample_p(stat, against)]
+        self.adjusted = [None] * len(self.p)
+
+    def interval_text(self):
+        s, f, d = self.stat, self.scale, self.digits
+        if self.kind == "value":
+            lo, hi = s["pi95"] if "pi95" in s else stats.prediction_interval(s)
+            return f"{fmt(s['mean'] * f, d)} ± {fmt(s['std'] * f, d)}; PI95 [{fmt(lo * f, d)}, {fmt(hi * f, d)}]"
+        if self.kind == "alike":
+            lo, hi = self.tost["interval"]
+            return (f"{fmt(s['mean'] * f, d)} ± {fmt(s['std'] * f, d)}; 90 % CI [{fmt(lo * f, d)}, {fmt(hi * f, d)}] "
+                    f"vs margin ±{fmt(self.margin[0] * f, d)}")
+        lo, hi = s["ci95"]
+        return f"{fmt(s['mean'] * f, d)} ± {fmt(s['std'] * f, d)}; CI95 [{fmt(lo * f, d)}, {fmt(hi * f, d)}]"
+
+    def verdict(self):
+        n = self.stat["n"]
+        sig = [a is not None and a <= ALPHA for a in self.adjusted]
+        side = 1 if self.stat["mean"] > self.against else -1
+        if self.kind == "value":
+            return f"no: {'above' if side > 0 else 'below'} the paper" if sig[0] else \
+                "consistent (the paper's value is a plausible seed)"
+        if self.kind == "alike":
+            return stats.equivalence_verdict(self.adjusted[0], self.adjusted[1], n, ALPHA)
+        if not sig[0]:
+            return f"not distinguishable at {n} seeds" + (f" from {self.against:g}" if self.kind == "threshold" else "")
+        if self.kind == "sign":
+            return "yes" if side == self.expected else "no: the opposite"
+        return "yes" if (side < 0) == self.below else "no"
+
+    def test_text(self):
+        p = "; ".join(stats.p_text(p, a) for p, a in zip(self.p, self.adjusted))
+        if self.kind == "alike":
+            return (f"TOST, margin ±{self.margin[0]:g} {self.margin[1]}, and paired t; p (difference), p (TOST): {p}")
+        return f"{self.test}; {p}"
+
+
 def paper_claims(ens):
-    """(claim, paper, statistic, scale, digits, test, verdict) of each finding the ensemble can judge."""
+    """The Claims of the paper's findings the ensemble can judge, Holm-adjusted together."""
     claims = []
 
-    def add(label, paper_text, stat, scale, digits, test, verdict, against=0.0):
-        if stat is not None and verdict is not None:
-            claims.append((label, paper_text, spread(stat, scale, digits), f"{test}; {stats.t_text(stat, against)}",
-                           verdict))
+    def add(*args, **kw):
+        if args[2] is not None and args[2].get("n", 0) >= 2:
+            claims.append(Claim(*args, **kw))
 
     for key, label, value, digits in (("void_ratio", "Prepared void ratio e", report.PAPER_VOID_RATIO, 3),
                                       ("Z", "Prepared coordination number Z", report.PAPER_Z, 2)):
-        stat = ens.statistic("prepared", key)
-        add(label, fmt(value, digits), stat, 1.0, digits, ONE_SAMPLE, vs_value(stat, value), value)
+        add(label, fmt(value, digits), ens.statistic("prepared", key), 1.0, digits, "value", PREDICTION,
+            against=value)
     if ens.test("psc") is not None:
-        stat = ens.statistic("tests", "psc", "b_at_peak")
-        add("PSC b at peak σ1/σ3", fmt(report.PAPER_B_AT_PEAK), stat, 1.0, 3, ONE_SAMPLE,
-            vs_value(stat, report.PAPER_B_AT_PEAK), report.PAPER_B_AT_PEAK)
-        stat = per_seed(ens, report.psc_b_at_10)
-        add("PSC b at ε1 = 10 %", fmt(report.PAPER_B_AT_10), stat, 1.0, 3, ONE_SAMPLE,
-            vs_value(stat, report.PAPER_B_AT_10), report.PAPER_B_AT_10)
+        add("PSC b at peak σ1/σ3", fmt(report.PAPER_B_AT_PEAK), ens.statistic("tests", "psc", "b_at_peak"), 1.0, 3,
+            "value", PREDICTION, against=report.PAPER_B_AT_PEAK)
+        add("PSC b at ε1 = 10 %", fmt(report.PAPER_B_AT_10), per_seed(ens, report.psc_b_at_10, ("psc",)), 1.0, 3,
+            "value", PREDICTION, against=report.PAPER_B_AT_10)
 
         def b_fall(run):
             b10, peak = report.psc_b_at_10(run), run.quantity("psc", "b_at_peak")
-            return None if b10 is None or peak is None else b10 - peak
-        stat = per_seed(ens, b_fall)
-        add("PSC b falls after the peak (b at 10 % − b at peak)", "yes", stat, 1.0, 3,
-            "one-sample t vs 0", sign_verdict(stat, -1))
-        stat = per_seed(ens, report.psc_max_e2)
-        add("PSC ε2 stays 0 (max |ε2|, %)", "yes", stat, PERCENT, 4,
-            f"one-sample t vs {report.ZERO_STRAIN_TOL * PERCENT:g} %",
-            threshold_verdict(stat, report.ZERO_STRAIN_TOL, below=True), report.ZERO_STRAIN_TOL)
+            return None if b10 is None or peak is None or not run.peak_reached("psc") else b10 - peak
+        add("PSC b falls after the peak (b at 10 % − b at peak)", "yes", per_seed(ens, b_fall, ("psc",)), 1.0, 3,
+            "sign", ONE_SAMPLE.format(0), expected=-1)
+        add("PSC ε2 stays 0 (max |ε2|, %)", "yes", per_seed(ens, report.psc_max_e2, ("psc",)), PERCENT, 4,
+            "threshold", ONE_SAMPLE.format(f"{report.ZERO_STRAIN_TOL * PERCENT:g} %"),
+            against=report.ZERO_STRAIN_TOL, below=True)
     if ens.test("ttc") is not None:
-        stat = per_seed(ens, report.ttc_max_b)
-        add("TTC b stays 0 (max |b| for ε1 ≥ 0.1 %)", "yes", stat, 1.0, 3, f"one-sample t vs {report.ZERO_B_TOL}",
-            threshold_verdict(stat, report.ZERO_B_TOL, below=True), report.ZERO_B_TOL)
+        add("TTC b stays 0 (max |b| for ε1 ≥ 0.1 %)", "yes", per_seed(ens, report.ttc_max_b, ("ttc",)), 1.0, 3,
+            "threshold", ONE_SAMPLE.format(report.ZERO_B_TOL), against=report.ZERO_B_TOL, below=True)
     if both(ens):
         # ensemble.json's pairs are named B-A with B after A alphabetically: "ttc-psc" is ttc − psc.
-        stat = ens.statistic("paired", "ttc-psc", "peak_ratio13")
-        add("PSC peak σ1/σ3 exceeds TTC's (ttc − psc)", "yes", stat, 1.0, 3, PAIRED, sign_verdict(stat, -1))
+        add("PSC peak σ1/σ3 exceeds TTC's (ttc − psc)", "yes", ens.statistic("paired", "ttc-psc", "peak_ratio13"),
+            1.0, 3, "sign", PAIRED, expected=-1)
         for name, label in (("Z", "Z"), ("sliding_fraction", "Sliding fraction"), ("DI", "DI")):
             stat = per_seed(ens, lambda run, c=name: metrics.mean_difference(
                 run.column("ttc", "e1"), run.column("ttc", c), run.column("psc", "e1"), run.column("psc", c),
                 bins=report.CURVE_BINS))
-            add(f"{label} evolves alike in TTC and PSC (mean psc − ttc over ε1 bins)", "yes", stat, 1.0, 3, PAIRED,
-                alike_verdict(stat))
+            add(f"{label} evolves alike in TTC and PSC (mean psc − ttc over ε1 bins)", "yes", stat, 1.0, 3, "alike",
+                PAIRED, margin=ALIKE_MARGINS[name])
         for name in ("H11_H33", "Hs11_Hs33", "Hw11_Hw33"):
             stat = per_seed(ens, lambda run, c=name: None if metrics.max_of(run.column("psc", c)) is None
                             or metrics.max_of(run.column("ttc", c)) is None
                             else metrics.max_of(run.column("psc", c)) - metrics.max_of(run.column("ttc", c)))
             label = name.replace("_", "/")
-            add(f"{label} grows more in PSC (max psc − max ttc)", "yes", stat, 1.0, 3, PAIRED, sign_verdict(stat, 1))
+            add(f"{label} grows more in PSC (max psc − max ttc)", "yes", stat, 1.0, 3, "sign", PAIRED, expected=1)
 
         def macro_micro(run):
             return metrics.mean_difference(*report.macro_micro_relation(run, "ttc"),
                                            *report.macro_micro_relation(run, "psc"),
                                            bins=report.MACRO_MICRO_BINS, relative=True)
-        stat = per_seed(ens, macro_micro)
-        add("σ1/σ3 vs Hs11/Hs33 (ε1 ≤ 1 %) is one curve (mean relative psc − ttc)", "yes", stat, 1.0, 3, PAIRED,
-            alike_verdict(stat))
+        add("σ1/σ3 vs Hs11/Hs33 (ε1 ≤ 1 %) is one curve (mean relative psc − ttc)", "yes",
+            per_seed(ens, macro_micro), 1.0, 3, "alike", PAIRED, margin=ALIKE_MARGINS["macro_micro"])
     for test in ("ttc", "psc"):
         if ens.test(test) is None:
             continue
-        stat = per_seed(ens, lambda run, t=test: report.fabric_peak_lag(run, t))
-        add(f"{test}: H11/H33 peaks after σ1/σ3 (ε1 lag, %)", "yes", stat, PERCENT, 2, "one-sample t vs 0",
-            sign_verdict(stat, 1))
+        add(f"{test}: H11/H33 peaks after σ1/σ3 (ε1 lag, %)", "yes",
+            per_seed(ens, lambda run, t=test: report.fabric_peak_lag(run, t) if run.peak_reached(t) else None,
+                     (test,)), PERCENT, 2, "sign", ONE_SAMPLE.format(0), expected=1)
         for name, label in (("Hs11_Hs33", "Hs11/Hs33"), ("b", "b")):
             if name == "b" and test != "psc":
                 continue
-            stat = per_seed(ens, lambda run, t=test, c=name: report.tracks_r(run, t, c))
-            add(f"{test}: {label} tracks σ1/σ3 (Pearson r)", "yes", stat, 1.0, 2,
-                f"one-sample t vs r = {report.TRACKS_MIN_R}", threshold_verdict(stat, report.TRACKS_MIN_R, False),
-                report.TRACKS_MIN_R)
+            add(f"{test}: {label} tracks σ1/σ3 (Pearson r)", "yes",
+                per_seed(ens, lambda run, t=test, c=name: report.tracks_r(run, t, c), (test,)), 1.0, 2, "threshold",
+                ONE_SAMPLE.format(f"r = {report.TRACKS_MIN_R}"), against=report.TRACKS_MIN_R, below=False)
+    flat = [p for c in claims for p in c.p]
+    adjusted, _ = stats.holm(flat, ALPHA)
+    k = 0
+    for c in claims:
+        c.adjusted = adjusted[k:k + len(c.p)]
+        k += len(c.p)
     return claims
 
 
 def paper_section(ens):
-    rows = paper_claims(ens)
+    claims = paper_claims(ens)
+    rows = [(c.label, c.paper_text, c.interval_text(), c.test_text(), c.verdict()) for c in claims]
+    margins = [f"{k}: ±{m:g} {unit} ({why})" for k, (m, unit, why) in ALIKE_MARGINS.items()]
+    bad = {t: uncontrolled_seeds(ens, t) for t in ("ttc", "psc")}
+    bad_text = "; ".join(f"{t} on seeds {', '.join(map(str, s))}" for t, s in bad.items() if s)
     if not rows:
         return "No finding of the paper can be judged on these tests (they need tests named ttc and psc)."
     return "\n".join([
         "Paper: *A comparison between true triaxial and plane strain compression by 3D DEM*. Each finding is judged "
-        f"over the {len(ens.runs)} seeds: the run's value is the mean ± standard deviation [95 % interval of the "
-        "mean]; a difference (from the paper's value, from 0, from a threshold) is called only when that interval "
-        "excludes it (Student t, two-sided, 5 %), else the finding is \"not distinguishable at N seeds\". "
-        "Summary quantities and paired differences are celldem's (ensemble.json); the rest is measured on each "
+        f"over the {len(ens.runs)} seeds, each by the test named in its row, two-sided; all "
+        f"{sum(p is not None for c in claims for p in c.p)} hypotheses of the table are one family, Holm-adjusted "
+        f"to a family-wise error rate of {ALPHA * 100:g} % (a verdict is called when its Holm-adjusted p ≤ {ALPHA:g}). "
+        "A value of the paper comes from one sample, so it is compared with the prediction interval of one more "
+        "seed, mean ± t(0.975, n − 1) s √(1 + 1/n) (PI95), not with the interval of the mean: \"consistent\" "
+        "means the paper's sample could be one more of ours. A sameness (\"alike\") is judged by equivalence: two "
+        "one-sided t-tests (TOST) that the paired difference lies within a stated margin: \"equivalent\" (TOST "
+        "rejects a difference as large as the margin: the 90 % interval lies inside it), \"different\" (not "
+        "equivalent, and the paired t-test rejects no difference) or \"undecided at N seeds\". Margins: "
+        + "; ".join(margins) + ". Other differences (from 0, from a threshold) are one-sample or paired t-tests "
+        "with their 95 % interval of the mean (CI95). "
+        + (f"Runs whose control failed are left out of every verdict ({bad_text}). " if bad_text else "")
+        + "Summary quantities and paired differences are celldem's (ensemble.json); the rest is measured on each "
         "seed's series as in a single run's report.", "",
-        md_table(("Finding", "Paper", "Ensemble: mean ± std [95 % interval]", "Test", "Matches the paper"), rows)])
+        md_table(("Finding", "Paper", "Ensemble: mean ± std; interval", "Test; p (Holm-adjusted)",
+                  "Matches the paper"), rows)])
 
 
 def build_report(ens, paper, planned):
@@ -233,6 +334,7 @@ def build_report(ens, paper, planned):
            "(celldem's ensemble.json). Figures: " + report.figures.BAND_TEXT + ".", ""]
     if paper:
         out += report.section("Comparison with the paper", paper_section(ens))
+    out += report.section("Controls of each seed", controls_section(ens))
     out += report.section("Per-test values over the seeds", tests_section(ens))
     out += report.section("Differences between tests", paired_section(ens))
     out += report.section("Preparation over the seeds", prepared_section(ens))

@@ -19,11 +19,35 @@ from . import plotting
 from .tables import md_table
 
 
-def peaks(summary, tests=None):
-    """(name, s1, s2, s3) at each test's peak (of `tests`, default all), from summary.json's peak_state."""
+PARAMETERS = 1  # each criterion's fitted constants; a fit needs at least PARAMETERS + 1 points
+
+
+def left_out(summary, tests=None):
+    """[(name, reason)] of the tests (of `tests`, default all) kept out of the fits: a control failed (summary.json
+    "controlled": false) or no peak was reached ("peak_reached": false: the largest s11/s33 is the test's last
+    row). A summary from before these keys counts as controlled with a peak."""
     out = []
     for name, t in summary.get("tests", {}).items():
-        if tests is not None and name not in tests:
+        if tests is not None and name not in tests or not isinstance(t, dict):
+            continue
+        reasons = []
+        if t.get("controlled", True) is False:
+            failures = "; ".join(str(f) for f in t.get("control_failures") or [])
+            reasons.append("its control failed" + (f" ({failures})" if failures else ""))
+        if t.get("peak_reached", True) is False:
+            reasons.append("no peak reached (the largest σ1/σ3 is its last row)")
+        if reasons:
+            out.append((name, " and ".join(reasons)))
+    return out
+
+
+def peaks(summary, tests=None):
+    """(name, s1, s2, s3) at each test's peak (of `tests`, default all), from summary.json's peak_state; tests
+    left_out() names are not among them."""
+    out = []
+    skip = {name for name, _ in left_out(summary, tests)}
+    for name, t in summary.get("tests", {}).items():
+        if tests is not None and name not in tests or name in skip:
             continue
         ps = t.get("peak_state") or {}
         if all(ps.get(k) is not None for k in ("sigma1", "sigma2", "sigma3")):
@@ -121,9 +145,10 @@ def analyse(run_dir, points, extra=()):
     """Fits the criteria to the peaks of the run (`points`) and of a paper run (`extra`), draws the two figures
     into RUN_DIR/figures; returns (Markdown lines: the peak table, the fits, the best; path of the φ-b figure,
     path of the π-plane figure). tools/report.py puts these in a run's report."""
+    if len(points) < PARAMETERS + 1:
+        raise ValueError(f"{run_dir}/summary.json has {len(points)} test(s) with a peak and held controls; a fit of "
+                         f"{PARAMETERS} constant needs at least {PARAMETERS + 1}: no fit")
     plt = plotting.pyplot()
-    if len(points) < 2:
-        raise ValueError(f"{run_dir}/summary.json has fewer than two finished tests with peak states")
 
     fits = {c: fit(c, points) for c in CRITERIA}
     best = min(fits, key=lambda c: fits[c][1])
@@ -162,7 +187,7 @@ def analyse(run_dir, points, extra=()):
     ax.axis("off")
     pi_png = plotting.save(fig, os.path.join(fig_dir, "failure_surface_pi_plane.png"))
 
-    lines = [md_table(("test", "σ1 (kPa)", "σ2 (kPa)", "σ3 (kPa)", "b", "φ (°)"),
+    lines = [md_table(("test", "σ1 (kPa)", "σ2 (kPa)", "σ3 (kPa)", "b (principal, plotted)", "φ (°)"),
                       [(name, f"{s1 / 1e3:.1f}", f"{s2 / 1e3:.1f}", f"{s3 / 1e3:.1f}", f"{b_of(s1, s2, s3):.3f}",
                         f"{phi_of(s1, s3):.2f}") for name, s1, s2, s3 in list(points) + list(extra)], align="lrrrrr"),
              "",
@@ -179,14 +204,28 @@ def analyse(run_dir, points, extra=()):
 
 
 HOW = ("Peaks are celldem's (`summary.json`, `peak_state`: the row of the largest σ11/σ33); b and φ from the "
-       "principal stresses there.")
+       "principal stresses there (b_principal), beside the axis b from the stresses on the cell's axes. Shear strains "
+       "are held at zero, so shear stresses are free: near b = 1 they split σ1 from σ2 and the principal b falls "
+       "below the axis b that the servo holds (a 300-sphere test held axis b at 1.0004 while b_principal was 0.859 "
+       "at the peak; 0.977 on 8000 spheres). The principal b is what a failure criterion sees, so it is plotted; "
+       "control of zero shear stresses, which would make the two agree, is left to the full-tensor control. Tests "
+       "whose control failed or that reached no peak are kept out of the fits.")
 
 
-def write(run_dir, points, extra=()):
+def left_out_text(excluded):
+    """'2 tests kept out of the fits: b05 (no peak reached ...); ...' or ''."""
+    if not excluded:
+        return ""
+    return (f"{len(excluded)} test{'s' if len(excluded) > 1 else ''} kept out of the fits: "
+            + "; ".join(f"{name} ({why})" for name, why in excluded) + ".")
+
+
+def write(run_dir, points, extra=(), excluded=()):
     """analyse(), then RUN_DIR/failure_surface.md; returns the paths of failure_surface.md and the two figures,
     and the text to print."""
     body, phi_png, pi_png = analyse(run_dir, points, extra)
-    lines = ["# Failure surface", "", f"Run: `{run_dir}`. {HOW}", ""] + body
+    note = left_out_text(excluded)
+    lines = ["# Failure surface", "", f"Run: `{run_dir}`. {HOW}", ""] + ([note, ""] if note else []) + body
     out = os.path.join(run_dir, "failure_surface.md")
     with open(out, "w", encoding="utf-8") as f:
         f.write("\n".join(lines + ["", f"![φ against b](figures/{os.path.basename(phi_png)})",

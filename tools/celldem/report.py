@@ -7,13 +7,14 @@ The peak of s11/s33, ε1 and b there, the final and end-window values come from 
 them); maxima, start values, interpolated values and the comparisons of curves are measured on series.csv.
 """
 
+import json
 import math
 import os
 
 import numpy as np
 
 from . import failure_surface, figures, metrics, scenes
-from .results import Ensemble, read_json
+from .results import Ensemble, number, read_json
 from .tables import fmt, md_table, scaled, yes_no
 
 PERCENT = 100.0
@@ -410,10 +411,12 @@ def failure_surface_section(run):
     unless the deck has two or more of them with peak states."""
     tests = scenes.constant_b_tests(run)
     points = failure_surface.peaks(run.summary, tests)
-    if len(points) < 2:
-        return None
+    note = failure_surface.left_out_text(failure_surface.left_out(run.summary, tests))
+    if len(points) < failure_surface.PARAMETERS + 1:
+        return None if not note else f"Tests with a constant-b axis: {', '.join(tests)}. {note} No fit: fewer than " \
+            f"{failure_surface.PARAMETERS + 1} tests left."
     body, phi_png, pi_png = failure_surface.analyse(run.directory, points)
-    return "\n".join([f"Tests with a constant-b axis: {', '.join(tests)}. {failure_surface.HOW}", ""] + body + [
+    return "\n".join([f"Tests with a constant-b axis: {', '.join(tests)}. {failure_surface.HOW} {note}", ""] + body + [
         "", f"![peak friction angle against b](figures/{os.path.basename(phi_png)})", "",
         f"![peak states in the π-plane](figures/{os.path.basename(pi_png)})", ""])
 
@@ -446,6 +449,66 @@ def study_section(run):
     return "\n".join(out)
 
 
+CONTROL_ERROR_KINDS = (("stress", "stress"), ("b", "b"), ("mean_stress", "p"), ("volume", "volume"))
+
+
+def percent_text(value):
+    """'0.53 %', '138 %' (three significant digits); 'n/a (not measured)' for None."""
+    return "n/a (not measured)" if value is None else f"{value * PERCENT:.3g} %"
+
+
+def leg_errors_text(errors):
+    """'stress 0.42 %, b 0.003' of a leg's control_errors (relative errors in %, b absolute); '—' where nothing was
+    measured (null values, or none of a kind the leg controls)."""
+    if not isinstance(errors, dict):
+        return "—"
+    bits = []
+    for key, label in CONTROL_ERROR_KINDS:
+        v = errors.get(key)
+        if v is None or (isinstance(v, (int, float)) and v == 0.0):
+            continue
+        bits.append(f"{label} {v:.3g}" if key == "b" else f"{label} {percent_text(v)}")
+    return ", ".join(bits) or "—"
+
+
+def control_state(run, test):
+    """'controlled', or 'UNCONTROLLED: <failures>' (summary.json's controlled and control_failures)."""
+    if run.controlled(test):
+        return "controlled"
+    failures = run.control_failures(test)
+    text = "; ".join(f if isinstance(f, str) else json.dumps(f, sort_keys=True) for f in failures)
+    return "**UNCONTROLLED**" + (f": {text}" if text else "")
+
+
+def controls_section(run):
+    """Each test's control errors: summary.json's servo_max_error, each leg's control_errors, whether the test
+    held its controls and reached a peak; None without tests."""
+    rows = []
+    for test in run.test_names:
+        info = run.test_summary(test)
+        legs = info.get("legs") or []
+        leg_text = "; ".join(f"leg {leg.get('leg', k)}: {leg_errors_text(leg.get('control_errors'))}"
+                             for k, leg in enumerate(legs) if isinstance(leg, dict)) or "—"
+        servo = info.get("servo_max_error")
+        rows.append((test, control_state(run, test),
+                     percent_text(number(servo)), leg_text,
+                     "yes" if run.peak_reached(test) else "**no** (largest σ1/σ3 at the test's end)"))
+    if not rows:
+        return None
+    out = md_table(("Test", "Controls", "Largest servo error", "Control errors per leg", "Peak reached"), rows)
+    bad = [t for t in run.test_names if not run.controlled(t)]
+    if bad:
+        out += (f"\n\n{', '.join(bad)}: a control failed and the deck chose to continue. Their values are shown but "
+                "no verdict, fit or statistic uses them.")
+    return out
+
+
+def uncontrolled_note(run):
+    bad = [t for t in run.test_names if not run.controlled(t)]
+    return (f" **{', '.join(bad)}: a control failed (see Controls); a comparison that uses "
+            f"{'it' if len(bad) == 1 else 'them'} does not judge the paper's loading path.**" if bad else "")
+
+
 def section(title, body):
     return [] if body is None else [f"## {title}", "", body, ""]
 
@@ -460,8 +523,9 @@ def build_report(run, paper, planned):
         out += ["## Comparison with the paper", "",
                 "Paper: *A comparison between true triaxial and plane strain compression by 3D DEM*. The comparisons "
                 "between tests use the tests named `ttc` and `psc`. \"Matches qualitatively\" says whether the run "
-                "shows what the paper reports, by the criterion in the last column.", "",
+                "shows what the paper reports, by the criterion in the last column." + uncontrolled_note(run), "",
                 paper_table(run), ""]
+    out += section("Controls", controls_section(run))
     if run.test_names:
         out += ["## Per-test values", "",
                 "The peak of σ1/σ3, ε1, b, p, q and the friction angle there, the final values and the end-window "

@@ -95,6 +95,20 @@ class Run:
             value = value.get(part) if isinstance(value, dict) else None
         return number(value)
 
+    def controlled(self, test):
+        """summary.json's "controlled" of `test`: False when a control failed and the deck chose to continue
+        (a run from before the key existed counts as controlled)."""
+        return self.test_summary(test).get("controlled", True) is not False
+
+    def peak_reached(self, test):
+        """summary.json's "peak_reached" of `test`: False when the largest s11/s33 is the test's last row (a run
+        from before the key existed counts as having one)."""
+        return self.test_summary(test).get("peak_reached", True) is not False
+
+    def control_failures(self, test):
+        """summary.json's "control_failures" of `test` ([] when there are none or the run predates them)."""
+        return list(self.test_summary(test).get("control_failures") or [])
+
     def unit(self, name):
         """The unit of series column `name` from series.columns.json, or None when unknown."""
         return (self.columns.get(name) or {}).get("unit")

@@ -1,42 +1,166 @@
 """Statistics over the seeds of an ensemble, for what the report measures on curves (celldem's ensemble.json
-holds those of every summary.json quantity; read them there, never recompute them).
+holds those of every summary.json quantity; read them there, never recompute them). Quantiles and p-values come
+from scipy.stats; nothing here is a hand-typed table.
 
 describe() gives the same fields, by the same definitions, as solver/run/ensemble.cpp: n, mean, std (n - 1),
-sem = std / sqrt(n), ci95 = mean -+ t(0.975, n - 1) sem. A difference is called only when its 95 % interval
-excludes the value it is compared with: a two-sided Student t-test at the 5 % level (one-sample for a value
-against a fixed one, paired when the values are per-seed differences of two tests on the same sample).
+sem = std / sqrt(n), ci95 = mean -+ t(0.975, n - 1) sem (the interval of the mean) and pi95 = mean -+
+t(0.975, n - 1) std sqrt(1 + 1/n) (the prediction interval of one more sample).
+
+The tests, each two-sided at level alpha unless said otherwise:
+- one_sample_p: a mean against a fixed value (one-sample t, n - 1 dof); with paired per-seed differences of two
+  tests on the same sample it is the paired t-test.
+- prediction_p: a single value (one sample, e.g. the paper's) against the ensemble: t = (x - mean) /
+  (std sqrt(1 + 1/n)), n - 1 dof; x lies outside pi95 exactly when p < 0.05.
+- tost: equivalence within +-margin by two one-sided t-tests (Schuirmann); its p is the larger of the two.
+- holm: Holm's step-down adjustment of a family of p-values, which keeps the family-wise error rate (the chance
+  of any false verdict in the family) at alpha.
 """
 
 import math
 
-# Two-sided 95 % quantiles of Student's t for 1..30 degrees of freedom; 1.96 beyond (ensemble.cpp's table).
-T95 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160, 2.145, 2.131,
-       2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042)
+import numpy as _np
+from scipy import optimize as _opt
+from scipy import stats as _st
+
+
+def t_quantile(p, dof):
+    """The p-quantile of Student's t with dof degrees of freedom."""
+    return float(_st.t.ppf(p, dof))
 
 
 def t95(dof):
-    return T95[dof - 1] if 1 <= dof <= len(T95) else 1.96
+    """t(0.975, dof): the two-sided 95 % quantile."""
+    return t_quantile(0.975, dof)
+
+
+def finite(values):
+    return [float(v) for v in values if v is not None and math.isfinite(v)]
 
 
 def describe(values):
-    """{"n", "mean", "std", "sem", "ci95", "values"} of the finite values (as ensemble.json), None without any."""
-    values = [float(v) for v in values if v is not None and math.isfinite(v)]
+    """{"n", "mean", "std", "sem", "ci95", "pi95", "values"} of the finite values (as ensemble.json), None without
+    any."""
+    values = finite(values)
     n = len(values)
     if n == 0:
         return None
     mean = sum(values) / n
     std = math.sqrt(sum((v - mean) ** 2 for v in values) / (n - 1)) if n > 1 else 0.0
     sem = std / math.sqrt(n)
-    half = t95(n - 1) * sem if n > 1 else 0.0
-    return {"n": n, "mean": mean, "std": std, "sem": sem, "ci95": [mean - half, mean + half], "values": values}
+    t = t95(n - 1) if n > 1 else 0.0
+    half, half_one = t * sem, t * std * math.sqrt(1.0 + 1.0 / n)
+    return {"n": n, "mean": mean, "std": std, "sem": sem, "ci95": [mean - half, mean + half],
+            "pi95": [mean - half_one, mean + half_one], "values": values}
 
 
-def compare(stat, value=0.0):
-    """-1, 0 or +1: the mean is below, not distinguishable from, or above `value` (95 % interval); None without
-    a statistic or with fewer than two seeds."""
+def prediction_interval(stat, level=0.95):
+    """mean -+ t((1 + level)/2, n - 1) std sqrt(1 + 1/n): where one more sample falls with probability `level`."""
+    n = stat["n"]
+    half = t_quantile(0.5 + level / 2.0, n - 1) * stat["std"] * math.sqrt(1.0 + 1.0 / n)
+    return [stat["mean"] - half, stat["mean"] + half]
+
+
+def _two_sided(t, dof):
+    return float(2.0 * _st.t.sf(abs(t), dof))
+
+
+def one_sample_p(stat, value=0.0):
+    """Two-sided p of the one-sample t-test of the mean against `value` (the paired t-test when the values are
+    per-seed differences); None with fewer than two values; 0 or 1 when the values do not scatter."""
     if stat is None or stat.get("n", 0) < 2:
         return None
-    lo, hi = stat["ci95"]
+    if stat["sem"] == 0:
+        return 1.0 if stat["mean"] == value else 0.0
+    return _two_sided((stat["mean"] - value) / stat["sem"], stat["n"] - 1)
+
+
+def prediction_p(stat, value):
+    """Two-sided p of a single value against the ensemble as one more sample of it: t = (value - mean) /
+    (std sqrt(1 + 1/n)), n - 1 dof. None with fewer than two values."""
+    if stat is None or stat.get("n", 0) < 2:
+        return None
+    scale = stat["std"] * math.sqrt(1.0 + 1.0 / stat["n"])
+    if scale == 0:
+        return 1.0 if stat["mean"] == value else 0.0
+    return _two_sided((value - stat["mean"]) / scale, stat["n"] - 1)
+
+
+def tost(stat, margin):
+    """Two one-sided t-tests of |mean| < margin (the mean of paired differences): {"p": the larger one-sided p,
+    "p_lower", "p_upper", "interval": the (1 - 2 alpha) interval at alpha = 0.05, i.e. the 90 % interval}. The
+    difference is equivalent to 0 within the margin at level alpha when p < alpha (that interval inside
+    +-margin). None with fewer than two values."""
+    if stat is None or stat.get("n", 0) < 2:
+        return None
+    n, mean, sem = stat["n"], stat["mean"], stat["sem"]
+    if sem == 0:
+        p = 0.0 if abs(mean) < margin else 1.0
+        return {"p": p, "p_lower": p, "p_upper": p, "interval": [mean, mean]}
+    p_lower = float(_st.t.sf((mean + margin) / sem, n - 1))   # H0: mean <= -margin
+    p_upper = float(_st.t.cdf((mean - margin) / sem, n - 1))  # H0: mean >= +margin
+    half = t_quantile(0.95, n - 1) * sem
+    return {"p": max(p_lower, p_upper), "p_lower": p_lower, "p_upper": p_upper, "interval": [mean - half, mean + half]}
+
+
+def holm(pvalues, alpha=0.05):
+    """Holm's step-down procedure. pvalues: a list (None entries are not tested). Returns (adjusted p-values,
+    rejected) lists in the same order: the k-th smallest of m p-values is compared with alpha / (m - k + 1), and
+    testing stops at the first that is not rejected; the adjusted p is the running maximum of (m - k + 1) p_(k),
+    capped at 1, so that rejected == (adjusted <= alpha)."""
+    idx = [i for i, p in enumerate(pvalues) if p is not None]
+    m = len(idx)
+    adjusted = [None] * len(pvalues)
+    rejected = [False] * len(pvalues)
+    running = 0.0
+    for k, i in enumerate(sorted(idx, key=lambda i: pvalues[i])):
+        running = max(running, min(1.0, (m - k) * pvalues[i]))
+        adjusted[i] = running
+        rejected[i] = running <= alpha
+    return adjusted, rejected
+
+
+def equivalence_verdict(p_different, p_tost, n, alpha=0.05):
+    """The verdict of a sameness claim from its (Holm-adjusted) p-values: "equivalent" when TOST rejects a
+    difference as large as the margin, else "different" when the paired t-test rejects no difference, else
+    "undecided at n seeds"."""
+    if p_tost is not None and p_tost <= alpha:
+        return "equivalent"
+    if p_different is not None and p_different <= alpha:
+        return "different"
+    return f"undecided at {n} seeds"
+
+
+def smallest_detectable(n, std, alpha=0.05, power=0.8):
+    """The smallest true mean difference that a two-sided one-sample t-test at level alpha over n paired values of
+    standard deviation `std` detects with probability `power`: solved exactly on the noncentral t distribution
+    (scipy.stats.nct), not the normal approximation. None with fewer than two values."""
+    if n < 2 or std is None:
+        return None
+    if std == 0:
+        return 0.0
+    dof = n - 1
+    crit = t_quantile(1.0 - alpha / 2.0, dof)
+    sqn = math.sqrt(n)
+
+    def power_at(delta):  # delta in units of std
+        nc = delta * sqn
+        with _np.errstate(divide="ignore", invalid="ignore"):  # scipy's nct warns on its far tail, harmlessly
+            return float(_st.nct.sf(crit, dof, nc) + _st.nct.cdf(-crit, dof, nc))
+
+    hi = 1.0
+    while power_at(hi) < power:
+        hi *= 2.0
+    return float(_opt.brentq(lambda d: power_at(d) - power, 0.0, hi, xtol=1e-10)) * std
+
+
+# ---- the report's verdict helpers ---------------------------------------------------------------------------
+
+def compare(stat, value=0.0, interval="ci95"):
+    """-1, 0 or +1: the mean is below, not distinguishable from, or above `value` by the 95 % interval named
+    (ci95: the mean's; pi95: one more sample's); None without a statistic or with fewer than two seeds."""
+    if stat is None or stat.get("n", 0) < 2:
+        return None
+    lo, hi = stat[interval] if interval in stat else prediction_interval(stat)
     return 1 if lo > value else -1 if hi < value else 0
 
 
@@ -47,6 +171,13 @@ def t_text(stat, value=0.0):
     if stat["sem"] == 0:
         return f"sem 0, {stat['n'] - 1} dof"
     return f"t = {(stat['mean'] - value) / stat['sem']:.2f}, {stat['n'] - 1} dof"
+
+
+def p_text(p, adjusted=None):
+    """'p = 0.012, Holm 0.048'."""
+    if p is None:
+        return "p n/a"
+    return f"p = {p:.3g}" + ("" if adjusted is None else f", Holm {adjusted:.3g}")
 
 
 def not_distinguishable(stat):

@@ -25,10 +25,20 @@ the speed–accuracy study's modelling runs do (tools/study.py). Running is stud
 robust peak fields peak_robust.ratio13, .e1 and .b_mean when present, end_window.ev and .Z), the noise floor
 study_analysis.noise_floor's (the seed-to-seed standard deviation of the baseline, ddof 1).
 
-The change of a variant: delta = its seed-mean - the baseline's seed-mean; delta / floor (noise units), and
-z = delta / (floor sqrt(1/n_base + 1/n_variant)), the change in units of the standard error of a difference of
-two seed-means whose seeds scatter by the noise floor. |z| > THRESHOLD: the sub-model is "needed" for that
-quantity; a switch is needed when any quantity needs it.
+The change of a variant is judged on paired differences: baseline and variant run their tests from the same
+prepared sample, so each seed gives d = variant - baseline. Per quantity: a one-sample t-test of the mean of d
+against 0 (n - 1 degrees of freedom, scipy.stats), and two one-sided t-tests (TOST) that |mean d| is below a
+margin of MARGIN_FLOORS noise floors (the baseline's seed-to-seed standard deviation). Per switch:
+- "needed": some quantity changes, i.e. its t-test rejects 0 after Holm's adjustment over the switch's quantities
+  (family-wise error rate ALPHA: the chance that a switch that changes nothing is called needed is at most ALPHA)
+  and the change is not equivalent to 0 within the margin (a significant but negligible change, such as a
+  systematic round-off shift, is not a need);
+- "not needed": every quantity is equivalent to no change within the margin (TOST at ALPHA each; an
+  intersection-union test, whose error rate is ALPHA without adjustment);
+- "undecided at n seeds" otherwise.
+Beside each quantity the smallest change the run detects with 80 % power at Holm's strictest level ALPHA / m
+(the noncentral t distribution, scipy.stats.nct; not the normal approximation), from the paired differences'
+standard deviation: a switch "undecided" with a detectable change above the margin needs more seeds.
 """
 
 import copy
@@ -41,6 +51,7 @@ import time
 
 from . import binary, decks, study_runs
 from .results import number, read_json
+from . import stats
 from .stats import describe
 from .study_analysis import noise_floor, test_metrics
 from .study_scene import QUANTITY_LABELS
@@ -49,14 +60,21 @@ from .tables import fmt, md_table
 DEFAULT_COUNT = 300          # spheres of the reduced scene
 DEFAULT_END_STRAIN = 0.04    # the tests' end strain on the reduced scene (rolling resistance moves the peak late)
 DEFAULT_SEEDS = (1, 2, 3, 4)
-THRESHOLD = 2.0              # |z| above this: needed
+ALPHA = 0.05                 # family-wise error rate of "needed" per switch (Holm), and of each TOST
+MARGIN_FLOORS = 1.0          # "not needed": the change is within this many noise floors (TOST)
+POWER = 0.8                  # the smallest detectable change is given at this power
 Z_PHI = 3.6                  # mean contact force pi d^2 p / (Z phi), as celldem's default reference overlap
 
 QUANTITY_ORDER = ("peak_ratio", "e1_peak", "ev_end", "Z_end", "b_peak")
+PEAK_QUANTITIES = ("peak_ratio", "e1_peak", "b_peak")  # left out of a test whose summary says "peak_reached": false
 PERCENT = {"e1_peak", "ev_end"}
 ROBUST_KEYS = {"peak_ratio": "peak_robust.ratio13", "e1_peak": "peak_robust.e1", "b_peak": "peak_robust.b_mean"}
 SUMMARY_TEXT = {"peak_ratio": "peak_robust.ratio13 (else peak_ratio13)", "e1_peak": "peak_robust.e1 (else e1_at_peak)",
                 "b_peak": "peak_robust.b_mean (else b_at_peak)", "ev_end": "end_window.ev", "Z_end": "end_window.Z"}
+
+# A switch that changes nothing physical, for calibration (--switches round_off): chaotic runs make it differ by
+# round-off only, so it must never be "needed".
+CALIBRATION_SWITCHES = (("round_off", "time_step × (1 + 1e-9) (round-off only, calibration)"),)
 
 SWITCHES = (
     ("normal", "normal: hertz → linear"),
@@ -152,7 +170,8 @@ def switch_applies(deck, key):
             "twisting": (c.get("twisting", "none") == "marshall", f"twisting is {c.get('twisting', 'none')}"),
             "rotational_damping": ((number(deck["damping"].get("rotational")) or 0.0) > 0.0,
                                    "damping.rotational is 0"),
-            "kinematics": (deck.get("kinematics", "affine") == "affine", f"kinematics is {deck.get('kinematics')}")}
+            "kinematics": (deck.get("kinematics", "affine") == "affine", f"kinematics is {deck.get('kinematics')}"),
+            "round_off": (True, None)}
     ok, why = have[key]
     return ok, None if ok else f"skipped: {why}"
 
@@ -181,6 +200,9 @@ def switched(deck, key, contact_mean):
         out["damping"]["rotational"] = 0.0
     elif key == "kinematics":
         out["kinematics"] = "lammps"
+    elif key == "round_off":
+        out["time_step"] = deck["time_step"] * (1.0 + 1e-9)
+        note = {"time_step": out["time_step"]}
     out["contact"] = clean_contact(c)
     return out, note
 
@@ -202,14 +224,16 @@ def keep_drag(base_plan, variant, celldem):
     return out, factors
 
 
-def variants(deck, celldem):
-    """[(key, label, deck or None, info)] for the baseline ("baseline") and each switch; deck None: skipped
-    (info["skipped"] says why). `deck` is the reduced deck."""
+def variants(deck, celldem, keys=None):
+    """[(key, label, deck or None, info)] for the baseline ("baseline") and each switch (those named in `keys`
+    when given, from SWITCHES and CALIBRATION_SWITCHES); deck None: skipped (info["skipped"] says why). `deck` is
+    the reduced deck."""
     plan = binary.plan_deck(deck, None, celldem)
     d_mean = plan["sample"]["mean_diameter"]
     cm = mean_contact(deck, d_mean)
     out = [("baseline", "baseline (the deck as it is)", deck, {"mean_contact": cm})]
-    for key, label in SWITCHES:
+    table = SWITCHES if keys is None else [(k, l) for k, l in SWITCHES + CALIBRATION_SWITCHES if k in keys]
+    for key, label in table:
         ok, why = switch_applies(deck, key)
         no_mean = cm is None or (key == "tangential" and cm["kt_mindlin"] is None)
         if ok and key in ("normal", "tangential") and no_mean:
@@ -332,24 +356,56 @@ def run_metrics(summary, end_strain):
     return out
 
 
-def change(base_values, variant_values, floor, threshold=THRESHOLD):
-    """The change of a variant's seed-mean from the baseline's, in noise units: {"delta", "noise_units"
-    (delta / floor), "z" (delta / (floor sqrt(1/nb + 1/nv))), "verdict"}; None without values."""
-    b, v = describe(base_values), describe(variant_values)
-    if b is None or v is None:
+def paired(base_by_seed, variant_by_seed):
+    """The per-seed differences variant - baseline over the seeds both have, in seed order."""
+    return [variant_by_seed[k] - base_by_seed[k] for k in sorted(base_by_seed) if k in variant_by_seed]
+
+
+def change(differences, floor, n_quantities=1, margin_floors=MARGIN_FLOORS, alpha=ALPHA, detectable=True):
+    """One quantity's change from its paired differences: {"delta" (mean difference), "diff" (describe of the
+    differences), "floor", "noise_units" (delta / floor), "margin" (margin_floors x floor), "p" (paired t, two-sided),
+    "p_tost", "detectable" (the smallest change detected with POWER at alpha / n_quantities)}; None without
+    values (detectable False: not computed, for simulations). The verdict is set by judge_switch (it needs the switch's other quantities)."""
+    d = describe(differences)
+    if d is None:
         return None
-    delta = v["mean"] - b["mean"]
-    out = {"delta": delta, "base": b, "variant": v, "floor": floor, "noise_units": None, "z": None}
-    if floor is None or floor <= 0.0:
-        out["verdict"] = "undetermined (no seed-to-seed spread)" if floor == 0.0 else "undetermined (one seed)"
-        return out
-    out["noise_units"] = delta / floor
-    out["z"] = delta / (floor * math.sqrt(1.0 / b["n"] + 1.0 / v["n"]))
-    out["verdict"] = "needed" if abs(out["z"]) > threshold else "not needed"
+    out = {"delta": d["mean"], "diff": d, "n": d["n"], "floor": floor, "noise_units": None, "margin": None,
+           "p": stats.one_sample_p(d), "p_tost": None, "p_holm": None,
+           "detectable": stats.smallest_detectable(d["n"], d["std"], alpha / max(1, n_quantities), POWER)
+           if detectable else None}
+    if floor is not None and floor > 0.0:
+        out["noise_units"] = d["mean"] / floor
+        out["margin"] = margin_floors * floor
+        t = stats.tost(d, out["margin"])
+        out["p_tost"] = None if t is None else t["p"]
     return out
 
 
-def analyse(root, deck_path, deck, configs, seeds, scene, threshold=THRESHOLD):
+def judge_switch(changes, alpha=ALPHA):
+    """Sets each change's "p_holm" and "verdict" ("changes", "within margin", "undecided") and returns the switch's
+    verdict: "needed" (some quantity changes: Holm-adjusted paired t <= alpha over the switch's quantities, and
+    not equivalent within its margin), "not needed" (every quantity within its margin by TOST at alpha), or
+    "undecided at n seeds"."""
+    keys = [k for k, c in changes.items() if c is not None]
+    if not keys:
+        return "undetermined (no values)"
+    adjusted, _ = stats.holm([changes[k]["p"] for k in keys], alpha)
+    for k, a in zip(keys, adjusted):
+        c = changes[k]
+        c["p_holm"] = a
+        equivalent = c["p_tost"] is not None and c["p_tost"] <= alpha
+        c["verdict"] = ("within margin" if equivalent else
+                        "changes" if a is not None and a <= alpha else "undecided")
+    verdicts = [changes[k]["verdict"] for k in keys]
+    n = min(changes[k]["n"] for k in keys)
+    if "changes" in verdicts:
+        return "needed"
+    if all(v == "within margin" for v in verdicts):
+        return "not needed"
+    return f"undecided at {n} seeds"
+
+
+def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_FLOORS, alpha=ALPHA):
     """The result dict of the runs under `root` (sufficiency.json)."""
     specs = build_plan(deck, configs, seeds)
     end_strain = scene["end_strain"]
@@ -371,6 +427,15 @@ def analyse(root, deck_path, deck, configs, seeds, scene, threshold=THRESHOLD):
             failed.append(s["name"])
             continue
         entry["metrics"] = run_metrics(summary, end_strain)
+        # tests whose control failed (summary.json "controlled": false) are left out of the comparisons
+        entry["excluded"] = {t: "uncontrolled" for t, info in (summary.get("tests") or {}).items()
+                             if isinstance(info, dict) and info.get("controlled", True) is False}
+        for t in entry["excluded"]:  # nor in the noise floor
+            entry["metrics"].pop(t, None)
+        for t, info in (summary.get("tests") or {}).items():  # no peak reached: no peak quantities
+            if isinstance(info, dict) and info.get("peak_reached", True) is False and t in entry["metrics"]:
+                for q in PEAK_QUANTITIES:
+                    entry["metrics"][t].pop(q, None)
         entry["peak_at_end"] = {}
         for test, info in (summary.get("tests") or {}).items():
             plateau = (info.get("peak_robust") or {}).get("plateau_e1") if isinstance(info, dict) else None
@@ -387,6 +452,10 @@ def analyse(root, deck_path, deck, configs, seeds, scene, threshold=THRESHOLD):
     def values(rs, q):
         return [r["metrics"].get(q[0], {}).get(q[1]) for r in rs if r["metrics"].get(q[0], {}).get(q[1]) is not None]
 
+    def by_seed(rs, q):
+        return {r["seed"]: r["metrics"][q[0]][q[1]] for r in rs
+                if r["metrics"].get(q[0], {}).get(q[1]) is not None}
+
     rows = []
     for key, label, vdeck, info in configs:
         row = {"key": key, "label": label, "info": info}
@@ -401,14 +470,11 @@ def analyse(root, deck_path, deck, configs, seeds, scene, threshold=THRESHOLD):
         row["peak_at_end"] = {t: sum(1 for r in rs if r["peak_at_end"].get(t)) for t in deck_tests(deck)}
         row["seed_means"] = {f"{t}.{q}": (describe(values(rs, (t, q))) or {}).get("mean") for t, q in quantities}
         if key != "baseline":
-            row["changes"] = {f"{t}.{q}": change(values(base_runs, (t, q)), values(rs, (t, q)), floor[(t, q)],
-                                                 threshold) for t, q in quantities}
-            verdicts = [c["verdict"] for c in row["changes"].values() if c]
-            row["needed_for"] = [k for k, c in row["changes"].items() if c and c["verdict"] == "needed"]
-            row["verdict"] = ("needed" if row["needed_for"] else
-                              "not needed" if verdicts and all(v == "not needed" for v in verdicts) else
-                              "not needed (some quantities undetermined)" if "not needed" in verdicts else
-                              "undetermined")
+            row["changes"] = {f"{t}.{q}": change(paired(by_seed(base_runs, (t, q)), by_seed(rs, (t, q))),
+                                                 floor[(t, q)], len(quantities), margin_floors, alpha)
+                              for t, q in quantities}
+            row["verdict"] = judge_switch(row["changes"], alpha)
+            row["needed_for"] = [k for k, c in row["changes"].items() if c and c["verdict"] == "changes"]
             if not rs:
                 row["verdict"] = "not run"
         rows.append(row)
@@ -419,7 +485,9 @@ def analyse(root, deck_path, deck, configs, seeds, scene, threshold=THRESHOLD):
             "run_wall_s": sum(r["wall_s"] or 0.0 for r in all_runs),
             "runs": len(all_runs), "invocations": timing["invocations"],
             "wall_s": sum(i["wall_s"] for i in timing["invocations"])}
-    return {"deck": deck_path, "scene": scene, "seeds": list(seeds), "threshold": threshold,
+    uncontrolled = sorted(f"{r['name']}: {t}" for rs in runs.values() for r in rs for t in r["excluded"])
+    return {"deck": deck_path, "scene": scene, "seeds": list(seeds), "alpha": alpha, "margin_floors": margin_floors,
+            "power": POWER, "uncontrolled": uncontrolled,
             "quantities": [f"{t}.{q}" for t, q in quantities],
             "summary_fields": SUMMARY_TEXT,
             "noise_floor": {f"{t}.{q}": {"mean": mean[(t, q)], "std": floor[(t, q)]} for t, q in quantities},
@@ -443,12 +511,16 @@ def scaled_value(key, v):
 
 
 def cell(c, key):
+    """'0.012 (+0.45 fl.; p 0.03, Holm 0.2; ≥ 0.9 fl.) ✗': Δ, Δ in noise floors, the paired t's p and its Holm
+    adjustment, the smallest change detectable at 80 % power in floors; ✗ a change, ≈ within the margin."""
     if c is None:
         return "n/a"
-    if c["z"] is None:
-        return f"{fmt(scaled_value(key, c['delta']))} (—)"
-    mark = " **✗**" if c["verdict"] == "needed" else ""
-    return f"{fmt(scaled_value(key, c['delta']))} ({c['noise_units']:+.2f}; z {c['z']:+.2f}){mark}"
+    if c["noise_units"] is None:
+        return f"{fmt(scaled_value(key, c['delta']))} (no noise floor)"
+    mark = {"changes": " **✗**", "within margin": " ≈"}.get(c.get("verdict"), "")
+    det = "n/a" if c["detectable"] is None else f"{c['detectable'] / c['floor']:.2f}"
+    p = "n/a" if c["p"] is None else f"{c['p']:.2g}, Holm {c['p_holm']:.2g}"
+    return f"{fmt(scaled_value(key, c['delta']))} ({c['noise_units']:+.2f} fl.; p {p}; detects {det} fl.){mark}"
 
 
 def markdown(result, heading="#"):
@@ -474,10 +546,18 @@ def markdown(result, heading="#"):
              "a = sqrt(R* δ). Contact-law switches keep the baseline's drag coefficients (damping fractions "
              "rescaled)." if any((r.get("info") or {}).get("set") for r in result["rows"]) else ""),
             "",
-            f"Cells: Δ = variant seed-mean − baseline seed-mean (strains in %); in parentheses Δ / noise floor "
-            f"(the baseline's seed-to-seed std) and z = Δ / (floor · sqrt(1/n_b + 1/n_v)), the change in standard "
-            f"errors of the difference; **✗** and \"needed\": |z| > {result['threshold']:g}. Quantities from "
-            "summary.json: " + "; ".join(f"{k}: {v}" for k, v in result["summary_fields"].items()) + ".", ""]
+            f"Cells: Δ = the mean over the seeds of the paired difference variant − baseline on the same sample "
+            f"(strains in %); in parentheses Δ in noise floors (fl.: the baseline's seed-to-seed std), the two-sided "
+            f"p of the paired t-test (n − 1 dof) and its Holm adjustment over the switch's {len(qs)} quantities, and "
+            f"the smallest change the seeds detect with {result['power'] * 100:g} % power at Holm's strictest level "
+            f"α/{len(qs)} (noncentral t), in floors. **✗**: the quantity changes (Holm-adjusted p ≤ "
+            f"{result['alpha']:g} and not within the margin); ≈: within the margin of ±{result['margin_floors']:g} "
+            f"noise floor by two one-sided t-tests (TOST) at {result['alpha']:g}. Verdicts: \"needed\" when some "
+            f"quantity changes (family-wise error rate {result['alpha'] * 100:g} % per switch: a switch that changes "
+            "nothing is called needed at most that often); \"not needed\" when every quantity is within the margin "
+            "(an intersection-union test at the same level); else \"undecided at n seeds\" (more seeds, or a "
+            "detectable change below the margin, would decide). Quantities from summary.json: "
+            + "; ".join(f"{k}: {v}" for k, v in result["summary_fields"].items()) + ".", ""]
     headers = ["switch", "seeds", "verdict"] + [quantity_label(k) for k in qs]
     rows = []
     for r in result["rows"]:
@@ -508,6 +588,8 @@ def markdown(result, heading="#"):
                      "its ε1 is then the end's): " + ", ".join(late) + ".")
     if result["failed"]:
         notes.append(f"- Failed runs (left out): {', '.join(result['failed'])}.")
+    if result.get("uncontrolled"):
+        notes.append(f"- Tests whose control failed (left out of the comparisons): {', '.join(result['uncontrolled'])}.")
     waits = cost["invocations"]
     notes.append(f"- Cost: {cost['runs']} runs ({len(result['samples'])} preparations), "
                  f"{fmt(cost['cpu_s'], 0)} CPU s in all; wall {fmt(cost['wall_s'], 0)} s with "
@@ -540,8 +622,9 @@ def study_section(study_root):
         return []
     out = ["## Model sufficiency", "",
            "`tools/sufficiency.py DECK --out DIR`: each sub-model or term of a deck switched one step simpler, one "
-           "at a time, on a reduced scene over several seeds; a change beyond the noise floor (by a standard-error "
-           "measure) marks the sub-model as needed. Included from:", ""]
+           "at a time, on a reduced scene over several seeds; a paired t-test per quantity with Holm's adjustment "
+           "over the switch's quantities marks the sub-model as needed, equivalence within a noise floor (TOST) as "
+           "not needed. Included from:", ""]
     out += [f"- `{os.path.relpath(p, study_root)}`" for p in found] + [""]
     for p in found:
         with open(p, encoding="utf-8") as f:

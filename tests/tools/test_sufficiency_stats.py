@@ -1,0 +1,102 @@
+"""pytest: the model-sufficiency verdicts (tools/celldem/sufficiency.py) under no effect and under a real one.
+
+Synthetic paired data as the tool sees them: per seed a baseline value and a variant value of each quantity, both
+from the same prepared sample (a shared seed effect) plus run-to-run scatter. Under no effect the old rule
+(unpaired z = delta / (floor sqrt(1/nb + 1/nv)) > 2, the floor from the baseline's 4 seeds, a switch needed when any
+of its quantities crosses) is reproduced to cry wolf; the new one (paired t, Holm over the switch's quantities)
+calls a switch needed at most 5 % of the time.
+"""
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
+from celldem import stats, sufficiency as su  # noqa: E402
+
+N_SEEDS = 4
+N_QUANTITIES = 10
+REPS = 2000
+
+
+def old_rule(base, variant):
+    """The rule before: |z| > 2 with z = delta / (floor sqrt(1/nb + 1/nv)), floor = the baseline's std."""
+    floor = np.std(base, ddof=1)
+    z = (np.mean(variant) - np.mean(base)) / (floor * math.sqrt(1 / len(base) + 1 / len(variant)))
+    return abs(z) > 2.0
+
+
+def synthetic(rng, effect=0.0, shared=1.0, scatter=0.5):
+    """(base, variant) arrays (quantities x seeds): a seed effect shared by both, independent scatter, and
+    `effect` (in the baseline's std) added to the variant."""
+    seed_effect = shared * rng.standard_normal((N_QUANTITIES, N_SEEDS))
+    base = seed_effect + scatter * rng.standard_normal((N_QUANTITIES, N_SEEDS))
+    variant = seed_effect + scatter * rng.standard_normal((N_QUANTITIES, N_SEEDS)) + effect
+    return base, variant
+
+
+def new_verdict(base, variant):
+    changes = {}
+    for q in range(base.shape[0]):
+        floor = float(np.std(base[q], ddof=1))
+        changes[q] = su.change(list(variant[q] - base[q]), floor, base.shape[0], detectable=False)
+    return su.judge_switch(changes)
+
+
+def rates(rule, reps=REPS, seed=12345, **kw):
+    rng = np.random.default_rng(seed)
+    per_quantity = per_switch = 0
+    for _ in range(reps):
+        base, variant = synthetic(rng, **kw)
+        flags = rule(base, variant)
+        per_quantity += sum(flags) if isinstance(flags, list) else 0
+        per_switch += any(flags) if isinstance(flags, list) else flags
+    return per_quantity / (reps * N_QUANTITIES), per_switch / reps
+
+
+def test_old_rule_cries_wolf():
+    # Unpaired as the old tool was: independent samples (no shared seed effect), as in the issue's simulation.
+    q_rate, s_rate = rates(lambda b, v: [old_rule(b[q], v[q]) for q in range(N_QUANTITIES)], reps=4000,
+                           shared=0.0, scatter=1.0)
+    print(f"old rule under no effect: {q_rate:.1%} per quantity, {s_rate:.1%} per switch of {N_QUANTITIES}")
+    assert 0.11 < q_rate < 0.17       # about 14 %
+    assert 0.70 < s_rate < 0.85       # about 78 %
+
+
+@pytest.mark.parametrize("shared,scatter", [(1.0, 0.5), (0.0, 1.0)])
+def test_new_rule_false_needed_rate_at_most_5_percent(shared, scatter):
+    _, s_rate = rates(lambda b, v: new_verdict(b, v) == "needed", shared=shared, scatter=scatter)
+    se = math.sqrt(0.05 * 0.95 / REPS)
+    print(f"new rule under no effect (shared {shared}, scatter {scatter}): {s_rate:.2%} of switches needed")
+    assert s_rate <= 0.05 + 2 * se
+
+
+def test_new_rule_finds_a_real_effect():
+    # A change of 3 noise floors in every quantity, scatter between paired runs half the floor: needed.
+    _, s_rate = rates(lambda b, v: new_verdict(b, v) == "needed", reps=200, effect=3.0)
+    assert s_rate > 0.9
+
+
+def test_round_off_shift_is_not_needed():
+    # A systematic but negligible shift (1e-9 of the floor, as a round-off change of the time step) is
+    # significant by a paired t when the paired runs scatter less still, but within the margin: not needed.
+    rng = np.random.default_rng(7)
+    base = rng.standard_normal((N_QUANTITIES, N_SEEDS))
+    variant = base + 1e-9 + 1e-12 * rng.standard_normal((N_QUANTITIES, N_SEEDS))
+    assert new_verdict(base, variant) == "not needed"
+
+
+def test_verdicts_on_constructed_changes():
+    floor = 1.0
+    big = su.change([2.0, 2.1, 1.9, 2.05], floor, 1)
+    none = su.change([0.01, -0.02, 0.015, 0.0], floor, 1)
+    wide = su.change([1.5, -1.4, 0.9, -0.2], floor, 1)
+    assert su.judge_switch({"a": big}) == "needed"
+    assert su.judge_switch({"a": none}) == "not needed"
+    assert su.judge_switch({"a": wide}) == "undecided at 4 seeds"
+    assert su.judge_switch({"a": none, "b": wide}) == "undecided at 4 seeds"
+    # the smallest detectable change is the noncentral-t one at alpha / m
+    c = su.change([0.3, -0.1, 0.2, 0.0, 0.1], floor, 5)
+    assert c["detectable"] == pytest.approx(stats.smallest_detectable(5, c["diff"]["std"], 0.05 / 5, 0.8))
