@@ -36,6 +36,7 @@ namespace keys {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMaxCount = 1125899906842624.0;  // 2^50: counts of steps and rows
 constexpr double kMaxSeed = 9007199254740992.0;   // 2^53: seeds a double still holds exactly
+constexpr std::size_t kMaxTestNameLength = 64;     // a folder and file prefix: far below any NAME_MAX
 
 // clang-format off
 inline constexpr KeySpec format{.path = "format", .kind = KeyKind::Integer, .min = 1, .max = 1000,
@@ -216,7 +217,7 @@ inline constexpr KeySpec initial_state{.path = "initial_state", .kind = KeyKind:
 inline constexpr KeySpec tests{.path = "tests", .kind = KeyKind::Array, .required = false, .default_text = "[]",
     .meaning = "loading tests, each from the prepared state (at least one without `prepare`)"};
 inline constexpr KeySpec test_name{.path = "tests[].name", .kind = KeyKind::String,
-    .meaning = "letters, digits, `_` or `-`; unique; not `prepare`"};
+    .meaning = "letters, digits, `_` or `-`, at most 64; unique; not `prepare`"};
 inline constexpr KeySpec test_friction{.path = "tests[].friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .meaning = "interparticle friction coefficient"};
 inline constexpr KeySpec test_rolling_friction{.path = "tests[].rolling_friction", .kind = KeyKind::Number,

@@ -62,6 +62,35 @@ void check_state(const Deck& deck, const std::string& path) {
                     "largest diameter and the skin (it must exceed " + fmt(needed) + " m)");
 }
 
+// The largest axis-1 strain a test reaches at the ends of its legs; NaN unless every leg drives axis 1 by
+// strain and ends on its strain or on a step count (otherwise only running the test tells).
+double largest_e1(const Deck& deck, const TestDef& test) {
+  double e1 = 0.0, largest = 0.0;
+  for (const Leg& leg : test.legs) {
+    if (!leg.axes[0].strain_driven()) return std::nan("");
+    if (leg.end.kind == LegEndKind::Strain && leg.end.axis == 0) e1 = leg.end.value;
+    else if (leg.end.kind == LegEndKind::Steps) e1 += static_cast<double>(leg_steps(leg, deck.time_step)) *
+                                                      leg.strain_per_step(0, deck.time_step);
+    else return std::nan("");
+    largest = std::max(largest, e1);
+  }
+  return largest;
+}
+
+// Snapshots at strains a test never reaches would be dropped silently: say so before the run.
+void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnings) {
+  for (std::size_t t = 0; t < deck.tests.size(); ++t) {
+    const TestDef& test = deck.tests[t];
+    const double reached = largest_e1(deck, test);
+    if (!std::isfinite(reached)) continue;
+    for (std::size_t k = 0; k < test.snapshots.e1.size(); ++k)
+      if (test.snapshots.e1[k] > reached)
+        warnings.push_back("tests[" + std::to_string(t) + "].snapshots.e1: " + fmt(test.snapshots.e1[k]) +
+                           " lies beyond the largest e1 test '" + test.name + "' reaches (" + fmt(reached) +
+                           "): no snapshot will be written there");
+  }
+}
+
 }  // namespace
 
 State load_initial_state(const Deck& deck) {
@@ -94,6 +123,7 @@ std::vector<std::string> preflight(const Deck& deck) {
     check_state(deck, path);
   }
   std::vector<std::string> warnings = deck_warnings(deck);
+  warn_unreached_snapshots(deck, warnings);
   return warnings;
 }
 
