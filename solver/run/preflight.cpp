@@ -9,6 +9,8 @@
 #include "io/files.hpp"
 #include "io/lammps_data.hpp"
 #include "io/state_file.hpp"
+#include "measure/micro.hpp"
+#include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
 
 namespace celldem {
@@ -41,8 +43,35 @@ void check_prepared_cell(const Deck& deck) {
                     "exceed " + fmt(needed) + " m): use more spheres");
 }
 
-void check_state(const Deck& deck, const std::string& path) {
-  const State state = load_initial_state(deck);
+// An imported packing whose spheres overlap deeply starts with forces far above its stress's: the run then
+// fails as if the time step were too large. Say so before: overlaps beyond this fraction of the smaller
+// radius are reported (a packing at its stress overlaps by about 1e-3 of a radius), coincident centres refused.
+inline constexpr double kDeepOverlap = 0.05;
+inline constexpr double kCoincident = 1e-6;  // centre distance / (r_i + r_j)
+
+void check_overlaps(const Deck& deck, State state, const std::vector<std::int64_t>& atom_ids, const std::string& path,
+                    std::vector<std::string>& warnings) {
+  const auto name = [&](Index i) {
+    return atom_ids.empty() ? "particle " + std::to_string(i) : "atom " + std::to_string(atom_ids[i]);
+  };
+  state.pairs.skin = skin_length(deck);
+  rebuild_pairs(make_model(deck, state.particles.radius), state);
+  const Overlaps o = overlaps(state, kDeepOverlap);
+  if (o.closest < kCoincident)
+    throw DeckError("initial_state: " + name(o.closest_i) + " and " + name(o.closest_j) + " of " + path +
+                    " lie at the same place (centre distance " + fmt(o.closest) + " of the sum of their radii): "
+                    "remove one of them");
+  if (o.worst > kDeepOverlap)
+    warnings.push_back("initial_state: in " + path + " " + std::to_string(o.deep) + " of " + std::to_string(o.count) +
+                       " touching pairs overlap by more than " + fmt(kDeepOverlap) + " of the smaller radius, the " +
+                       "deepest " + fmt(o.worst) + " (" + name(o.worst_i) + " and " + name(o.worst_j) + "): the " +
+                       "first steps push them apart violently and the run may stop with runaway motion that no time step cures: relax the "
+                       "packing first (e.g. a LAMMPS run with fix nve/limit)");
+}
+
+void check_state(const Deck& deck, const std::string& path, std::vector<std::string>& warnings) {
+  std::vector<std::int64_t> atom_ids;
+  const State state = load_initial_state(deck, &atom_ids);
   const std::size_t n = state.particles.size();
   if (n != static_cast<std::size_t>(deck.sample.count))
     throw DeckError("sample.count: the deck says " + std::to_string(deck.sample.count) + " spheres, initial_state " +
@@ -60,6 +89,7 @@ void check_state(const Deck& deck, const std::string& path) {
   if (width <= needed)
     throw DeckError("initial_state: the cell of " + path + " is " + fmt(width) + " m wide, too small for its "
                     "largest diameter and the skin (it must exceed " + fmt(needed) + " m)");
+  check_overlaps(deck, state, atom_ids, path, warnings);
 }
 
 // The largest axis-1 strain a test reaches at the ends of its legs; NaN unless every leg drives axis 1 by
@@ -93,7 +123,7 @@ void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnin
 
 }  // namespace
 
-State load_initial_state(const Deck& deck) {
+State load_initial_state(const Deck& deck, std::vector<std::int64_t>* atom_ids) {
   const std::string path = initial_state_path(deck);
   if (read_file(path).rfind("CELLDEMS", 0) == 0) return read_state(path);
   LammpsData data;
@@ -108,6 +138,7 @@ State load_initial_state(const Deck& deck) {
   if (std::abs(*data.common_density - deck.sample.density) > 1e-12 * deck.sample.density)
     throw DeckError("sample.density: the deck says " + fmt(deck.sample.density) + " kg/m^3, initial_state " + path +
                     " says " + fmt(*data.common_density));
+  if (atom_ids) *atom_ids = data.ids;
   return data.state;
 }
 
@@ -120,9 +151,9 @@ std::vector<std::string> preflight(const Deck& deck) {
   if (deck.initial_state) {
     const std::string path = initial_state_path(deck);
     if (!std::filesystem::exists(path)) throw DeckError("initial_state: no such file " + path);
-    check_state(deck, path);
   }
   std::vector<std::string> warnings = deck_warnings(deck);
+  if (deck.initial_state) check_state(deck, initial_state_path(deck), warnings);
   warn_unreached_snapshots(deck, warnings);
   return warnings;
 }

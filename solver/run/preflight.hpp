@@ -20,7 +20,8 @@ std::string initial_state_path(const Deck& deck);
 
 // The sample the deck's tests start from: a celldem state file, or a LAMMPS data file (atom_style sphere,
 // orthogonal box) whose one density must equal sample.density (DeckError naming both otherwise). A data file
-// carries no contact history: the tests start with untouched tangential springs.
-State load_initial_state(const Deck& deck);
+// carries no contact history: the tests start with untouched tangential springs. `atom_ids`, when given,
+// receives the LAMMPS atom id of each particle (empty for a state file), for messages that name particles.
+State load_initial_state(const Deck& deck, std::vector<std::int64_t>* atom_ids = nullptr);
 
 }  // namespace celldem
