@@ -213,6 +213,10 @@ inline constexpr KeySpec initial_state{.path = "initial_state", .kind = KeyKind:
     .meaning = "instead of `prepare`: the sample to test (path relative to the deck), a celldem state file or a "
                "LAMMPS data file (`atom_style sphere`, orthogonal box, one density equal to `sample.density`; no "
                "contact history)"};
+inline constexpr KeySpec override_state_physics{.path = "override_state_physics", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "false",
+    .meaning = "`true`: run an `initial_state` with the deck's density and contact law although the state was made "
+               "with others (the run's warnings and summary list each difference); otherwise a difference is an error"};
 
 inline constexpr KeySpec tests{.path = "tests", .kind = KeyKind::Array, .required = false, .default_text = "[]",
     .meaning = "loading tests, each from the prepared state (at least one without `prepare`)"};
@@ -294,7 +298,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
     &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
-    &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &tests,
+    &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
     &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,

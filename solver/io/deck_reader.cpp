@@ -611,6 +611,10 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
          "give exactly one of \"prepare\" (make a sample) and \"initial_state\" (reuse one)");
   if (has_prepare) d.prepare = read_prepare(r.object(keys::prepare));
   if (has_state) d.initial_state = r.string(keys::initial_state);
+  if (r.has(keys::override_state_physics)) {
+    if (!has_state) fail("override_state_physics", "only meaningful with \"initial_state\"");
+    d.override_state_physics = r.boolean(keys::override_state_physics);
+  }
 
   if (r.has(keys::tests)) {
     const Json& tests = r.raw(keys::tests);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "core/plan.hpp"
@@ -69,9 +70,43 @@ void check_overlaps(const Deck& deck, State state, const std::vector<std::int64_
                        "packing first (e.g. a LAMMPS run with fix nve/limit)");
 }
 
+// Each key of the two physics records whose values differ: "key: the deck says A, the state says B".
+std::vector<std::string> physics_differences(const std::string& deck_record, const std::string& state_record) {
+  const nlohmann::json d = nlohmann::json::parse(deck_record), s = nlohmann::json::parse(state_record);
+  std::vector<std::string> out;
+  nlohmann::json keys = d;
+  keys.update(s);
+  const auto text = [](const nlohmann::json& j, const std::string& k) {
+    return !j.contains(k) ? std::string("none") : j[k].is_string() ? j[k].get<std::string>() : fmt(j[k].get<double>());
+  };
+  for (const auto& [key, unused] : keys.items()) {
+    const bool same = d.contains(key) && s.contains(key) &&
+                      (d[key].is_number() && s[key].is_number()
+                           ? std::abs(d[key].get<double>() - s[key].get<double>()) <= 1e-12 * std::abs(s[key].get<double>())
+                           : d[key] == s[key]);
+    if (!same) out.push_back(key + ": the deck says " + text(d, key) + ", the state was made with " + text(s, key));
+  }
+  return out;
+}
+
+void check_physics(const Deck& deck, const std::string& record, const std::string& path,
+                   std::vector<std::string>& warnings) {
+  if (record.empty()) return;  // written before states kept their physics
+  const std::vector<std::string> differences = physics_differences(state_physics(deck), record);
+  if (differences.empty()) return;
+  std::string list;
+  for (const std::string& d : differences) list += (list.empty() ? "" : "; ") + d;
+  if (!deck.override_state_physics)
+    throw DeckError(list + " (initial_state " + path + "): make the deck agree with the state, or set "
+                    "\"override_state_physics\": true to run it with the deck's physics on purpose");
+  warnings.push_back("override_state_physics: initial_state " + path + " runs with the deck's physics: " + list);
+}
+
 void check_state(const Deck& deck, const std::string& path, std::vector<std::string>& warnings) {
-  std::vector<std::int64_t> atom_ids;
-  const State state = load_initial_state(deck, &atom_ids);
+  const InitialSample sample = load_initial_sample(deck);
+  const State& state = sample.state;
+  const std::vector<std::int64_t>& atom_ids = sample.atom_ids;
+  check_physics(deck, sample.physics, path, warnings);
   const std::size_t n = state.particles.size();
   if (n != static_cast<std::size_t>(deck.sample.count))
     throw DeckError("sample.count: the deck says " + std::to_string(deck.sample.count) + " spheres, initial_state " +
@@ -123,9 +158,32 @@ void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnin
 
 }  // namespace
 
-State load_initial_state(const Deck& deck, std::vector<std::int64_t>* atom_ids) {
+State load_initial_state(const Deck& deck) { return load_initial_sample(deck).state; }
+
+std::string state_physics(const Deck& deck) {
+  const ContactDef& c = deck.contact;
+  nlohmann::json p = {{"sample.density", deck.sample.density},
+                      {"contact.normal", std::string(name_of(c.normal, kNormalModelNames))},
+                      {"contact.tangential", std::string(name_of(c.tangential, kTangentialModelNames))},
+                      {"contact.rolling", std::string(name_of(c.rolling, kRollingModelNames))},
+                      {"contact.twisting", std::string(name_of(c.twisting, kTwistingModelNames))}};
+  if (c.normal == NormalModel::Linear) p["contact.kn"] = c.kn;
+  if (c.tangential == TangentialModel::LinearHistory) p["contact.kt"] = c.kt;
+  if (c.normal == NormalModel::Hertz || c.tangential != TangentialModel::LinearHistory) {
+    p["contact.youngs_modulus"] = c.youngs_modulus;
+    p["contact.poisson_ratio"] = c.poisson_ratio;
+  }
+  if (c.rolling == RollingModel::Sds) p["contact.rolling_stiffness"] = c.rolling_stiffness;
+  return p.dump();
+}
+
+InitialSample load_initial_sample(const Deck& deck) {
   const std::string path = initial_state_path(deck);
-  if (read_file(path).rfind("CELLDEMS", 0) == 0) return read_state(path);
+  InitialSample sample;
+  if (read_file(path).rfind("CELLDEMS", 0) == 0) {
+    sample.state = read_state(path, nullptr, &sample.physics);
+    return sample;
+  }
   LammpsData data;
   try {
     data = read_lammps_data(path);
@@ -138,8 +196,9 @@ State load_initial_state(const Deck& deck, std::vector<std::int64_t>* atom_ids) 
   if (std::abs(*data.common_density - deck.sample.density) > 1e-12 * deck.sample.density)
     throw DeckError("sample.density: the deck says " + fmt(deck.sample.density) + " kg/m^3, initial_state " + path +
                     " says " + fmt(*data.common_density));
-  if (atom_ids) *atom_ids = data.ids;
-  return data.state;
+  sample.state = std::move(data.state);
+  sample.atom_ids = std::move(data.ids);
+  return sample;
 }
 
 std::string initial_state_path(const Deck& deck) {

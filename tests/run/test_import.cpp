@@ -87,6 +87,49 @@ TEST(Import, LammpsDataFileRunsLikeTheStateItCameFrom) {
   EXPECT_GT(std::count(chains.begin(), chains.end(), '\n'), 200);
 }
 
+// A state keeps the physics it was made with: a deck that disagrees (density, contact law or its stiffness)
+// is refused naming both values, unless it overrides them on purpose, which the run's warnings record.
+TEST(Import, StateAndDeckMustAgreeOnThePhysics) {
+  const fs::path dir = testing::test_dir("physics_" + std::to_string(getpid()));
+  write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
+  ASSERT_EQ(celldem(dir, run_args(dir / "prep.json", dir / "prep")).code, 0);
+  const std::string same = deck_from("prep/prepared.state");
+  write_bytes(dir / "same.json", same);
+  Result r = celldem(dir, "check '" + (dir / "same.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+
+  std::string density = same;
+  density.replace(density.find("\"density\": 2650"), 15, "\"density\": 2000");
+  write_bytes(dir / "density.json", density);
+  r = celldem(dir, "check '" + (dir / "density.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("sample.density: the deck says 2000, the state was made with 2650"), std::string::npos) << r.err;
+
+  std::string stiffer = same;
+  stiffer.replace(stiffer.find("\"kn\": 1.0e6"), 11, "\"kn\": 2.0e6");
+  write_bytes(dir / "stiffer.json", stiffer);
+  r = celldem(dir, "check '" + (dir / "stiffer.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("contact.kn: the deck says 2e+06, the state was made with 1e+06"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("override_state_physics"), std::string::npos) << r.err;
+
+  std::string hertz = same;
+  const std::string linear = "\"kn\": 1.0e6, \"kt\": 1.0e6";
+  hertz.replace(hertz.find(linear), linear.size(),
+                "\"normal\": \"hertz\", \"tangential\": \"mindlin\", \"youngs_modulus\": 7e7, \"poisson_ratio\": 0.3");
+  write_bytes(dir / "hertz.json", hertz);
+  r = celldem(dir, "check '" + (dir / "hertz.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("contact.normal: the deck says hertz, the state was made with linear"), std::string::npos) << r.err;
+
+  stiffer.replace(stiffer.find("\"initial_state\""), 0, "\"override_state_physics\": true, ");
+  write_bytes(dir / "override.json", stiffer);
+  r = celldem(dir, run_args(dir / "override.json", dir / "override"));
+  EXPECT_EQ(r.code, 0) << r.err;
+  const auto summary = nlohmann::json::parse(read_bytes(dir / "override" / "summary.json"));
+  EXPECT_NE(summary.dump().find("override_state_physics: initial_state"), std::string::npos) << summary.dump();
+}
+
 // The data file with atom 1 moved to atom 2's position plus `offset` of the sum of their radii along x.
 std::string move_atom_onto_another(const std::string& data, double offset) {
   std::istringstream in(data);
