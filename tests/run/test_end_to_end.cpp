@@ -107,6 +107,9 @@ TEST(EndToEnd, DeckErrorExitsTwoNamingTheKey) {
   r = celldem(dir, "check '" + (dir / "good.json").string() + "'");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("valid"), std::string::npos) << r.out;
+  // What it costs: 200 spheres at 400 bytes, the preparation's range and the test's 1000 steps.
+  EXPECT_NE(r.out.find("estimate: about 0.08 MB of memory;"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("preparation steps and 1000 test steps"), std::string::npos) << r.out;
 
   // A snapshot beyond the test's end (e1 = 0.004) would never be written: check says so, naming the strain.
   text = testing::small_deck_json(200, kTtc);
