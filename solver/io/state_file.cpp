@@ -115,7 +115,7 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   w.put(s.touching);
   w.put(s.pairs.skin);
   if (version >= 4)
-    w.put(static_cast<std::uint8_t>((rotational ? kStateRotationalFields : 0) | kStateRadiusField));
+    w.put(static_cast<std::uint8_t>((rotational ? kStateRotationalFields : 0) | (radius ? kStateRadiusField : 0)));
   const Particles& p = s.particles;
   for (std::size_t i = 0; i < p.size(); ++i) {
     w.put(p.radius[i]);
