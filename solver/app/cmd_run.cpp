@@ -10,6 +10,28 @@
 
 namespace celldem::app {
 
+std::string describe_estimate(const Deck& deck) {
+  // "x", "x to y" or "x or more" (high < 0: unknown), each number as printf's format gives it.
+  const auto span = [](double low, double high, const char* format) {
+    char a[64], b[64];
+    std::snprintf(a, sizeof a, format, low);
+    std::snprintf(b, sizeof b, format, high);
+    return high < 0 ? std::string(a) + " or more" : high > low ? std::string(a) + " to " + b : std::string(a);
+  };
+  const RunEstimate e = estimate_run(deck);
+  const double to_hours = 1.0 / (kParticleStepsPerCoreSecond * 3600.0);
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%.3g", kParticleStepsPerCoreSecond);
+  return "estimate: about " + span(e.bytes / 1e6, e.bytes / 1e6, "%.3g") + " MB of memory; " +
+         span(e.preparation.low, e.preparation.high, "%.0f") + " preparation steps and " +
+         span(e.tests.low, e.tests.high, "%.0f") + " test steps, " +
+         span(e.particle_steps_low, e.particle_steps_high, "%.3g") + " particle-steps: about " +
+         span(e.particle_steps_low * to_hours, e.particle_steps_high < 0 ? -1.0 : e.particle_steps_high * to_hours,
+              "%.2g") +
+         " core-hours at " + rate + " particle-steps/s per core (measured on a 2-core development machine; tests "
+         "run side by side on spare cores)";
+}
+
 Command add_run_command(CLI::App& app) {
   struct Args {
     std::string deck, seeds;
@@ -62,8 +84,9 @@ Command add_check_command(CLI::App& app) {
     const Deck deck = read_deck(*path);
     for (const std::string& w : preflight(deck)) std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
     const CriticalTimeStep limit = critical_time_steps(deck.sample, deck.contact);
-    std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s, %s mode)\n", path->c_str(),
-                deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name);
+    std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s, %s mode)\n%s\n", path->c_str(),
+                deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name,
+                describe_estimate(deck).c_str());
     return 0;
   };
 }

@@ -109,6 +109,13 @@ Json plan_json(const Deck& deck) {
                       {"fast_strain_increment", deck.prepare->fast_strain_increment},
                       {"output_interval", deck.prepare->output_interval}};
   if (deck.initial_state) out["initial_state"] = (fs::path(deck.source).parent_path() / *deck.initial_state).string();
+  const RunEstimate estimate = estimate_run(deck);
+  const auto steps = [](const StepRange& r) { return Json{{"low", r.low}, {"high", r.high < 0 ? Json() : Json(r.high)}}; };
+  if (deck.prepare) out["prepare"]["steps"] = steps(estimate.preparation);
+  out["estimate"] = {{"bytes", estimate.bytes}, {"preparation_steps", steps(estimate.preparation)},
+                     {"test_steps", steps(estimate.tests)}, {"particle_steps_low", estimate.particle_steps_low},
+                     {"particle_steps_high", estimate.particle_steps_high < 0 ? Json() : Json(estimate.particle_steps_high)},
+                     {"particle_steps_per_core_second", kParticleStepsPerCoreSecond}};
   for (const TestDef& t : deck.tests) {
     const TestPlan p = plan_test(deck, t);
     const Leg& first = t.legs.front();
@@ -145,7 +152,8 @@ Command add_plan_command(CLI::App& app) {
   cmd->add_flag("--json", a->json, "Print JSON (for tools)");
   return [cmd, a]() -> int {
     if (!cmd->parsed()) return -1;
-    const Json plan = plan_json(read_deck(a->deck));
+    const Deck deck = read_deck(a->deck);
+    const Json plan = plan_json(deck);
     if (a->json) {
       std::printf("%s\n", plan.dump(1).c_str());
       return 0;
@@ -170,11 +178,18 @@ Command add_plan_command(CLI::App& app) {
       std::printf("    %-6s %-5s %5g t_c = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
                   b["when"].get<std::string>().c_str(), b["fraction"].get<double>(), b["time_step"].get<double>(),
                   b["name"].get<std::string>().c_str());
+    if (deck.prepare) {
+      const Json& s = plan["prepare"]["steps"];
+      std::printf("  %-12s %lld%s steps (the servo leg ends in equilibrium)\n", "prepare",
+                  static_cast<long long>(s["low"].get<std::int64_t>()),
+                  s["high"].is_null() ? " or more" : (" to " + std::to_string(s["high"].get<std::int64_t>())).c_str());
+    }
     for (const Json& t : plan["tests"]) {
       const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
       std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", t["name"].get<std::string>().c_str(), t["legs"].size(),
                   t["legs"].size() > 1 ? "s" : "", count(t["steps"]).c_str(), count(t["rows"]).c_str());
     }
+    std::printf("%s\n", describe_estimate(deck).c_str());
     return 0;
   };
 }

@@ -3,6 +3,9 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <string>
+
+#include "core/deck.hpp"
 
 namespace celldem::app {
 
@@ -14,5 +17,8 @@ Command add_bench_command(CLI::App& app);  // celldem bench
 Command add_translate_command(CLI::App& app);  // celldem translate
 Command add_schema_command(CLI::App& app);     // celldem schema
 Command add_plan_command(CLI::App& app);       // celldem plan
+
+// One line on what a run of the deck costs: memory, steps and time (core/plan's estimate_run).
+std::string describe_estimate(const Deck& deck);
 
 }  // namespace celldem::app

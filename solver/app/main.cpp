@@ -1,6 +1,8 @@
 // The celldem command line: a thin front end over the library. Exit codes: 0 success, 1 run-time error
-// (a failed write included: io/files.hpp's IoError), 2 invalid input (deck, state file or arguments), 130
-// stopped by a signal after writing a checkpoint.
+// (a failed write included: io/files.hpp's IoError), 2 invalid input or usage (deck, state file, arguments, a
+// run folder that already holds results), 130 stopped by a signal after writing a checkpoint.
+#include <unistd.h>
+
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -21,6 +23,8 @@ int report_error(bool during_run, const char* kind, const std::exception& e, int
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A log file (a batch job's stdout) gets every line as it is written, so a killed run's log says where it was.
+  if (!isatty(STDOUT_FILENO)) std::setvbuf(stdout, nullptr, _IOLBF, 0);
   CLI::App app{"celldem: discrete element simulations of granular element tests in a periodic cell"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "celldem " CELLDEM_VERSION);
@@ -42,6 +46,8 @@ int main(int argc, char** argv) {
     return report_error(false, "invalid deck: ", e, 2);
   } catch (const celldem::StateFileError& e) {
     return report_error(false, "invalid state file: ", e, 2);
+  } catch (const celldem::UsageError& e) {
+    return report_error(false, "", e, 2);
   } catch (const celldem::Interrupted& e) {
     return report_error(true, "", e, 130);
   } catch (const std::exception& e) {

@@ -160,6 +160,7 @@ struct Deck {
   double neighbor_skin = keys::neighbor_skin.fallback;  // fraction of the largest diameter
   std::optional<PrepareDef> prepare;        // exactly one of prepare / initial_state
   std::optional<std::string> initial_state; // path, relative to the deck's folder
+  bool override_state_physics = false;      // run a state made with other physics (differences are warned)
   std::vector<TestDef> tests;
 };
 

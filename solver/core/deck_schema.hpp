@@ -36,6 +36,7 @@ namespace keys {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMaxCount = 1125899906842624.0;  // 2^50: counts of steps and rows
 constexpr double kMaxSeed = 9007199254740992.0;   // 2^53: seeds a double still holds exactly
+constexpr std::size_t kMaxTestNameLength = 64;     // a folder and file prefix: far below any NAME_MAX
 
 // clang-format off
 inline constexpr KeySpec format{.path = "format", .kind = KeyKind::Integer, .min = 1, .max = 1000,
@@ -212,11 +213,15 @@ inline constexpr KeySpec initial_state{.path = "initial_state", .kind = KeyKind:
     .meaning = "instead of `prepare`: the sample to test (path relative to the deck), a celldem state file or a "
                "LAMMPS data file (`atom_style sphere`, orthogonal box, one density equal to `sample.density`; no "
                "contact history)"};
+inline constexpr KeySpec override_state_physics{.path = "override_state_physics", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "false",
+    .meaning = "`true`: run an `initial_state` with the deck's density and contact law although the state was made "
+               "with others (the run's warnings and summary list each difference); otherwise a difference is an error"};
 
 inline constexpr KeySpec tests{.path = "tests", .kind = KeyKind::Array, .required = false, .default_text = "[]",
     .meaning = "loading tests, each from the prepared state (at least one without `prepare`)"};
 inline constexpr KeySpec test_name{.path = "tests[].name", .kind = KeyKind::String,
-    .meaning = "letters, digits, `_` or `-`; unique; not `prepare`"};
+    .meaning = "letters, digits, `_` or `-`, at most 64; unique; not `prepare`"};
 inline constexpr KeySpec test_friction{.path = "tests[].friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .meaning = "interparticle friction coefficient"};
 inline constexpr KeySpec test_rolling_friction{.path = "tests[].rolling_friction", .kind = KeyKind::Number,
@@ -293,7 +298,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
     &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
-    &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &tests,
+    &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
     &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,

@@ -197,4 +197,64 @@ double mean_diameter(const SampleDef& sample) {
   return d_mean;
 }
 
+namespace {
+StepRange add(StepRange a, StepRange b) {
+  return {a.low + b.low, a.high < 0 || b.high < 0 ? -1 : a.high + b.high};
+}
+}  // namespace
+
+StepRange preparation_steps(const Deck& deck) {
+  if (!deck.prepare) return {};
+  const PrepareDef& prep = *deck.prepare;
+  const EquilibriumDef& eq = prep.equilibrium;
+  const SampleDef& s = deck.sample;
+  int side = 1;  // the grid sample's (run/sample.cpp)
+  while (static_cast<long long>(side) * side * side < s.count) ++side;
+  double solid = 0.0;  // sizes are drawn with equal probability
+  for (double d : s.diameters) solid += M_PI / 6.0 * d * d * d / static_cast<double>(s.diameters.size());
+  double fraction = s.count * solid / std::pow(side * s.grid_spacing, 3);  // -1 once unknown
+  StepRange total;
+  for (const Leg& leg : prep.legs) {
+    const std::int64_t n = leg_steps(leg, deck.time_step);
+    const double d = leg.axes[0].value;
+    const bool isotropic = std::all_of(leg.axes.begin(), leg.axes.end(), [d](const AxisControl& a) {
+      return a.mode == AxisMode::StrainIncrement && a.value == d;
+    });
+    if (n >= 0) {
+      total = add(total, {n, n});
+      fraction = -1.0;
+    } else if (leg.end.kind == LegEndKind::SolidFraction && isotropic && d > 0.0 && fraction > 0.0) {
+      // Each step scales every axis by 1 - d: the solid fraction grows by (1 - d)^-3.
+      const double steps = std::ceil(std::log(leg.end.value / fraction) / (-3.0 * std::log1p(-d)));
+      const std::int64_t k = fraction >= leg.end.value ? 0 : std::llround(steps);
+      total = add(total, {k, k});
+      fraction = std::max(fraction, leg.end.value);
+    } else if (leg.end.kind == LegEndKind::Equilibrium) {
+      total = add(total, {eq.min_steps, leg.end.max_steps > 0 ? leg.end.max_steps : eq.max_steps});
+      fraction = -1.0;
+    } else {
+      total.high = -1;
+      fraction = -1.0;
+    }
+  }
+  return total;
+}
+
+StepRange test_steps(const Deck& deck, const TestDef& test) {
+  const std::int64_t n = plan_test(deck, test).steps;
+  return n >= 0 ? StepRange{n, n} : StepRange{0, -1};
+}
+
+RunEstimate estimate_run(const Deck& deck) {
+  RunEstimate e;
+  const double n = deck.sample.count;
+  e.bytes = n * (kBytesPerParticle + (deck.contact.rotational_history() ? kRotationalBytesPerParticle : 0.0));
+  e.preparation = preparation_steps(deck);
+  for (const TestDef& t : deck.tests) e.tests = add(e.tests, test_steps(deck, t));
+  const StepRange all = add(e.preparation, e.tests);
+  e.particle_steps_low = n * static_cast<double>(all.low);
+  e.particle_steps_high = all.high < 0 ? -1.0 : n * static_cast<double>(all.high);
+  return e;
+}
+
 }  // namespace celldem

@@ -148,4 +148,31 @@ double skin_length(const Deck& deck);
 
 double mean_diameter(const SampleDef& sample);  // sizes are drawn with equal probability
 
+// What a whole run costs, for `check` and `plan` before it starts. Steps are a range: a leg that ends in
+// equilibrium runs between its min_steps and max_steps; -1 where only running tells (a stress or ratio end).
+struct StepRange {
+  std::int64_t low = 0;
+  std::int64_t high = 0;  // -1: unknown
+};
+// The preparation's steps: the default program's fast compression from the grid sample's solid fraction to
+// fast_solid_fraction (exact: each step scales the cell by 1 - fast_strain_increment), then its servo leg;
+// a deck's own legs as leg_steps() knows them.
+StepRange preparation_steps(const Deck& deck);
+StepRange test_steps(const Deck& deck, const TestDef& test);
+// Memory and work of the run: about kBytesPerParticle per sphere (the arrays and the pair list at a packing's
+// ~3 listed pairs per sphere, measured: 356-396 B at 8 k to 1 M spheres with the linear law; laws with
+// rotational springs keep 28 B more per pair), and particle-steps over all stages.
+inline constexpr double kBytesPerParticle = 400.0, kRotationalBytesPerParticle = 100.0;
+// A conservative rate for the time estimate: one core of the 2-core development machine runs the paper's
+// shear at 16 M particle-steps/s (README: Performance); other machines differ.
+inline constexpr double kParticleStepsPerCoreSecond = 1.5e7;
+struct RunEstimate {
+  double bytes = 0.0;
+  StepRange preparation;
+  StepRange tests;                 // all tests together
+  double particle_steps_low = 0.0;
+  double particle_steps_high = 0.0;  // negative: unknown
+};
+RunEstimate estimate_run(const Deck& deck);
+
 }  // namespace celldem

@@ -21,7 +21,10 @@ std::string fmt(double x) {
   return s.str();
 }
 
-[[noreturn]] void fail(const std::string& path, const std::string& what) { throw DeckError(path + ": " + what); }
+// The top-level object has the empty path: its messages name "deck".
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw DeckError((path.empty() ? std::string("deck") : path) + ": " + what);
+}
 
 // Reads one JSON object, remembering which keys were asked for so unknown keys are errors. Each read names
 // its key's entry in the key table, which gives the range and the default. Messages carry the JSON path.
@@ -415,6 +418,10 @@ TestDef read_test(ObjectReader r, const ContactDef& contact) {
   if (t.name.empty() || t.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
                             std::string::npos)
     fail(r.at(keys::test_name), "must be a non-empty name of letters, digits, '_' or '-'");
+  // The name becomes a folder and its files' prefix: one limit for check and run, far below NAME_MAX.
+  if (t.name.size() > keys::kMaxTestNameLength)
+    fail(r.at(keys::test_name), "must be at most " + std::to_string(keys::kMaxTestNameLength) + " characters (it has " +
+                                    std::to_string(t.name.size()) + ")");
   if (is_reserved_stage_name(t.name))
     fail(r.at(keys::test_name), "\"" + t.name + "\" is reserved (the preparation stage); choose another name");
   t.friction = r.number(keys::test_friction);
@@ -604,6 +611,10 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
          "give exactly one of \"prepare\" (make a sample) and \"initial_state\" (reuse one)");
   if (has_prepare) d.prepare = read_prepare(r.object(keys::prepare));
   if (has_state) d.initial_state = r.string(keys::initial_state);
+  if (r.has(keys::override_state_physics)) {
+    if (!has_state) fail("override_state_physics", "only meaningful with \"initial_state\"");
+    d.override_state_physics = r.boolean(keys::override_state_physics);
+  }
 
   if (r.has(keys::tests)) {
     const Json& tests = r.raw(keys::tests);

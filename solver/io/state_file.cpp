@@ -88,12 +88,14 @@ class Reader {
 
 }  // namespace
 
-std::string serialize_state(const State& s, const std::string& label) {
+std::string serialize_state(const State& s, const std::string& label, const std::string& physics) {
   Writer w;
   const std::vector<StoredContact> contacts = stored_contacts(s);
   const bool rotational = !s.pairs.rolling.empty();
   const bool radius = !s.pairs.contact_radius.empty();
+  const std::uint32_t version = radius || !physics.empty() ? 4 : rotational ? 3 : 2;
   w.put_string(label);
+  if (version >= 4) w.put_string(physics);
   w.put(static_cast<std::uint64_t>(s.particles.size()));
   w.put(static_cast<std::uint64_t>(contacts.size()));
   w.put(s.time);
@@ -112,8 +114,8 @@ std::string serialize_state(const State& s, const std::string& label) {
   w.put(s.axis_stiffness);
   w.put(s.touching);
   w.put(s.pairs.skin);
-  if (radius)  // format 4
-    w.put(static_cast<std::uint8_t>((rotational ? kStateRotationalFields : 0) | kStateRadiusField));
+  if (version >= 4)
+    w.put(static_cast<std::uint8_t>((rotational ? kStateRotationalFields : 0) | (radius ? kStateRadiusField : 0)));
   const Particles& p = s.particles;
   for (std::size_t i = 0; i < p.size(); ++i) {
     w.put(p.radius[i]);
@@ -135,14 +137,14 @@ std::string serialize_state(const State& s, const std::string& label) {
   std::string payload = std::move(w.bytes());
   Writer file;
   file.bytes().append(kMagic, sizeof kMagic);
-  file.put(radius ? kStateFormatVersion : rotational ? std::uint32_t{3} : std::uint32_t{2});
+  file.put(version);
   file.put(static_cast<std::uint64_t>(payload.size()));
   file.bytes() += payload;
   file.put(fnv1a(payload.data(), payload.size()));
   return std::move(file.bytes());
 }
 
-State parse_state(const std::string& bytes, std::string* label) {
+State parse_state(const std::string& bytes, std::string* label, std::string* physics) {
   Reader head(bytes.data(), bytes.size());
   head.need(sizeof kMagic);
   if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) throw StateFileError("not a celldem state file");
@@ -164,6 +166,8 @@ State parse_state(const std::string& bytes, std::string* label) {
   State s;
   const std::string text = r.string(4096);
   if (label) *label = text;
+  const std::string record = version >= 4 ? r.string(65536) : std::string();
+  if (physics) *physics = record;
   const auto n = r.get<std::uint64_t>();
   const auto nc = r.get<std::uint64_t>();
   constexpr std::size_t kParticleBytes = 10 * sizeof(double), kContactBytes = 8 + 3 * sizeof(double) + 1;
@@ -229,17 +233,17 @@ State parse_state(const std::string& bytes, std::string* label) {
   return s;
 }
 
-void write_state(const std::string& path, const State& state, const std::string& label) {
-  write_file_atomic(path, serialize_state(state, label));
+void write_state(const std::string& path, const State& state, const std::string& label, const std::string& physics) {
+  write_file_atomic(path, serialize_state(state, label, physics));
 }
 
-State read_state(const std::string& path, std::string* label) {
+State read_state(const std::string& path, std::string* label, std::string* physics) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw StateFileError(path + ": cannot open the state file");
   std::ostringstream text;
   text << in.rdbuf();
   try {
-    return parse_state(text.str(), label);
+    return parse_state(text.str(), label, physics);
   } catch (const StateFileError& e) {
     throw StateFileError(path + ": " + e.what());
   }

@@ -14,20 +14,25 @@ struct StateFileError : std::runtime_error {
 
 // 2: the control holds the current leg's start (strains, volume). 3: format 2 plus each contact's rotational
 // springs (rolling displacement, twist angle), written only for laws that have them (a state of the linear law
-// is still written as format 2). 4: a byte after the skin says which of the optional contact fields follow each
-// contact (bit 0: the rotational springs, bit 1: the contact radius of mindlin_rescale); written only for laws
-// with a contact radius (the others still write format 2 or 3). Formats 1 to 3 are still read.
+// is still written as format 2). 4: after the label, the physics the state was made with (JSON text, possibly
+// empty: run/preflight.hpp's state_physics); after the skin, a byte that says which of the optional contact
+// fields follow each contact (bit 0: the rotational springs, bit 1: the contact radius of mindlin_rescale).
+// Written for states with a physics record (every state a run writes) or contact radii; without either, format
+// 2 or 3 as before. Formats 1 to 3 are still read.
 inline constexpr std::uint32_t kStateFormatVersion = 4;
 inline constexpr std::uint8_t kStateRotationalFields = 1, kStateRadiusField = 2;
 
-// label says what the state is (e.g. "prepared", "checkpoint:ttc"); it is stored and returned. Written
-// atomically; a failed write throws IoError (io/files.hpp).
-void write_state(const std::string& path, const State& state, const std::string& label);
+// label says what the state is (e.g. "prepared", "checkpoint:ttc"); physics, when not empty, the physics it
+// was made with; both are stored and returned. Written atomically; a failed write throws IoError
+// (io/files.hpp).
+void write_state(const std::string& path, const State& state, const std::string& label,
+                 const std::string& physics = "");
 
 // Reads and validates a state file; the pair list holds only the stored contacts until the next rebuild.
-// Throws StateFileError with the reason (truncated, corrupted, wrong version, invalid values).
-State read_state(const std::string& path, std::string* label = nullptr);
-State parse_state(const std::string& bytes, std::string* label = nullptr);
-std::string serialize_state(const State& state, const std::string& label);
+// Throws StateFileError with the reason (truncated, corrupted, wrong version, invalid values). `physics`
+// receives the record (empty for files written without one, formats 1 to 3 included).
+State read_state(const std::string& path, std::string* label = nullptr, std::string* physics = nullptr);
+State parse_state(const std::string& bytes, std::string* label = nullptr, std::string* physics = nullptr);
+std::string serialize_state(const State& state, const std::string& label, const std::string& physics = "");
 
 }  // namespace celldem

@@ -193,4 +193,20 @@ double b_value(double s11, double s22, double s33) {
   return den != 0.0 ? (s22 - s33) / den : std::numeric_limits<double>::quiet_NaN();
 }
 
+Overlaps overlaps(const State& state, double deep) {
+  Overlaps o;
+  const std::vector<double>& r = state.particles.radius;
+  for_each_pair(state.pairs, [&](Index i, Index q) {
+    const Index j = state.pairs.neighbor[q];
+    const double distance = branch_of(state, i, q).norm();
+    const double overlap = r[i] + r[j] - distance;
+    if (distance / (r[i] + r[j]) < o.closest) o.closest = distance / (r[i] + r[j]), o.closest_i = i, o.closest_j = j;
+    if (overlap <= 0.0) return;
+    ++o.count;
+    if (overlap > deep * std::min(r[i], r[j])) ++o.deep;
+    if (overlap / std::min(r[i], r[j]) > o.worst) o.worst = overlap / std::min(r[i], r[j]), o.worst_i = i, o.worst_j = j;
+  });
+  return o;
+}
+
 }  // namespace celldem

@@ -1,5 +1,7 @@
 // Macro and micro measurements: pure functions of the state, computed only when a row is written.
 #pragma once
+#include <limits>
+
 #include "core/model.hpp"
 #include "core/state.hpp"
 
@@ -38,6 +40,17 @@ double elastic_energy(const Model& model, const State& state);  // [J] stored in
 // Mean |net contact force| over particles / mean contact normal force (0 when nothing touches).
 double unbalanced_force_ratio(const Model& model, const State& state);
 double void_ratio(const Model& model, const State& state);
+
+// The overlaps of the listed pairs (an imported packing's, before it runs), relative to the smaller radius.
+struct Overlaps {
+  std::int64_t count = 0;       // touching pairs
+  std::int64_t deep = 0;        // pairs overlapping by more than `deep` of the smaller radius
+  double worst = 0.0;           // largest overlap / min(r_i, r_j)
+  Index worst_i = 0, worst_j = 0;
+  double closest = std::numeric_limits<double>::infinity();  // smallest centre distance / (r_i + r_j)
+  Index closest_i = 0, closest_j = 0;
+};
+Overlaps overlaps(const State& state, double deep);
 
 struct StressInvariants {
   double p = 0.0, q = 0.0, sin_phi = 0.0;  // [Pa], [Pa], [-]

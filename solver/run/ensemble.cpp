@@ -165,7 +165,7 @@ void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector
   if (!deck.prepare) throw DeckError("--seeds: the deck has no \"prepare\": a seed ensemble prepares its samples");
   const fs::path dir(options.out_dir);
   if (!options.resume && !options.force && fs::exists(dir / "ensemble.json"))
-    throw RunError(dir.string() + " already holds an ensemble; use --force to overwrite it or --resume");
+    throw UsageError(dir.string() + " already holds an ensemble; use --force to overwrite it or --resume");
   fs::create_directories(dir);
   std::vector<Json> summaries;
   for (const std::uint64_t seed : seeds) {

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "core/plan.hpp"
 #include "io/files.hpp"
 #include "io/lammps_data.hpp"
 #include "io/state_file.hpp"
+#include "measure/micro.hpp"
+#include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
 
 namespace celldem {
@@ -41,8 +44,69 @@ void check_prepared_cell(const Deck& deck) {
                     "exceed " + fmt(needed) + " m): use more spheres");
 }
 
-void check_state(const Deck& deck, const std::string& path) {
-  const State state = load_initial_state(deck);
+// An imported packing whose spheres overlap deeply starts with forces far above its stress's: the run then
+// fails as if the time step were too large. Say so before: overlaps beyond this fraction of the smaller
+// radius are reported (a packing at its stress overlaps by about 1e-3 of a radius), coincident centres refused.
+inline constexpr double kDeepOverlap = 0.05;
+inline constexpr double kCoincident = 1e-6;  // centre distance / (r_i + r_j)
+
+void check_overlaps(const Deck& deck, State state, const std::vector<std::int64_t>& atom_ids, const std::string& path,
+                    std::vector<std::string>& warnings) {
+  const auto name = [&](Index i) {
+    return atom_ids.empty() ? "particle " + std::to_string(i) : "atom " + std::to_string(atom_ids[i]);
+  };
+  state.pairs.skin = skin_length(deck);
+  rebuild_pairs(make_model(deck, state.particles.radius), state);
+  const Overlaps o = overlaps(state, kDeepOverlap);
+  if (o.closest < kCoincident)
+    throw DeckError("initial_state: " + name(o.closest_i) + " and " + name(o.closest_j) + " of " + path +
+                    " lie at the same place (centre distance " + fmt(o.closest) + " of the sum of their radii): "
+                    "remove one of them");
+  if (o.worst > kDeepOverlap)
+    warnings.push_back("initial_state: in " + path + " " + std::to_string(o.deep) + " of " + std::to_string(o.count) +
+                       " touching pairs overlap by more than " + fmt(kDeepOverlap) + " of the smaller radius, the " +
+                       "deepest " + fmt(o.worst) + " (" + name(o.worst_i) + " and " + name(o.worst_j) + "): the " +
+                       "first steps push them apart violently and the run may stop with runaway motion that no time step cures: relax the "
+                       "packing first (e.g. a LAMMPS run with fix nve/limit)");
+}
+
+// Each key of the two physics records whose values differ: "key: the deck says A, the state says B".
+std::vector<std::string> physics_differences(const std::string& deck_record, const std::string& state_record) {
+  const nlohmann::json d = nlohmann::json::parse(deck_record), s = nlohmann::json::parse(state_record);
+  std::vector<std::string> out;
+  nlohmann::json keys = d;
+  keys.update(s);
+  const auto text = [](const nlohmann::json& j, const std::string& k) {
+    return !j.contains(k) ? std::string("none") : j[k].is_string() ? j[k].get<std::string>() : fmt(j[k].get<double>());
+  };
+  for (const auto& [key, unused] : keys.items()) {
+    const bool same = d.contains(key) && s.contains(key) &&
+                      (d[key].is_number() && s[key].is_number()
+                           ? std::abs(d[key].get<double>() - s[key].get<double>()) <= 1e-12 * std::abs(s[key].get<double>())
+                           : d[key] == s[key]);
+    if (!same) out.push_back(key + ": the deck says " + text(d, key) + ", the state was made with " + text(s, key));
+  }
+  return out;
+}
+
+void check_physics(const Deck& deck, const std::string& record, const std::string& path,
+                   std::vector<std::string>& warnings) {
+  if (record.empty()) return;  // written before states kept their physics
+  const std::vector<std::string> differences = physics_differences(state_physics(deck), record);
+  if (differences.empty()) return;
+  std::string list;
+  for (const std::string& d : differences) list += (list.empty() ? "" : "; ") + d;
+  if (!deck.override_state_physics)
+    throw DeckError(list + " (initial_state " + path + "): make the deck agree with the state, or set "
+                    "\"override_state_physics\": true to run it with the deck's physics on purpose");
+  warnings.push_back("override_state_physics: initial_state " + path + " runs with the deck's physics: " + list);
+}
+
+void check_state(const Deck& deck, const std::string& path, std::vector<std::string>& warnings) {
+  const InitialSample sample = load_initial_sample(deck);
+  const State& state = sample.state;
+  const std::vector<std::int64_t>& atom_ids = sample.atom_ids;
+  check_physics(deck, sample.physics, path, warnings);
   const std::size_t n = state.particles.size();
   if (n != static_cast<std::size_t>(deck.sample.count))
     throw DeckError("sample.count: the deck says " + std::to_string(deck.sample.count) + " spheres, initial_state " +
@@ -60,13 +124,66 @@ void check_state(const Deck& deck, const std::string& path) {
   if (width <= needed)
     throw DeckError("initial_state: the cell of " + path + " is " + fmt(width) + " m wide, too small for its "
                     "largest diameter and the skin (it must exceed " + fmt(needed) + " m)");
+  check_overlaps(deck, state, atom_ids, path, warnings);
+}
+
+// The largest axis-1 strain a test reaches at the ends of its legs; NaN unless every leg drives axis 1 by
+// strain and ends on its strain or on a step count (otherwise only running the test tells).
+double largest_e1(const Deck& deck, const TestDef& test) {
+  double e1 = 0.0, largest = 0.0;
+  for (const Leg& leg : test.legs) {
+    if (!leg.axes[0].strain_driven()) return std::nan("");
+    if (leg.end.kind == LegEndKind::Strain && leg.end.axis == 0) e1 = leg.end.value;
+    else if (leg.end.kind == LegEndKind::Steps) e1 += static_cast<double>(leg_steps(leg, deck.time_step)) *
+                                                      leg.strain_per_step(0, deck.time_step);
+    else return std::nan("");
+    largest = std::max(largest, e1);
+  }
+  return largest;
+}
+
+// Snapshots at strains a test never reaches would be dropped silently: say so before the run.
+void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnings) {
+  for (std::size_t t = 0; t < deck.tests.size(); ++t) {
+    const TestDef& test = deck.tests[t];
+    const double reached = largest_e1(deck, test);
+    if (!std::isfinite(reached)) continue;
+    for (std::size_t k = 0; k < test.snapshots.e1.size(); ++k)
+      if (test.snapshots.e1[k] > reached)
+        warnings.push_back("tests[" + std::to_string(t) + "].snapshots.e1: " + fmt(test.snapshots.e1[k]) +
+                           " lies beyond the largest e1 test '" + test.name + "' reaches (" + fmt(reached) +
+                           "): no snapshot will be written there");
+  }
 }
 
 }  // namespace
 
-State load_initial_state(const Deck& deck) {
+State load_initial_state(const Deck& deck) { return load_initial_sample(deck).state; }
+
+std::string state_physics(const Deck& deck) {
+  const ContactDef& c = deck.contact;
+  nlohmann::json p = {{"sample.density", deck.sample.density},
+                      {"contact.normal", std::string(name_of(c.normal, kNormalModelNames))},
+                      {"contact.tangential", std::string(name_of(c.tangential, kTangentialModelNames))},
+                      {"contact.rolling", std::string(name_of(c.rolling, kRollingModelNames))},
+                      {"contact.twisting", std::string(name_of(c.twisting, kTwistingModelNames))}};
+  if (c.normal == NormalModel::Linear) p["contact.kn"] = c.kn;
+  if (c.tangential == TangentialModel::LinearHistory) p["contact.kt"] = c.kt;
+  if (c.normal == NormalModel::Hertz || c.tangential != TangentialModel::LinearHistory) {
+    p["contact.youngs_modulus"] = c.youngs_modulus;
+    p["contact.poisson_ratio"] = c.poisson_ratio;
+  }
+  if (c.rolling == RollingModel::Sds) p["contact.rolling_stiffness"] = c.rolling_stiffness;
+  return p.dump();
+}
+
+InitialSample load_initial_sample(const Deck& deck) {
   const std::string path = initial_state_path(deck);
-  if (read_file(path).rfind("CELLDEMS", 0) == 0) return read_state(path);
+  InitialSample sample;
+  if (read_file(path).rfind("CELLDEMS", 0) == 0) {
+    sample.state = read_state(path, nullptr, &sample.physics);
+    return sample;
+  }
   LammpsData data;
   try {
     data = read_lammps_data(path);
@@ -79,7 +196,9 @@ State load_initial_state(const Deck& deck) {
   if (std::abs(*data.common_density - deck.sample.density) > 1e-12 * deck.sample.density)
     throw DeckError("sample.density: the deck says " + fmt(deck.sample.density) + " kg/m^3, initial_state " + path +
                     " says " + fmt(*data.common_density));
-  return data.state;
+  sample.state = std::move(data.state);
+  sample.atom_ids = std::move(data.ids);
+  return sample;
 }
 
 std::string initial_state_path(const Deck& deck) {
@@ -91,9 +210,10 @@ std::vector<std::string> preflight(const Deck& deck) {
   if (deck.initial_state) {
     const std::string path = initial_state_path(deck);
     if (!std::filesystem::exists(path)) throw DeckError("initial_state: no such file " + path);
-    check_state(deck, path);
   }
   std::vector<std::string> warnings = deck_warnings(deck);
+  if (deck.initial_state) check_state(deck, initial_state_path(deck), warnings);
+  warn_unreached_snapshots(deck, warnings);
   return warnings;
 }
 

@@ -53,7 +53,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
       if (is_run_output(entry)) outputs.push_back(entry.path());
     if (!outputs.empty()) {
       if (!options.force)
-        throw RunError(dir_.string() + " already holds results; use --force to overwrite them or --resume to "
+        throw UsageError(dir_.string() + " already holds results; use --force to overwrite them or --resume to "
                        "continue an interrupted run");
       for (const fs::path& p : outputs) fs::remove_all(p);  // only the new run's outputs will be there
     }

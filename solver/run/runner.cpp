@@ -40,7 +40,7 @@ void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& opti
   program.adaptive_threads = !options.fixed_threads;
   run_program(model, program, state, out, out.control_errors());
   out.finish(state);
-  write_state(run.prepared_state().string(), state, "prepared");
+  write_state(run.prepared_state().string(), state, "prepared", state_physics(deck));
   const Json prepared = summarize_preparation(model, state, prep, out.elapsed());
   run.update_summary([&](Json& s) { s["prepared"] = prepared; });
 }
@@ -61,7 +61,7 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   program.adaptive_threads = !options.fixed_threads;
   run_program(model, program, state, out, out.control_errors());
   out.finish(state);
-  write_state((out.dir() / "final.state").string(), state, "test:" + test.name);
+  write_state((out.dir() / "final.state").string(), state, "test:" + test.name, state_physics(deck));
   std::vector<std::string> warnings;
   const Json result = summarize_test(deck, test, out.rows(), out.control_errors(), out.elapsed(),
                                      state.control.stage_steps, state.particles.size(), warnings);

@@ -30,6 +30,12 @@ struct RunError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A command that cannot go ahead as asked, before any work (an output folder that already holds results):
+// a usage error like bad input, not a run-time failure.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 void run_deck(const Deck& deck, const RunOptions& options);
 
 // Installs SIGINT/SIGTERM handlers that ask the running stage to checkpoint and stop.

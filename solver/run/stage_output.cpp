@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "io/state_file.hpp"
+#include "run/preflight.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -154,7 +155,7 @@ void StageOutput::write_row(const State& state) {
 }
 
 void StageOutput::checkpoint(const State& state) {
-  write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_);
+  write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_));
   nlohmann::json errors = nlohmann::json::array();
   for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));
   run_.record_checkpoint(stage_, elapsed(), {{"control_errors", errors}});

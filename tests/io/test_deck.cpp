@@ -374,6 +374,11 @@ TEST(DeckErrors, InconsistentTests) {
   j["tests"][0]["name"] = "a/b";
   expect_error(j, "tests[0].name");
   j = minimal_deck();
+  j["tests"][0]["name"] = std::string(65, 'a');  // check and run share the limit (a folder name)
+  expect_error(j, "tests[0].name", "at most 64");
+  j["tests"][0]["name"] = std::string(64, 'a');
+  EXPECT_NO_THROW(parse_deck(j.dump()));
+  j = minimal_deck();
   j["tests"][0]["axes"]["x1"] = {{"strain_increment", 1e-7}, {"stress", 1e5}};
   expect_error(j, "tests[0].axes.x1", "exactly one");
   j = minimal_deck();
@@ -391,6 +396,11 @@ TEST(DeckErrors, NotJsonOrTooDeepIsADeckError) {
   EXPECT_THROW(parse_deck("{\"format\": 1,"), DeckError);
   EXPECT_THROW(parse_deck(""), DeckError);
   EXPECT_THROW(parse_deck("[1, 2]"), DeckError);
+  try {  // the top level has the empty path: the message names the deck, never ": expected"
+    parse_deck("[1, 2]");
+  } catch (const DeckError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("deck: expected an object", 0), 0u) << e.what();
+  }
   EXPECT_THROW(parse_deck(std::string(100000, '[') + std::string(100000, ']')), DeckError);
   EXPECT_THROW(read_deck("/nonexistent/celldem/deck.json"), DeckError);
 }

@@ -102,6 +102,27 @@ TEST(StateFile, ResumedStateComputesSameForces) {
   EXPECT_EQ(a2.pairs.tangential, b.pairs.tangential);
 }
 
+// A state keeps the physics it was made with (format 4); without a record it is written as before (format 2
+// for the linear law), so older readers' files and the record-less ones stay the same bytes.
+TEST(StateFile, PhysicsRecordRoundTripsAndSetsFormatFour) {
+  const State a = sample_state();
+  const std::string record = R"({"contact.kn":1000000.0,"contact.normal":"linear","sample.density":2650.0})";
+  const std::string bytes = serialize_state(a, "prepared", record);
+  std::uint32_t version = 0;
+  std::memcpy(&version, bytes.data() + 8, sizeof version);
+  EXPECT_EQ(version, 4u);
+  std::string label, physics;
+  const State b = parse_state(bytes, &label, &physics);
+  EXPECT_EQ(label, "prepared");
+  EXPECT_EQ(physics, record);
+  EXPECT_EQ(b.particles.scaled, a.particles.scaled);
+  EXPECT_EQ(serialize_state(b, "prepared", record), bytes);
+  std::memcpy(&version, serialize_state(a, "prepared").data() + 8, sizeof version);
+  EXPECT_EQ(version, 2u);
+  (void)parse_state(serialize_state(a, "prepared"), nullptr, &physics);
+  EXPECT_EQ(physics, "");
+}
+
 TEST(StateFile, WriteAndReadThroughAFile) {
   testing::TempDir dir;
   const State a = sample_state();

@@ -70,7 +70,7 @@ TEST(EndToEnd, PrepareAndTriaxialTestWriteDocumentedFiles) {
   for (const auto& e : fs::recursive_directory_iterator(out))
     if (e.is_regular_file()) before[e.path().string()] = {read_bytes(e.path()), e.last_write_time()};
   const Result again = celldem(dir, run_args(deck, out));
-  EXPECT_NE(again.code, 0);
+  EXPECT_EQ(again.code, 2) << "a usage error, not a run-time failure";
   EXPECT_NE(again.err.find("--force"), std::string::npos) << again.err;
   std::size_t files = 0;
   for (const auto& e : fs::recursive_directory_iterator(out))
@@ -107,6 +107,19 @@ TEST(EndToEnd, DeckErrorExitsTwoNamingTheKey) {
   r = celldem(dir, "check '" + (dir / "good.json").string() + "'");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("valid"), std::string::npos) << r.out;
+  // What it costs: 200 spheres at 400 bytes, the preparation's range and the test's 1000 steps.
+  EXPECT_NE(r.out.find("estimate: about 0.08 MB of memory;"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("preparation steps and 1000 test steps"), std::string::npos) << r.out;
+
+  // A snapshot beyond the test's end (e1 = 0.004) would never be written: check says so, naming the strain.
+  text = testing::small_deck_json(200, kTtc);
+  const std::string interval = "\"output_interval\": 100";
+  text.replace(text.find(interval), interval.size(), interval + ", \"snapshots\": {\"e1\": [0.002, 0.05]}");
+  testing::write_bytes(dir / "snapshots.json", text);
+  r = celldem(dir, "check '" + (dir / "snapshots.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("tests[0].snapshots.e1: 0.05 lies beyond"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("0.002 lies"), std::string::npos) << r.err;
 }
 
 // Interrupted by SIGINT part-way (during the preparation or the test, whichever it happens to be), then

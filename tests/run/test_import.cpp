@@ -87,5 +87,111 @@ TEST(Import, LammpsDataFileRunsLikeTheStateItCameFrom) {
   EXPECT_GT(std::count(chains.begin(), chains.end(), '\n'), 200);
 }
 
+// A state keeps the physics it was made with: a deck that disagrees (density, contact law or its stiffness)
+// is refused naming both values, unless it overrides them on purpose, which the run's warnings record.
+TEST(Import, StateAndDeckMustAgreeOnThePhysics) {
+  const fs::path dir = testing::test_dir("physics_" + std::to_string(getpid()));
+  write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
+  ASSERT_EQ(celldem(dir, run_args(dir / "prep.json", dir / "prep")).code, 0);
+  const std::string same = deck_from("prep/prepared.state");
+  write_bytes(dir / "same.json", same);
+  Result r = celldem(dir, "check '" + (dir / "same.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+
+  std::string density = same;
+  density.replace(density.find("\"density\": 2650"), 15, "\"density\": 2000");
+  write_bytes(dir / "density.json", density);
+  r = celldem(dir, "check '" + (dir / "density.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("sample.density: the deck says 2000, the state was made with 2650"), std::string::npos) << r.err;
+
+  std::string stiffer = same;
+  stiffer.replace(stiffer.find("\"kn\": 1.0e6"), 11, "\"kn\": 2.0e6");
+  write_bytes(dir / "stiffer.json", stiffer);
+  r = celldem(dir, "check '" + (dir / "stiffer.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("contact.kn: the deck says 2e+06, the state was made with 1e+06"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("override_state_physics"), std::string::npos) << r.err;
+
+  std::string hertz = same;
+  const std::string linear = "\"kn\": 1.0e6, \"kt\": 1.0e6";
+  hertz.replace(hertz.find(linear), linear.size(),
+                "\"normal\": \"hertz\", \"tangential\": \"mindlin\", \"youngs_modulus\": 7e7, \"poisson_ratio\": 0.3");
+  write_bytes(dir / "hertz.json", hertz);
+  r = celldem(dir, "check '" + (dir / "hertz.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("contact.normal: the deck says hertz, the state was made with linear"), std::string::npos) << r.err;
+
+  stiffer.replace(stiffer.find("\"initial_state\""), 0, "\"override_state_physics\": true, ");
+  write_bytes(dir / "override.json", stiffer);
+  r = celldem(dir, run_args(dir / "override.json", dir / "override"));
+  EXPECT_EQ(r.code, 0) << r.err;
+  const auto summary = nlohmann::json::parse(read_bytes(dir / "override" / "summary.json"));
+  EXPECT_NE(summary.dump().find("override_state_physics: initial_state"), std::string::npos) << summary.dump();
+}
+
+// The data file with atom 1 moved to atom 2's position plus `offset` of the sum of their radii along x.
+std::string move_atom_onto_another(const std::string& data, double offset) {
+  std::istringstream in(data);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  std::size_t first = 0;
+  while (lines[first].rfind("Atoms", 0) != 0) ++first;
+  first += 2;  // the header line and a blank line
+  auto fields = [&](std::size_t k) {
+    std::istringstream ss(lines[k]);
+    std::vector<std::string> f;
+    for (std::string w; ss >> w;) f.push_back(w);
+    return f;
+  };
+  std::size_t one = first, two = first;
+  for (std::size_t k = first; k < lines.size() && !lines[k].empty(); ++k) {
+    if (fields(k)[0] == "1") one = k;
+    if (fields(k)[0] == "2") two = k;
+  }
+  std::vector<std::string> a = fields(one), b = fields(two);
+  const double reach = 0.5 * (std::stod(a[2]) + std::stod(b[2]));
+  std::ostringstream x;
+  x.precision(17);
+  x << std::stod(b[4]) + offset * reach;
+  b[4] = x.str();
+  std::string moved = a[0] + " " + a[1] + " " + a[2] + " " + a[3];
+  for (std::size_t k = 4; k < b.size(); ++k) moved += " " + b[k];
+  std::ostringstream out;
+  for (std::size_t k = 0; k < lines.size(); ++k) out << (k == one ? moved : lines[k]) << "\n";
+  return out.str();
+}
+
+// An imported packing with deep overlaps is reported by check (count, deepest, the atoms), not blamed on the
+// time step later; two atoms at the same place are refused naming them.
+TEST(Import, DeepOverlapsAreReportedAndCoincidentAtomsRefused) {
+  const fs::path dir = testing::test_dir("overlaps_" + std::to_string(getpid()));
+  write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
+  ASSERT_EQ(celldem(dir, run_args(dir / "prep.json", dir / "prep")).code, 0);
+  write_bytes(dir / "a.json", deck_from("prep/prepared.state"));
+  Result r = celldem(dir, "translate '" + (dir / "a.json").string() + "' --to lammps --state '" +
+                              (dir / "prep" / "prepared.state").string() + "' --out '" + (dir / "lmp").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = celldem(dir, "check '" + (dir / "a.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("touching pairs overlap"), std::string::npos) << "a prepared packing overlaps slightly: " << r.err;
+
+  const std::string data = read_bytes(dir / "lmp" / "state.data");
+  write_bytes(dir / "lmp" / "deep.data", move_atom_onto_another(data, 0.5));
+  write_bytes(dir / "deep.json", deck_from("lmp/deep.data"));
+  r = celldem(dir, "check '" + (dir / "deep.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("touching pairs overlap by more than 0.05 of the smaller radius, the deepest"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("atom 1 and atom 2"), std::string::npos) << r.err;
+
+  write_bytes(dir / "lmp" / "same.data", move_atom_onto_another(data, 0.0));
+  write_bytes(dir / "same.json", deck_from("lmp/same.data"));
+  r = celldem(dir, "check '" + (dir / "same.json").string() + "'");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("atom 1 and atom 2"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("same place"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace celldem

@@ -16,6 +16,16 @@ start=$(date +%s.%N)
 ref_seconds=$(echo "$(date +%s.%N) - $start" | bc)
 echo "uninterrupted run: ${ref_seconds}s"
 
+# A batch job's log (stdout to a file) holds every line written before a SIGKILL: stdout is line-buffered
+# when it is not a terminal. Longer tests, so that the run is still going when its first test starts.
+sed 's/"strain":0.006/"strain":0.03/g' "$work/deck.json" > "$work/long.json"
+"$celldem" run "$work/long.json" --out "$work/logged" --threads 1 > "$work/stdout.log" 2>/dev/null &
+pid=$!
+for ((k = 0; k < 300; ++k)); do grep -q "ttc: starting" "$work/stdout.log" 2>/dev/null && break; sleep 0.1; done
+kill -0 $pid 2>/dev/null || fail "stdout reached its log only when the run ended (buffered), or the run failed"
+kill -KILL $pid; wait $pid 2>/dev/null
+grep -q "prepare: done" "$work/stdout.log" || fail "the log of a killed run lacks the line of its finished preparation"
+
 # Random kill points spread over the run's duration (portable seed: the test is reproducible in spirit,
 # not in timing, which is the point).
 RANDOM=$$
