@@ -114,12 +114,12 @@ TEST_F(FailureDetection, WeakServoIsMarkedWithWarn) {
   EXPECT_NE(s["warnings"].dump().find("uncontrolled"), std::string::npos) << s["warnings"].dump();
 }
 
-// A servo held at its cap cannot follow: the message says so and names the cap. x3 is asked for ten times
+// A servo held at its cap cannot follow: the message says so and names the cap. x3 is asked for a hundred times
 // the sample's stress with a cap of 3 x the driving increment (the smallest check accepts).
 TEST_F(FailureDetection, SaturatedServoNamesTheCap) {
   try {
     run(test_deck(R"({"name": "capped", "friction": 0.5, "axes": {"x1": {"strain_increment": 1e-6},
-      "x2": {"strain_increment": 0}, "x3": {"stress": 1e6}}, "end": {"strain": 0.006}, "output_interval": 100})",
+      "x2": {"strain_increment": 0}, "x3": {"stress": 1e7}}, "end": {"strain": 0.006}, "output_interval": 100})",
                   "\"servo\": {\"max_strain_increment\": 4e-5}", "\"servo\": {\"max_strain_increment\": 3e-6}, \"checkpoint_interval\": 500"),
         "capped");
     FAIL() << "a test whose servo sat at its cap finished";
