@@ -7,7 +7,8 @@ null). Decks that test a prepared state (initial_state) are given a preparation 
 
 Then the reproductions of issue 25 section 1: small_run.json as shipped (PSC at 1e-6 per step, the default
 cap's saturation before) holds its stress within 0.5 %; a cap below 3 x the driving increment and a zero-step
-leg are refused by `check` with exit 2 and the key named.
+leg are refused by `check` and `run` with exit 2 and the key named; a leg over before its first step at run time
+stops the run with exit 1.
 
 Usage: test_shipped_decks.py CELLDEM
 """
@@ -146,6 +147,18 @@ def main():
                 r = run(args, work)
                 if r.returncode != 2 or key not in r.stderr:
                     fail(f"{what}: `celldem {command}` gave exit {r.returncode} ({r.stderr.strip()}), expected 2 naming {key}")
+        # A leg that ends before its first step at run time (a preparation leg whose solid fraction the sample
+        # already has) stops the run with exit 1.
+        instant = copy.deepcopy(base)
+        axes = {"x1": {"strain_increment": 5e-5}, "x2": {"strain_increment": 5e-5}, "x3": {"strain_increment": 5e-5}}
+        instant["prepare"] = {"legs": [{"axes": axes, "end": {"solid_fraction": 0.01}}], "output_interval": 500}
+        instant["tests"] = []
+        path = os.path.join(work, "instant.json")
+        with open(path, "w") as f:
+            json.dump(instant, f)
+        r = run(["run", path, "--out", os.path.join(work, "instant"), "--quiet"], work)
+        if r.returncode != 1 or "ended after 0 steps" not in r.stderr:
+            fail(f"a leg over before its first step: exit {r.returncode} ({r.stderr.strip()}), expected 1")
     if failures:
         print(f"{len(failures)} failure(s)")
         return 1
