@@ -195,11 +195,12 @@ std::string fmt(double x) {
   return buf;
 }
 
-// What the failed control of axis k says: where, how far, and what to change.
 std::string stage_name(const Program& program) {
   return program.stage == "prepare" ? "the preparation" : "test '" + program.stage + "'";
 }
 
+// What the failed control of axis k says: where, how far, and what to change (the servo sat at its cap for
+// most of the steps out of tolerance: the cap or the rate; else the gains or the rate).
 std::string control_failure_message(const Program& program, int leg_index, const LegChecks& checks,
                                     const ControlErrors& e, int k, const ServoDef& servo) {
   const Leg& leg = program.legs[static_cast<std::size_t>(leg_index)];
@@ -247,7 +248,8 @@ void run_program(const Model& model, const Program& program, State& state, Stage
       if (const int k = track_errors(leg, checks, state, e); k >= 0) {
         const std::string message = control_failure_message(program, c.phase, checks, e, k, model.servo);
         if (program.control_failure == ControlFailure::Stop)
-          throw RunError(message + "; the last checkpoint holds the state before (control_failure \"warn\" goes on)");
+          throw RunError(message + ". The last checkpoint is kept; with \"control_failure\": \"warn\" the run goes on "
+                         "and marks the test uncontrolled");
         std::fprintf(stderr, "warning: %s\n", message.c_str());
       }
       if (leg.end.kind == LegEndKind::Equilibrium && c.phase_steps % program.equilibrium->check_interval == 0) {
