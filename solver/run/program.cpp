@@ -138,9 +138,12 @@ struct LegChecks {
   double cap = 0.0;              // the servo's cap of this leg
   LegChecks(const Leg& leg, const Model& model)
       : driving(leg_driving_increment(leg, model.dt)), cap(servo_cap(model.servo, leg, model.dt)) {
-    if (driving > 0.0) {
-      settle = static_cast<std::int64_t>(std::ceil(kSettleStrain / driving));
-      persist = std::max(kMinPersistSteps, static_cast<std::int64_t>(std::ceil(kPersistStrain / driving)));
+    if (driving > 0.0) {  // whole steps: a quotient rounded just above an integer does not add one
+      const auto steps_for = [&](double strain) {
+        return static_cast<std::int64_t>(std::ceil(strain / driving * (1.0 - 1e-12)));
+      };
+      settle = steps_for(kSettleStrain);
+      persist = std::max(kMinPersistSteps, steps_for(kPersistStrain));
     }
   }
 };
