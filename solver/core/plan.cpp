@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace celldem {
 
@@ -41,12 +42,15 @@ double servo_cap(const ServoDef& servo, const Leg& leg, double time_step) {
   return std::max(kDefaultServoCap, kServoCapFactor * leg_driving_increment(leg, time_step));
 }
 
-std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step) {
+std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
+                                            std::vector<double>* from) {
   std::vector<std::int64_t> steps;
   // A leg starts where the previous one ended: its end axis from the previous strain end of that axis.
   Vec3 strain = Vec3::Zero();
   bool known = true;
+  if (from) from->clear();
   for (const Leg& leg : legs) {
+    if (from) from->push_back(known ? strain[leg.end.axis] : std::numeric_limits<double>::quiet_NaN());
     const std::int64_t n = known ? leg_steps(leg, time_step, strain[leg.end.axis]) : -1;
     steps.push_back(n);
     if (n < 0) {

@@ -38,8 +38,10 @@ double servo_cap(const ServoDef& servo, const Leg& leg, double time_step);
 inline constexpr double kMinServoCapRatio = 3.0;
 
 // The steps of each leg of a program run from the test start (each strain leg from where the previous one
-// left its end axis); -1 for a leg whose length only running tells, and for every strain leg after it.
-std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step);
+// left its end axis); -1 for a leg whose length only running tells, and for every leg after it. `from`, when
+// given, receives each leg's starting strain of its end axis (NaN where unknown).
+std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
+                                            std::vector<double>* from = nullptr);
 
 struct TestPlan {
   std::int64_t steps = 0;        // all legs; -1 when a leg's length is known only by running it

@@ -412,11 +412,14 @@ SnapshotDef read_snapshots(ObjectReader r) {
 // A leg shorter than one step is an input error: its end strain lies within half a step of where it starts
 // (an end strain below one step's increment, or a strain rate so large that one step passes the end).
 void check_leg_lengths(const TestDef& t, double time_step, const std::string& legs_path, bool one_leg) {
-  const std::vector<std::int64_t> steps = program_leg_steps(t.legs, time_step);
+  std::vector<double> from;
+  const std::vector<std::int64_t> steps = program_leg_steps(t.legs, time_step, &from);
   for (std::size_t j = 0; j < t.legs.size(); ++j) {
     if (steps[j] != 0) continue;
     const Leg& leg = t.legs[j];
     const int k = leg.end.axis;
+    // A leg that moves away from its end strain is another error, named when the leg starts (LegEndWatch).
+    if ((leg.end.value - from[j]) * leg.strain_per_step(k, time_step) < 0.0) continue;
     const std::string at = one_leg ? legs_path + ".end.strain" : legs_path + " (leg " + std::to_string(j) +
                                                                       " of the program, repeats unrolled): end.strain";
     const AxisControl& a = leg.axes[k];
