@@ -127,7 +127,15 @@ Json plan_json(const Deck& deck) {
                                                             deck.sample.density, stress_sum / stress_axes))
                                      : Json(nullptr);
     Json legs = Json::array();
-    for (const Leg& leg : t.legs) legs.push_back({{"axes", axes_json(leg)}, {"end", end_json(leg.end)}});
+    for (const Leg& leg : t.legs) {
+      // What the servo can follow: the leg's driving strain per step against its cap (check refuses a ratio
+      // below kMinServoCapRatio in a leg with servo axes).
+      const double d = leg_driving_increment(leg, deck.time_step);
+      const double cap = servo_cap(deck.servo, leg, deck.time_step);
+      legs.push_back({{"axes", axes_json(leg)}, {"end", end_json(leg.end)}, {"driving_increment", d},
+                      {"servo_cap", cap}, {"servo", leg_has_servo(leg)},
+                      {"cap_ratio", d > 0.0 ? Json(cap / d) : Json(nullptr)}});
+    }
     const auto known = [](std::int64_t n) { return n >= 0 ? Json(n) : Json(nullptr); };
     out["tests"].push_back({{"name", t.name}, {"friction", t.friction}, {"steps", known(p.steps)},
                             {"end_axis", kAxisNames[first.end.axis]}, {"end_strain", first.end.value},
@@ -188,6 +196,15 @@ Command add_plan_command(CLI::App& app) {
       const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
       std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", t["name"].get<std::string>().c_str(), t["legs"].size(),
                   t["legs"].size() > 1 ? "s" : "", count(t["steps"]).c_str(), count(t["rows"]).c_str());
+      for (std::size_t j = 0; j < t["legs"].size(); ++j) {
+        const Json& leg = t["legs"][j];
+        if (!leg["servo"].get<bool>()) continue;
+        const double d = leg["driving_increment"].get<double>(), cap = leg["servo_cap"].get<double>();
+        std::printf("    leg %zu: driving %.3g per step, servo cap %.3g", j, d, cap);
+        if (d > 0.0)
+          std::printf(" = %.3g x driving%s", cap / d, cap < kMinServoCapRatio * d ? " (below 3: refused)" : "");
+        std::printf("\n");
+      }
     }
     std::printf("%s\n", describe_estimate(deck).c_str());
     return 0;

@@ -50,18 +50,20 @@ Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s) {
 
 namespace {
 
-// The servo's strain increment of axis k towards `target` (and its integral, anti-windup).
-double servo_increment(const ServoDef& servo, double target, int k, State& state) {
+// The servo's strain increment of axis k towards `target` (and its integral, anti-windup), at most `cap`.
+double servo_increment(const ServoDef& servo, double cap, double target, int k, State& state) {
   const double err = target - state.normal_stress[k];
   const double stiffness = state.axis_stiffness[k];
   double de;
   if (stiffness > 0.0) {
     de = (servo.gain * err + servo.integral_gain * (state.control.servo_integral[k] + err)) / stiffness;
   } else {
-    de = err > 0.0 ? servo.max_strain_increment : -servo.max_strain_increment;  // nothing touches yet
+    de = err > 0.0 ? cap : -cap;  // nothing touches yet
   }
-  if (std::abs(de) < servo.max_strain_increment) state.control.servo_integral[k] += err;
-  return std::clamp(de, -servo.max_strain_increment, servo.max_strain_increment);
+  const bool saturated = !(std::abs(de) < cap);
+  if (!saturated) state.control.servo_integral[k] += err;
+  state.servo_saturated[k] = saturated;
+  return std::clamp(de, -cap, cap);
 }
 
 // Scales the constant-volume axes by one common factor x so that det h = volume. det h is a polynomial of
@@ -98,6 +100,8 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   const Mat3 h_before = cell.h;
   const double next_step = static_cast<double>(ctl.phase_steps + 1);
   const Vec3 target = stress_targets(loading.axes, state.normal_stress);
+  const double cap = loading.servo_cap > 0.0 ? loading.servo_cap : model.servo.max_strain_increment;
+  state.servo_saturated = {false, false, false};
   for (int k = 0; k < 3; ++k) {
     const AxisControl& a = loading.axes[k];
     const double e0 = ctl.leg_start_strains[k];
@@ -111,7 +115,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
       case AxisMode::Stress:
       case AxisMode::MeanStress:
       case AxisMode::B:
-        cell.h(k, k) *= 1.0 - servo_increment(model.servo, target[k], k, state);
+        cell.h(k, k) *= 1.0 - servo_increment(model.servo, cap, target[k], k, state);
         break;
       case AxisMode::ConstantVolume:  // below, once the other axes are set
         break;

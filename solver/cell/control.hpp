@@ -7,7 +7,7 @@
 // Stress-driven axes hold a target stress by the servo (per axis, once per step, compression positive):
 //   err_k   = target_k - s_kk                       [Pa]  (s from the previous force evaluation)
 //   I_k    += err_k                                  (not while the increment is saturated: anti-windup)
-//   de_k    = (gain * err_k + integral_gain * I_k) / K_kk,   |de_k| <= max_strain_increment
+//   de_k    = (gain * err_k + integral_gain * I_k) / K_kk,   |de_k| <= cap (the leg's, core/plan servo_cap)
 //   h_kk   *= 1 - de_k
 // K_kk = (1/V) sum_c kn (n_k l_k)^2 is the affine stiffness of the axis measured from the contacts, so
 // `gain` is the fraction of the stress error an affine step would remove. The targets (stress_targets()):
@@ -29,6 +29,7 @@ namespace celldem {
 struct Loading {
   std::array<AxisControl, 3> axes;  // x1, x2, x3
   Friction friction;  // sliding and rolling
+  double servo_cap = 0.0;  // [-] cap of a servo axis's strain per step (core/plan servo_cap); 0: the model's
 };
 
 // Starts a stage from the state as it stands: step counters and servo memory reset, strains and volume
@@ -42,7 +43,8 @@ void begin_leg(State& state, int leg);
 Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s);
 
 // Sets the cell for the end of this step (state.control.phase_steps is the number of steps already done in
-// the leg) and the velocity gradient L with hdot = L h_mid.
+// the leg) and the velocity gradient L with hdot = L h_mid; state.servo_saturated says which servo axes
+// moved by their cap in this step.
 void advance_cell(const Model& model, const Loading& loading, State& state);
 
 // Engineering strains of the cell relative to the stage start, compression positive.

@@ -20,6 +20,8 @@ enum class TwistingModel { None, Marshall };           // no twisting resistance
 enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume };
 // What ends a leg.
 enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium };
+// What a control that stays outside its tolerance does: stop the stage (exit 1), or warn and mark the test.
+enum class ControlFailure { Stop, Warn };
 
 inline constexpr std::array<std::string_view, 2> kTangentialRotationNames = {"rotate", "project"};
 inline constexpr std::array<std::string_view, 2> kMomentArmNames = {"contact_point", "radius"};
@@ -29,6 +31,7 @@ inline constexpr std::array<std::string_view, 3> kTangentialModelNames = {"linea
                                                                           "mindlin_rescale"};
 inline constexpr std::array<std::string_view, 2> kRollingModelNames = {"none", "sds"};
 inline constexpr std::array<std::string_view, 2> kTwistingModelNames = {"none", "marshall"};
+inline constexpr std::array<std::string_view, 2> kControlFailureNames = {"stop", "warn"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
 
 // Mindlin's stiffness 8 G* a, with or without the rescaling.

@@ -71,6 +71,7 @@ struct ServoDef {
   double gain = keys::servo_gain.fallback;
   double integral_gain = keys::servo_integral_gain.fallback;
   double max_strain_increment = keys::servo_max_strain_increment.fallback;
+  bool max_strain_increment_given = false;  // false: each leg's cap follows its driving rate (core/plan servo_cap)
 };
 
 struct AxisControl {
@@ -156,6 +157,7 @@ struct Deck {
   Kinematics kinematics = Kinematics::Affine;
   double time_step = 0.0;                   // [s]
   ServoDef servo;
+  ControlFailure control_failure = ControlFailure::Stop;
   std::int64_t checkpoint_interval = static_cast<std::int64_t>(keys::checkpoint_interval.fallback);
   double neighbor_skin = keys::neighbor_skin.fallback;  // fraction of the largest diameter
   std::optional<PrepareDef> prepare;        // exactly one of prepare / initial_state

@@ -148,7 +148,13 @@ inline constexpr KeySpec servo_integral_gain{.path = "servo.integral_gain", .kin
     .meaning = "per step, fraction of the accumulated error added back (not both gains 0)"};
 inline constexpr KeySpec servo_max_strain_increment{.path = "servo.max_strain_increment", .kind = KeyKind::Number,
     .min = 1e-12, .max = 1e-2, .required = false, .fallback = 1e-6,
-    .meaning = "cap of a stress-driven axis's strain per step"};
+    .default_text = "per leg: max(1e-6, 10 x the leg's largest strain per step of a strain-driven axis)",
+    .meaning = "cap of a stress-driven axis's strain per step; a stress axis needs about 1 to 2 x the driving "
+               "strain per step, so `check` and `run` refuse a cap below 3 x it in a leg with servo axes"};
+inline constexpr KeySpec control_failure{.path = "control_failure", .kind = KeyKind::Choice, .required = false,
+    .choices = kControlFailureNames,
+    .meaning = "a control that stays outside its tolerance after a leg's first 0.2 % of driving strain: `stop` the "
+               "stage (exit 1), or `warn` and mark the test `\"controlled\": false` in summary.json"};
 
 inline constexpr KeySpec neighbor_skin{.path = "neighbor_skin", .kind = KeyKind::Number, .min = 1e-4, .max = 1,
     .required = false, .fallback = 0.01,
@@ -294,7 +300,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &contact_youngs_modulus, &contact_poisson_ratio, &contact_rolling_stiffness, &contact_rolling_damping,
     &contact_rolling_friction, &contact_reference_overlap, &contact_tangential_rotation, &contact_moment_arm,
     &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &servo, &servo_gain,
-    &servo_integral_gain, &servo_max_strain_increment, &neighbor_skin, &checkpoint_interval, &prepare,
+    &servo_integral_gain, &servo_max_strain_increment, &control_failure, &neighbor_skin, &checkpoint_interval, &prepare,
     &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
     &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,

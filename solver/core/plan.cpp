@@ -28,22 +28,53 @@ std::int64_t leg_steps(const Leg& leg, double time_step, double from) {
   return n;
 }
 
+double leg_driving_increment(const Leg& leg, double time_step) {
+  double d = 0.0;
+  for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(leg.strain_per_step(k, time_step)));
+  return d;
+}
+
+bool leg_has_servo(const Leg& leg) {
+  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.stress_driven(); });
+}
+
+double servo_cap(const ServoDef& servo, const Leg& leg, double time_step) {
+  if (servo.max_strain_increment_given) return servo.max_strain_increment;
+  return std::max(kDefaultServoCap, kServoCapFactor * leg_driving_increment(leg, time_step));
+}
+
+std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
+                                            std::vector<double>* from) {
+  std::vector<std::int64_t> steps;
+  // A leg starts where the previous one ended: its end axis from the previous strain end of that axis.
+  Vec3 strain = Vec3::Zero();
+  bool known = true;
+  if (from) from->clear();
+  for (const Leg& leg : legs) {
+    if (from) from->push_back(known ? strain[leg.end.axis] : std::numeric_limits<double>::quiet_NaN());
+    const std::int64_t n = known ? leg_steps(leg, time_step, strain[leg.end.axis]) : -1;
+    steps.push_back(n);
+    if (n < 0) {
+      known = false;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) strain[k] += n * leg.strain_per_step(k, time_step);
+    if (leg.end.kind == LegEndKind::Strain && n != leg.end.max_steps) strain[leg.end.axis] = leg.end.value;
+  }
+  return steps;
+}
+
 TestPlan plan_test(const Deck& deck, const TestDef& test) {
   TestPlan p;
   const Leg& first = test.legs.front();
   p.strain_per_step = first.strain_per_step(first.end.axis, deck.time_step);
   p.strain_rate = p.strain_per_step / deck.time_step;
-  // A leg starts where the previous one ended: its end axis from the previous strain end of that axis.
-  Vec3 strain = Vec3::Zero();
-  for (const Leg& leg : test.legs) {
-    const std::int64_t n = leg_steps(leg, deck.time_step, strain[leg.end.axis]);
+  for (const std::int64_t n : program_leg_steps(test.legs, deck.time_step)) {
     if (n < 0) {
       p.steps = p.rows = -1;
       return p;
     }
     p.steps += n;
-    for (int k = 0; k < 3; ++k) strain[k] += n * leg.strain_per_step(k, deck.time_step);
-    if (leg.end.kind == LegEndKind::Strain && n != leg.end.max_steps) strain[leg.end.axis] = leg.end.value;
   }
   p.rows = 1 + p.steps / test.output_interval + (p.steps % test.output_interval != 0);
   return p;

@@ -25,6 +25,26 @@ std::vector<Leg> preparation_legs(const PrepareDef& prepare);
 // strain reached by a stress-driven axis). Capped by end.max_steps.
 std::int64_t leg_steps(const Leg& leg, double time_step, double from = 0.0);
 
+// The largest |strain per step| of the leg's strain-driven axes (0 when none drives it).
+double leg_driving_increment(const Leg& leg, double time_step);
+// Whether a servo moves one of the leg's axes (stress, mean_stress or b).
+bool leg_has_servo(const Leg& leg);
+// The cap of the servo's strain per step in this leg: servo.max_strain_increment when the deck gives it, else
+// max(kDefaultServoCap, kServoCapFactor x the leg's driving increment): a stress axis beside a driven one
+// needs about 1 to 2 x the driving increment (its dilation), so the default cap follows the driving rate and
+// a faster test does not saturate its servo. A leg with no driver (the preparation's servo) keeps 1e-6.
+inline constexpr double kDefaultServoCap = 1e-6;
+inline constexpr double kServoCapFactor = 10.0;
+double servo_cap(const ServoDef& servo, const Leg& leg, double time_step);
+// Below this multiple of the driving increment a leg's servo cannot follow (check and run refuse it).
+inline constexpr double kMinServoCapRatio = 3.0;
+
+// The steps of each leg of a program run from the test start (each strain leg from where the previous one
+// left its end axis); -1 for a leg whose length only running tells, and for every leg after it. `from`, when
+// given, receives each leg's starting strain of its end axis (NaN where unknown).
+std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
+                                            std::vector<double>* from = nullptr);
+
 struct TestPlan {
   std::int64_t steps = 0;        // all legs; -1 when a leg's length is known only by running it
   double strain_per_step = 0.0;  // the first leg's end axis, per step (compression +)

@@ -140,6 +140,9 @@ struct State {
                                       // tensor, when a row needs it: contact_stress(state))
   Vec3 axis_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ii)/d(e_ii) from the normal springs
   std::int64_t touching = 0;    // contacts in the last force evaluation
+  // Set by the last step's advance_cell: the servo axes whose increment sat at its cap (not saved: every step
+  // sets it before anything reads it).
+  std::array<bool, 3> servo_saturated = {false, false, false};
 };
 
 }  // namespace celldem

@@ -263,6 +263,7 @@ ServoDef read_servo(ObjectReader r) {
   read_fields<ServoDef, double>(r, s, {{&keys::servo_gain, &ServoDef::gain},
                                        {&keys::servo_integral_gain, &ServoDef::integral_gain},
                                        {&keys::servo_max_strain_increment, &ServoDef::max_strain_increment}});
+  s.max_strain_increment_given = r.has(keys::servo_max_strain_increment);
   if (s.gain == 0.0 && s.integral_gain == 0.0) fail(r.path(), "gain and integral_gain cannot both be zero");
   r.finish();
   return s;
@@ -412,7 +413,30 @@ SnapshotDef read_snapshots(ObjectReader r) {
   return s;
 }
 
-TestDef read_test(ObjectReader r, const ContactDef& contact) {
+// A leg shorter than one step is an input error: its end strain lies within half a step of where it starts
+// (an end strain below one step's increment, or a strain rate so large that one step passes the end).
+void check_leg_lengths(const TestDef& t, double time_step, const std::string& legs_path, bool one_leg) {
+  std::vector<double> from;
+  const std::vector<std::int64_t> steps = program_leg_steps(t.legs, time_step, &from);
+  for (std::size_t j = 0; j < t.legs.size(); ++j) {
+    if (steps[j] != 0) continue;
+    const Leg& leg = t.legs[j];
+    const int k = leg.end.axis;
+    // A leg that moves away from its end strain is another error, named when the leg starts (LegEndWatch).
+    if ((leg.end.value - from[j]) * leg.strain_per_step(k, time_step) < 0.0) continue;
+    const std::string at = one_leg ? legs_path + ".end.strain" : legs_path + " (leg " + std::to_string(j) +
+                                                                      " of the program, repeats unrolled): end.strain";
+    const AxisControl& a = leg.axes[k];
+    fail(at, "the leg is 0 steps: axis " + std::string(kAxisNames[k]) + " moves " + fmt(leg.strain_per_step(k, time_step)) +
+                 " per step (" + (a.mode == AxisMode::StrainRate ? "strain_rate " + fmt(a.value) + " 1/s x time_step " +
+                                                                       fmt(time_step) + " s"
+                                                                 : "strain_increment " + fmt(a.value)) +
+                 "), more than twice the distance to its end strain " + fmt(leg.end.value) +
+                 ": lower the rate or move the end strain further");
+  }
+}
+
+TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step) {
   TestDef t;
   t.name = r.string(keys::test_name);
   if (t.name.empty() || t.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
@@ -435,6 +459,7 @@ TestDef read_test(ObjectReader r, const ContactDef& contact) {
     if (r.has(keys::test_axes) || r.has(keys::test_end))
       fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" and \"end\", not both");
     read_program(r.raw(keys::test_legs), r.at(keys::test_legs), false, t.legs);
+    check_leg_lengths(t, time_step, r.at(keys::test_legs), false);
   } else {
     const Leg leg = read_leg(r, false);
     // The one-leg form: the axis that ends the test must be strained towards the end strain.
@@ -447,6 +472,7 @@ TestDef read_test(ObjectReader r, const ContactDef& contact) {
     }
     check_leg(leg, r.path());
     t.legs.push_back(leg);
+    check_leg_lengths(t, time_step, r.path(), true);
   }
   t.output_interval = r.integer(keys::test_output_interval);
   if (r.has(keys::snapshots)) t.snapshots = read_snapshots(r.object(keys::snapshots));
@@ -601,6 +627,7 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
   d.kinematics = r.choice_of<Kinematics>(keys::kinematics);
   d.time_step = r.number(keys::time_step);
   if (r.has(keys::servo)) d.servo = read_servo(r.object(keys::servo));
+  d.control_failure = r.choice_of<ControlFailure>(keys::control_failure);
   d.neighbor_skin = r.number(keys::neighbor_skin);
   d.checkpoint_interval = r.integer(keys::checkpoint_interval);
 
@@ -622,7 +649,7 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
     std::set<std::string> names;
     for (std::size_t i = 0; i < tests.size(); ++i) {
       const std::string path = "tests[" + std::to_string(i) + "]";
-      d.tests.push_back(read_test(ObjectReader(tests[i], path), d.contact));
+      d.tests.push_back(read_test(ObjectReader(tests[i], path), d.contact, d.time_step));
       if (!names.insert(d.tests.back().name).second)
         fail(path + ".name", "duplicate test name \"" + d.tests.back().name + "\"");
     }

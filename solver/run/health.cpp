@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "core/plan.hpp"
 #include "measure/micro.hpp"
@@ -65,22 +66,27 @@ void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64
                      " (unstable time step or loading?); the last checkpoint holds the last good state");
 }
 
-double servo_max_error(const TestDef& test, const std::vector<SeriesRow>& rows) {
-  double error = 0.0;
-  for (int k = 0; k < 3; ++k)
-    for (std::size_t r = rows.size() / 50 + 1; r < rows.size(); ++r) {
-      const AxisControl& a = test.legs[static_cast<std::size_t>(rows[r].leg)].axes[k];
-      if (a.mode == AxisMode::Stress) error = std::max(error, std::abs(rows[r].normal_stress(k) / a.value - 1.0));
-    }
+double servo_max_error(const std::vector<ControlErrors>& errors) {
+  double error = std::numeric_limits<double>::quiet_NaN();
+  for (const ControlErrors& e : errors)
+    for (const double x : {e.stress, e.mean_stress, e.b, e.volume})
+      if (std::isfinite(x)) error = std::isfinite(error) ? std::max(error, x) : x;
   return error;
 }
 
-std::vector<std::string> test_warnings(const TestDef& test, double servo_error, double inertia) {
+std::vector<ControlFailureRecord> control_failures(const TestDef& test, const std::vector<ControlErrors>& errors) {
+  std::vector<ControlFailureRecord> out;
+  for (std::size_t leg = 0; leg < errors.size() && leg < test.legs.size(); ++leg)
+    for (int k = 0; k < 3; ++k)
+      if (errors[leg].failed[k]) {
+        const AxisMode mode = test.legs[leg].axes[k].mode;
+        out.push_back({leg, k, control_kind(mode), errors[leg].axis_error[k], control_tolerance(mode)});
+      }
+  return out;
+}
+
+std::vector<std::string> test_warnings(const TestDef& test, double inertia) {
   std::vector<std::string> out;
-  if (servo_error > kServoTolerance)
-    out.push_back("test '" + test.name + "': the servo missed its target by up to " +
-                  std::to_string(100 * servo_error) + " % (tolerance 0.5 %): lower the strain rate or raise "
-                  "servo.gain / servo.integral_gain");
   if (inertia > kQuasiStaticInertia)
     out.push_back("test '" + test.name + "': inertial number " + std::to_string(inertia) +
                   " exceeds the quasi-static limit 1e-3: results depend on the loading rate");
@@ -89,23 +95,15 @@ std::vector<std::string> test_warnings(const TestDef& test, double servo_error, 
 
 std::vector<std::string> control_warnings(const TestDef& test, const std::vector<ControlErrors>& errors) {
   std::vector<std::string> out;
-  for (std::size_t k = 0; k < errors.size(); ++k) {
-    const ControlErrors& e = errors[k];
-    const std::string leg = "test '" + test.name + "' leg " + std::to_string(k) + ": ";
-    char buf[200];
-    if (e.b > kBTolerance) {
-      std::snprintf(buf, sizeof buf, "b missed its target by up to %.3g (tolerance %.3g)", e.b, kBTolerance);
-      out.push_back(leg + buf + ": lower the strain rate or raise servo.max_strain_increment / servo.gain");
-    }
-    if (e.mean_stress > kMeanStressTolerance) {
-      std::snprintf(buf, sizeof buf, "the mean stress missed its target by up to %.3g %% (tolerance %.3g %%)",
-                    100 * e.mean_stress, 100 * kMeanStressTolerance);
-      out.push_back(leg + buf + ": lower the strain rate or raise servo.max_strain_increment / servo.gain");
-    }
-    if (e.volume > kVolumeTolerance) {
-      std::snprintf(buf, sizeof buf, "the volume drifted by up to %.3g (tolerance %.3g)", e.volume, kVolumeTolerance);
-      out.push_back(leg + buf);
-    }
+  for (const ControlFailureRecord& f : control_failures(test, errors)) {
+    const double scale = f.kind == "b" ? 1.0 : 100.0;
+    const char* unit = f.kind == "b" ? "" : " %";
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  "test '%s' leg %zu: the %s control of axis x%d failed (error up to %.3g%s, tolerance %.3g%s); "
+                  "the test is marked uncontrolled (control_failure \"warn\")",
+                  test.name.c_str(), f.leg, f.kind.c_str(), f.axis + 1, scale * f.error, unit, scale * f.tolerance, unit);
+    out.push_back(buf);
   }
   return out;
 }

@@ -57,13 +57,25 @@ class RunawayMonitor {
 // Stops the run when a row holds non-finite values in a column that must be finite.
 void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64_t step);
 
-// The largest relative error of the test's fixed-stress axes over its rows after the first 2 %.
-double servo_max_error(const TestDef& test, const std::vector<SeriesRow>& rows);
+// The largest control error of the test over its legs, measured every step after each leg's settle window
+// (ControlErrors): of every kind, relative for stress, mean stress and volume, absolute for b. NaN when
+// nothing was measured.
+double servo_max_error(const std::vector<ControlErrors>& errors);
 
-// Warnings about a finished test (servo error, inertial number), and about a deck before it runs.
-std::vector<std::string> test_warnings(const TestDef& test, double servo_error, double inertial_number);
+// One control of a test that failed (stayed outside its tolerance, program.hpp kPersistStrain).
+struct ControlFailureRecord {
+  std::size_t leg = 0;
+  int axis = 0;          // 0-based
+  std::string kind;      // stress, mean_stress, b, volume
+  double error = 0.0;    // the worst error of the control in the leg
+  double tolerance = 0.0;
+};
+std::vector<ControlFailureRecord> control_failures(const TestDef& test, const std::vector<ControlErrors>& errors);
+
+// Warnings about a finished test (inertial number), and about a deck before it runs.
+std::vector<std::string> test_warnings(const TestDef& test, double inertial_number);
 std::vector<std::string> deck_warnings(const Deck& deck);
-// Legs whose controls missed the tolerances above after their first kSettleStrain.
+// The test's failed controls (with control_failure "warn"; "stop" ends the stage instead).
 std::vector<std::string> control_warnings(const TestDef& test, const std::vector<ControlErrors>& errors);
 
 }  // namespace celldem

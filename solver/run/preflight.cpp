@@ -156,6 +156,26 @@ void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnin
   }
 }
 
+// A servo axis beside an axis driven at d per step moves about d to 2d per step (its dilation): a cap below
+// kMinServoCapRatio x d saturates the servo, and the control fails.
+void check_servo_caps(const Deck& deck) {
+  const auto check = [&](const std::vector<Leg>& legs, const std::string& stage) {
+    for (std::size_t j = 0; j < legs.size(); ++j) {
+      const Leg& leg = legs[j];
+      const double d = leg_driving_increment(leg, deck.time_step);
+      const double cap = servo_cap(deck.servo, leg, deck.time_step);
+      if (leg_has_servo(leg) && d > 0.0 && cap < kMinServoCapRatio * d)
+        throw DeckError("servo.max_strain_increment: " + fmt(cap) + " is below " + fmt(kMinServoCapRatio) +
+                        " x the driving strain per step " + fmt(d) + " of " + stage + " leg " + std::to_string(j) +
+                        " (the servo's axes need about 1 to 2 x it): raise it to at least " +
+                        fmt(kMinServoCapRatio * d) + ", leave it out (the default follows each leg's rate) or "
+                        "lower the strain rate");
+    }
+  };
+  if (deck.prepare) check(deck.prepare->legs, "the preparation");
+  for (const TestDef& t : deck.tests) check(t.legs, "test '" + t.name + "'");
+}
+
 }  // namespace
 
 State load_initial_state(const Deck& deck) { return load_initial_sample(deck).state; }
@@ -206,6 +226,7 @@ std::string initial_state_path(const Deck& deck) {
 }
 
 std::vector<std::string> preflight(const Deck& deck) {
+  check_servo_caps(deck);
   if (deck.prepare) check_prepared_cell(deck);
   if (deck.initial_state) {
     const std::string path = initial_state_path(deck);

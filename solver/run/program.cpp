@@ -2,11 +2,14 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "cell/control.hpp"
 #include "core/plan.hpp"
 #include "measure/quasi_static.hpp"
+#include "run/health.hpp"
 #include "run/runner.hpp"
 #include "run/stage_output.hpp"
 #include "run/thread_governor.hpp"
@@ -15,13 +18,61 @@
 namespace celldem {
 using Json = nlohmann::json;
 
+namespace {
+Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
+double number_of(const Json& j, const char* key) {
+  const auto it = j.find(key);
+  return it != j.end() && it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
+}
+}  // namespace
+
 Json to_json(const ControlErrors& e) {
-  return {{"stress", e.stress}, {"b", e.b}, {"mean_stress", e.mean_stress}, {"volume", e.volume}, {"steps", e.steps}};
+  Json axes = Json::array();
+  for (int k = 0; k < 3; ++k)
+    axes.push_back({{"error", number_or_null(e.axis_error[k])}, {"saturated_steps", e.saturated_steps[k]},
+                    {"over_steps", e.over_steps[k]}, {"over_saturated", e.over_saturated[k]}, {"failed", e.failed[k]}});
+  return {{"stress", number_or_null(e.stress)}, {"b", number_or_null(e.b)},
+          {"mean_stress", number_or_null(e.mean_stress)}, {"volume", number_or_null(e.volume)},
+          {"steps", e.steps}, {"axes", axes}};
 }
 
 ControlErrors control_errors_from_json(const Json& j) {
-  return {j.value("stress", 0.0), j.value("b", 0.0), j.value("mean_stress", 0.0), j.value("volume", 0.0),
-          j.value("steps", std::int64_t{0})};
+  ControlErrors e;
+  e.stress = number_of(j, "stress");
+  e.b = number_of(j, "b");
+  e.mean_stress = number_of(j, "mean_stress");
+  e.volume = number_of(j, "volume");
+  e.steps = j.value("steps", std::int64_t{0});
+  if (j.contains("axes"))
+    for (int k = 0; k < 3 && k < static_cast<int>(j["axes"].size()); ++k) {
+      const Json& a = j["axes"][k];
+      e.axis_error[k] = number_of(a, "error");
+      e.saturated_steps[k] = a.value("saturated_steps", std::int64_t{0});
+      e.over_steps[k] = a.value("over_steps", std::int64_t{0});
+      e.over_saturated[k] = a.value("over_saturated", std::int64_t{0});
+      e.failed[k] = a.value("failed", false);
+    }
+  return e;
+}
+
+double control_tolerance(AxisMode mode) {
+  switch (mode) {
+    case AxisMode::Stress: return kServoTolerance;
+    case AxisMode::MeanStress: return kMeanStressTolerance;
+    case AxisMode::B: return kBTolerance;
+    case AxisMode::ConstantVolume: return kVolumeTolerance;
+    default: return std::numeric_limits<double>::infinity();
+  }
+}
+
+std::string control_kind(AxisMode mode) {
+  switch (mode) {
+    case AxisMode::Stress: return "stress";
+    case AxisMode::MeanStress: return "mean_stress";
+    case AxisMode::B: return "b";
+    case AxisMode::ConstantVolume: return "volume";
+    default: return "strain";
+  }
 }
 
 namespace {
@@ -78,30 +129,101 @@ class LegEndWatch {
   int side_ = 1;
 };
 
-// The errors of the leg's controls at this step (after its first kSettleStrain of driving strain).
-void track_errors(const Leg& leg, const State& state, ControlErrors& errors) {
+// What a leg's control checks need: its driving increment per step, how many steps of it make the settle
+// window and the persistence run (kPersistStrain), and its servo cap.
+struct LegChecks {
+  double driving = 0.0;          // largest |strain per step| of a strain-driven axis (0: nothing drives the leg)
+  std::int64_t settle = 0;       // steps before the errors count
+  std::int64_t persist = 0;      // consecutive steps above tolerance that fail a control
+  double cap = 0.0;              // the servo's cap of this leg
+  LegChecks(const Leg& leg, const Model& model)
+      : driving(leg_driving_increment(leg, model.dt)), cap(servo_cap(model.servo, leg, model.dt)) {
+    if (driving > 0.0) {  // whole steps: a quotient rounded just above an integer does not add one
+      const auto steps_for = [&](double strain) {
+        return static_cast<std::int64_t>(std::ceil(strain / driving * (1.0 - 1e-12)));
+      };
+      settle = steps_for(kSettleStrain);
+      persist = std::max(kMinPersistSteps, steps_for(kPersistStrain));
+    }
+  }
+};
+
+double worst(double a, double b) { return std::isfinite(a) ? std::max(a, b) : b; }
+
+// The errors of the leg's controls at this step (after the settle window), and the run of steps above the
+// tolerance. Returns the axis whose control has just failed (stayed above its tolerance kPersistStrain), or -1.
+int track_errors(const Leg& leg, const LegChecks& checks, const State& state, ControlErrors& errors) {
+  for (int k = 0; k < 3; ++k) errors.saturated_steps[k] += state.servo_saturated[k];
+  if (checks.driving == 0.0 || state.control.phase_steps < checks.settle) return -1;
   int driver = -1;
   for (int k = 2; k >= 0; --k)
     if (leg.axes[k].strain_driven()) driver = k;
-  const Vec3 e = axis_strains(state);
-  if (driver < 0 || std::abs(e[driver] - state.control.leg_start_strains[driver]) < kSettleStrain) return;
   const Vec3& s = state.normal_stress;
+  int failed = -1;
   for (int k = 0; k < 3; ++k) {
     const AxisControl& a = leg.axes[k];
-    if (a.mode == AxisMode::Stress) errors.stress = std::max(errors.stress, std::abs(s[k] / a.value - 1.0));
+    double err = std::numeric_limits<double>::quiet_NaN();
+    if (a.mode == AxisMode::Stress) errors.stress = worst(errors.stress, err = std::abs(s[k] / a.value - 1.0));
     if (a.mode == AxisMode::MeanStress)
-      errors.mean_stress = std::max(errors.mean_stress, std::abs(s.sum() / 3.0 / a.value - 1.0));
+      errors.mean_stress = worst(errors.mean_stress, err = std::abs(s.sum() / 3.0 / a.value - 1.0));
     if (a.mode == AxisMode::ConstantVolume)
-      errors.volume = std::max(errors.volume, std::abs(state.cell.volume() / state.control.leg_start_volume - 1.0));
+      errors.volume = worst(errors.volume, err = std::abs(state.cell.volume() / state.control.leg_start_volume - 1.0));
     if (a.mode == AxisMode::B) {
       int minor = -1;
       for (int m = 0; m < 3; ++m)
         if (leg.axes[m].mode == AxisMode::Stress || leg.axes[m].mode == AxisMode::MeanStress) minor = m;
       const double b = (s[k] - s[minor]) / (s[driver] - s[minor]);
-      errors.b = std::max(errors.b, std::abs(b - a.value));
+      if (std::isfinite(b)) errors.b = worst(errors.b, err = std::abs(b - a.value));
+    }
+    if (!std::isfinite(err)) continue;
+    errors.axis_error[k] = worst(errors.axis_error[k], err);
+    if (err > control_tolerance(a.mode)) {
+      ++errors.over_steps[k];
+      errors.over_saturated[k] += state.servo_saturated[k];
+      if (errors.over_steps[k] == checks.persist && !errors.failed[k]) {
+        errors.failed[k] = true;
+        failed = k;
+      }
+    } else {
+      errors.over_steps[k] = errors.over_saturated[k] = 0;
     }
   }
   ++errors.steps;
+  return failed;
+}
+
+std::string fmt(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
+std::string stage_name(const Program& program) {
+  return program.stage == "prepare" ? "the preparation" : "test '" + program.stage + "'";
+}
+
+// What the failed control of axis k says: where, how far, and what to change (the servo sat at its cap for
+// most of the steps out of tolerance: the cap or the rate; else the gains or the rate).
+std::string control_failure_message(const Program& program, int leg_index, const LegChecks& checks,
+                                    const ControlErrors& e, int k, const ServoDef& servo) {
+  const Leg& leg = program.legs[static_cast<std::size_t>(leg_index)];
+  const AxisMode mode = leg.axes[k].mode;
+  const bool relative = mode != AxisMode::B;
+  const double scale = relative ? 100.0 : 1.0;
+  const std::string unit = relative ? " %" : "";
+  std::string m = stage_name(program) + " leg " + std::to_string(leg_index) + ": the " +
+                  control_kind(mode) + " control of axis x" + std::to_string(k + 1) + " stayed outside its tolerance for " +
+                  std::to_string(e.over_steps[k]) + " steps in a row (" + fmt(100 * kPersistStrain) +
+                  " % of driving strain): error " + fmt(scale * e.axis_error[k]) + unit + ", tolerance " +
+                  fmt(scale * control_tolerance(mode)) + unit;
+  if (mode == AxisMode::ConstantVolume) return m + " (the volume hold is exact: report this as a bug)";
+  if (2 * e.over_saturated[k] > e.over_steps[k])
+    return m + "; the servo's increment sat at its cap in " + std::to_string(e.over_saturated[k]) +
+           " of these steps: raise servo.max_strain_increment (now " + fmt(checks.cap) +
+           (servo.max_strain_increment_given ? "" : ", the default for this leg") + ") or lower the strain rate";
+  return m + "; the servo was not at its cap (" + fmt(checks.cap) +
+         "): raise servo.gain/integral_gain (now " + fmt(servo.gain) + "/" + fmt(servo.integral_gain) +
+         ") or lower the rate";
 }
 
 }  // namespace
@@ -117,14 +239,22 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   for (;;) {
     const Leg& leg = program.legs[c.phase];
     const LegEndWatch watch(leg, model, state);
-    const Loading loading{leg.axes, program.friction};
+    const LegChecks checks(leg, model);
+    const Loading loading{leg.axes, program.friction, checks.cap};
     bool leg_over = watch.ended(model, state);  // on the state as it stands
     bool leg_done = leg_over;                   // (or an equilibrium leg that is not the last reached it)
     // After each step, on one thread; false to leave the steps' parallel region (the leg is over, or the
     // governor changed the thread count: the loop goes on with the new count).
     const AfterStep after_step = [&](bool) {
       const bool threads_changed = governor.step_done();
-      track_errors(leg, state, errors[c.phase]);
+      ControlErrors& e = errors[c.phase];
+      if (const int k = track_errors(leg, checks, state, e); k >= 0) {
+        const std::string message = control_failure_message(program, c.phase, checks, e, k, model.servo);
+        if (program.control_failure == ControlFailure::Stop)
+          throw RunError(message + ". The last checkpoint is kept; with \"control_failure\": \"warn\" the run goes on "
+                         "and marks the test uncontrolled");
+        std::fprintf(stderr, "warning: %s\n", message.c_str());
+      }
       if (leg.end.kind == LegEndKind::Equilibrium && c.phase_steps % program.equilibrium->check_interval == 0) {
         const EquilibriumDef& criterion = *program.equilibrium;
         const EquilibriumCheck eq =
@@ -147,8 +277,12 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     };
     while (!leg_done)
       advance_steps(model, loading, state, rebuild, after_step, program.adaptive_threads ? governor.current() : threads);
+    if (c.phase_steps == 0)
+      throw RunError(stage_name(program) + " " + leg_name(state) + " ended after 0 steps (its end condition "
+                     "held when it started): give it an end it has to reach");
     if (static_cast<std::size_t>(c.phase) + 1 == program.legs.size()) return;
     if (!leg_over) rebuild = out.after_step(state, -1.0, status);  // an equilibrium leg that is not the last
+    out.end_leg(state);  // the leg's end is a row
     begin_leg(state, c.phase + 1);
   }
 }

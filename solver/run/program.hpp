@@ -1,6 +1,9 @@
 // Running a stage's load program: its legs in order, each from where the previous one ended, until the
 // last leg's end condition; and how well each leg's controls held their targets.
 #pragma once
+#include <array>
+#include <cstdint>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -13,17 +16,42 @@ namespace celldem {
 
 class StageOutput;
 
-// The worst errors of a leg's controls over its steps after the first kSettleStrain of its driving strain.
+// How well a leg's controls held their targets, measured at every step after the leg's first kSettleStrain
+// of driving strain (the start-up transient). NaN (null in JSON) where nothing was measured: a control the
+// leg does not have, a leg shorter than the settle window, a leg that no axis drives.
 inline constexpr double kSettleStrain = 0.002;
+// A control fails when its error stays above its tolerance (run/health.hpp) for kPersistStrain of driving
+// strain in a row, and at least kMinPersistSteps steps. Why these: the servo removes an error with a time
+// constant of about 1/gain steps (20 at the default gain) and the integral term's of about 1/integral_gain
+// (500), so the stress spike of a slip event is corrected within a few hundred steps and the error falls back
+// inside the tolerance; a saturated servo falls behind a little more at every step and never comes back.
+// 0.1 % of strain is 5000 steps at the paper's 2e-7 per step and 1000 at 1e-6: well past a slip's recovery,
+// and caught long before a test's peak (1-3 % of strain). The floor keeps fast legs from counting a spike.
+inline constexpr double kPersistStrain = 0.001;
+inline constexpr std::int64_t kMinPersistSteps = 500;
 struct ControlErrors {
-  double stress = 0.0;       // stress axes: max |s - target| / target
-  double b = 0.0;            // b axis: max |b - target| (axis stresses)
-  double mean_stress = 0.0;  // mean_stress axes: max |p - target| / target
-  double volume = 0.0;       // constant-volume axes: max |V - V(leg start)| / V(leg start)
-  std::int64_t steps = 0;    // steps checked
+  double stress = std::numeric_limits<double>::quiet_NaN();       // stress axes: max |s - target| / target
+  double b = std::numeric_limits<double>::quiet_NaN();            // b axis: max |b - target| (axis stresses)
+  double mean_stress = std::numeric_limits<double>::quiet_NaN();  // mean_stress axes: max |p - target| / target
+  double volume = std::numeric_limits<double>::quiet_NaN();       // constant-volume axes: max |V/V(leg start) - 1|
+  std::int64_t steps = 0;                                         // steps checked
+  // Per axis (x1, x2, x3): its worst error (of its kind, as above), the steps of the leg whose servo increment
+  // sat at its cap, the present run of consecutive checked steps above the tolerance and how many of those
+  // were at the cap, and whether the control failed (stayed above the tolerance, see kPersistStrain).
+  std::array<double, 3> axis_error = {std::numeric_limits<double>::quiet_NaN(),
+                                      std::numeric_limits<double>::quiet_NaN(),
+                                      std::numeric_limits<double>::quiet_NaN()};
+  std::array<std::int64_t, 3> saturated_steps = {0, 0, 0};
+  std::array<std::int64_t, 3> over_steps = {0, 0, 0};
+  std::array<std::int64_t, 3> over_saturated = {0, 0, 0};
+  std::array<bool, 3> failed = {false, false, false};
 };
 nlohmann::json to_json(const ControlErrors& e);
 ControlErrors control_errors_from_json(const nlohmann::json& j);
+
+// The tolerance of a control of this kind (run/health.hpp), and its name in messages and summary.json.
+double control_tolerance(AxisMode mode);
+std::string control_kind(AxisMode mode);
 
 struct Program {
   const std::vector<Leg>& legs;
@@ -31,10 +59,14 @@ struct Program {
   const EquilibriumDef* equilibrium = nullptr;  // for legs that end in equilibrium (the preparation)
   std::int64_t planned_steps = -1;              // all legs, when known (progress and ETA)
   bool adaptive_threads = true;                 // a ThreadGovernor may drop to one thread under contention
+  std::string stage = "prepare";                // the stage's name (messages)
+  ControlFailure control_failure = ControlFailure::Stop;  // a failed control stops the stage, or is recorded
 };
 
 // Runs the program from the state's current leg (state.control.phase) to its end. `errors` holds one entry
-// per leg (kept across a resume by the stage's checkpoints).
+// per leg (kept across a resume by the stage's checkpoints). Each leg's end is a row of the series. Throws
+// RunError for a leg that ends after no step, and (control_failure stop) for a control that fails, naming
+// the stage, leg, axis, the error and what to change.
 void run_program(const Model& model, const Program& program, State& state, StageOutput& out,
                  std::vector<ControlErrors>& errors);
 

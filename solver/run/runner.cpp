@@ -38,6 +38,7 @@ void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& opti
   out.open(state, resumed);
   Program program{prep.legs, prep.stage_friction(), &prep.equilibrium};
   program.adaptive_threads = !options.fixed_threads;
+  program.control_failure = deck.control_failure;
   run_program(model, program, state, out, out.control_errors());
   out.finish(state);
   write_state(run.prepared_state().string(), state, "prepared", state_physics(deck));
@@ -59,6 +60,8 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   out.open(state, resumed);
   Program program{test.legs, test.stage_friction(), nullptr, plan_test(deck, test).steps};
   program.adaptive_threads = !options.fixed_threads;
+  program.stage = test.name;
+  program.control_failure = deck.control_failure;
   run_program(model, program, state, out, out.control_errors());
   out.finish(state);
   write_state((out.dir() / "final.state").string(), state, "test:" + test.name, state_physics(deck));
@@ -74,6 +77,12 @@ void print_test_done(const RunDirectory& run, const std::string& name) {
   auto value = [&](const char* key) { return s[key].is_null() ? NAN : s[key].get<double>(); };
   std::printf("%s: done in %.1f s (%.3g particle-steps/s): peak s1/s3 %.4f at e1 %.4f\n", name.c_str(),
               value("wall_s"), value("particle_steps_per_s"), value("peak_ratio13"), value("e1_at_peak"));
+  if (!s.value("peak_reached", true))
+    std::printf("%s: no peak reached: s11/s33 is largest at the end of the test (its peak quantities are left "
+                "out of ensemble statistics and fits)\n", name.c_str());
+  if (!s.value("controlled", true))
+    std::printf("%s: uncontrolled: a control failed (summary.json control_failures; control_failure \"warn\")\n",
+                name.c_str());
 }
 
 }  // namespace

@@ -122,8 +122,12 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
   return false;
 }
 
-void StageOutput::finish(const State& state) {
+void StageOutput::end_leg(const State& state) {
   if (rows_.empty() || rows_.back().step != static_cast<double>(state.control.stage_steps)) write_row(state);
+}
+
+void StageOutput::finish(const State& state) {
+  end_leg(state);
   if (snapshots_) snapshots_->write(state, state.control.stage_steps, state.control.stage_steps * model_.dt);
   // The centred dilatancy index needs every row: now the series is rewritten whole with it (atomically:
   // the file holds the rows with or without DI, never a mix).

@@ -36,6 +36,8 @@ class StageOutput {
   // so that a resumed run does the same). Throws Interrupted after a stop request, once checkpointed.
   bool after_step(const State& state, double fraction, const std::string& status = "");
 
+  // A leg has ended: its last step becomes a row unless the output interval just wrote one.
+  void end_leg(const State& state);
   void finish(const State& state);
 
   double elapsed() const;

@@ -16,7 +16,8 @@ namespace {
 Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
 }  // namespace
 
-Json robust_peak(const std::vector<SeriesRow>& rows) {
+// plateau_end: the last row of the smoothed peak's plateau.
+Json robust_peak(const std::vector<SeriesRow>& rows, std::size_t* plateau_end = nullptr) {
   const std::size_t n = rows.size();
   std::vector<double> smooth(n, std::numeric_limits<double>::quiet_NaN());
   for (std::size_t k = 0; k < n; ++k) {
@@ -34,6 +35,7 @@ Json robust_peak(const std::vector<SeriesRow>& rows) {
   std::size_t lo = peak, hi = peak;
   while (lo > 0 && smooth[lo - 1] >= (1.0 - kPeakPlateau) * smooth[peak]) --lo;
   while (hi + 1 < n && smooth[hi + 1] >= (1.0 - kPeakPlateau) * smooth[peak]) ++hi;
+  if (plateau_end) *plateau_end = hi;
   auto mean_std = [&](double SeriesRow::*field) {
     double sum = 0.0, sq = 0.0;
     int count = 0;
@@ -68,6 +70,13 @@ Json summarize_legs(const TestDef& test, const std::vector<SeriesRow>& rows, con
         if (!peak || r.ratio13 > peak->ratio13) peak = &r;
       }
     Json leg = {{"leg", k}, {"rows", count}};
+    const SeriesRow* end = nullptr;  // the leg's last row: its end (run_program writes it)
+    for (const SeriesRow& r : rows)
+      if (r.leg == static_cast<double>(k) && (!end || r.step > end->step)) end = &r;
+    if (end)
+      leg["end"] = {{"step", end->step}, {"e1", end->e1}, {"e2", end->e2}, {"e3", end->e3}, {"s11", end->s11},
+                    {"s22", end->s22}, {"s33", end->s33}, {"p", end->p}, {"q", end->q},
+                    {"b", number_or_null(end->b)}, {"ev", end->ev}};
     if (peak)
       leg["peak"] = {{"ratio13", number_or_null(peak->ratio13)}, {"e1", number_or_null(peak->e1)},
                      {"b", number_or_null(peak->b)}, {"b_principal", number_or_null(peak->b_principal)},
@@ -102,14 +111,26 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
 
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
-  const double servo_error = servo_max_error(test, rows);
+  const double servo_error = servo_max_error(errors);
   const double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density,
                                          mean_p);
-  for (const std::string& w : test_warnings(test, servo_error, inertia)) warnings.push_back(w);
+  for (const std::string& w : test_warnings(test, inertia)) warnings.push_back(w);
   for (const std::string& w : control_warnings(test, errors)) warnings.push_back(w);
+  Json failures = Json::array();
+  for (const ControlFailureRecord& f : control_failures(test, errors))
+    failures.push_back({{"leg", f.leg}, {"axis", std::string(kAxisNames[f.axis])}, {"kind", f.kind},
+                        {"error", number_or_null(f.error)}, {"tolerance", f.tolerance}});
+
+  // No peak: the largest s11/s33 is the last row, or the robust peak's plateau runs to the end.
+  std::size_t plateau_end = 0;
+  const Json robust = robust_peak(rows, &plateau_end);
+  const bool peak_reached = peak + 1 < rows.size() && plateau_end + 1 < rows.size();
 
   return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
-          {"servo_max_error", servo_error},
+          {"peak_reached", peak_reached},
+          {"controlled", failures.empty()},
+          {"control_failures", failures},
+          {"servo_max_error", number_or_null(servo_error)},
           {"inertial_number", inertia},
           {"e1_at_peak", number_or_null(at_peak.e1)},
           {"e1_peak_range", {number_or_null(lo), number_or_null(hi)}},
@@ -117,7 +138,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
           {"b_at_peak", number_or_null(at_peak.b)},
           {"b_principal_at_peak", number_or_null(at_peak.b_principal)},
           {"ratio_principal_at_peak", number_or_null(at_peak.ratio_principal)},
-          {"peak_robust", robust_peak(rows)},
+          {"peak_robust", robust},
           {"peak_state", {{"sigma1", number_or_null(at_peak.sigma1)}, {"sigma2", number_or_null(at_peak.sigma2)},
                           {"sigma3", number_or_null(at_peak.sigma3)}, {"p", number_or_null(at_peak.p)},
                           {"q", number_or_null(at_peak.q)}, {"sin_phi", number_or_null(at_peak.sin_phi)},

@@ -161,6 +161,21 @@ TEST(Control, ServoSaturatesWithoutWindupAndWithoutContacts) {
   EXPECT_DOUBLE_EQ(s.cell.h(1, 1), 1.0 + 1e-6);
   EXPECT_DOUBLE_EQ(s.cell.h(2, 2), 1.0 - 1e-6);
   EXPECT_EQ(s.control.servo_integral, Vec3::Zero());  // saturated: nothing accumulated
+  EXPECT_TRUE(s.servo_saturated[0] && s.servo_saturated[1] && s.servo_saturated[2]);
+  // A leg's own cap (core/plan servo_cap) replaces the model's.
+  Loading leg_cap = loading;
+  leg_cap.servo_cap = 4e-6;
+  State t = cell_state(Mat3::Identity());
+  t.normal_stress = Vec3(0.0, 2e5, 0.0);
+  t.axis_stiffness = Vec3(0.0, 0.0, 1e3);
+  advance_cell(model, leg_cap, t);
+  EXPECT_DOUBLE_EQ(t.cell.h(0, 0), 1.0 - 4e-6);
+  EXPECT_DOUBLE_EQ(t.cell.h(1, 1), 1.0 + 4e-6);
+  // Within the cap: not saturated.
+  t.normal_stress = Vec3(1e5 - 1.0, 1e5, 1e5);
+  t.axis_stiffness = Vec3(1e9, 1e9, 1e9);
+  advance_cell(model, leg_cap, t);
+  EXPECT_FALSE(t.servo_saturated[0] || t.servo_saturated[1] || t.servo_saturated[2]);
 }
 
 // ---- the servo on a real packing ----

@@ -392,6 +392,47 @@ TEST(DeckErrors, InconsistentTests) {
   expect_error(j, "tests[1].end.strain");
 }
 
+// A leg shorter than one step is refused: an end strain within half a step of the start, or a strain rate so
+// large that one step passes the end (it ran 0 steps and exited 0).
+TEST(DeckErrors, ZeroStepLegs) {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"]["x1"] = {{"strain_rate", 1e6}};
+  expect_error(j, "tests[0].end.strain", "0 steps");
+  j = minimal_deck();
+  j["tests"][0]["end"]["strain"] = 0.9e-7;  // under half of one 2e-7 step
+  expect_error(j, "tests[0].end.strain", "0 steps");
+  j = minimal_deck();
+  j["tests"][0].erase("axes");
+  j["tests"][0].erase("end");
+  const Json axes = {{"x1", {{"strain_increment", 1e-6}}}, {"x2", {{"stress", 1e5}}}, {"x3", {{"stress", 1e5}}}};
+  j["tests"][0]["legs"] = {{{"axes", axes}, {"end", {{"strain", 0.001}}}},
+                           {{"axes", axes}, {"end", {{"strain", 0.0010004}}}}};
+  expect_error(j, "tests[0].legs (leg 1 of the program, repeats unrolled): end.strain", "0 steps");
+  j["tests"][0]["legs"][1]["end"]["strain"] = 0.002;
+  EXPECT_NO_THROW(parse_deck(j.dump(), "x.json"));
+}
+
+// The servo's cap follows each leg's driving rate unless the deck gives it; control_failure is stop or warn.
+TEST(Deck, ServoCapFollowsTheLegAndControlFailureChoice) {
+  Json j = minimal_deck();
+  Deck d = parse_deck(j.dump(), "x.json");
+  EXPECT_FALSE(d.servo.max_strain_increment_given);
+  EXPECT_EQ(d.control_failure, ControlFailure::Stop);
+  EXPECT_DOUBLE_EQ(servo_cap(d.servo, d.tests[0].legs[0], d.time_step), 2e-6);  // 10 x 2e-7
+  EXPECT_DOUBLE_EQ(leg_driving_increment(d.tests[1].legs[0], d.time_step), 2e-7);  // 0.2 /s x 1e-6 s
+  Leg hold;  // nothing drives it (the preparation's servo): today's 1e-6
+  hold.axes.fill({AxisMode::Stress, 1e5});
+  EXPECT_DOUBLE_EQ(servo_cap(d.servo, hold, d.time_step), 1e-6);
+  j["servo"] = {{"max_strain_increment", 5e-7}};
+  j["control_failure"] = "warn";
+  d = parse_deck(j.dump(), "x.json");
+  EXPECT_TRUE(d.servo.max_strain_increment_given);
+  EXPECT_DOUBLE_EQ(servo_cap(d.servo, d.tests[0].legs[0], d.time_step), 5e-7);  // as given
+  EXPECT_EQ(d.control_failure, ControlFailure::Warn);
+  j["control_failure"] = "ignore";
+  expect_error(j, "control_failure", "stop");
+}
+
 TEST(DeckErrors, NotJsonOrTooDeepIsADeckError) {
   EXPECT_THROW(parse_deck("{\"format\": 1,"), DeckError);
   EXPECT_THROW(parse_deck(""), DeckError);

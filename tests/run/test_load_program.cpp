@@ -35,7 +35,7 @@ const std::string kTests = R"([
   {"name": "volume", "friction": 0.5, "output_interval": 200,
    "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"constant_volume": true}, "x3": {"constant_volume": true}},
    "end": {"axis": "x1", "strain": 0.004}},
-  {"name": "cycles", "friction": 0.5, "output_interval": 100,
+  {"name": "cycles", "friction": 0.5, "output_interval": 170,
    "legs": [
      {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
       "end": {"axis": "x1", "strain": 0.003}},
@@ -106,7 +106,8 @@ TEST(LoadProgram, ConstantVolumeHeld) {
 TEST(LoadProgram, LegsEndOnStrainInEitherDirectionAndRepeat) {
   const ProgramRun& run = program_run();
   const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "cycles" / "series.csv");
-  // Legs: up to 0.003, down to 0.002, up to 0.004, down to 0.002, up to 0.004; 1e-6 per step, a row every 100.
+  // Legs: up to 0.003, down to 0.002, up to 0.004, down to 0.002, up to 0.004; 1e-6 per step, a row every 170
+  // steps and one at each leg's end (the turning points), with the leg's end state in summary.json.
   const double turns[] = {0.003, 0.002, 0.004, 0.002, 0.004};
   std::int64_t step = 0;
   double e = 0.0;
@@ -117,9 +118,14 @@ TEST(LoadProgram, LegsEndOnStrainInEitherDirectionAndRepeat) {
     for (const SeriesRow& r : rows)
       if (r.step == static_cast<double>(step)) {
         EXPECT_NEAR(r.e1, turns[leg], 1e-12) << "leg " << leg;
+        EXPECT_EQ(r.leg, static_cast<double>(leg));
         found = true;
       }
     EXPECT_TRUE(found) << "no row at the end of leg " << leg << " (step " << step << ")";
+    const Json& end = run.summary["tests"]["cycles"]["legs"][leg]["end"];
+    EXPECT_EQ(end["step"].get<double>(), static_cast<double>(step)) << "leg " << leg;
+    EXPECT_NEAR(end["e1"].get<double>(), turns[leg], 1e-9) << "leg " << leg;
+    for (const char* key : {"e2", "e3", "s11", "s22", "s33", "p", "q", "b", "ev"}) EXPECT_TRUE(end.contains(key)) << key;
   }
   EXPECT_EQ(rows.back().step, static_cast<double>(step));
   EXPECT_EQ(rows.back().leg, 4.0);
@@ -135,6 +141,10 @@ TEST(LoadProgram, LegsEndOnStrainInEitherDirectionAndRepeat) {
 
 TEST(LoadProgram, RatioAndStepEnds) {
   const ProgramRun& run = program_run();
+  // The hold leg (x1 fixed, x2 and x3 at their stress) has no driving strain: nothing was measured (null).
+  const Json& hold = run.summary["tests"]["ratio"]["legs"][1]["control_errors"];
+  EXPECT_TRUE(hold["stress"].is_null()) << hold.dump();
+  EXPECT_EQ(hold["steps"].get<int>(), 0);
   const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "ratio" / "series.csv");
   std::int64_t first_leg1 = -1;
   for (const SeriesRow& r : rows) {
