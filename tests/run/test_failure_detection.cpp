@@ -142,6 +142,7 @@ TEST_F(FailureDetection, UnstableTimeStepStopsTheRunWithTheCause) {
       "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"strain": 0.002}, "output_interval": 50})",
                 "\"time_step\": 3.0e-6", "\"time_step\": 5.9e-6");
   deck.replace(deck.find("\"kt\": 1.0e6"), 11, "\"kt\": 1.0e5");
+  deck.replace(deck.find("\"initial_state\""), 0, "\"override_state_physics\": true, ");  // prepared with kt = kn
   try {
     run(deck, "unstable");
     FAIL() << "an unstable run finished";
@@ -163,6 +164,7 @@ TEST_F(FailureDetection, BoilingSampleStopsTheRunNamingTheMode) {
     testing::write_bytes(dir_->path() / (name + ".json"), deck_text);
     Deck deck = read_deck((dir_->path() / (name + ".json")).string());
     deck.contact.kt = 1e7;
+    deck.override_state_physics = true;  // the prepared state's kt is kn's
     RunOptions options;
     options.out_dir = (dir_->path() / name).string();
     options.threads = 1;

@@ -99,11 +99,11 @@ TEST(Import, StateAndDeckMustAgreeOnThePhysics) {
   EXPECT_EQ(r.code, 0) << r.err;
 
   std::string density = same;
-  density.replace(density.find("\"density\": 2650"), 15, "\"density\": 2000");
+  density.replace(density.find("\"density\": 2650"), 15, "\"density\": 3000");
   write_bytes(dir / "density.json", density);
   r = celldem(dir, "check '" + (dir / "density.json").string() + "'");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("sample.density: the deck says 2000, the state was made with 2650"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("sample.density: the deck says 3000, the state was made with 2650"), std::string::npos) << r.err;
 
   std::string stiffer = same;
   stiffer.replace(stiffer.find("\"kn\": 1.0e6"), 11, "\"kn\": 2.0e6");
@@ -114,6 +114,7 @@ TEST(Import, StateAndDeckMustAgreeOnThePhysics) {
   EXPECT_NE(r.err.find("override_state_physics"), std::string::npos) << r.err;
 
   std::string hertz = same;
+  hertz.replace(hertz.find("\"time_step\": 3.0e-6"), 19, "\"time_step\": 1.0e-6");  // within Hertz's limit
   const std::string linear = "\"kn\": 1.0e6, \"kt\": 1.0e6";
   hertz.replace(hertz.find(linear), linear.size(),
                 "\"normal\": \"hertz\", \"tangential\": \"mindlin\", \"youngs_modulus\": 7e7, \"poisson_ratio\": 0.3");

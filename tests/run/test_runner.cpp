@@ -88,7 +88,7 @@ TEST(Runner, RefusesToOverwriteResultsWithoutForce) {
   options.out_dir = out.string();
   options.threads = 1;
   options.quiet = true;
-  EXPECT_THROW(run_deck(read_deck((dir.path() / "deck.json").string()), options), RunError);
+  EXPECT_THROW(run_deck(read_deck((dir.path() / "deck.json").string()), options), UsageError);
   EXPECT_EQ(read_bytes(out / "summary.json"), "{}");
   options.resume = true;  // nothing to resume either
   EXPECT_THROW(run_deck(read_deck((dir.path() / "deck.json").string()), options), RunError);
