@@ -89,6 +89,7 @@ def derived(state, law, code):
     deck.pop("prepare")
     deck["description"] = "law_crosscheck: %s matched to %s" % (law[0], code)
     deck["initial_state"] = state
+    deck["override_state_physics"] = True  # each law from the one linear-law sample, on purpose
     deck["contact"] = dict(CONTACT, **law[1])
     if "rolling" not in law[1]:
         for key in ("rolling_stiffness", "rolling_friction"):

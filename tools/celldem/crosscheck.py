@@ -107,6 +107,7 @@ def derived_deck(deck, state, tests, code, variant=None):
     d = copy.deepcopy(deck)
     d.pop("prepare", None)
     d["initial_state"] = state
+    d["override_state_physics"] = True  # matched to the code's contact model: other physics than the state's
     d["tests"] = tests
     what = ("native settings" if variant == "native"
             else "matched to %s%s" % (code, ", variant " + variant if variant else ""))

@@ -196,7 +196,8 @@ def deck_of(spec, paper=None, state_path="prepared.state"):
     if spec.get("deck") is not None:
         if spec["kind"] == "sample":
             return decks.edited(spec["deck"], {"tests": []})
-        return decks.edited(spec["deck"], {"prepare": None, "initial_state": state_path})
+        # A switch runs other physics from the baseline's sample on purpose (the state records the baseline's).
+        return decks.edited(spec["deck"], {"prepare": None, "initial_state": state_path, "override_state_physics": True})
     paper = paper or decks.load()
     return sample_deck(paper, spec) if spec["kind"] == "sample" else run_deck(paper, spec, state_path)
 
@@ -241,7 +242,7 @@ def sample_deck(paper, spec):
 
 def run_deck(paper, spec, state_path):
     changes = {"description": f"celldem study: {spec['label']} ({spec['count']} spheres, seed {spec['seed']})",
-               "prepare": None, "initial_state": state_path,
+               "prepare": None, "initial_state": state_path, "override_state_physics": True,
                "sample.count": spec["count"], "sample.seed": spec["seed"],
                "sample.density": paper["sample"]["density"] * spec["density_factor"],
                "time_step": spec["time_step"],
