@@ -68,9 +68,9 @@ done()
 EOF
 
 echo "3. a constant-b deck: the failure surface's table and pi-plane figure in the report"
-tests='[{"name":"b0","friction":0.5,"axes":{"x1":{"strain_increment":2e-6},"x2":{"b":0.0},"x3":{"mean_stress":1e5}},"end":{"axis":"x1","strain":0.006},"output_interval":250},
-        {"name":"b50","friction":0.5,"axes":{"x1":{"strain_increment":2e-6},"x2":{"b":0.5},"x3":{"mean_stress":1e5}},"end":{"axis":"x1","strain":0.006},"output_interval":250},
-        {"name":"b100","friction":0.5,"axes":{"x1":{"strain_increment":2e-6},"x2":{"b":1.0},"x3":{"mean_stress":1e5}},"end":{"axis":"x1","strain":0.006},"output_interval":250}]'
+tests='[{"name":"b0","friction":0.5,"axes":{"x1":{"strain_increment":2e-6},"x2":{"b":0.0},"x3":{"mean_stress":1e5}},"end":{"axis":"x1","strain":0.04},"output_interval":250},
+        {"name":"b50","friction":0.5,"axes":{"x1":{"strain_increment":2e-6},"x2":{"b":0.5},"x3":{"mean_stress":1e5}},"end":{"axis":"x1","strain":0.04},"output_interval":250},
+        {"name":"b100","friction":0.5,"axes":{"x1":{"strain_increment":2e-6},"x2":{"b":1.0},"x3":{"mean_stress":1e5}},"end":{"axis":"x1","strain":0.04},"output_interval":250}]'
 deck "$TMP/fs.json" "$tests"
 run "$TMP/fs.json" --out "$TMP/fs"
 "$PY" "$ROOT/tools/report.py" "$TMP/fs" >/dev/null || fail "report.py on a constant-b run"
@@ -85,7 +85,9 @@ done
 if grep -q "^## Failure surface" "$TMP/named/report.md"; then fail "failure surface for a deck without b tests"; fi
 
 echo "4. a 3-seed ensemble: band figures, statistics from ensemble.json, statistical verdicts"
-run "$ROOT/tests/run/small_run.json" --out "$TMP/ens" --seeds 1-3
+# small_run.json's tests run to 4 % here, past their peaks (a peak at a test's end is left out of the statistics).
+sed 's/"strain":0.006/"strain":0.04/g' "$ROOT/tests/run/small_run.json" > "$TMP/small_long.json"
+run "$TMP/small_long.json" --out "$TMP/ens" --seeds 1-3
 "$PY" "$ROOT/tools/report.py" "$TMP/ens" --paper >/dev/null || fail "report.py on an ensemble"
 r="$TMP/ens/report.md"
 for f in test_ttc test_psc fig02_stress_ratio overview prepare force_chains; do

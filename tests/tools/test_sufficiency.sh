@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Tests tools/sufficiency.py (tools/celldem/sufficiency.py): the switches' decks (linear equivalents at the mean
 # contact force, unused keys removed, drag kept, every variant accepted by celldem), the change measure and its
-# verdicts on known numbers; then a real run of the tool on a tiny scene of inputs/paper.json (40 spheres, tests to
-# ε1 = 0.5 %, 2 seeds, a few seconds): sufficiency.json and sufficiency.md, the switches the paper deck does not
+# verdicts on known numbers; then a real run of the tool on a small scene of inputs/paper.json (100 spheres, tests to
+# ε1 = 4 %, past most peaks; a peak at a test's end is left out and listed, 2 seeds, about 10 s): sufficiency.json and sufficiency.md, the switches the paper deck does not
 # use reported as skipped; and that `study.py analyse` includes the table in the study's report.
 # Usage: bash tests/tools/test_sufficiency.sh [CELLDEM]      (exits non-zero on the first failure)
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
@@ -93,7 +93,7 @@ EOF
 
 echo "2. the tool on a tiny scene of the paper deck (2 seeds)"
 out="$TMP/sufficiency-tiny"
-"$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$out" --seeds 2 --count 40 --end-strain 0.005 \
+"$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$out" --seeds 2 --count 100 --end-strain 0.04 \
   --celldem "$CELLDEM" >"$TMP/log" 2>&1 || { cat "$TMP/log"; fail "sufficiency.py failed"; }
 for f in sufficiency.json sufficiency.md; do [[ -s "$out/$f" ]] || fail "no $f"; done
 "$PY" - "$out" <<'EOF' || fail "sufficiency.json and .md"
@@ -102,7 +102,7 @@ from checking import check, done, error
 root = sys.argv[1]
 r = json.load(open(f"{root}/sufficiency.json"))
 check("seeds", r["seeds"], [1, 2])
-check("scene", (r["scene"]["count"], r["scene"]["end_strain"]), (40, 0.005))
+check("scene", (r["scene"]["count"], r["scene"]["end_strain"]), (100, 0.04))
 qs = ["ttc.peak_ratio", "ttc.e1_peak", "ttc.ev_end", "ttc.Z_end",
       "psc.peak_ratio", "psc.e1_peak", "psc.ev_end", "psc.Z_end", "psc.b_peak"]
 check("quantities", r["quantities"], qs)
@@ -115,12 +115,16 @@ for k in ("normal", "tangential", "rolling", "twisting"):
 for k in ("rotational_damping", "kinematics"):
     row = rows[k]
     check(f"{k} seeds", row.get("seeds"), [1, 2])
-    if row["verdict"] not in ("needed", "not needed", "undecided at 2 seeds"):
+    if row["verdict"] not in ("needed", "not needed", "undecided at 2 seeds", "undecided at 1 seeds"):
         error(f"{k}: verdict {row['verdict']!r}")
     check(f"{k} quantities", sorted(row["changes"]), sorted(qs))
     c = row["changes"]["ttc.peak_ratio"]
-    if c is None or c["n"] != 2:
-        error(f"{k}: TTC peak change over 2 paired seeds missing: {c}")
+    # The seeds whose TTC reached its peak in both runs (a peak at the test's end is left out).
+    peaked = [s for s in (1, 2) if f"baseline_s{s}: ttc" not in r["no_peak"] and f"{k}_s{s}: ttc" not in r["no_peak"]]
+    if len(peaked) < 2 and c is not None:
+        print(f"  {k}: TTC peak change over {c['n']} of 2 seeds (no peak reached: {r['no_peak']})")
+    if c is None or c["n"] != len(peaked) or row["changes"]["ttc.ev_end"]["n"] != 2:
+        error(f"{k}: TTC changes over the paired seeds missing: {c}")
     elif c["p_holm"] is not None:
         equivalent = c["p_tost"] is not None and c["p_tost"] <= r["alpha"]
         want = "within margin" if equivalent else "changes" if c["p_holm"] <= r["alpha"] else "undecided"
@@ -129,7 +133,8 @@ for k in ("rotational_damping", "kinematics"):
     check(f"{k} needed_for", row["needed_for"], needed)
     check(f"{k} verdict", row["verdict"] == "needed", bool(needed))
 for q in qs:
-    if r["noise_floor"][q]["mean"] is None:
+    no_peak = all(f"baseline_s{s}: {q.split('.')[0]}" in r["no_peak"] for s in (1, 2))
+    if r["noise_floor"][q]["mean"] is None and not (no_peak and q.split(".")[1] in ("peak_ratio", "e1_peak", "b_peak")):
         error(f"no baseline mean of {q}")
 check("failed runs", r["failed"], [])
 check("runs counted", r["cost"]["runs"], 2 + 3 * 2)
@@ -147,7 +152,7 @@ for needle in ("# Model sufficiency: ", "| switch | seeds | verdict | TTC peak �
 done()
 EOF
 # A second call finds every run done and runs nothing again.
-"$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$out" --seeds 2 --count 40 --end-strain 0.005 \
+"$PY" "$ROOT/tools/sufficiency.py" "$ROOT/inputs/paper.json" --out "$out" --seeds 2 --count 100 --end-strain 0.04 \
   --celldem "$CELLDEM" >"$TMP/log2" 2>&1 || fail "second call failed"
 grep -q "0 runs to do of 8" "$TMP/log2" || fail "a second call ran again: $(head -1 "$TMP/log2")"
 

@@ -432,10 +432,11 @@ def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_F
                              if isinstance(info, dict) and info.get("controlled", True) is False}
         for t in entry["excluded"]:  # nor in the noise floor
             entry["metrics"].pop(t, None)
-        for t, info in (summary.get("tests") or {}).items():  # no peak reached: no peak quantities
-            if isinstance(info, dict) and info.get("peak_reached", True) is False and t in entry["metrics"]:
-                for q in PEAK_QUANTITIES:
-                    entry["metrics"][t].pop(q, None)
+        entry["no_peak"] = [t for t, info in (summary.get("tests") or {}).items()
+                            if isinstance(info, dict) and info.get("peak_reached", True) is False]
+        for t in entry["no_peak"]:  # no peak reached: no peak quantities
+            for q in PEAK_QUANTITIES:
+                entry["metrics"].get(t, {}).pop(q, None)
         entry["peak_at_end"] = {}
         for test, info in (summary.get("tests") or {}).items():
             plateau = (info.get("peak_robust") or {}).get("plateau_e1") if isinstance(info, dict) else None
@@ -486,8 +487,9 @@ def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_F
             "runs": len(all_runs), "invocations": timing["invocations"],
             "wall_s": sum(i["wall_s"] for i in timing["invocations"])}
     uncontrolled = sorted(f"{r['name']}: {t}" for rs in runs.values() for r in rs for t in r["excluded"])
+    no_peak = sorted(f"{r['name']}: {t}" for rs in runs.values() for r in rs for t in r.get("no_peak", []))
     return {"deck": deck_path, "scene": scene, "seeds": list(seeds), "alpha": alpha, "margin_floors": margin_floors,
-            "power": POWER, "uncontrolled": uncontrolled,
+            "power": POWER, "uncontrolled": uncontrolled, "no_peak": no_peak,
             "quantities": [f"{t}.{q}" for t, q in quantities],
             "summary_fields": SUMMARY_TEXT,
             "noise_floor": {f"{t}.{q}": {"mean": mean[(t, q)], "std": floor[(t, q)]} for t, q in quantities},
@@ -590,6 +592,8 @@ def markdown(result, heading="#"):
         notes.append(f"- Failed runs (left out): {', '.join(result['failed'])}.")
     if result.get("uncontrolled"):
         notes.append(f"- Tests whose control failed (left out of the comparisons): {', '.join(result['uncontrolled'])}.")
+    if result.get("no_peak"):
+        notes.append(f"- Tests that reached no peak (their peak quantities left out): {', '.join(result['no_peak'])}.")
     waits = cost["invocations"]
     notes.append(f"- Cost: {cost['runs']} runs ({len(result['samples'])} preparations), "
                  f"{fmt(cost['cpu_s'], 0)} CPU s in all; wall {fmt(cost['wall_s'], 0)} s with "
