@@ -36,17 +36,23 @@ std::string deck_from(const std::string& state) {
   return d.replace(at, d.find("}},", at) + 3 - at, "\"initial_state\": \"" + state + "\",");
 }
 
-TEST(Import, LammpsDataFileRunsLikeTheStateItCameFrom) {
-  const fs::path dir = testing::test_dir("import_" + std::to_string(getpid()));
+// In `dir`: a 200-sphere sample (prep/prepared.state), the deck a.json that tests it, and its LAMMPS data file
+// (lmp/state.data) made by the translator.
+void prepare_and_translate(const fs::path& dir) {
   write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
   ASSERT_EQ(celldem(dir, run_args(dir / "prep.json", dir / "prep")).code, 0);
   write_bytes(dir / "a.json", deck_from("prep/prepared.state"));
-  Result r = celldem(dir, "translate '" + (dir / "a.json").string() + "' --to lammps --state '" +
-                              (dir / "prep" / "prepared.state").string() + "' --out '" + (dir / "lmp").string() + "'");
+  const Result r = celldem(dir, "translate '" + (dir / "a.json").string() + "' --to lammps --state '" +
+                                    (dir / "prep" / "prepared.state").string() + "' --out '" + (dir / "lmp").string() + "'");
   ASSERT_EQ(r.code, 0) << r.err;
+}
+
+TEST(Import, LammpsDataFileRunsLikeTheStateItCameFrom) {
+  const fs::path dir = testing::test_dir("import_" + std::to_string(getpid()));
+  ASSERT_NO_FATAL_FAILURE(prepare_and_translate(dir));
   write_bytes(dir / "b.json", deck_from("lmp/state.data"));
   ASSERT_EQ(celldem(dir, run_args(dir / "a.json", dir / "ra")).code, 0);
-  r = celldem(dir, run_args(dir / "b.json", dir / "rb"));
+  Result r = celldem(dir, run_args(dir / "b.json", dir / "rb"));
   ASSERT_EQ(r.code, 0) << r.err;
   const std::vector<SeriesRow> a = read_series(dir / "ra" / "ttc" / "series.csv");
   const std::vector<SeriesRow> b = read_series(dir / "rb" / "ttc" / "series.csv");
@@ -167,13 +173,8 @@ std::string move_atom_onto_another(const std::string& data, double offset) {
 // time step later; two atoms at the same place are refused naming them.
 TEST(Import, DeepOverlapsAreReportedAndCoincidentAtomsRefused) {
   const fs::path dir = testing::test_dir("overlaps_" + std::to_string(getpid()));
-  write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
-  ASSERT_EQ(celldem(dir, run_args(dir / "prep.json", dir / "prep")).code, 0);
-  write_bytes(dir / "a.json", deck_from("prep/prepared.state"));
-  Result r = celldem(dir, "translate '" + (dir / "a.json").string() + "' --to lammps --state '" +
-                              (dir / "prep" / "prepared.state").string() + "' --out '" + (dir / "lmp").string() + "'");
-  ASSERT_EQ(r.code, 0) << r.err;
-  r = celldem(dir, "check '" + (dir / "a.json").string() + "'");
+  ASSERT_NO_FATAL_FAILURE(prepare_and_translate(dir));
+  Result r = celldem(dir, "check '" + (dir / "a.json").string() + "'");
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(r.err.find("touching pairs overlap"), std::string::npos) << "a prepared packing overlaps slightly: " << r.err;
 
