@@ -142,6 +142,33 @@ double largest_e1(const Deck& deck, const TestDef& test) {
   return largest;
 }
 
+// A strain leg whose end.max_steps stops it before its end strain does so silently at run time (the step count
+// is its end): say so before the run, with the strain where it will stop. The strains of the axes are
+// followed from leg to leg as the plan follows them; a leg whose length only running tells ends the scan.
+void warn_capped_strain_legs(const Deck& deck, std::vector<std::string>& warnings) {
+  for (std::size_t t = 0; t < deck.tests.size(); ++t) {
+    const TestDef& test = deck.tests[t];
+    Vec3 strain = Vec3::Zero();
+    for (std::size_t k = 0; k < test.legs.size(); ++k) {
+      const Leg& leg = test.legs[k];
+      const LegEnd& e = leg.end;
+      const std::int64_t n = leg_steps(leg, deck.time_step, strain[e.axis]);
+      if (n < 0) break;
+      const bool strain_end = e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven();
+      if (strain_end && e.max_steps > 0 && n == e.max_steps) {
+        const double reached = strain[e.axis] + static_cast<double>(n) * leg.strain_per_step(e.axis, deck.time_step);
+        if (std::abs(reached - e.value) > 0.5 * std::abs(leg.strain_per_step(e.axis, deck.time_step)))
+          warnings.push_back("tests[" + std::to_string(t) + "] (test '" + test.name + "', leg " + std::to_string(k) +
+                             "): end.max_steps " + std::to_string(e.max_steps) + " stops the leg at x" +
+                             std::to_string(e.axis + 1) + " strain " + fmt(reached) + ", short of its end strain " +
+                             fmt(e.value));
+      }
+      for (int a = 0; a < 3; ++a) strain[a] += static_cast<double>(n) * leg.strain_per_step(a, deck.time_step);
+      if (strain_end && n != e.max_steps) strain[e.axis] = e.value;
+    }
+  }
+}
+
 // Snapshots at strains a test never reaches would be dropped silently: say so before the run.
 void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnings) {
   for (std::size_t t = 0; t < deck.tests.size(); ++t) {
@@ -235,6 +262,7 @@ std::vector<std::string> preflight(const Deck& deck) {
   std::vector<std::string> warnings = deck_warnings(deck);
   if (deck.initial_state) check_state(deck, initial_state_path(deck), warnings);
   warn_unreached_snapshots(deck, warnings);
+  warn_capped_strain_legs(deck, warnings);
   return warnings;
 }
 

@@ -77,6 +77,9 @@ std::string control_kind(AxisMode mode) {
 
 namespace {
 
+std::string stage_name(const Program& program) {
+  return program.stage == "prepare" ? "the preparation" : "test '" + program.stage + "'";
+}
 std::string leg_name(const State& state) { return "leg " + std::to_string(state.control.phase); }
 
 // What a leg's end condition watches, and from which side it approaches the target. The side is taken from
@@ -84,13 +87,15 @@ std::string leg_name(const State& state) { return "leg " + std::to_string(state.
 // run finds the same side.
 class LegEndWatch {
  public:
-  LegEndWatch(const Leg& leg, const Model& model, const State& state) : leg_(leg) {
+  // `where` names the stage and leg in messages ("test 'ttc' leg 1").
+  LegEndWatch(const Leg& leg, const Model& model, const State& state, std::string where)
+      : leg_(leg), where_(std::move(where)) {
     const LegEnd& e = leg.end;
     if (e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven()) {
       const double per_step = leg.strain_per_step(e.axis, model.dt);
       const double from = state.control.leg_start_strains[e.axis];
       if ((e.value - from) * per_step < 0.0)
-        throw RunError(leg_name(state) + ": axis x" + std::to_string(e.axis + 1) + " moves away from its end strain " +
+        throw RunError(where_ + ": axis x" + std::to_string(e.axis + 1) + " moves away from its end strain " +
                        std::to_string(e.value) + " (it starts the leg at " + std::to_string(from) + ")");
       steps_ = leg_steps(leg, model.dt, from);
     } else if (e.kind == LegEndKind::Steps) {
@@ -107,7 +112,7 @@ class LegEndWatch {
     if (e.kind == LegEndKind::SolidFraction) return value(model, state) >= e.value;
     const bool reached = side_ * (value(model, state) - e.value) >= 0.0;
     if (!reached && e.max_steps > 0 && n >= e.max_steps)
-      throw RunError(leg_name(state) + " did not reach its end condition in " + std::to_string(n) +
+      throw RunError(where_ + " did not reach its end condition in " + std::to_string(n) +
                      " steps (end.max_steps): loosen it or raise max_steps");
     return reached;
   }
@@ -125,6 +130,7 @@ class LegEndWatch {
   }
 
   const Leg& leg_;
+  std::string where_;
   std::int64_t steps_ = -1;  // known length
   int side_ = 1;
 };
@@ -198,10 +204,6 @@ std::string fmt(double x) {
   return buf;
 }
 
-std::string stage_name(const Program& program) {
-  return program.stage == "prepare" ? "the preparation" : "test '" + program.stage + "'";
-}
-
 // What the failed control of axis k says: where, how far, and what to change (the servo sat at its cap for
 // most of the steps out of tolerance: the cap or the rate; else the gains or the rate).
 std::string control_failure_message(const Program& program, int leg_index, const LegChecks& checks,
@@ -238,7 +240,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   ThreadGovernor governor(program.adaptive_threads ? threads : 1);
   for (;;) {
     const Leg& leg = program.legs[c.phase];
-    const LegEndWatch watch(leg, model, state);
+    const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
     const LegChecks checks(leg, model);
     const Loading loading{leg.axes, program.friction, checks.cap};
     bool leg_over = watch.ended(model, state);  // on the state as it stands

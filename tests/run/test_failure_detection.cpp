@@ -9,6 +9,7 @@
 
 #include "helpers.hpp"
 #include "run/run_directory.hpp"
+#include "run/preflight.hpp"
 #include "run/runner.hpp"
 
 namespace celldem {
@@ -136,6 +137,26 @@ TEST_F(FailureDetection, SaturatedServoNamesTheCap) {
 // A time step just under sqrt(m_min/kn) passes validation (kt = kn / 10: the normal mode limits), but a sphere
 // pressed by several neighbours oscillates at sqrt(Z kn / m): the packing boils (unbalanced force 0.41,
 // kinetic energy 0.037 of the elastic) or runs away, and the run must stop with the cause.
+// A leg that does not reach its end condition within end.max_steps stops the run naming the test and the leg;
+// a strain leg that end.max_steps stops short of its end strain is warned about before the run.
+TEST_F(FailureDetection, LegLimitedByMaxStepsNamesTheTestOrIsWarned) {
+  try {
+    run(test_deck(R"({"name": "never", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-7},
+        "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"ratio": 100, "max_steps": 50}})"), "never");
+    FAIL() << "a leg that cannot end finished";
+  } catch (const RunError& e) {
+    EXPECT_NE(std::string(e.what()).find("test 'never' leg 0 did not reach its end condition in 50 steps"),
+              std::string::npos) << e.what();
+  }
+  testing::write_bytes(dir_->path() / "short.json",
+                       test_deck(R"({"name": "short", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-7},
+        "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"strain": 0.01, "max_steps": 100}})"));
+  std::string all;
+  for (const std::string& w : preflight(read_deck((dir_->path() / "short.json").string()))) all += w + "\n";
+  EXPECT_NE(all.find("tests[0] (test 'short', leg 0): end.max_steps 100 stops the leg at x1 strain 2e-05, short of its "
+                     "end strain 0.01"), std::string::npos) << all;
+}
+
 TEST_F(FailureDetection, UnstableTimeStepStopsTheRunWithTheCause) {
   std::string deck =
       test_deck(R"({"name": "unstable", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-7},
