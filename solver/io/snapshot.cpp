@@ -8,6 +8,7 @@
 #include <system_error>
 
 #include "io/files.hpp"
+#include "measure/micro.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -160,6 +161,8 @@ std::string particles_vtu(const State& state, std::int64_t step, double time) {
   const Particles& p = state.particles;
   const std::size_t n = p.size();
   const std::vector<std::int32_t> contacts = contacts_per_particle(state);
+  const std::vector<Mat3> stress = particle_stresses(state);
+  const std::vector<Vec3> net_force = net_contact_forces(state);
   std::string o;
   o += "<?xml version=\"1.0\"?>\n";
   o += "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n";
@@ -171,6 +174,13 @@ std::string particles_vtu(const State& state, std::int64_t step, double time) {
   data_array(o, "Float64", "velocity", 3, n, [&](std::size_t i, std::string& s) { put(s, p.velocity[i]); });
   data_array(o, "Float64", "spin", 3, n, [&](std::size_t i, std::string& s) { put(s, p.spin[i]); });
   data_array(o, "Int32", "contacts", 1, n, [&](std::size_t i, std::string& s) { put(s, std::int64_t{contacts[i]}); });
+  data_array(o, "Float64", "net_force", 3, n, [&](std::size_t i, std::string& s) { put(s, net_force[i]); });
+  data_array(o, "Float64", "stress", 9, n, [&](std::size_t i, std::string& s) {  // row-major, compression +
+    for (int r = 0; r < 3; ++r) {
+      if (r) s += ' ';
+      put(s, Vec3(stress[i].row(r).transpose()));
+    }
+  });
   data_array(o, "Int64", "id", 1, n, [&](std::size_t i, std::string& s) { put(s, static_cast<std::int64_t>(i)); });
   o += "      </PointData>\n";
   o += "      <Points>\n";

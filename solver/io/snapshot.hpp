@@ -4,7 +4,10 @@
 // Per snapshot at step S, in the writer's folder (the step in plain decimal, not padded):
 //   <stem>_S.vtu            VTK XML UnstructuredGrid: one VTK_VERTEX per particle; point data radius,
 //                           velocity (the fluctuation v' as stored, not the affine part), spin, contacts
-//                           (touching pairs of the particle), id (the celldem particle index, from 0);
+//                           (touching pairs of the particle: its coordination), net_force (its contacts'
+//                           forces summed), stress (its particle stress, 9 components row-major, compression
+//                           positive: measure/micro.hpp's particle_stresses), id (the celldem particle
+//                           index, from 0);
 //                           field data TimeValue, step and the cell matrix h (row-major).
 //   <stem>_contacts_S.vtp   VTK XML PolyData: one line per touching pair, from the centre of i to
 //                           centre(i) + branch (a chain across the periodic boundary is drawn from i

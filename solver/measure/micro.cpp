@@ -193,6 +193,29 @@ double b_value(double s11, double s22, double s33) {
   return den != 0.0 ? (s22 - s33) / den : std::numeric_limits<double>::quiet_NaN();
 }
 
+std::vector<Mat3> particle_stresses(const State& state) {
+  const Particles& p = state.particles;
+  std::vector<Mat3> sigma(p.size(), Mat3::Zero());
+  for_each_pair(state.pairs, [&](Index i, Index q) {
+    const Index j = state.pairs.neighbor[q];
+    const Mat3 fl = state.pairs.force[q] * branch_of(state, i, q).transpose();  // f (x) branch
+    const Mat3 sym = 0.5 * (fl + fl.transpose()) / (p.radius[i] + p.radius[j]);
+    sigma[i] += p.radius[i] * sym;
+    sigma[j] += p.radius[j] * sym;
+  });
+  for (std::size_t i = 0; i < p.size(); ++i) sigma[i] /= 4.0 / 3.0 * M_PI * std::pow(p.radius[i], 3);
+  return sigma;
+}
+
+std::vector<Vec3> net_contact_forces(const State& state) {
+  std::vector<Vec3> net(state.particles.size(), Vec3::Zero());
+  for_each_pair(state.pairs, [&](Index i, Index q) {
+    net[i] -= state.pairs.force[q];
+    net[state.pairs.neighbor[q]] += state.pairs.force[q];
+  });
+  return net;
+}
+
 Overlaps overlaps(const State& state, double deep) {
   Overlaps o;
   const std::vector<double>& r = state.particles.radius;

@@ -17,6 +17,7 @@
 #include "helpers.hpp"
 #include "io/files.hpp"
 #include "io/snapshot.hpp"
+#include "measure/micro.hpp"
 #include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
@@ -225,6 +226,10 @@ TEST(Snapshot, ParticlesFileHoldsWrappedPositionsRadiiAndContactCounts) {
   const std::vector<double> spin = array(vtu, "spin", 3 * n);
   const std::vector<double> contacts = array(vtu, "contacts", n);
   const std::vector<double> id = array(vtu, "id", n);
+  const std::vector<double> net_force = array(vtu, "net_force", 3 * n);
+  const std::vector<double> stress = array(vtu, "stress", 9 * n);
+  const std::vector<Vec3> expected_force = net_contact_forces(s);
+  const std::vector<Mat3> expected_stress = particle_stresses(s);
   const std::vector<int> expected_contacts = contact_count(s);
   bool any_wrapped = false;
   for (std::size_t i = 0; i < n; ++i) {
@@ -235,6 +240,9 @@ TEST(Snapshot, ParticlesFileHoldsWrappedPositionsRadiiAndContactCounts) {
     EXPECT_EQ(vec_at(spin, i), s.particles.spin[i]);
     EXPECT_EQ(contacts[i], expected_contacts[i]) << i;
     EXPECT_EQ(id[i], static_cast<double>(i));
+    EXPECT_EQ(vec_at(net_force, i), expected_force[i]);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(stress[9 * i + 3 * r + c], expected_stress[i](r, c)) << i;
   }
   EXPECT_TRUE(any_wrapped);
 

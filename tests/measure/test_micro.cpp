@@ -177,6 +177,35 @@ TEST(LatticeMeasurements, SimpleCubic) {
   EXPECT_NEAR(t.particles.force[0].x(), -(2 * kn * u - 4 * kn * dt * u / d), 1e-9);
 }
 
+// Particle stresses and net forces: on the simple cubic lattice each sphere carries kn delta a / V_p on the
+// diagonal (two contacts along each axis, each kn delta times half the branch a) and nothing off it; with one
+// sphere displaced, the particles' V_p sigma_p add up to the cell's V sigma and the net forces are the
+// kick's sums.
+TEST(ParticleStress, LatticeValueAndSumOverParticlesIsTheCellStress) {
+  const int n = 4;
+  const double R = 0.5, a = 0.98, kn = 1e4, delta = 2 * R - a, vp = 4.0 / 3.0 * M_PI * R * R * R;
+  const Model model = make_model(testing::model_deck(kn, kn, 1e-4), std::vector<double>(n * n * n, R));
+  State s = testing::lattice_state(n, R, Vec3(a, a, a), 0.05);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, 0.5, s);
+  for (const Mat3& sigma : particle_stresses(s)) expect_mat_near(sigma, Mat3::Identity() * kn * delta * a / vp, 1e-9);
+  for (const Vec3& f : net_contact_forces(s)) EXPECT_LT(f.norm(), 1e-9);
+
+  State t = s;
+  t.particles.scaled[0] += t.cell.h.inverse() * Vec3(0.005, 0.002, -0.001);
+  compute_contact_forces(model, 0.5, t, false);
+  gather_and_kick(model, t);
+  Mat3 sum = Mat3::Zero();
+  const std::vector<Mat3> sigma = particle_stresses(t);
+  for (std::size_t i = 0; i < sigma.size(); ++i) sum += vp * sigma[i];
+  const Mat3 cell = t.cell.volume() * contact_stress(t);
+  expect_mat_near(sum, cell, 1e-12 * cell.norm());
+  EXPECT_GT((sigma[0] - sigma[5]).norm(), 1e-3 * sigma[5].norm());  // the displaced sphere differs
+  const std::vector<Vec3> net = net_contact_forces(t);
+  for (std::size_t i = 0; i < net.size(); ++i) EXPECT_LT((net[i] - t.particles.force[i]).norm(), 1e-9) << i;
+  EXPECT_GT(net[0].norm(), 1.0);
+}
+
 TEST(Measurements, KineticEnergyOfSolidSpheres) {
   const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-4), {0.5, 0.25});
   State s = testing::make_state(Mat3::Identity() * 10.0, {0.5, 0.25}, {Vec3(1, 1, 1), Vec3(5, 5, 5)}, 0.1);
