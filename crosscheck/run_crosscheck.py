@@ -16,7 +16,7 @@ Two kinds of scene:
       stress difference < --tol-stress (1e-3) for every row up to e1 = --hold-e1 (0.2 % for LAMMPS, 0.1 % for
       LIGGGHTS, whose dynamics without rotational damping are chaotic; "lammps=X,liggghts=Y" or one value).
   (b) mixed control (the deck's tests, TTC/PSC-like), in the quantities of celldem's summary.json (celldem's
-      own; for the other code computed from its series by the same definitions, tools/celldem/mirror.py):
+      own; for the other code computed from its series by the same definitions, `celldem summarize`):
       peak s11/s33 within --tol-peak (relative); e1 at the peak (e1_at_peak_centre: the centre of the strain
       range where s11/s33 is within 1 % of its peak) within --tol-e1-peak; ev at the end of the test
       (ev_final) within --tol-ev; Z averaged over the end window (the last 0.5 % of e1) within --tol-z.

@@ -17,6 +17,7 @@ Command add_bench_command(CLI::App& app);  // celldem bench
 Command add_translate_command(CLI::App& app);  // celldem translate
 Command add_schema_command(CLI::App& app);     // celldem schema
 Command add_plan_command(CLI::App& app);       // celldem plan
+Command add_summarize_command(CLI::App& app);  // celldem summarize
 
 // One line on what a run of the deck costs: memory, steps and time (core/plan's estimate_run).
 std::string describe_estimate(const Deck& deck);

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
       celldem::app::add_translate_command(app),
       celldem::app::add_schema_command(app),
       celldem::app::add_plan_command(app),
+      celldem::app::add_summarize_command(app),
   };
   try {
     app.parse(argc, argv);

@@ -88,9 +88,7 @@ Json summarize_legs(const TestDef& test, const std::vector<SeriesRow>& rows, con
   return legs;
 }
 
-Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
-                    const std::vector<ControlErrors>& errors, double wall, std::int64_t steps, std::size_t particles,
-                    std::vector<std::string>& warnings) {
+Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
   std::size_t peak = 0;  // the first row of the largest s11/s33
   for (std::size_t r = 0; r < rows.size(); ++r)
     if (rows[r].ratio13 > rows[peak].ratio13) peak = r;
@@ -104,22 +102,9 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
 
   double ev_end = 0.0, z_end = 0.0;
   int in_window = 0;
-  const int end_axis = test.legs.back().end.axis;
   const double end_strain = last.strain(end_axis);
   for (const SeriesRow& r : rows)
     if (std::abs(r.strain(end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
-
-  double mean_p = 0.0;
-  for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
-  const double servo_error = servo_max_error(errors);
-  const double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density,
-                                         mean_p);
-  for (const std::string& w : test_warnings(test, inertia)) warnings.push_back(w);
-  for (const std::string& w : control_warnings(test, errors)) warnings.push_back(w);
-  Json failures = Json::array();
-  for (const ControlFailureRecord& f : control_failures(test, errors))
-    failures.push_back({{"leg", f.leg}, {"axis", std::string(kAxisNames[f.axis])}, {"kind", f.kind},
-                        {"error", number_or_null(f.error)}, {"tolerance", f.tolerance}});
 
   // No peak: the largest s11/s33 is the last row, or the robust peak's plateau runs to the end.
   std::size_t plateau_end = 0;
@@ -128,10 +113,6 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
 
   return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
           {"peak_reached", peak_reached},
-          {"controlled", failures.empty()},
-          {"control_failures", failures},
-          {"servo_max_error", number_or_null(servo_error)},
-          {"inertial_number", inertia},
           {"e1_at_peak", number_or_null(at_peak.e1)},
           {"e1_peak_range", {number_or_null(lo), number_or_null(hi)}},
           {"e1_at_peak_centre", number_or_null(0.5 * (lo + hi))},
@@ -144,17 +125,40 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
                           {"q", number_or_null(at_peak.q)}, {"sin_phi", number_or_null(at_peak.sin_phi)},
                           {"b", number_or_null(at_peak.b)}, {"b_principal", number_or_null(at_peak.b_principal)},
                           {"lode_angle", number_or_null(at_peak.lode_angle)}, {"ev", number_or_null(at_peak.ev)}}},
-          {"legs", summarize_legs(test, rows, errors)},
           {"b_final", number_or_null(last.b)},
           {"final_e1", number_or_null(last.e1)},
           {"ev_final", number_or_null(last.ev)},
           {"Z_final", number_or_null(last.Z)},
           {"end_window", {{"strain", kEndWindowStrain},
                           {"ev", number_or_null(ev_end / in_window)},
-                          {"Z", number_or_null(z_end / in_window)}}},
-          {"steps", steps},
-          {"wall_s", wall},
-          {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}};
+                          {"Z", number_or_null(z_end / in_window)}}}};
+}
+
+Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
+                    const std::vector<ControlErrors>& errors, double wall, std::int64_t steps, std::size_t particles,
+                    std::vector<std::string>& warnings) {
+  double mean_p = 0.0;
+  for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
+  const double servo_error = servo_max_error(errors);
+  const double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density,
+                                         mean_p);
+  for (const std::string& w : test_warnings(test, inertia)) warnings.push_back(w);
+  for (const std::string& w : control_warnings(test, errors)) warnings.push_back(w);
+  Json failures = Json::array();
+  for (const ControlFailureRecord& f : control_failures(test, errors))
+    failures.push_back({{"leg", f.leg}, {"axis", std::string(kAxisNames[f.axis])}, {"kind", f.kind},
+                        {"error", number_or_null(f.error)}, {"tolerance", f.tolerance}});
+
+  Json out = summarize_series(rows, test.legs.back().end.axis);
+  out.update({{"controlled", failures.empty()},
+              {"control_failures", failures},
+              {"servo_max_error", number_or_null(servo_error)},
+              {"inertial_number", inertia},
+              {"legs", summarize_legs(test, rows, errors)},
+              {"steps", steps},
+              {"wall_s", wall},
+              {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}});
+  return out;
 }
 
 Json summarize_preparation(const Model& model, const State& state, const PrepareDef& prep, double wall) {

@@ -22,6 +22,13 @@ inline constexpr double kPeakPlateau = 0.01;
 // stays within kPeakPlateau of the maximum, and b (axis and principal) averaged over that range.
 inline constexpr double kPeakSmoothing = 0.005;
 
+// What a series alone determines (C++ owns these definitions; `celldem summarize` applies them to any series,
+// another code's included): the peak of s11/s33 (its first row, e1 there and the plateau within kPeakPlateau,
+// b and the principal values there), the robust peak, whether a peak was reached (not the last row, and the
+// robust plateau ends before the last row), the last row and the end-window means over the last
+// kEndWindowStrain of `end_axis` (0-based). Non-finite values are null.
+nlohmann::json summarize_series(const std::vector<SeriesRow>& rows, int end_axis);
+
 // A test's scalars from its rows as series.csv holds them (as_printed), so that a resumed run reports the
 // same bytes. `warnings` receives what the health checks say about the finished test.
 // Per leg ("legs"): its rows' peak of s11/s33, e1 and the controlled quantities there (b, p, volumetric

@@ -15,8 +15,8 @@ temporary folder, then
   --mpi:   translates the TTC test (shortened to e1 = 0.2 %) for LAMMPS and runs the same script with
            `lmp` and with `mpirun -np 2 lmp`; every row must agree to 1e-6 (lengths and stresses) and
            to 2 in the contact count.
-The default run also checks that the cross-check's copy of summary.json's definitions (tools/celldem/mirror.py,
-used for the other codes' series) gives, on celldem's own series, exactly what celldem wrote in summary.json.
+The default run also checks that `celldem summarize` (used for the other codes' series) gives, on celldem's own
+series as written to series.csv, exactly what celldem wrote in summary.json.
 Exit 77 (ctest: skipped) when lmp, liggghts or mpirun is missing.
 
 usage: reduced_crosscheck.py --celldem BIN [--mpi] [--work DIR]
@@ -35,7 +35,7 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(ROOT, "crosscheck"))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
 import run_crosscheck  # noqa: E402
-from celldem import crosscheck, mirror, results  # noqa: E402
+from celldem import binary, crosscheck, results  # noqa: E402
 
 import xc_common  # noqa: E402
 
@@ -53,19 +53,19 @@ def reduced(celldem, work, state):
         "--strain-end", "0.003", "--hold-e1", "lammps=0.002,liggghts=0.001", "--tol-stress", "1e-3",
         "--tol-peak", "0.03", "--tol-e1-peak", "0.005", "--tol-ev", "5e-4", "--tol-z", "0.1"])
     for code in ("lammps", "liggghts"):
-        rc |= mirror_agrees(os.path.join(work, "xc", code, "celldem"))
+        rc |= summarize_agrees(os.path.join(work, "xc", code, "celldem"))
     return rc
 
 
-def mirror_agrees(run_dir):
-    """mirror.summary_of_series on each test series of a celldem run equals that run's summary.json (0), or 1."""
+def summarize_agrees(run_dir):
+    """`celldem summarize` on each test series of a celldem run equals that run's summary.json (0), or 1."""
     run = results.load_run(run_dir)
     bad = []
     for test in run.test_names:
-        for key, value in mirror.summary_of_series(run.test(test), "x1").items():
+        for key, value in binary.summarize(os.path.join(run_dir, test, "series.csv"), "x1").items():
             if value != run.test_summary(test).get(key):
-                bad.append("%s %s: mirror %r, summary.json %r" % (test, key, value, run.test_summary(test).get(key)))
-    print("tools/celldem/mirror.py against celldem's summary.json (%s): %s" % (run_dir, "; ".join(bad) or "same"))
+                bad.append("%s %s: summarize %r, summary.json %r" % (test, key, value, run.test_summary(test).get(key)))
+    print("celldem summarize against celldem's summary.json (%s): %s" % (run_dir, "; ".join(bad) or "same"))
     return 1 if bad else 0
 
 

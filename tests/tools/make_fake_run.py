@@ -9,9 +9,9 @@ and are built so that the numbers the report computes are known exactly; they ar
 OUT_DIR/expected.json. With --variant diverging the PSC test differs from TTC in Z, sliding fraction, the
 σ1/σ3–Hs11/Hs33 relation and the peak σ1/σ3, so each of the report's comparisons should say "no".
 
-summary.json holds what celldem would write for these series: test_summary() computes it here by celldem's
-definitions (solver/run/summary.cpp), independently of the tools, so that test_tools.sh can check the tools'
-one copy of them (tools/celldem/mirror.py) against it. Each <test>/ also gets series.columns.json (units) unless
+summary.json holds what celldem would write for these series: `celldem summarize` (solver/run/summary.cpp, the
+one definition) of each series, so the built binary must exist (tools/build.sh; $CELLDEM names another). Each
+<test>/ also gets series.columns.json (units) unless
 --no-columns-json; --reverse-columns writes the series columns in reverse order (the tools read the header).
 """
 
@@ -19,8 +19,13 @@ import argparse
 import json
 import math
 import os
+import sys
+import tempfile
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
+from celldem import binary  # noqa: E402
 
 PARTICLES = 8000
 S3 = 100e3                      # [Pa] lateral confining stress
@@ -107,28 +112,16 @@ def make_test(name, variant, rng):
     }
 
 
-END_WINDOW = 0.005   # celldem's end window: the last 0.5 % of the end axis's strain
-PLATEAU = 0.01       # celldem's peak plateau: within 1 % of the peak
-
-
-def test_summary(c):
-    """summary.json["tests"][name] of a series by celldem's definitions (summary.cpp): the first row of the largest
-    ratio13, the e1 range within 1 % of it, the last row, the means over the end window of e1."""
-    k = int(np.argmax(c["ratio13"]))
-    near = c["e1"][c["ratio13"] >= (1.0 - PLATEAU) * c["ratio13"][k]]
-    window = np.abs(c["e1"] - c["e1"][-1]) <= END_WINDOW
-    value = lambda x: None if math.isnan(x) else float(x)  # noqa: E731 (null for nan, as celldem writes)
-    return {"peak_ratio13": float(c["ratio13"][k]), "e1_at_peak": float(c["e1"][k]),
-            "e1_peak_range": [float(near.min()), float(near.max())],
-            "e1_at_peak_centre": float(0.5 * (near.min() + near.max())),
-            "b_at_peak": value(c["b"][k]), "b_final": value(c["b"][-1]), "final_e1": float(c["e1"][-1]),
-            "ev_final": float(c["ev"][-1]), "Z_final": float(c["Z"][-1]),
-            "end_window": {"strain": END_WINDOW, "ev": float(np.mean(c["ev"][window])),
-                           "Z": float(np.mean(c["Z"][window]))},
-            "peak_state": {"sigma1": float(c["s11"][k]), "sigma2": float(c["s22"][k]), "sigma3": float(c["s33"][k]),
-                           "p": float(c["p"][k]), "q": float(c["q"][k]), "sin_phi": float(c["sin_phi"][k]),
-                           "b": value(c["b"][k])},
-            "servo_max_error": 0.001, "inertial_number": 1.2e-4}
+def test_summary(columns):
+    """summary.json["tests"][name] of a series as celldem writes it: `celldem summarize` of the series (every
+    column; --drop-columns changes only what the written series shows), and the control and cost entries."""
+    fd, path = tempfile.mkstemp(suffix=".csv")
+    os.close(fd)
+    try:
+        write_series(path, columns)
+        return dict(binary.summarize(path), servo_max_error=0.001, inertial_number=1.2e-4, controlled=True)
+    finally:
+        os.remove(path)
 
 
 def write_columns_json(path, names):

@@ -9,9 +9,9 @@ and a servo run with a known stress error. ROOT/expected.json holds the noise fl
 Pareto front and the presets the analysis must find.
 
 Each run folder gets what tools/study.py and celldem leave there: spec.json, outcome.json, <test>/series.csv,
-summary.json (its per-test quantities computed here from the series by celldem's definitions, and the settings)
-and plan.json (what `celldem plan` prints for the run's deck: steps, time step ratio, inertial number, particle
-masses), so that the analysis runs without a celldem binary.
+summary.json (its per-test quantities from `celldem summarize` of each series, the one definition, and the
+settings) and plan.json (what `celldem plan` prints for the run's deck: steps, time step ratio, inertial number,
+particle masses, written here so that no deck is planned). The built binary must exist (tools/build.sh).
 """
 
 import json
@@ -23,6 +23,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "tools"))
+from celldem import binary  # noqa: E402
 from celldem import study_runs as study  # noqa: E402
 from celldem import study_scene as sa  # noqa: E402
 
@@ -79,19 +80,6 @@ def series(peak, e_peak, ev_end, z_end, b_peak=None, s22_noise=None, blow_up=Fal
     return cols
 
 
-def test_summary(c):
-    """summary.json["tests"][name] of a series, by celldem's definitions: the first row of the largest ratio13
-    (NaN rows never win), the last row, the means of ev and Z over the rows within END_WINDOW of the last e1."""
-    ratio = np.where(np.isfinite(c["ratio13"]), c["ratio13"], -np.inf)
-    k = int(np.argmax(ratio))
-    window = np.abs(c["e1"] - c["e1"][-1]) <= END_WINDOW
-    value = lambda x: float(x) if math.isfinite(x) else None  # noqa: E731 (null, as celldem writes)
-    return {"peak_ratio13": float(c["ratio13"][k]), "e1_at_peak": float(c["e1"][k]), "b_at_peak": value(c["b"][k]),
-            "final_e1": float(c["e1"][-1]), "ev_final": value(c["ev"][-1]), "Z_final": value(c["Z"][-1]),
-            "end_window": {"strain": END_WINDOW, "ev": value(np.mean(c["ev"][window])),
-                           "Z": value(np.mean(c["Z"][window]))}}
-
-
 def fake_plan(spec):
     """plan.json of a spec's deck, as `celldem plan --json` would print it (the fields the analysis reads)."""
     density = DENSITY * spec.get("density_factor", 1.0)
@@ -125,7 +113,8 @@ def write_run(root, spec, tests, cpu, rc=0):
     if spec["kind"] == "sample":
         cap = spec.get("servo_cap") or DEFAULT_SERVO_CAP
     summary = {"settings": {"time_step": spec["time_step"], "servo_max_strain_increment": cap},
-               "tests": {t: dict(test_summary(cols), wall_s=1.5 * cpu / max(len(tests), 1)) for t, cols in tests.items()}}
+               "tests": {t: dict(binary.summarize(os.path.join(d, t, "series.csv")), wall_s=1.5 * cpu / max(len(tests), 1))
+                         for t in tests}}
     with open(os.path.join(d, "summary.json"), "w", encoding="utf-8") as f:
         json.dump(summary, f)
     with open(os.path.join(d, "plan.json"), "w", encoding="utf-8") as f:

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Tests the analysis half of tools/study.py (tools/celldem/study_analysis.py) without running celldem: the
-# compared quantities (summary.json's, and the cross-check's copy of their definitions), what plan.json gives,
+# Tests the analysis half of tools/study.py (tools/celldem/study_analysis.py) without running a simulation: the
+# compared quantities (summary.json's, and `celldem summarize` against values worked out by hand), what plan.json
+# gives,
 # the noise floor, the errors, the Pareto front, the presets' choice, the stability and
 # servo measures, on known inputs and on a synthetic study root (tests/tools/make_fake_study.py); then that
 # `study.py analyse` writes study.json, study.md and the charts, and that report.py links the study.
@@ -11,7 +12,7 @@ echo "1. the analysis functions on hand-made inputs"
 "$PY" - <<'EOF' || fail "analysis functions"
 import math
 import numpy as np
-from celldem import binary, decks, mirror, study_analysis as sa, study_runs as study, study_scene as scene
+from celldem import binary, decks, study_analysis as sa, study_runs as study, study_scene as scene
 
 from checking import check, done
 
@@ -92,31 +93,44 @@ check("Z at end", m["Z_end"], 4.4)
 check("short run: no end values", sa.test_metrics(info, 0.04)["Z_end"], None)
 check("null in summary.json", sa.test_metrics(dict(info, b_at_peak=None), 0.03)["b_peak"], None)
 
-# The cross-check's copy of those definitions (series of LAMMPS/LIGGGHTS have no summary.json).
+# summary.json's definitions (solver/run/summary.cpp) through `celldem summarize`, on series whose answers are
+# worked out by hand (series of LAMMPS/LIGGGHTS have no summary.json: the cross-check summarizes them so).
+import os, tempfile
+def summarize(columns, end_axis="x1"):
+    fd, path = tempfile.mkstemp(suffix=".csv")
+    with os.fdopen(fd, "w") as f:
+        f.write(",".join(columns) + "\n")
+        for row in zip(*columns.values()):
+            f.write(",".join(repr(float(v)) for v in row) + "\n")
+    try:
+        return binary.summarize(path, end_axis)
+    finally:
+        os.remove(path)
 e1 = np.array([0.0, 0.01, 0.02, 0.03 - 1e-12])
 s = {"e1": e1, "ratio13": np.array([1.0, 3.0, 2.5, 2.4]), "b": np.array([np.nan, 0.4, 0.3, 0.2]),
      "ev": np.array([0.0, 0.001, -0.01, -0.02]), "Z": np.array([6.0, 5.0, 4.5, 4.4])}
-m = mirror.summary_of_series(s)
-check("mirror peak", m["peak_ratio13"], 3.0)
-check("mirror e1 at peak", m["e1_at_peak"], 0.01)
-check("mirror b at peak", m["b_at_peak"], 0.4)
-check("mirror plateau of one row", m["e1_peak_range"], [0.01, 0.01])
-check("mirror final", (m["final_e1"], m["ev_final"], m["Z_final"], m["b_final"]), (0.03 - 1e-12, -0.02, 4.4, 0.2))
-check("mirror end window of one row", (m["end_window"]["ev"], m["end_window"]["Z"]), (-0.02, 4.4))
+m = summarize(s)
+check("summarize peak", m["peak_ratio13"], 3.0)
+check("summarize e1 at peak", m["e1_at_peak"], 0.01)
+check("summarize b at peak", m["b_at_peak"], 0.4)
+check("summarize plateau of one row", m["e1_peak_range"], [0.01, 0.01])
+check("summarize final", (m["final_e1"], m["ev_final"], m["Z_final"], m["b_final"]), (0.03 - 1e-12, -0.02, 4.4, 0.2))
+check("summarize end window of one row", (m["end_window"]["ev"], m["end_window"]["Z"]), (-0.02, 4.4))
 s2 = {"e1": np.linspace(0.0, 0.03, 31), "ev": np.linspace(0.0, -0.03, 31), "Z": np.linspace(6.0, 3.0, 31),
       "s11": np.linspace(1.0, 3.0, 31) * 1e5, "s33": np.full(31, 1e5)}
-m = mirror.summary_of_series(s2)
-check("mirror s11/s33 without ratio13", m["peak_ratio13"], 3.0)
-check("mirror ev mean over the last 0.5 %", m["end_window"]["ev"], -0.0275, 1e-9)
-check("mirror Z mean over the last 0.5 %", m["end_window"]["Z"], 3.25, 1e-9)
-check("mirror without b", "b_at_peak" in m, False)
+m = summarize(s2)
+check("summarize s11/s33 without ratio13", m["peak_ratio13"], 3.0)
+check("summarize ev mean over the last 0.5 %", m["end_window"]["ev"], -0.0275, 1e-9)
+check("summarize Z mean over the last 0.5 %", m["end_window"]["Z"], 3.25, 1e-9)
+check("summarize without b", m["b_at_peak"], None)
+check("summarize no peak: the largest s11/s33 is the last row", m["peak_reached"], False)
 s3 = {"e1": np.array([0.0, 0.01, 0.02, 0.03, 0.04]), "ratio13": np.array([1.0, 2.98, 3.0, 2.99, 2.5]),
       "ev": np.zeros(5), "Z": np.zeros(5), "e2": np.array([0.0, 0.0, 0.0, 0.006, 0.009])}
-m = mirror.summary_of_series(s3)
-check("mirror plateau: rows within 1 % of the peak", m["e1_peak_range"], [0.01, 0.03])
-check("mirror plateau centre", m["e1_at_peak_centre"], 0.02)
-check("mirror end window on x2", mirror.summary_of_series(s3, "x2")["end_window"]["ev"], 0.0)
-check("mirror end window on x2: rows", mirror.summary_of_series(dict(s3, ev=np.arange(5.0)), "x2")["end_window"]["ev"],
+m = summarize(s3)
+check("summarize plateau: rows within 1 % of the peak", m["e1_peak_range"], [0.01, 0.03])
+check("summarize plateau centre", m["e1_at_peak_centre"], 0.02)
+check("summarize end window on x2", summarize(s3, "x2")["end_window"]["ev"], 0.0)
+check("summarize end window on x2: rows", summarize(dict(s3, ev=np.arange(5.0)), "x2")["end_window"]["ev"],
       3.5)
 
 # What a deck implies comes from plan.json (`celldem plan --json`).

@@ -4,8 +4,8 @@ Modules, from the bottom up:
   tables    Markdown tables and the formatting of numbers in them
   results   run directories: summary.json, <stage>/series.csv (columns by its header), series.columns.json
   metrics   curve helpers on series columns (interpolation, binned differences, maxima)
-  mirror    summary.json's per-test quantities for a series without one (LAMMPS/LIGGGHTS): the one copy
-  binary    the celldem binary: `celldem plan DECK --json`
+  binary    the celldem binary: `celldem plan DECK --json`, `celldem summarize SERIES` (summary.json's
+            per-test quantities for a series without one, such as LAMMPS's or LIGGGHTS's)
   decks     decks as data: load, edit, write with a generic JSON layout
   plotting  matplotlib without a display, thinning long curves, axis units from series.columns.json
   stats     t-test verdicts over the seeds of an ensemble (the statistics of ensemble.json, for curve measures)
@@ -18,5 +18,5 @@ Modules, from the bottom up:
 
 What celldem computes (steps, strain per step, masses, the critical time step, the inertial number of a deck;
 the peak, its plateau and the end values of a test) is read from `celldem plan --json` and summary.json,
-never derived again here; mirror.py is the one exception, for series that come from other codes.
+never derived again here: a series from another code is summarized by `celldem summarize`.
 """

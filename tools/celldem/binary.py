@@ -1,6 +1,7 @@
 """The celldem binary, for what a deck implies: `celldem plan DECK --json` (a test's steps, strain per step and
-rows, the particle types' masses and damping, the critical time step, the inertial number). The tools ask it
-instead of deriving these again.
+rows, the particle types' masses and damping, the critical time step, the inertial number), and for what a
+series implies: `celldem summarize SERIES` (summary.json's peak and end quantities of any series). The tools
+ask it instead of deriving these again.
 """
 
 import json
@@ -61,6 +62,14 @@ def plan_deck(deck, directory, binary=None):
         return plan(path, binary)
     finally:
         os.remove(path)
+
+
+def summarize(series_path, end_axis="x1", binary=None):
+    """`celldem summarize SERIES --end-axis AXIS` as a dict: what summary.json says of a test that its series
+    alone determines (peak_ratio13, e1_at_peak, e1_peak_range, peak_reached, peak_robust, b_at_peak, final_e1,
+    ev_final, Z_final, b_final, end_window, ...), for any series CSV, another code's included (its ratio13 from
+    s11/s33 when it has none). The one definition is solver/run/summary.cpp."""
+    return run_json(["summarize", str(series_path), "--end-axis", end_axis], binary)
 
 
 def test_plan(deck_plan, name):

@@ -2,7 +2,7 @@
 (crosscheck/run_crosscheck.py; its docstring describes the checks, crosscheck/README.md the measured differences).
 
 celldem's side of each comparison is its summary.json; the other code's series has none, so its quantities come
-from mirror.summary_of_series, the one copy of summary.json's definitions. Steps, strain per step and the number
+from `celldem summarize`, which applies summary.json's definitions (solver/run/summary.cpp) to any series. Steps, strain per step and the number
 of particles come from `celldem plan`.
 """
 
@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from . import binary, mirror, plotting
+from . import binary, plotting
 from .metrics import on_grid
 from .results import column, load_series, read_json
 from .tables import fmt_spec, md_table
@@ -208,7 +208,7 @@ def run_code(args, code, script_dir, test_plan, np_ranks, tag=""):
 # ---- comparisons ---------------------------------------------------------------------------------------
 
 class Side:
-    """One side of a comparison: a series and its summary.json quantities (celldem's own, or mirrored)."""
+    """One side of a comparison: a series and its summary.json quantities (celldem's own, or `celldem summarize`'s)."""
 
     def __init__(self, series, quantities):
         self.series, self.quantities = series, quantities
@@ -219,9 +219,8 @@ class Side:
         return cls(load_series(os.path.join(run_dir, test, "series.csv")), (summary.get("tests") or {}).get(test) or {})
 
     @classmethod
-    def other_code(cls, path, end_axis):
-        series = load_series(path)
-        return cls(series, mirror.summary_of_series(series, end_axis))
+    def other_code(cls, path, end_axis, celldem=None):
+        return cls(load_series(path), binary.summarize(path, end_axis, celldem))
 
 
 def compare_strain_scene(ref, other, tol, hold):
@@ -365,7 +364,7 @@ def write_report(out, report):
     lines = ["# celldem cross-check", "",
              "Deck `%s`, state `%s`, %d particles; codes %s, %d MPI rank(s). celldem's quantities are its "
              "summary.json's; the other code's are computed from its series by the same definitions "
-             "(tools/celldem/mirror.py)." %
+             "(`celldem summarize`)." %
              (report["deck"], report["state"], report["particles"], ", ".join(report["codes"]), report["np"]), ""]
     for test in report["tests"]:
         lines += ["## %s (kind %s)" % (test["name"], test["kind"]), "",
@@ -453,7 +452,7 @@ def run(args):
             ref = Side.celldem(runs[code][0], name)
             series, report["wall"]["%s %s (np %d)" % (code, name, args.np)] = run_code(
                 args, code, runs[code][1], test_plan, args.np)
-            other = Side.other_code(series, test_plan["end_axis"])
+            other = Side.other_code(series, test_plan["end_axis"], args.celldem)
             curves["celldem (%s-matched)" % code], curves[code] = ref.series, other.series
             comps["celldem vs " + code] = compare(ref, other, test, args, code)
             ok &= comps["celldem vs " + code]["pass"]
@@ -461,7 +460,8 @@ def run(args):
                 other_np = 2 if args.np == 1 else 1
                 series2, report["wall"]["%s %s (np %d)" % (code, name, other_np)] = run_code(
                     args, code, runs[code][1], test_plan, other_np, tag=".np%d" % other_np)
-                noise = compare(other, Side.other_code(series2, test_plan["end_axis"]), test, args, code)
+                again = Side.other_code(series2, test_plan["end_axis"], args.celldem)
+                noise = compare(other, again, test, args, code)
                 noise["informational"] = True
                 comps["%s np%d vs np%d (noise floor)" % (code, args.np, other_np)] = noise
         base = Side.celldem(runs[codes[0]][0], name) if codes else None
