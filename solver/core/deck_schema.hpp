@@ -1,6 +1,6 @@
 // Every deck key, declared once: its type, range, default, unit and meaning. The reader
 // (io/deck_reader.cpp) takes range and default from here, the structs in core/deck.hpp their defaults,
-// `celldem schema` prints the table (the README's deck table is generated from it), and the translator
+// `celldem schema` prints the table (docs/deck.md's key table is generated from it), and the translator
 // names keys through it.
 #pragma once
 #include <array>
@@ -63,8 +63,9 @@ inline constexpr KeySpec sample_density{.path = "sample.density", .kind = KeyKin
 inline constexpr KeySpec sample_seed{.path = "sample.seed", .kind = KeyKind::Integer, .min = 0, .max = kMaxSeed,
     .required = false, .fallback = 1, .meaning = "sizes and the initial jitter depend on it only"};
 inline constexpr KeySpec sample_grid_spacing{.path = "sample.grid_spacing", .kind = KeyKind::Number,
-    .required = false, .default_text = "1.1 x largest diameter", .unit = "m",
-    .meaning = "spacing of the initial cubic grid, > largest diameter"};
+    .positive = true, .required = false, .default_text = "1.1 x largest diameter", .unit = "m",
+    .meaning = "spacing of the initial cubic grid; refused unless it exceeds the largest diameter (the spheres "
+               "would overlap)"};
 
 inline constexpr KeySpec contact{.path = "contact", .kind = KeyKind::Object, .meaning = "the contact law"};
 inline constexpr KeySpec contact_normal{.path = "contact.normal", .kind = KeyKind::Choice, .required = false,
@@ -137,10 +138,11 @@ inline constexpr KeySpec kinematics{.path = "kinematics", .kind = KeyKind::Choic
                "not (as LAMMPS/LIGGGHTS with `fix deform remap x`)"};
 inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number, .positive = true, .unit = "s",
     .meaning = "refused above the stability limit t_c (the smallest over the contact's normal, tangential-rotational, "
-               "rolling and twisting modes: `celldem plan`) and below 1e-3 t_c; warned about above 0.93 t_c"};
+               "rolling and twisting modes: `celldem plan`) and below 1e-3 t_c; warned about above 0.93 t_c and below "
+               "0.02 t_c"};
 
 inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
-    .default_text = "defaults", .meaning = "the stress servo (README: Mixed control)"};
+    .default_text = "defaults", .meaning = "the stress servo (docs/physics.md: Mixed control)"};
 inline constexpr KeySpec servo_gain{.path = "servo.gain", .kind = KeyKind::Number, .min = 0, .max = 1,
     .required = false, .fallback = 0.05, .meaning = "fraction of the stress error one affine step removes"};
 inline constexpr KeySpec servo_integral_gain{.path = "servo.integral_gain", .kind = KeyKind::Number, .min = 0,
@@ -184,7 +186,7 @@ inline constexpr KeySpec prepare_output_interval{.path = "prepare.output_interva
     .min = 1, .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 inline constexpr KeySpec prepare_equilibrium{.path = "prepare.equilibrium", .kind = KeyKind::Object,
     .required = false, .default_text = "defaults",
-    .meaning = "when the servo stage ends (README: Preparation)"};
+    .meaning = "when the servo stage ends (docs/physics.md: Preparation)"};
 inline constexpr KeySpec equilibrium_pressure_tolerance{.path = "prepare.equilibrium.pressure_tolerance",
     .kind = KeyKind::Number, .min = 1e-9, .max = 1, .required = false, .fallback = 0.005,
     .meaning = "|p - target| / target"};
@@ -292,7 +294,7 @@ inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind
     "force and kinetic energy stay high (not quasi-static) stops the run, naming the likely cause"};
 // clang-format on
 
-// Every key in table order (the order of the README's table).
+// Every key in table order (the order of docs/deck.md's table).
 inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &format, &description, &sample, &sample_count, &sample_diameters, &sample_diameters_list,
     &sample_diameters_min, &sample_diameters_max, &sample_diameters_count, &sample_density, &sample_seed,
