@@ -7,10 +7,11 @@
 #include "run/preflight.hpp"
 #include "run/progress.hpp"
 #include "run/runner.hpp"
+#include "run/sample.hpp"
 
 namespace celldem::app {
 
-std::string describe_estimate(const Deck& deck) {
+std::string describe_estimate(const Deck& deck, double start_solid_fraction) {
   // "x", "x to y" or "x or more" (high < 0: unknown), each number as printf's format gives it.
   const auto span = [](double low, double high, const char* format) {
     char a[64], b[64];
@@ -18,7 +19,7 @@ std::string describe_estimate(const Deck& deck) {
     std::snprintf(b, sizeof b, format, high);
     return high < 0 ? std::string(a) + " or more" : high > low ? std::string(a) + " to " + b : std::string(a);
   };
-  const RunEstimate e = estimate_run(deck);
+  const RunEstimate e = estimate_run(deck, start_solid_fraction);
   const double to_hours = 1.0 / (kParticleStepsPerCoreSecond * 3600.0);
   char rate[32];
   std::snprintf(rate, sizeof rate, "%.3g", kParticleStepsPerCoreSecond);
@@ -84,9 +85,16 @@ Command add_check_command(CLI::App& app) {
     const Deck deck = read_deck(*path);
     for (const std::string& w : preflight(deck)) std::fprintf(stderr, "celldem: warning: %s\n", w.c_str());
     const CriticalTimeStep limit = critical_time_steps(deck.sample, deck.contact);
+    double start_fraction = -1.0;
+    if (deck.prepare && deck.initial_state) {  // where the preparation starts, as the run will print it
+      const PreparationStart start = preparation_start(deck);
+      start_fraction = start.solid_fraction;
+      const int skipped = preparation_program(*deck.prepare, start_fraction).skipped;
+      std::printf("%s\n", describe_preparation_start(deck, start, skipped).c_str());
+    }
     std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s, %s mode)\n%s\n", path->c_str(),
                 deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name,
-                describe_estimate(deck).c_str());
+                describe_estimate(deck, start_fraction).c_str());
     return 0;
   };
 }

@@ -10,6 +10,7 @@
 #include "io/deck_reader.hpp"
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
+#include "run/sample.hpp"
 
 namespace celldem::app {
 namespace fs = std::filesystem;
@@ -109,7 +110,17 @@ Json plan_json(const Deck& deck) {
                       {"fast_strain_increment", deck.prepare->fast_strain_increment},
                       {"output_interval", deck.prepare->output_interval}};
   if (deck.initial_state) out["initial_state"] = (fs::path(deck.source).parent_path() / *deck.initial_state).string();
-  const RunEstimate estimate = estimate_run(deck);
+  double start_fraction = -1.0;  // a preparation from initial_state starts at the state's solid fraction
+  if (deck.prepare && deck.initial_state) {
+    const PreparationStart start = preparation_start(deck);
+    start_fraction = start.solid_fraction;
+    out["prepare"]["start"] = {{"solid_fraction", start_fraction},
+                               {"dilation", start.relaxation.factor},
+                               {"worst_overlap", start.relaxation.before.worst},
+                               {"worst_overlap_after", start.relaxation.after.worst},
+                               {"fast_leg_skipped", preparation_program(*deck.prepare, start_fraction).skipped > 0}};
+  }
+  const RunEstimate estimate = estimate_run(deck, start_fraction);
   const auto steps = [](const StepRange& r) { return Json{{"low", r.low}, {"high", r.high < 0 ? Json() : Json(r.high)}}; };
   if (deck.prepare) out["prepare"]["steps"] = steps(estimate.preparation);
   out["estimate"] = {{"bytes", estimate.bytes}, {"preparation_steps", steps(estimate.preparation)},
@@ -206,7 +217,8 @@ Command add_plan_command(CLI::App& app) {
         std::printf("\n");
       }
     }
-    std::printf("%s\n", describe_estimate(deck).c_str());
+    const Json& start = plan["prepare"].is_object() ? plan["prepare"].value("start", Json()) : Json();
+    std::printf("%s\n", describe_estimate(deck, start.is_null() ? -1.0 : start["solid_fraction"].get<double>()).c_str());
     return 0;
   };
 }

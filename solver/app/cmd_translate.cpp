@@ -41,6 +41,10 @@ Command add_translate_command(CLI::App& app) {
     if (!cmd->parsed()) return -1;
     if (args->no_data && !args->state.empty()) throw CLI::ValidationError("--no-data and --state exclude each other");
     const Deck deck = read_deck(args->deck);
+    if (deck.prepare && deck.initial_state)  // the preparation script starts from celldem's grid sample
+      throw DeckError("initial_state: translate writes the preparation from celldem's grid sample, not from a state "
+                      "(a deck with both \"prepare\" and \"initial_state\"); translate the run's prepared.state "
+                      "with a deck that tests it instead");
     const TargetCode code = parse_target_code(args->to);
 
     // The files to write, all decided (and checked) before anything is written.

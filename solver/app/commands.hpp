@@ -19,7 +19,8 @@ Command add_schema_command(CLI::App& app);     // celldem schema
 Command add_plan_command(CLI::App& app);       // celldem plan
 Command add_summarize_command(CLI::App& app);  // celldem summarize
 
-// One line on what a run of the deck costs: memory, steps and time (core/plan's estimate_run).
-std::string describe_estimate(const Deck& deck);
+// One line on what a run of the deck costs: memory, steps and time (core/plan's estimate_run); a preparation
+// from initial_state starts at start_solid_fraction (run/sample preparation_start; negative: none).
+std::string describe_estimate(const Deck& deck, double start_solid_fraction = -1.0);
 
 }  // namespace celldem::app

@@ -125,6 +125,7 @@ struct PrepareDef {
   double target_pressure = 1e5;                       // [Pa] (required in a deck without legs)
   double fast_solid_fraction = keys::prepare_fast_solid_fraction.fallback;
   double fast_strain_increment = keys::prepare_fast_strain_increment.fallback;
+  double relax_overlaps = 0.0;  // with initial_state: largest overlap / smaller radius after the soft start; 0: none
   EquilibriumDef equilibrium;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
   SnapshotDef snapshots;
@@ -133,6 +134,7 @@ struct PrepareDef {
   // The program; when a deck gives none, the two legs above: fast isotropic compression to the solid
   // fraction, then the isotropic servo at the target pressure to equilibrium (preparation_legs()).
   std::vector<Leg> legs;
+  bool default_legs = true;  // legs are preparation_legs(): the fast leg is dropped when the start is denser
 };
 
 // A loading test: a load program of one or more legs from the prepared state.
@@ -160,8 +162,8 @@ struct Deck {
   ControlFailure control_failure = ControlFailure::Stop;
   std::int64_t checkpoint_interval = static_cast<std::int64_t>(keys::checkpoint_interval.fallback);
   double neighbor_skin = keys::neighbor_skin.fallback;  // fraction of the largest diameter
-  std::optional<PrepareDef> prepare;        // exactly one of prepare / initial_state
-  std::optional<std::string> initial_state; // path, relative to the deck's folder
+  std::optional<PrepareDef> prepare;        // at least one of prepare / initial_state
+  std::optional<std::string> initial_state; // path, relative to the deck's folder; with prepare: its start
   bool override_state_physics = false;      // run a state made with other physics (differences are warned)
   std::vector<TestDef> tests;
 };

@@ -166,8 +166,8 @@ inline constexpr KeySpec checkpoint_interval{.path = "checkpoint_interval", .kin
 
 inline constexpr KeySpec prepare{.path = "prepare", .kind = KeyKind::Object, .required = false,
     .default_text = "none",
-    .meaning = "make a sample: fast strain-controlled compression, then the servo to equilibrium (exactly one of "
-               "`prepare` and `initial_state`)"};
+    .meaning = "make a sample: fast strain-controlled compression, then the servo to equilibrium; from a new grid "
+               "sample, or with `initial_state` from that state (at least one of `prepare` and `initial_state`)"};
 inline constexpr KeySpec prepare_friction{.path = "prepare.friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .required = false, .fallback = 0.0, .meaning = "interparticle friction coefficient while preparing"};
 inline constexpr KeySpec prepare_rolling_friction{.path = "prepare.rolling_friction", .kind = KeyKind::Number,
@@ -182,6 +182,12 @@ inline constexpr KeySpec prepare_fast_solid_fraction{.path = "prepare.fast_solid
 inline constexpr KeySpec prepare_fast_strain_increment{.path = "prepare.fast_strain_increment",
     .kind = KeyKind::Number, .min = 1e-9, .max = 1e-2, .required = false, .fallback = 2e-5,
     .meaning = "strain per step and axis in the fast phase"};
+inline constexpr KeySpec prepare_relax_overlaps{.path = "prepare.relax_overlaps", .kind = KeyKind::Number,
+    .max = 0.05, .positive = true, .required = false, .default_text = "none",
+    .meaning = "with `initial_state`: a soft start for an imported sample whose spheres overlap; the cell is first "
+               "dilated (scaled isotropically, scaled positions kept) by the smallest factor that brings every "
+               "overlap to at most this fraction of the smaller radius, and the preparation compresses it back. "
+               "Without it, overlaps beyond 0.05 of the smaller radius are refused"};
 inline constexpr KeySpec prepare_output_interval{.path = "prepare.output_interval", .kind = KeyKind::Integer,
     .min = 1, .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 inline constexpr KeySpec prepare_equilibrium{.path = "prepare.equilibrium", .kind = KeyKind::Object,
@@ -218,12 +224,12 @@ inline constexpr KeySpec end_equilibrium{.path = "prepare.legs[].end.equilibrium
 
 inline constexpr KeySpec initial_state{.path = "initial_state", .kind = KeyKind::String, .required = false,
     .default_text = "none",
-    .meaning = "instead of `prepare`: the sample to test (path relative to the deck), a celldem state file or a "
-               "LAMMPS data file (`atom_style sphere`, orthogonal box, one density equal to `sample.density`; no "
+    .meaning = "the sample to test (path relative to the deck), or with `prepare` the state the preparation starts "
+               "from: a celldem state file or a LAMMPS data file (`atom_style sphere`, orthogonal box, one density equal to `sample.density`; no "
                "contact history)"};
 inline constexpr KeySpec override_state_physics{.path = "override_state_physics", .kind = KeyKind::Boolean,
     .required = false, .default_text = "false",
-    .meaning = "`true`: run an `initial_state` with the deck's density and contact law although the state was made "
+    .meaning = "`true`: run (or prepare) an `initial_state` with the deck's density and contact law although the state was made "
                "with others (the run's warnings and summary list each difference); otherwise a difference is an error"};
 
 inline constexpr KeySpec tests{.path = "tests", .kind = KeyKind::Array, .required = false, .default_text = "[]",
@@ -304,7 +310,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &servo, &servo_gain,
     &servo_integral_gain, &servo_max_strain_increment, &control_failure, &neighbor_skin, &checkpoint_interval, &prepare,
     &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
-    &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
+    &prepare_relax_overlaps, &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,

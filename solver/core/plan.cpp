@@ -18,6 +18,15 @@ std::vector<Leg> preparation_legs(const PrepareDef& prep) {
   return {fast, servo};
 }
 
+PreparationProgram preparation_program(const PrepareDef& prep, double start_solid_fraction) {
+  PreparationProgram p{prep.legs, 0};
+  if (prep.default_legs && p.legs.size() == 2 && start_solid_fraction >= prep.fast_solid_fraction) {
+    p.legs.erase(p.legs.begin());
+    p.skipped = 1;
+  }
+  return p;
+}
+
 std::int64_t leg_steps(const Leg& leg, double time_step, double from) {
   const LegEnd& e = leg.end;
   std::int64_t n = -1;
@@ -234,7 +243,7 @@ StepRange add(StepRange a, StepRange b) {
 }
 }  // namespace
 
-StepRange preparation_steps(const Deck& deck) {
+StepRange preparation_steps(const Deck& deck, double start_solid_fraction) {
   if (!deck.prepare) return {};
   const PrepareDef& prep = *deck.prepare;
   const EquilibriumDef& eq = prep.equilibrium;
@@ -244,8 +253,14 @@ StepRange preparation_steps(const Deck& deck) {
   double solid = 0.0;  // sizes are drawn with equal probability
   for (double d : s.diameters) solid += M_PI / 6.0 * d * d * d / static_cast<double>(s.diameters.size());
   double fraction = s.count * solid / std::pow(side * s.grid_spacing, 3);  // -1 once unknown
+  // A generated sample runs the deck's legs as they are; a loaded one may leave the fast leg out.
+  std::vector<Leg> legs = prep.legs;
+  if (start_solid_fraction > 0.0) {
+    fraction = start_solid_fraction;
+    legs = preparation_program(prep, fraction).legs;
+  }
   StepRange total;
-  for (const Leg& leg : prep.legs) {
+  for (const Leg& leg : legs) {
     const std::int64_t n = leg_steps(leg, deck.time_step);
     const double d = leg.axes[0].value;
     const bool isotropic = std::all_of(leg.axes.begin(), leg.axes.end(), [d](const AxisControl& a) {
@@ -276,11 +291,11 @@ StepRange test_steps(const Deck& deck, const TestDef& test) {
   return n >= 0 ? StepRange{n, n} : StepRange{0, -1};
 }
 
-RunEstimate estimate_run(const Deck& deck) {
+RunEstimate estimate_run(const Deck& deck, double start_solid_fraction) {
   RunEstimate e;
   const double n = deck.sample.count;
   e.bytes = n * (kBytesPerParticle + (deck.contact.rotational_history() ? kRotationalBytesPerParticle : 0.0));
-  e.preparation = preparation_steps(deck);
+  e.preparation = preparation_steps(deck, start_solid_fraction);
   for (const TestDef& t : deck.tests) e.tests = add(e.tests, test_steps(deck, t));
   const StepRange all = add(e.preparation, e.tests);
   e.particle_steps_low = n * static_cast<double>(all.low);

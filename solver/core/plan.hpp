@@ -19,6 +19,14 @@ bool is_reserved_stage_name(const std::string& name);
 // The preparation's default program: fast isotropic compression at fast_strain_increment to
 // fast_solid_fraction, then the isotropic servo at target_pressure until equilibrium (or max_steps: error).
 std::vector<Leg> preparation_legs(const PrepareDef& prepare);
+// The legs the preparation runs from a start at `start_solid_fraction`: the deck's, except that the default
+// program starts with its servo leg when the start already fills fast_solid_fraction (a fast leg there would
+// end after no step). Its first leg's index in prepare.legs is `skipped` (0 or 1).
+struct PreparationProgram {
+  std::vector<Leg> legs;
+  int skipped = 0;  // default legs left out at the start
+};
+PreparationProgram preparation_program(const PrepareDef& prepare, double start_solid_fraction);
 
 // Steps of a leg that ends on a strain-driven axis's strain or on a step count, counted from the strain
 // `from` of the end axis at the leg's start; -1 when only running the leg tells (a ratio or stress end, a
@@ -177,7 +185,9 @@ struct StepRange {
 // The preparation's steps: the default program's fast compression from the grid sample's solid fraction to
 // fast_solid_fraction (exact: each step scales the cell by 1 - fast_strain_increment), then its servo leg;
 // a deck's own legs as leg_steps() knows them.
-StepRange preparation_steps(const Deck& deck);
+// With `start_solid_fraction` > 0 (a preparation from initial_state, as loaded and relaxed) the fast leg
+// starts there instead of at the grid sample's.
+StepRange preparation_steps(const Deck& deck, double start_solid_fraction = -1.0);
 StepRange test_steps(const Deck& deck, const TestDef& test);
 // Memory and work of the run: about kBytesPerParticle per sphere (the arrays and the pair list at a packing's
 // ~3 listed pairs per sphere, measured: 356-396 B at 8 k to 1 M spheres with the linear law; laws with
@@ -193,6 +203,6 @@ struct RunEstimate {
   double particle_steps_low = 0.0;
   double particle_steps_high = 0.0;  // negative: unknown
 };
-RunEstimate estimate_run(const Deck& deck);
+RunEstimate estimate_run(const Deck& deck, double start_solid_fraction = -1.0);
 
 }  // namespace celldem

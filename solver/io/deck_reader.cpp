@@ -497,7 +497,8 @@ const Bindings<P, double> kPrepareNumbers = {{&keys::prepare_friction, &P::frict
                                              {&keys::prepare_rolling_friction, &P::rolling_friction},
                                              {&keys::prepare_target_pressure, &P::target_pressure},
                                              {&keys::prepare_fast_solid_fraction, &P::fast_solid_fraction},
-                                             {&keys::prepare_fast_strain_increment, &P::fast_strain_increment}};
+                                             {&keys::prepare_fast_strain_increment, &P::fast_strain_increment},
+                                             {&keys::prepare_relax_overlaps, &P::relax_overlaps}};
 
 PrepareDef read_prepare(ObjectReader r) {
   PrepareDef p;
@@ -514,7 +515,8 @@ PrepareDef read_prepare(ObjectReader r) {
     read_fields(e, p.equilibrium, kEquilibriumSteps);
     e.finish();
   }
-  if (p.legs.empty()) p.legs = preparation_legs(p);
+  p.default_legs = p.legs.empty();
+  if (p.default_legs) p.legs = preparation_legs(p);
   r.finish();
   return p;
 }
@@ -633,11 +635,14 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
 
   const bool has_prepare = r.has(keys::prepare);
   const bool has_state = r.has(keys::initial_state);
-  if (has_prepare == has_state)
-    fail(has_prepare ? "initial_state" : "prepare",
-         "give exactly one of \"prepare\" (make a sample) and \"initial_state\" (reuse one)");
+  if (!has_prepare && !has_state)
+    fail("prepare", "give \"prepare\" (make a sample), \"initial_state\" (reuse one) or both (prepare a sample "
+                    "from that state)");
   if (has_prepare) d.prepare = read_prepare(r.object(keys::prepare));
   if (has_state) d.initial_state = r.string(keys::initial_state);
+  if (d.prepare && d.prepare->relax_overlaps > 0.0 && !has_state)
+    fail("prepare.relax_overlaps", "only meaningful with \"initial_state\" (it relaxes an imported sample's overlaps "
+                                   "before the preparation; a generated sample has none)");
   if (r.has(keys::override_state_physics)) {
     if (!has_state) fail("override_state_physics", "only meaningful with \"initial_state\"");
     d.override_state_physics = r.boolean(keys::override_state_physics);

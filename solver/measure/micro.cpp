@@ -232,4 +232,16 @@ Overlaps overlaps(const State& state, double deep) {
   return o;
 }
 
+double overlap_dilation(const State& state, double max_overlap) {
+  double factor = 1.0;
+  const std::vector<double>& r = state.particles.radius;
+  for_each_pair(state.pairs, [&](Index i, Index q) {
+    const Index j = state.pairs.neighbor[q];
+    const double reach = r[i] + r[j] - max_overlap * std::min(r[i], r[j]);
+    const double distance = branch_of(state, i, q).norm();
+    if (distance < reach) factor = std::max(factor, reach / distance);
+  });
+  return factor;
+}
+
 }  // namespace celldem

@@ -59,6 +59,10 @@ struct Overlaps {
   Index closest_i = 0, closest_j = 0;
 };
 Overlaps overlaps(const State& state, double deep);
+// The smallest isotropic dilation of the cell (h -> factor h, scaled positions kept) after which no listed
+// pair overlaps by more than max_overlap of its smaller radius: the largest (r_i + r_j - max_overlap r_min) / d
+// over the listed pairs, at least 1. A dilation only parts spheres, so the pairs listed before it suffice.
+double overlap_dilation(const State& state, double max_overlap);
 
 struct StressInvariants {
   double p = 0.0, q = 0.0, sin_phi = 0.0;  // [Pa], [Pa], [-]

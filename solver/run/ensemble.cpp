@@ -163,6 +163,9 @@ Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vec
 void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds,
                   bool include_uncontrolled) {
   if (!deck.prepare) throw DeckError("--seeds: the deck has no \"prepare\": a seed ensemble prepares its samples");
+  if (deck.initial_state)  // every seed would prepare the same loaded state: one sample, not an ensemble
+    throw DeckError("initial_state: --seeds draws a new grid sample per seed; a preparation from initial_state is "
+                    "the same for every seed");
   const fs::path dir(options.out_dir);
   if (!options.resume && !options.force && fs::exists(dir / "ensemble.json"))
     throw UsageError(dir.string() + " already holds an ensemble; use --force to overwrite it or --resume");

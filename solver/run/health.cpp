@@ -46,15 +46,15 @@ void RunawayMonitor::check(const Model& model, const State& state) {
       char buf[128];
       std::snprintf(buf, sizeof buf, "kinetic energy %.3g J exceeds %.3g x the elastic energy %.3g J", ke,
                     kMaxKineticToElastic, ee);
-      throw RunError("runaway kinetic energy " + where + ": " + buf +
-                     " - time step too large (`celldem plan` gives the stability limit per mode), damping too low "
+      throw RunError("runaway kinetic energy " + where + ": " + buf + " - " + start_cause_ +
+                     "time step too large (`celldem plan` gives the stability limit per mode), damping too low "
                      "or loading too fast; the last checkpoint holds the last good state");
     }
   }
   if (!(worst <= kMaxStepMotion)) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "a particle moves %.3g of its radius per step (limit %.3g)", worst, kMaxStepMotion);
-    throw RunError("runaway motion " + where + ": " + buf + " - time step too large, damping too low or loading "
+    throw RunError("runaway motion " + where + ": " + buf + " - " + start_cause_ + "time step too large, damping too low or loading "
                    "too fast; the last checkpoint holds the last good state");
   }
 }

@@ -14,6 +14,9 @@ namespace celldem {
 
 inline constexpr double kMaxStepMotion = 0.05;       // runaway: a particle moving 5 % of its radius in one step
 inline constexpr double kMaxKineticToElastic = 0.5;  // runaway in a test: kinetic energy above half the elastic
+// A loaded state whose deepest overlap exceeds this fraction of the smaller radius (10 x a packing's at its
+// stress) releases enough energy to look like an unstable time step: a runaway then names the overlaps.
+inline constexpr double kLoadedOverlapNote = 0.01;
 inline constexpr double kServoTolerance = 0.005;     // stress-controlled axes should stay within 0.5 % of target
 inline constexpr double kBTolerance = 0.01;           // a b axis within 0.01 of its b
 inline constexpr double kMeanStressTolerance = 0.005; // the mean stress within 0.5 %
@@ -44,9 +47,12 @@ class RunawayMonitor {
   RunawayMonitor(std::string stage, bool check_energy, std::string quasi_static_cause = "")
       : stage_(std::move(stage)), check_energy_(check_energy), quasi_static_cause_(std::move(quasi_static_cause)) {}
   void check(const Model& model, const State& state);
+  // A stage that starts from a loaded state with overlaps well above a packing's: a runaway names them first.
+  void set_start_cause(std::string cause) { start_cause_ = std::move(cause); }
 
  private:
   std::string stage_;
+  std::string start_cause_;
   bool check_energy_;
   std::string quasi_static_cause_;
   double previous_kinetic_energy_ = -1.0;  // at the last row; negative: no row yet

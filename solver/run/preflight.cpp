@@ -13,6 +13,7 @@
 #include "measure/micro.hpp"
 #include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
+#include "run/sample.hpp"
 
 namespace celldem {
 namespace {
@@ -44,30 +45,34 @@ void check_prepared_cell(const Deck& deck) {
                     "exceed " + fmt(needed) + " m): use more spheres");
 }
 
-// An imported packing whose spheres overlap deeply starts with forces far above its stress's: the run then
-// fails as if the time step were too large. Say so before: overlaps beyond this fraction of the smaller
-// radius are reported (a packing at its stress overlaps by about 1e-3 of a radius), coincident centres refused.
-inline constexpr double kDeepOverlap = 0.05;
+// An imported packing whose spheres overlap deeply starts with forces far above its stress's: the first steps
+// push them apart violently, and a run would stop with runaway motion or kinetic energy as if the time step
+// were too large. Overlaps beyond kDeepOverlap of the smaller radius (a packing at its stress overlaps by
+// about 1e-3 of a radius) are refused unless the preparation relaxes them first (prepare.relax_overlaps, at
+// most kDeepOverlap); coincident centres are refused always (no dilation parts them).
+inline constexpr double kDeepOverlap = keys::prepare_relax_overlaps.max;
 inline constexpr double kCoincident = 1e-6;  // centre distance / (r_i + r_j)
 
-void check_overlaps(const Deck& deck, State state, const std::vector<std::int64_t>& atom_ids, const std::string& path,
-                    std::vector<std::string>& warnings) {
+void check_overlaps(const Deck& deck, State state, const std::vector<std::int64_t>& atom_ids, const std::string& path) {
   const auto name = [&](Index i) {
     return atom_ids.empty() ? "particle " + std::to_string(i) : "atom " + std::to_string(atom_ids[i]);
   };
-  state.pairs.skin = skin_length(deck);
-  rebuild_pairs(make_model(deck, state.particles.radius), state);
-  const Overlaps o = overlaps(state, kDeepOverlap);
+  const OverlapRelaxation r = relax_overlaps(deck, state);
+  const Overlaps& o = r.before;
   if (o.closest < kCoincident)
     throw DeckError("initial_state: " + name(o.closest_i) + " and " + name(o.closest_j) + " of " + path +
                     " lie at the same place (centre distance " + fmt(o.closest) + " of the sum of their radii): "
                     "remove one of them");
-  if (o.worst > kDeepOverlap)
-    warnings.push_back("initial_state: in " + path + " " + std::to_string(o.deep) + " of " + std::to_string(o.count) +
-                       " touching pairs overlap by more than " + fmt(kDeepOverlap) + " of the smaller radius, the " +
-                       "deepest " + fmt(o.worst) + " (" + name(o.worst_i) + " and " + name(o.worst_j) + "): the " +
-                       "first steps push them apart violently and the run may stop with runaway motion that no time step cures: relax the "
-                       "packing first (e.g. a LAMMPS run with fix nve/limit)");
+  if (r.max_overlap > 0.0 || o.worst <= kDeepOverlap) return;
+  const std::string where = deck.prepare ? "set \"prepare.relax_overlaps\" (e.g. 0.01)"
+                                         : "prepare a sample from it (\"prepare\" beside \"initial_state\") with "
+                                           "\"prepare.relax_overlaps\" (e.g. 0.01)";
+  throw DeckError("initial_state: in " + path + " " + std::to_string(o.deep) + " of " + std::to_string(o.count) +
+                  " touching pairs overlap by more than " + fmt(kDeepOverlap) + " of the smaller radius, the deepest " +
+                  fmt(o.worst) + " (" + name(o.worst_i) + " and " + name(o.worst_j) + "): the first steps would push "
+                  "them apart violently, which no time step cures; " + where + " to dilate the cell until no overlap "
+                  "exceeds that fraction and let the preparation compress it back, or relax the packing first (e.g. "
+                  "a LAMMPS run with fix nve/limit)");
 }
 
 // Each key of the two physics records whose values differ: "key: the deck says A, the state says B".
@@ -124,7 +129,7 @@ void check_state(const Deck& deck, const std::string& path, std::vector<std::str
   if (width <= needed)
     throw DeckError("initial_state: the cell of " + path + " is " + fmt(width) + " m wide, too small for its "
                     "largest diameter and the skin (it must exceed " + fmt(needed) + " m)");
-  check_overlaps(deck, state, atom_ids, path, warnings);
+  check_overlaps(deck, state, atom_ids, path);
 }
 
 // The largest axis-1 strain a test reaches at the ends of its legs; NaN unless every leg drives axis 1 by

@@ -11,7 +11,9 @@
 #include "core/model.hpp"
 #include "core/plan.hpp"
 #include "io/state_file.hpp"
+#include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
+#include "run/health.hpp"
 #include "run/preflight.hpp"
 #include "run/program.hpp"
 #include "run/run_directory.hpp"
@@ -29,34 +31,77 @@ namespace {
 volatile std::sig_atomic_t g_stop_requested = 0;
 void on_stop_signal(int) { g_stop_requested = 1; }
 
-// The preparation: its load program (by default fast compression, then the servo to equilibrium).
-void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& options, State& state, bool resumed) {
+// A stage from a loaded state whose overlaps are well above a packing's (its pairs listed): what a runaway
+// should name before the time step; empty otherwise.
+std::string loaded_overlap_cause(const Deck& deck, const State& state) {
+  const Overlaps o = overlaps(state, kLoadedOverlapNote);
+  if (o.worst <= kLoadedOverlapNote) return "";
+  char buf[320];
+  std::snprintf(buf, sizeof buf, "likely cause: the stage started from %s, whose %lld pairs overlapping by more than "
+                "%.3g of the smaller radius (the deepest %.3g) release their energy at once (a preparation from it with "
+                "prepare.relax_overlaps dilates them away); otherwise ", initial_state_path(deck).c_str(),
+                static_cast<long long>(o.deep), kLoadedOverlapNote, o.worst);
+  return buf;
+}
+
+// The preparation: its load program (by default fast compression, then the servo to equilibrium), from a
+// generated sample or (initial_state) from a loaded one, whose program may leave the fast leg out.
+void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& options, State& state, bool resumed,
+                     const std::vector<Leg>& legs) {
   const PrepareDef& prep = *deck.prepare;
   const Model model = make_model(deck, state.particles.radius);
   if (!resumed) evaluate_forces(model, prep.stage_friction(), state);
   StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false, prep.snapshots);
+  if (!resumed && deck.initial_state) out.set_start_cause(loaded_overlap_cause(deck, state));
   out.open(state, resumed);
-  Program program{prep.legs, prep.stage_friction(), &prep.equilibrium};
+  Program program{legs, prep.stage_friction(), &prep.equilibrium};
   program.adaptive_threads = !options.fixed_threads;
   program.control_failure = deck.control_failure;
   run_program(model, program, state, out, out.control_errors());
   out.finish(state);
   write_state(run.prepared_state().string(), state, "prepared", state_physics(deck));
   const Json prepared = summarize_preparation(model, state, prep, out.elapsed());
-  run.update_summary([&](Json& s) { s["prepared"] = prepared; });
+  run.update_summary([&](Json& s) {
+    const Json from = s.value("prepared", Json::object()).value("started_from", Json());
+    s["prepared"] = prepared;
+    if (!from.is_null()) s["prepared"]["started_from"] = from;
+  });
 }
 
-// A loading test from the prepared state (or from its own checkpoint).
+Json overlaps_json(const Overlaps& o, const std::vector<std::int64_t>& atom_ids) {
+  const auto id = [&](Index i) { return atom_ids.empty() ? static_cast<std::int64_t>(i) : atom_ids[i]; };
+  Json j = {{"touching_pairs", o.count}, {"deep_pairs", o.deep}, {"worst", o.worst}};
+  if (o.count > 0) j["worst_pair"] = {id(o.worst_i), id(o.worst_j)};
+  return j;
+}
+
+// What the summary records of a preparation from initial_state: the file, its solid fraction as the
+// preparation starts, the overlaps and their relaxation, and a fast leg left out.
+Json started_from(const Deck& deck, const PreparationStart& start, int skipped) {
+  const OverlapRelaxation& r = start.relaxation;
+  Json j = {{"initial_state", initial_state_path(deck)},
+            {"solid_fraction", start.solid_fraction},
+            {"overlaps", overlaps_json(r.before, start.atom_ids)}};
+  if (r.max_overlap > 0.0)
+    j["relax_overlaps"] = {{"max_overlap", r.max_overlap}, {"dilation", r.factor},
+                           {"overlaps_after", overlaps_json(r.after, start.atom_ids)}};
+  if (skipped > 0) j["skipped"] = skipped_fast_leg_note(deck, start.solid_fraction);
+  return j;
+}
+
+// A loading test from the prepared state, or the initial state without a preparation (or from its own checkpoint).
 void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
               const fs::path& prepared, bool resumed) {
-  State state = resumed            ? read_state(run.checkpoint(test.name).string())
-                : deck.initial_state ? load_initial_state(deck)
-                                     : read_state(prepared.string());
+  // With prepare, from the run's prepared state (also when the preparation started from initial_state).
+  State state = resumed                              ? read_state(run.checkpoint(test.name).string())
+                : deck.initial_state && !deck.prepare ? load_initial_state(deck)
+                                                      : read_state(prepared.string());
   if (!resumed) begin_stage(state);
   const Model model = make_model(deck, state.particles.radius);
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   if (!resumed) evaluate_forces(model, test.stage_friction(), state);  // the first row: the state as loaded
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
+  if (!resumed && deck.initial_state && !deck.prepare) out.set_start_cause(loaded_overlap_cause(deck, state));
   out.open(state, resumed);
   Program program{test.legs, test.stage_friction(), nullptr, plan_test(deck, test).steps};
   program.adaptive_threads = !options.fixed_threads;
@@ -120,12 +165,24 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     prepared = run.prepared_state();
     if (!run.completed("prepare")) {
       const bool resumed = run.resumes("prepare");
-      State state = resumed ? read_state(run.checkpoint("prepare").string())
-                            : make_grid_sample(deck.sample, skin_length(deck));
+      State state;
+      std::vector<Leg> legs = deck.prepare->legs;
+      if (deck.initial_state) {
+        // Loaded (and relaxed) again on a resume too: the program it implies must be the same.
+        PreparationStart start = preparation_start(deck);
+        const PreparationProgram program = preparation_program(*deck.prepare, start.solid_fraction);
+        legs = program.legs;
+        run.update_summary([&](Json& s) { s["prepared"] = {{"started_from", started_from(deck, start, program.skipped)}}; });
+        if (!options.quiet && !resumed)
+          std::printf("%s\n", describe_preparation_start(deck, start, program.skipped).c_str());
+        state = resumed ? read_state(run.checkpoint("prepare").string()) : std::move(start.state);
+      } else {
+        state = resumed ? read_state(run.checkpoint("prepare").string()) : make_grid_sample(deck.sample, skin_length(deck));
+      }
       if (!options.quiet)
         std::printf("prepare: %d spheres, isotropic compression to %g Pa\n", deck.sample.count,
                     deck.prepare->target_pressure);
-      run_preparation(run, deck, options, state, resumed);
+      run_preparation(run, deck, options, state, resumed, legs);
       run.mark_done("prepare");
       if (!options.quiet) {
         const Json p = run.summary()["prepared"];

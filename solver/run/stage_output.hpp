@@ -46,6 +46,8 @@ class StageOutput {
   const std::vector<SeriesRow>& rows() const { return rows_; }
   // The errors of each leg's controls so far (restored on resume, saved with each checkpoint).
   std::vector<ControlErrors>& control_errors() { return control_errors_; }
+  // What the stage started from that a runaway would most likely come from (RunawayMonitor::set_start_cause).
+  void set_start_cause(std::string cause) { monitor_.set_start_cause(std::move(cause)); }
 
  private:
   void write_row(const State& state);

@@ -352,18 +352,44 @@ TEST(DeckErrors, BadEnumValuesListTheChoices) {
   expect_error(j, "tests[0].end.axis");
 }
 
-TEST(DeckErrors, ExactlyOneOfPrepareAndInitialState) {
+// A deck makes a sample (prepare), reuses one (initial_state) or prepares one from a state (both); the soft
+// start for an imported sample's overlaps needs a state to relax, and a fraction in its range.
+TEST(DeckErrors, PrepareInitialStateOrBoth) {
   Json both = minimal_deck();
   both["initial_state"] = "a.state";
-  expect_error(both, "initial_state", "exactly one");
+  const Deck d = parse_deck(both.dump());
+  ASSERT_TRUE(d.prepare.has_value());
+  EXPECT_EQ(d.initial_state, "a.state");
+  EXPECT_TRUE(d.prepare->default_legs);
+  EXPECT_EQ(d.prepare->relax_overlaps, 0.0);
   Json neither = minimal_deck();
   neither.erase("prepare");
-  expect_error(neither, "prepare", "exactly one");
+  expect_error(neither, "prepare", "or both");
   Json state_without_tests = minimal_deck();
   state_without_tests.erase("prepare");
   state_without_tests["initial_state"] = "a.state";
   state_without_tests.erase("tests");
   expect_error(state_without_tests, "tests");
+
+  Json relax = both;
+  relax["prepare"]["relax_overlaps"] = 0.01;
+  EXPECT_EQ(parse_deck(relax.dump()).prepare->relax_overlaps, 0.01);
+  relax["prepare"]["relax_overlaps"] = 0.2;  // beyond what the run accepts without relaxing
+  expect_error(relax, "prepare.relax_overlaps", "0.05");
+  relax["prepare"]["relax_overlaps"] = 0.0;
+  expect_error(relax, "prepare.relax_overlaps");
+  relax["prepare"]["relax_overlaps"] = true;
+  expect_error(relax, "prepare.relax_overlaps", "number");
+  Json generated = minimal_deck();  // nothing to relax in a generated sample
+  generated["prepare"]["relax_overlaps"] = 0.01;
+  expect_error(generated, "prepare.relax_overlaps", "initial_state");
+  Json top = both;  // the key belongs to the preparation
+  top["relax_overlaps"] = 0.01;
+  expect_error(top, "relax_overlaps", "unknown");
+  Json own_legs = both;
+  own_legs["prepare"]["legs"] = Json::parse(R"([{"axes": {"x1": {"stress": 1e5}, "x2": {"stress": 1e5},
+      "x3": {"stress": 1e5}}, "end": {"equilibrium": true}}])");
+  EXPECT_FALSE(parse_deck(own_legs.dump()).prepare->default_legs);
 }
 
 TEST(DeckErrors, InconsistentTests) {

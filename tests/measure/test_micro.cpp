@@ -216,5 +216,30 @@ TEST(Measurements, KineticEnergyOfSolidSpheres) {
   EXPECT_NEAR(kinetic_energy(model, s), expected, 1e-12);
 }
 
+// The soft start's dilation for two spheres that overlap (d < r_i + r_j): (r_i + r_j - f r_min) / d, also across
+// the periodic boundary; after it the overlap is exactly f r_min. Spheres apart need none (factor 1).
+TEST(Measurements, OverlapDilationOfTwoSpheres) {
+  const std::vector<double> r = {0.5, 0.25};
+  const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-4), r);
+  for (const Vec3& first : {Vec3(2.0, 5.0, 5.0), Vec3(0.1, 5.0, 5.0)}) {  // the second lies across x = 0
+    const double d = 0.5;                                                  // overlap 0.25 = 1.0 r_min
+    Vec3 second = first - Vec3(d, 0.0, 0.0);
+    if (second.x() < 0.0) second.x() += 10.0;
+    State s = testing::make_state(Mat3::Identity() * 10.0, r, {first, second}, 0.1);
+    rebuild_pairs(model, s);
+    const double f = 0.01;
+    const double factor = overlap_dilation(s, f);
+    EXPECT_NEAR(factor, (0.75 - f * 0.25) / d, 1e-14);
+    EXPECT_NEAR(factor, 1.495, 1e-14);
+    EXPECT_NEAR(overlaps(s, 0.05).worst, 1.0, 1e-14);
+    s.cell.h *= factor;
+    const Overlaps after = overlaps(s, 0.05);
+    EXPECT_EQ(after.count, 1);
+    EXPECT_NEAR(after.worst, f, 1e-12);
+    s.cell.h *= 1.01;
+    EXPECT_EQ(overlap_dilation(s, f), 1.0);  // apart: nothing to do
+  }
+}
+
 }  // namespace
 }  // namespace celldem

@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
+#include <random>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -169,7 +171,7 @@ std::string move_atom_onto_another(const std::string& data, double offset) {
   return out.str();
 }
 
-// An imported packing with deep overlaps is reported by check (count, deepest, the atoms), not blamed on the
+// An imported packing with deep overlaps is refused by check (count, deepest, the atoms), not blamed on the
 // time step later; two atoms at the same place are refused naming them.
 TEST(Import, DeepOverlapsAreReportedAndCoincidentAtomsRefused) {
   const fs::path dir = testing::test_dir("overlaps_" + std::to_string(getpid()));
@@ -182,10 +184,12 @@ TEST(Import, DeepOverlapsAreReportedAndCoincidentAtomsRefused) {
   write_bytes(dir / "lmp" / "deep.data", move_atom_onto_another(data, 0.5));
   write_bytes(dir / "deep.json", deck_from("lmp/deep.data"));
   r = celldem(dir, "check '" + (dir / "deep.json").string() + "'");
-  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("touching pairs overlap by more than 0.05 of the smaller radius, the deepest"), std::string::npos)
       << r.err;
   EXPECT_NE(r.err.find("atom 1 and atom 2"), std::string::npos) << r.err;
+  // Without a preparation the soft start needs one: the message says how.
+  EXPECT_NE(r.err.find("\"prepare\" beside \"initial_state\") with \"prepare.relax_overlaps\""), std::string::npos) << r.err;
 
   write_bytes(dir / "lmp" / "same.data", move_atom_onto_another(data, 0.0));
   write_bytes(dir / "same.json", deck_from("lmp/same.data"));
@@ -193,6 +197,200 @@ TEST(Import, DeepOverlapsAreReportedAndCoincidentAtomsRefused) {
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("atom 1 and atom 2"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("same place"), std::string::npos) << r.err;
+}
+
+// A LAMMPS data file of `n` spheres of the small deck's diameters (3 to 4.5 mm, density 2650) at random places in
+// a cube filled to `solid_fraction`; `apart`: each placed where it overlaps none before it (a loose packing),
+// otherwise anywhere (a `create_atoms random` file, deep overlaps included).
+struct Sphere {
+  double d;
+  Vec3 x;
+};
+void random_spheres(int n, double solid_fraction, bool apart, std::uint64_t seed, std::vector<Sphere>& s, double& box) {
+  std::mt19937_64 rng(seed);
+  const auto uniform = [&rng] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  s.assign(n, {});
+  double solid = 0.0;
+  for (Sphere& p : s) {
+    p.d = 3.0e-3 + 0.5e-3 * static_cast<double>(rng() % 4);
+    solid += M_PI / 6.0 * p.d * p.d * p.d;
+  }
+  box = std::cbrt(solid / solid_fraction);
+  for (std::size_t i = 0; i < s.size(); ++i)
+    for (int tries = 0;; ++tries) {
+      ASSERT_LT(tries, 100000);
+      s[i].x = Vec3(uniform(), uniform(), uniform()) * box;
+      bool free = true;
+      for (std::size_t j = 0; apart && free && j < i; ++j) {
+        Vec3 b = s[i].x - s[j].x;
+        for (int k = 0; k < 3; ++k) b[k] -= box * std::round(b[k] / box);
+        free = b.norm() > 0.5 * (s[i].d + s[j].d);
+      }
+      if (free) break;
+    }
+}
+
+void write_data_file(const fs::path& path, const std::vector<Sphere>& spheres, double box) {
+  std::ostringstream o;
+  o.precision(17);
+  o << "random spheres\n\n" << spheres.size() << " atoms\n4 atom types\n\n0 " << box << " xlo xhi\n0 " << box
+    << " ylo yhi\n0 " << box << " zlo zhi\n\nAtoms # sphere\n\n";
+  for (std::size_t i = 0; i < spheres.size(); ++i)
+    o << i + 1 << " " << std::lround((spheres[i].d - 3.0e-3) / 0.5e-3) + 1 << " " << spheres[i].d << " 2650 "
+      << spheres[i].x.x() << " " << spheres[i].x.y() << " " << spheres[i].x.z() << "\n";
+  write_bytes(path, o.str());
+}
+
+// The small deck preparing `count` spheres from `state` (with the extra prepare keys `prepare_extra`).
+std::string deck_preparing(int count, const std::string& state, const std::string& tests,
+                           const std::string& prepare_extra = "") {
+  std::string d = testing::small_deck_json(count, tests);
+  d.replace(d.find("\"prepare\": {"), 12, "\"initial_state\": \"" + state + "\",\n  \"prepare\": {" + prepare_extra);
+  return d;
+}
+
+// The smallest isotropic dilation after which no pair overlaps by more than f of its smaller radius, by brute
+// force over all pairs (nearest periodic image): the oracle of the soft start's factor.
+double dilation_by_brute_force(const std::vector<Sphere>& s, double box, double f, double* worst = nullptr) {
+  double factor = 1.0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    for (std::size_t j = i + 1; j < s.size(); ++j) {
+      Vec3 b = s[i].x - s[j].x;
+      for (int k = 0; k < 3; ++k) b[k] -= box * std::round(b[k] / box);
+      const double ri = 0.5 * s[i].d, rj = 0.5 * s[j].d;
+      factor = std::max(factor, (ri + rj - f * std::min(ri, rj)) / b.norm());
+      if (worst) *worst = std::max(*worst, (ri + rj - b.norm()) / std::min(ri, rj));
+    }
+  return factor;
+}
+
+const std::string kShortTtc = R"([{"name": "ttc", "friction": 0.5, "output_interval": 100,
+    "axes": {"x1": {"strain_increment": 4e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+    "end": {"axis": "x1", "strain": 0.001}}])";
+
+// A user's loose packing (LAMMPS data file, solid fraction 0.2) becomes a sample: the preparation compresses
+// it from there to the target pressure, the plan counts the fast leg from its solid fraction, and the test runs
+// from the run's prepared.state. A prepared state denser than fast_solid_fraction prepares again with the servo
+// alone (a fast leg there would end after no step).
+TEST(Import, LoosePackingIsPreparedFromItsOwnSolidFraction) {
+  const fs::path dir = testing::test_dir("loose_" + std::to_string(getpid()));
+  double box = 0.0;
+  std::vector<Sphere> spheres;
+  ASSERT_NO_FATAL_FAILURE(random_spheres(300, 0.2, true, 7, spheres, box));
+  write_data_file(dir / "loose.data", spheres, box);
+  write_bytes(dir / "a.json", deck_preparing(300, "loose.data", kShortTtc));
+
+  // plan: the fast leg from 0.2 to 0.55 at 1e-4 per step, then the servo's min_steps..max_steps.
+  Result r = celldem(dir, "plan '" + (dir / "a.json").string() + "' --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto plan = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(plan["prepare"]["start"]["solid_fraction"].get<double>(), 0.2, 1e-12);
+  EXPECT_EQ(plan["prepare"]["start"]["fast_leg_skipped"], false);
+  const std::int64_t fast = std::llround(std::ceil(std::log(0.55 / 0.2) / (-3.0 * std::log1p(-1e-4))));
+  EXPECT_EQ(plan["prepare"]["steps"]["low"].get<std::int64_t>(), fast + 1000);
+  EXPECT_EQ(plan["prepare"]["steps"]["high"].get<std::int64_t>(), fast + 200000);
+  r = celldem(dir, "check '" + (dir / "a.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("prepare: starts from"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("solid fraction 0.2"), std::string::npos) << r.out;
+
+  r = celldem(dir, run_args(dir / "a.json", dir / "ra"));
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  const auto summary = nlohmann::json::parse(read_bytes(dir / "ra" / "summary.json"));
+  const auto& prepared = summary["prepared"];
+  EXPECT_NEAR(prepared["started_from"]["solid_fraction"].get<double>(), 0.2, 1e-12);
+  EXPECT_EQ(prepared["started_from"]["overlaps"]["touching_pairs"], 0);
+  EXPECT_NE(prepared["started_from"]["initial_state"].get<std::string>().find("loose.data"), std::string::npos);
+  EXPECT_FALSE(prepared["started_from"].contains("skipped"));
+  EXPECT_NEAR(prepared["p"].get<double>(), 1e5, 0.01 * 1e5);
+  EXPECT_GT(prepared["steps"].get<std::int64_t>(), fast);
+  EXPECT_GT(prepared["void_ratio"].get<double>(), 0.45);  // frictionless, 300 spheres: about 0.55-0.6
+  EXPECT_LT(prepared["void_ratio"].get<double>(), 0.75);
+  EXPECT_GT(prepared["Zm"].get<double>(), 5.0);
+  std::printf("loose packing: %lld preparation steps (fast %lld), e %.4f, Z %.3f, Zm %.3f\n",
+              static_cast<long long>(prepared["steps"].get<std::int64_t>()), static_cast<long long>(fast),
+              prepared["void_ratio"].get<double>(), prepared["Z"].get<double>(), prepared["Zm"].get<double>());
+  // The test starts from the prepared state (at 1e5 Pa), not from the loose file (no contacts, p = 0).
+  const std::vector<SeriesRow> rows = read_series(dir / "ra" / "ttc" / "series.csv");
+  ASSERT_GT(rows.size(), 2u);
+  EXPECT_NEAR(rows.front().p, prepared["p"].get<double>(), 1e-6 * 1e5);
+  EXPECT_FALSE(summary.contains("initial_state"));
+
+  // From the prepared state (denser than 0.55) to 2e5 Pa: the servo alone, noted in the log and summary.
+  std::string again = deck_preparing(300, "ra/prepared.state", "[]");
+  again.replace(again.find("\"target_pressure\": 1.0e5"), 24, "\"target_pressure\": 2.0e5");
+  write_bytes(dir / "b.json", again);
+  r = celldem(dir, "plan '" + (dir / "b.json").string() + "' --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["prepare"]["start"]["fast_leg_skipped"], true);
+  EXPECT_EQ(nlohmann::json::parse(r.out)["prepare"]["steps"]["low"], 1000);
+  r = celldem(dir, run_args(dir / "b.json", dir / "rb"));
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("the fast compression is left out"), std::string::npos) << r.out;
+  const auto b = nlohmann::json::parse(read_bytes(dir / "rb" / "summary.json"))["prepared"];
+  EXPECT_NE(b["started_from"]["skipped"].get<std::string>().find("prepare.fast_solid_fraction 0.55"), std::string::npos);
+  EXPECT_NEAR(b["p"].get<double>(), 2e5, 0.01 * 2e5);
+  EXPECT_LT(b["void_ratio"].get<double>(), prepared["void_ratio"].get<double>());
+
+  // What does not follow a loaded start is refused naming the key: a seed ensemble (one sample for every seed)
+  // and the translation (its preparation script starts from the grid sample).
+  r = celldem(dir, run_args(dir / "b.json", dir / "rc", "--seeds 1,2"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_EQ(r.err.find("initial_state: --seeds"), r.err.find("initial_state")) << r.err;
+  EXPECT_NE(r.err.find("initial_state: --seeds"), std::string::npos) << r.err;
+  r = celldem(dir, "translate '" + (dir / "b.json").string() + "' --to lammps --out '" + (dir / "lmp").string() + "'");
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("initial_state: translate writes the preparation"), std::string::npos) << r.err;
+}
+
+// A `create_atoms random` file (overlaps up to almost a diameter) is refused by check and run naming the overlaps
+// and the soft start, not later as a time step too large; with prepare.relax_overlaps the cell is dilated by the
+// smallest factor that brings every overlap within the limit (the brute-force oracle's), and it prepares.
+TEST(Import, DeepOverlapsAreRefusedOrRelaxedBySoftStart) {
+  const fs::path dir = testing::test_dir("soft_" + std::to_string(getpid()));
+  double box = 0.0;
+  std::vector<Sphere> spheres;
+  ASSERT_NO_FATAL_FAILURE(random_spheres(250, 0.2, false, 11, spheres, box));
+  write_data_file(dir / "random.data", spheres, box);
+  double worst = 0.0;
+  const double f = 0.01, expected = dilation_by_brute_force(spheres, box, f, &worst);
+  ASSERT_GT(worst, 1.3) << "the file must overlap deeply";
+
+  write_bytes(dir / "plain.json", deck_preparing(250, "random.data", "[]"));
+  for (const std::string& cmd : {"check '" + (dir / "plain.json").string() + "'", run_args(dir / "plain.json", dir / "rp")}) {
+    const Result r = celldem(dir, cmd);
+    EXPECT_EQ(r.code, 2) << cmd;
+    EXPECT_NE(r.err.find("touching pairs overlap by more than 0.05 of the smaller radius, the deepest"),
+              std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("set \"prepare.relax_overlaps\""), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("(atom "), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("time step too large"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir / "rp" / "summary.json"));
+
+  write_bytes(dir / "soft.json", deck_preparing(250, "random.data", kShortTtc, "\"relax_overlaps\": 0.01, "));
+  Result r = celldem(dir, "check '" + (dir / "soft.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("cell dilated by"), std::string::npos) << r.out;
+  r = celldem(dir, run_args(dir / "soft.json", dir / "rs"));
+  ASSERT_EQ(r.code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("relax_overlaps 0.01: cell dilated by"), std::string::npos) << r.out;
+  const auto summary = nlohmann::json::parse(read_bytes(dir / "rs" / "summary.json"));
+  const auto& from = summary["prepared"]["started_from"];
+  const auto& relax = from["relax_overlaps"];
+  EXPECT_NEAR(relax["dilation"].get<double>(), expected, 1e-12 * expected);
+  EXPECT_GT(from["overlaps"]["deep_pairs"].get<int>(), 10);
+  EXPECT_NEAR(from["overlaps"]["worst"].get<double>(), worst, 1e-12 * worst);
+  EXPECT_LE(relax["overlaps_after"]["worst"].get<double>(), f * (1.0 + 1e-9));
+  EXPECT_EQ(relax["overlaps_after"]["deep_pairs"], 0);
+  EXPECT_NEAR(from["solid_fraction"].get<double>(), 0.2 / std::pow(expected, 3), 1e-9);
+  EXPECT_NEAR(summary["prepared"]["p"].get<double>(), 1e5, 0.01 * 1e5);
+  EXPECT_TRUE(summary["tests"].contains("ttc"));
+  std::printf("soft start: %lld touching pairs (%lld beyond 0.05 r), deepest %.3f r; dilation %.6f; then %lld steps\n",
+              static_cast<long long>(from["overlaps"]["touching_pairs"].get<std::int64_t>()),
+              static_cast<long long>(from["overlaps"]["deep_pairs"].get<std::int64_t>()),
+              from["overlaps"]["worst"].get<double>(), relax["dilation"].get<double>(),
+              static_cast<long long>(summary["prepared"]["steps"].get<std::int64_t>()));
 }
 
 }  // namespace
