@@ -86,7 +86,7 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
             forces->finish();
             state.time += model.dt;
             ++state.steps_since_creation;
-            ++state.control.stage_steps;  // (phase_steps: advance_cell)
+            ++state.control.stage_steps;  // (leg_steps: advance_cell)
             ++steps;
             go_on = after_step(rebuilt);
           }))

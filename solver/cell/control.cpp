@@ -15,8 +15,8 @@ void begin_stage(State& state) {
 
 void begin_leg(State& state, int leg) {
   ControlState& c = state.control;
-  c.phase = leg;
-  c.phase_steps = 0;
+  c.leg = leg;
+  c.leg_steps = 0;
   c.leg_start_strains = axis_strains(state);
   c.leg_start_volume = state.cell.volume();
   c.servo_integral = Vec3::Zero();
@@ -98,7 +98,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   Cell& cell = state.cell;
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
-  const double next_step = static_cast<double>(ctl.phase_steps + 1);
+  const double next_step = static_cast<double>(ctl.leg_steps + 1);
   const Vec3 target = stress_targets(loading.axes, state.normal_stress);
   const double cap = loading.servo_cap > 0.0 ? loading.servo_cap : model.servo.max_strain_increment;
   state.servo_saturated = {false, false, false};
@@ -123,7 +123,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   }
   hold_volume(loading.axes, ctl.leg_start_volume, cell.h);
   cell.velocity_gradient = (cell.h - h_before) / model.dt * (0.5 * (cell.h + h_before)).inverse();
-  ++ctl.phase_steps;
+  ++ctl.leg_steps;
 }
 
 Vec3 axis_strains(const State& state) {

@@ -42,7 +42,7 @@ void begin_leg(State& state, int leg);
 // The target stresses of the stress-driven axes for the stresses s (NaN for other axes).
 Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s);
 
-// Sets the cell for the end of this step (state.control.phase_steps is the number of steps already done in
+// Sets the cell for the end of this step (state.control.leg_steps is the number of steps already done in
 // the leg) and the velocity gradient L with hdot = L h_mid; state.servo_saturated says which servo axes
 // moved by their cap in this step.
 void advance_cell(const Model& model, const Loading& loading, State& state);

@@ -1,5 +1,7 @@
 // The mutable state of a simulation: periodic cell, particles, contacts (with history) and control memory.
-// Everything here goes into the state file; everything else is derived from it and the Model.
+// A state file (io/state_file) keeps what the next step needs to continue bit for bit: the cell, the particles,
+// the control memory, the last evaluation's stresses and each touching pair's history. The pair list itself,
+// the pair and net forces, the crossing arrays and the build's positions and skin are recomputed from those.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -117,14 +119,14 @@ struct StoredContact {
 // Mixed control memory: what the loading stage needs to continue exactly. A stage starts from
 // begin_stage() (cell/control.hpp), the one place that resets it.
 struct ControlState {
-  std::int64_t phase_steps = 0;          // steps done in the current leg of the stage's load program
-  std::int32_t phase = 0;                // the current leg (its index in the program)
+  std::int64_t leg_steps = 0;            // steps done in the current leg of the stage's load program
+  std::int32_t leg = 0;                  // the current leg (its index in the program)
   std::int64_t stage_steps = 0;          // steps done in the current stage (the series' `step`)
   Vec3 reference_lengths = Vec3::Ones(); // [m] diagonal of h at the start of the stage
   double reference_volume = 1.0;         // [m^3]
   Vec3 servo_integral = Vec3::Zero();    // [Pa] accumulated stress error per axis
   Vec3 leg_start_strains = Vec3::Zero(); // [-] axis strains (against the stage start) where the leg began: a
-                                         // strain-driven axis is at leg_start + (phase_steps) increment
+                                         // strain-driven axis is at leg_start + (leg_steps) increment
   double leg_start_volume = 1.0;         // [m^3] cell volume where the leg began (constant-volume axes)
 };
 

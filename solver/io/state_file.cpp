@@ -102,8 +102,8 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   w.put(s.steps_since_creation);
   w.put(s.cell.h);
   w.put(s.cell.velocity_gradient);
-  w.put(s.control.phase_steps);
-  w.put(s.control.phase);
+  w.put(s.control.leg_steps);
+  w.put(s.control.leg);
   w.put(s.control.stage_steps);
   w.put(s.control.reference_lengths);
   w.put(s.control.reference_volume);
@@ -177,8 +177,8 @@ State parse_state(const std::string& bytes, std::string* label, std::string* phy
   s.steps_since_creation = r.get<std::int64_t>();
   s.cell.h = r.mat();
   s.cell.velocity_gradient = r.mat();
-  s.control.phase_steps = r.get<std::int64_t>();
-  s.control.phase = r.get<std::int32_t>();
+  s.control.leg_steps = r.get<std::int64_t>();
+  s.control.leg = r.get<std::int32_t>();
   s.control.stage_steps = r.get<std::int64_t>();
   s.control.reference_lengths = r.vec();
   s.control.reference_volume = r.finite();
@@ -198,7 +198,7 @@ State parse_state(const std::string& bytes, std::string* label, std::string* phy
   if (fields & ~(kStateRotationalFields | kStateRadiusField))
     throw StateFileError("state file names contact fields this version does not know");
   if (!(s.cell.volume() > 0.0)) throw StateFileError("state file cell has no positive volume");
-  if (s.pairs.skin < 0.0 || s.steps_since_creation < 0 || s.control.phase_steps < 0 || s.control.stage_steps < 0)
+  if (s.pairs.skin < 0.0 || s.steps_since_creation < 0 || s.control.leg_steps < 0 || s.control.stage_steps < 0)
     throw StateFileError("state file holds a negative step count or skin");
   s.particles.resize(n);
   Particles& p = s.particles;

@@ -161,7 +161,7 @@ SeriesRow measure_series_row(const Model& model, const State& state) {
   r.Hw11_Hw33 = ratio(f.weak(0, 0), f.weak(2, 2));
   r.kinetic_energy = kinetic_energy(model, state);
   r.unbalanced_force = unbalanced_force_ratio(model, state);
-  r.leg = static_cast<double>(state.control.phase);
+  r.leg = static_cast<double>(state.control.leg);
   const Vec3 principal = principal_stresses(s);
   r.sigma1 = principal[0], r.sigma2 = principal[1], r.sigma3 = principal[2];
   r.b_principal = b_above_noise(r.sigma1, r.sigma2, r.sigma3);

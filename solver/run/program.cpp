@@ -80,7 +80,7 @@ namespace {
 std::string stage_name(const Program& program) {
   return program.stage == "prepare" ? "the preparation" : "test '" + program.stage + "'";
 }
-std::string leg_name(const State& state) { return "leg " + std::to_string(state.control.phase); }
+std::string leg_name(const State& state) { return "leg " + std::to_string(state.control.leg); }
 
 // What a leg's end condition watches, and from which side it approaches the target. The side is taken from
 // the state when the leg starts or resumes: until the leg ends the quantity stays on that side, so a resumed
@@ -106,7 +106,7 @@ class LegEndWatch {
 
   bool ended(const Model& model, const State& state) const {
     const LegEnd& e = leg_.end;
-    const std::int64_t n = state.control.phase_steps;
+    const std::int64_t n = state.control.leg_steps;
     if (steps_ >= 0) return n >= steps_;
     if (e.kind == LegEndKind::Equilibrium) return false;  // checked after a step
     if (e.kind == LegEndKind::SolidFraction) return value(model, state) >= e.value;
@@ -160,7 +160,7 @@ double worst(double a, double b) { return std::isfinite(a) ? std::max(a, b) : b;
 // tolerance. Returns the axis whose control has just failed (stayed above its tolerance kPersistStrain), or -1.
 int track_errors(const Leg& leg, const LegChecks& checks, const State& state, ControlErrors& errors) {
   for (int k = 0; k < 3; ++k) errors.saturated_steps[k] += state.servo_saturated[k];
-  if (checks.driving == 0.0 || state.control.phase_steps < checks.settle) return -1;
+  if (checks.driving == 0.0 || state.control.leg_steps < checks.settle) return -1;
   int driver = -1;
   for (int k = 2; k >= 0; --k)
     if (leg.axes[k].strain_driven()) driver = k;
@@ -239,7 +239,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   const int threads = omp_get_max_threads();
   ThreadGovernor governor(program.adaptive_threads ? threads : 1);
   for (;;) {
-    const Leg& leg = program.legs[c.phase];
+    const Leg& leg = program.legs[c.leg];
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
     const LegChecks checks(leg, model);
     const Loading loading{leg.axes, program.friction, checks.cap};
@@ -249,25 +249,25 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     // governor changed the thread count: the loop goes on with the new count).
     const AfterStep after_step = [&](bool) {
       const bool threads_changed = governor.step_done();
-      ControlErrors& e = errors[c.phase];
+      ControlErrors& e = errors[c.leg];
       if (const int k = track_errors(leg, checks, state, e); k >= 0) {
-        const std::string message = control_failure_message(program, c.phase, checks, e, k, model.servo);
+        const std::string message = control_failure_message(program, c.leg, checks, e, k, model.servo);
         if (program.control_failure == ControlFailure::Stop)
           throw RunError(message + ". The last checkpoint is kept; with \"control_failure\": \"warn\" the run goes on "
                          "and marks the test uncontrolled");
         std::fprintf(stderr, "warning: %s\n", message.c_str());
       }
-      if (leg.end.kind == LegEndKind::Equilibrium && c.phase_steps % program.equilibrium->check_interval == 0) {
+      if (leg.end.kind == LegEndKind::Equilibrium && c.leg_steps % program.equilibrium->check_interval == 0) {
         const EquilibriumDef& criterion = *program.equilibrium;
         const EquilibriumCheck eq =
             check_equilibrium(model, state, criterion, stress_targets(leg.axes, state.normal_stress));
         status = eq.describe();
-        if (eq.reached && c.phase_steps >= criterion.min_steps) {  // before the step's row
+        if (eq.reached && c.leg_steps >= criterion.min_steps) {  // before the step's row
           leg_done = true;
           return false;
         }
-        if (c.phase_steps >= (leg.end.max_steps > 0 ? leg.end.max_steps : criterion.max_steps))
-          throw RunError("the preparation did not reach equilibrium in " + std::to_string(c.phase_steps) +
+        if (c.leg_steps >= (leg.end.max_steps > 0 ? leg.end.max_steps : criterion.max_steps))
+          throw RunError("the preparation did not reach equilibrium in " + std::to_string(c.leg_steps) +
                          " servo steps (" + status + "); raise prepare.equilibrium.max_steps or relax its tolerances");
       }
       const double fraction = program.planned_steps > 0
@@ -279,13 +279,13 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     };
     while (!leg_done)
       advance_steps(model, loading, state, rebuild, after_step, program.adaptive_threads ? governor.current() : threads);
-    if (c.phase_steps == 0)
+    if (c.leg_steps == 0)
       throw RunError(stage_name(program) + " " + leg_name(state) + " ended after 0 steps (its end condition "
                      "held when it started): give it an end it has to reach");
-    if (static_cast<std::size_t>(c.phase) + 1 == program.legs.size()) return;
+    if (static_cast<std::size_t>(c.leg) + 1 == program.legs.size()) return;
     if (!leg_over) rebuild = out.after_step(state, -1.0, status);  // an equilibrium leg that is not the last
     out.end_leg(state);  // the leg's end is a row
-    begin_leg(state, c.phase + 1);
+    begin_leg(state, c.leg + 1);
   }
 }
 

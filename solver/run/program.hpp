@@ -63,7 +63,7 @@ struct Program {
   ControlFailure control_failure = ControlFailure::Stop;  // a failed control stops the stage, or is recorded
 };
 
-// Runs the program from the state's current leg (state.control.phase) to its end. `errors` holds one entry
+// Runs the program from the state's current leg (state.control.leg) to its end. `errors` holds one entry
 // per leg (kept across a resume by the stage's checkpoints). Each leg's end is a row of the series. Throws
 // RunError for a leg that ends after no step, and (control_failure stop) for a control that fails, naming
 // the stage, leg, axis, the error and what to change.

@@ -96,7 +96,7 @@ TEST(Control, StrainIncrementAndRateFollowExactEngineeringStrain) {
     const Mat3 hdot = (s.cell.h - before) / dt;
     EXPECT_NEAR((s.cell.velocity_gradient * 0.5 * (s.cell.h + before) - hdot).norm(), 0.0, 1e-12);
   }
-  EXPECT_EQ(s.control.phase_steps, steps);
+  EXPECT_EQ(s.control.leg_steps, steps);
   EXPECT_DOUBLE_EQ(s.cell.h(0, 0), 2.0 * (1.0 - steps * 1e-4));        // compression 10 %
   EXPECT_DOUBLE_EQ(s.cell.h(1, 1), 3.0 * (1.0 + steps * 0.5 * dt));   // extension 50 %
   EXPECT_EQ(s.cell.h(2, 2), 4.0);

@@ -35,8 +35,8 @@ State sample_state() {
   compute_contact_forces(model, 0.1, s);  // friction 0.1: some contacts slide
   s.time = 0.123;
   s.steps_since_creation = 1234567;
-  s.control.phase_steps = 42;
-  s.control.phase = 1;
+  s.control.leg_steps = 42;
+  s.control.leg = 1;
   s.control.stage_steps = 4242;
   s.control.leg_start_strains = Vec3(0.01, -0.002, 0.003);
   s.control.leg_start_volume = 26.5;
@@ -61,8 +61,8 @@ TEST(StateFile, RoundTripIsExact) {
   EXPECT_EQ(b.particles.spin, a.particles.spin);
   EXPECT_EQ(b.time, a.time);
   EXPECT_EQ(b.steps_since_creation, a.steps_since_creation);
-  EXPECT_EQ(b.control.phase_steps, a.control.phase_steps);
-  EXPECT_EQ(b.control.phase, a.control.phase);
+  EXPECT_EQ(b.control.leg_steps, a.control.leg_steps);
+  EXPECT_EQ(b.control.leg, a.control.leg);
   EXPECT_EQ(b.control.stage_steps, a.control.stage_steps);
   EXPECT_EQ(b.control.reference_lengths, a.control.reference_lengths);
   EXPECT_EQ(b.control.reference_volume, a.control.reference_volume);
