@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The test suite: install what is missing (LAMMPS and LIGGGHTS included, for the cross-checks), build, run
-# every test with ctest; then the unit tests again under AddressSanitizer + UndefinedBehaviorSanitizer, and
+# every test with ctest; then the unit tests again under AddressSanitizer + UndefinedBehaviorSanitizer with the
+# invariant checks compiled in (CELLDEM_CHECKS, core/check.hpp), and
 # the deck and state-file fuzzers for a bounded time (CELLDEM_FUZZ_SECONDS per target, default 60).
 # CELLDEM_QUICK=1 skips the sanitizer build and the fuzzers.
 set -euo pipefail
@@ -9,11 +10,11 @@ bash tools/install-deps.sh --with-crosscheck
 bash tools/build.sh -DCELLDEM_WERROR=ON
 (cd "${CELLDEM_BUILD_DIR:-build}" && ctest --output-on-failure -j 2 "$@")
 if [[ "${CELLDEM_QUICK:-0}" != 1 ]]; then
-  echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer =="
+  echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer, invariants checked (CELLDEM_CHECKS) =="
   # Only the unit tests' executables (the binary and the whole-run tests are not run here).
   CELLDEM_BUILD_DIR=build-asan \
     CELLDEM_TARGETS="test_core test_cell test_neighbor test_contact test_integrate test_measure test_io test_step" \
-    bash tools/build.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCELLDEM_SANITIZE=ON
+    bash tools/build.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCELLDEM_SANITIZE=ON -DCELLDEM_CHECKS=ON
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j 2 -L unit)
   echo "== fuzzing =="
   bash tools/fuzz.sh "${CELLDEM_FUZZ_SECONDS:-60}"

@@ -7,6 +7,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "core/check.hpp"
 #include "core/parallel.hpp"
 
 #if defined(__x86_64__)
@@ -63,6 +64,7 @@ inline Real3 apply(const Mat3& m, Real3 v) {
 // the rows after it, which overwrite them (a row without pairs writes eight that its successor overwrites),
 // so a row of up to eight pairs costs one store and no branch that depends on its length.
 void chunk_owners(const Index* __restrict first, Index q0, int m, Index& owner, Index* __restrict owners) {
+  CELLDEM_ASSERT(first[owner] <= q0 && q0 <= first[owner + 1], "the chunk's first pair lies in its owner's row");
   Index i = owner, start = 0;
   for (;;) {
     const Index end = first[i + 1] - q0;

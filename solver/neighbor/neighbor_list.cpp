@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/check.hpp"
 #include "core/parallel.hpp"
 
 namespace celldem {
@@ -266,6 +267,47 @@ void rebuild_pairs(const Model& model, State& state, PairSearch& search) {
   }
   next.h_at_build = state.cell.h;
   pl = std::move(next);
+  if constexpr (kCheckInvariants) check_pair_list(pl, n);
+}
+
+void check_pair_list(const PairList& pl, std::size_t particles) {
+  // Checked here whatever the build: tests call this to show the checks catch what they claim.
+  const auto require = [](bool ok, const char* what) {
+    if (!ok) detail::invariant_failed("check_pair_list", what, __FILE__, __LINE__);
+  };
+  const auto n = static_cast<Index>(particles);
+  require(pl.first.size() == particles + 1 && pl.first[0] == 0, "first has N + 1 offsets from 0");
+  const Index count = pl.first[n];
+  const auto holds = [&](const auto& v) { return v.size() == static_cast<std::size_t>(count); };
+  require(holds(pl.neighbor) && holds(pl.image) && holds(pl.tangential) && holds(pl.flags) && holds(pl.force),
+          "every per-pair array holds first[N] pairs");
+  require((pl.rolling.empty() || holds(pl.rolling)) && (pl.twist.empty() || holds(pl.twist)) &&
+              (pl.contact_radius.empty() || holds(pl.contact_radius)),
+          "the optional per-pair arrays are empty or hold first[N] pairs");
+  Index crossings = 0;
+  for (Index i = 0; i < n; ++i) {
+    require(pl.first[i] <= pl.first[i + 1], "first is non-decreasing");
+    for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
+      const Index j = pl.neighbor[q];
+      require(j >= 0 && j < n && j != i, "a neighbour is another particle");
+      require(q == pl.first[i] || pl.neighbor[q - 1] < j, "a row's neighbours are strictly increasing");
+      if (i / static_cast<Index>(kForceBlock) != j / static_cast<Index>(kForceBlock)) {
+        require(j > i, "a crossing pair's neighbour is in a later force block");
+        ++crossings;
+      }
+    }
+  }
+  const auto crossing_holds = [&](const auto& v) { return v.size() == static_cast<std::size_t>(crossings); };
+  require(pl.crossing_first.size() == particles + 1 && pl.crossing_first[0] == 0 && pl.crossing_first[n] == crossings &&
+              crossing_holds(pl.crossing) && crossing_holds(pl.crossing_pair) && crossing_holds(pl.crossing_torque),
+          "the crossing arrays hold every crossing pair once");
+  for (Index j = 0; j < n; ++j)
+    for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
+      const Index q = pl.crossing_pair[k];
+      require(q >= 0 && q < count && pl.neighbor[q] == j, "crossing_pair points at the pairs of j");
+      require(k == pl.crossing_first[j] || pl.crossing_pair[k - 1] < q, "the pairs crossing into j are in pair order");
+      require(pl.crossing[k] >= 0 && pl.crossing[k] < crossings, "a crossing's rank is within crossing_torque");
+    }
 }
 
 double largest_move_since_build(const State& state) {

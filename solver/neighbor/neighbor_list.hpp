@@ -61,6 +61,13 @@ class PairSearch {
 };
 void rebuild_pairs(const Model& model, State& state, PairSearch& search);
 
+// The invariants the pair loop, the kick and the next build rely on, over a list of `particles`: CSR offsets from
+// 0 to the pair count, every per-pair array of that length, each row's neighbours strictly increasing (the
+// build's merge finds a persisting contact by j), a crossing pair's neighbour in a later force block, and the
+// crossing arrays a CSR by j of exactly those pairs, in pair order. Aborts naming the broken one
+// (core/check.hpp); rebuild_pairs calls it in the checking build, tests call it anywhere.
+void check_pair_list(const PairList& pl, std::size_t particles);
+
 // True when a pair outside the list could have come into contact since the last build, given the largest
 // distance a particle has moved since then (drift() measures it on its way; largest_move_since_build()
 // measures it on its own).

@@ -142,6 +142,32 @@ TEST(NeighborList, MatchesBruteForceInCubicShearedAndSmallCells) {
   }
 }
 
+// The invariant check (run after every build in the checking build) passes a built list across two force
+// blocks and stops, naming the invariant, on each kind of corruption the pair loop and the kick could not survive.
+TEST(NeighborListDeathTest, InvariantCheckCatchesBrokenLists) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  State s = random_state(Mat3::Identity() * 18.5, 2600, 0.3, 0.6, 5, 0.15);
+  rebuild_pairs(make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius), s);
+  const std::size_t n = s.particles.size();
+  check_pair_list(s.pairs, n);  // a built list passes
+  ASSERT_GT(s.pairs.crossing_pair.size(), 1u);
+  std::size_t row = 0;  // a particle with at least two neighbours
+  while (s.pairs.first[row + 1] - s.pairs.first[row] < 2) ++row;
+
+  PairList unsorted = s.pairs;
+  std::swap(unsorted.neighbor[unsorted.first[row]], unsorted.neighbor[unsorted.first[row] + 1]);
+  EXPECT_DEATH(check_pair_list(unsorted, n), "strictly increasing");
+  PairList short_forces = s.pairs;
+  short_forces.force.pop_back();
+  EXPECT_DEATH(check_pair_list(short_forces, n), "every per-pair array");
+  PairList lost_crossing = s.pairs;
+  lost_crossing.crossing_pair.pop_back();
+  EXPECT_DEATH(check_pair_list(lost_crossing, n), "every crossing pair once");
+  PairList wrong_crossing = s.pairs;
+  std::swap(wrong_crossing.crossing_pair.front(), wrong_crossing.crossing_pair.back());
+  EXPECT_DEATH(check_pair_list(wrong_crossing, n), "crossing_pair points at the pairs of j|in pair order");
+}
+
 // The search shared among the threads of a region the caller owns (as the time step runs it) gives the same
 // list, row for row, as rebuild_pairs on its own, on any number of threads.
 TEST(NeighborList, SearchSharedInACallersRegionGivesTheSameList) {
