@@ -116,6 +116,7 @@ struct EquilibriumDef {
 struct SnapshotDef {
   std::int64_t interval = 0;       // steps; 0: none by interval
   std::vector<double> e1;          // strains of axis 1 at which to write one, ascending
+  SnapshotFormat format = SnapshotFormat::Binary;  // how the VTK files store their arrays
   bool any() const { return interval > 0 || !e1.empty(); }
 };
 

@@ -293,6 +293,10 @@ inline constexpr KeySpec snapshots_interval{.path = "tests[].snapshots.interval"
     .meaning = "a snapshot every this many steps (and at the stage's start and end)"};
 inline constexpr KeySpec snapshots_e1{.path = "tests[].snapshots.e1", .kind = KeyKind::Array, .required = false,
     .default_text = "none", .meaning = "a snapshot at the first step whose e1 reaches each of these strains"};
+inline constexpr KeySpec snapshots_format{.path = "tests[].snapshots.format", .kind = KeyKind::Choice, .required = false,
+    .choices = kSnapshotFormatNames,
+    .meaning = "how the `.vtu`/`.vtp` arrays are stored: `binary` (raw, appended after the XML), `zlib` (the same, "
+               "compressed) or `ascii` (text, %.17g); ParaView reads all three, the `.dump` is always text"};
 inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval", .kind = KeyKind::Integer, .min = 1,
     .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind::Boolean, .required = false,
@@ -316,7 +320,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
     &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,
-    &snapshots_e1, &test_output_interval, &test_dynamic});
+    &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic});
 }  // namespace keys
 
 }  // namespace celldem

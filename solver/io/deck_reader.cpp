@@ -408,6 +408,7 @@ SnapshotDef read_snapshots(ObjectReader r) {
     }
     std::sort(s.e1.begin(), s.e1.end());
   }
+  s.format = r.choice_of<SnapshotFormat>(keys::snapshots_format);
   if (!s.any()) fail(r.path(), "give \"interval\" or \"e1\"");
   r.finish();
   return s;

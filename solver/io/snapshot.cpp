@@ -1,11 +1,16 @@
 #include "io/snapshot.hpp"
 
+#include <zlib.h>
+
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <regex>
 #include <stdexcept>
 #include <system_error>
+#include <type_traits>
 
 #include "io/files.hpp"
 #include "measure/micro.hpp"
@@ -23,6 +28,8 @@ void put(std::string& out, double x) {
 }
 
 void put(std::string& out, std::int64_t x) { out += std::to_string(x); }
+void put(std::string& out, std::int32_t x) { out += std::to_string(x); }
+void put(std::string& out, std::uint8_t x) { out += std::to_string(x); }
 
 void put(std::string& out, const Vec3& v) {
   put(out, v[0]);
@@ -32,46 +39,144 @@ void put(std::string& out, const Vec3& v) {
   put(out, v[2]);
 }
 
-// One DataArray with one tuple per line; `value(k, out)` appends tuple k.
-template <class AppendTuple>
-void data_array(std::string& out, const char* type, const char* name, int components, std::size_t count,
-                AppendTuple value) {
-  out += "        <DataArray type=\"";
-  out += type;
-  out += "\"";
-  if (name) {
-    out += " Name=\"";
-    out += name;
-    out += "\"";
+// The arrays' bytes are the host's: the files declare its byte order, and VTK readers swap when theirs differs.
+static_assert(std::endian::native == std::endian::little || std::endian::native == std::endian::big,
+              "snapshots need a little- or big-endian host");
+constexpr const char* kByteOrder = std::endian::native == std::endian::little ? "LittleEndian" : "BigEndian";
+static_assert(sizeof(double) == 8 && std::numeric_limits<double>::is_iec559, "Float64 must be an IEEE double");
+
+template <class T>
+constexpr const char* vtk_type() {
+  if constexpr (std::is_same_v<T, double>) return "Float64";
+  else if constexpr (std::is_same_v<T, std::int64_t>) return "Int64";
+  else if constexpr (std::is_same_v<T, std::int32_t>) return "Int32";
+  else {
+    static_assert(std::is_same_v<T, std::uint8_t>);
+    return "UInt8";
   }
-  if (components > 1) out += " NumberOfComponents=\"" + std::to_string(components) + "\"";
-  out += " format=\"ascii\">\n";
-  for (std::size_t k = 0; k < count; ++k) {
-    out += "          ";
-    value(k, out);
-    out += '\n';
+}
+
+void append_uint64(std::string& out, std::uint64_t x) { out.append(reinterpret_cast<const char*>(&x), sizeof x); }
+
+// vtkZLibDataCompressor's layout: a header of UInt64s [blocks, block size, size of a partial last block (0: the
+// last block is whole), compressed size of each block], then the blocks, each compressed on its own.
+constexpr std::size_t kZlibBlock = 32768;  // bytes of uncompressed data per block (VTK's default)
+
+void append_compressed(std::string& out, const char* data, std::size_t size) {
+  const std::size_t blocks = (size + kZlibBlock - 1) / kZlibBlock;
+  std::vector<std::uint64_t> header = {blocks, kZlibBlock, size % kZlibBlock};
+  std::string compressed;
+  std::vector<Bytef> buffer(compressBound(kZlibBlock));
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const std::size_t length = std::min(kZlibBlock, size - b * kZlibBlock);
+    uLongf written = static_cast<uLongf>(buffer.size());
+    const int rc = compress2(buffer.data(), &written, reinterpret_cast<const Bytef*>(data + b * kZlibBlock),
+                             static_cast<uLong>(length), Z_DEFAULT_COMPRESSION);
+    if (rc != Z_OK) throw IoError("snapshot: zlib cannot compress an array (zlib error " + std::to_string(rc) + ")");
+    header.push_back(written);
+    compressed.append(reinterpret_cast<const char*>(buffer.data()), written);
   }
-  out += "        </DataArray>\n";
+  for (const std::uint64_t h : header) append_uint64(out, h);
+  out += compressed;
+}
+
+// One VTK XML file: the XML, and with an appended format every array's bytes after it in <AppendedData>,
+// each at the offset its DataArray names (from the first byte after the '_').
+class VtkFile {
+ public:
+  VtkFile(const char* type, SnapshotFormat format) : format_(format) {
+    xml_ += "<?xml version=\"1.0\"?>\n";
+    xml_ += "<VTKFile type=\"";
+    xml_ += type;
+    xml_ += "\" version=\"1.0\" byte_order=\"";
+    xml_ += kByteOrder;
+    xml_ += "\" header_type=\"UInt64\"";
+    if (format_ == SnapshotFormat::Zlib) xml_ += " compressor=\"vtkZLibDataCompressor\"";
+    xml_ += ">\n";
+  }
+
+  // Text of the XML structure around the arrays.
+  VtkFile& operator<<(const std::string& text) {
+    xml_ += text;
+    return *this;
+  }
+
+  // One DataArray of `values.size() / components` tuples; as text one tuple per line, else appended. Field
+  // data (tuples_attribute) says its number of tuples, as VTK's field data requires.
+  template <class T>
+  void array(const char* indent, const char* name, int components, const std::vector<T>& values,
+             bool tuples_attribute = false) {
+    xml_ += indent;
+    xml_ += "<DataArray type=\"";
+    xml_ += vtk_type<T>();
+    xml_ += "\"";
+    if (name) {
+      xml_ += " Name=\"";
+      xml_ += name;
+      xml_ += "\"";
+    }
+    if (components > 1) xml_ += " NumberOfComponents=\"" + std::to_string(components) + "\"";
+    if (tuples_attribute) xml_ += " NumberOfTuples=\"" + std::to_string(values.size() / components) + "\"";
+    if (format_ != SnapshotFormat::Ascii) {
+      xml_ += " format=\"appended\" offset=\"" + std::to_string(appended_.size()) + "\"/>\n";
+      const char* bytes = reinterpret_cast<const char*>(values.data());
+      const std::size_t size = values.size() * sizeof(T);
+      if (format_ == SnapshotFormat::Zlib) {
+        append_compressed(appended_, bytes, size);
+      } else {
+        append_uint64(appended_, size);
+        appended_.append(bytes, size);
+      }
+      return;
+    }
+    xml_ += " format=\"ascii\">\n";
+    for (std::size_t k = 0; k < values.size(); ++k) {
+      if (k % components == 0) {
+        xml_ += indent;
+        xml_ += "  ";
+      }
+      put(xml_, values[k]);
+      xml_ += (k + 1) % components == 0 ? '\n' : ' ';
+    }
+    xml_ += indent;
+    xml_ += "</DataArray>\n";
+  }
+
+  // The whole file: the XML up to the end of the dataset's element, then the appended data, if any.
+  std::string finish() && {
+    if (format_ != SnapshotFormat::Ascii) {
+      xml_.reserve(xml_.size() + appended_.size() + 64);
+      xml_ += "  <AppendedData encoding=\"raw\">\n   _";
+      xml_ += appended_;
+      xml_ += "\n  </AppendedData>\n";
+    }
+    xml_ += "</VTKFile>\n";
+    return std::move(xml_);
+  }
+
+ private:
+  SnapshotFormat format_;
+  std::string xml_;
+  std::string appended_;
+};
+
+std::vector<double> flat(const std::vector<Vec3>& v) {
+  std::vector<double> out;
+  out.reserve(3 * v.size());
+  for (const Vec3& x : v) out.insert(out.end(), {x[0], x[1], x[2]});
+  return out;
 }
 
 // Time, step and cell of the snapshot: ParaView reads TimeValue as the dataset's time.
-void field_data(std::string& out, const Cell& cell, std::int64_t step, double time) {
-  out += "    <FieldData>\n";
-  out += "      <DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">";
-  put(out, time);
-  out += "</DataArray>\n";
-  out += "      <DataArray type=\"Int64\" Name=\"step\" NumberOfTuples=\"1\" format=\"ascii\">";
-  put(out, step);
-  out += "</DataArray>\n";
-  out += "      <DataArray type=\"Float64\" Name=\"cell_h\" NumberOfComponents=\"9\" NumberOfTuples=\"1\" "
-         "format=\"ascii\">";
+void field_data(VtkFile& out, const Cell& cell, std::int64_t step, double time) {
+  out << "    <FieldData>\n";
+  out.array("      ", "TimeValue", 1, std::vector<double>{time}, true);
+  out.array("      ", "step", 1, std::vector<std::int64_t>{step}, true);
+  std::vector<double> h;
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) {
-      if (r + c > 0) out += ' ';
-      put(out, cell.h(r, c));
-    }
-  out += "</DataArray>\n";
-  out += "    </FieldData>\n";
+    for (int c = 0; c < 3; ++c) h.push_back(cell.h(r, c));
+  out.array("      ", "cell_h", 9, h, true);
+  out << "    </FieldData>\n";
 }
 
 // LAMMPS boxes are "restricted triclinic": a along x, b in the xy plane, i.e. an upper triangular matrix
@@ -157,86 +262,96 @@ std::vector<ContactSnapshot> touching_contacts(const State& state) {
   return out;
 }
 
-std::string particles_vtu(const State& state, std::int64_t step, double time) {
+std::string particles_vtu(const State& state, std::int64_t step, double time, SnapshotFormat format) {
   const Particles& p = state.particles;
   const std::size_t n = p.size();
   const std::vector<std::int32_t> contacts = contacts_per_particle(state);
   const std::vector<Mat3> stress = particle_stresses(state);
-  const std::vector<Vec3> net_force = net_contact_forces(state);
-  std::string o;
-  o += "<?xml version=\"1.0\"?>\n";
-  o += "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n";
-  o += "  <UnstructuredGrid>\n";
+  std::vector<double> stress_rows;  // row-major, compression positive
+  stress_rows.reserve(9 * n);
+  for (const Mat3& m : stress)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) stress_rows.push_back(m(r, c));
+  std::vector<Vec3> x(n);
+  for (std::size_t i = 0; i < n; ++i) x[i] = wrapped_position(state.cell, p.scaled[i]);
+  std::vector<std::int64_t> ids(n), offsets(n);
+  for (std::size_t i = 0; i < n; ++i) ids[i] = static_cast<std::int64_t>(i), offsets[i] = static_cast<std::int64_t>(i + 1);
+
+  VtkFile o("UnstructuredGrid", format);
+  o << "  <UnstructuredGrid>\n";
   field_data(o, state.cell, step, time);
-  o += "    <Piece NumberOfPoints=\"" + std::to_string(n) + "\" NumberOfCells=\"" + std::to_string(n) + "\">\n";
-  o += "      <PointData Scalars=\"radius\" Vectors=\"velocity\">\n";
-  data_array(o, "Float64", "radius", 1, n, [&](std::size_t i, std::string& s) { put(s, p.radius[i]); });
-  data_array(o, "Float64", "velocity", 3, n, [&](std::size_t i, std::string& s) { put(s, p.velocity[i]); });
-  data_array(o, "Float64", "spin", 3, n, [&](std::size_t i, std::string& s) { put(s, p.spin[i]); });
-  data_array(o, "Int32", "contacts", 1, n, [&](std::size_t i, std::string& s) { put(s, std::int64_t{contacts[i]}); });
-  data_array(o, "Float64", "net_force", 3, n, [&](std::size_t i, std::string& s) { put(s, net_force[i]); });
-  data_array(o, "Float64", "stress", 9, n, [&](std::size_t i, std::string& s) {  // row-major, compression +
-    for (int r = 0; r < 3; ++r) {
-      if (r) s += ' ';
-      put(s, Vec3(stress[i].row(r).transpose()));
-    }
-  });
-  data_array(o, "Int64", "id", 1, n, [&](std::size_t i, std::string& s) { put(s, static_cast<std::int64_t>(i)); });
-  o += "      </PointData>\n";
-  o += "      <Points>\n";
-  data_array(o, "Float64", nullptr, 3, n,
-             [&](std::size_t i, std::string& s) { put(s, wrapped_position(state.cell, p.scaled[i])); });
-  o += "      </Points>\n";
-  o += "      <Cells>\n";
+  o << "    <Piece NumberOfPoints=\"" + std::to_string(n) + "\" NumberOfCells=\"" + std::to_string(n) + "\">\n";
+  o << "      <PointData Scalars=\"radius\" Vectors=\"velocity\">\n";
+  const char* in = "        ";
+  o.array(in, "radius", 1, p.radius);
+  o.array(in, "velocity", 3, flat(p.velocity));
+  o.array(in, "spin", 3, flat(p.spin));
+  o.array(in, "contacts", 1, contacts);
+  o.array(in, "net_force", 3, flat(net_contact_forces(state)));
+  o.array(in, "stress", 9, stress_rows);
+  o.array(in, "id", 1, ids);
+  o << "      </PointData>\n";
+  o << "      <Points>\n";
+  o.array(in, nullptr, 3, flat(x));
+  o << "      </Points>\n";
+  o << "      <Cells>\n";
   // One VTK_VERTEX (type 1) per particle: cell i is point i.
-  data_array(o, "Int64", "connectivity", 1, n, [&](std::size_t i, std::string& s) { put(s, static_cast<std::int64_t>(i)); });
-  data_array(o, "Int64", "offsets", 1, n, [&](std::size_t i, std::string& s) { put(s, static_cast<std::int64_t>(i + 1)); });
-  data_array(o, "UInt8", "types", 1, n, [&](std::size_t, std::string& s) { s += '1'; });
-  o += "      </Cells>\n";
-  o += "    </Piece>\n";
-  o += "  </UnstructuredGrid>\n";
-  o += "</VTKFile>\n";
-  return o;
+  o.array(in, "connectivity", 1, ids);
+  o.array(in, "offsets", 1, offsets);
+  o.array(in, "types", 1, std::vector<std::uint8_t>(n, 1));
+  o << "      </Cells>\n";
+  o << "    </Piece>\n";
+  o << "  </UnstructuredGrid>\n";
+  return std::move(o).finish();
 }
 
-std::string contacts_vtp(const State& state, std::int64_t step, double time) {
+std::string contacts_vtp(const State& state, std::int64_t step, double time, SnapshotFormat format) {
   const std::vector<ContactSnapshot> contacts = touching_contacts(state);
   const std::size_t m = contacts.size();
-  std::string o;
-  o += "<?xml version=\"1.0\"?>\n";
-  o += "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n";
-  o += "  <PolyData>\n";
+  std::vector<Vec3> branch(m), tangential(m), points(2 * m);
+  std::vector<double> normal(m);
+  std::vector<std::uint8_t> sliding(m);
+  std::vector<std::int64_t> pi(m), pj(m), connectivity(2 * m), offsets(m);
+  for (std::size_t c = 0; c < m; ++c) {
+    const ContactSnapshot& k = contacts[c];
+    branch[c] = k.branch;
+    normal[c] = k.normal_force;
+    tangential[c] = k.tangential_force;
+    sliding[c] = k.sliding ? 1 : 0;
+    pi[c] = k.i;
+    pj[c] = k.j;
+    // Line c runs from point 2c (i's centre, wrapped) to point 2c + 1 (that centre plus the branch).
+    points[2 * c] = wrapped_position(state.cell, state.particles.scaled[k.i]);
+    points[2 * c + 1] = points[2 * c] + k.branch;
+    connectivity[2 * c] = static_cast<std::int64_t>(2 * c);
+    connectivity[2 * c + 1] = static_cast<std::int64_t>(2 * c + 1);
+    offsets[c] = static_cast<std::int64_t>(2 * c + 2);
+  }
+
+  VtkFile o("PolyData", format);
+  o << "  <PolyData>\n";
   field_data(o, state.cell, step, time);
-  o += "    <Piece NumberOfPoints=\"" + std::to_string(2 * m) + "\" NumberOfVerts=\"0\" NumberOfLines=\"" +
-       std::to_string(m) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
-  o += "      <CellData Scalars=\"normal_force\" Vectors=\"branch\">\n";
-  data_array(o, "Float64", "branch", 3, m, [&](std::size_t c, std::string& s) { put(s, contacts[c].branch); });
-  data_array(o, "Float64", "normal_force", 1, m,
-             [&](std::size_t c, std::string& s) { put(s, contacts[c].normal_force); });
-  data_array(o, "Float64", "tangential_force", 3, m,
-             [&](std::size_t c, std::string& s) { put(s, contacts[c].tangential_force); });
-  data_array(o, "UInt8", "sliding", 1, m, [&](std::size_t c, std::string& s) { s += contacts[c].sliding ? '1' : '0'; });
-  data_array(o, "Int64", "i", 1, m, [&](std::size_t c, std::string& s) { put(s, std::int64_t{contacts[c].i}); });
-  data_array(o, "Int64", "j", 1, m, [&](std::size_t c, std::string& s) { put(s, std::int64_t{contacts[c].j}); });
-  o += "      </CellData>\n";
-  o += "      <Points>\n";
-  // Line c runs from point 2c (i's centre, wrapped) to point 2c + 1 (that centre plus the branch).
-  data_array(o, "Float64", nullptr, 3, 2 * m, [&](std::size_t k, std::string& s) {
-    const ContactSnapshot& c = contacts[k / 2];
-    const Vec3 xi = wrapped_position(state.cell, state.particles.scaled[c.i]);
-    put(s, k % 2 == 0 ? xi : Vec3(xi + c.branch));
-  });
-  o += "      </Points>\n";
-  o += "      <Lines>\n";
-  data_array(o, "Int64", "connectivity", 1, 2 * m,
-             [&](std::size_t k, std::string& s) { put(s, static_cast<std::int64_t>(k)); });
-  data_array(o, "Int64", "offsets", 1, m,
-             [&](std::size_t c, std::string& s) { put(s, static_cast<std::int64_t>(2 * c + 2)); });
-  o += "      </Lines>\n";
-  o += "    </Piece>\n";
-  o += "  </PolyData>\n";
-  o += "</VTKFile>\n";
-  return o;
+  o << "    <Piece NumberOfPoints=\"" + std::to_string(2 * m) + "\" NumberOfVerts=\"0\" NumberOfLines=\"" +
+           std::to_string(m) + "\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n";
+  o << "      <CellData Scalars=\"normal_force\" Vectors=\"branch\">\n";
+  const char* in = "        ";
+  o.array(in, "branch", 3, flat(branch));
+  o.array(in, "normal_force", 1, normal);
+  o.array(in, "tangential_force", 3, flat(tangential));
+  o.array(in, "sliding", 1, sliding);
+  o.array(in, "i", 1, pi);
+  o.array(in, "j", 1, pj);
+  o << "      </CellData>\n";
+  o << "      <Points>\n";
+  o.array(in, nullptr, 3, flat(points));
+  o << "      </Points>\n";
+  o << "      <Lines>\n";
+  o.array(in, "connectivity", 1, connectivity);
+  o.array(in, "offsets", 1, offsets);
+  o << "      </Lines>\n";
+  o << "    </Piece>\n";
+  o << "  </PolyData>\n";
+  return std::move(o).finish();
 }
 
 std::string lammps_dump(const State& state, std::int64_t step) {
@@ -306,7 +421,8 @@ std::string pvd_collection(const std::vector<CollectionEntry>& entries) {
   return o;
 }
 
-SnapshotWriter::SnapshotWriter(fs::path dir, std::string stem) : dir_(std::move(dir)), stem_(std::move(stem)) {
+SnapshotWriter::SnapshotWriter(fs::path dir, std::string stem, SnapshotFormat format)
+    : dir_(std::move(dir)), stem_(std::move(stem)), format_(format) {
   check_stem(stem_);
   // Continue a collection left by an interrupted run: its entries, as this writer wrote them.
   std::error_code ec;
@@ -343,8 +459,8 @@ void SnapshotWriter::write(const State& state, std::int64_t step, double time) {
   if (ec) throw_io_error(dir_, "cannot create the snapshot folder", ec.value());
 
   // The data files first, then the collections that list them.
-  write_file_atomic(particles_file(step), particles_vtu(state, step, time));
-  write_file_atomic(contacts_file(step), contacts_vtp(state, step, time));
+  write_file_atomic(particles_file(step), particles_vtu(state, step, time, format_));
+  write_file_atomic(contacts_file(step), contacts_vtp(state, step, time, format_));
   write_file_atomic(dump_file(step), lammps_dump(state, step));
 
   // A step at or before one already listed: a resumed run replaces what followed its checkpoint.

@@ -1,5 +1,17 @@
 // Snapshots of a State for viewing (ParaView, OVITO): the particles, the contact network and a time
-// collection, written as text so that a reader (or a test) can check every number.
+// collection. The VTK files store their arrays in one of three encodings (SnapshotFormat, the deck's
+// `snapshots.format`), all read by ParaView and VTK's XML readers, with the same values bit for bit:
+//   binary (default)  VTK XML "appended" format: the XML describes every array and names its offset; the
+//                     arrays follow in <AppendedData encoding="raw"> after a '_', each as a UInt64 byte count
+//                     and the host's bytes (header_type="UInt64"; byte_order the host's: LittleEndian on
+//                     x86-64 and ARM, BigEndian on a big-endian host, which VTK readers swap).
+//   zlib              the same, each array compressed in 32 KiB blocks in vtkZLibDataCompressor's layout:
+//                     UInt64s [blocks, block size, size of a partial last block or 0, each block's compressed
+//                     size], then the blocks (compressor="vtkZLibDataCompressor").
+//   ascii             every number as text inside its DataArray, one tuple per line.
+// Arrays are Float64, except contacts (Int32), id, i, j, connectivity and offsets (Int64), types and sliding
+// (UInt8). The field data (TimeValue, step, cell_h) is stored like the other arrays. The LAMMPS dump and the .pvd
+// collections are always text.
 //
 // Per snapshot at step S, in the writer's folder (the step in plain decimal, not padded):
 //   <stem>_S.vtu            VTK XML UnstructuredGrid: one VTK_VERTEX per particle; point data radius,
@@ -26,7 +38,7 @@
 // until rebuild_pairs, so write its snapshot after the first force evaluation).
 //
 // Positions are wrapped into the primary cell for viewing: each scaled coordinate into [0, 1), x = h s.
-// Numbers are written with %.17g (they read back to the same double). Every file is written to a temporary
+// Text numbers are written with %.17g (they read back to the same double); binary ones are the doubles' bytes. Every file is written to a temporary
 // name and renamed (io/files.hpp), the collections last, so a collection never lists a missing file and a
 // run cut short still leaves a valid one; a failed write throws IoError "<file>: <what>: <system reason>".
 #pragma once
@@ -35,6 +47,7 @@
 #include <string>
 #include <vector>
 
+#include "core/choices.hpp"
 #include "core/state.hpp"
 
 namespace celldem {
@@ -59,8 +72,10 @@ struct ContactSnapshot {
 std::vector<ContactSnapshot> touching_contacts(const State& state);
 
 // The file contents (no files touched).
-std::string particles_vtu(const State& state, std::int64_t step, double time);
-std::string contacts_vtp(const State& state, std::int64_t step, double time);
+std::string particles_vtu(const State& state, std::int64_t step, double time,
+                          SnapshotFormat format = SnapshotFormat::Binary);
+std::string contacts_vtp(const State& state, std::int64_t step, double time,
+                         SnapshotFormat format = SnapshotFormat::Binary);
 std::string lammps_dump(const State& state, std::int64_t step);
 
 struct CollectionEntry {
@@ -78,7 +93,7 @@ class SnapshotWriter {
  public:
   // stem: letters, digits, '_', '-' or '.' (it goes into file names and XML attributes); else
   // std::invalid_argument.
-  SnapshotWriter(std::filesystem::path dir, std::string stem);
+  SnapshotWriter(std::filesystem::path dir, std::string stem, SnapshotFormat format = SnapshotFormat::Binary);
 
   void write(const State& state, std::int64_t step, double time);
 
@@ -96,6 +111,7 @@ class SnapshotWriter {
   };
   std::filesystem::path dir_;
   std::string stem_;
+  SnapshotFormat format_;
   std::vector<Entry> entries_;  // ascending steps
 };
 

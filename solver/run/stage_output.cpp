@@ -27,7 +27,7 @@ StageOutput::StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& 
       output_interval_(output_interval), monitor_(stage_, loading_test, quasi_static_cause(deck, stage_, loading_test)),
       progress_(stage_, options.progress, options.progress_interval), start_(std::chrono::steady_clock::now()),
       loading_test_(loading_test), snapshot_plan_(snapshots) {
-  if (snapshot_plan_.any()) snapshots_ = std::make_unique<SnapshotWriter>(dir_ / "snapshots", stage_);
+  if (snapshot_plan_.any()) snapshots_ = std::make_unique<SnapshotWriter>(dir_ / "snapshots", stage_, snapshot_plan_.format);
 }
 
 void StageOutput::open(const State& state, bool resumed) {

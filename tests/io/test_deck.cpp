@@ -459,6 +459,25 @@ TEST(Deck, ServoCapFollowsTheLegAndControlFailureChoice) {
   expect_error(j, "control_failure", "stop");
 }
 
+// Snapshots are binary unless the deck asks for zlib or ascii, per stage; another value names the key.
+TEST(Deck, SnapshotFormatIsBinaryUnlessTheDeckSaysOtherwise) {
+  Json j = minimal_deck();
+  j["tests"][0]["snapshots"] = {{"interval", 100}};
+  j["tests"][1]["snapshots"] = {{"e1", {0.01}}, {"format", "zlib"}};
+  j["prepare"]["snapshots"] = {{"interval", 1000}, {"format", "ascii"}};
+  const Deck d = parse_deck(j.dump(), "x.json");
+  EXPECT_EQ(d.tests[0].snapshots.format, SnapshotFormat::Binary);
+  EXPECT_EQ(d.tests[1].snapshots.format, SnapshotFormat::Zlib);
+  EXPECT_EQ(d.prepare->snapshots.format, SnapshotFormat::Ascii);
+  j["tests"][1]["snapshots"]["format"] = "hdf5";
+  expect_error(j, "tests[1].snapshots.format", "\"binary\", \"zlib\", \"ascii\"");
+  j["tests"][1]["snapshots"]["format"] = 1;
+  expect_error(j, "tests[1].snapshots.format", "expected a string");
+  j = minimal_deck();
+  j["prepare"]["snapshots"] = {{"format", "binary"}};  // a format alone asks for no snapshot
+  expect_error(j, "prepare.snapshots", "\"interval\" or \"e1\"");
+}
+
 TEST(DeckErrors, NotJsonOrTooDeepIsADeckError) {
   EXPECT_THROW(parse_deck("{\"format\": 1,"), DeckError);
   EXPECT_THROW(parse_deck(""), DeckError);

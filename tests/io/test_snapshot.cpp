@@ -1,14 +1,18 @@
 // Snapshots (solver/io/snapshot.hpp): the .vtu, .vtp, .pvd and dump files of a sheared cell with contacts
-// are read back (with a small XML reader here) and every number is checked against values computed in the
-// test from the state: wrapped positions, radii, contact counts from the pair list, each contact's normal
+// are read back (with a small XML reader here, which also decodes VTK's appended raw and zlib-compressed
+// arrays and checks their layout) and every number, in each encoding, is checked against values computed in
+// the test from the state: wrapped positions, radii, contact counts from the pair list, each contact's normal
 // force against the spring law kn * overlap. Collections list every snapshot and survive a resume; a
 // failed write throws naming the file and leaves nothing under a final name.
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <zlib.h>
 
+#include <bit>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <random>
 #include <sstream>
@@ -21,6 +25,11 @@
 #include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
+
+// The encoding's deck name in test names and messages (found by argument-dependent lookup, so in celldem).
+void PrintTo(SnapshotFormat format, std::ostream* os);
+void PrintTo(SnapshotFormat format, std::ostream* os) { *os << name_of(format, kSnapshotFormatNames); }
+
 namespace {
 
 constexpr double kKn = 1e4, kFriction = 0.1;
@@ -125,24 +134,168 @@ std::vector<double> numbers(const std::string& text) {
   return v;
 }
 
-std::vector<double> array(const XmlElement& root, const std::string& array_name, std::size_t expected_size) {
-  const XmlElement* e = find(root, "DataArray", array_name);
+// ---- VTK files: the XML, and the appended bytes when the arrays are stored there ----
+
+struct VtkDocument {
+  XmlElement root;
+  std::string appended;  // the bytes after <AppendedData>'s '_', up to </AppendedData> (none for ascii)
+};
+
+// The appended data comes last: the XML before it, closed as the file closes it, is a document of its own.
+VtkDocument parse_vtk(const std::string& text) {
+  VtkDocument doc;
+  const std::size_t at = text.find("<AppendedData");
+  if (at == std::string::npos) {
+    doc.root = XmlReader(text).document();
+    return doc;
+  }
+  const std::string xml = text.substr(0, at) + "</VTKFile>\n";
+  doc.root = XmlReader(xml).document();
+  const std::size_t open_end = text.find('>', at);
+  EXPECT_EQ(text.substr(at, open_end + 1 - at), "<AppendedData encoding=\"raw\">");
+  const std::size_t underscore = text.find('_', open_end);
+  EXPECT_NE(underscore, std::string::npos);
+  for (std::size_t k = open_end + 1; k < underscore; ++k) EXPECT_TRUE(std::isspace(static_cast<unsigned char>(text[k])));
+  const std::size_t close = text.rfind("</AppendedData>");
+  EXPECT_NE(close, std::string::npos);
+  if (underscore == std::string::npos || close == std::string::npos || close < underscore) return doc;
+  std::string tail = text.substr(close + std::strlen("</AppendedData>"));
+  std::erase_if(tail, [](char c) { return std::isspace(static_cast<unsigned char>(c)); });
+  EXPECT_EQ(tail, "</VTKFile>");
+  doc.appended = text.substr(underscore + 1, close - underscore - 1);
+  return doc;
+}
+
+VtkDocument read_vtk(const std::filesystem::path& path) { return parse_vtk(testing::read_bytes(path)); }
+
+// The elements named `name`, depth first in document order.
+void find_all(const XmlElement& e, const std::string& name, std::vector<const XmlElement*>& out) {
+  if (e.name == name) out.push_back(&e);
+  for (const XmlElement& c : e.children) find_all(c, name, out);
+}
+
+std::uint64_t uint64_at(const std::string& bytes, std::size_t at) {
+  std::uint64_t x = 0;
+  if (at + 8 > bytes.size()) throw std::runtime_error("appended data ends inside a header");
+  std::memcpy(&x, bytes.data() + at, 8);
+  return x;
+}
+
+struct Appended {
+  std::string bytes;    // the array's bytes, decompressed
+  std::size_t end = 0;  // where its data ends in the appended section
+  std::vector<std::uint64_t> zlib_header;  // blocks, block size, partial last block, compressed sizes
+};
+
+// One array of the appended section at `offset`: a UInt64 byte count and the bytes, or with zlib the block
+// header and the blocks, each inflated to its size.
+Appended appended_at(const VtkDocument& doc, std::size_t offset) {
+  const std::string& data = doc.appended;
+  Appended a;
+  if (!doc.root.attributes.count("compressor")) {
+    const std::uint64_t size = uint64_at(data, offset);
+    if (offset + 8 + size > data.size()) throw std::runtime_error("appended array runs past the data");
+    a.bytes = data.substr(offset + 8, size);
+    a.end = offset + 8 + size;
+    return a;
+  }
+  EXPECT_EQ(doc.root.attributes.at("compressor"), "vtkZLibDataCompressor");
+  const std::uint64_t blocks = uint64_at(data, offset), block_size = uint64_at(data, offset + 8),
+                      last = uint64_at(data, offset + 16);
+  a.zlib_header = {blocks, block_size, last};
+  std::size_t at = offset + 24 + 8 * blocks;
+  for (std::uint64_t b = 0; b < blocks; ++b) {
+    const std::uint64_t compressed = uint64_at(data, offset + 24 + 8 * b);
+    a.zlib_header.push_back(compressed);
+    if (at + compressed > data.size()) throw std::runtime_error("compressed block runs past the data");
+    uLongf size = static_cast<uLongf>(b + 1 == blocks && last != 0 ? last : block_size);
+    std::string block(size, '\0');
+    EXPECT_EQ(uncompress(reinterpret_cast<Bytef*>(block.data()), &size, reinterpret_cast<const Bytef*>(data.data() + at),
+                         static_cast<uLong>(compressed)),
+              Z_OK);
+    EXPECT_EQ(size, block.size()) << "block " << b;  // inflates to exactly the size the header gives
+    a.bytes += block;
+    at += compressed;
+  }
+  a.end = at;
+  return a;
+}
+
+template <class T>
+std::vector<double> convert(const std::string& bytes) {
+  EXPECT_EQ(bytes.size() % sizeof(T), 0u);
+  std::vector<double> v(bytes.size() / sizeof(T));
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    T x;
+    std::memcpy(&x, bytes.data() + k * sizeof(T), sizeof(T));
+    v[k] = static_cast<double>(x);  // exact: every integer written here is below 2^53
+  }
+  return v;
+}
+
+// The values of one DataArray, as doubles.
+std::vector<double> values(const VtkDocument& doc, const XmlElement& e) {
+  if (e.attributes.at("format") == "ascii") return numbers(e.text);
+  EXPECT_EQ(e.attributes.at("format"), "appended");
+  const std::string bytes = appended_at(doc, std::stoull(e.attributes.at("offset"))).bytes;
+  const std::string& type = e.attributes.at("type");
+  if (type == "Float64") return convert<double>(bytes);
+  if (type == "Int64") return convert<std::int64_t>(bytes);
+  if (type == "Int32") return convert<std::int32_t>(bytes);
+  if (type == "UInt8") return convert<std::uint8_t>(bytes);
+  ADD_FAILURE() << "unexpected type " << type;
+  return {};
+}
+
+// The file is stored as `format` says: the header, every array's format attribute, and the appended arrays
+// one after the other from offset 0 to the end of the data (nothing between, nothing left over).
+void expect_encoding(const VtkDocument& doc, SnapshotFormat format) {
+  const auto& attributes = doc.root.attributes;
+  EXPECT_EQ(attributes.at("byte_order"), std::endian::native == std::endian::little ? "LittleEndian" : "BigEndian");
+  EXPECT_EQ(attributes.at("header_type"), "UInt64");
+  EXPECT_EQ(attributes.count("compressor"), format == SnapshotFormat::Zlib ? 1u : 0u);
+  std::vector<const XmlElement*> arrays;
+  find_all(doc.root, "DataArray", arrays);
+  EXPECT_FALSE(arrays.empty());
+  std::size_t end = 0;
+  for (const XmlElement* e : arrays) {
+    if (format == SnapshotFormat::Ascii) {
+      EXPECT_EQ(e->attributes.at("format"), "ascii");
+      continue;
+    }
+    EXPECT_EQ(e->attributes.at("format"), "appended");
+    EXPECT_EQ(e->attributes.count("offset"), 1u);
+    if (!e->attributes.count("offset")) continue;
+    EXPECT_EQ(std::stoull(e->attributes.at("offset")), end);
+    end = appended_at(doc, end).end;
+  }
+  if (format == SnapshotFormat::Ascii) {
+    EXPECT_TRUE(doc.appended.empty());
+  } else {
+    std::string rest = doc.appended.substr(std::min(end, doc.appended.size()));
+    std::erase_if(rest, [](char c) { return std::isspace(static_cast<unsigned char>(c)); });
+    EXPECT_EQ(rest, "");  // only the line break before </AppendedData>
+    EXPECT_GT(doc.appended.size(), end);
+  }
+}
+
+std::vector<double> array(const VtkDocument& doc, const std::string& array_name, std::size_t expected_size) {
+  const XmlElement* e = find(doc.root, "DataArray", array_name);
   EXPECT_NE(e, nullptr) << array_name;
   if (!e) return std::vector<double>(expected_size, 0.0);
-  EXPECT_EQ(e->attributes.at("format"), "ascii");
-  std::vector<double> v = numbers(e->text);
+  std::vector<double> v = values(doc, *e);
   EXPECT_EQ(v.size(), expected_size) << array_name;
   v.resize(expected_size, 0.0);
   return v;
 }
 
 // The array inside <Points>.
-std::vector<double> points(const XmlElement& root, std::size_t expected_size) {
-  const XmlElement* p = find(root, "Points");
+std::vector<double> points(const VtkDocument& doc, std::size_t expected_size) {
+  const XmlElement* p = find(doc.root, "Points");
   EXPECT_NE(p, nullptr);
   if (!p || p->children.empty()) return std::vector<double>(expected_size, 0.0);
   EXPECT_EQ(p->children[0].attributes.at("NumberOfComponents"), "3");
-  std::vector<double> v = numbers(p->children[0].text);
+  std::vector<double> v = values(doc, p->children[0]);
   EXPECT_EQ(v.size(), expected_size);
   v.resize(expected_size, 0.0);
   return v;
@@ -206,16 +359,24 @@ void expect_same_place(const State& s, std::size_t i, const Vec3& x) {
   EXPECT_NEAR((x - primary_position(s, i)).norm(), 0.0, 1e-12) << i;
 }
 
-TEST(Snapshot, ParticlesFileHoldsWrappedPositionsRadiiAndContactCounts) {
+// Every encoding: the same checks of every number (binary and zlib hold the doubles' bytes, ascii %.17g).
+class SnapshotFormats : public ::testing::TestWithParam<SnapshotFormat> {};
+
+INSTANTIATE_TEST_SUITE_P(Snapshot, SnapshotFormats,
+                         ::testing::Values(SnapshotFormat::Binary, SnapshotFormat::Zlib, SnapshotFormat::Ascii),
+                         [](const auto& info) { return std::string(name_of(info.param, kSnapshotFormatNames)); });
+
+TEST_P(SnapshotFormats, ParticlesFileHoldsWrappedPositionsRadiiAndContactCounts) {
   const State s = sheared_state();
   ASSERT_GT(s.touching, 10);
   testing::TempDir dir;
-  SnapshotWriter writer(dir.path(), "snap");
+  SnapshotWriter writer(dir.path(), "snap", GetParam());
   writer.write(s, 1234, 0.5);
-  const XmlElement vtu = read_xml(writer.particles_file(1234));
-  EXPECT_EQ(vtu.attributes.at("type"), "UnstructuredGrid");
+  const VtkDocument vtu = read_vtk(writer.particles_file(1234));
+  expect_encoding(vtu, GetParam());
+  EXPECT_EQ(vtu.root.attributes.at("type"), "UnstructuredGrid");
   const std::size_t n = s.particles.size();
-  const XmlElement* piece = find(vtu, "Piece");
+  const XmlElement* piece = find(vtu.root, "Piece");
   ASSERT_NE(piece, nullptr);
   EXPECT_EQ(piece->attributes.at("NumberOfPoints"), std::to_string(n));
   EXPECT_EQ(piece->attributes.at("NumberOfCells"), std::to_string(n));
@@ -258,20 +419,21 @@ TEST(Snapshot, ParticlesFileHoldsWrappedPositionsRadiiAndContactCounts) {
     for (int c = 0; c < 3; ++c) EXPECT_EQ(h[3 * r + c], s.cell.h(r, c));
 }
 
-TEST(Snapshot, ContactFileHoldsEveryTouchingPairWithItsForces) {
+TEST_P(SnapshotFormats, ContactFileHoldsEveryTouchingPairWithItsForces) {
   const State s = sheared_state();
   testing::TempDir dir;
-  SnapshotWriter writer(dir.path(), "snap");
+  SnapshotWriter writer(dir.path(), "snap", GetParam());
   writer.write(s, 7, 0.25);
-  const XmlElement vtp = read_xml(writer.contacts_file(7));
-  EXPECT_EQ(vtp.attributes.at("type"), "PolyData");
+  const VtkDocument vtp = read_vtk(writer.contacts_file(7));
+  expect_encoding(vtp, GetParam());
+  EXPECT_EQ(vtp.root.attributes.at("type"), "PolyData");
 
   std::vector<std::size_t> touching;
   for (std::size_t q = 0; q < s.pairs.size(); ++q)
     if (s.pairs.flags[q] & kTouching) touching.push_back(q);
   const std::size_t m = touching.size();
   ASSERT_EQ(static_cast<std::int64_t>(m), s.touching);
-  const XmlElement* piece = find(vtp, "Piece");
+  const XmlElement* piece = find(vtp.root, "Piece");
   ASSERT_NE(piece, nullptr);
   EXPECT_EQ(piece->attributes.at("NumberOfLines"), std::to_string(m));
   EXPECT_EQ(piece->attributes.at("NumberOfPoints"), std::to_string(2 * m));
@@ -325,6 +487,40 @@ TEST(Snapshot, ContactFileHoldsEveryTouchingPairWithItsForces) {
   }
   EXPECT_GT(across_boundary, 0);
   EXPECT_GT(sliding_count, 0);
+}
+
+// Arrays larger than one zlib block (32 KiB) are split: whole blocks, then a partial last one, each inflated on
+// its own; the values are the state's. 1000 particles: 72 000 bytes of stress, 24 000 of each vector.
+TEST(Snapshot, ZlibSplitsLargeArraysIntoBlocksOfVtkLayout) {
+  std::mt19937_64 gen(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  State s = testing::lattice_state(10, 0.5, Vec3(0.99, 0.99, 0.99), 0.05);
+  for (std::size_t i = 0; i < s.particles.size(); ++i) s.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen));
+  const Model model = make_model(testing::model_deck(kKn, kKn, 1e-4), s.particles.radius);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, kFriction, s);
+  const std::size_t n = s.particles.size();
+  const VtkDocument vtu = parse_vtk(particles_vtu(s, 3, 0.0, SnapshotFormat::Zlib));
+  expect_encoding(vtu, SnapshotFormat::Zlib);
+  const XmlElement* stress = find(vtu.root, "DataArray", "stress");
+  ASSERT_NE(stress, nullptr);
+  const Appended a = appended_at(vtu, std::stoull(stress->attributes.at("offset")));
+  const std::size_t bytes = 9 * n * sizeof(double), block = 32768;
+  ASSERT_EQ(a.zlib_header.size(), 3 + (bytes + block - 1) / block);
+  EXPECT_EQ(a.zlib_header[0], (bytes + block - 1) / block);
+  EXPECT_EQ(a.zlib_header[1], block);
+  EXPECT_EQ(a.zlib_header[2], bytes % block);
+  EXPECT_EQ(a.bytes.size(), bytes);
+  const std::vector<Mat3> expected = particle_stresses(s);
+  const std::vector<double> got = array(vtu, "stress", 9 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(got[9 * i + 3 * r + c], expected[i](r, c)) << i;
+  const std::vector<double> velocity = array(vtu, "velocity", 3 * n);
+  for (std::size_t i = 0; i < n; ++i) EXPECT_EQ(vec_at(velocity, i), s.particles.velocity[i]) << i;
+  // The binary file holds the same bytes uncompressed, the text file the same numbers.
+  for (const SnapshotFormat format : {SnapshotFormat::Binary, SnapshotFormat::Ascii})
+    EXPECT_EQ(array(parse_vtk(particles_vtu(s, 3, 0.0, format)), "stress", 9 * n), got);
 }
 
 // The dump's lines, split into words.
@@ -395,9 +591,16 @@ TEST(Snapshot, DumpOfAnOrthogonalCellUsesThePlainBoxBounds) {
   EXPECT_EQ(lines[6], (std::vector<std::string>{"0", "2.3999999999999999"}));  // 2 x 1.2, %.17g
   EXPECT_EQ(number(lines[7][1]), 2.8);
   expect_same_place(s, 3, Vec3(number(lines[12][2]), number(lines[12][3]), number(lines[12][4])));
-  // No contacts: an empty but valid contact file.
-  const XmlElement vtp = read_xml(writer.contacts_file(0));
-  EXPECT_EQ(find(vtp, "Piece")->attributes.at("NumberOfLines"), "0");
+  // No contacts: an empty but valid contact file, in every encoding.
+  for (const SnapshotFormat format : {SnapshotFormat::Binary, SnapshotFormat::Zlib, SnapshotFormat::Ascii}) {
+    SCOPED_TRACE(std::string(name_of(format, kSnapshotFormatNames)));
+    const VtkDocument vtp = parse_vtk(contacts_vtp(s, 0, 0.0, format));
+    expect_encoding(vtp, format);
+    EXPECT_EQ(find(vtp.root, "Piece")->attributes.at("NumberOfLines"), "0");
+    EXPECT_TRUE(array(vtp, "normal_force", 0).empty());
+    EXPECT_TRUE(points(vtp, 0).empty());
+    EXPECT_EQ(array(vtp, "cell_h", 9)[4], s.cell.h(1, 1));
+  }
 }
 
 // A cell that is not upper triangular is rotated into LAMMPS's frame: lengths and angles are kept.
