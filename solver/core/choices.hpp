@@ -22,6 +22,8 @@ enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, Consta
 enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium };
 // What a control that stays outside its tolerance does: stop the stage (exit 1), or warn and mark the test.
 enum class ControlFailure { Stop, Warn };
+// What a grading curve's percentages count: the mass (a sieve curve) or the number of spheres passing.
+enum class GradingBasis { Mass, Number };
 
 inline constexpr std::array<std::string_view, 2> kTangentialRotationNames = {"rotate", "project"};
 inline constexpr std::array<std::string_view, 2> kMomentArmNames = {"contact_point", "radius"};
@@ -32,6 +34,7 @@ inline constexpr std::array<std::string_view, 3> kTangentialModelNames = {"linea
 inline constexpr std::array<std::string_view, 2> kRollingModelNames = {"none", "sds"};
 inline constexpr std::array<std::string_view, 2> kTwistingModelNames = {"none", "marshall"};
 inline constexpr std::array<std::string_view, 2> kControlFailureNames = {"stop", "warn"};
+inline constexpr std::array<std::string_view, 2> kGradingBasisNames = {"mass", "number"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
 
 // Mindlin's stiffness 8 G* a, with or without the rescaling.
