@@ -11,6 +11,7 @@
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
 #include "run/sample.hpp"
+#include "run/summary.hpp"
 
 namespace celldem::app {
 namespace fs = std::filesystem;
@@ -71,7 +72,8 @@ Json axes_json(const Leg& leg) {
 Json plan_json(const Deck& deck) {
   Json types = Json::array();
   std::vector<double> seen;
-  for (double d : deck.sample.diameters) {
+  // A grading's spheres take every size between its sieves: the bodies at the sieve sizes bound them.
+  for (double d : deck.sample.grading ? deck.sample.grading->sizes : deck.sample.diameters) {
     if (std::find(seen.begin(), seen.end(), d) != seen.end()) continue;
     seen.push_back(d);
     const BodyProperties b = body_properties(0.5 * d, deck.sample.density, deck.damping, reference_stiffness(deck.contact, deck.sample));
@@ -99,11 +101,19 @@ Json plan_json(const Deck& deck) {
               {"skin", skin_length(deck)},
               {"sample", {{"count", deck.sample.count}, {"diameters", deck.sample.diameters},
                           {"density", deck.sample.density}, {"mean_diameter", mean_diameter(deck.sample)},
-                          {"seed", deck.sample.seed}}},
+                          {"mean_sphere_volume", mean_sphere_volume(deck.sample)},
+                          {"seed", deck.sample.seed}, {"grading", nullptr}}},
               {"particle_types", types},
               {"prepare", nullptr},
               {"initial_state", nullptr},
               {"tests", Json::array()}};
+  if (const std::optional<GradingDef>& g = deck.sample.grading) {
+    // The sample the seed draws; an initial_state's spheres are the run's (summary.json's "grading").
+    Json grading = grading_json(*g, deck.initial_state ? std::vector<double>{} : graded_sample_diameters(deck.sample));
+    if (deck.initial_state)
+      grading["realised_percent"] = grading["largest_deviation_percent"] = grading["spheres"] = nullptr;
+    out["sample"]["grading"] = grading;
+  }
   if (deck.prepare)
     out["prepare"] = {{"friction", deck.prepare->friction}, {"target_pressure", deck.prepare->target_pressure},
                       {"fast_solid_fraction", deck.prepare->fast_solid_fraction},
@@ -197,6 +207,22 @@ Command add_plan_command(CLI::App& app) {
       std::printf("    %-6s %-5s %5g t_c = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
                   b["when"].get<std::string>().c_str(), b["fraction"].get<double>(), b["time_step"].get<double>(),
                   b["name"].get<std::string>().c_str());
+    if (const Json& g = plan["sample"]["grading"]; !g.is_null()) {
+      const bool realised = !g["realised_percent"].is_null();
+      std::printf("  grading by %s, percent passing each sieve: asked, and realised by the %s\n",
+                  g["by"].get<std::string>().c_str(),
+                  realised ? (std::to_string(g["spheres"].get<std::size_t>()) + " spheres that seed " +
+                              std::to_string(deck.sample.seed) + " draws").c_str()
+                           : "initial_state's spheres (in the run's summary.json)");
+      std::printf("    %12s %8s %9s\n", "size [m]", "asked", realised ? "realised" : "");
+      for (std::size_t k = 0; k < g["sizes_m"].size(); ++k) {
+        std::printf("    %12.4g %8.2f", g["sizes_m"][k].get<double>(), g["asked_percent"][k].get<double>());
+        if (realised) std::printf(" %9.2f", g["realised_percent"][k].get<double>());
+        std::printf("\n");
+      }
+      if (realised)
+        std::printf("    largest deviation %.2f percentage points\n", g["largest_deviation_percent"].get<double>());
+    }
     if (deck.prepare) {
       const Json& s = plan["prepare"]["steps"];
       std::printf("  %-12s %lld%s steps (the servo leg ends in equilibrium)\n", "prepare",

@@ -24,6 +24,8 @@ enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium
 enum class ControlFailure { Stop, Warn };
 // How a snapshot's VTK arrays are stored: raw bytes appended after the XML, those bytes zlib-compressed, or text.
 enum class SnapshotFormat { Binary, Zlib, Ascii };
+// What a grading curve's percentages count: the mass (a sieve curve) or the number of spheres passing.
+enum class GradingBasis { Mass, Number };
 
 inline constexpr std::array<std::string_view, 2> kTangentialRotationNames = {"rotate", "project"};
 inline constexpr std::array<std::string_view, 2> kMomentArmNames = {"contact_point", "radius"};
@@ -35,6 +37,7 @@ inline constexpr std::array<std::string_view, 2> kRollingModelNames = {"none", "
 inline constexpr std::array<std::string_view, 2> kTwistingModelNames = {"none", "marshall"};
 inline constexpr std::array<std::string_view, 2> kControlFailureNames = {"stop", "warn"};
 inline constexpr std::array<std::string_view, 3> kSnapshotFormatNames = {"binary", "zlib", "ascii"};
+inline constexpr std::array<std::string_view, 2> kGradingBasisNames = {"mass", "number"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
 
 // Mindlin's stiffness 8 G* a, with or without the rescaling.

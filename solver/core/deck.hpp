@@ -1,6 +1,7 @@
 // The deck: what a run is asked to do, as plain structs (SI units). io/deck_reader.cpp fills them from JSON;
 // every default below comes from the key table in core/deck_schema.hpp, the single place that declares them.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include "core/deck_schema.hpp"
+#include "core/grading.hpp"
 
 namespace celldem {
 
@@ -21,10 +23,18 @@ inline constexpr int kDeckFormatVersion = 1;
 
 struct SampleDef {
   int count = 0;                   // number of spheres
-  std::vector<double> diameters;   // [m] the distinct sizes, each drawn with equal probability
+  std::vector<double> diameters;   // [m] the listed sizes, each drawn with equal probability (empty with a grading)
+  std::optional<GradingDef> grading;  // or sizes drawn from a grading curve (core/grading.hpp)
   double density = 0.0;            // [kg/m^3]
   std::uint64_t seed = static_cast<std::uint64_t>(keys::sample_seed.fallback);
   double grid_spacing = 0.0;       // [m] spacing of the initial cubic grid (> largest diameter)
+  // [m] the smallest and largest sizes a sphere can get: of the list, or the grading's first and last sieve
+  double smallest_diameter() const {
+    return grading ? grading->sizes.front() : *std::min_element(diameters.begin(), diameters.end());
+  }
+  double largest_diameter() const {
+    return grading ? grading->sizes.back() : *std::max_element(diameters.begin(), diameters.end());
+  }
 };
 
 // The contact law: its sub-models and their parameters (contact/contact_law.hpp has the equations).

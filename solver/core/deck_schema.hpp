@@ -49,7 +49,8 @@ inline constexpr KeySpec sample{.path = "sample", .kind = KeyKind::Object,
 inline constexpr KeySpec sample_count{.path = "sample.count", .kind = KeyKind::Integer, .min = 1, .max = 50'000'000,
     .meaning = "number of spheres"};
 inline constexpr KeySpec sample_diameters{.path = "sample.diameters", .kind = KeyKind::Object,
-    .meaning = "sizes, each sphere drawing one with equal probability: `list`, or `min`/`max`/`count`"};
+    .meaning = "sizes: `list` or `min`/`max`/`count` (each sphere drawing one of them with equal probability), or "
+               "`grading` (one of the three forms)"};
 inline constexpr KeySpec sample_diameters_list{.path = "sample.diameters.list", .kind = KeyKind::Array,
     .required = false, .unit = "m", .meaning = "the sizes, each a finite number > 0"};
 inline constexpr KeySpec sample_diameters_min{.path = "sample.diameters.min", .kind = KeyKind::Number,
@@ -58,14 +59,28 @@ inline constexpr KeySpec sample_diameters_max{.path = "sample.diameters.max", .k
     .positive = true, .required = false, .unit = "m", .meaning = "largest size, >= `min`"};
 inline constexpr KeySpec sample_diameters_count{.path = "sample.diameters.count", .kind = KeyKind::Integer,
     .min = 1, .max = 100000, .required = false, .meaning = "number of evenly spaced sizes (> 1 when max > min)"};
+inline constexpr KeySpec sample_diameters_grading{.path = "sample.diameters.grading", .kind = KeyKind::Object,
+    .required = false, .default_text = "none",
+    .meaning = "a grading curve: percent passing `passing` at sieve sizes `sizes`, by mass or by number (`by`), "
+               "linear in log d between sieves (the semi-log grading plot); each sphere's diameter is drawn by "
+               "inverse transform of the number distribution it implies (by mass: the number density is the mass "
+               "density / d^3), from `seed`. `celldem plan` and the report give the realised curve"};
+inline constexpr KeySpec sample_diameters_grading_by{.path = "sample.diameters.grading.by", .kind = KeyKind::Choice,
+    .default_text = "required with `grading`", .choices = kGradingBasisNames, .meaning = "what the percentages count: `mass` (a sieve curve) or `number`"};
+inline constexpr KeySpec sample_diameters_grading_sizes{.path = "sample.diameters.grading.sizes",
+    .kind = KeyKind::Array, .default_text = "required with `grading`", .unit = "m",
+    .meaning = "sieve sizes, at least 2, each > 0, strictly increasing; the first and last bound every sphere"};
+inline constexpr KeySpec sample_diameters_grading_passing{.path = "sample.diameters.grading.passing",
+    .kind = KeyKind::Array, .default_text = "required with `grading`", .unit = "%",
+    .meaning = "percent passing each size (one per size): non-decreasing from 0 at the first to 100 at the last"};
 inline constexpr KeySpec sample_density{.path = "sample.density", .kind = KeyKind::Number, .positive = true,
     .unit = "kg/m^3", .meaning = "particle density"};
 inline constexpr KeySpec sample_seed{.path = "sample.seed", .kind = KeyKind::Integer, .min = 0, .max = kMaxSeed,
     .required = false, .fallback = 1, .meaning = "sizes and the initial jitter depend on it only"};
 inline constexpr KeySpec sample_grid_spacing{.path = "sample.grid_spacing", .kind = KeyKind::Number,
     .positive = true, .required = false, .default_text = "1.1 x largest diameter", .unit = "m",
-    .meaning = "spacing of the initial cubic grid; refused unless it exceeds the largest diameter (the spheres "
-               "would overlap)"};
+    .meaning = "spacing of the initial cubic grid; refused unless it exceeds the largest diameter (a grading's "
+               "largest size; the spheres would overlap)"};
 
 inline constexpr KeySpec contact{.path = "contact", .kind = KeyKind::Object, .meaning = "the contact law"};
 inline constexpr KeySpec contact_normal{.path = "contact.normal", .kind = KeyKind::Choice, .required = false,
@@ -307,7 +322,9 @@ inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind
 // Every key in table order (the order of docs/deck.md's table).
 inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &format, &description, &sample, &sample_count, &sample_diameters, &sample_diameters_list,
-    &sample_diameters_min, &sample_diameters_max, &sample_diameters_count, &sample_density, &sample_seed,
+    &sample_diameters_min, &sample_diameters_max, &sample_diameters_count,
+    &sample_diameters_grading, &sample_diameters_grading_by, &sample_diameters_grading_sizes,
+    &sample_diameters_grading_passing, &sample_density, &sample_seed,
     &sample_grid_spacing, &contact, &contact_normal, &contact_tangential, &contact_rolling, &contact_twisting, &contact_kn, &contact_kt,
     &contact_youngs_modulus, &contact_poisson_ratio, &contact_rolling_stiffness, &contact_rolling_damping,
     &contact_rolling_friction, &contact_reference_overlap, &contact_tangential_rotation, &contact_moment_arm,

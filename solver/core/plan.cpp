@@ -101,7 +101,7 @@ double loading_rate(const Deck& deck, const TestDef& test) {
 
 namespace {
 double largest_radius(const SampleDef& sample) {
-  return 0.5 * *std::max_element(sample.diameters.begin(), sample.diameters.end());
+  return 0.5 * sample.largest_diameter();
 }
 }  // namespace
 
@@ -188,7 +188,7 @@ const ModeLimit& CriticalTimeStep::limiting() const {
 }
 
 CriticalTimeStep critical_time_steps(const SampleDef& sample, const ContactDef& contact) {
-  const double r = 0.5 * *std::min_element(sample.diameters.begin(), sample.diameters.end());
+  const double r = 0.5 * sample.smallest_diameter();
   const double m = body_properties(r, sample.density, {}, {}).mass;  // two equal spheres of the smallest size
   const ContactStiffness k = reference_stiffness(contact, sample);
   const double r_eff = 0.5 * r;                                       // R* of the pair
@@ -228,13 +228,21 @@ std::vector<TimeStepFinding> time_step_findings(double time_step, const Critical
 }
 
 double skin_length(const Deck& deck) {
-  return deck.neighbor_skin * *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
+  return deck.neighbor_skin * deck.sample.largest_diameter();
 }
 
 double mean_diameter(const SampleDef& sample) {
+  if (sample.grading) return SizeDistribution(*sample.grading).mean_power(1);
   double d_mean = 0.0;
   for (double d : sample.diameters) d_mean += d / static_cast<double>(sample.diameters.size());
   return d_mean;
+}
+
+double mean_sphere_volume(const SampleDef& sample) {
+  if (sample.grading) return M_PI / 6.0 * SizeDistribution(*sample.grading).mean_power(3);
+  double solid = 0.0;  // sizes are drawn with equal probability
+  for (double d : sample.diameters) solid += M_PI / 6.0 * d * d * d / static_cast<double>(sample.diameters.size());
+  return solid;
 }
 
 namespace {
@@ -250,8 +258,7 @@ StepRange preparation_steps(const Deck& deck, double start_solid_fraction) {
   const SampleDef& s = deck.sample;
   int side = 1;  // the grid sample's (run/sample.cpp)
   while (static_cast<long long>(side) * side * side < s.count) ++side;
-  double solid = 0.0;  // sizes are drawn with equal probability
-  for (double d : s.diameters) solid += M_PI / 6.0 * d * d * d / static_cast<double>(s.diameters.size());
+  const double solid = mean_sphere_volume(s);
   double fraction = s.count * solid / std::pow(side * s.grid_spacing, 3);  // -1 once unknown
   // A generated sample runs the deck's legs as they are; a loaded one may leave the fast leg out.
   std::vector<Leg> legs = prep.legs;

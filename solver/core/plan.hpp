@@ -174,7 +174,10 @@ std::vector<TimeStepFinding> time_step_findings(double time_step, const Critical
 // The neighbour-list skin in metres: neighbor_skin times the largest diameter.
 double skin_length(const Deck& deck);
 
-double mean_diameter(const SampleDef& sample);  // sizes are drawn with equal probability
+// [m] and [m^3] the mean diameter and sphere volume over the sizes a sphere draws: the listed sizes with
+// equal probability, or a grading's number distribution (core/grading.hpp).
+double mean_diameter(const SampleDef& sample);
+double mean_sphere_volume(const SampleDef& sample);
 
 // What a whole run costs, for `check` and `plan` before it starts. Steps are a range: a leg that ends in
 // equilibrium runs between its min_steps and max_steps; -1 where only running tells (a stress or ratio end).

@@ -155,9 +155,60 @@ void read_fields(ObjectReader& r, S& s, const std::initializer_list<std::pair<co
   }
 }
 
-std::vector<double> read_diameters(ObjectReader d) {
+// An array of finite numbers; each element's errors name it (`path[i]`).
+std::vector<double> read_numbers(ObjectReader& r, const KeySpec& spec) {
+  const Json& list = r.raw(spec);
+  const std::string path = r.at(spec);
+  if (!list.is_array()) fail(path, "expected an array, got " + std::string(list.type_name()));
   std::vector<double> out;
-  if (d.has(keys::sample_diameters_list)) {
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    if (!list[i].is_number()) fail(path + "[" + std::to_string(i) + "]", "expected a number");
+    out.push_back(list[i].get<double>());
+    if (!std::isfinite(out.back())) fail(path + "[" + std::to_string(i) + "]", "must be finite");
+  }
+  return out;
+}
+
+GradingDef read_grading(ObjectReader r) {
+  GradingDef g;
+  g.by = r.choice_of<GradingBasis>(keys::sample_diameters_grading_by);
+  g.sizes = read_numbers(r, keys::sample_diameters_grading_sizes);
+  g.passing = read_numbers(r, keys::sample_diameters_grading_passing);
+  const std::string sizes = r.at(keys::sample_diameters_grading_sizes);
+  const std::string passing = r.at(keys::sample_diameters_grading_passing);
+  const auto at = [](const std::string& path, std::size_t i) { return path + "[" + std::to_string(i) + "]"; };
+  if (g.sizes.size() < 2) fail(sizes, "needs at least 2 sizes, got " + std::to_string(g.sizes.size()));
+  for (std::size_t i = 0; i < g.sizes.size(); ++i) {
+    if (!(g.sizes[i] > 0.0)) fail(at(sizes, i), "must be > 0, got " + fmt(g.sizes[i]));
+    if (i > 0 && !(g.sizes[i] > g.sizes[i - 1]))
+      fail(at(sizes, i), "must exceed the size before it (" + fmt(g.sizes[i - 1]) + "): sizes strictly increase");
+  }
+  if (g.passing.size() != g.sizes.size())
+    fail(passing, "has " + std::to_string(g.passing.size()) + " entries, one per size expected (" +
+                      std::to_string(g.sizes.size()) + ")");
+  for (std::size_t i = 0; i < g.passing.size(); ++i) {
+    if (g.passing[i] < 0.0 || g.passing[i] > 100.0) fail(at(passing, i), "must be in [0, 100], got " + fmt(g.passing[i]));
+    if (i > 0 && g.passing[i] < g.passing[i - 1])
+      fail(at(passing, i), "must be >= the percentage before it (" + fmt(g.passing[i - 1]) + "): passing never decreases");
+  }
+  if (g.passing.front() != 0.0)
+    fail(at(passing, 0), "must be 0: the first size bounds every sphere from below, got " + fmt(g.passing.front()));
+  if (g.passing.back() != 100.0)
+    fail(at(passing, g.passing.size() - 1),
+         "must be 100: the last size bounds every sphere from above, got " + fmt(g.passing.back()));
+  r.finish();
+  return g;
+}
+
+void read_diameters(ObjectReader d, SampleDef& s) {
+  std::vector<double>& out = s.diameters;
+  if (d.has(keys::sample_diameters_grading)) {
+    for (const KeySpec* k : {&keys::sample_diameters_list, &keys::sample_diameters_min, &keys::sample_diameters_max,
+                             &keys::sample_diameters_count})
+      if (d.has(*k))
+        fail(d.at(*k), "give one of \"list\", \"min\"/\"max\"/\"count\" or \"grading\", not more");
+    s.grading = read_grading(d.object(keys::sample_diameters_grading));
+  } else if (d.has(keys::sample_diameters_list)) {
     const Json& list = d.raw(keys::sample_diameters_list);
     const std::string path = d.at(keys::sample_diameters_list);
     if (!list.is_array() || list.empty()) fail(path, "expected a non-empty array");
@@ -172,7 +223,7 @@ std::vector<double> read_diameters(ObjectReader d) {
       fail(d.path(), "give either \"list\" or \"min\"/\"max\"/\"count\", not both");
   } else {
     for (const KeySpec* k : {&keys::sample_diameters_min, &keys::sample_diameters_max, &keys::sample_diameters_count})
-      if (!d.has(*k)) fail(d.at(*k), "missing required key (or give \"list\")");
+      if (!d.has(*k)) fail(d.at(*k), "missing required key (or give \"list\" or \"grading\")");
     const double lo = d.number(keys::sample_diameters_min);
     const double hi = d.number(keys::sample_diameters_max);
     const int n = static_cast<int>(d.integer(keys::sample_diameters_count));
@@ -181,7 +232,6 @@ std::vector<double> read_diameters(ObjectReader d) {
     for (int i = 0; i < n; ++i) out.push_back(n == 1 ? lo : lo + (hi - lo) * i / (n - 1));
   }
   d.finish();
-  return out;
 }
 
 SampleDef read_sample(ObjectReader r) {
@@ -189,8 +239,8 @@ SampleDef read_sample(ObjectReader r) {
   s.count = static_cast<int>(r.integer(keys::sample_count));
   s.density = r.number(keys::sample_density);
   s.seed = static_cast<std::uint64_t>(r.integer(keys::sample_seed));
-  s.diameters = read_diameters(r.object(keys::sample_diameters));
-  const double dmax = *std::max_element(s.diameters.begin(), s.diameters.end());
+  read_diameters(r.object(keys::sample_diameters), s);
+  const double dmax = s.largest_diameter();
   s.grid_spacing = r.has(keys::sample_grid_spacing) ? r.number(keys::sample_grid_spacing) : 1.1 * dmax;
   if (s.grid_spacing <= dmax)
     fail(r.at(keys::sample_grid_spacing),

@@ -992,7 +992,16 @@ std::string preparation_script_name(TargetCode code) { return std::string("prepa
 
 std::string preparation_series_name(TargetCode code) { return std::string("prepare.") + target_code_name(code) + ".csv"; }
 
+namespace {
+void require_listed_sizes(const Deck& deck) {
+  if (deck.sample.grading)
+    throw DeckError("sample.diameters.grading: the translated scripts give one atom type per listed diameter "
+                    "(per-type damping), which a graded sample does not have: translate a deck with a `list`");
+}
+}  // namespace
+
 std::vector<AtomType> atom_types(const Deck& deck) {
+  require_listed_sizes(deck);
   std::vector<AtomType> types;
   for (double d : deck.sample.diameters) {
     if (std::any_of(types.begin(), types.end(), [d](const AtomType& t) { return t.diameter == d; })) continue;
@@ -1024,6 +1033,7 @@ double nominal_normal_stiffness(const Deck& deck) {
 }  // namespace
 
 TranslatedServo translated_servo(const Deck& deck) {
+  require_listed_sizes(deck);
   // Nominal affine axis stiffness of a dense random packing, K = (1/V) sum kn (n_k l_k)^2 with <n_k^4> = 1/5:
   // K = kn Z phi <l^2> / (10 <v_s>), Z = 6, phi = 0.64, l = r_i + r_j, sizes drawn with equal probability.
   // (The 300-sphere test state: 1.89e8 nominal against 1.94e8-2.00e8 measured.)

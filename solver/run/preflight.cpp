@@ -26,16 +26,14 @@ std::string fmt(double x) {
 
 // The neighbour list needs every face width of the cell above 2 (largest diameter + skin).
 double smallest_cell_width(const Deck& deck) {
-  const double d_max = *std::max_element(deck.sample.diameters.begin(), deck.sample.diameters.end());
-  return 2.0 * (d_max + skin_length(deck));
+  return 2.0 * (deck.sample.largest_diameter() + skin_length(deck));
 }
 
 void check_prepared_cell(const Deck& deck) {
   const SampleDef& s = deck.sample;
   int side = 1;
   while (static_cast<long long>(side) * side * side < s.count) ++side;
-  double solid = 0.0;
-  for (double d : s.diameters) solid += M_PI / 6.0 * d * d * d / static_cast<double>(s.diameters.size());
+  const double solid = mean_sphere_volume(s);
   // A prepared random packing of spheres fills about 64 % of the cell.
   const double prepared = std::cbrt(s.count * solid / 0.64);
   const double needed = smallest_cell_width(deck);
@@ -118,6 +116,14 @@ void check_state(const Deck& deck, const std::string& path, std::vector<std::str
                     path + " holds " + std::to_string(n));
   for (std::size_t i = 0; i < n; ++i) {
     const double d = 2.0 * state.particles.radius[i];
+    if (const std::optional<GradingDef>& g = deck.sample.grading) {
+      const double lo = g->sizes.front(), hi = g->sizes.back();
+      if (d < lo * (1.0 - 1e-12) || d > hi * (1.0 + 1e-12))
+        throw DeckError("sample.diameters.grading: initial_state " + path + " holds a sphere of diameter " + fmt(d) +
+                        " m (particle " + std::to_string(i) + "), outside the grading's sizes [" + fmt(lo) + ", " +
+                        fmt(hi) + "] m");
+      continue;
+    }
     const bool listed = std::any_of(deck.sample.diameters.begin(), deck.sample.diameters.end(),
                                     [d](double x) { return std::abs(x - d) <= 1e-12 * x; });
     if (!listed)

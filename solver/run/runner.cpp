@@ -158,6 +158,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     s["celldem_version"] = CELLDEM_VERSION;
     s["deck"] = deck.source;
     s["settings"] = run_settings(deck, threads);
+    if (deck.sample.grading) s["grading"] = grading_json(*deck.sample.grading, run_sample_diameters(deck));
   });
 
   fs::path prepared;

@@ -22,8 +22,11 @@ State make_grid_sample(const SampleDef& sample, double skin) {
   s.particles.resize(n);
   s.pairs.skin = skin;
   Rng rng(sample.seed);
+  // A grading's sizes are the rng's first draws, one uniform each (graded_sample_diameters replays them); the
+  // listed sizes are drawn one per particle between the jitters, as they always were.
+  const std::vector<double> graded = sample.grading ? draw_diameters(*sample.grading, n, rng) : std::vector<double>{};
   for (int i = 0; i < n; ++i) {
-    const double d = sample.diameters[rng.below(sample.diameters.size())];
+    const double d = sample.grading ? graded[i] : sample.diameters[rng.below(sample.diameters.size())];
     s.particles.radius[i] = 0.5 * d;
     const int g[3] = {i % side, (i / side) % side, i / (side * side)};
     // Up to a quarter of the free gap each way: still no overlaps, but no perfect lattice either.
@@ -36,6 +39,12 @@ State make_grid_sample(const SampleDef& sample, double skin) {
   s.control.reference_lengths = s.cell.h.diagonal();
   s.control.reference_volume = s.cell.volume();
   return s;
+}
+
+std::vector<double> graded_sample_diameters(const SampleDef& sample) {
+  if (!sample.grading) return {};
+  Rng rng(sample.seed);
+  return draw_diameters(*sample.grading, sample.count, rng);
 }
 
 OverlapRelaxation relax_overlaps(const Deck& deck, State& state) {

@@ -13,8 +13,13 @@ namespace celldem {
 
 // n = ceil(count^(1/3)) points per side at grid_spacing; the first `count` grid points are used, each
 // sphere offset by a small random amount inside its free gap so that the grid is not a perfect lattice.
-// Sizes: each particle draws one of the listed diameters with equal probability (portable RNG).
+// Sizes: each particle draws one of the listed diameters with equal probability, or, with a grading, a
+// diameter by inverse transform of the grading's number distribution (core/grading.hpp); portable RNG.
 State make_grid_sample(const SampleDef& sample, double skin);
+
+// The diameters [m] that make_grid_sample gives a graded sample's spheres, in particle order, without
+// building it; empty for the listed forms.
+std::vector<double> graded_sample_diameters(const SampleDef& sample);
 
 // The soft start of an imported sample (prepare.relax_overlaps): the overlaps as loaded and after the cell's
 // isotropic dilation by `factor` (1: none asked for, or none needed), relative to the smaller radius.

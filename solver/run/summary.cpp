@@ -8,6 +8,8 @@
 #include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
 #include "run/health.hpp"
+#include "run/preflight.hpp"
+#include "run/sample.hpp"
 
 namespace celldem {
 using Json = nlohmann::json;
@@ -206,6 +208,7 @@ Json run_settings(const Deck& deck, int threads) {
   return {{"deck", deck.source},
           {"particles", deck.sample.count},
           {"diameters_m", deck.sample.diameters},
+          {"mean_diameter_m", mean_diameter(deck.sample)},
           {"density", deck.sample.density},
           {"seed", deck.sample.seed},
           {"time_step", deck.time_step},
@@ -221,6 +224,26 @@ Json run_settings(const Deck& deck, int threads) {
           {"servo_integral_gain", deck.servo.integral_gain},
           {"servo_max_strain_increment", deck.servo.max_strain_increment},
           {"threads", threads}};
+}
+
+Json grading_json(const GradingDef& grading, const std::vector<double>& diameters) {
+  const std::vector<double> realised = realised_passing(grading, diameters);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < realised.size(); ++k) worst = std::max(worst, std::abs(realised[k] - grading.passing[k]));
+  return {{"by", name_of(grading.by, kGradingBasisNames)},
+          {"sizes_m", grading.sizes},
+          {"asked_percent", grading.passing},
+          {"realised_percent", realised},
+          {"largest_deviation_percent", worst},
+          {"spheres", diameters.size()}};
+}
+
+std::vector<double> run_sample_diameters(const Deck& deck) {
+  if (!deck.initial_state) return graded_sample_diameters(deck.sample);
+  const State state = load_initial_state(deck);
+  std::vector<double> d(state.particles.size());
+  for (std::size_t i = 0; i < d.size(); ++i) d[i] = 2.0 * state.particles.radius[i];
+  return d;
 }
 
 }  // namespace celldem

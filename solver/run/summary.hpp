@@ -44,4 +44,13 @@ nlohmann::json summarize_preparation(const Model& model, const State& state, con
 // The settings a run used (the physics and the thread count).
 nlohmann::json run_settings(const Deck& deck, int threads);
 
+// A grading asked for and the one these diameters [m] realise: the percent passing each sieve size by the
+// grading's basis, asked and realised, and the largest difference (percentage points). `celldem plan` prints
+// it for the sample the seed draws; summary.json's "grading" holds it for the run's sample.
+nlohmann::json grading_json(const GradingDef& grading, const std::vector<double>& diameters);
+
+// The diameters [m] of the sample a run starts from: the grid sample the seed draws (graded decks only), or
+// initial_state's spheres.
+std::vector<double> run_sample_diameters(const Deck& deck);
+
 }  // namespace celldem

@@ -110,6 +110,79 @@ TEST(Deck, OptionalChoicesAndListDiameters) {
   EXPECT_EQ(d.initial_state, "prepared.state");
 }
 
+void expect_error(const Json& j, const std::string& path, const std::string& also = "");
+
+Json graded_deck() {
+  Json j = minimal_deck();
+  j["sample"]["diameters"] = Json::parse(
+      R"({"grading": {"by": "mass", "sizes": [2.5e-3, 3.5e-3, 4.5e-3], "passing": [0, 40, 100]}})");
+  return j;
+}
+
+TEST(Deck, GradingParsesAndBoundsTheSizes) {
+  const Deck d = parse_deck(graded_deck().dump());
+  ASSERT_TRUE(d.sample.grading.has_value());
+  EXPECT_EQ(d.sample.grading->by, GradingBasis::Mass);
+  EXPECT_EQ(d.sample.grading->sizes, (std::vector<double>{2.5e-3, 3.5e-3, 4.5e-3}));
+  EXPECT_EQ(d.sample.grading->passing, (std::vector<double>{0, 40, 100}));
+  EXPECT_TRUE(d.sample.diameters.empty());
+  EXPECT_EQ(d.sample.smallest_diameter(), 2.5e-3);
+  EXPECT_EQ(d.sample.largest_diameter(), 4.5e-3);
+  EXPECT_EQ(d.sample.grid_spacing, 1.1 * 4.5e-3);  // the default follows the largest size
+  Json j = graded_deck();
+  j["sample"]["diameters"]["grading"]["by"] = "number";
+  EXPECT_EQ(parse_deck(j.dump()).sample.grading->by, GradingBasis::Number);
+  // The listed forms have no grading.
+  EXPECT_FALSE(parse_deck(minimal_deck().dump()).sample.grading.has_value());
+}
+
+TEST(DeckErrors, GradingNamesTheKey) {
+  struct Case {
+    const char* pointer;
+    Json value;
+    const char* path;
+    const char* also;
+  };
+  const Case cases[] = {
+      {"/sample/diameters/grading/by", "volume", "sample.diameters.grading.by", "\"mass\""},
+      {"/sample/diameters/grading/sizes", Json::array({2.5e-3}), "sample.diameters.grading.sizes", "at least 2"},
+      {"/sample/diameters/grading/sizes", "big", "sample.diameters.grading.sizes", "array"},
+      {"/sample/diameters/grading/sizes/1", "big", "sample.diameters.grading.sizes[1]", "number"},
+      {"/sample/diameters/grading/sizes/0", -1e-3, "sample.diameters.grading.sizes[0]", "> 0"},
+      {"/sample/diameters/grading/sizes/0", 0.0, "sample.diameters.grading.sizes[0]", "> 0"},
+      {"/sample/diameters/grading/sizes/2", 3.5e-3, "sample.diameters.grading.sizes[2]", "increase"},
+      {"/sample/diameters/grading/sizes/1", 2.0e-3, "sample.diameters.grading.sizes[1]", "increase"},
+      {"/sample/diameters/grading/passing", Json::array({0, 100}), "sample.diameters.grading.passing", "one per size"},
+      {"/sample/diameters/grading/passing/1", -5, "sample.diameters.grading.passing[1]", "[0, 100]"},
+      {"/sample/diameters/grading/passing/1", 120, "sample.diameters.grading.passing[1]", "[0, 100]"},
+      {"/sample/diameters/grading/passing/1", "x", "sample.diameters.grading.passing[1]", "number"},
+      {"/sample/diameters/grading/passing/0", 10, "sample.diameters.grading.passing[0]", "must be 0"},
+      {"/sample/diameters/grading/passing/2", 90, "sample.diameters.grading.passing[2]", "must be 100"},
+      {"/sample/diameters/grading/size", 1, "sample.diameters.grading.size", "unknown key"},
+      {"/sample/diameters/list", Json::array({3e-3}), "sample.diameters.list", "not more"},
+      {"/sample/diameters/min", 3e-3, "sample.diameters.min", "not more"},
+      {"/sample/diameters/count", 3, "sample.diameters.count", "not more"},
+      {"/sample/grid_spacing", 4.0e-3, "sample.grid_spacing", "largest diameter (0.0045)"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.pointer);
+    Json j = graded_deck();
+    j[Json::json_pointer(c.pointer)] = c.value;
+    expect_error(j, c.path, c.also);
+  }
+  Json j = graded_deck();
+  j["sample"]["diameters"]["grading"]["passing"] = {0, 60, 40};  // decreasing, though it ends at 40
+  expect_error(j, "sample.diameters.grading.passing[2]", "never decreases");
+  for (const char* key : {"by", "sizes", "passing"}) {
+    j = graded_deck();
+    j["sample"]["diameters"]["grading"].erase(key);
+    expect_error(j, std::string("sample.diameters.grading.") + key, "missing");
+  }
+  j = graded_deck();
+  j["sample"]["diameters"]["grading"] = 5;
+  expect_error(j, "sample.diameters.grading", "object");
+}
+
 TEST(Deck, CriticalTimeStepIsSqrtOfLightestMassOverKn) {
   SampleDef s;
   s.density = 2650;
@@ -121,7 +194,7 @@ TEST(Deck, CriticalTimeStepIsSqrtOfLightestMassOverKn) {
 }
 
 // Parses a mutated deck and checks the error names `path` (the message is "path: what").
-void expect_error(const Json& j, const std::string& path, const std::string& also = "") {
+void expect_error(const Json& j, const std::string& path, const std::string& also) {
   try {
     (void)parse_deck(j.dump());
     ADD_FAILURE() << "no error for " << path;

@@ -122,6 +122,52 @@ TEST(EndToEnd, DeckErrorExitsTwoNamingTheKey) {
   EXPECT_EQ(r.err.find("0.002 lies"), std::string::npos) << r.err;
 }
 
+// A graded deck prepares; summary.json's grading is the prepared state's realised curve, the one `celldem plan`
+// reports for the seed's draw; the translator, which types spheres by listed size, refuses it naming the key.
+TEST(EndToEnd, GradedSamplePreparesAndReportsItsCurve) {
+  const fs::path dir = test_dir("graded");
+  std::string text = testing::small_deck_json(216, "[]");
+  const std::string listed = R"("diameters": {"min": 3.0e-3, "max": 4.5e-3, "count": 4})";
+  text.replace(text.find(listed), listed.size(),
+               R"("diameters": {"grading": {"by": "mass", "sizes": [3.0e-3, 3.6e-3, 4.5e-3], "passing": [0, 30, 100]}})");
+  const fs::path deck = dir / "deck.json", out = dir / "run";
+  testing::write_bytes(deck, text);
+  const Result plan = celldem(dir, "plan '" + deck.string() + "' --json");
+  ASSERT_EQ(plan.code, 0) << plan.err;
+  const auto planned = nlohmann::json::parse(plan.out)["sample"]["grading"];
+  const Result r = celldem(dir, run_args(deck, out));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto grading = nlohmann::json::parse(read_bytes(out / "summary.json"))["grading"];
+  ASSERT_TRUE(grading.is_object()) << grading;
+  EXPECT_EQ(grading["by"], "mass");
+  EXPECT_EQ(grading["asked_percent"], nlohmann::json::array({0, 30, 100}));
+  EXPECT_EQ(grading["spheres"], 216);
+  // The curve of the spheres the prepared state holds (their sizes do not change), counted here.
+  const State prepared = read_state((out / "prepared.state").string());
+  const std::vector<double> sieves = {3.0e-3, 3.6e-3, 4.5e-3};
+  double total = 0.0;
+  std::vector<double> below(3, 0.0);
+  for (double radius : prepared.particles.radius) {
+    const double d = 2.0 * radius, m = d * d * d;
+    total += m;
+    for (int k = 0; k < 3; ++k)
+      if (d <= sieves[k]) below[k] += m;
+  }
+  double worst = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(grading["realised_percent"][k].get<double>(), 100.0 * below[k] / total, 1e-9) << k;
+    worst = std::max(worst, std::abs(100.0 * below[k] / total - grading["asked_percent"][k].get<double>()));
+  }
+  EXPECT_NEAR(grading["largest_deviation_percent"].get<double>(), worst, 1e-9);
+  EXPECT_EQ(planned, grading);
+  const Result text_plan = celldem(dir, "plan '" + deck.string() + "'");
+  EXPECT_NE(text_plan.out.find("grading by mass"), std::string::npos) << text_plan.out;
+  EXPECT_NE(text_plan.out.find("largest deviation"), std::string::npos) << text_plan.out;
+  const Result translated = celldem(dir, "translate '" + deck.string() + "' --to lammps --out '" + (dir / "lmp").string() + "'");
+  EXPECT_EQ(translated.code, 2);
+  EXPECT_NE(translated.err.find("sample.diameters.grading"), std::string::npos) << translated.err;
+}
+
 // Interrupted by SIGINT part-way (during the preparation or the test, whichever it happens to be), then
 // resumed: the series and states are byte-identical to an uninterrupted run's.
 TEST(EndToEnd, InterruptedRunResumesToSameBytes) {

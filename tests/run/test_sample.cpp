@@ -5,6 +5,7 @@
 #include <cmath>
 #include <set>
 
+#include "core/rng.hpp"
 #include "helpers.hpp"
 #include "run/sample.hpp"
 
@@ -60,6 +61,60 @@ TEST(Sample, SameSeedSameSampleOtherSeedOther) {
   EXPECT_EQ(a.particles.radius, b.particles.radius);
   EXPECT_EQ(a.particles.scaled, b.particles.scaled);
   EXPECT_NE(a.particles.scaled, c.particles.scaled);
+}
+
+// The listed forms draw as they always did: each particle one size by Rng::below, then its three jitters,
+// from one stream seeded by the seed (written out here as the algorithm was), bit for bit.
+TEST(Sample, ListedSizesDrawExactlyAsBefore) {
+  for (std::uint64_t seed : {1u, 7u, 12345u}) {
+    const SampleDef def = sample_def(125, seed);
+    const State s = make_grid_sample(def, 1e-4);
+    Rng rng(seed);
+    const double length = 5 * def.grid_spacing;
+    for (int i = 0; i < def.count; ++i) {
+      const double d = def.diameters[rng.below(def.diameters.size())];
+      ASSERT_EQ(s.particles.radius[i], 0.5 * d) << i;
+      const int g[3] = {i % 5, (i / 5) % 5, i / 25};
+      const double gap = 0.25 * (def.grid_spacing - d);
+      for (int k = 0; k < 3; ++k)
+        ASSERT_EQ(s.particles.scaled[i][k], ((g[k] + 0.5) * def.grid_spacing + gap * (2.0 * rng.uniform() - 1.0)) / length);
+    }
+    EXPECT_TRUE(graded_sample_diameters(def).empty());
+  }
+}
+
+SampleDef graded_def(int count, std::uint64_t seed) {
+  SampleDef d = sample_def(count, seed);
+  d.diameters.clear();
+  d.grading = GradingDef{GradingBasis::Mass, {2e-3, 3e-3, 4.5e-3}, {0.0, 30.0, 100.0}};
+  return d;
+}
+
+// A graded sample: the sizes graded_sample_diameters replays, inside the grading's bounds, no overlaps, and
+// the seed decides them.
+TEST(Sample, GradedSizesAreTheReplayedDrawsWithoutOverlap) {
+  const SampleDef def = graded_def(125, 3);
+  const State s = make_grid_sample(def, 1e-4);
+  const std::vector<double> d = graded_sample_diameters(def);
+  ASSERT_EQ(d.size(), 125u);
+  std::set<double> sizes;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    EXPECT_EQ(s.particles.radius[i], 0.5 * d[i]) << i;
+    EXPECT_GE(d[i], 2e-3);
+    EXPECT_LE(d[i], 4.5e-3);
+    sizes.insert(d[i]);
+  }
+  EXPECT_EQ(sizes.size(), d.size());  // a continuous distribution: no two alike
+  double closest = 1e9;
+  for (std::size_t i = 0; i < s.particles.size(); ++i)
+    for (std::size_t j = i + 1; j < s.particles.size(); ++j) {
+      Vec3 ds = s.particles.scaled[j] - s.particles.scaled[i];
+      ds -= ds.array().round().matrix();
+      closest = std::min(closest, (s.cell.h * ds).norm() - s.particles.radius[i] - s.particles.radius[j]);
+    }
+  EXPECT_GT(closest, 0.0);
+  EXPECT_EQ(make_grid_sample(def, 1e-4).particles.scaled, s.particles.scaled);
+  EXPECT_NE(graded_sample_diameters(graded_def(125, 4)), d);
 }
 
 }  // namespace

@@ -32,6 +32,28 @@ for heading in "Comparison with the paper" "Per-test values" "Tests compared"; d
 done
 if grep -q "n/a" "$r"; then fail "preparation-only run: n/a in the report"; fi
 
+echo "1b. a graded preparation: the report's grading table is summary.json's, row by row"
+deck "$TMP/graded.json" '[]'
+"$PY" - "$TMP/graded.json" <<'EOF'
+import json, sys
+deck = json.load(open(sys.argv[1]))
+deck["sample"]["diameters"] = {"grading": {"by": "mass", "sizes": [0.003, 0.0036, 0.0045], "passing": [0, 30, 100]}}
+json.dump(deck, open(sys.argv[1], "w"))
+EOF
+run "$TMP/graded.json" --out "$TMP/graded"
+"$PY" "$ROOT/tools/report.py" "$TMP/graded" >/dev/null || fail "report.py on a graded run"
+"$PY" - "$TMP/graded" <<'EOF' || fail "grading table"
+import json, sys
+g = json.load(open(sys.argv[1] + "/summary.json"))["grading"]
+text = open(sys.argv[1] + "/report.md").read()
+assert "## Grading" in text, "no Grading section"
+for size, asked, realised in zip(g["sizes_m"], g["asked_percent"], g["realised_percent"]):
+    row = f"| {size * 1e3:.4g} | {asked:.2f} | {realised:.2f} |"
+    assert row in text, f"no row {row}"
+assert f"largest deviation {g['largest_deviation_percent']:.2f} percentage points" in text, "no largest deviation"
+EOF
+if grep -q "^## Grading" "$TMP/prep/report.md"; then fail "a listed sample's report has a Grading section"; fi
+
 echo "2. tests under arbitrary names: a figure per test, force chains, no paper table"
 tests='[{"name":"Squash-A","friction":0.5,"axes":{"x1":{"strain_increment":1e-6},"x2":{"stress":1e5},"x3":{"stress":1e5}},
          "end":{"axis":"x1","strain":0.006},"output_interval":250},

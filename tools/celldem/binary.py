@@ -81,8 +81,11 @@ def test_plan(deck_plan, name):
 
 
 def solid_volume(deck_plan):
-    """[m^3] the spheres' volume: count × the mean over the equally likely sizes of mass / density."""
-    types = deck_plan["particle_types"]
+    """[m^3] the spheres' volume: count × the plan's mean sphere volume (a grading's included), or for plans of
+    earlier versions the mean over the equally likely sizes of mass / density."""
     sample = deck_plan["sample"]
+    if sample.get("mean_sphere_volume") is not None:
+        return sample["count"] * sample["mean_sphere_volume"]
+    types = deck_plan["particle_types"]
     return sample["count"] * sum(t["mass"] for t in types) / len(types) / sample["density"]
 

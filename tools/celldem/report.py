@@ -15,7 +15,7 @@ import numpy as np
 
 from . import failure_surface, figures, metrics, scenes
 from .results import Ensemble, number, read_json
-from .tables import fmt, md_table, scaled, yes_no
+from .tables import fmt, fmt_spec, md_table, scaled, yes_no
 
 PERCENT = 100.0
 
@@ -371,6 +371,21 @@ def prepared_section(run):
     return out
 
 
+def grading_section(run):
+    """summary.json's grading: the percent passing each sieve, asked and realised by the run's sample (celldem
+    computes both); None when the deck lists its sizes."""
+    g = run.summary.get("grading")
+    if not isinstance(g, dict):
+        return None
+    rows = [(fmt_spec(size * 1e3, ".4g"), fmt_spec(asked, ".2f"), fmt_spec(realised, ".2f"))
+            for size, asked, realised in zip(g.get("sizes_m") or [], g.get("asked_percent") or [],
+                                             g.get("realised_percent") or [])]
+    out = md_table(("Sieve size (mm)", "Asked (% passing)", "Realised (% passing)"), rows, align="rrr")
+    return (f"Grading by {g.get('by', 'n/a')}, realised by the run's {fmt(g.get('spheres'))} spheres (summary.json "
+            f"grading); largest deviation {fmt_spec(g.get('largest_deviation_percent'), '.2f')} percentage points.\n\n"
+            + out)
+
+
 def end_window_text(run):
     widths = {run.quantity(t, "end_window.strain") for t in run.test_names} - {None}
     width = f"{PERCENT * widths.pop():g} %" if len(widths) == 1 else "the last 0.5 %"
@@ -532,6 +547,7 @@ def build_report(run, paper, planned):
                 f"means are celldem's (summary.json; {end_window_text(run)}); maxima, start values and the final "
                 "σ1/σ3 are read from each series.csv.", "",
                 peaks_section(run), ""]
+    out += section("Grading", grading_section(run))
     out += section("Preparation", prepared_section(run))
     out += section("Force chains", force_chain_section(planned))
     out += section("Failure surface", failure_surface_section(run))

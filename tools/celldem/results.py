@@ -127,8 +127,12 @@ class Run:
         return {}
 
     def mean_diameter(self):
-        """The mean sphere diameter [m]: each size of summary.json's settings.diameters_m is equally likely."""
-        sizes = [number(d) for d in (self.summary.get("settings") or {}).get("diameters_m") or []]
+        """The mean sphere diameter [m]: summary.json's settings.mean_diameter_m (celldem's, a grading's included),
+        else the mean of settings.diameters_m, each size equally likely (runs of earlier versions)."""
+        settings = self.summary.get("settings") or {}
+        if number(settings.get("mean_diameter_m")):
+            return number(settings["mean_diameter_m"])
+        sizes = [number(d) for d in settings.get("diameters_m") or []]
         sizes = [d for d in sizes if d]
         return sum(sizes) / len(sizes) if sizes else None
 
