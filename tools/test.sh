@@ -13,7 +13,7 @@ if [[ "${CELLDEM_QUICK:-0}" != 1 ]]; then
   echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer, invariants checked (CELLDEM_CHECKS) =="
   # Only the unit tests' executables (the binary and the whole-run tests are not run here).
   CELLDEM_BUILD_DIR=build-asan \
-    CELLDEM_TARGETS="test_core test_cell test_neighbor test_contact test_integrate test_measure test_io test_step" \
+    CELLDEM_TARGETS="test_core test_cell test_neighbor test_contact test_integrate test_measure test_io test_step test_run_rules" \
     bash tools/build.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCELLDEM_SANITIZE=ON -DCELLDEM_CHECKS=ON
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j 2 -L unit)
   echo "== fuzzing =="

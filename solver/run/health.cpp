@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 
 #include "core/plan.hpp"
 #include "measure/micro.hpp"
@@ -62,8 +63,9 @@ void RunawayMonitor::check(const Model& model, const State& state) {
 void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64_t step) {
   for (const SeriesColumn& c : series_columns())
     if (c.must_be_finite && !std::isfinite(row.*c.field))
-      throw RunError("non-finite values in stage '" + stage + "' at step " + std::to_string(step) +
-                     " (unstable time step or loading?); the last checkpoint holds the last good state");
+      throw RunError("non-finite values in stage '" + stage + "' at step " + std::to_string(step) + " (column " +
+                     std::string(c.name) + " is " + std::to_string(row.*c.field) +
+                     "; unstable time step or loading?); the last checkpoint holds the last good state");
 }
 
 double servo_max_error(const std::vector<ControlErrors>& errors) {

@@ -1,0 +1,80 @@
+// The health checks' rules on their own (solver/run/health.hpp): the largest control error over every kind of
+// control, failed controls as records with their kind and tolerance, and a non-finite row named by its column.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "run/health.hpp"
+#include "run/runner.hpp"
+
+namespace celldem {
+namespace {
+
+TestDef three_axis_test(AxisMode x1, AxisMode x2, AxisMode x3) {
+  TestDef t;
+  t.name = std::string("test");  // (from a literal directly, GCC 12 warns falsely of overlapping memcpy)
+  Leg leg;
+  leg.axes[0].mode = x1, leg.axes[1].mode = x2, leg.axes[2].mode = x3;
+  t.legs = {leg, leg};
+  return t;
+}
+
+TEST(Health, ServoMaxErrorIsTheWorstOfEveryKindAndNaNWhenNothingWasMeasured) {
+  EXPECT_TRUE(std::isnan(servo_max_error({})));
+  EXPECT_TRUE(std::isnan(servo_max_error({ControlErrors{}, ControlErrors{}})));  // a hold leg measures nothing
+  ControlErrors stress, b;
+  stress.stress = 0.003;
+  b.b = 0.02, b.mean_stress = 0.001;  // b is absolute, the others relative: the worst of them, as printed
+  EXPECT_EQ(servo_max_error({stress, b}), 0.02);
+  ControlErrors volume;
+  volume.volume = 0.5;
+  EXPECT_EQ(servo_max_error({stress, ControlErrors{}, volume}), 0.5);
+}
+
+TEST(Health, ControlFailuresNameLegAxisKindAndTolerance) {
+  const TestDef test = three_axis_test(AxisMode::StrainIncrement, AxisMode::B, AxisMode::MeanStress);
+  std::vector<ControlErrors> errors(2);
+  errors[1].failed[1] = true, errors[1].axis_error[1] = 0.3;
+  errors[1].failed[2] = true, errors[1].axis_error[2] = 0.04;
+  const std::vector<ControlFailureRecord> f = control_failures(test, errors);
+  ASSERT_EQ(f.size(), 2u);
+  EXPECT_EQ(f[0].leg, 1u);
+  EXPECT_EQ(f[0].axis, 1);
+  EXPECT_EQ(f[0].kind, "b");
+  EXPECT_EQ(f[0].tolerance, kBTolerance);
+  EXPECT_EQ(f[0].error, 0.3);
+  EXPECT_EQ(f[1].kind, "mean_stress");
+  EXPECT_EQ(f[1].tolerance, kMeanStressTolerance);
+  // A warning per failure (control_failure "warn"), naming the test.
+  const std::vector<std::string> w = control_warnings(test, errors);
+  ASSERT_EQ(w.size(), 2u);
+  EXPECT_NE(w[0].find("'test'"), std::string::npos) << w[0];
+  EXPECT_TRUE(control_failures(test, std::vector<ControlErrors>(2)).empty());
+}
+
+TEST(Health, InertialNumberAboveTheQuasiStaticLimitIsAWarning) {
+  const TestDef test = three_axis_test(AxisMode::StrainIncrement, AxisMode::Stress, AxisMode::Stress);
+  EXPECT_TRUE(test_warnings(test, 9e-4).empty());
+  ASSERT_EQ(test_warnings(test, 2e-3).size(), 1u);
+  EXPECT_NE(test_warnings(test, 2e-3)[0].find("inertial number"), std::string::npos);
+}
+
+TEST(Health, ANonFiniteRowNamesItsColumnStageAndStep) {
+  SeriesRow row;
+  row.b = std::numeric_limits<double>::quiet_NaN();  // b is nan by design while s1 - s3 is noise
+  EXPECT_NO_THROW(check_row_finite(row, "ttc", 10));
+  row.s22 = std::numeric_limits<double>::infinity();
+  try {
+    check_row_finite(row, "ttc", 10);
+    FAIL() << "no error for an infinite s22";
+  } catch (const RunError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("s22"), std::string::npos) << m;
+    EXPECT_NE(m.find("ttc"), std::string::npos) << m;
+    EXPECT_NE(m.find("10"), std::string::npos) << m;
+  }
+}
+
+}  // namespace
+}  // namespace celldem
