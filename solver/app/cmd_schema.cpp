@@ -107,6 +107,41 @@ Json plan_json(const Deck& deck) {
               {"prepare", nullptr},
               {"initial_state", nullptr},
               {"tests", Json::array()}};
+  // The material's moduli (null for a law without E and nu) and the mean contact at the confining stress
+  // (null when the deck names no stress): core/plan's definitions, for the tools.
+  const ContactDef& c = deck.contact;
+  out["contact"] = {{"effective_modulus", has_material_moduli(c) ? Json(c.effective_modulus()) : Json(nullptr)},
+                    {"effective_shear_modulus", has_material_moduli(c) ? Json(c.effective_shear_modulus()) : Json(nullptr)},
+                    {"units", {{"effective_modulus", "Pa"}, {"effective_shear_modulus", "Pa"}}},
+                    {"definitions", {{"effective_modulus", "E* = E / (2 (1 - nu^2))"},
+                                     {"effective_shear_modulus", "G* = E / (4 (2 - nu) (1 + nu))"}}}};
+  out["mean_contact"] = nullptr;
+  if (const std::optional<MeanContact> m = mean_contact(deck)) {
+    out["mean_contact"] = {
+        {"confining_stress", m->confining_stress},
+        {"z_phi", kMeanContactZPhi},
+        {"mean_diameter", m->mean_diameter},
+        {"effective_radius", m->effective_radius},
+        {"force", m->force},
+        {"overlap", m->overlap},
+        {"secant_normal_stiffness", m->secant_normal_stiffness},
+        {"contact_radius", m->contact_radius},
+        {"mindlin_tangential_stiffness",
+         has_material_moduli(c) ? Json(m->mindlin_tangential_stiffness) : Json(nullptr)},
+        {"units", {{"confining_stress", "Pa"}, {"mean_diameter", "m"}, {"effective_radius", "m"}, {"force", "N"},
+                   {"overlap", "m"}, {"secant_normal_stiffness", "N/m"}, {"contact_radius", "m"},
+                   {"mindlin_tangential_stiffness", "N/m"}}},
+        {"definitions",
+         {{"confining_stress", "p: the deck's largest stress (preparation target, stress and mean_stress axes, "
+                               "stress ends)"},
+          {"force", "F = pi d^2 p / (Z phi): p = Z N <f l> / (6 V) (N_c = Z N / 2 contacts) with l = d, "
+                    "N = phi V / (pi d^3 / 6)"},
+          {"effective_radius", "R* = d / 4 (two spheres of the mean diameter d)"},
+          {"overlap", "delta under F by the normal law: F / kn, or hertz (3 F / (4 E* sqrt(R*)))^(2/3)"},
+          {"secant_normal_stiffness", "F / delta"},
+          {"contact_radius", "a = sqrt(R* delta)"},
+          {"mindlin_tangential_stiffness", "8 G* a"}}}};
+  }
   if (const std::optional<GradingDef>& g = deck.sample.grading) {
     // The sample the seed draws; an initial_state's spheres are the run's (summary.json's "grading").
     Json grading = grading_json(*g, deck.initial_state ? std::vector<double>{} : graded_sample_diameters(deck.sample));

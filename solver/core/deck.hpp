@@ -59,6 +59,11 @@ struct ContactDef {
     return youngs_modulus / (4.0 * (2.0 - poisson_ratio) * (1.0 + poisson_ratio));
   }
   bool rotational_history() const { return rolling != RollingModel::None || twisting != TwistingModel::None; }
+  // The sub-model choices by their deck names (which keys they use: core/deck_schema.hpp's sub_models).
+  SubModelSelection selection() const {
+    return {name_of(normal, kNormalModelNames), name_of(tangential, kTangentialModelNames),
+            name_of(rolling, kRollingModelNames), name_of(twisting, kTwistingModelNames)};
+  }
   // The contact radius of each pair's last step is kept (mindlin_rescale).
   bool radius_history() const { return tangential == TangentialModel::MindlinRescale; }
 };

@@ -15,6 +15,16 @@ namespace celldem {
 
 enum class KeyKind { Object, Number, Integer, String, Choice, Array, Boolean };
 
+// A choice of a contact sub-model: the contact key that makes it ("normal", "tangential", "rolling",
+// "twisting") and one of that key's choices; an empty choice stands for every one of them.
+struct SubModelChoice {
+  std::string_view sub_model;
+  std::string_view choice;
+};
+// The sub-model choices that use a key, in table order; unused entries are empty.
+using SubModelUses = std::array<SubModelChoice, 3>;
+constexpr SubModelUses used_by(SubModelChoice a, SubModelChoice b = {}, SubModelChoice c = {}) { return {a, b, c}; }
+
 struct KeySpec {
   std::string_view path;     // JSON path; "tests[]" stands for every test, "xK" for x1, x2 and x3
   KeyKind kind = KeyKind::Number;
@@ -25,6 +35,11 @@ struct KeySpec {
   double fallback = 0.0;     // default of an optional number or integer
   std::string_view default_text = {};  // default as the table prints it, when it is not `fallback`
   std::span<const std::string_view> choices = {};  // KeyKind::Choice
+  // The contact sub-model choices whose key this is (empty: a key of no sub-model). The reader refuses the key,
+  // naming the choice it belongs to, when the deck makes none of them, and with `required_when_used` requires
+  // it when the deck makes one; `celldem schema` prints both, and the tools take them from there.
+  SubModelUses sub_models = {};
+  bool required_when_used = false;
   std::string_view unit = {};
   std::string_view meaning = {};
 
@@ -37,6 +52,10 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kMaxCount = 1125899906842624.0;  // 2^50: counts of steps and rows
 constexpr double kMaxSeed = 9007199254740992.0;   // 2^53: seeds a double still holds exactly
 constexpr std::size_t kMaxTestNameLength = 64;     // a folder and file prefix: far below any NAME_MAX
+
+// The choices whose stiffness follows the material (E, nu): Hertz's normal law and both Mindlin laws.
+inline constexpr SubModelUses kMaterialLaws =
+    used_by({"normal", "hertz"}, {"tangential", "mindlin"}, {"tangential", "mindlin_rescale"});
 
 // clang-format off
 inline constexpr KeySpec format{.path = "format", .kind = KeyKind::Integer, .min = 1, .max = 1000,
@@ -85,11 +104,11 @@ inline constexpr KeySpec sample_grid_spacing{.path = "sample.grid_spacing", .kin
 inline constexpr KeySpec contact{.path = "contact", .kind = KeyKind::Object, .meaning = "the contact law"};
 inline constexpr KeySpec contact_normal{.path = "contact.normal", .kind = KeyKind::Choice, .required = false,
     .choices = kNormalModelNames,
-    .meaning = "normal law: `linear` (kn overlap) or `hertz` (4/3 E* sqrt(R*) overlap^3/2, from `youngs_modulus` "
+    .sub_models = used_by({"normal", ""}), .meaning = "normal law: `linear` (kn overlap) or `hertz` (4/3 E* sqrt(R*) overlap^3/2, from `youngs_modulus` "
                "and `poisson_ratio`)"};
 inline constexpr KeySpec contact_tangential{.path = "contact.tangential", .kind = KeyKind::Choice, .required = false,
     .choices = kTangentialModelNames,
-    .meaning = "tangential spring: `linear_history` (kt), `mindlin` (8 G* a, a = sqrt(R* overlap)) or `mindlin_rescale` "
+    .sub_models = used_by({"tangential", ""}), .meaning = "tangential spring: `linear_history` (kt), `mindlin` (8 G* a, a = sqrt(R* overlap)) or `mindlin_rescale` "
                "(mindlin, its displacement scaled by a / a_old whenever a shrinks, as LAMMPS's); Coulomb-capped. "
                "Neither Mindlin law is conservative: a spring stretched by xi at stiffness k1, stiffened to k2 by a "
                "larger overlap and let back returns 1/2 (k2 - k1) xi^2 more than it took (as LAMMPS documents for "
@@ -97,46 +116,51 @@ inline constexpr KeySpec contact_tangential{.path = "contact.tangential", .kind 
                "it makes the spring lose energy instead"};
 inline constexpr KeySpec contact_rolling{.path = "contact.rolling", .kind = KeyKind::Choice, .required = false,
     .choices = kRollingModelNames,
-    .meaning = "rolling resistance: `none` or `sds` (spring-dashpot-slider on the rolling displacement, as LAMMPS "
+    .sub_models = used_by({"rolling", ""}), .meaning = "rolling resistance: `none` or `sds` (spring-dashpot-slider on the rolling displacement, as LAMMPS "
                "`rolling sds`)"};
 inline constexpr KeySpec contact_twisting{.path = "contact.twisting", .kind = KeyKind::Choice, .required = false,
     .choices = kTwistingModelNames,
-    .meaning = "twisting resistance: `none` or `marshall` (0.5 kt a^2, capped at 2/3 a mu fn, as LAMMPS `twisting "
+    .sub_models = used_by({"twisting", ""}), .meaning = "twisting resistance: `none` or `marshall` (0.5 kt a^2, capped at 2/3 a mu fn, as LAMMPS `twisting "
                "marshall`)"};
 inline constexpr KeySpec contact_kn{.path = "contact.kn", .kind = KeyKind::Number, .positive = true,
-    .required = false, .default_text = "required with `normal: linear`", .unit = "N/m",
+    .required = false, .default_text = "required with `normal: linear`",
+    .sub_models = used_by({"normal", "linear"}), .required_when_used = true, .unit = "N/m",
     .meaning = "normal spring stiffness"};
 inline constexpr KeySpec contact_kt{.path = "contact.kt", .kind = KeyKind::Number, .min = 0, .required = false,
-    .default_text = "required with `tangential: linear_history`", .unit = "N/m",
+    .default_text = "required with `tangential: linear_history`",
+    .sub_models = used_by({"tangential", "linear_history"}), .required_when_used = true, .unit = "N/m",
     .meaning = "tangential spring stiffness"};
 inline constexpr KeySpec contact_youngs_modulus{.path = "contact.youngs_modulus", .kind = KeyKind::Number,
-    .positive = true, .required = false, .default_text = "required with `hertz`, `mindlin`, `mindlin_rescale`", .unit = "Pa",
+    .positive = true, .required = false, .default_text = "required with `hertz`, `mindlin`, `mindlin_rescale`",
+    .sub_models = kMaterialLaws, .required_when_used = true, .unit = "Pa",
     .meaning = "Young's modulus E of the particles (E* = E / (2 (1 - nu^2)))"};
 inline constexpr KeySpec contact_poisson_ratio{.path = "contact.poisson_ratio", .kind = KeyKind::Number, .min = 0,
     .max = 0.49, .required = false, .default_text = "required with `hertz`, `mindlin`, `mindlin_rescale`",
-    .meaning = "Poisson's ratio nu of the particles (G* = E / (4 (2 - nu) (1 + nu)))"};
+    .sub_models = kMaterialLaws, .required_when_used = true, .meaning = "Poisson's ratio nu of the particles (G* = E / (4 (2 - nu) (1 + nu)))"};
 inline constexpr KeySpec contact_rolling_stiffness{.path = "contact.rolling_stiffness", .kind = KeyKind::Number,
-    .positive = true, .required = false, .default_text = "required with `rolling: sds`", .unit = "N/m",
+    .positive = true, .required = false, .default_text = "required with `rolling: sds`",
+    .sub_models = used_by({"rolling", "sds"}), .required_when_used = true, .unit = "N/m",
     .meaning = "rolling spring: force -k_roll xi_roll, its moment R* n x f_roll"};
 inline constexpr KeySpec contact_rolling_damping{.path = "contact.rolling_damping", .kind = KeyKind::Number,
-    .min = 0, .required = false, .fallback = 0.0, .unit = "N s/m",
+    .min = 0, .required = false, .fallback = 0.0, .sub_models = used_by({"rolling", "sds"}), .unit = "N s/m",
     .meaning = "rolling dashpot on the rolling velocity (LAMMPS's gamma_roll)"};
 inline constexpr KeySpec contact_rolling_friction{.path = "contact.rolling_friction", .kind = KeyKind::Number,
     .min = 0, .max = 1e3, .required = false, .default_text = "required with `rolling: sds`",
-    .meaning = "rolling slider: |f_roll| <= mu_roll fn in every test (`tests[].rolling_friction` overrides)"};
+    .sub_models = used_by({"rolling", "sds"}), .required_when_used = true, .meaning = "rolling slider: |f_roll| <= mu_roll fn in every test (`tests[].rolling_friction` overrides)"};
 inline constexpr KeySpec contact_reference_overlap{.path = "contact.reference_overlap", .kind = KeyKind::Number,
     .positive = true, .required = false,
-    .default_text = "overlap under 10 x the mean contact force at 3 x the deck's largest stress", .unit = "m",
+    .default_text = "overlap under 10 x the mean contact force at 3 x the deck's largest stress",
+    .sub_models = kMaterialLaws, .unit = "m",
     .meaning = "hertz/mindlin: the overlap whose stiffnesses set the time-step limit and the damping's critical "
                "values (the largest expected)"};
 inline constexpr KeySpec contact_tangential_rotation{.path = "contact.tangential_rotation", .kind = KeyKind::Choice,
-    .required = false, .choices = kTangentialRotationNames,
+    .required = false, .choices = kTangentialRotationNames, .sub_models = used_by({"tangential", ""}),
     .meaning = "when the tangent plane turns, `rotate` the spring keeping its length (as LAMMPS pair granular's "
                "`linear_history` and `mindlin`, which do it once the spring's normal part exceeds 1e-10 of the "
                "Coulomb limit), or `project` it (as LAMMPS gran/hooke/history, gran/hertz/history and LIGGGHTS's "
                "tangential history)"};
 inline constexpr KeySpec contact_moment_arm{.path = "contact.moment_arm", .kind = KeyKind::Choice,
-    .required = false, .choices = kMomentArmNames,
+    .required = false, .choices = kMomentArmNames, .sub_models = used_by({"tangential", ""}),
     .meaning = "lever arm of the tangential force and of the spin in the slip: `contact_point` (r - overlap/2, as "
                "LIGGGHTS) or `radius` (as LAMMPS gran/hooke/history and gran/hertz/history); LAMMPS pair granular "
                "matches neither (full radii in the slip, r - overlap/2 for the moment)"};
@@ -186,7 +210,7 @@ inline constexpr KeySpec prepare{.path = "prepare", .kind = KeyKind::Object, .re
 inline constexpr KeySpec prepare_friction{.path = "prepare.friction", .kind = KeyKind::Number, .min = 0, .max = 1e3,
     .required = false, .fallback = 0.0, .meaning = "interparticle friction coefficient while preparing"};
 inline constexpr KeySpec prepare_rolling_friction{.path = "prepare.rolling_friction", .kind = KeyKind::Number,
-    .min = 0, .max = 1e3, .required = false, .fallback = 0.0,
+    .min = 0, .max = 1e3, .required = false, .fallback = 0.0, .sub_models = used_by({"rolling", "sds"}),
     .meaning = "rolling friction coefficient while preparing (with `contact.rolling: sds`)"};
 inline constexpr KeySpec prepare_target_pressure{.path = "prepare.target_pressure", .kind = KeyKind::Number,
     .positive = true, .required = false, .default_text = "required without `legs`", .unit = "Pa",
@@ -255,7 +279,7 @@ inline constexpr KeySpec test_friction{.path = "tests[].friction", .kind = KeyKi
     .meaning = "interparticle friction coefficient"};
 inline constexpr KeySpec test_rolling_friction{.path = "tests[].rolling_friction", .kind = KeyKind::Number,
     .min = 0, .max = 1e3, .required = false, .default_text = "`contact.rolling_friction`",
-    .meaning = "rolling friction coefficient of this test (with `contact.rolling: sds`)"};
+    .sub_models = used_by({"rolling", "sds"}), .meaning = "rolling friction coefficient of this test (with `contact.rolling: sds`)"};
 inline constexpr KeySpec test_legs{.path = "tests[].legs", .kind = KeyKind::Array, .required = false,
     .default_text = "one leg: `axes`, `end`",
     .meaning = "instead of `axes` and `end`: a load program, legs `{\"axes\", \"end\"}` run in order, each from where "
@@ -338,6 +362,62 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
     &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic});
+
+// The keys that choose the contact sub-models; a SubModelSelection names each one's choice in this order.
+inline constexpr auto kSubModels = std::to_array<const KeySpec*>({&contact_normal, &contact_tangential,
+                                                                 &contact_rolling, &contact_twisting});
 }  // namespace keys
+
+// The choice a deck makes for each contact sub-model, by its deck name, in keys::kSubModels order.
+using SubModelSelection = std::array<std::string_view, keys::kSubModels.size()>;
+
+// The index in keys::kSubModels of the sub-model named `sub_model` ("normal", ...); kSubModels.size() when
+// there is none.
+constexpr std::size_t sub_model_index(std::string_view sub_model) {
+  std::size_t k = 0;
+  while (k < keys::kSubModels.size() && keys::kSubModels[k]->name() != sub_model) ++k;
+  return k;
+}
+
+// Whether the selection makes the sub-model choice `use` (an empty choice: any choice of that sub-model).
+constexpr bool makes(const SubModelSelection& selection, const SubModelChoice& use) {
+  const std::size_t k = sub_model_index(use.sub_model);
+  return k < selection.size() && (use.choice.empty() || selection[k] == use.choice);
+}
+
+// The first of the key's sub-model choices that the selection makes; nullptr when it makes none, or when the
+// key belongs to no sub-model.
+constexpr const SubModelChoice* chosen_use(const KeySpec& key, const SubModelSelection& selection) {
+  for (const SubModelChoice& use : key.sub_models)
+    if (!use.sub_model.empty() && makes(selection, use)) return &use;
+  return nullptr;
+}
+
+// Whether the deck's sub-model choices use the key: always for a key of no sub-model.
+constexpr bool key_used(const KeySpec& key, const SubModelSelection& selection) {
+  return key.sub_models[0].sub_model.empty() || chosen_use(key, selection) != nullptr;
+}
+
+// Every key's sub-model choices name a sub-model key and one of its choices, the used entries first.
+constexpr bool sub_model_uses_valid() {
+  for (const KeySpec* k : keys::kAll) {
+    bool ended = false;
+    for (const SubModelChoice& use : k->sub_models) {
+      if (use.sub_model.empty()) {
+        if (!use.choice.empty()) return false;
+        ended = true;
+        continue;
+      }
+      const std::size_t by = sub_model_index(use.sub_model);
+      if (ended || by == keys::kSubModels.size()) return false;
+      bool known = use.choice.empty();
+      for (const std::string_view c : keys::kSubModels[by]->choices) known = known || c == use.choice;
+      if (!known) return false;
+    }
+    if (k->required_when_used && k->sub_models[0].sub_model.empty()) return false;
+  }
+  return true;
+}
+static_assert(sub_model_uses_valid(), "a key's sub_models name an unknown sub-model or choice");
 
 }  // namespace celldem

@@ -134,20 +134,42 @@ double largest_deck_stress(const Deck& deck) {
 
 double mean_contact_force(const SampleDef& sample, double p) {
   const double d = mean_diameter(sample);
-  return M_PI * d * d * p / 3.6;
+  return M_PI * d * d * p / kMeanContactZPhi;
 }
 
 double hertz_overlap(const ContactDef& c, double force, double r_eff) {
   return std::pow(3.0 * force / (4.0 * c.effective_modulus() * std::sqrt(r_eff)), 2.0 / 3.0);
 }
 
+double normal_overlap(const ContactDef& c, double force, double r_eff) {
+  if (c.normal == NormalModel::Linear) return force / c.kn;
+  return hertz_overlap(c, force, r_eff);
+}
+
+bool has_material_moduli(const ContactDef& c) {
+  return c.normal == NormalModel::Hertz || is_mindlin(c.tangential);
+}
+
+std::optional<MeanContact> mean_contact(const Deck& deck) {
+  MeanContact m;
+  m.confining_stress = largest_deck_stress(deck);
+  if (m.confining_stress == 0.0) return std::nullopt;
+  const ContactDef& c = deck.contact;
+  m.mean_diameter = mean_diameter(deck.sample);
+  m.effective_radius = m.mean_diameter / 4.0;
+  m.force = mean_contact_force(deck.sample, m.confining_stress);
+  m.overlap = normal_overlap(c, m.force, m.effective_radius);
+  m.secant_normal_stiffness = m.force / m.overlap;
+  m.contact_radius = std::sqrt(m.effective_radius * m.overlap);
+  m.mindlin_tangential_stiffness = has_material_moduli(c) ? 8.0 * c.effective_shear_modulus() * m.contact_radius : 0.0;
+  return m;
+}
+
 double default_reference_overlap(const Deck& deck) {
   const double p = largest_deck_stress(deck);
   if (p == 0.0) return 0.0;
   const double force = 10.0 * mean_contact_force(deck.sample, 3.0 * p);
-  const ContactDef& c = deck.contact;
-  if (c.normal == NormalModel::Linear) return force / c.kn;
-  return hertz_overlap(c, force, 0.5 * largest_radius(deck.sample));
+  return normal_overlap(deck.contact, force, 0.5 * largest_radius(deck.sample));
 }
 
 BodyProperties body_properties(double r, double density, const DampingDef& damping, const ContactStiffness& k) {

@@ -5,6 +5,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -77,10 +78,37 @@ ContactStiffness reference_stiffness(const ContactDef& contact, const SampleDef&
 // The largest stress the deck names [Pa]: the preparation's target, stress and mean_stress axes, stress
 // ends (0 when none).
 double largest_deck_stress(const Deck& deck);
-// The mean contact normal force [N] at mean stress p: pi d^2 p / (Z phi) with Z phi = 3.6 (d the mean size).
+// The mean contact normal force [N] at mean stress p: pi d^2 p / (Z phi) with Z phi = kMeanContactZPhi (d the
+// mean size). It is the mean stress of N_c = Z N / 2 contacts between N spheres in V, p = N_c <f l> / (3 V) =
+// Z N <f l> / (6 V), with branch length l = d and N = phi V / (pi d^3 / 6): p = Z phi f / (pi d^2), at
+// Z phi = 3.6 (Z about 6, phi about 0.6: a dense packing's).
+inline constexpr double kMeanContactZPhi = 3.6;
 double mean_contact_force(const SampleDef& sample, double p);
-// The Hertz overlap [m] under normal force `force` between spheres of effective radius r_eff.
+// The Hertz overlap [m] under normal force `force` between spheres of effective radius r_eff:
+// (3 F / (4 E* sqrt(R*)))^(2/3), inverting F = 4/3 E* sqrt(R*) overlap^(3/2).
 double hertz_overlap(const ContactDef& contact, double force, double r_eff);
+// The overlap [m] under normal force `force` by the deck's normal law: F / kn (linear) or hertz_overlap.
+double normal_overlap(const ContactDef& contact, double force, double r_eff);
+
+// The mean contact under the deck's confining stress, largest_deck_stress() (the stress the reference overlap
+// starts from): the mean contact force between two spheres of the mean diameter, its overlap by the deck's
+// normal law, and the linear stiffnesses equivalent there (tools/sufficiency.py's hertz -> linear and
+// mindlin -> linear_history switches).
+struct MeanContact {
+  double confining_stress = 0.0;    // [Pa] p, largest_deck_stress()
+  double mean_diameter = 0.0;       // [m] d, mean_diameter()
+  double effective_radius = 0.0;    // [m] R* = d / 4 of two spheres of diameter d
+  double force = 0.0;               // [N] F = mean_contact_force(): pi d^2 p / (Z phi)
+  double overlap = 0.0;             // [m] delta = normal_overlap(F, R*)
+  double secant_normal_stiffness = 0.0;  // [N/m] F / delta
+  double contact_radius = 0.0;      // [m] a = sqrt(R* delta)
+  double mindlin_tangential_stiffness = 0.0;  // [N/m] 8 G* a; 0 when the law has no E and nu
+};
+// nullopt when the deck names no stress.
+std::optional<MeanContact> mean_contact(const Deck& deck);
+// Whether the law's stiffness follows the material (E, nu given: hertz, mindlin or mindlin_rescale), so that
+// E* and G* (ContactDef::effective_modulus, effective_shear_modulus) are defined.
+bool has_material_moduli(const ContactDef& contact);
 
 // The default reference overlap [m]: the overlap of the two largest spheres under 10 times the mean contact
 // force at 3 times the deck's largest stress (mean force pi d^2 p / (Z phi), Z phi = 3.6); 0 when the deck

@@ -249,15 +249,43 @@ SampleDef read_sample(ObjectReader r) {
   return s;
 }
 
-// A key that the chosen sub-models need: present, or an error naming it and the choice that needs it.
-double needed_number(ObjectReader& r, const KeySpec& spec, const std::string& needed_by) {
-  if (!r.has(spec)) fail(r.at(spec), "missing; required with " + needed_by);
-  return r.number(spec);
+// `contact.normal = "hertz"`: a sub-model choice as the messages name it.
+std::string choice_text(std::string_view sub_model, std::string_view choice) {
+  return "contact." + std::string(sub_model) + " = \"" + std::string(choice) + "\"";
 }
 
-// A key that the chosen sub-models do not use is an error (never silently ignored).
-void unused_number(ObjectReader& r, const KeySpec& spec, const std::string& why) {
-  if (r.has(spec)) fail(r.at(spec), "not used " + why);
+// Why a key is refused when the deck makes none of its sub-model choices: the deck's choices of those sub-models,
+// and the choices the key belongs to (from the key table's sub_models).
+std::string unused_message(const KeySpec& spec, const SubModelSelection& selection) {
+  std::string made, wanted;
+  std::vector<std::string_view> seen;
+  for (const SubModelChoice& use : spec.sub_models) {
+    if (use.sub_model.empty()) break;
+    const bool first = std::find(seen.begin(), seen.end(), use.sub_model) == seen.end();
+    if (first) {
+      seen.push_back(use.sub_model);
+      made += (made.empty() ? "" : ", ") + choice_text(use.sub_model, selection[sub_model_index(use.sub_model)]);
+      wanted += (wanted.empty() ? "" : ", ") + choice_text(use.sub_model, use.choice);
+    } else {
+      wanted += " or \"" + std::string(use.choice) + "\"";
+    }
+  }
+  return "not used with " + made + " (only with " + wanted + ")";
+}
+
+// The keys of the object `r` (whose keys are `table_prefix` + name in the key table, e.g. "contact." or
+// "tests[].") that belong to contact sub-models: each one the deck's choices do not use is refused, naming
+// those choices; each one they use and need (required_when_used) must be there.
+void check_sub_model_keys(ObjectReader& r, std::string_view table_prefix, const SubModelSelection& selection) {
+  for (const KeySpec* k : keys::kAll) {
+    if (k->sub_models[0].sub_model.empty() || !k->path.starts_with(table_prefix) ||
+        k->path.find('.', table_prefix.size()) != std::string_view::npos)
+      continue;
+    const SubModelChoice* use = chosen_use(*k, selection);
+    if (use == nullptr && r.has(*k)) fail(r.at(*k), unused_message(*k, selection));
+    if (use != nullptr && k->required_when_used && !r.has(*k))
+      fail(r.at(*k), "missing; required with " + choice_text(use->sub_model, use->choice));
+  }
 }
 
 ContactDef read_contact(ObjectReader r) {
@@ -266,34 +294,18 @@ ContactDef read_contact(ObjectReader r) {
   c.tangential = r.choice_of<TangentialModel>(keys::contact_tangential);
   c.rolling = r.choice_of<RollingModel>(keys::contact_rolling);
   c.twisting = r.choice_of<TwistingModel>(keys::contact_twisting);
-  const bool linear = c.normal == NormalModel::Linear, history = c.tangential == TangentialModel::LinearHistory;
-  const bool material = !linear || !history;
-  if (linear) c.kn = needed_number(r, keys::contact_kn, "\"normal\": \"linear\"");
-  else unused_number(r, keys::contact_kn, "with \"normal\": \"hertz\" (the stiffness follows youngs_modulus)");
-  const std::string tangential = "\"tangential\": \"" + std::string(name_of(c.tangential, kTangentialModelNames)) + "\"";
-  if (history) c.kt = needed_number(r, keys::contact_kt, tangential);
-  else unused_number(r, keys::contact_kt, "with " + tangential + " (the stiffness follows youngs_modulus)");
-  if (material) {
-    const std::string by = linear ? tangential : "\"normal\": \"hertz\"";
-    c.youngs_modulus = needed_number(r, keys::contact_youngs_modulus, by);
-    c.poisson_ratio = needed_number(r, keys::contact_poisson_ratio, by);
-    if (r.has(keys::contact_reference_overlap)) c.reference_overlap = r.number(keys::contact_reference_overlap);
-  } else {
-    const std::string why = "by the linear law (give \"normal\": \"hertz\" or \"tangential\": \"mindlin\")";
-    unused_number(r, keys::contact_youngs_modulus, why);
-    unused_number(r, keys::contact_poisson_ratio, why);
-    unused_number(r, keys::contact_reference_overlap, why);
-  }
-  if (c.rolling == RollingModel::Sds) {
-    c.rolling_stiffness = needed_number(r, keys::contact_rolling_stiffness, "\"rolling\": \"sds\"");
-    c.rolling_damping = r.number(keys::contact_rolling_damping);
-    c.rolling_friction = needed_number(r, keys::contact_rolling_friction, "\"rolling\": \"sds\"");
-  } else {
-    const std::string why = "without rolling resistance (give \"rolling\": \"sds\")";
-    unused_number(r, keys::contact_rolling_stiffness, why);
-    unused_number(r, keys::contact_rolling_damping, why);
-    unused_number(r, keys::contact_rolling_friction, why);
-  }
+  const SubModelSelection chosen = c.selection();
+  check_sub_model_keys(r, "contact.", chosen);
+  // Each parameter of the chosen sub-models (the others stay 0); reference_overlap 0: from the deck's stresses.
+  for (const auto& [spec, field] : {std::pair{&keys::contact_kn, &ContactDef::kn},
+                                    std::pair{&keys::contact_kt, &ContactDef::kt},
+                                    std::pair{&keys::contact_youngs_modulus, &ContactDef::youngs_modulus},
+                                    std::pair{&keys::contact_poisson_ratio, &ContactDef::poisson_ratio},
+                                    std::pair{&keys::contact_rolling_stiffness, &ContactDef::rolling_stiffness},
+                                    std::pair{&keys::contact_rolling_damping, &ContactDef::rolling_damping},
+                                    std::pair{&keys::contact_rolling_friction, &ContactDef::rolling_friction},
+                                    std::pair{&keys::contact_reference_overlap, &ContactDef::reference_overlap}})
+    if (key_used(*spec, chosen)) c.*field = r.number(*spec);
   c.rotation = r.choice_of<TangentialRotation>(keys::contact_tangential_rotation);
   c.moment_arm = r.choice_of<MomentArm>(keys::contact_moment_arm);
   r.finish();
@@ -500,12 +512,9 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step) {
   if (is_reserved_stage_name(t.name))
     fail(r.at(keys::test_name), "\"" + t.name + "\" is reserved (the preparation stage); choose another name");
   t.friction = r.number(keys::test_friction);
-  t.rolling_friction = contact.rolling_friction;
-  if (r.has(keys::test_rolling_friction)) {
-    if (contact.rolling == RollingModel::None)
-      fail(r.at(keys::test_rolling_friction), "not used without rolling resistance (contact.rolling is \"none\")");
-    t.rolling_friction = r.number(keys::test_rolling_friction);
-  }
+  check_sub_model_keys(r, "tests[].", contact.selection());
+  t.rolling_friction = r.has(keys::test_rolling_friction) ? r.number(keys::test_rolling_friction)
+                                                          : contact.rolling_friction;
   if (r.has(keys::test_legs)) {
     if (r.has(keys::test_axes) || r.has(keys::test_end))
       fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" and \"end\", not both");
@@ -711,8 +720,10 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
     }
   }
   if (!has_prepare && d.tests.empty()) fail("tests", "a deck without \"prepare\" needs at least one test");
-  if (d.prepare && d.prepare->rolling_friction > 0.0 && d.contact.rolling == RollingModel::None)
-    fail("prepare.rolling_friction", "not used without rolling resistance (contact.rolling is \"none\")");
+  // prepare.rolling_friction is refused as a key of sub-model choices the deck does not make, except at its
+  // default 0 (frictionless preparation either way).
+  if (d.prepare && d.prepare->rolling_friction > 0.0 && !key_used(keys::prepare_rolling_friction, d.contact.selection()))
+    fail("prepare.rolling_friction", unused_message(keys::prepare_rolling_friction, d.contact.selection()));
   check_time_step(d);
   r.finish();
   return d;
@@ -769,13 +780,47 @@ std::string allowed_of(const KeySpec& k) {
   return lo + ", " + hi;
 }
 
+// The key's sub-model choices, each sub-model once with its choices in table order (an empty choice: all of
+// the sub-model's choices).
+std::vector<std::pair<std::string_view, std::vector<std::string_view>>> sub_models_of(const KeySpec& k) {
+  std::vector<std::pair<std::string_view, std::vector<std::string_view>>> out;
+  for (const SubModelChoice& use : k.sub_models) {
+    if (use.sub_model.empty()) break;
+    auto it = std::find_if(out.begin(), out.end(), [&use](const auto& e) { return e.first == use.sub_model; });
+    if (it == out.end()) it = out.insert(out.end(), {use.sub_model, {}});
+    if (!use.choice.empty()) {
+      it->second.push_back(use.choice);
+    } else {
+      const KeySpec& by = *keys::kSubModels[sub_model_index(use.sub_model)];
+      it->second.assign(by.choices.begin(), by.choices.end());
+    }
+  }
+  return out;
+}
+
+// "`normal: hertz`, `tangential: mindlin, mindlin_rescale`"; "`rolling`" for every choice of the sub-model.
+std::string sub_models_text(const KeySpec& k) {
+  std::string out;
+  for (const auto& [sub_model, choices] : sub_models_of(k)) {
+    out += out.empty() ? "`" : ", `";
+    out += sub_model;
+    if (choices.size() != keys::kSubModels[sub_model_index(sub_model)]->choices.size()) {
+      out += ": ";
+      for (std::size_t i = 0; i < choices.size(); ++i) (out += i ? ", " : "") += choices[i];
+    }
+    out += '`';
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string deck_schema_markdown() {
-  std::string out = "| key | type | unit | default | allowed | meaning |\n|---|---|---|---|---|---|\n";
+  std::string out = "| key | type | unit | default | allowed | sub-model | meaning |\n|---|---|---|---|---|---|---|\n";
   for (const KeySpec* k : keys::kAll)
     out += "| `" + std::string(k->path) + "` | " + kind_name(k->kind) + " | " + std::string(k->unit) + " | " +
-           default_of(*k) + " | " + allowed_of(*k) + " | " + std::string(k->meaning) + " |\n";
+           default_of(*k) + " | " + allowed_of(*k) + " | " + sub_models_text(*k) + " | " + std::string(k->meaning) +
+           " |\n";
   return out;
 }
 
@@ -796,6 +841,13 @@ std::string deck_schema_json() {
       if (!k->required) e["default"] = k->choices.front();
     }
     if (!k->default_text.empty()) e["default_text"] = k->default_text;
+    if (!k->sub_models[0].sub_model.empty()) {
+      // The contact sub-model choices that use the key: the reader refuses it unless the deck makes one of them.
+      e["sub_models"] = Json::array();
+      for (const auto& [sub_model, choices] : sub_models_of(*k))
+        e["sub_models"].push_back({{"sub_model", sub_model}, {"choices", choices}});
+      e["required_when_used"] = k->required_when_used;
+    }
     out.push_back(e);
   }
   return out.dump(1) + "\n";

@@ -1019,16 +1019,14 @@ std::vector<AtomType> atom_types(const Deck& deck) {
 
 namespace {
 // The contact normal stiffness of the servo's nominal modulus: kn; for hertz the tangent stiffness 2 E* a at the
-// mean contact force pi d^2 p / 3.6 of the deck's largest stress p (mean diameter d, R* = d/4), which is what
-// celldem's servo measures on average (its axis stiffness sums the contacts' tangent stiffnesses).
+// mean contact of the deck's largest stress (core/plan's mean_contact), which is what celldem's servo measures
+// on average (its axis stiffness sums the contacts' tangent stiffnesses).
 double nominal_normal_stiffness(const Deck& deck) {
   const ContactDef& c = deck.contact;
   if (c.normal == NormalModel::Linear) return c.kn;
-  const double p = largest_deck_stress(deck);
-  if (p == 0.0) return reference_stiffness(c, deck.sample).normal;
-  const double r_eff = 0.25 * mean_diameter(deck.sample);
-  const double overlap = hertz_overlap(c, mean_contact_force(deck.sample, p), r_eff);
-  return 2.0 * c.effective_modulus() * std::sqrt(r_eff * overlap);
+  const std::optional<MeanContact> mean = mean_contact(deck);
+  if (!mean) return reference_stiffness(c, deck.sample).normal;
+  return 2.0 * c.effective_modulus() * mean->contact_radius;
 }
 }  // namespace
 

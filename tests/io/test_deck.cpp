@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 
 #include "helpers.hpp"
@@ -278,15 +280,111 @@ TEST(DeckErrors, ContactSubModelsNeedTheirParametersAndNothingElse) {
   j["contact"]["tangential"] = "mindlin";
   expect_error(j, "contact.kt", "not used");  // mindlin's stiffness comes from the modulus
   j["contact"]["tangential"] = "mindlin_rescale";
-  expect_error(j, "contact.kt", "with \"tangential\": \"mindlin_rescale\"");
+  expect_error(j, "contact.kt", "not used with contact.tangential = \"mindlin_rescale\"");
   j["contact"].erase("kt");
-  expect_error(j, "contact.youngs_modulus", "\"tangential\": \"mindlin_rescale\"");  // needed for 8 G* a
+  expect_error(j, "contact.youngs_modulus", "required with contact.tangential = \"mindlin_rescale\"");  // 8 G* a
   j = hertz_deck();
   j["contact"]["tangential"] = "mindlin_rescale";
   EXPECT_EQ(parse_deck(j.dump()).contact.tangential, TangentialModel::MindlinRescale);
   j = hertz_deck();
   j["time_step"] = 1e-5;  // above the stability limit at the reference overlap
   expect_error(j, "time_step", "of the stability limit");
+}
+
+// The key table's sub_models decide which contact keys a law takes: for every combination of choices, each key
+// of a choice not made is refused, naming the deck's choice and the ones the key belongs to; each key a made
+// choice needs is required, naming that choice. A deck with exactly the keys its choices use is accepted.
+TEST(DeckErrors, SubModelKeysFollowTheKeyTable) {
+  const std::map<std::string, double> value = {
+      {"kn", 1e6},           {"kt", 5e5},           {"youngs_modulus", 7e10},  {"poisson_ratio", 0.25},
+      {"rolling_stiffness", 1e6}, {"rolling_damping", 0.01}, {"rolling_friction", 0.1}, {"reference_overlap", 1e-6}};
+  const auto spec_of = [](const std::string& name) -> const KeySpec& {
+    for (const KeySpec* k : keys::kAll)
+      if (k->path == "contact." + name) return *k;
+    throw std::logic_error("no key contact." + name);
+  };
+  int refusals = 0, requirements = 0;
+  for (const std::string_view normal : kNormalModelNames)
+    for (const std::string_view tangential : kTangentialModelNames)
+      for (const std::string_view rolling : kRollingModelNames)
+        for (const std::string_view twisting : kTwistingModelNames) {
+          const SubModelSelection chosen{normal, tangential, rolling, twisting};
+          Json base = minimal_deck();
+          base["time_step"] = 1e-7;
+          base["contact"] = {{"normal", normal}, {"tangential", tangential}, {"rolling", rolling},
+                             {"twisting", twisting}};
+          for (const auto& [name, x] : value)
+            if (key_used(spec_of(name), chosen)) base["contact"][name] = x;
+          EXPECT_NO_THROW((void)parse_deck(base.dump())) << base["contact"].dump();
+          for (const auto& [name, x] : value) {
+            const KeySpec& k = spec_of(name);
+            Json j = base;
+            if (!key_used(k, chosen)) {
+              j["contact"][name] = x;
+              const SubModelChoice& first = k.sub_models[0];
+              const std::string made = "contact." + std::string(first.sub_model) + " = \"" +
+                                       std::string(chosen[sub_model_index(first.sub_model)]) + "\"";
+              expect_error(j, "contact." + name, "not used with " + made);
+              expect_error(j, "contact." + name, "(only with contact." + std::string(first.sub_model) + " = \"" +
+                                                     std::string(first.choice) + "\"");
+              ++refusals;
+            } else if (k.required_when_used) {
+              j["contact"].erase(name);
+              const SubModelChoice& use = *chosen_use(k, chosen);
+              expect_error(j, "contact." + name, "missing; required with contact." + std::string(use.sub_model) +
+                                                     " = \"" + std::string(use.choice) + "\"");
+              ++requirements;
+            }
+          }
+          if (rolling == "none") {  // a test's rolling friction belongs to rolling: sds too
+            Json j = base;
+            j["tests"][0]["rolling_friction"] = 0.1;
+            expect_error(j, "tests[0].rolling_friction",
+                         "not used with contact.rolling = \"none\" (only with contact.rolling = \"sds\")");
+          }
+        }
+  EXPECT_GT(refusals, 50);
+  EXPECT_GT(requirements, 50);
+  // A key of several choices names them all.
+  Json j = minimal_deck();
+  j["contact"]["youngs_modulus"] = 7e10;
+  expect_error(j, "contact.youngs_modulus",
+               "not used with contact.normal = \"linear\", contact.tangential = \"linear_history\" (only with "
+               "contact.normal = \"hertz\", contact.tangential = \"mindlin\" or \"mindlin_rescale\")");
+}
+
+// `celldem schema --json` prints each contact key's sub-model choices, a sub-model key with all its choices.
+TEST(DeckSchemaJson, SubModelsOfEveryContactKey) {
+  const Json schema = Json::parse(deck_schema_json());
+  int contact_keys = 0;
+  for (const Json& e : schema) {
+    const std::string key = e["key"].get<std::string>();
+    if (key.rfind("contact.", 0) != 0) {
+      const bool rolling_friction = key == "prepare.rolling_friction" || key == "tests[].rolling_friction";
+      EXPECT_EQ(e.contains("sub_models"), rolling_friction) << key;
+      continue;
+    }
+    ++contact_keys;
+    ASSERT_TRUE(e.contains("sub_models")) << key;
+    ASSERT_TRUE(e.contains("required_when_used")) << key;
+    EXPECT_FALSE(e["sub_models"].empty()) << key;
+  }
+  EXPECT_EQ(contact_keys, 14);
+  const auto entry = [&schema](const std::string& key) {
+    for (const Json& e : schema)
+      if (e["key"] == key) return e;
+    return Json();
+  };
+  EXPECT_EQ(entry("contact.youngs_modulus")["sub_models"],
+            Json::parse(R"([{"sub_model": "normal", "choices": ["hertz"]},
+                            {"sub_model": "tangential", "choices": ["mindlin", "mindlin_rescale"]}])"));
+  EXPECT_EQ(entry("contact.youngs_modulus")["required_when_used"], true);
+  EXPECT_EQ(entry("contact.reference_overlap")["required_when_used"], false);
+  EXPECT_EQ(entry("contact.normal")["sub_models"],
+            Json::parse(R"([{"sub_model": "normal", "choices": ["linear", "hertz"]}])"));
+  EXPECT_EQ(entry("tests[].rolling_friction")["sub_models"],
+            Json::parse(R"([{"sub_model": "rolling", "choices": ["sds"]}])"));
+  EXPECT_NE(deck_schema_markdown().find("| `normal: hertz`, `tangential: mindlin, mindlin_rescale` |"), std::string::npos);
 }
 
 TEST(DeckErrors, UnknownKeysTopLevelAndNested) {

@@ -22,12 +22,15 @@ rolling = su.reduce_deck(decks.load(os.path.join(repo, "inputs", "rolling.json")
 check("reduced count", rolling["sample"]["count"], 300)
 check("reduced end strains", [t["end"]["strain"] for t in rolling["tests"]], [0.04, 0.04])
 
-# The mean contact at 100 kPa, by hand: F = pi d^2 p / 3.6, Hertz overlap of two mean spheres (R* = d/4).
+# The mean contact at 100 kPa from `celldem plan`, against a hand calculation: F = pi d^2 p / 3.6, Hertz overlap
+# of two mean spheres (R* = d/4).
 d, p, e, nu = 3.75e-3, 1.0e5, 7.0e10, 0.25
 force = math.pi * d * d * p / 3.6
 e_star, g_star = e / (2 * (1 - nu * nu)), e / (4 * (2 - nu) * (1 + nu))
 overlap = (3 * force / (4 * e_star * math.sqrt(d / 4))) ** (2 / 3)
-cm = su.mean_contact(rolling, d)
+cm = su.mean_contact(binary.plan_deck(rolling, None, celldem))
+check("confining stress", cm["pressure"], p)
+check("mean diameter", cm["mean_diameter"], d, 1e-12)
 check("mean force", cm["force"], force, 1e-12)
 check("hertz overlap", cm["overlap"], overlap, 1e-12)
 check("secant kn", cm["kn_secant"], force / overlap, 1e-12)
@@ -41,6 +44,15 @@ check("secant kn set", n["kn"], cm["kn_secant"], 1e-12)
 check("tangential → linear_history", t["tangential"], "linear_history")
 check("mindlin kt set", t["kt"], cm["kt_mindlin"], 1e-12)
 check("rolling → none, its keys gone", (r["rolling"], sorted(k for k in r if k.startswith("rolling_"))), ("none", []))
+check("rolling → none, the tests' rolling friction gone",
+      [k for t in configs["rolling"][0]["tests"] for k in t if k == "rolling_friction"], [])
+check("normal → linear keeps E and nu for mindlin", (n["youngs_modulus"], n["poisson_ratio"]), (e, nu))
+check("tangential → linear_history keeps E and nu for hertz", (t["youngs_modulus"], t["poisson_ratio"]), (e, nu))
+both = json.loads(json.dumps(rolling))
+both["contact"].update(normal="linear", tangential="linear_history", kn=1e6, kt=1e6)
+both = su.clean(both, binary.schema(celldem))
+check("clean: no E, nu or reference overlap without hertz and mindlin",
+      sorted(k for k in ("youngs_modulus", "poisson_ratio", "reference_overlap") if k in both["contact"]), [])
 check("twisting → none", (w["twisting"], w["rolling"]), ("none", "sds"))
 check("rotational damping → 0", configs["rotational_damping"][0]["damping"]["rotational"], 0.0)
 check("kinematics → lammps", configs["kinematics"][0]["kinematics"], "lammps")

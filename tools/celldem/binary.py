@@ -1,5 +1,6 @@
 """The celldem binary, for what a deck implies: `celldem plan DECK --json` (a test's steps, strain per step and
-rows, the particle types' masses and damping, the critical time step, the inertial number), and for what a
+rows, the particle types' masses and damping, the critical time step, the inertial number, the mean contact at
+the confining stress), for the deck's keys: `celldem schema --json`, and for what a
 series implies: `celldem summarize SERIES` (summary.json's peak and end quantities of any series). The tools
 ask it instead of deriving these again.
 """
@@ -41,6 +42,19 @@ def run_json(args, binary=None):
         return json.loads(r.stdout)
     except json.JSONDecodeError as err:
         raise BinaryError(f"celldem {' '.join(args)}: output is not JSON ({err})") from err
+
+
+_SCHEMAS = {}
+
+
+def schema(binary=None):
+    """`celldem schema --json` as a list of key entries (key, type, unit, default, choices, min, max, ...; for the
+    keys of contact sub-models "sub_models": [{"sub_model": "normal", "choices": ["hertz"]}, ...], the choices
+    that use the key, which celldem refuses otherwise, and "required_when_used"), read once per binary."""
+    exe = find(binary)
+    if exe not in _SCHEMAS:
+        _SCHEMAS[exe] = run_json(["schema", "--json"], exe)
+    return _SCHEMAS[exe]
 
 
 def plan(deck_path, binary=None):

@@ -11,9 +11,10 @@ one step simpler, the others as the deck has them:
     rotational damping  damping.rotational -> 0
     kinematics  affine -> lammps (contacts across periodic images do not see the affine velocity difference)
 
-The mean contact force under the deck's confining stress p (its largest stress target) is pi d^2 p / 3.6
-(Z phi = 3.6, as celldem's reference overlap), d the sample's mean diameter (`celldem plan`), its overlap that
-of two spheres of that diameter (R* = d / 4). A switch that changes the reference stiffness (normal, tangential)
+The mean contact is `celldem plan`'s mean_contact (core/plan's definitions): the force pi d^2 p / (Z phi) under
+the deck's confining stress p (its largest stress, as celldem's reference overlap reads it), d the sample's mean
+diameter, its overlap that of two spheres of that diameter (R* = d / 4) by the deck's normal law, the secant kn
+and the Mindlin kt there. Which contact keys a switched law keeps is `celldem schema`'s sub_models. A switch that changes the reference stiffness (normal, tangential)
 would change the absolute body damping, which celldem scales with it; the variant's damping fractions are
 rescaled so that its drag coefficients (`celldem plan` particle_types[].translational_drag, rotational_drag)
 stay the baseline's: the switch changes the contact law only.
@@ -63,7 +64,6 @@ DEFAULT_SEEDS = (1, 2, 3, 4)
 ALPHA = 0.05                 # family-wise error rate of "needed" per switch (Holm), and of each TOST
 MARGIN_FLOORS = 1.0          # "not needed": the change is within this many noise floors (TOST)
 POWER = 0.8                  # the smallest detectable change is given at this power
-Z_PHI = 3.6                  # mean contact force pi d^2 p / (Z phi), as celldem's default reference overlap
 
 QUANTITY_ORDER = ("peak_ratio", "e1_peak", "ev_end", "Z_end", "b_peak")
 PEAK_QUANTITIES = ("peak_ratio", "e1_peak", "b_peak")  # left out of a test whose summary says "peak_reached": false
@@ -85,17 +85,8 @@ SWITCHES = (
     ("kinematics", "kinematics: affine → lammps (affine term off)"),
 )
 
-# contact keys and the choices that use them (celldem refuses a key its choice does not use)
-CONTACT_KEY_USERS = {
-    "kn": lambda c: c.get("normal", "linear") == "linear",
-    "kt": lambda c: c.get("tangential", "linear_history") == "linear_history",
-    "youngs_modulus": lambda c: c.get("normal") == "hertz" or c.get("tangential") in ("mindlin", "mindlin_rescale"),
-    "poisson_ratio": lambda c: c.get("normal") == "hertz" or c.get("tangential") in ("mindlin", "mindlin_rescale"),
-    "reference_overlap": lambda c: c.get("normal") == "hertz" or c.get("tangential") in ("mindlin", "mindlin_rescale"),
-    "rolling_stiffness": lambda c: c.get("rolling", "none") == "sds",
-    "rolling_damping": lambda c: c.get("rolling", "none") == "sds",
-    "rolling_friction": lambda c: c.get("rolling", "none") == "sds",
-}
+# Each contact-law switch: the sub-model and the simpler choice it switches to.
+SIMPLER_CHOICE = {"normal": "linear", "tangential": "linear_history", "rolling": "none", "twisting": "none"}
 
 
 # ---- the reduced scene and the variants -----------------------------------------------------------------------
@@ -111,91 +102,77 @@ def reduce_deck(deck, count, end_strain):
     return out
 
 
-def confining_stress(deck):
-    """[Pa] the deck's largest stress target (tests' stress and mean_stress axes, prepare.target_pressure), as
-    celldem's reference overlap reads it; None when it names none."""
-    p = 0.0
-    prep = deck.get("prepare") or {}
-    p = max(p, number(prep.get("target_pressure")) or 0.0)
-    legs = []
-    for t in deck.get("tests", []) + [prep]:
-        legs += [t] if "axes" in t else t.get("legs", [])
-    for leg in legs:
-        for ctl in (leg.get("axes") or {}).values():
-            if isinstance(ctl, dict):
-                for k in ("stress", "mean_stress"):
-                    p = max(p, abs(number(ctl.get(k)) or 0.0))
-    return p or None
-
-
-def moduli(contact):
-    """(E*, G*) of celldem's definitions (`celldem schema`): E / (2 (1 - nu^2)), E / (4 (2 - nu) (1 + nu))."""
-    e, nu = contact["youngs_modulus"], contact["poisson_ratio"]
-    return e / (2.0 * (1.0 - nu * nu)), e / (4.0 * (2.0 - nu) * (1.0 + nu))
-
-
-def mean_contact(deck, d_mean):
-    """The mean contact under the deck's confining stress: force pi d^2 p / 3.6, its overlap for two spheres of
-    the mean diameter (R* = d/4) by the deck's normal law, the secant kn = F/overlap, a = sqrt(R* overlap) and the
-    Mindlin kt = 8 G* a there (None without E and nu)."""
-    c = deck["contact"]
-    p = confining_stress(deck)
-    if p is None:
+def mean_contact(deck_plan):
+    """The mean contact under the deck's confining stress, `celldem plan`'s mean_contact under this tool's names:
+    pressure (the confining stress p), mean_diameter d, force pi d^2 p / (Z phi), r_eff = d/4, overlap by the
+    deck's normal law, kn_secant = force/overlap, contact_radius a = sqrt(r_eff overlap), kt_mindlin = 8 G* a
+    (None without E and nu), z_phi; None when the deck names no stress."""
+    m = deck_plan.get("mean_contact")
+    if m is None:
         return None
-    force = math.pi * d_mean ** 2 * p / Z_PHI
-    r_eff = d_mean / 4.0
-    if c.get("normal", "linear") == "hertz":
-        e_star, _ = moduli(c)
-        overlap = (3.0 * force / (4.0 * e_star * math.sqrt(r_eff))) ** (2.0 / 3.0)
-    else:
-        overlap = force / c["kn"]
-    a = math.sqrt(r_eff * overlap)
-    kt = 8.0 * moduli(c)[1] * a if "youngs_modulus" in c and "poisson_ratio" in c else None
-    return {"pressure": p, "mean_diameter": d_mean, "force": force, "r_eff": r_eff, "overlap": overlap,
-            "kn_secant": force / overlap, "contact_radius": a, "kt_mindlin": kt}
+    return {"pressure": m["confining_stress"], "mean_diameter": m["mean_diameter"], "force": m["force"],
+            "r_eff": m["effective_radius"], "overlap": m["overlap"], "kn_secant": m["secant_normal_stiffness"],
+            "contact_radius": m["contact_radius"], "kt_mindlin": m["mindlin_tangential_stiffness"],
+            "z_phi": m["z_phi"]}
 
 
-def clean_contact(contact):
-    """contact without the keys its choices do not use."""
-    return {k: v for k, v in contact.items() if k not in CONTACT_KEY_USERS or CONTACT_KEY_USERS[k](contact)}
+def chosen(deck, sub_model, schema):
+    """The deck's choice of a contact sub-model ("normal", ...), its default from `celldem schema` when not given."""
+    default = next(e["default"] for e in schema if e["key"] == f"contact.{sub_model}")
+    return deck["contact"].get(sub_model, default)
 
 
-def switch_applies(deck, key):
-    """(applies, why not) of a switch for a deck."""
-    c = deck["contact"]
-    have = {"normal": (c.get("normal", "linear") == "hertz", f"normal is {c.get('normal', 'linear')}"),
-            "tangential": (c.get("tangential", "linear_history") in ("mindlin", "mindlin_rescale"),
-                           f"tangential is {c.get('tangential', 'linear_history')}"),
-            "rolling": (c.get("rolling", "none") == "sds", f"rolling is {c.get('rolling', 'none')}"),
-            "twisting": (c.get("twisting", "none") == "marshall", f"twisting is {c.get('twisting', 'none')}"),
-            "rotational_damping": ((number(deck["damping"].get("rotational")) or 0.0) > 0.0,
+def clean(deck, schema):
+    """The deck without the keys of contact sub-model choices it does not make (`celldem schema`'s sub_models,
+    which celldem refuses): in contact, prepare and each test. Changes `deck` in place and returns it."""
+    made = {}
+    for entry in schema:
+        uses = entry.get("sub_models")
+        if not uses:
+            continue
+        for u in uses:
+            made.setdefault(u["sub_model"], chosen(deck, u["sub_model"], schema))
+        if any(made[u["sub_model"]] in u["choices"] for u in uses):
+            continue
+        parent, name = entry["key"].rsplit(".", 1)
+        owners = {"contact": [deck.get("contact")], "prepare": [deck.get("prepare")],
+                  "tests[]": deck.get("tests", [])}.get(parent, [])
+        for owner in owners:
+            if isinstance(owner, dict):
+                owner.pop(name, None)
+    return deck
+
+
+def switch_applies(deck, key, schema):
+    """(applies, why not) of a switch for a deck: a contact-law switch applies unless the deck already makes the
+    simpler choice."""
+    have = {k: (chosen(deck, k, schema) != simpler, f"{k} is {chosen(deck, k, schema)}")
+            for k, simpler in SIMPLER_CHOICE.items()}
+    have.update({"rotational_damping": ((number(deck["damping"].get("rotational")) or 0.0) > 0.0,
                                    "damping.rotational is 0"),
             "kinematics": (deck.get("kinematics", "affine") == "affine", f"kinematics is {deck.get('kinematics')}"),
-            "round_off": (True, None)}
+            "round_off": (True, None)})
     ok, why = have[key]
     return ok, None if ok else f"skipped: {why}"
 
 
-def switched(deck, key, contact_mean):
+def switched(deck, key, contact_mean, schema):
     """(the deck with switch `key` applied, {what was set}); the damping is rescaled later (keep_drag)."""
     out = copy.deepcopy(deck)
     c = out["contact"]
     note = {}
     if key == "normal":
-        c["normal"] = "linear"
+        c["normal"] = SIMPLER_CHOICE["normal"]
         c["kn"] = contact_mean["kn_secant"]
         note = {"kn": c["kn"]}
     elif key == "tangential":
-        c["tangential"] = "linear_history"
+        c["tangential"] = SIMPLER_CHOICE["tangential"]
         c["kt"] = contact_mean["kt_mindlin"]
         note = {"kt": c["kt"]}
     elif key == "rolling":
-        c["rolling"] = "none"
-        out.get("prepare", {}).pop("rolling_friction", None)
-        for t in out.get("tests", []):
-            t.pop("rolling_friction", None)
+        c["rolling"] = SIMPLER_CHOICE["rolling"]
     elif key == "twisting":
-        c["twisting"] = "none"
+        c["twisting"] = SIMPLER_CHOICE["twisting"]
     elif key == "rotational_damping":
         out["damping"]["rotational"] = 0.0
     elif key == "kinematics":
@@ -203,8 +180,7 @@ def switched(deck, key, contact_mean):
     elif key == "round_off":
         out["time_step"] = deck["time_step"] * (1.0 + 1e-9)
         note = {"time_step": out["time_step"]}
-    out["contact"] = clean_contact(c)
-    return out, note
+    return clean(out, schema), note
 
 
 def keep_drag(base_plan, variant, celldem):
@@ -229,19 +205,19 @@ def variants(deck, celldem, keys=None):
     when given, from SWITCHES and CALIBRATION_SWITCHES); deck None: skipped (info["skipped"] says why). `deck` is
     the reduced deck."""
     plan = binary.plan_deck(deck, None, celldem)
-    d_mean = plan["sample"]["mean_diameter"]
-    cm = mean_contact(deck, d_mean)
+    schema = binary.schema(celldem)
+    cm = mean_contact(plan)
     out = [("baseline", "baseline (the deck as it is)", deck, {"mean_contact": cm})]
     table = SWITCHES if keys is None else [(k, l) for k, l in SWITCHES + CALIBRATION_SWITCHES if k in keys]
     for key, label in table:
-        ok, why = switch_applies(deck, key)
+        ok, why = switch_applies(deck, key, schema)
         no_mean = cm is None or (key == "tangential" and cm["kt_mindlin"] is None)
         if ok and key in ("normal", "tangential") and no_mean:
             ok, why = False, "skipped: the deck names no stress to place the mean contact force"
         if not ok:
             out.append((key, label, None, {"skipped": why}))
             continue
-        v, set_ = switched(deck, key, cm)
+        v, set_ = switched(deck, key, cm, schema)
         v, factors = keep_drag(plan, v, celldem)
         out.append((key, label, v, {"set": set_, "damping_factors": factors,
                                     "damping": dict(v["damping"]), "contact": v["contact"],
@@ -541,7 +517,7 @@ def markdown(result, heading="#"):
             "",
             "Each row switches one sub-model or term one step simpler, the others as the deck has them." +
             (" Linear equivalents at the mean contact force "
-             f"F = π d² p / 3.6 = {fmt(cm.get('force'))} N "
+             f"F = π d² p / {'n/a' if cm.get('z_phi') is None else format(cm['z_phi'], 'g')} = {fmt(cm.get('force'))} N "
              f"(d = {fmt(cm.get('mean_diameter') and cm['mean_diameter'] * 1e3)} "
              f"mm the mean diameter, p = {fmt(cm.get('pressure'))} Pa the confining stress), overlap δ = "
              f"{fmt(cm.get('overlap'))} m of two mean spheres (R* = d/4): kn = F/δ (secant), kt = 8 G* a, "

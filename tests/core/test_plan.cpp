@@ -1,0 +1,123 @@
+// What a deck implies (solver/core/plan.hpp): the mean contact under the confining stress, its Hertz overlap and
+// the linear stiffnesses equivalent there, and the material's moduli, against hand calculations.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/plan.hpp"
+#include "helpers.hpp"
+
+namespace celldem {
+namespace {
+
+// A deck of spheres of 2 mm and 4 mm (mean d = 3 mm), density 2650, the preparation at 50 kPa and a test whose
+// stress end (200 kPa) is the largest stress it names.
+Deck mean_contact_deck(NormalModel normal, TangentialModel tangential) {
+  Deck d = testing::model_deck(1e6, 5e5, 1e-7, 2650.0);
+  d.sample.diameters = {2e-3, 4e-3};
+  d.sample.grid_spacing = 5e-3;
+  d.contact.normal = normal;
+  d.contact.tangential = tangential;
+  if (normal != NormalModel::Linear || tangential != TangentialModel::LinearHistory) {
+    d.contact.youngs_modulus = 7e10;
+    d.contact.poisson_ratio = 0.25;
+  }
+  if (normal != NormalModel::Linear) d.contact.kn = 0.0;
+  if (tangential != TangentialModel::LinearHistory) d.contact.kt = 0.0;
+  d.prepare->target_pressure = 5e4;
+  TestDef t;
+  t.name = "t";
+  Leg leg;
+  leg.axes = {AxisControl{AxisMode::StrainIncrement, 1e-6}, AxisControl{AxisMode::Stress, 1e5},
+              AxisControl{AxisMode::Stress, 1e5}};
+  leg.end = {.kind = LegEndKind::Stress, .axis = 0, .value = 2e5};
+  t.legs = {leg};
+  d.tests = {t};
+  return d;
+}
+
+// The moduli of two spheres of one material: E* = E / (2 (1 - nu^2)), G* = E / (4 (2 - nu) (1 + nu)).
+TEST(Plan, MaterialModuli) {
+  const Deck d = mean_contact_deck(NormalModel::Hertz, TangentialModel::Mindlin);
+  EXPECT_TRUE(has_material_moduli(d.contact));
+  EXPECT_DOUBLE_EQ(d.contact.effective_modulus(), 7e10 / (2.0 * 0.9375));            // 3.7333e10 Pa
+  EXPECT_DOUBLE_EQ(d.contact.effective_shear_modulus(), 7e10 / (4.0 * 1.75 * 1.25));  // 8e9 Pa
+  EXPECT_TRUE(has_material_moduli(mean_contact_deck(NormalModel::Linear, TangentialModel::MindlinRescale).contact));
+  EXPECT_TRUE(has_material_moduli(mean_contact_deck(NormalModel::Hertz, TangentialModel::LinearHistory).contact));
+  EXPECT_FALSE(has_material_moduli(mean_contact_deck(NormalModel::Linear, TangentialModel::LinearHistory).contact));
+}
+
+// The confining stress is the largest the deck names (a stress end included); the mean contact force follows
+// from the mean stress of N_c = Z N / 2 contacts in V, p = N_c <f l> / (3 V) = Z N <f l> / (6 V), with branch
+// length l = d and N = phi V / (pi d^3 / 6) spheres: f = pi d^2 p / (Z phi), at Z phi = 3.6.
+TEST(Plan, MeanContactForceFromTheConfiningStress) {
+  const Deck d = mean_contact_deck(NormalModel::Hertz, TangentialModel::Mindlin);
+  EXPECT_EQ(largest_deck_stress(d), 2e5);
+  EXPECT_EQ(kMeanContactZPhi, 3.6);
+  const double diameter = 3e-3, p = 2e5;
+  EXPECT_DOUBLE_EQ(mean_diameter(d.sample), diameter);
+  // The relation solved for f, with the volume of the spheres N pi d^3 / 6 = phi V (Z phi = 6 x 0.6 = 3.6).
+  const double z = 6.0, phi = 0.6, volume = 1.0;
+  const double n = phi * volume / (M_PI * diameter * diameter * diameter / 6.0);
+  const double f = 6.0 * volume * p / (z * n * diameter);
+  EXPECT_NEAR(mean_contact_force(d.sample, p), f, 1e-12 * f);
+  EXPECT_NEAR(f, 1.5707963267948966, 1e-12);  // pi (3e-3)^2 2e5 / 3.6 = pi/2 N
+}
+
+// Hertz: F = 4/3 E* sqrt(R*) delta^(3/2), so delta = (3 F / (4 E* sqrt(R*)))^(2/3); checked by putting it back.
+TEST(Plan, HertzOverlapInvertsTheHertzForce) {
+  const Deck d = mean_contact_deck(NormalModel::Hertz, TangentialModel::Mindlin);
+  const double e_star = 7e10 / 1.875, r_eff = 0.75e-3, force = 2.0;
+  const double delta = hertz_overlap(d.contact, force, r_eff);
+  EXPECT_NEAR(4.0 / 3.0 * e_star * std::sqrt(r_eff) * std::pow(delta, 1.5), force, 1e-12 * force);
+  // By hand: 3 x 2 / (4 x 3.7333e10 x sqrt(7.5e-4)) = 6 / 4.08966e9 = 1.46711e-9, to the 2/3: 1.29115e-6 m.
+  EXPECT_NEAR(delta, 1.29115e-6, 1e-4 * 1.29115e-6);
+  EXPECT_EQ(normal_overlap(d.contact, force, r_eff), delta);
+  // The linear law: F / kn.
+  const Deck linear = mean_contact_deck(NormalModel::Linear, TangentialModel::LinearHistory);
+  EXPECT_EQ(normal_overlap(linear.contact, force, r_eff), force / 1e6);
+}
+
+TEST(Plan, MeanContactOfAHertzMindlinDeck) {
+  const Deck d = mean_contact_deck(NormalModel::Hertz, TangentialModel::Mindlin);
+  const std::optional<MeanContact> m = mean_contact(d);
+  ASSERT_TRUE(m.has_value());
+  const double p = 2e5, diameter = 3e-3, r_eff = diameter / 4.0, force = M_PI * diameter * diameter * p / 3.6;
+  const double e_star = 7e10 / 1.875, g_star = 8e9;
+  const double delta = std::pow(3.0 * force / (4.0 * e_star * std::sqrt(r_eff)), 2.0 / 3.0);
+  const double a = std::sqrt(r_eff * delta);
+  EXPECT_EQ(m->confining_stress, p);
+  EXPECT_DOUBLE_EQ(m->mean_diameter, diameter);
+  EXPECT_DOUBLE_EQ(m->effective_radius, r_eff);
+  EXPECT_NEAR(m->force, force, 1e-14 * force);
+  EXPECT_NEAR(m->overlap, delta, 1e-12 * delta);
+  EXPECT_NEAR(m->secant_normal_stiffness, force / delta, 1e-12 * force / delta);
+  // The secant stiffness of Hertz is 2/3 of its tangent stiffness 2 E* a at the same overlap.
+  EXPECT_NEAR(m->secant_normal_stiffness, 2.0 / 3.0 * 2.0 * e_star * a, 1e-12 * m->secant_normal_stiffness);
+  EXPECT_NEAR(m->contact_radius, a, 1e-12 * a);
+  EXPECT_NEAR(m->mindlin_tangential_stiffness, 8.0 * g_star * a, 1e-12 * 8.0 * g_star * a);
+}
+
+TEST(Plan, MeanContactOfALinearDeckAndOfADeckWithoutStress) {
+  Deck d = mean_contact_deck(NormalModel::Linear, TangentialModel::LinearHistory);
+  const std::optional<MeanContact> m = mean_contact(d);
+  ASSERT_TRUE(m.has_value());
+  const double force = M_PI * 9e-6 * 2e5 / 3.6;
+  EXPECT_NEAR(m->overlap, force / 1e6, 1e-14 * force / 1e6);
+  EXPECT_NEAR(m->secant_normal_stiffness, 1e6, 1e-6);  // the linear spring itself
+  EXPECT_EQ(m->mindlin_tangential_stiffness, 0.0);     // no E and nu
+  d.tests.clear();
+  d.prepare->target_pressure = 0.0;
+  EXPECT_FALSE(mean_contact(d).has_value());
+}
+
+// The default reference overlap is the normal law's overlap under 10 x the mean contact force at 3 x the
+// confining stress, between the two largest spheres.
+TEST(Plan, DefaultReferenceOverlapFromTheMeanContactForce) {
+  const Deck d = mean_contact_deck(NormalModel::Hertz, TangentialModel::Mindlin);
+  const double force = 10.0 * mean_contact_force(d.sample, 3.0 * 2e5);
+  EXPECT_EQ(default_reference_overlap(d), hertz_overlap(d.contact, force, 1e-3));  // R* of two 4 mm spheres
+}
+
+}  // namespace
+}  // namespace celldem
