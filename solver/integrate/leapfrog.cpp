@@ -55,11 +55,6 @@ void gather_and_kick_share(const Model& model, State& state, const std::vector<s
     gather_and_kick_range(model, state, b * kForceBlock, std::min(n, (b + 1) * kForceBlock));
 }
 
-void gather_and_kick(const Model& model, State& state) {
-#pragma omp parallel
-  gather_and_kick_share(model, state, thread_force_blocks(state.pairs, state.particles.size()));
-}
-
 double drift_share(const Model& model, const Mat3& h_before, State& state, const std::vector<std::size_t>& blocks) {
   Particles& p = state.particles;
   const PairList& pl = state.pairs;
@@ -74,13 +69,6 @@ double drift_share(const Model& model, const Mat3& h_before, State& state, const
       if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i].cast<double>())).squaredNorm());
     }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
-}
-
-double drift(const Model& model, const Mat3& h_before, State& state) {
-  double largest = 0.0;  // a maximum: the same whatever the order
-#pragma omp parallel reduction(max : largest)
-  largest = std::max(largest, drift_share(model, h_before, state, thread_force_blocks(state.pairs, state.particles.size())));
-  return largest;
 }
 
 }  // namespace celldem
