@@ -19,7 +19,7 @@ inline void gather(const PairList& pl, Particles& p, std::size_t i) {
     // before the pair list lost its copies, so the bits stay those of earlier runs (a -0 adds as +0).
     const Vec3& pair_force = pl.force[pl.crossing_pair[k]];
     f += Vec3(0.0 + pair_force[0], 0.0 + pair_force[1], 0.0 + pair_force[2]);
-    t += pl.crossing_torque[pl.crossing[k]];
+    t += pl.crossing_torque[pl.crossing_rank[k]];
   }
   p.force[i] = f;
   p.torque[i] = t;
