@@ -11,14 +11,13 @@ namespace celldem {
 namespace {
 // Completes particle i's net force and moment: the pair loop summed the pairs of i's force block (kForceBlock)
 // where i is either end; the pairs that cross into it from other blocks come here, in ascending pair order.
-// Pairs apart hold zero force and moment, so adding them changes nothing (and needs no branch).
+// Pairs apart hold zero force and moment, so adding them changes nothing (and needs no branch). (Nor does
+// the sign of a zero: a net force starts from +0 and sums reach -0 only from two -0 terms, so f is never
+// -0, and f + (-0) = f + (+0) = f.)
 inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   Vec3 f = p.force[i], t = p.torque[i];
   for (Index k = pl.crossing_first[i]; k < pl.crossing_first[i + 1]; ++k) {
-    // The force on j is the pair's own. It is added as 0 + force, the value a zeroed hand-over slot held
-    // before the pair list lost its copies, so the bits stay those of earlier runs (a -0 adds as +0).
-    const Vec3& pair_force = pl.force[pl.crossing_pair[k]];
-    f += Vec3(0.0 + pair_force[0], 0.0 + pair_force[1], 0.0 + pair_force[2]);
+    f += pl.force[pl.crossing_pair[k]];  // the force on j: the pair's own
     t += pl.crossing_torque[pl.crossing_rank[k]];
   }
   p.force[i] = f;
