@@ -3,7 +3,6 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <exception>
 #include <optional>
 #include <vector>
 
@@ -14,93 +13,131 @@
 
 namespace celldem {
 
+namespace {
+
+// What the threads of advance_steps hand each other from stage to stage: written on one thread (moved: each
+// thread its own entry), read by the others after a barrier.
+struct StepShared {
+  Mat3 h_before;                                 // the cell at the start of the step
+  std::vector<double> moved;                     // per thread: the largest distance moved since the list was built [m]
+  std::optional<PairSearch> search;              // a rebuild's search, shared among the threads
+  std::optional<ContactForceEvaluation> forces;  // the step's pair loop
+  bool rebuilt = false;                          // whether this step rebuilt the neighbour list
+  bool go_on = true;                             // after_step's answer
+  std::int64_t steps = 0;
+};
+
+// One thread's part of the steps: the six stages, each on every thread of the team (its force blocks) or
+// on one thread while the others wait (Team::Member::serial). A stage that returns false ends the region.
+class StepThread {
+ public:
+  StepThread(const Model& model, const Loading& loading, State& state, bool& force_rebuild,
+             const AfterStep& after_step, StepShared& shared, Team::Member team)
+      : model_(model), loading_(loading), state_(state), force_rebuild_(force_rebuild), after_step_(after_step),
+        shared_(shared), team_(team), blocks_(thread_force_blocks(state.pairs, state.particles.size())),
+        kick_blocks_([&model, &state](std::size_t begin, std::size_t end) {
+          gather_and_kick_range(model, state, begin, end);
+        }) {}
+
+  bool step() {
+    if (!control()) return false;
+    drift();
+    if (!neighbours()) return false;
+    contact_forces();
+    kick();
+    return end_step();
+  }
+
+ private:
+  // 1. control: the cell at the end of the step (one thread)
+  bool control() {
+    return team_.serial([&] { shared_.h_before = state_.cell.h, advance_cell(model_, loading_, state_); });
+  }
+
+  // 2. particles move by their fluctuating velocity, measuring how far they moved since the list was built
+  void drift() {
+    shared_.moved[team_.thread()] = drift_share(model_, shared_.h_before, state_, blocks_);
+    team_.wait();
+  }
+
+  // 3. neighbours, if the list is due (or force_rebuild), with contact history carried over: the search
+  // shared among the threads, the rest on one thread, which then sets up the pair loop; the force blocks
+  // dealt anew
+  bool neighbours() {
+    if (!team_.serial([&] {
+          const double largest = *std::max_element(shared_.moved.begin(), shared_.moved.end());
+          const bool needed = pairs_need_rebuild(model_, state_, largest);
+          shared_.rebuilt = force_rebuild_ || needed;
+          force_rebuild_ = false;
+          if (needed) adapt_skin(state_);  // (not after a forced rebuild: the list had not run its course)
+          if (shared_.rebuilt) shared_.search.emplace(model_, state_);
+          else shared_.forces.emplace(model_, loading_.friction, state_);
+        }))
+      return false;
+    if (!shared_.rebuilt) return true;
+    shared_.search->search_share();
+    team_.wait();
+    if (!team_.serial([&] {
+          rebuild_pairs(model_, state_, *shared_.search), shared_.search.reset();
+          shared_.forces.emplace(model_, loading_.friction, state_);
+        }))
+      return false;
+    blocks_ = thread_force_blocks(state_.pairs, state_.particles.size());
+    return true;
+  }
+
+  // 4. contact forces and history. On one thread each block of particles is also kicked (stage 5) as soon
+  // as its forces are complete, while in cache.
+  void contact_forces() {
+    shared_.forces->evaluate_share(blocks_, team_.size() == 1 ? kick_blocks_ : BlocksDone{});
+    team_.wait();
+  }
+
+  // 5. net forces -> damped velocities and spins, each thread its force blocks once all pairs are done
+  void kick() {
+    if (team_.size() > 1) gather_and_kick_share(model_, state_, blocks_);
+    team_.wait();
+  }
+
+  // 6. stress and clocks, then whatever the caller does between steps (one thread)
+  bool end_step() {
+    return team_.serial([&] {
+      shared_.forces->finish();
+      state_.time += model_.dt;
+      ++state_.steps_since_creation;
+      ++state_.control.stage_steps;  // (leg_steps: advance_cell)
+      ++shared_.steps;
+      shared_.go_on = after_step_(shared_.rebuilt);
+    }) && shared_.go_on;
+  }
+
+  const Model& model_;
+  const Loading& loading_;
+  State& state_;
+  bool& force_rebuild_;
+  const AfterStep& after_step_;
+  StepShared& shared_;
+  Team::Member team_;
+  std::vector<std::size_t> blocks_;  // this thread's force blocks (thread_force_blocks), for stages 2, 4 and 5
+  const BlocksDone kick_blocks_;     // stage 5 for one force block
+};
+
+}  // namespace
+
 std::int64_t advance_steps(const Model& model, const Loading& loading, State& state, bool& force_rebuild,
                            const AfterStep& after_step, int threads) {
-  std::int64_t steps = 0;
-  std::exception_ptr failure;
-  std::optional<SpinBarrier> barrier;
-  std::vector<double> moved;  // per thread: the largest distance moved since the list was built [m]
-  std::optional<PairSearch> search;
-  std::optional<ContactForceEvaluation> forces;
-  Mat3 h_before;
-  bool rebuilt = false, go_on = true;
-#pragma omp parallel num_threads(threads > 0 ? threads : omp_get_max_threads())
+  const int team_size = threads > 0 ? threads : omp_get_max_threads();
+  StepShared shared;
+  shared.moved.assign(team_size, 0.0);  // (a smaller team leaves the rest at zero)
+  Team team;
+#pragma omp parallel num_threads(team_size)
   {
-    const int thread = omp_get_thread_num(), team = omp_get_num_threads();
-#pragma omp single
-    barrier.emplace(team), moved.assign(team, 0.0);
-    // This thread's force blocks: its share of the pair loop, the drift and the kick, dealt anew at each rebuild.
-    std::vector<std::size_t> my_blocks = thread_force_blocks(state.pairs, state.particles.size());
-    // Runs f on one thread while the others wait; false once anything has failed (then every thread leaves).
-    const auto one_thread = [&](auto&& f) {
-      if (thread == 0 && !failure) {
-        try {
-          f();
-        } catch (...) {
-          failure = std::current_exception();
-        }
-      }
-      barrier->wait();
-      return !failure;
-    };
-    const BlocksDone kick_blocks = [&](std::size_t begin, std::size_t end) {
-      gather_and_kick_range(model, state, begin, end);
-    };
-
-    while (go_on) {
-      // 1. control: the cell at the end of the step
-      if (!one_thread([&] { h_before = state.cell.h, advance_cell(model, loading, state); })) break;
-      // 2. particles move by their fluctuating velocity
-      moved[thread] = drift_share(model, h_before, state, my_blocks);
-      barrier->wait();
-      // 3. neighbours, with contact history carried over (the search shared among the threads)
-      if (!one_thread([&] {
-            const double largest = *std::max_element(moved.begin(), moved.end());
-            const bool needed = pairs_need_rebuild(model, state, largest);
-            rebuilt = force_rebuild || needed;
-            force_rebuild = false;
-            if (needed) adapt_skin(state);  // (not after a forced rebuild: the list had not run its course)
-            if (rebuilt) search.emplace(model, state);
-            else forces.emplace(model, loading.friction, state);
-          }))
-        break;
-      if (rebuilt) {
-        search->search_share();
-        barrier->wait();
-        if (!one_thread([&] {
-              rebuild_pairs(model, state, *search), search.reset();
-              forces.emplace(model, loading.friction, state);
-            }))
-          break;
-        my_blocks = thread_force_blocks(state.pairs, state.particles.size());
-      }
-      // 4. contact forces and history; 5. net forces -> damped velocities and spins. On one thread each
-      // block of particles is kicked as soon as its forces are complete (in cache); on more, each thread
-      // kicks its share once all pairs are done.
-      forces->evaluate_share(my_blocks, team == 1 ? kick_blocks : BlocksDone{});
-      barrier->wait();
-      if (team > 1) gather_and_kick_share(model, state, my_blocks);
-      barrier->wait();
-      // 6. stress and clocks, then whatever the caller does between steps
-      if (!one_thread([&] {
-            forces->finish();
-            state.time += model.dt;
-            ++state.steps_since_creation;
-            ++state.control.stage_steps;  // (leg_steps: advance_cell)
-            ++steps;
-            go_on = after_step(rebuilt);
-          }))
-        break;
+    StepThread thread(model, loading, state, force_rebuild, after_step, shared, team.join());
+    while (thread.step()) {
     }
   }
-  if (failure) std::rethrow_exception(failure);
-  return steps;
-}
-
-bool advance_one_step(const Model& model, const Loading& loading, State& state, bool force_rebuild) {
-  bool rebuilt = false;
-  advance_steps(model, loading, state, force_rebuild, [&](bool r) { return rebuilt = r, false; });
-  return rebuilt;
+  team.rethrow();
+  return shared.steps;
 }
 
 void evaluate_forces(const Model& model, const Friction& friction, State& state) {

@@ -26,9 +26,6 @@ using AfterStep = std::function<bool(bool rebuilt)>;
 std::int64_t advance_steps(const Model& model, const Loading& loading, State& state, bool& force_rebuild,
                            const AfterStep& after_step, int threads = 0);
 
-// One step (advance_steps for one step). Returns whether the list was rebuilt.
-bool advance_one_step(const Model& model, const Loading& loading, State& state, bool force_rebuild = false);
-
 // The forces of a state as it stands, nothing advanced (a stage's first row): a fresh neighbour list, the
 // contact forces with this friction and no slip added, the net force and moment of every particle.
 void evaluate_forces(const Model& model, const Friction& friction, State& state);

@@ -53,7 +53,7 @@ Impact collide(double r0, double r1, double v0, double v1, double damping, doubl
   bool was_touching = false, done = false;
   for (int k = 0; k < 200000 && !done; ++k) {
     const double rel_before = s.particles.velocity[1].x() - s.particles.velocity[0].x();
-    advance_one_step(model, loading, s, k == 0);
+    testing::advance_one_step(model, loading, s, k == 0);
     const bool touching = s.touching > 0;
     if (touching && !was_touching) out.speed_in = -rel_before;
     if (touching) {

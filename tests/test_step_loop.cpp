@@ -55,7 +55,7 @@ TEST(StepLoop, ManyStepsInOneRegionEqualOneStepAtATime) {
   const int saved = omp_get_max_threads();
   omp_set_num_threads(1);
   for (int k = 0; k < kSteps; ++k)
-    rebuilds += advance_one_step(one_at_a_time.model, one_at_a_time.loading, one_at_a_time.state, k == 0);
+    rebuilds += testing::advance_one_step(one_at_a_time.model, one_at_a_time.loading, one_at_a_time.state, k == 0);
   omp_set_num_threads(saved);
   ASSERT_GT(one_at_a_time.state.touching, 0);
   ASSERT_GT(rebuilds, 1);  // the list was rebuilt on the way, not only at the start
@@ -92,6 +92,32 @@ TEST(StepLoop, AnExceptionBetweenStepsEndsTheRegionAndReachesTheCaller) {
                                threads),
                  std::runtime_error);
     EXPECT_EQ(s.state.control.stage_steps, 5);  // no step after the one that threw
+  }
+}
+
+// Serial sections back to back, with no barrier between them: thread 0 throws in the 200th while its
+// partner may still be reading the outcome of the 199th. Every thread leaves after the same section (none
+// waits at a barrier the others have left) and the exception reaches the caller.
+TEST(Team, EveryThreadLeavesAfterTheSectionThatThrew) {
+  constexpr int kThreads = 3, kFailAt = 200;
+  for (int round = 0; round < 20; ++round) {
+    Team team;
+    int left_after[kThreads] = {};
+    int calls = 0, size = 0;
+#pragma omp parallel num_threads(kThreads)
+    {
+      Team::Member me = team.join();
+      if (me.thread() == 0) size = me.size();
+      int sections = 0;
+      while (++sections, me.serial([&] {
+        if (++calls == kFailAt) throw std::runtime_error("section 200");
+      })) {
+      }
+      left_after[me.thread()] = sections;
+    }
+    EXPECT_THROW(team.rethrow(), std::runtime_error);
+    EXPECT_EQ(calls, kFailAt);
+    for (int t = 0; t < size; ++t) EXPECT_EQ(left_after[t], kFailAt);
   }
 }
 

@@ -17,14 +17,8 @@
 namespace celldem {
 namespace {
 
-// Reductions are summed over fixed blocks of owner particles (their pairs in list order), then the blocks
-// in order. Only touching pairs add to them (the others add exact zeros), so the result depends neither on
-// the number of threads nor on which non-touching pairs the neighbour list happens to hold (so a rebuild
-// never changes the arithmetic).
-constexpr std::size_t kBlock = 256;
 // Pairs evaluated together by the SIMD loop before their in-order sums (small enough to stay in L1).
 constexpr int kChunk = 64;
-static_assert(kForceBlock % kBlock == 0, "force blocks are made of whole reduction blocks");
 
 // The doubles of an array of 3-vectors (null when it is empty: no pairs cross, say).
 inline double* doubles(std::vector<Vec3>& v) { return v.empty() ? nullptr : v.front().data(); }
@@ -203,8 +197,9 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
   }
 }
 
-// A block's running sums, carried from chunk to chunk.
-struct BlockSums {
+// What sum_chunk carries from pair to pair and chunk to chunk within a reduction block: the block's sums so
+// far, and the net force and moment of the owner being summed (in registers while its row lasts).
+struct RunningSums {
   double normal[3] = {};     // sum of force_k branch_k [N m]
   double stiffness[3] = {};  // sum of kn (n_k l_k)^2 [N m]
   std::int64_t touching = 0;
@@ -213,11 +208,11 @@ struct BlockSums {
   double torque[3] = {};
 };
 
-// Where sum_chunk hands the neighbours' share: the force block being evaluated, and where its next
-// crossing pair's moment goes (its force stays in the pair's own slot).
+// Where sum_chunk hands the neighbours' share: the force block being evaluated (a neighbour outside it makes
+// the pair a crossing one), and the slot of its next crossing pair's moment (its force stays in the pair).
 struct HandOver {
   Index block_begin, block_size;  // the force block's particles
-  double* crossing_torque;
+  double* next_crossing_torque;   // in pairs.crossing_torque
 };
 
 // Stores the chunk's flags and adds its pairs, in pair order, to both ends' net force and moment and to
@@ -228,15 +223,15 @@ struct HandOver {
 // nothing depends on whether a pair touches.
 void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const PairList& pl,
                std::uint8_t* __restrict flags, double* __restrict net_force, double* __restrict net_torque,
-               BlockSums& block, HandOver& to) {
-  BlockSums s = block;
+               RunningSums& block, HandOver& to) {
+  RunningSums s = block;
   const Index* __restrict owner = in.owner;
   const Index* __restrict neighbor = pl.neighbor.data() + q0;
   const double* __restrict pair_force = pl.force[q0].data();
   using Unsigned = std::make_unsigned_t<Index>;
   const Index block_begin = to.block_begin;
   const Unsigned block_size = static_cast<Unsigned>(to.block_size);
-  double* const crossing_torque = to.crossing_torque;
+  double* const crossing_torque = to.next_crossing_torque;
   Index crossed = 0;
   for (int k = 0; k < m; ++k) {
     const Index i = owner[k], j = neighbor[k];
@@ -268,16 +263,16 @@ void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const Pair
   }
   for (int k = 0; k < m; ++k) flags[q0 + k] = static_cast<std::uint8_t>(c.flags[k]);
   block = s;
-  to.crossing_torque += 3 * crossed;
+  to.next_crossing_torque += 3 * crossed;
 }
 
-// The calling thread's share of the pairs: force blocks with about equal numbers of pairs (thread_blocks).
-// Within a force block the reductions are summed over smaller blocks of kBlock owners; neither depends on
-// which thread takes which block. Diagonal: the cell and the velocity gradient are diagonal
+// The calling thread's share of the pairs: force blocks with about equal numbers of pairs (thread_blocks),
+// each in reduction blocks (kReductionBlock owners), each in chunks; neither kind of block depends on
+// which thread takes it. Diagonal: the cell and the velocity gradient are diagonal
 // (principal-axis loading, the common case); the products with h and L then skip their zero terms, which
 // gives the same numbers bit for bit.
 template <class Law, Kinematics K, bool Diagonal>
-void evaluate_share(const ContactParams& law, State& state, double dt, std::vector<ContactBlockSums>& partial,
+void evaluate_share(const ContactParams& law, State& state, double dt, std::vector<ReductionSums>& reduction_sums,
                     const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done) {
   Particles& p = state.particles;
   PairList& pl = state.pairs;
@@ -305,9 +300,9 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
     std::fill(net_torque + 3 * block_begin, net_torque + 3 * block_end, 0.0);
     HandOver to{static_cast<Index>(block_begin), static_cast<Index>(block_end - block_begin),
                 doubles(pl.crossing_torque) + 3 * pl.block_crossings[fb]};
-    for (std::size_t first_owner = block_begin; first_owner < block_end; first_owner += kBlock) {
-      const std::size_t last_owner = std::min(block_end, first_owner + kBlock);
-      BlockSums sums;
+    for (std::size_t first_owner = block_begin; first_owner < block_end; first_owner += kReductionBlock) {
+      const std::size_t last_owner = std::min(block_end, first_owner + kReductionBlock);
+      RunningSums sums;
       const Index begin = pl.first[first_owner], end = pl.first[last_owner];
       Index owner = static_cast<Index>(first_owner);
       for (Index q0 = begin; q0 < end; q0 += kChunk) {
@@ -319,7 +314,7 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
                                          radius ? radius + q0 : nullptr, pl.force[q0].data(), out);
         sum_chunk(in, out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
       }
-      ContactBlockSums& part = partial[first_owner / kBlock];
+      ReductionSums& part = reduction_sums[first_owner / kReductionBlock];
       part.normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
       part.stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
       part.touching = sums.touching;
@@ -344,13 +339,13 @@ Mat3 contact_stress(const State& state) {
   const PairList& pl = state.pairs;
   const Mat3& h = state.cell.h;
   const std::size_t n = p.size();
-  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  const std::size_t blocks = (n + kReductionBlock - 1) / kReductionBlock;
   // Same blocks, same order and same products as the pair loop's normal stresses, so that the diagonal
   // here equals state.normal_stress bit for bit. Pairs apart hold zero force and add nothing.
   Mat3 total = Mat3::Zero();
   for (std::size_t b = 0; b < blocks; ++b) {
     Mat3 block = Mat3::Zero();
-    for (std::size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i)
+    for (std::size_t i = b * kReductionBlock; i < std::min(n, (b + 1) * kReductionBlock); ++i)
       for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
         const Index j = pl.neighbor[q];
         const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]);
@@ -369,7 +364,7 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
     : params_(contact_params(model.contact, friction)),
       state_(state),
       dt_(advance_slip ? model.dt : 0.0),
-      partial_((state.particles.size() + kBlock - 1) / kBlock) {
+      reduction_sums_((state.particles.size() + kReductionBlock - 1) / kReductionBlock) {
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
   if (model.contact.rotational_history() && state.pairs.rolling.size() != state.pairs.size())
@@ -384,12 +379,12 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
 }
 
 void ContactForceEvaluation::evaluate_share(const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done) {
-  share_(params_, state_, dt_, partial_, blocks, blocks_done);
+  share_(params_, state_, dt_, reduction_sums_, blocks, blocks_done);
 }
 
 void ContactForceEvaluation::finish() {
-  ContactBlockSums total;
-  for (const ContactBlockSums& part : partial_) {
+  ReductionSums total;
+  for (const ReductionSums& part : reduction_sums_) {
     total.normal_sum += part.normal_sum;
     total.stiffness_sum += part.stiffness_sum;
     total.touching += part.touching;

@@ -1,5 +1,31 @@
-// The pair loop: every listed pair through the contact law, its history updated, and the reductions the
-// control needs (stress, axis stiffness, contact count).
+// The pair loop: every listed pair through the contact law, its history updated, each particle's net contact
+// force and moment, and the sums the control needs (stress, axis stiffness, contact count). The same loop
+// written plainly, for reading and for the tests: contact_forces_reference.hpp.
+//
+// A map of contact_forces.cpp.
+// Two kinds of block, both of consecutive particle ids (a pair belongs to its owner, the lower id):
+// - force blocks (kForceBlock, 2048 ids, core/state.hpp): what a thread takes (thread_force_blocks; the drift
+//   and the kick take the same) and the unit of the net-force hand-over. A pair with both ends in one force
+//   block adds its force and moment to both at once; a pair whose neighbour is in a later force block (a
+//   crossing pair) leaves the neighbour's share for the kick, which adds it last (integrate/leapfrog.cpp).
+// - reduction blocks (kReductionBlock, 256 owners, eight to a force block): the unit of the cell's sums.
+//   Each sums its owners' pairs in list order (ReductionSums); finish() adds the blocks in order.
+// Either way every sum runs in one fixed order, whatever the number of threads.
+// Four kernels, per chunk of up to 64 pairs (kChunk) of one reduction block, called by evaluate_share:
+// - chunk_owners: each pair's owner, from the list's offsets (the list stores none per pair);
+// - gather_chunk (gather_chunk_avx2 where the CPU has AVX2, the same bits): both ends' positions,
+//   velocities, spins and radii, component-major, one lane per pair;
+// - evaluate_chunk: the contact law (contact_law.hpp) in SIMD lanes (target_clones: AVX-512, AVX2 or
+//   SSE2, the same bits); writes each pair's force and springs in place;
+// - sum_chunk: in pair order, adds each pair to both ends' net force and moment (RunningSums carries the
+//   owner's from pair to pair), hands a crossing pair's moment over, adds to the reduction block's sums.
+// Five crossing arrays (PairList; built with the list, build_crossings in neighbor/neighbor_list.cpp):
+// - block_crossings (force blocks + 1): the crossing pairs owned by earlier blocks, so where each force
+//   block's crossing pairs start in crossing_torque;
+// - crossing_torque (C): each crossing pair's moment on its neighbour, in pair order (written by sum_chunk;
+//   the neighbour's force needs no slot: it is the pair's own, pairs.force);
+// - crossing_first (N + 1), crossing_rank (C), crossing_pair (C): the same pairs as a CSR by neighbour, in
+//   pair order, for the kick: each one's rank in crossing_torque and its pair index.
 #pragma once
 #include <functional>
 #include <vector>
@@ -18,12 +44,17 @@ void compute_contact_forces(const Model& model, const Friction& friction, State&
 // The same evaluation inside a parallel region the caller owns (the time step's, which spans many steps):
 // every thread calls evaluate_share() once with its force blocks (thread_force_blocks), then one thread calls
 // finish() once all have returned.
-// blocks_done(begin, end), if given, is called after each force block (kForceBlock): every pair owned by the
+// blocks_done(begin, end), if given, is called after each force block: every pair owned by the
 // particles in [begin, end) has then been evaluated by this thread. On one thread their net forces can then
 // be completed while in cache: the pairs that cross into a block are owned by earlier blocks (a pair's
 // owner has the lower id), and later pairs never touch the block's sums again.
 using BlocksDone = std::function<void(std::size_t begin, std::size_t end)>;
-struct ContactBlockSums {             // one block of owners' share of the reductions
+// Owners per reduction block. Only touching pairs add to the sums (the others add exact zeros), so they
+// depend neither on the thread count nor on which pairs apart the neighbour list holds (a rebuild never
+// changes the arithmetic).
+constexpr std::size_t kReductionBlock = 256;
+static_assert(kForceBlock % kReductionBlock == 0, "force blocks are made of whole reduction blocks");
+struct ReductionSums {                // one reduction block's sums over its owners' pairs, in list order
   Vec3 normal_sum = Vec3::Zero();     // sum of force_k branch_k [N m]
   Vec3 stiffness_sum = Vec3::Zero();  // sum of kn (n_k l_k)^2 [N m]
   std::int64_t touching = 0;
@@ -34,14 +65,14 @@ class ContactForceEvaluation {
   void evaluate_share(const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done = {});
   void finish();  // the reductions, summed block by block in order: the same for any thread count
 
-  using ShareFn = void (*)(const ContactParams&, State&, double, std::vector<ContactBlockSums>&,
+  using ShareFn = void (*)(const ContactParams&, State&, double, std::vector<ReductionSums>&,
                            const std::vector<std::size_t>&, const BlocksDone&);
 
  private:
   ContactParams params_;
   State& state_;
   double dt_;
-  std::vector<ContactBlockSums> partial_;
+  std::vector<ReductionSums> reduction_sums_;  // (reduction blocks)
   ShareFn share_;
 };
 

@@ -8,6 +8,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
+#include <exception>
+#include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -95,5 +99,63 @@ class SpinBarrier {
   alignas(64) std::atomic<int> arrived_{0};
   alignas(64) std::atomic<unsigned> generation_{0};
 };
+
+// The threads of one parallel region that work through many phases in lockstep (the time step's:
+// advance_steps): they meet at a SpinBarrier, run serial sections on one thread while the others wait, and
+// leave the region together when a serial section throws. Made before the region; every thread calls
+// join() first and works through its Member; after the region the caller calls rethrow().
+class Team {
+ public:
+  class Member;
+  Member join();                // every thread, at the start of the region
+  void rethrow() const {        // after the region: the exception that ended it, if any
+    if (failure_) std::rethrow_exception(failure_);
+  }
+
+ private:
+  std::optional<SpinBarrier> barrier_;
+  std::exception_ptr failure_;  // written by thread 0 only, read after the region
+  // The serial section that threw (counted alike on every thread), none yet: the largest count. A count,
+  // not a flag, so that a thread still reading the outcome of section k while thread 0 has already failed
+  // in section k + 1 goes on to section k + 1 and meets thread 0 there, instead of leaving one section early.
+  std::atomic<std::int64_t> failed_section_{std::numeric_limits<std::int64_t>::max()};
+};
+
+// One thread's handle on its team.
+class Team::Member {
+ public:
+  int thread() const { return thread_; }
+  int size() const { return size_; }
+  void wait() { team_.barrier_->wait(); }  // every thread of the team
+  // Runs f on thread 0 while the others wait, then all meet. Returns false, on every thread alike, if f
+  // threw: then every thread leaves the region (the exception is kept for Team::rethrow()).
+  template <class F>
+  bool serial(F&& f) {
+    ++section_;
+    if (thread_ == 0) {
+      try {
+        f();
+      } catch (...) {
+        team_.failure_ = std::current_exception();
+        team_.failed_section_.store(section_, std::memory_order_release);
+      }
+    }
+    wait();
+    return team_.failed_section_.load(std::memory_order_acquire) > section_;
+  }
+
+ private:
+  friend class Team;
+  Member(Team& team, int thread, int size) : team_(team), thread_(thread), size_(size) {}
+  Team& team_;
+  const int thread_, size_;
+  std::int64_t section_ = 0;  // serial sections entered
+};
+
+inline Team::Member Team::join() {
+#pragma omp single
+  barrier_.emplace(omp_get_num_threads());  // (the end of single is a barrier: all see it built)
+  return Member(*this, omp_get_thread_num(), omp_get_num_threads());
+}
 
 }  // namespace celldem

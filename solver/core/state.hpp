@@ -67,11 +67,11 @@ struct PairList {
   // once; for a crossing pair (ends in two blocks, the owner's first: j > i) the pair loop leaves j's moment
   // in crossing_torque, in pair order (its force is the pair's own), and j's kick adds both once the pair
   // loop is done. Every particle's sum thus runs in one fixed order for any number of threads (the threads
-  // share whole blocks, each writing its own crossings).
+  // share whole blocks, each writing its own crossings). The pair loop's map: contact/contact_forces.hpp.
   std::vector<Index> block_crossings;            // (blocks + 1) crossing pairs owned by earlier blocks
   std::vector<Vec3> crossing_torque;             // (C) [N m] moment on j of each crossing pair, in pair order
   std::vector<Index> crossing_first;             // (N + 1) CSR by j: the pairs crossing into j, in pair order,
-  std::vector<Index> crossing;                   // (C)   their ranks in crossing_torque
+  std::vector<Index> crossing_rank;              // (C)   their ranks in crossing_torque
   std::vector<Index> crossing_pair;              // (C)   and their pair indices
   // Positions and cell at the last build, for the rebuild criterion. The positions are kept in single
   // precision (half the memory and the drift's traffic); build_rounding bounds what that rounding hides, and

@@ -11,15 +11,14 @@ namespace celldem {
 namespace {
 // Completes particle i's net force and moment: the pair loop summed the pairs of i's force block (kForceBlock)
 // where i is either end; the pairs that cross into it from other blocks come here, in ascending pair order.
-// Pairs apart hold zero force and moment, so adding them changes nothing (and needs no branch).
+// Pairs apart hold zero force and moment, so adding them changes nothing (and needs no branch). (Nor does
+// the sign of a zero: a net force starts from +0 and sums reach -0 only from two -0 terms, so f is never
+// -0, and f + (-0) = f + (+0) = f.)
 inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   Vec3 f = p.force[i], t = p.torque[i];
   for (Index k = pl.crossing_first[i]; k < pl.crossing_first[i + 1]; ++k) {
-    // The force on j is the pair's own. It is added as 0 + force, the value a zeroed hand-over slot held
-    // before the pair list lost its copies, so the bits stay those of earlier runs (a -0 adds as +0).
-    const Vec3& pair_force = pl.force[pl.crossing_pair[k]];
-    f += Vec3(0.0 + pair_force[0], 0.0 + pair_force[1], 0.0 + pair_force[2]);
-    t += pl.crossing_torque[pl.crossing[k]];
+    f += pl.force[pl.crossing_pair[k]];  // the force on j: the pair's own
+    t += pl.crossing_torque[pl.crossing_rank[k]];
   }
   p.force[i] = f;
   p.torque[i] = t;
@@ -55,11 +54,6 @@ void gather_and_kick_share(const Model& model, State& state, const std::vector<s
     gather_and_kick_range(model, state, b * kForceBlock, std::min(n, (b + 1) * kForceBlock));
 }
 
-void gather_and_kick(const Model& model, State& state) {
-#pragma omp parallel
-  gather_and_kick_share(model, state, thread_force_blocks(state.pairs, state.particles.size()));
-}
-
 double drift_share(const Model& model, const Mat3& h_before, State& state, const std::vector<std::size_t>& blocks) {
   Particles& p = state.particles;
   const PairList& pl = state.pairs;
@@ -74,13 +68,6 @@ double drift_share(const Model& model, const Mat3& h_before, State& state, const
       if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i].cast<double>())).squaredNorm());
     }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
-}
-
-double drift(const Model& model, const Mat3& h_before, State& state) {
-  double largest = 0.0;  // a maximum: the same whatever the order
-#pragma omp parallel reduction(max : largest)
-  largest = std::max(largest, drift_share(model, h_before, state, thread_force_blocks(state.pairs, state.particles.size())));
-  return largest;
 }
 
 }  // namespace celldem

@@ -192,12 +192,12 @@ void build_crossings(PairList& pl, std::size_t n) {
   for (std::size_t b = 0; b < blocks; ++b) pl.block_crossings[b + 1] += pl.block_crossings[b];
   for (std::size_t k = 0; k < n; ++k) pl.crossing_first[k + 1] += pl.crossing_first[k];
   const std::size_t count = pl.crossing_first[n];
-  pl.crossing.resize(count);
+  pl.crossing_rank.resize(count);
   pl.crossing_pair.resize(count);
   std::vector<Index> fill(pl.crossing_first.begin(), pl.crossing_first.end() - 1);
   for_each_crossing([&](Index, Index q, Index rank) {
     const Index k = fill[pl.neighbor[q]]++;
-    pl.crossing[k] = rank;
+    pl.crossing_rank[k] = rank;
     pl.crossing_pair[k] = q;
   });
   pl.crossing_torque.assign(count, Vec3::Zero());
@@ -299,14 +299,14 @@ void check_pair_list(const PairList& pl, std::size_t particles) {
   }
   const auto crossing_holds = [&](const auto& v) { return v.size() == static_cast<std::size_t>(crossings); };
   require(pl.crossing_first.size() == particles + 1 && pl.crossing_first[0] == 0 && pl.crossing_first[n] == crossings &&
-              crossing_holds(pl.crossing) && crossing_holds(pl.crossing_pair) && crossing_holds(pl.crossing_torque),
+              crossing_holds(pl.crossing_rank) && crossing_holds(pl.crossing_pair) && crossing_holds(pl.crossing_torque),
           "the crossing arrays hold every crossing pair once");
   for (Index j = 0; j < n; ++j)
     for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
       const Index q = pl.crossing_pair[k];
       require(q >= 0 && q < count && pl.neighbor[q] == j, "crossing_pair points at the pairs of j");
       require(k == pl.crossing_first[j] || pl.crossing_pair[k - 1] < q, "the pairs crossing into j are in pair order");
-      require(pl.crossing[k] >= 0 && pl.crossing[k] < crossings, "a crossing's rank is within crossing_torque");
+      require(pl.crossing_rank[k] >= 0 && pl.crossing_rank[k] < crossings, "a crossing's rank is within crossing_torque");
     }
 }
 

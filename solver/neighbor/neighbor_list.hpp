@@ -69,7 +69,7 @@ void rebuild_pairs(const Model& model, State& state, PairSearch& search);
 void check_pair_list(const PairList& pl, std::size_t particles);
 
 // True when a pair outside the list could have come into contact since the last build, given the largest
-// distance a particle has moved since then (drift() measures it on its way; largest_move_since_build()
+// distance a particle has moved since then (drift_share() measures it on its way; largest_move_since_build()
 // measures it on its own).
 bool pairs_need_rebuild(const Model& model, const State& state, double largest_move);
 bool pairs_need_rebuild(const Model& model, const State& state);  // measures the largest move itself

@@ -103,7 +103,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   t.bytes_per_particle = t.memory.total();
   t.pairs_per_particle = static_cast<double>(state.pairs.size()) / static_cast<double>(state.particles.size());
   t.crossings_per_particle =
-      static_cast<double>(state.pairs.crossing.size()) / static_cast<double>(state.particles.size());
+      static_cast<double>(state.pairs.crossing_rank.size()) / static_cast<double>(state.particles.size());
   t.contacts_per_particle = static_cast<double>(state.touching) / static_cast<double>(state.particles.size());
   return t;
 }
@@ -164,7 +164,7 @@ MemoryPerParticle memory_per_particle(const State& s, const Model& m) {
   out.pairs = (bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) + bytes(pl.twist) +
                bytes(pl.contact_radius) +
                bytes(pl.flags) + bytes(pl.force) + bytes(pl.block_crossings) + bytes(pl.crossing_torque) +
-               bytes(pl.crossing) + bytes(pl.crossing_pair)) / n;
+               bytes(pl.crossing_rank) + bytes(pl.crossing_pair)) / n;
   out.model = (bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +
                bytes(m.spin_gain)) / n;
   return out;

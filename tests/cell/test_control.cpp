@@ -224,7 +224,7 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
   const int steps = 4000, transient = 300;
   double worst = 0.0, mean_error = 0.0;
   for (int k = 0; k < steps; ++k) {
-    advance_one_step(model, loading, s, k == 0);
+    testing::advance_one_step(model, loading, s, k == 0);
     if (k < transient) continue;
     for (int a : {1, 2}) {
       const double err = (s.normal_stress[a] - target) / target;

@@ -115,7 +115,7 @@ TEST(Hertz, CollisionDurationAndRestitutionMatchHertzTheory) {
   evaluate_forces(model, Friction(0.5), s);
   int touching_steps = 0;
   for (int k = 0; k < 20000 && (touching_steps == 0 || s.touching > 0); ++k) {
-    advance_one_step(model, testing::fixed_cell(0.5), s);
+    testing::advance_one_step(model, testing::fixed_cell(0.5), s);
     touching_steps += s.touching > 0 ? 1 : 0;
   }
   EXPECT_NEAR(touching_steps * deck.time_step, t_contact, 2e-3 * t_contact);

@@ -19,7 +19,7 @@ TEST(Leapfrog, DriftMovesByVelocityTimesStepInFixedCell) {
   const Mat3 h = (Mat3() << 4.0, 1.0, 0.0, 0.0, 5.0, 0.5, 0.0, 0.0, 6.0).finished();
   State s = testing::make_state(h, {0.5}, {Vec3(1.0, 2.0, 3.0)}, 0.1);
   s.particles.velocity[0] = Vec3(0.3, -0.2, 0.1);
-  drift(model, h, s);
+  testing::drift(model, h, s);
   EXPECT_NEAR((h * s.particles.scaled[0] - (Vec3(1.0, 2.0, 3.0) + dt * Vec3(0.3, -0.2, 0.1))).norm(), 0.0, 1e-15);
 }
 
@@ -33,7 +33,7 @@ TEST(Leapfrog, DriftInDeformingCell) {
   s.particles.velocity[1] = Vec3(0.0, 0.0, 2.0);
   const Vec3 s0 = s.particles.scaled[0], s1 = s.particles.scaled[1];
   s.cell.h = Vec3(4.0 * (1 - 1e-3), 4.0, 4.0 * (1 + 2e-3)).asDiagonal();
-  drift(model, h0, s);
+  testing::drift(model, h0, s);
   EXPECT_EQ(s.particles.scaled[0], s0);
   const Mat3 h_mid = 0.5 * (h0 + s.cell.h);
   EXPECT_NEAR((s.particles.scaled[1] - (s1 + dt * h_mid.inverse() * Vec3(0, 0, 2.0))).norm(), 0.0, 1e-16);
@@ -48,7 +48,7 @@ TEST(Leapfrog, DampedFreeParticleDecaysExponentially) {
   s.particles.velocity[0] = Vec3(1.0, 0.0, 0.0);
   s.particles.spin[0] = Vec3(0.0, 0.0, 10.0);
   const int steps = 500;
-  for (int k = 0; k < steps; ++k) gather_and_kick(model, s);
+  for (int k = 0; k < steps; ++k) testing::gather_and_kick(model, s);
   const double c_over_m = a * 2.0 * std::sqrt(kn);  // m = 1
   EXPECT_NEAR(s.particles.velocity[0].x(), std::exp(-c_over_m * steps * dt), 1e-4);
   EXPECT_NEAR(s.particles.velocity[0].x(), std::pow(model.velocity_keep[0], steps), 1e-14);
@@ -76,7 +76,7 @@ TEST(Leapfrog, GatherConservesMomentumAndAngularMomentum) {
   }
   rebuild_pairs(model, s);
   for (int k = 0; k < 5; ++k) compute_contact_forces(model, 0.3, s);  // history builds up, some slide
-  gather_and_kick(model, s);
+  testing::gather_and_kick(model, s);
   ASSERT_GT(s.touching, 60);
   Vec3 net = Vec3::Zero(), moment = Vec3::Zero();
   double scale = 0.0;

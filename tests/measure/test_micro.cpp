@@ -146,7 +146,7 @@ TEST(LatticeMeasurements, SimpleCubic) {
   State s = testing::lattice_state(n, R, Vec3(a, a, a), 0.05);
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
-  gather_and_kick(model, s);
+  testing::gather_and_kick(model, s);
   const Coordination z = coordination(s);
   EXPECT_DOUBLE_EQ(z.z, 6.0);
   EXPECT_DOUBLE_EQ(z.z_mechanical, 6.0);
@@ -169,7 +169,7 @@ TEST(LatticeMeasurements, SimpleCubic) {
   State t = s;
   t.particles.scaled[0] += t.cell.h.inverse() * Vec3(u, 0.0, 0.0);
   compute_contact_forces(model, 0.5, t, false);
-  gather_and_kick(model, t);
+  testing::gather_and_kick(model, t);
   const double net = (2 * kn * u - 4 * kn * dt * u / d) + 2 * kn * u +
                      4 * kn * std::hypot(dt * u / d, dt * a / d - delta);
   const double mean_normal = kn * (192 * delta + 4 * (dt - delta)) / 192.0;
@@ -194,7 +194,7 @@ TEST(ParticleStress, LatticeValueAndSumOverParticlesIsTheCellStress) {
   State t = s;
   t.particles.scaled[0] += t.cell.h.inverse() * Vec3(0.005, 0.002, -0.001);
   compute_contact_forces(model, 0.5, t, false);
-  gather_and_kick(model, t);
+  testing::gather_and_kick(model, t);
   Mat3 sum = Mat3::Zero();
   const std::vector<Mat3> sigma = particle_stresses(t);
   for (std::size_t i = 0; i < sigma.size(); ++i) sum += vp * sigma[i];

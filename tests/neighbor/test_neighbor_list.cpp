@@ -92,19 +92,19 @@ void expect_list_consistent(const PairList& pl, std::size_t n) {
                                                    [&](std::size_t q) { return q < block_start; }));
   }
   ASSERT_EQ(pl.crossing_first.size(), n + 1);
-  ASSERT_EQ(pl.crossing.size(), static_cast<std::size_t>(crossings));
+  ASSERT_EQ(pl.crossing_rank.size(), static_cast<std::size_t>(crossings));
   ASSERT_EQ(pl.crossing_torque.size(), static_cast<std::size_t>(crossings));
   ASSERT_EQ(pl.crossing_pair.size(), static_cast<std::size_t>(crossings));
   std::vector<int> seen(crossings, 0);
   for (std::size_t j = 0; j < n; ++j)
     for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
-      const Index c = pl.crossing[k];
+      const Index c = pl.crossing_rank[k];
       ASSERT_GE(c, 0);
       ASSERT_LT(c, crossings);
       const std::size_t q = pair_of_rank[c];
       EXPECT_EQ(static_cast<std::size_t>(pl.crossing_pair[k]), q);
       EXPECT_EQ(pl.neighbor[q], static_cast<Index>(j));
-      if (k > pl.crossing_first[j]) { EXPECT_LT(pl.crossing[k - 1], c); }
+      if (k > pl.crossing_first[j]) { EXPECT_LT(pl.crossing_rank[k - 1], c); }
       ++seen[c];
     }
   for (int c : seen) EXPECT_EQ(c, 1);
@@ -131,7 +131,7 @@ TEST(NeighborList, MatchesBruteForceInCubicShearedAndSmallCells) {
     const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
     rebuild_pairs(model, s);
     expect_list_consistent(s.pairs, s.particles.size());
-    if (s.particles.size() > kForceBlock) { EXPECT_GT(s.pairs.crossing.size(), 100u); }
+    if (s.particles.size() > kForceBlock) { EXPECT_GT(s.pairs.crossing_rank.size(), 100u); }
     const std::set<Key> expected = brute_force(s, skin);
     EXPECT_EQ(listed(s.pairs), expected);
     EXPECT_GT(expected.size(), 10u);

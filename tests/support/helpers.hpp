@@ -21,6 +21,7 @@
 #include "integrate/leapfrog.hpp"
 #include "io/deck_reader.hpp"
 #include "neighbor/neighbor_list.hpp"
+#include "stepping.hpp"
 
 namespace celldem::testing {
 

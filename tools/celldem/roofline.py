@@ -71,7 +71,7 @@ ARRAYS = (
     # Pairs whose ends lie in two force blocks (state.hpp, kForceBlock) hand j's share over through these.
     # (Their forces are read again from pairs.force, a second time for those pairs: not counted.)
     ("pairs.crossing_torque", 24, "crossing", "W", {"sum_chunk": "W", "gather_and_kick_range": "R"}),
-    ("pairs.crossing", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
+    ("pairs.crossing_rank", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
     ("pairs.crossing_pair", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
 )
 
