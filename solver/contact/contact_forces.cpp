@@ -334,29 +334,31 @@ ContactForceEvaluation::ShareFn share_for(bool diagonal) {
 bool vector_gather_available() { return cpu_has_avx2; }
 void use_portable_gather(bool portable) { portable_gather = portable; }
 
+void ContactStressSum::add(Index owner, const Vec3& force, const Vec3& ds) {
+  if (owner / kReductionBlock != block_) {
+    total_ += block_sum_;
+    block_sum_.setZero();
+    block_ = owner / kReductionBlock;
+  }
+  const Real3 branch = apply<false>(h_, real3(ds));
+  const double l[3] = {branch.x, branch.y, branch.z};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) block_sum_(r, c) += force[r] * l[c];
+}
+
+Mat3 ContactStressSum::stress(double volume) const {
+  const Mat3 total = total_ + block_sum_;
+  return 0.5 * (total + total.transpose()) / volume;
+}
+
 Mat3 contact_stress(const State& state) {
   const Particles& p = state.particles;
   const PairList& pl = state.pairs;
-  const Mat3& h = state.cell.h;
-  const std::size_t n = p.size();
-  const std::size_t blocks = (n + kReductionBlock - 1) / kReductionBlock;
-  // Same blocks, same order and same products as the pair loop's normal stresses, so that the diagonal
-  // here equals state.normal_stress bit for bit. Pairs apart hold zero force and add nothing.
-  Mat3 total = Mat3::Zero();
-  for (std::size_t b = 0; b < blocks; ++b) {
-    Mat3 block = Mat3::Zero();
-    for (std::size_t i = b * kReductionBlock; i < std::min(n, (b + 1) * kReductionBlock); ++i)
-      for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
-        const Index j = pl.neighbor[q];
-        const Vec3 ds = p.scaled[j] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]);
-        const Real3 branch = apply<false>(h, real3(ds));
-        const double l[3] = {branch.x, branch.y, branch.z};
-        for (int r = 0; r < 3; ++r)
-          for (int c = 0; c < 3; ++c) block(r, c) += pl.force[q][r] * l[c];
-      }
-    total += block;
-  }
-  return 0.5 * (total + total.transpose()) / state.cell.volume();
+  ContactStressSum sum(state.cell.h);
+  for_each_pair(pl, [&](Index i, Index q) {
+    sum.add(i, pl.force[q], p.scaled[pl.neighbor[q]] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]));
+  });
+  return sum.stress(state.cell.volume());
 }
 
 ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Friction& friction, State& state,

@@ -82,10 +82,30 @@ class ContactForceEvaluation {
 bool vector_gather_available();
 void use_portable_gather(bool portable);
 
+// The sum that defines the contact stress, force (x) branch over the listed pairs, in the pair loop's
+// order and arithmetic: each reduction block of owners (kReductionBlock ids) summed in list order, then the
+// blocks in order, the branch h ds summed left to right (Eigen's h * ds sums its third row in another
+// order), so that its diagonal is state.normal_stress's sum to the bit. Pairs apart hold zero force and add
+// nothing. add() takes the pairs in list order (for_each_pair), each with its owner.
+class ContactStressSum {
+ public:
+  explicit ContactStressSum(const Mat3& h) : h_(h) {}
+  // ds: the pair's scaled separation s_j - s_i + image.
+  void add(Index owner, const Vec3& force, const Vec3& ds);
+  // [Pa] the symmetric part over the cell volume, compression positive.
+  Mat3 stress(double volume) const;
+
+ private:
+  Mat3 h_;                         // [m] the cell
+  std::size_t block_ = 0;          // the reduction block being summed
+  Mat3 block_sum_ = Mat3::Zero();  // [N m] its sum so far
+  Mat3 total_ = Mat3::Zero();      // [N m] the blocks before it
+};
+
 // The full contact stress tensor [Pa] (symmetric part, compression positive) of the last force
-// evaluation, sum of force (x) branch over the contacts divided by the cell volume. The step keeps only
-// its diagonal (state.normal_stress: all that the control needs); this sums the same terms in the same
-// order, so its diagonal is the same to the bit.
+// evaluation, ContactStressSum over the pair list divided by the cell volume. The step keeps only its
+// diagonal (state.normal_stress: all that the control needs). The single-quantity form: a series row takes
+// it from measure_contacts (measure/micro.hpp), which walks the pairs once for everything a row needs.
 Mat3 contact_stress(const State& state);
 
 }  // namespace celldem

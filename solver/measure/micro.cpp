@@ -4,19 +4,21 @@
 #include <cmath>
 #include <limits>
 
+#include "contact/contact_forces.hpp"
 #include "contact/contact_law.hpp"
 
 namespace celldem {
 namespace {
 
-// The branch vector of pair q, owned by i.
-Vec3 branch_of(const State& state, Index i, Index q) {
+// The scaled separation s_j - s_i + image of pair q, owned by i.
+Vec3 scaled_separation(const State& state, Index i, Index q) {
   const PairList& pl = state.pairs;
   const auto& img = pl.image[q];
-  const Vec3 ds = state.particles.scaled[pl.neighbor[q]] - state.particles.scaled[i] +
-                  Vec3(img[0], img[1], img[2]);
-  return state.cell.h * ds;
+  return state.particles.scaled[pl.neighbor[q]] - state.particles.scaled[i] + Vec3(img[0], img[1], img[2]);
 }
+
+// The branch vector of pair q, owned by i.
+Vec3 branch_of(const State& state, Index i, Index q) { return state.cell.h * scaled_separation(state, i, q); }
 
 }  // namespace
 
@@ -28,6 +30,7 @@ Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& no
   double mean = 0.0;
   for (double fn : normal_forces) mean += fn;
   mean /= static_cast<double>(nc);
+  f.mean_normal_force = mean;
   std::int64_t weak = 0;
   for (std::size_t c = 0; c < nc; ++c) {
     const Mat3 nn = normals[c] * normals[c].transpose();
@@ -44,21 +47,6 @@ Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& no
   if (f.strong_contacts) f.strong /= static_cast<double>(f.strong_contacts);
   if (weak) f.weak /= static_cast<double>(weak);
   return f;
-}
-
-Fabric contact_fabric(const Model&, const State& state) {
-  const PairList& pl = state.pairs;
-  std::vector<Vec3> normals;
-  std::vector<double> forces;
-  normals.reserve(state.touching);
-  forces.reserve(state.touching);
-  for_each_pair(pl, [&](Index i, Index q) {
-    if (!(pl.flags[q] & kTouching)) return;
-    const Vec3 n = branch_of(state, i, q).normalized();
-    normals.push_back(n);
-    forces.push_back(pl.force[q].dot(n));
-  });
-  return fabric_of(normals, forces);
 }
 
 Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts, int min_contacts) {
@@ -96,76 +84,58 @@ Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, I
   return c;
 }
 
-Coordination coordination(const State& state, int min_contacts) {
-  const PairList& pl = state.pairs;
-  std::vector<std::pair<Index, Index>> contacts;
-  contacts.reserve(state.touching);
-  for_each_pair(pl, [&](Index i, Index q) {
-    if (pl.flags[q] & kTouching) contacts.emplace_back(i, pl.neighbor[q]);
-  });
-  return coordination_of(state.particles.size(), contacts, min_contacts);
-}
-
-double sliding_fraction(const State& state) {
-  const PairList& pl = state.pairs;
-  std::int64_t touching = 0, sliding = 0;
-  for (std::size_t q = 0; q < pl.size(); ++q) {
-    touching += (pl.flags[q] & kTouching) != 0;
-    sliding += (pl.flags[q] & kTouching) && (pl.flags[q] & kSliding);
-  }
-  return touching ? static_cast<double>(sliding) / static_cast<double>(touching) : 0.0;
-}
-
-double kinetic_energy(const Model& model, const State& state) {
+ContactMeasures measure_contacts(const Model& model, const State& state) {
   const Particles& p = state.particles;
-  double e = 0.0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const double r = p.radius[i];
-    e += 0.5 * model.mass_of(r) * (p.velocity[i].squaredNorm() + 0.4 * r * r * p.spin[i].squaredNorm());
-  }
-  return e;
-}
-
-// Normal spring: fn^2 / (2 kn), or Hertz's 2/5 fn overlap; tangential spring: |ft|^2 / (2 kt) with kt the
-// law's stiffness at this contact (mindlin: 8 G* a); rolling spring: k_roll |xi_r|^2 / 2; twist: k_tw theta^2 / 2.
-double elastic_energy(const Model& model, const State& state) {
   const PairList& pl = state.pairs;
   const ContactDef& c = model.contact;
   const bool rotational = pl.rolling.size() == pl.size();
-  double e = 0.0;
+  ContactMeasures m;
+  ContactStressSum stress(state.cell.h);
+  std::vector<std::pair<Index, Index>> contacts;  // the touching pairs (i, j), in list order
+  std::vector<Vec3> normals;                      // their unit normals, i to j
+  std::vector<double> normal_forces;              // [N] their normal forces
+  contacts.reserve(state.touching);
+  normals.reserve(state.touching);
+  normal_forces.reserve(state.touching);
   for_each_pair(pl, [&](Index i, Index q) {
+    const Vec3 ds = scaled_separation(state, i, q);
+    stress.add(i, pl.force[q], ds);  // every listed pair (those apart hold zero force)
     if (!(pl.flags[q] & kTouching)) return;
-    const Vec3 branch = branch_of(state, i, q);
+    const Vec3 branch = state.cell.h * ds;
+    const Index j = pl.neighbor[q];
     const Vec3 n = branch.normalized();
     const double fn = pl.force[q].dot(n);
+    contacts.emplace_back(i, j);
+    normals.push_back(n);
+    normal_forces.push_back(fn);
+    m.sliding += (pl.flags[q] & kSliding) != 0;
+    // The springs' energy (ContactMeasures::elastic_energy).
     const double ft2 = (pl.force[q] - fn * n).squaredNorm();
-    const Index j = pl.neighbor[q];
-    const double ri = state.particles.radius[i], rj = state.particles.radius[j];
+    const double ri = p.radius[i], rj = p.radius[j];
     const double overlap = ri + rj - branch.norm();
     const double a = std::sqrt(ri * rj / (ri + rj) * std::max(overlap, 0.0));
     const double kt = is_mindlin(c.tangential) ? tangential_stiffness_mindlin(c.effective_shear_modulus(), a) : c.kt;
     const double normal = c.normal == NormalModel::Hertz ? 0.4 * fn * overlap : 0.5 * fn * fn / c.kn;
-    e += normal + (kt > 0.0 ? 0.5 * ft2 / kt : 0.0);
-    if (rotational && c.rolling == RollingModel::Sds) e += 0.5 * c.rolling_stiffness * pl.rolling[q].squaredNorm();
-    if (rotational && c.twisting == TwistingModel::Marshall) e += 0.25 * kt * a * a * pl.twist[q] * pl.twist[q];
+    m.elastic_energy += normal + (kt > 0.0 ? 0.5 * ft2 / kt : 0.0);
+    if (rotational && c.rolling == RollingModel::Sds) m.elastic_energy += 0.5 * c.rolling_stiffness * pl.rolling[q].squaredNorm();
+    if (rotational && c.twisting == TwistingModel::Marshall) m.elastic_energy += 0.25 * kt * a * a * pl.twist[q] * pl.twist[q];
   });
-  return e;
-}
+  m.stress = stress.stress(state.cell.volume());
+  m.fabric = fabric_of(normals, normal_forces);
+  m.coordination = coordination_of(p.size(), contacts, kFrictionalRattler);
+  m.coordination_frictionless = coordination_of(p.size(), contacts, kFrictionlessRattler);
+  const std::int64_t touching = m.fabric.contacts;
+  m.sliding_fraction = touching ? static_cast<double>(m.sliding) / static_cast<double>(touching) : 0.0;
 
-double unbalanced_force_ratio(const Model& model, const State& state) {
-  const Particles& p = state.particles;
-  const PairList& pl = state.pairs;
-  double net = 0.0, normal = 0.0;
-  std::int64_t touching = 0;
-  for (std::size_t i = 0; i < p.size(); ++i) net += p.force[i].norm();
-  for_each_pair(pl, [&](Index i, Index q) {
-    if (!(pl.flags[q] & kTouching)) return;
-    normal += pl.force[q].dot(branch_of(state, i, q).normalized());
-    ++touching;
-  });
-  (void)model;
-  if (touching == 0 || normal <= 0.0) return 0.0;
-  return (net / static_cast<double>(p.size())) / (normal / static_cast<double>(touching));
+  double net = 0.0;  // [N] sum of |net contact force| over the particles
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double r = p.radius[i];
+    m.kinetic_energy += 0.5 * model.mass_of(r) * (p.velocity[i].squaredNorm() + 0.4 * r * r * p.spin[i].squaredNorm());
+    net += p.force[i].norm();
+  }
+  if (touching > 0 && m.fabric.mean_normal_force > 0.0)
+    m.unbalanced_force = (net / static_cast<double>(p.size())) / m.fabric.mean_normal_force;
+  return m;
 }
 
 double void_ratio(const Model& model, const State& state) {

@@ -12,12 +12,11 @@ struct Fabric {
   Mat3 strong = Mat3::Zero();  // contacts with normal force above the mean
   Mat3 weak = Mat3::Zero();    // contacts with normal force at or below the mean
   std::int64_t contacts = 0, strong_contacts = 0;
+  double mean_normal_force = 0.0;  // [N] (1/Nc) sum of the normal forces (0 without contacts)
 };
 
-// Contact normals from the stored pair list (the last force evaluation); normal force = kn * overlap.
-Fabric contact_fabric(const Model& model, const State& state);
-
-// Fabric of an explicit set of unit normals and normal forces (the definition, for tests and reuse).
+// Fabric of an explicit set of unit normals and normal forces: the definition (measure_contacts applies it
+// to the contacts of the pair list).
 Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& normal_forces);
 
 struct Coordination {
@@ -28,17 +27,33 @@ struct Coordination {
 // Rattlers have fewer than min_contacts contacts: 2 for frictional packings (a sphere with friction is held by
 // two), d + 1 = 4 for frictionless ones.
 inline constexpr int kFrictionalRattler = 2, kFrictionlessRattler = 4;
-Coordination coordination(const State& state, int min_contacts = kFrictionalRattler);
 
-// Mechanical coordination of an explicit contact list over n particles (for tests and reuse).
+// Mechanical coordination of an explicit contact list over n particles: the definition (measure_contacts
+// applies it to the touching pairs of the list, under both rules).
 Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts,
                              int min_contacts = kFrictionalRattler);
 
-double sliding_fraction(const State& state);  // contacts at the Coulomb limit / contacts
-double kinetic_energy(const Model& model, const State& state);  // [J] fluctuating translation + rotation
-double elastic_energy(const Model& model, const State& state);  // [J] stored in the contact springs
-// Mean |net contact force| over particles / mean contact normal force (0 when nothing touches).
-double unbalanced_force_ratio(const Model& model, const State& state);
+// Everything that a series row, the health checks (run/health), the preparation's equilibrium check
+// (quasi_static) and its summary read from the contacts and particles of the last force evaluation, measured
+// by one walk of the pair list in list order and one of the particles. Each quantity has this one
+// definition; callers read its fields.
+struct ContactMeasures {
+  Mat3 stress = Mat3::Zero();   // [Pa] contact stress, compression + (ContactStressSum: contact/contact_forces.hpp)
+  Fabric fabric;                // all / strong / weak, the contact count and the mean normal force
+  Coordination coordination;               // rattlers: fewer than kFrictionalRattler contacts
+  Coordination coordination_frictionless;  // rattlers: fewer than kFrictionlessRattler contacts
+  std::int64_t sliding = 0;        // contacts at the Coulomb limit
+  double sliding_fraction = 0.0;   // sliding / contacts (0 without contacts)
+  double kinetic_energy = 0.0;     // [J] fluctuating translation + rotation
+  // [J] stored in the contact springs. Normal spring: fn^2 / (2 kn), or Hertz's 2/5 fn overlap; tangential:
+  // |ft|^2 / (2 kt), kt the law's stiffness at this contact (mindlin: 8 G* a); rolling: k_roll |xi_r|^2 / 2;
+  // twist: k_tw theta^2 / 2.
+  double elastic_energy = 0.0;
+  // Mean |net contact force| over particles / mean contact normal force (0 when nothing touches).
+  double unbalanced_force = 0.0;
+};
+ContactMeasures measure_contacts(const Model& model, const State& state);
+
 double void_ratio(const Model& model, const State& state);
 
 // Each particle's share of the contact stress [Pa], compression positive: (1/V_p) sum over its contacts of

@@ -24,7 +24,7 @@ EquilibriumCheck check_equilibrium(const Model& model, const State& state, const
   for (int k = 0; k < 3; ++k)
     c.max_stress_error =
         std::max(c.max_stress_error, std::abs(state.normal_stress[k] - targets[k]) / targets[k]);
-  c.unbalanced = state.touching ? unbalanced_force_ratio(model, state) : 1.0;
+  c.unbalanced = state.touching ? measure_contacts(model, state).unbalanced_force : 1.0;
   c.reached = state.touching > 0 && c.pressure_error <= criterion.pressure_tolerance &&
               c.max_stress_error <= criterion.stress_tolerance && c.unbalanced <= criterion.unbalanced_force_ratio;
   return c;

@@ -9,7 +9,6 @@
 #include <sstream>
 
 #include "cell/control.hpp"
-#include "contact/contact_forces.hpp"
 #include "measure/micro.hpp"
 
 namespace celldem {
@@ -129,11 +128,15 @@ void fill_dilatancy(std::vector<SeriesRow>& rows, double width) {
 }
 
 SeriesRow measure_series_row(const Model& model, const State& state) {
+  return series_row(model, state, measure_contacts(model, state));
+}
+
+SeriesRow series_row(const Model& model, const State& state, const ContactMeasures& m) {
   const Vec3 e = axis_strains(state);
-  const Mat3 s = contact_stress(state);
+  const Mat3& s = m.stress;
   const StressInvariants inv = stress_invariants(s);
-  const Coordination z = coordination(state);
-  const Fabric f = contact_fabric(model, state);
+  const Coordination& z = m.coordination;
+  const Fabric& f = m.fabric;
   auto ratio = [](double a, double b) { return b != 0.0 ? a / b : std::numeric_limits<double>::quiet_NaN(); };
   SeriesRow r;
   r.step = static_cast<double>(state.control.stage_steps);
@@ -150,7 +153,7 @@ SeriesRow measure_series_row(const Model& model, const State& state) {
   r.sin_phi = inv.sin_phi;
   r.DI = std::numeric_limits<double>::quiet_NaN();  // filled when the stage ends (fill_dilatancy)
   r.void_ratio = void_ratio(model, state);
-  r.Z = z.z, r.Zm = z.z_mechanical, r.sliding_fraction = sliding_fraction(state);
+  r.Z = z.z, r.Zm = z.z_mechanical, r.sliding_fraction = m.sliding_fraction;
   r.n_contacts = static_cast<double>(f.contacts), r.n_strong = static_cast<double>(f.strong_contacts);
   r.H11 = f.all(0, 0), r.H22 = f.all(1, 1), r.H33 = f.all(2, 2);
   r.H12 = f.all(0, 1), r.H13 = f.all(0, 2), r.H23 = f.all(1, 2);
@@ -159,13 +162,13 @@ SeriesRow measure_series_row(const Model& model, const State& state) {
   r.H11_H33 = ratio(f.all(0, 0), f.all(2, 2));
   r.Hs11_Hs33 = ratio(f.strong(0, 0), f.strong(2, 2));
   r.Hw11_Hw33 = ratio(f.weak(0, 0), f.weak(2, 2));
-  r.kinetic_energy = kinetic_energy(model, state);
-  r.unbalanced_force = unbalanced_force_ratio(model, state);
+  r.kinetic_energy = m.kinetic_energy;
+  r.unbalanced_force = m.unbalanced_force;
   r.leg = static_cast<double>(state.control.leg);
   const Vec3 principal = principal_stresses(s);
   r.sigma1 = principal[0], r.sigma2 = principal[1], r.sigma3 = principal[2];
   r.b_principal = b_above_noise(r.sigma1, r.sigma2, r.sigma3);
-  r.Zm_frictionless = coordination(state, kFrictionlessRattler).z_mechanical;
+  r.Zm_frictionless = m.coordination_frictionless.z_mechanical;
   r.ratio_principal = ratio(r.sigma1, r.sigma3);
   r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /
                                                   (std::sqrt(3.0) * (r.sigma1 - r.sigma3))) * 180.0 / M_PI

@@ -10,6 +10,7 @@
 
 #include "core/model.hpp"
 #include "core/state.hpp"
+#include "measure/micro.hpp"
 
 namespace celldem {
 
@@ -59,7 +60,10 @@ const SeriesColumn* find_series_column(std::string_view name);
 inline constexpr double kDilatancyWindow = 0.0025;
 void fill_dilatancy(std::vector<SeriesRow>& rows, double width = kDilatancyWindow);
 
-// Measures every column for the current state (DI: NaN, see fill_dilatancy).
+// The row of the current state from its contact measures (DI: NaN, see fill_dilatancy); a running stage
+// measures the contacts once per row and hands the same record to the health checks.
+SeriesRow series_row(const Model& model, const State& state, const ContactMeasures& contacts);
+// The same, measuring the contacts first.
 SeriesRow measure_series_row(const Model& model, const State& state);
 
 // The row as series.csv holds it (every value through its column's format): what a resumed run reads back,

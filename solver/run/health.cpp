@@ -12,7 +12,7 @@
 
 namespace celldem {
 
-void RunawayMonitor::check(const Model& model, const State& state) {
+void RunawayMonitor::check(const Model& model, const State& state, const ContactMeasures& contacts) {
   const Particles& p = state.particles;
   const std::string where = "in stage '" + stage_ + "' at step " + std::to_string(state.control.stage_steps);
   // An explicit scheme has left its stable range when a particle moves a sizeable part of its radius in a
@@ -24,12 +24,12 @@ void RunawayMonitor::check(const Model& model, const State& state) {
     // 1e-5 of it at the paper's settings). More kinetic than elastic energy means the scheme is unstable
     // or the loading is dynamic: the packing boils instead of deforming.
     // Only growth counts: a test may start from a packing that is still settling (kinetic energy decays).
-    const double ke = kinetic_energy(model, state), ee = elastic_energy(model, state);
+    const double ke = contacts.kinetic_energy, ee = contacts.elastic_energy;
     const bool growing = previous_kinetic_energy_ >= 0.0 && ke > 2.0 * previous_kinetic_energy_;
     previous_kinetic_energy_ = ke;
     if (!quasi_static_cause_.empty()) {
       // Persisting over rows, not a spike; the first rows may still settle from the sample's preparation.
-      const double unbalanced = unbalanced_force_ratio(model, state), ratio = ke / ee;
+      const double unbalanced = contacts.unbalanced_force, ratio = ke / ee;
       const bool dynamic = !(unbalanced <= kMaxQuasiStaticUnbalanced) && !(ratio <= kMaxQuasiStaticKineticToElastic);
       dynamic_rows_ = rows_ >= kQuasiStaticSettleRows && dynamic ? dynamic_rows_ + 1 : 0;
       ++rows_;

@@ -39,14 +39,14 @@ inline constexpr int kQuasiStaticRows = 5;
 // stiffest mode, or a loading too fast for its inertial number; both named when neither stands out.
 std::string not_quasi_static_cause(const Deck& deck, const TestDef& test);
 
-// Checked at every series row; throws RunError naming the cause and the step.
+// Checked at every series row, on the row's contact measures; throws RunError naming the cause and the step.
 class RunawayMonitor {
  public:
   // check_energy: loading tests only (a preparation starts as a gas). quasi_static_cause: a loading test that
   // must stay quasi-static (not declared dynamic), with the likely cause when it does not; empty: not checked.
   RunawayMonitor(std::string stage, bool check_energy, std::string quasi_static_cause = "")
       : stage_(std::move(stage)), check_energy_(check_energy), quasi_static_cause_(std::move(quasi_static_cause)) {}
-  void check(const Model& model, const State& state);
+  void check(const Model& model, const State& state, const ContactMeasures& contacts);
   // A stage that starts from a loaded state with overlaps well above a packing's: a runaway names them first.
   void set_start_cause(std::string cause) { start_cause_ = std::move(cause); }
 

@@ -147,8 +147,9 @@ double StageOutput::elapsed() const {
 }
 
 void StageOutput::write_row(const State& state) {
-  monitor_.check(model_, state);
-  const SeriesRow row = measure_series_row(model_, state);
+  const ContactMeasures contacts = measure_contacts(model_, state);  // once: the checks and the row read it
+  monitor_.check(model_, state, contacts);
+  const SeriesRow row = series_row(model_, state, contacts);
   check_row_finite(row, stage_, state.control.stage_steps);
   series_.append(format_series_row(row));
   rows_.push_back(as_printed(row));

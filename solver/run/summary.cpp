@@ -164,7 +164,8 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
 }
 
 Json summarize_preparation(const Model& model, const State& state, const PrepareDef& prep, double wall) {
-  const Coordination z = coordination(state);
+  const ContactMeasures contacts = measure_contacts(model, state);
+  const Coordination& z = contacts.coordination;
   const EquilibriumDef& eq = prep.equilibrium;
   const std::int64_t steps = state.control.stage_steps;
   return {{"void_ratio", void_ratio(model, state)},
@@ -175,7 +176,7 @@ Json summarize_preparation(const Model& model, const State& state, const Prepare
           {"s11", state.normal_stress[0]},
           {"s22", state.normal_stress[1]},
           {"s33", state.normal_stress[2]},
-          {"unbalanced_force", unbalanced_force_ratio(model, state)},
+          {"unbalanced_force", contacts.unbalanced_force},
           {"steps", steps},
           {"wall_s", wall},
           {"particle_steps_per_s", wall > 0 ? static_cast<double>(state.particles.size()) * steps / wall : 0.0},

@@ -147,17 +147,25 @@ TEST(LatticeMeasurements, SimpleCubic) {
   rebuild_pairs(model, s);
   compute_contact_forces(model, 0.5, s);
   testing::gather_and_kick(model, s);
-  const Coordination z = coordination(s);
-  EXPECT_DOUBLE_EQ(z.z, 6.0);
-  EXPECT_DOUBLE_EQ(z.z_mechanical, 6.0);
-  EXPECT_EQ(z.rattlers, 0);
-  const Fabric f = contact_fabric(model, s);
+  const ContactMeasures m = measure_contacts(model, s);
+  const double delta0 = 2 * R - a;
+  for (const Coordination& z : {m.coordination, m.coordination_frictionless}) {
+    EXPECT_DOUBLE_EQ(z.z, 6.0);
+    EXPECT_DOUBLE_EQ(z.z_mechanical, 6.0);
+    EXPECT_EQ(z.rattlers, 0);
+  }
+  const Fabric& f = m.fabric;
   EXPECT_EQ(f.contacts, 3 * n * n * n);
   expect_mat_near(f.all, Mat3::Identity() / 3.0, 1e-12);
+  EXPECT_NEAR(f.mean_normal_force, kn * delta0, 1e-9);
+  // Love-Weber: three contacts per sphere, each f = kn delta along a branch a, in a volume a^3 per sphere.
+  expect_mat_near(m.stress, Mat3::Identity() * kn * delta0 / (a * a), 1e-9);
+  EXPECT_NEAR(m.elastic_energy, 3 * n * n * n * 0.5 * kn * delta0 * delta0, 1e-9);  // no tangential springs yet
   EXPECT_NEAR(void_ratio(model, s), a * a * a / (4.0 / 3.0 * M_PI * R * R * R) - 1.0, 1e-12);
-  EXPECT_NEAR(unbalanced_force_ratio(model, s), 0.0, 1e-9);
-  EXPECT_EQ(sliding_fraction(s), 0.0);
-  EXPECT_NEAR(kinetic_energy(model, s), 0.0, 1e-20);  // rounding-level forces only
+  EXPECT_NEAR(m.unbalanced_force, 0.0, 1e-9);
+  EXPECT_EQ(m.sliding, 0);
+  EXPECT_EQ(m.sliding_fraction, 0.0);
+  EXPECT_NEAR(m.kinetic_energy, 0.0, 1e-20);  // rounding-level forces only
 
   // One sphere pushed off its site by u along x. Its x neighbours' overlaps become delta +- u; its four
   // transverse neighbours sit at d = sqrt(a^2 + u^2) with overlap dt = 2R - d along tilted normals.
@@ -173,7 +181,7 @@ TEST(LatticeMeasurements, SimpleCubic) {
   const double net = (2 * kn * u - 4 * kn * dt * u / d) + 2 * kn * u +
                      4 * kn * std::hypot(dt * u / d, dt * a / d - delta);
   const double mean_normal = kn * (192 * delta + 4 * (dt - delta)) / 192.0;
-  EXPECT_NEAR(unbalanced_force_ratio(model, t), net / 64.0 / mean_normal, 1e-9);
+  EXPECT_NEAR(measure_contacts(model, t).unbalanced_force, net / 64.0 / mean_normal, 1e-9);
   EXPECT_NEAR(t.particles.force[0].x(), -(2 * kn * u - 4 * kn * dt * u / d), 1e-9);
 }
 
@@ -206,6 +214,71 @@ TEST(ParticleStress, LatticeValueAndSumOverParticlesIsTheCellStress) {
   EXPECT_GT(net[0].norm(), 1.0);
 }
 
+// The one walk against sums written out one quantity at a time, on a jostled lattice of 343 spheres (two
+// reduction blocks of owners) in a sheared cell with friction, after steps with slip, so that contacts slide and the
+// tangential springs hold energy. The stress is contact_stress's and its diagonal the pair loop's to the bit.
+TEST(ContactMeasures, OneWalkMatchesSeparateSums) {
+  const int n = 7;
+  const double kn = 1e4, kt = 5e3;
+  const Model model = make_model(testing::model_deck(kn, kt, 1e-3), std::vector<double>(n * n * n, 0.5));
+  State s = testing::jostled_lattice(n, 17, 0.01, 0.5, 0.5);
+  // A sheared cell: every row of h has off-diagonal terms (Eigen's h * ds sums the third row in another
+  // order than the pair loop, which the stress must follow).
+  s.cell.h(0, 1) = 0.03 * s.cell.h(0, 0), s.cell.h(1, 2) = -0.02 * s.cell.h(1, 1);
+  s.cell.h(2, 0) = 0.04 * s.cell.h(2, 2), s.cell.h(2, 1) = 0.01 * s.cell.h(2, 2);
+  rebuild_pairs(model, s);
+  for (int k = 0; k < 5; ++k) compute_contact_forces(model, 0.2, s);
+  testing::gather_and_kick(model, s);
+  const ContactMeasures m = measure_contacts(model, s);
+
+  EXPECT_EQ(m.stress, contact_stress(s));
+  EXPECT_EQ(Vec3(m.stress.diagonal()), s.normal_stress);
+
+  const PairList& pl = s.pairs;
+  const Particles& p = s.particles;
+  std::int64_t touching = 0, sliding = 0;
+  double normal_sum = 0.0, spring_energy = 0.0, kinetic = 0.0, net = 0.0;
+  Mat3 fabric = Mat3::Zero();
+  std::vector<std::pair<Index, Index>> contacts;
+  for (std::size_t q = 0; q < pl.size(); ++q) {
+    if (!(pl.flags[q] & kTouching)) continue;
+    const Index i = pl.owner_of(q), j = pl.neighbor[q];
+    const Vec3 image(pl.image[q][0], pl.image[q][1], pl.image[q][2]);
+    const Vec3 l = s.cell.h * (p.scaled[j] - p.scaled[i] + image);
+    const Vec3 normal = l / l.norm();
+    const double fn = pl.force[q].dot(normal);
+    ++touching;
+    sliding += (pl.flags[q] & kSliding) != 0;
+    normal_sum += fn;
+    fabric += normal * normal.transpose();
+    spring_energy += fn * fn / (2 * kn) + (pl.force[q] - fn * normal).squaredNorm() / (2 * kt);
+    contacts.emplace_back(i, j);
+  }
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double mass = model.mass_of(p.radius[i]), inertia = 0.4 * mass * p.radius[i] * p.radius[i];
+    kinetic += 0.5 * mass * p.velocity[i].squaredNorm() + 0.5 * inertia * p.spin[i].squaredNorm();
+    net += p.force[i].norm();
+  }
+  ASSERT_GT(touching, 3 * n * n * n / 2);
+  ASSERT_GT(sliding, 0);
+  EXPECT_EQ(m.fabric.contacts, touching);
+  EXPECT_EQ(m.sliding, sliding);
+  EXPECT_EQ(m.sliding_fraction, static_cast<double>(sliding) / static_cast<double>(touching));
+  EXPECT_EQ(touching, s.touching);
+  expect_mat_near(m.fabric.all, fabric / static_cast<double>(touching), 1e-12);
+  EXPECT_NEAR(m.fabric.mean_normal_force, normal_sum / touching, 1e-12 * normal_sum / touching);
+  EXPECT_NEAR(m.elastic_energy, spring_energy, 1e-12 * spring_energy);
+  EXPECT_NEAR(m.kinetic_energy, kinetic, 1e-12 * kinetic);
+  EXPECT_NEAR(m.unbalanced_force, (net / p.size()) / (normal_sum / touching), 1e-12);
+  const Coordination z2 = coordination_of(p.size(), contacts, kFrictionalRattler);
+  const Coordination z4 = coordination_of(p.size(), contacts, kFrictionlessRattler);
+  EXPECT_EQ(m.coordination.z, 2.0 * touching / p.size());
+  EXPECT_EQ(m.coordination.z_mechanical, z2.z_mechanical);
+  EXPECT_EQ(m.coordination_frictionless.z_mechanical, z4.z_mechanical);
+  EXPECT_EQ(m.coordination_frictionless.rattlers, z4.rattlers);
+  EXPECT_GE(m.coordination_frictionless.rattlers, m.coordination.rattlers);
+}
+
 TEST(Measurements, KineticEnergyOfSolidSpheres) {
   const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-4), {0.5, 0.25});
   State s = testing::make_state(Mat3::Identity() * 10.0, {0.5, 0.25}, {Vec3(1, 1, 1), Vec3(5, 5, 5)}, 0.1);
@@ -213,7 +286,7 @@ TEST(Measurements, KineticEnergyOfSolidSpheres) {
   s.particles.spin = {Vec3::Zero(), Vec3(0.0, 0.0, 4.0)};
   const double m0 = 1.0, m1 = 1.0 / 8.0;
   const double expected = 0.5 * m0 * 9.0 + 0.5 * (0.4 * m1 * 0.0625) * 16.0;
-  EXPECT_NEAR(kinetic_energy(model, s), expected, 1e-12);
+  EXPECT_NEAR(measure_contacts(model, s).kinetic_energy, expected, 1e-12);
 }
 
 // The soft start's dilation for two spheres that overlap (d < r_i + r_j): (r_i + r_j - f r_min) / d, also across
