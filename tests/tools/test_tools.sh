@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Tests tools/figures.py and tools/report.py on synthetic run directories (tests/tools/make_fake_run.py):
 # the figures are written, the report's comparison table holds the numbers built into the fake data, the report
-# quotes summary.json's quantities rather than recomputing them, and the tools' one copy of summary.json's
-# definitions (tools/celldem/mirror.py, for LAMMPS/LIGGGHTS series) agrees with the fake run's summary.
+# quotes summary.json's quantities rather than recomputing them (the fake runs' summaries come from `celldem
+# summarize`), and `celldem summarize` takes s11/s33 for a series without ratio13 (LAMMPS/LIGGGHTS series).
 # Usage: bash tests/tools/test_tools.sh      (exits non-zero on the first failure)
 source "$(dirname "${BASH_SOURCE[0]}")/common.sh"
 
