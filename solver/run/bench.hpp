@@ -1,6 +1,6 @@
 // Benchmarks of the shear phase: celldem's throughput on a prepared sample (and tiled copies of it for
-// scaling), and the same scene in LAMMPS through the translated deck, alternated so that both see the
-// same machine load.
+// scaling); the same scene in LAMMPS through the translated deck, alternated so that both see the
+// same machine load, is in run/bench_lammps.hpp.
 #pragma once
 #include <string>
 #include <utility>
