@@ -8,6 +8,7 @@
 #include "app/commands.hpp"
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
+#include "io/schema_print.hpp"
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
 #include "run/sample.hpp"

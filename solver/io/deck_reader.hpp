@@ -1,5 +1,6 @@
 // Reading a deck: JSON text -> core/deck.hpp structs, validated against the key table (core/deck_schema.hpp).
-// The only place that knows JSON decks.
+// The only place that knows JSON decks (with io/deck_prescan.cpp, which parses their text; the key table is
+// printed by io/schema_print.hpp).
 #pragma once
 #include <string>
 
@@ -11,9 +12,5 @@ namespace celldem {
 // types, values out of range, inconsistent tests).
 Deck parse_deck(const std::string& json_text, const std::string& source = "<deck>");
 Deck read_deck(const std::string& path);
-
-// The key table as a Markdown table (the README's deck section) or as a JSON array.
-std::string deck_schema_markdown();
-std::string deck_schema_json();
 
 }  // namespace celldem

@@ -11,6 +11,7 @@
 #include "helpers.hpp"
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
+#include "io/schema_print.hpp"
 
 namespace celldem {
 namespace {
