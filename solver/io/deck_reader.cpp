@@ -469,25 +469,28 @@ SnapshotDef read_snapshots(ObjectReader r) {
   return s;
 }
 
-// A leg shorter than one step is an input error: its end strain lies within half a step of where it starts
+// A leg shorter than one step is an input error: its end strain lies less than one step from where it starts
 // (an end strain below one step's increment, or a strain rate so large that one step passes the end).
 void check_leg_lengths(const TestDef& t, double time_step, const std::string& legs_path, bool one_leg) {
   std::vector<double> from;
   const std::vector<std::int64_t> steps = program_leg_steps(t.legs, time_step, &from);
   for (std::size_t j = 0; j < t.legs.size(); ++j) {
-    if (steps[j] != 0) continue;
     const Leg& leg = t.legs[j];
+    if (steps[j] < 0 || leg.end.kind != LegEndKind::Strain || std::isnan(from[j])) continue;
     const int k = leg.end.axis;
+    const double per_step = leg.strain_per_step(k, time_step), distance = leg.end.value - from[j];
     // A leg that moves away from its end strain is another error, named when the leg starts (LegEndWatch).
-    if ((leg.end.value - from[j]) * leg.strain_per_step(k, time_step) < 0.0) continue;
+    if (distance * per_step < 0.0) continue;
+    // One whole step, less round-off (an end strain of exactly one increment is one step).
+    if (std::abs(distance) >= std::abs(per_step) * (1.0 - 1e-9)) continue;
     const std::string at = one_leg ? legs_path + ".end.strain" : legs_path + " (leg " + std::to_string(j) +
                                                                       " of the program, repeats unrolled): end.strain";
     const AxisControl& a = leg.axes[k];
-    fail(at, "the leg is 0 steps: axis " + std::string(kAxisNames[k]) + " moves " + fmt(leg.strain_per_step(k, time_step)) +
+    fail(at, "the leg is shorter than one step: axis " + std::string(kAxisNames[k]) + " moves " + fmt(per_step) +
                  " per step (" + (a.mode == AxisMode::StrainRate ? "strain_rate " + fmt(a.value) + " 1/s x time_step " +
                                                                        fmt(time_step) + " s"
                                                                  : "strain_increment " + fmt(a.value)) +
-                 "), more than twice the distance to its end strain " + fmt(leg.end.value) +
+                 "), more than the distance " + fmt(std::abs(distance)) + " to its end strain " + fmt(leg.end.value) +
                  ": lower the rate or move the end strain further");
   }
 }

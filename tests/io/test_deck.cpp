@@ -595,17 +595,21 @@ TEST(DeckErrors, InconsistentTests) {
 TEST(DeckErrors, ZeroStepLegs) {
   Json j = minimal_deck();
   j["tests"][0]["axes"]["x1"] = {{"strain_rate", 1e6}};
-  expect_error(j, "tests[0].end.strain", "0 steps");
+  expect_error(j, "tests[0].end.strain", "shorter than one step");
   j = minimal_deck();
   j["tests"][0]["end"]["strain"] = 0.9e-7;  // under half of one 2e-7 step
-  expect_error(j, "tests[0].end.strain", "0 steps");
+  expect_error(j, "tests[0].end.strain", "shorter than one step");
+  j["tests"][0]["end"]["strain"] = 1.9e-7;  // over half a step, still under one: refused too
+  expect_error(j, "tests[0].end.strain", "shorter than one step");
+  j["tests"][0]["end"]["strain"] = 2e-7;  // exactly one step
+  EXPECT_NO_THROW(parse_deck(j.dump(), "x.json"));
   j = minimal_deck();
   j["tests"][0].erase("axes");
   j["tests"][0].erase("end");
   const Json axes = {{"x1", {{"strain_increment", 1e-6}}}, {"x2", {{"stress", 1e5}}}, {"x3", {{"stress", 1e5}}}};
   j["tests"][0]["legs"] = {{{"axes", axes}, {"end", {{"strain", 0.001}}}},
                            {{"axes", axes}, {"end", {{"strain", 0.0010004}}}}};
-  expect_error(j, "tests[0].legs (leg 1 of the program, repeats unrolled): end.strain", "0 steps");
+  expect_error(j, "tests[0].legs (leg 1 of the program, repeats unrolled): end.strain", "shorter than one step");
   j["tests"][0]["legs"][1]["end"]["strain"] = 0.002;
   EXPECT_NO_THROW(parse_deck(j.dump(), "x.json"));
 }
