@@ -68,12 +68,23 @@ void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64
                      "; unstable time step or loading?); the last checkpoint holds the last good state");
 }
 
-double servo_max_error(const std::vector<ControlErrors>& errors) {
-  double error = std::numeric_limits<double>::quiet_NaN();
-  for (const ControlErrors& e : errors)
-    for (const double x : {e.stress, e.mean_stress, e.b, e.volume})
-      if (std::isfinite(x)) error = std::isfinite(error) ? std::max(error, x) : x;
-  return error;
+ControlErrorMaxima control_error_maxima(const std::vector<ControlErrors>& errors) {
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  ControlErrorMaxima m{nan, nan, nan, nan};
+  const auto worst = [](double& to, double x) {
+    if (std::isfinite(x)) to = std::isfinite(to) ? std::max(to, x) : x;
+  };
+  for (const ControlErrors& e : errors) {
+    worst(m.servo, e.stress);
+    worst(m.servo, e.mean_stress);
+    worst(m.b, e.b);
+    worst(m.volume, e.volume);
+    worst(m.over_tolerance, e.stress / kServoTolerance);
+    worst(m.over_tolerance, e.mean_stress / kMeanStressTolerance);
+    worst(m.over_tolerance, e.b / kBTolerance);
+    worst(m.over_tolerance, e.volume / kVolumeTolerance);
+  }
+  return m;
 }
 
 std::vector<ControlFailureRecord> control_failures(const TestDef& test, const std::vector<ControlErrors>& errors) {

@@ -63,10 +63,16 @@ class RunawayMonitor {
 // Stops the run when a row holds non-finite values in a column that must be finite.
 void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64_t step);
 
-// The largest control error of the test over its legs, measured every step after each leg's settle window
-// (ControlErrors): of every kind, relative for stress, mean stress and volume, absolute for b. NaN when
-// nothing was measured.
-double servo_max_error(const std::vector<ControlErrors>& errors);
+// The largest control errors of a test over its legs, measured every step after each leg's settle window
+// (ControlErrors), one per unit so that no number mixes a fraction with an absolute b: NaN where nothing of
+// that kind was measured.
+struct ControlErrorMaxima {
+  double servo;            // stress and mean-stress axes: max |s - target| / target (summary.json servo_max_error)
+  double b;                // b axes: max |b - target|, absolute (b_max_error)
+  double volume;           // constant-volume axes: max |V/V(leg start) - 1| (volume_max_error)
+  double over_tolerance;   // the largest of every kind's error over its tolerance: above 1 is out of tolerance
+};
+ControlErrorMaxima control_error_maxima(const std::vector<ControlErrors>& errors);
 
 // One control of a test that failed (stayed outside its tolerance, program.hpp kPersistStrain).
 struct ControlFailureRecord {

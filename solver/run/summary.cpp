@@ -141,7 +141,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
                     std::vector<std::string>& warnings) {
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
-  const double servo_error = servo_max_error(errors);
+  const ControlErrorMaxima worst = control_error_maxima(errors);
   const double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density,
                                          mean_p);
   for (const std::string& w : test_warnings(test, inertia)) warnings.push_back(w);
@@ -154,7 +154,10 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   Json out = summarize_series(rows, test.legs.back().end.axis);
   out.update({{"controlled", failures.empty()},
               {"control_failures", failures},
-              {"servo_max_error", number_or_null(servo_error)},
+              {"servo_max_error", number_or_null(worst.servo)},
+              {"b_max_error", number_or_null(worst.b)},
+              {"volume_max_error", number_or_null(worst.volume)},
+              {"control_error_over_tolerance", number_or_null(worst.over_tolerance)},
               {"inertial_number", inertia},
               {"legs", summarize_legs(test, rows, errors)},
               {"steps", steps},

@@ -20,16 +20,24 @@ TestDef three_axis_test(AxisMode x1, AxisMode x2, AxisMode x3) {
   return t;
 }
 
-TEST(Health, ServoMaxErrorIsTheWorstOfEveryKindAndNaNWhenNothingWasMeasured) {
-  EXPECT_TRUE(std::isnan(servo_max_error({})));
-  EXPECT_TRUE(std::isnan(servo_max_error({ControlErrors{}, ControlErrors{}})));  // a hold leg measures nothing
+TEST(Health, ControlErrorMaximaKeepEachUnitAndNaNWhenNothingWasMeasured) {
+  for (const auto& errors : {std::vector<ControlErrors>{}, std::vector<ControlErrors>{{}, {}}}) {  // a hold leg
+    const ControlErrorMaxima m = control_error_maxima(errors);
+    EXPECT_TRUE(std::isnan(m.servo) && std::isnan(m.b) && std::isnan(m.volume) && std::isnan(m.over_tolerance));
+  }
   ControlErrors stress, b;
   stress.stress = 0.003;
-  b.b = 0.02, b.mean_stress = 0.001;  // b is absolute, the others relative: the worst of them, as printed
-  EXPECT_EQ(servo_max_error({stress, b}), 0.02);
+  b.b = 0.008, b.mean_stress = 0.001;  // b is absolute: never mixed into the servo's fraction
+  ControlErrorMaxima m = control_error_maxima({stress, b});
+  EXPECT_EQ(m.servo, 0.003);
+  EXPECT_EQ(m.b, 0.008);
+  EXPECT_TRUE(std::isnan(m.volume));
+  EXPECT_DOUBLE_EQ(m.over_tolerance, 0.8);  // b: 0.008 of 0.01, the closest to its tolerance
   ControlErrors volume;
-  volume.volume = 0.5;
-  EXPECT_EQ(servo_max_error({stress, ControlErrors{}, volume}), 0.5);
+  volume.volume = 2e-6;
+  m = control_error_maxima({stress, ControlErrors{}, volume});
+  EXPECT_EQ(m.volume, 2e-6);
+  EXPECT_DOUBLE_EQ(m.over_tolerance, 2.0);
 }
 
 TEST(Health, ControlFailuresNameLegAxisKindAndTolerance) {
