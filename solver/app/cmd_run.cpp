@@ -95,6 +95,7 @@ Command add_check_command(CLI::App& app) {
     std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s, %s mode)\n%s\n", path->c_str(),
                 deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name,
                 describe_estimate(deck, start_fraction).c_str());
+    if (const std::string servo = describe_servo_caps(deck); !servo.empty()) std::printf("%s\n", servo.c_str());
     return 0;
   };
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -257,6 +258,28 @@ InitialSample load_initial_sample(const Deck& deck) {
   sample.state = std::move(data.state);
   sample.atom_ids = std::move(data.ids);
   return sample;
+}
+
+std::string describe_servo_caps(const Deck& deck) {
+  double smallest = std::numeric_limits<double>::infinity();
+  std::string where;
+  std::size_t legs = 0;
+  const auto scan = [&](const std::vector<Leg>& program, const std::string& stage) {
+    for (std::size_t j = 0; j < program.size(); ++j) {
+      const double d = leg_driving_increment(program[j], deck.time_step);
+      if (!leg_has_servo(program[j]) || !(d > 0.0)) continue;
+      ++legs;
+      const double ratio = servo_cap(deck.servo, program[j], deck.time_step) / d;
+      if (ratio < smallest) smallest = ratio, where = stage + " leg " + std::to_string(j);
+    }
+  };
+  if (deck.prepare) scan(deck.prepare->legs, "the preparation's");
+  for (const TestDef& t : deck.tests) scan(t.legs, "test '" + t.name + "'");
+  if (legs == 0) return "";
+  return "servo: " + std::to_string(legs) + " leg(s) with a servo beside a driven axis; the tightest cap is " +
+         fmt(smallest) + " x its driving strain per step (" + where + "); the servo's axes need about 1 to 2 x, " +
+         "so it can follow" + (deck.servo.max_strain_increment_given ? "" : " (each leg's cap follows its rate)") +
+         "; `celldem plan` lists every leg";
 }
 
 std::string initial_state_path(const Deck& deck) {

@@ -15,6 +15,11 @@ namespace celldem {
 // warnings (printed by the caller, recorded in the summary by a run).
 std::vector<std::string> preflight(const Deck& deck);
 
+// What the servo can follow, for `check` to say before a run: the smallest ratio over every leg with a servo
+// axis beside a driven one of its cap to its driving strain per step, and where (empty when no leg has both).
+// Below kMinServoCapRatio preflight refuses the deck; `plan` lists every leg.
+std::string describe_servo_caps(const Deck& deck);
+
 // The deck's initial_state, resolved against the deck's folder.
 std::string initial_state_path(const Deck& deck);
 

@@ -110,6 +110,9 @@ TEST(EndToEnd, DeckErrorExitsTwoNamingTheKey) {
   // What it costs: 200 spheres at 400 bytes, the preparation's range and the test's 1000 steps.
   EXPECT_NE(r.out.find("estimate: about 0.08 MB of memory;"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("preparation steps and 1000 test steps"), std::string::npos) << r.out;
+  // What the servo can follow, before any work: the tightest leg's cap against its driving increment.
+  EXPECT_NE(r.out.find("servo: 1 leg(s) with a servo beside a driven axis; the tightest cap is 10 x its driving"),
+            std::string::npos) << r.out;
 
   // A snapshot beyond the test's end (e1 = 0.004) would never be written: check says so, naming the strain.
   text = testing::small_deck_json(200, kTtc);
