@@ -15,6 +15,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numeric>
+#include <optional>
 
 #include "cli.hpp"
 #include "helpers.hpp"
@@ -25,18 +26,28 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-// "ttc.end_window.ev" in a summary: tests.ttc.end_window.ev; "prepared.Z": prepared.Z.
-const Json* find(const Json& summary, const std::string& path) {
+// "ttc.end_window.ev" in a summary: tests.ttc.end_window.ev; "prepared.Z": prepared.Z; "paired.ttc-psc.X": the
+// same seed's tests.ttc.X - tests.psc.X (as ensemble.json's paired differences). Empty when missing.
+std::optional<double> value_of(const Json& summary, const std::string& path) {
   const std::string group = path.substr(0, path.find('.'));
-  const Json* node = group == "prepared" ? &summary["prepared"] : &summary["tests"][group];
   std::string rest = path.substr(path.find('.') + 1);
+  if (group == "paired") {
+    const std::string pair = rest.substr(0, rest.find('.'));
+    const std::string quantity = rest.substr(rest.find('.') + 1);
+    const std::string b = pair.substr(0, pair.find('-')), a = pair.substr(pair.find('-') + 1);
+    const auto vb = value_of(summary, b + "." + quantity), va = value_of(summary, a + "." + quantity);
+    if (!vb || !va) return std::nullopt;
+    return *vb - *va;
+  }
+  const Json* node = group == "prepared" ? &summary["prepared"] : &summary["tests"][group];
   while (node && !rest.empty()) {
     const auto dot = rest.find('.');
     const std::string key = rest.substr(0, dot);
     node = node->contains(key) ? &(*node)[key] : nullptr;
     rest = dot == std::string::npos ? "" : rest.substr(dot + 1);
   }
-  return node;
+  if (!node || !node->is_number()) return std::nullopt;
+  return node->get<double>();
 }
 
 // Two-sided p of x as one more sample of an ensemble (mean, std, n): t = (x - mean) / (std sqrt(1 + 1/n)).
@@ -82,12 +93,12 @@ Judged judge(const Json& reference, const Json& summary, const std::map<std::str
       if (it == rename.end()) continue;
       where = it->second + path.substr(group.size());
     }
-    const Json* value = find(summary, where);
-    EXPECT_TRUE(value && value->is_number()) << where << " missing from summary.json";
-    if (!value || !value->is_number()) continue;
+    const std::optional<double> value = value_of(summary, where);
+    EXPECT_TRUE(value.has_value()) << where << " missing from summary.json";
+    if (!value) continue;
     j.names.push_back(path + (where == path ? "" : " (from " + where + ")"));
-    j.values.push_back(value->get<double>());
-    p.push_back(prediction_p(value->get<double>(), ref));
+    j.values.push_back(*value);
+    p.push_back(prediction_p(*value, ref));
   }
   j.adjusted = holm(p);
   const double alpha = reference["family_alpha"].get<double>();
@@ -130,6 +141,22 @@ TEST(Reference, SmallDeckWithinTheEnsembleAndApartFromTheOtherTest) {
   EXPECT_FALSE(psc_as_ttc.failed.empty()) << "the PSC's values pass as a TTC's: the reference cannot tell them apart";
   const Judged ttc_as_psc = judge(reference, summary, {{"psc", "ttc"}});
   EXPECT_FALSE(ttc_as_psc.failed.empty()) << "the TTC's values pass as a PSC's: the reference cannot tell them apart";
+
+  // The sharper case: a PSC whose strength and dilatancy are the TTC's while its boundary conditions still give
+  // it its own b (and the other way round) fails the whole family, through its peak and the paired difference.
+  ASSERT_TRUE(reference["values"].contains("paired.ttc-psc.peak_robust.ratio13"));
+  for (const auto& [like, as] : {std::pair{"ttc", "psc"}, std::pair{"psc", "ttc"}}) {
+    Json doctored = summary;
+    for (const char* q : {"peak_robust", "end_window"})
+      for (const char* key : {"ratio13", "ev"})
+        if (summary["tests"][like][q].contains(key)) doctored["tests"][as][q][key] = summary["tests"][like][q][key];
+    const Judged j = judge(reference, doctored);
+    EXPECT_FALSE(j.failed.empty()) << "a " << as << " with the " << like
+                                   << "'s peak and dilatancy passes: the reference cannot tell them apart";
+    const bool paired_failed =
+        std::find(j.failed.begin(), j.failed.end(), "paired.ttc-psc.peak_robust.ratio13") != j.failed.end();
+    EXPECT_TRUE(paired_failed) << "the paired peak difference does not tell a " << as << " from a " << like;
+  }
 }
 
 }  // namespace
