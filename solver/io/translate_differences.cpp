@@ -123,7 +123,11 @@ void program_differences(const Deck& deck, TargetCode code, const ProgramFeature
     const TranslatedServo s = translated_servo(deck);
     out.push_back("servo: celldem's stress servo is proportional-integral with the stiffness measured from the "
                   "contacts each step (gain " + num(deck.servo.gain) + ", integral_gain " +
-                  num(deck.servo.integral_gain) + ", cap " + num(deck.servo.max_strain_increment) + "); " +
+                  num(deck.servo.integral_gain) + ", cap " +
+                  (deck.servo.max_strain_increment_given
+                       ? num(deck.servo.max_strain_increment)
+                       : "max(" + num(kDefaultServoCap) + ", " + num(kServoCapFactor) + " x each leg's driving strain per step)") +
+                  "); " +
                   (lmp ? "fix press/berendsen" : "the fix deform variable servo (the press/berendsen law)") +
                   " is proportional only, with a fixed nominal stiffness (modulus " + num(s.modulus) + " Pa, pdamp " +
                   num(s.pdamp) + " s: the same proportional gain at that stiffness) and no cap, so it trails a "

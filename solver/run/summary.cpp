@@ -61,7 +61,8 @@ Json robust_peak(const std::vector<SeriesRow>& rows, std::size_t* plateau_end = 
           {"b_principal_std", number_or_null(bp_std)}};
 }
 
-Json summarize_legs(const TestDef& test, const std::vector<SeriesRow>& rows, const std::vector<ControlErrors>& errors) {
+Json summarize_legs(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
+                    const std::vector<ControlErrors>& errors) {
   Json legs = Json::array();
   for (std::size_t k = 0; k < test.legs.size(); ++k) {
     const SeriesRow* peak = nullptr;
@@ -71,7 +72,8 @@ Json summarize_legs(const TestDef& test, const std::vector<SeriesRow>& rows, con
         ++count;
         if (!peak || r.ratio13 > peak->ratio13) peak = &r;
       }
-    Json leg = {{"leg", k}, {"rows", count}};
+    // The servo's cap on this leg as the run used it (the deck's, or the default that follows the leg's rate).
+    Json leg = {{"leg", k}, {"rows", count}, {"servo_cap", servo_cap(deck.servo, test.legs[k], deck.time_step)}};
     const SeriesRow* end = nullptr;  // the leg's last row: its end (run_program writes it)
     for (const SeriesRow& r : rows)
       if (r.leg == static_cast<double>(k) && (!end || r.step > end->step)) end = &r;
@@ -159,7 +161,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
               {"volume_max_error", number_or_null(worst.volume)},
               {"control_error_over_tolerance", number_or_null(worst.over_tolerance)},
               {"inertial_number", inertia},
-              {"legs", summarize_legs(test, rows, errors)},
+              {"legs", summarize_legs(deck, test, rows, errors)},
               {"steps", steps},
               {"wall_s", wall},
               {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}});
@@ -226,7 +228,10 @@ Json run_settings(const Deck& deck, int threads) {
           {"damping_rotational", deck.damping.rotational},
           {"servo_gain", deck.servo.gain},
           {"servo_integral_gain", deck.servo.integral_gain},
-          {"servo_max_strain_increment", deck.servo.max_strain_increment},
+          // null unless the deck gives it: each leg's cap then follows its rate (legs[].servo_cap in each test)
+          {"servo_max_strain_increment", deck.servo.max_strain_increment_given
+                                             ? Json(deck.servo.max_strain_increment)
+                                             : Json(nullptr)},
           {"threads", threads}};
 }
 

@@ -68,6 +68,10 @@ struct ProgramRun {
     Result r = celldem(dir, run_args(dir / "prep.json", dir / "prep"));
     EXPECT_EQ(r.code, 0) << r.err;
     std::string deck = testing::small_deck_json(300, kTests, 11);
+    // The servo's default cap (each leg's follows its rate), not the small decks' fixed one.
+    const std::string cap = "\"servo\": {\"max_strain_increment\": 4e-5},";
+    EXPECT_NE(deck.find(cap), std::string::npos);
+    deck.erase(deck.find(cap), cap.size());
     const auto at = deck.find("\"prepare\"");
     deck.replace(at, deck.find("}},", at) + 3 - at, "\"initial_state\": \"prep/prepared.state\",");
     deck.replace(deck.find("\"time_step\": 3.0e-6"), 19, "\"time_step\": 1.0e-6");
@@ -100,8 +104,8 @@ TEST(LoadProgram, BAndMeanStressHeldTogether) {
   EXPECT_GT(checked, 10);
 }
 
-// At 1e-6 per step, the rate at which a servo capped at 1e-6 missed p by 59 % (b = 0.5) and by 3290 % (b = 1):
-// the cap follows the driving rate, so both controls hold, checked again from the series.
+// At 1e-6 per step, the rate at which a servo capped at 1e-6 missed p by tens of percent (b = 0.5) and tenfold
+// (b = 1): the default cap follows the driving rate, so both controls hold, checked again from the series.
 TEST(LoadProgram, BAndMeanStressHeldAtAFastRate) {
   const ProgramRun& run = program_run();
   for (const auto& [name, b] : {std::pair{"bp_fast_b05", 0.5}, std::pair{"bp_fast_b1", 1.0}}) {
@@ -109,6 +113,7 @@ TEST(LoadProgram, BAndMeanStressHeldAtAFastRate) {
     EXPECT_TRUE(test["controlled"].get<bool>()) << name << ": " << test["control_failures"].dump();
     EXPECT_LT(test["servo_max_error"].get<double>(), 0.005) << name;
     EXPECT_LT(test["b_max_error"].get<double>(), 0.01) << name;
+    EXPECT_DOUBLE_EQ(test["legs"][0]["servo_cap"].get<double>(), 1e-5) << name;  // the default: 10 x 1e-6
     int checked = 0;
     for (const SeriesRow& r : read_series(run.dir / "run" / name / "series.csv")) {
       if (r.e1 < 0.002) continue;

@@ -76,6 +76,9 @@ TEST(Runner, LoadingTestIsByteIdenticalForOneAndTwoThreads) {
   EXPECT_EQ(summary["tests"]["ttc"]["steps"], 800);
   EXPECT_NEAR(summary["tests"]["ttc"]["final_e1"].get<double>(), 0.004, 1e-12);
   EXPECT_EQ(summary["settings"]["threads"], 1);
+  // The deck's servo cap (4e-5) is in the settings and on the leg, which records the cap it ran with.
+  EXPECT_DOUBLE_EQ(summary["settings"]["servo_max_strain_increment"].get<double>(), 4e-5);
+  EXPECT_DOUBLE_EQ(summary["tests"]["ttc"]["legs"][0]["servo_cap"].get<double>(), 4e-5);
 }
 
 TEST(Runner, RefusesToOverwriteResultsWithoutForce) {
