@@ -187,8 +187,9 @@ inline constexpr std::array<TimeStepBound, 4> kTimeStepBounds{{
      "the leapfrog step is unstable for that mode of a sticking contact (2/omega = 1.41 t_c) and a packing's "
      "stiffer clusters fail earlier"},
     {"stable_fraction", false, true, kStableTimeStepFraction,
-     "results drift and the packing boils close to the limit (measured with kt = kn: drift from 1.03 t_c, "
-     "boiling from 1.2 t_c)"},
+     "results drift and the packing boils close to the limit (measured: with kt = kn, where the "
+     "tangential-rotational mode limits, drift from 1.03 t_c and boiling from 1.2 t_c; with kt = kn/10, where "
+     "the normal mode limits, boiling between 0.9 and 0.96 t_c)"},
     {"slow", false, false, kSlowTimeStepFraction, "the run takes many times the steps it needs"},
     {"minimum", true, false, kMinTimeStepFraction, "the run would take more than a thousand times the steps it needs"},
 }};

@@ -266,9 +266,18 @@ void run_program(const Model& model, const Program& program, State& state, Stage
           leg_done = true;
           return false;
         }
-        if (c.leg_steps >= (leg.end.max_steps > 0 ? leg.end.max_steps : criterion.max_steps))
+        if (c.leg_steps >= (leg.end.max_steps > 0 ? leg.end.max_steps : criterion.max_steps)) {
+          // A packing held at its pressure whose unbalanced force stays at a test's not-quasi-static level is
+          // boiling, not slow: more steps or looser tolerances would not help. (A packing still far from its
+          // pressure is loose, and a loose packing's unbalanced force is naturally high.)
+          const bool boiling = eq.pressure_error < 0.05 && eq.unbalanced > kMaxQuasiStaticUnbalanced;
           throw RunError("the preparation did not reach equilibrium in " + std::to_string(c.leg_steps) +
-                         " servo steps (" + status + "); raise prepare.equilibrium.max_steps or relax its tolerances");
+                         " servo steps (" + status + "); " +
+                         (boiling ? "an unbalanced force ratio above " + fmt(kMaxQuasiStaticUnbalanced) +
+                                        " at the target pressure means the packing boils: the time step is likely too close to the "
+                                        "stability limit (`celldem plan` gives it per mode) or damping too low"
+                                  : std::string("raise prepare.equilibrium.max_steps or relax its tolerances")));
+        }
       }
       const double fraction = program.planned_steps > 0
                                   ? static_cast<double>(c.stage_steps) / static_cast<double>(program.planned_steps)

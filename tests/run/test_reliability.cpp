@@ -4,6 +4,7 @@
 // run. (Write failures: test_write_failure.sh.)
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -137,6 +138,27 @@ TEST(Reliability, StiffTangentialSpringRefusesTheTimeStep) {
   }
   write_bytes(dir / "ok.json", replaced(deck, "\"time_step\": 3.0e-6", "\"time_step\": 9e-7"));
   EXPECT_EQ(check(dir, dir / "ok.json").code, 0);
+}
+
+// kt = kn/10: the normal mode limits the step at sqrt(m/kn) = 6.12e-6 s for the smallest spheres; at 0.96 of it
+// (warned, not refused) a frictionless preparation boils: held at its pressure, its unbalanced force ratio stays
+// near 0.26. The preparation's failure names the time step, not the equilibrium's step budget.
+TEST(Reliability, BoilingPreparationNamesTheTimeStep) {
+  const fs::path dir = test_dir("boiling_preparation");
+  const fs::path here = fs::path(__FILE__).parent_path();
+  nlohmann::json deck = nlohmann::json::parse(read_bytes(here / "small_run.json"));
+  deck["contact"]["kt"] = 1e5;
+  deck["time_step"] = 0.96 * std::sqrt(2650.0 * M_PI / 6.0 * 27e-9 / 1e6);
+  write_bytes(dir / "boil.json", deck.dump());
+  const Result checked = check(dir, dir / "boil.json");
+  EXPECT_EQ(checked.code, 0) << checked.err;
+  EXPECT_NE(checked.err.find("0.96 of the stability limit 6.12e-06 s (normal mode"), std::string::npos)
+      << checked.err;
+  const Result r = celldem(dir, run_args(dir / "boil.json", dir / "run", "--quiet"));
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("did not reach equilibrium"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("means the packing boils: the time step is likely too close to the stability limit"),
+            std::string::npos) << r.err;
 }
 
 TEST(Reliability, ReservedStageNamesAndDuplicateKeysAreErrors) {
