@@ -3,10 +3,12 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <optional>
 #include <vector>
 
 #include "contact/contact_forces.hpp"
+#include "core/check.hpp"
 #include "core/parallel.hpp"
 #include "integrate/leapfrog.hpp"
 #include "neighbor/neighbor_list.hpp"
@@ -25,6 +27,10 @@ struct StepShared {
   bool rebuilt = false;                          // whether this step rebuilt the neighbour list
   bool go_on = true;                             // after_step's answer
   std::int64_t steps = 0;
+  // For the checking build (core/check.hpp) only: each thread's force blocks as last dealt, and how many
+  // threads have done their share of this step's pair loop.
+  std::vector<std::vector<std::size_t>> dealt;
+  std::atomic<int> pair_loop_shares_done{0};
 };
 
 // One thread's part of the steps: the six stages, each on every thread of the team (its force blocks) or
@@ -34,10 +40,11 @@ class StepThread {
   StepThread(const Model& model, const Loading& loading, State& state, bool& force_rebuild,
              const AfterStep& after_step, StepShared& shared, Team::Member team)
       : model_(model), loading_(loading), state_(state), force_rebuild_(force_rebuild), after_step_(after_step),
-        shared_(shared), team_(team), blocks_(thread_force_blocks(state.pairs, state.particles.size())),
-        kick_blocks_([&model, &state](std::size_t begin, std::size_t end) {
+        shared_(shared), team_(team), kick_blocks_([&model, &state](std::size_t begin, std::size_t end) {
           gather_and_kick_range(model, state, begin, end);
-        }) {}
+        }) {
+    deal_force_blocks();
+  }
 
   bool step() {
     if (!control()) return false;
@@ -51,7 +58,12 @@ class StepThread {
  private:
   // 1. control: the cell at the end of the step (one thread)
   bool control() {
-    return team_.serial([&] { shared_.h_before = state_.cell.h, advance_cell(model_, loading_, state_); });
+    return team_.serial([&] {
+      shared_.h_before = state_.cell.h, advance_cell(model_, loading_, state_);
+      // Not the determinant: a strain-driven leg the deck ends by its steps may drive an axis through zero.
+      CELLDEM_ASSERT(!shared_.h_before.allFinite() || !state_.normal_stress.allFinite() || state_.cell.h.allFinite(),
+                     "the control step keeps a finite cell finite while the stresses it follows are finite");
+    });
   }
 
   // 2. particles move by their fluctuating velocity, measuring how far they moved since the list was built
@@ -72,6 +84,7 @@ class StepThread {
           if (needed) adapt_skin(state_);  // (not after a forced rebuild: the list had not run its course)
           if (shared_.rebuilt) shared_.search.emplace(model_, state_);
           else shared_.forces.emplace(model_, loading_.friction, state_);
+          shared_.pair_loop_shares_done.store(0, std::memory_order_relaxed);  // (the serial section's barrier orders it)
         }))
       return false;
     if (!shared_.rebuilt) return true;
@@ -82,7 +95,7 @@ class StepThread {
           shared_.forces.emplace(model_, loading_.friction, state_);
         }))
       return false;
-    blocks_ = thread_force_blocks(state_.pairs, state_.particles.size());
+    deal_force_blocks();
     return true;
   }
 
@@ -90,11 +103,14 @@ class StepThread {
   // as its forces are complete, while in cache.
   void contact_forces() {
     shared_.forces->evaluate_share(blocks_, team_.size() == 1 ? kick_blocks_ : BlocksDone{});
+    if constexpr (kCheckInvariants) shared_.pair_loop_shares_done.fetch_add(1, std::memory_order_relaxed);
     team_.wait();
   }
 
   // 5. net forces -> damped velocities and spins, each thread its force blocks once all pairs are done
   void kick() {
+    CELLDEM_ASSERT(shared_.pair_loop_shares_done.load(std::memory_order_relaxed) == team_.size(),
+                   "every thread has done its share of the step's pair loop before any thread kicks");
     if (team_.size() > 1) gather_and_kick_share(model_, state_, blocks_);
     team_.wait();
   }
@@ -109,6 +125,17 @@ class StepThread {
       ++shared_.steps;
       shared_.go_on = after_step_(shared_.rebuilt);
     }) && shared_.go_on;
+  }
+
+  // This thread's force blocks, dealt anew whenever the list changes; in the checking build, every thread's
+  // deal is checked to be a partition of the blocks.
+  void deal_force_blocks() {
+    blocks_ = thread_force_blocks(state_.pairs, state_.particles.size());
+    if constexpr (kCheckInvariants) {
+      shared_.dealt[static_cast<std::size_t>(team_.thread())] = blocks_;
+      team_.wait();
+      team_.serial([&] { check_force_block_partition(shared_.dealt, state_.particles.size()); });
+    }
   }
 
   const Model& model_;
@@ -129,6 +156,7 @@ std::int64_t advance_steps(const Model& model, const Loading& loading, State& st
   const int team_size = threads > 0 ? threads : omp_get_max_threads();
   StepShared shared;
   shared.moved.assign(team_size, 0.0);  // (a smaller team leaves the rest at zero)
+  shared.dealt.resize(static_cast<std::size_t>(team_size));  // (and its deal empty)
   Team team;
 #pragma omp parallel num_threads(team_size)
   {

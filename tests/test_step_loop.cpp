@@ -1,7 +1,7 @@
 // The step loop (solver/step.cpp, advance_steps): many steps in one parallel region give the same bits as
 // one step at a time, on any thread count and however the run is cut into regions; an exception from
 // between the steps ends the region and reaches the caller; the spin barrier it relies on orders every
-// thread's writes before the others' reads.
+// thread's writes before the others' reads; the check of the force blocks' deal catches a broken one.
 #include <gtest/gtest.h>
 #include <omp.h>
 
@@ -173,6 +173,29 @@ TEST(ThreadBlocks, EachBlockToOneThreadAndFewBlocksBalanced) {
   ASSERT_FALSE(runs[0].empty());
   EXPECT_EQ(runs[0].front(), 0u);
   EXPECT_EQ(runs[1].front(), runs[0].back() + 1);
+}
+
+
+// The invariant check of the force blocks' deal (core/state.hpp; run on every deal in the checking build): the
+// deal of a real list on 1 to 3 threads passes; a block dealt twice, to no thread, out of order or one that does
+// not exist stops the program naming the broken invariant.
+TEST(ThreadBlocksDeathTest, TheDealCheckCatchesBrokenPartitions) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  Scene s = scene();
+  evaluate_forces(s.model, s.loading.friction, s.state);
+  const PairList unbuilt;  // blocks dealt by their particles: three force blocks and a partial fourth
+  const std::size_t n = 3 * kForceBlock + 17;
+  for (int threads : {1, 2, 3}) {
+    std::vector<std::vector<std::size_t>> dealt(threads);
+#pragma omp parallel num_threads(threads)
+    if (omp_get_num_threads() == threads) dealt[omp_get_thread_num()] = thread_force_blocks(unbuilt, n);
+    check_force_block_partition(dealt, n);  // passes
+  }
+  check_force_block_partition({thread_force_blocks(s.state.pairs, s.state.particles.size())}, s.state.particles.size());
+  EXPECT_DEATH(check_force_block_partition({{0, 1}, {1, 2, 3}}, n), "exactly one thread");
+  EXPECT_DEATH(check_force_block_partition({{0, 1}, {3}}, n), "exactly one thread");
+  EXPECT_DEATH(check_force_block_partition({{1, 0}, {2, 3}}, n), "ascend");
+  EXPECT_DEATH(check_force_block_partition({{0, 1}, {2, 3, 4}}, n), "a dealt force block exists");
 }
 
 }  // namespace

@@ -351,16 +351,6 @@ Mat3 ContactStressSum::stress(double volume) const {
   return 0.5 * (total + total.transpose()) / volume;
 }
 
-Mat3 contact_stress(const State& state) {
-  const Particles& p = state.particles;
-  const PairList& pl = state.pairs;
-  ContactStressSum sum(state.cell.h);
-  for_each_pair(pl, [&](Index i, Index q) {
-    sum.add(i, pl.force[q], p.scaled[pl.neighbor[q]] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]));
-  });
-  return sum.stress(state.cell.volume());
-}
-
 ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Friction& friction, State& state,
                                                bool advance_slip)
     : params_(contact_params(model.contact, friction)),

@@ -78,7 +78,8 @@ class ContactForceEvaluation {
 
 // The pair loop gathers each chunk's particle data with AVX2 where the CPU has it, else with portable code;
 // both give the same bits. use_portable_gather(true) makes every later evaluation use the portable code
-// (for tests that compare the two).
+// (for tests that compare the two). Only tests call these, but they stay here: the switch is the pair loop's
+// own dispatch, which nothing outside this module can reach.
 bool vector_gather_available();
 void use_portable_gather(bool portable);
 
@@ -86,7 +87,8 @@ void use_portable_gather(bool portable);
 // order and arithmetic: each reduction block of owners (kReductionBlock ids) summed in list order, then the
 // blocks in order, the branch h ds summed left to right (Eigen's h * ds sums its third row in another
 // order), so that its diagonal is state.normal_stress's sum to the bit. Pairs apart hold zero force and add
-// nothing. add() takes the pairs in list order (for_each_pair), each with its owner.
+// nothing. add() takes the pairs in list order (for_each_pair), each with its owner. measure_contacts
+// (measure/micro.hpp) sums a row's stress with it.
 class ContactStressSum {
  public:
   explicit ContactStressSum(const Mat3& h) : h_(h) {}
@@ -101,11 +103,5 @@ class ContactStressSum {
   Mat3 block_sum_ = Mat3::Zero();  // [N m] its sum so far
   Mat3 total_ = Mat3::Zero();      // [N m] the blocks before it
 };
-
-// The full contact stress tensor [Pa] (symmetric part, compression positive) of the last force
-// evaluation, ContactStressSum over the pair list divided by the cell volume. The step keeps only its
-// diagonal (state.normal_stress: all that the control needs). The single-quantity form: a series row takes
-// it from measure_contacts (measure/micro.hpp), which walks the pairs once for everything a row needs.
-Mat3 contact_stress(const State& state);
 
 }  // namespace celldem

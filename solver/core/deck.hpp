@@ -68,6 +68,27 @@ struct ContactDef {
   bool radius_history() const { return tangential == TangentialModel::MindlinRescale; }
 };
 
+// A number of the contact law, by its key. Whether a deck has it is the key table's rule (key_used on the
+// key's sub_models), never restated: the reader fills, and the state files and summaries record, the ones the
+// deck's choices use.
+struct ContactParameter {
+  const KeySpec* key;
+  double ContactDef::*field;
+  // A spring's stiffness or the elastic constants it follows: what a stored contact's spring means, so a
+  // state file records it (state_physics) and a deck that continues the state must agree.
+  bool elastic;
+};
+inline constexpr std::array<ContactParameter, 8> kContactParameters = {{
+    {&keys::contact_kn, &ContactDef::kn, true},
+    {&keys::contact_kt, &ContactDef::kt, true},
+    {&keys::contact_youngs_modulus, &ContactDef::youngs_modulus, true},
+    {&keys::contact_poisson_ratio, &ContactDef::poisson_ratio, true},
+    {&keys::contact_rolling_stiffness, &ContactDef::rolling_stiffness, true},
+    {&keys::contact_rolling_damping, &ContactDef::rolling_damping, false},
+    {&keys::contact_rolling_friction, &ContactDef::rolling_friction, false},
+    {&keys::contact_reference_overlap, &ContactDef::reference_overlap, false},
+}};
+
 // The friction coefficients of a stage: the sliders of the tangential and the rolling springs. A plain number
 // converts to a sliding friction without rolling resistance.
 struct Friction {

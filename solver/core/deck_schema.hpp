@@ -175,6 +175,8 @@ inline constexpr KeySpec kinematics{.path = "kinematics", .kind = KeyKind::Choic
     .choices = kKinematicsNames,
     .meaning = "`affine`: contacts see the affine velocity difference between periodic images; `lammps`: they do "
                "not (as LAMMPS/LIGGGHTS with `fix deform remap x`)"};
+// The bounds' fractions are core/plan.hpp's kTimeStepBounds (which this header cannot include); test_core's
+// TimeStepBounds test fails when this text and that table disagree.
 inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number, .positive = true, .unit = "s",
     .meaning = "refused above the stability limit t_c (the smallest over the contact's normal, tangential-rotational, "
                "rolling and twisting modes: `celldem plan`) and below 1e-3 t_c; warned about above 0.93 t_c and below "

@@ -146,9 +146,7 @@ double normal_overlap(const ContactDef& c, double force, double r_eff) {
   return hertz_overlap(c, force, r_eff);
 }
 
-bool has_material_moduli(const ContactDef& c) {
-  return c.normal == NormalModel::Hertz || is_mindlin(c.tangential);
-}
+bool has_material_moduli(const ContactDef& c) { return key_used(keys::contact_youngs_modulus, c.selection()); }
 
 std::optional<MeanContact> mean_contact(const Deck& deck) {
   MeanContact m;

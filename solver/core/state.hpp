@@ -106,6 +106,12 @@ void for_each_pair(const PairList& pl, F&& f) {
 // kick read came from the other core on two threads).
 std::vector<std::size_t> thread_force_blocks(const PairList& pl, std::size_t n);
 
+// The invariant of that deal, given every thread's blocks (dealt[t]: thread t's): each of the force blocks
+// of n particles is dealt to exactly one thread, each thread's in ascending order. A block dealt twice would
+// be moved, summed and kicked twice; one dealt to none, never. Stops the program naming what broke (whatever
+// the build: tests call it to show it does); the checking build checks each deal (step.cpp).
+void check_force_block_partition(const std::vector<std::vector<std::size_t>>& dealt, std::size_t n);
+
 // One stored contact (the history that must survive a neighbour rebuild or a restart).
 struct StoredContact {
   Index i, j;
@@ -139,7 +145,7 @@ struct State {
   std::int64_t steps_since_creation = 0;  // over every stage since the sample was made
   // Measured in the last force evaluation; the servo reads them on the next step.
   Vec3 normal_stress = Vec3::Zero();  // [Pa] sigma_kk from the contacts, compression positive (the full
-                                      // tensor, when a row needs it: contact_stress(state))
+                                      // tensor, when a row needs it: measure_contacts)
   Vec3 axis_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ii)/d(e_ii) from the normal springs
   std::int64_t touching = 0;    // contacts in the last force evaluation
   // Set by the last step's advance_cell: the servo axes whose increment sat at its cap (not saved: every step

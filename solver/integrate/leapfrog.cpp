@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/check.hpp"
 #include "core/parallel.hpp"
 
 namespace celldem {
@@ -17,6 +18,12 @@ namespace {
 inline void gather(const PairList& pl, Particles& p, std::size_t i) {
   Vec3 f = p.force[i], t = p.torque[i];
   for (Index k = pl.crossing_first[i]; k < pl.crossing_first[i + 1]; ++k) {
+    CELLDEM_ASSERT(pl.crossing_rank[k] >= 0 && static_cast<std::size_t>(pl.crossing_rank[k]) < pl.crossing_torque.size(),
+                   "a crossing pair's rank lies within crossing_torque");
+    CELLDEM_ASSERT(k == pl.crossing_first[i] || pl.crossing_rank[k - 1] < pl.crossing_rank[k],
+                   "the pairs crossing into a particle are summed in pair order (their ranks ascend)");
+    CELLDEM_ASSERT(pl.crossing_pair[k] >= 0 && static_cast<std::size_t>(pl.crossing_pair[k]) < pl.force.size(),
+                   "a crossing pair is a listed pair");
     f += pl.force[pl.crossing_pair[k]];  // the force on j: the pair's own
     t += pl.crossing_torque[pl.crossing_rank[k]];
   }

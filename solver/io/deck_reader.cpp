@@ -290,15 +290,8 @@ ContactDef read_contact(ObjectReader r) {
   const SubModelSelection chosen = c.selection();
   check_sub_model_keys(r, "contact.", chosen);
   // Each parameter of the chosen sub-models (the others stay 0); reference_overlap 0: from the deck's stresses.
-  for (const auto& [spec, field] : {std::pair{&keys::contact_kn, &ContactDef::kn},
-                                    std::pair{&keys::contact_kt, &ContactDef::kt},
-                                    std::pair{&keys::contact_youngs_modulus, &ContactDef::youngs_modulus},
-                                    std::pair{&keys::contact_poisson_ratio, &ContactDef::poisson_ratio},
-                                    std::pair{&keys::contact_rolling_stiffness, &ContactDef::rolling_stiffness},
-                                    std::pair{&keys::contact_rolling_damping, &ContactDef::rolling_damping},
-                                    std::pair{&keys::contact_rolling_friction, &ContactDef::rolling_friction},
-                                    std::pair{&keys::contact_reference_overlap, &ContactDef::reference_overlap}})
-    if (key_used(*spec, chosen)) c.*field = r.number(*spec);
+  for (const ContactParameter& p : kContactParameters)
+    if (key_used(*p.key, chosen)) c.*p.field = r.number(*p.key);
   c.rotation = r.choice_of<TangentialRotation>(keys::contact_tangential_rotation);
   c.moment_arm = r.choice_of<MomentArm>(keys::contact_moment_arm);
   r.finish();
@@ -582,7 +575,7 @@ PrepareDef read_prepare(ObjectReader r) {
 // the bounds that refuse it (core/plan: above the stability limit of the stiffest mode, or far below it).
 void check_time_step(Deck& d) {
   ContactDef& c = d.contact;
-  if ((c.normal != NormalModel::Linear || c.tangential != TangentialModel::LinearHistory) && c.reference_overlap == 0.0) {
+  if (key_used(keys::contact_reference_overlap, c.selection()) && c.reference_overlap == 0.0) {
     c.reference_overlap = default_reference_overlap(d);
     if (c.reference_overlap == 0.0)
       fail("contact.reference_overlap", "missing; the deck names no stress to estimate the largest overlap from");

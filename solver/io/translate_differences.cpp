@@ -169,7 +169,7 @@ std::vector<std::string> common_notes(const Deck& deck, TargetCode code) {
   out.push_back("neighbour skin: neighbor_skin x the largest diameter, as celldem; it changes speed only");
   const ContactDef& c = deck.contact;
   if (!plain_linear(c)) {
-    if (c.normal != NormalModel::Linear || c.tangential != TangentialModel::LinearHistory) {
+    if (key_used(keys::contact_reference_overlap, c.selection())) {
       const ContactStiffness k = reference_stiffness(c, deck.sample);
       out.push_back("body damping constants: kn and kt in 2 sqrt(m kn) and 2 r sqrt(I kt) are the tangent "
                     "stiffnesses at contact.reference_overlap (" + num(c.reference_overlap) + " m: " + num(k.normal) +

@@ -59,7 +59,7 @@ double void_ratio(const Model& model, const State& state);
 // Each particle's share of the contact stress [Pa], compression positive: (1/V_p) sum over its contacts of
 // sym(f (x) l_p), f the pair's force on j by i and l_p the part of the branch on p's side, branch r_p/(r_i + r_j)
 // (the standard particle stress with the contact point on the line of centres), so that the particles' V_p
-// sigma_p add up to the cell's V sigma (contact_stress). From the last force evaluation. (N)
+// sigma_p add up to the cell's V sigma (ContactMeasures::stress). From the last force evaluation. (N)
 std::vector<Mat3> particle_stresses(const State& state);
 // Each particle's net contact force [N] (the sum of its pairs' forces on it) of the last evaluation. (N)
 std::vector<Vec3> net_contact_forces(const State& state);

@@ -14,8 +14,11 @@ std::string EquilibriumCheck::describe() const {
   return buf;
 }
 
-EquilibriumCheck check_equilibrium(const Model& model, const State& state, const EquilibriumDef& criterion,
-                                   const Vec3& targets) {
+namespace {
+// unbalanced_force: the unbalanced force ratio of the state's contacts (read only when something touches).
+template <class UnbalancedForce>
+EquilibriumCheck equilibrium(const State& state, UnbalancedForce unbalanced_force, const EquilibriumDef& criterion,
+                             const Vec3& targets) {
   EquilibriumCheck c;
   // An isotropic target is used as given, not as a mean of three equal numbers (which may round).
   const double target = targets[0] == targets[1] && targets[1] == targets[2] ? targets[0] : targets.mean();
@@ -24,10 +27,21 @@ EquilibriumCheck check_equilibrium(const Model& model, const State& state, const
   for (int k = 0; k < 3; ++k)
     c.max_stress_error =
         std::max(c.max_stress_error, std::abs(state.normal_stress[k] - targets[k]) / targets[k]);
-  c.unbalanced = state.touching ? measure_contacts(model, state).unbalanced_force : 1.0;
+  c.unbalanced = state.touching ? unbalanced_force() : 1.0;
   c.reached = state.touching > 0 && c.pressure_error <= criterion.pressure_tolerance &&
               c.max_stress_error <= criterion.stress_tolerance && c.unbalanced <= criterion.unbalanced_force_ratio;
   return c;
+}
+}  // namespace
+
+EquilibriumCheck check_equilibrium(const Model& model, const State& state, const EquilibriumDef& criterion,
+                                   const Vec3& targets) {
+  return equilibrium(state, [&] { return measure_contacts(model, state).unbalanced_force; }, criterion, targets);
+}
+
+EquilibriumCheck check_equilibrium(const State& state, const ContactMeasures& contacts, const EquilibriumDef& criterion,
+                                   const Vec3& targets) {
+  return equilibrium(state, [&] { return contacts.unbalanced_force; }, criterion, targets);
 }
 
 double inertial_number(double strain_rate, double diameter, double density, double mean_stress) {

@@ -6,6 +6,7 @@
 #include "core/deck.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
+#include "measure/micro.hpp"
 
 namespace celldem {
 
@@ -21,6 +22,10 @@ struct EquilibriumCheck {
   std::string describe() const;   // "p 100.0 kPa  |dp| 0.001  max|ds| 0.002  unbalanced 0.009"
 };
 EquilibriumCheck check_equilibrium(const Model& model, const State& state, const EquilibriumDef& criterion,
+                                   const Vec3& targets);
+// The same from the state's contacts as measure_contacts measured them (a step that also writes a row measures
+// them once for both).
+EquilibriumCheck check_equilibrium(const State& state, const ContactMeasures& contacts, const EquilibriumDef& criterion,
                                    const Vec3& targets);
 
 // Inertial number I = rate d sqrt(rho / p): the time a grain needs to rearrange under p over the loading

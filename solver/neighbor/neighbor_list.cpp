@@ -301,12 +301,20 @@ void check_pair_list(const PairList& pl, std::size_t particles) {
   require(pl.crossing_first.size() == particles + 1 && pl.crossing_first[0] == 0 && pl.crossing_first[n] == crossings &&
               crossing_holds(pl.crossing_rank) && crossing_holds(pl.crossing_pair) && crossing_holds(pl.crossing_torque),
           "the crossing arrays hold every crossing pair once");
+  // Each crossing pair's rank: its place among the crossing pairs in pair order, where the pair loop leaves
+  // its moment (crossing_torque); -1 for a pair that does not cross.
+  std::vector<Index> rank_of(static_cast<std::size_t>(count), -1);
+  Index rank = 0;
+  for_each_pair(pl, [&](Index i, Index q) {
+    if (i / static_cast<Index>(kForceBlock) != pl.neighbor[q] / static_cast<Index>(kForceBlock)) rank_of[q] = rank++;
+  });
   for (Index j = 0; j < n; ++j)
     for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
       const Index q = pl.crossing_pair[k];
       require(q >= 0 && q < count && pl.neighbor[q] == j, "crossing_pair points at the pairs of j");
       require(k == pl.crossing_first[j] || pl.crossing_pair[k - 1] < q, "the pairs crossing into j are in pair order");
       require(pl.crossing_rank[k] >= 0 && pl.crossing_rank[k] < crossings, "a crossing's rank is within crossing_torque");
+      require(pl.crossing_rank[k] == rank_of[q], "a crossing's rank is its place among the crossing pairs in pair order");
     }
 }
 

@@ -1,6 +1,7 @@
 // Benchmarks of the shear phase: celldem's throughput on a prepared sample (and tiled copies of it for
 // scaling); the same scene in LAMMPS through the translated deck, alternated so that both see the
-// same machine load, is in run/bench_lammps.hpp.
+// same machine load, is in run/bench_lammps.hpp, and the measurements `celldem bench` makes of them in
+// run/bench_suite.hpp.
 #pragma once
 #include <string>
 #include <utility>

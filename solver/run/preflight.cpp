@@ -226,13 +226,10 @@ std::string state_physics(const Deck& deck) {
                       {"contact.tangential", std::string(name_of(c.tangential, kTangentialModelNames))},
                       {"contact.rolling", std::string(name_of(c.rolling, kRollingModelNames))},
                       {"contact.twisting", std::string(name_of(c.twisting, kTwistingModelNames))}};
-  if (c.normal == NormalModel::Linear) p["contact.kn"] = c.kn;
-  if (c.tangential == TangentialModel::LinearHistory) p["contact.kt"] = c.kt;
-  if (c.normal == NormalModel::Hertz || c.tangential != TangentialModel::LinearHistory) {
-    p["contact.youngs_modulus"] = c.youngs_modulus;
-    p["contact.poisson_ratio"] = c.poisson_ratio;
-  }
-  if (c.rolling == RollingModel::Sds) p["contact.rolling_stiffness"] = c.rolling_stiffness;
+  // The elastic parameters the deck's sub-model choices use (the key table's rule, key_used).
+  for (const ContactParameter& parameter : kContactParameters)
+    if (parameter.elastic && key_used(*parameter.key, c.selection()))
+      p[std::string(parameter.key->path)] = c.*parameter.field;
   return p.dump();
 }
 

@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include "cell/control.hpp"
 #include "core/plan.hpp"
+#include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
 #include "run/health.hpp"
 #include "run/runner.hpp"
@@ -257,10 +259,13 @@ void run_program(const Model& model, const Program& program, State& state, Stage
                          "and marks the test uncontrolled");
         std::fprintf(stderr, "warning: %s\n", message.c_str());
       }
+      std::optional<ContactMeasures> contacts;  // measured once when the check and the step's row both read them
       if (leg.end.kind == LegEndKind::Equilibrium && c.leg_steps % program.equilibrium->check_interval == 0) {
         const EquilibriumDef& criterion = *program.equilibrium;
-        const EquilibriumCheck eq =
-            check_equilibrium(model, state, criterion, stress_targets(leg.axes, state.normal_stress));
+        const Vec3 targets = stress_targets(leg.axes, state.normal_stress);
+        if (out.row_due(state)) contacts = measure_contacts(model, state);
+        const EquilibriumCheck eq = contacts ? check_equilibrium(state, *contacts, criterion, targets)
+                                             : check_equilibrium(model, state, criterion, targets);
         status = eq.describe();
         if (eq.reached && c.leg_steps >= criterion.min_steps) {  // before the step's row
           leg_done = true;
@@ -282,7 +287,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
       const double fraction = program.planned_steps > 0
                                   ? static_cast<double>(c.stage_steps) / static_cast<double>(program.planned_steps)
                                   : -1.0;
-      rebuild = out.after_step(state, fraction, status);
+      rebuild = out.after_step(state, fraction, status, contacts ? &*contacts : nullptr);
       leg_over = leg_done = watch.ended(model, state);  // for the next step
       return !leg_over && !threads_changed;
     };

@@ -100,12 +100,13 @@ void StageOutput::write_peak_contacts(const State& state, const SeriesRow& row) 
   write_file_atomic(dir_ / "peak_contacts.json", meta.dump(1));
 }
 
-bool StageOutput::after_step(const State& state, double fraction, const std::string& status) {
+bool StageOutput::after_step(const State& state, double fraction, const std::string& status,
+                             const ContactMeasures* contacts) {
   const std::int64_t s = state.control.stage_steps;
   if (!std::isfinite(state.normal_stress.sum()) || !std::isfinite(state.cell.h.sum()))  // cheap, every step
     throw RunError("non-finite stress or cell in stage '" + stage_ + "' at step " + std::to_string(s) +
                    " (time step too large or loading too fast?); the last checkpoint holds the last good state");
-  if (s % output_interval_ == 0) write_row(state);
+  if (row_due(state)) write_row(state, contacts);
   snapshot_if_due(state, false);
   progress_.update(s, fraction, status);
   if (stop_requested()) {
@@ -146,8 +147,9 @@ double StageOutput::elapsed() const {
   return elapsed_before_ + std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }
 
-void StageOutput::write_row(const State& state) {
-  const ContactMeasures contacts = measure_contacts(model_, state);  // once: the checks and the row read it
+void StageOutput::write_row(const State& state, const ContactMeasures* measured) {
+  // Once: the checks and the row read it (and the equilibrium check of the same step, which measured it).
+  const ContactMeasures contacts = measured ? *measured : measure_contacts(model_, state);
   monitor_.check(model_, state, contacts);
   const SeriesRow row = series_row(model_, state, contacts);
   check_row_finite(row, stage_, state.control.stage_steps);

@@ -14,6 +14,7 @@
 #include "core/state.hpp"
 #include "io/files.hpp"
 #include "io/snapshot.hpp"
+#include "measure/micro.hpp"
 #include "measure/series.hpp"
 #include "run/health.hpp"
 #include "run/program.hpp"
@@ -34,7 +35,11 @@ class StageOutput {
 
   // After every step. Returns true when the next step must rebuild the neighbour list (after a checkpoint,
   // so that a resumed run does the same). Throws Interrupted after a stop request, once checkpointed.
-  bool after_step(const State& state, double fraction, const std::string& status = "");
+  // `contacts`: the state's contacts if the caller has measured them this step (measure_contacts), for the row.
+  bool after_step(const State& state, double fraction, const std::string& status = "",
+                  const ContactMeasures* contacts = nullptr);
+  // Whether after_step writes a row at this step.
+  bool row_due(const State& state) const { return state.control.stage_steps % output_interval_ == 0; }
 
   // A leg has ended: its last step becomes a row unless the output interval just wrote one.
   void end_leg(const State& state);
@@ -50,7 +55,7 @@ class StageOutput {
   void set_start_cause(std::string cause) { monitor_.set_start_cause(std::move(cause)); }
 
  private:
-  void write_row(const State& state);
+  void write_row(const State& state, const ContactMeasures* contacts = nullptr);
   void checkpoint(const State& state);
   void snapshot_if_due(const State& state, bool force);
   void write_peak_contacts(const State& state, const SeriesRow& row);

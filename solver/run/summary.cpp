@@ -201,16 +201,12 @@ Json run_settings(const Deck& deck, int threads) {
               {"twisting", name_of(c.twisting, kTwistingModelNames)},
               {"reference_normal_stiffness", k.normal},
               {"reference_tangential_stiffness", k.tangential}};
-  if (c.normal == NormalModel::Hertz || is_mindlin(c.tangential)) {
-    law["youngs_modulus"] = c.youngs_modulus;
-    law["poisson_ratio"] = c.poisson_ratio;
-    law["reference_overlap"] = c.reference_overlap;
-  }
-  if (c.rolling == RollingModel::Sds) {
-    law["rolling_stiffness"] = c.rolling_stiffness;
-    law["rolling_damping"] = c.rolling_damping;
-    law["rolling_friction"] = c.rolling_friction;
-  }
+  // Every other number the deck's choices use (the key table's rule, key_used); kn and kt are there as the
+  // reference stiffnesses.
+  for (const ContactParameter& parameter : kContactParameters)
+    if (parameter.field != &ContactDef::kn && parameter.field != &ContactDef::kt &&
+        key_used(*parameter.key, c.selection()))
+      law[std::string(parameter.key->name())] = c.*parameter.field;
   return {{"deck", deck.source},
           {"particles", deck.sample.count},
           {"diameters_m", deck.sample.diameters},

@@ -10,6 +10,7 @@
 
 #include "contact/contact_forces.hpp"
 #include "contact/contact_forces_reference.hpp"
+#include "contact_stress.hpp"
 #include "helpers.hpp"
 #include "integrate/leapfrog.hpp"
 #include "neighbor/neighbor_list.hpp"
@@ -17,6 +18,8 @@
 
 namespace celldem {
 namespace {
+
+using testing::contact_stress;
 
 using testing::find_pair;
 using testing::make_state;

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <regex>
+#include <string>
 
 #include "core/plan.hpp"
 #include "helpers.hpp"
@@ -117,6 +119,30 @@ TEST(Plan, DefaultReferenceOverlapFromTheMeanContactForce) {
   const Deck d = mean_contact_deck(NormalModel::Hertz, TangentialModel::Mindlin);
   const double force = 10.0 * mean_contact_force(d.sample, 3.0 * 2e5);
   EXPECT_EQ(default_reference_overlap(d), hertz_overlap(d.contact, force, 1e-3));  // R* of two 4 mm spheres
+}
+
+
+// The time_step key's meaning (core/deck_schema.hpp, printed by `celldem schema` and in docs/deck.md) names the
+// bounds in words and numbers, since the key table cannot include core/plan: every bound of kTimeStepBounds must
+// be there, as "above|below [the stability limit] F t_c" in the refused or the warned part, with its fraction,
+// and nothing else.
+TEST(TimeStepBounds, TheKeyTableNamesEachBoundWithItsFraction) {
+  const std::string meaning(keys::time_step.meaning);
+  const std::size_t warned = meaning.find("; warned");
+  ASSERT_NE(warned, std::string::npos) << meaning;
+  const std::regex phrase(R"((above|below) (the stability limit )?(([0-9.]+(e[-+]?[0-9]+)?) )?t_c)");
+  std::vector<TimeStepBound> named;
+  for (auto m = std::sregex_iterator(meaning.begin(), meaning.end(), phrase); m != std::sregex_iterator(); ++m)
+    named.push_back({"", static_cast<std::size_t>(m->position()) < warned, (*m)[1] == "above",
+                     (*m)[4].matched ? std::stod((*m)[4]) : 1.0, ""});
+  ASSERT_EQ(named.size(), kTimeStepBounds.size()) << meaning;
+  for (const TimeStepBound& b : kTimeStepBounds) {
+    bool found = false;
+    for (const TimeStepBound& n : named)
+      found |= n.refuse == b.refuse && n.above == b.above && n.fraction == b.fraction;
+    EXPECT_TRUE(found) << b.name << " (" << (b.refuse ? "refused " : "warned ") << (b.above ? "above " : "below ")
+                       << b.fraction << " t_c) is not in: " << meaning;
+  }
 }
 
 }  // namespace

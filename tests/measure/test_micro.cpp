@@ -7,6 +7,7 @@
 #include <random>
 
 #include "contact/contact_forces.hpp"
+#include "contact_stress.hpp"
 #include "helpers.hpp"
 #include "integrate/leapfrog.hpp"
 #include "measure/micro.hpp"
@@ -14,6 +15,8 @@
 
 namespace celldem {
 namespace {
+
+using testing::contact_stress;
 
 void expect_mat_near(const Mat3& a, const Mat3& b, double tol) {
   EXPECT_NEAR((a - b).norm(), 0.0, tol) << "\n" << a << "\nexpected\n" << b;

@@ -166,6 +166,9 @@ TEST(NeighborListDeathTest, InvariantCheckCatchesBrokenLists) {
   PairList wrong_crossing = s.pairs;
   std::swap(wrong_crossing.crossing_pair.front(), wrong_crossing.crossing_pair.back());
   EXPECT_DEATH(check_pair_list(wrong_crossing, n), "crossing_pair points at the pairs of j|in pair order");
+  PairList wrong_rank = s.pairs;  // both ranks still within crossing_torque, but the kick would swap two moments
+  std::swap(wrong_rank.crossing_rank.front(), wrong_rank.crossing_rank.back());
+  EXPECT_DEATH(check_pair_list(wrong_rank, n), "its place among the crossing pairs");
 }
 
 // The search shared among the threads of a region the caller owns (as the time step runs it) gives the same

@@ -1,8 +1,11 @@
 // What a run checks before it does any work (solver/run/preflight.hpp), called directly: a state that agrees
 // with the deck passes; one made with other physics, another sphere count or a missing file is refused
 // naming the key and both values; override_state_physics turns the physics refusal into a warning naming it.
+// The physics record keeps the springs' parameters that the key table gives the deck's sub-model choices.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 
 #include "helpers.hpp"
@@ -76,6 +79,66 @@ TEST_F(Preflight, StatePhysicsRecordsDensityAndContactLaw) {
   EXPECT_NE(a, b);
   EXPECT_NE(a.find("sample.density"), std::string::npos) << a;
   EXPECT_NE(a.find("contact.kn"), std::string::npos) << a;
+}
+
+
+// Every combination of contact sub-model choices: the record holds a spring parameter exactly when the key
+// table's sub_models give its key to one of the choices (key_used), with the deck's value, and no other
+// contact number. A state_physics that keeps its own list of which law takes which key fails here.
+TEST(StatePhysics, RecordsTheSpringKeysTheKeyTableGivesTheChosenSubModels) {
+  const std::set<std::string> springs = {"contact.kn", "contact.kt", "contact.youngs_modulus",
+                                         "contact.poisson_ratio", "contact.rolling_stiffness"};
+  int combinations = 0;
+  for (std::size_t n = 0; n < kNormalModelNames.size(); ++n)
+    for (std::size_t t = 0; t < kTangentialModelNames.size(); ++t)
+      for (std::size_t r = 0; r < kRollingModelNames.size(); ++r)
+        for (std::size_t w = 0; w < kTwistingModelNames.size(); ++w) {
+          Deck deck;
+          deck.sample.density = 2650;
+          ContactDef& c = deck.contact;
+          c.normal = static_cast<NormalModel>(n);
+          c.tangential = static_cast<TangentialModel>(t);
+          c.rolling = static_cast<RollingModel>(r);
+          c.twisting = static_cast<TwistingModel>(w);
+          double value = 1.0;
+          for (const ContactParameter& p : kContactParameters) c.*p.field = (value += 1.0);
+          const nlohmann::json record = nlohmann::json::parse(state_physics(deck));
+          const SubModelSelection chosen = c.selection();
+          for (const KeySpec* key : keys::kAll) {
+            const std::string path(key->path);
+            if (!springs.contains(path)) continue;
+            ASSERT_EQ(record.contains(path), key_used(*key, chosen)) << path << " in " << record.dump();
+          }
+          for (const ContactParameter& p : kContactParameters) {
+            const std::string path(p.key->path);
+            if (record.contains(path)) {
+              EXPECT_EQ(record[path].get<double>(), c.*p.field) << path;
+            }
+          }
+          for (const auto& [path, entry] : record.items())
+            if (path.starts_with("contact.") && entry.is_number()) {
+              EXPECT_TRUE(springs.contains(path)) << path << " is no spring parameter";
+            }
+          ++combinations;
+        }
+  EXPECT_EQ(combinations, 24);
+  // Two laws by hand, independent of the table: linear springs record kn and kt only; hertz, mindlin and sds
+  // the material and the rolling spring.
+  Deck linear;
+  linear.contact.kn = 1e6;
+  linear.contact.kt = 2e5;
+  const nlohmann::json a = nlohmann::json::parse(state_physics(linear));
+  EXPECT_TRUE(a.contains("contact.kn") && a.contains("contact.kt") && !a.contains("contact.youngs_modulus") &&
+              !a.contains("contact.rolling_stiffness"))
+      << a.dump();
+  Deck hertz;
+  hertz.contact.normal = NormalModel::Hertz;
+  hertz.contact.tangential = TangentialModel::Mindlin;
+  hertz.contact.rolling = RollingModel::Sds;
+  const nlohmann::json b = nlohmann::json::parse(state_physics(hertz));
+  EXPECT_TRUE(!b.contains("contact.kn") && !b.contains("contact.kt") && b.contains("contact.youngs_modulus") &&
+              b.contains("contact.poisson_ratio") && b.contains("contact.rolling_stiffness"))
+      << b.dump();
 }
 
 }  // namespace
