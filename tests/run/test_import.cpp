@@ -14,6 +14,7 @@
 
 #include "cli.hpp"
 #include "helpers.hpp"
+#include "io/state_file.hpp"
 #include "measure/series.hpp"
 
 namespace celldem {
@@ -137,6 +138,23 @@ TEST(Import, StateAndDeckMustAgreeOnThePhysics) {
   EXPECT_EQ(r.code, 0) << r.err;
   const auto summary = nlohmann::json::parse(read_bytes(dir / "override" / "summary.json"));
   EXPECT_NE(summary.dump().find("override_state_physics: initial_state"), std::string::npos) << summary.dump();
+
+  // A state of the older formats (2 and 3, which write_state still writes without a record) holds no physics
+  // to check the deck against: check and run say that nothing was checked; a state with a record is not warned of.
+  EXPECT_EQ(celldem(dir, "check '" + (dir / "same.json").string() + "'").err.find("records no physics"),
+            std::string::npos);
+  write_state((dir / "old.state").string(), read_state((dir / "prep" / "prepared.state").string()), "prepared");
+  std::string record = "unread";
+  read_state((dir / "old.state").string(), nullptr, &record);
+  ASSERT_TRUE(record.empty());
+  write_bytes(dir / "old.json", deck_from("old.state"));
+  for (const std::string& cmd : {"check '" + (dir / "old.json").string() + "'", run_args(dir / "old.json", dir / "old")}) {
+    r = celldem(dir, cmd);
+    EXPECT_EQ(r.code, 0) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("old.state records no physics"), std::string::npos) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("nothing was checked"), std::string::npos) << r.err;
+  }
+  EXPECT_NE(read_bytes(dir / "old" / "summary.json").find("records no physics"), std::string::npos);
 }
 
 // The data file with atom 1 moved to atom 2's position plus `offset` of the sum of their radii along x.
@@ -391,6 +409,65 @@ TEST(Import, DeepOverlapsAreRefusedOrRelaxedBySoftStart) {
               static_cast<long long>(from["overlaps"]["deep_pairs"].get<std::int64_t>()),
               from["overlaps"]["worst"].get<double>(), relax["dilation"].get<double>(),
               static_cast<long long>(summary["prepared"]["steps"].get<std::int64_t>()));
+}
+
+// The solid fraction of a LAMMPS data file of the translator's or write_data_file's form, computed from its text
+// alone (box bounds and diameters): the oracle of what check prints.
+double data_file_solid_fraction(const std::string& data) {
+  std::istringstream in(data);
+  double volume = 1.0, solid = 0.0;
+  bool atoms = false;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream ss(line);
+    std::vector<std::string> f;
+    for (std::string w; ss >> w;) f.push_back(w);
+    if (f.size() == 4 && f[2].size() == 3 && f[2].substr(1) == "lo" && f[3].size() == 3 && f[3].substr(1) == "hi")
+      volume *= std::stod(f[1]) - std::stod(f[0]);
+    if (!f.empty() && f[0] == "Atoms") atoms = true;
+    else if (atoms && f.size() >= 7) solid += M_PI / 6.0 * std::pow(std::stod(f[2]), 3);
+    else if (atoms && !f.empty() && f[0] == "Velocities") break;
+  }
+  return solid / volume;
+}
+
+// The number check prints after `label` ("solid fraction ").
+double printed_after(const std::string& out, const std::string& label) {
+  const auto at = out.find(label);
+  return at == std::string::npos ? std::nan("") : std::stod(out.substr(at + label.size()));
+}
+
+// check on a deck whose tests start from initial_state (no prepare) says what they start from: the solid
+// fraction and the overlaps (count, deepest as a fraction of the smaller radius). A loose import (no contacts,
+// solid fraction 0.2) is warned about, pointing to prepare; a prepared packing is not.
+TEST(Import, CheckDescribesWhatTestsStartFromAndWarnsOfALooseOne) {
+  const fs::path dir = testing::test_dir("test_start_" + std::to_string(getpid()));
+  ASSERT_NO_FATAL_FAILURE(prepare_and_translate(dir));
+  write_bytes(dir / "b.json", deck_from("lmp/state.data"));
+  Result r = celldem(dir, "check '" + (dir / "b.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("tests: start from "), std::string::npos) << r.out;
+  const double dense = data_file_solid_fraction(read_bytes(dir / "lmp" / "state.data"));
+  EXPECT_GT(dense, 0.5);
+  EXPECT_NEAR(printed_after(r.out, "solid fraction "), dense, 1e-3 * dense) << r.out;  // printed to 4 digits
+  EXPECT_GT(printed_after(r.out, "tests: as loaded "), 100) << r.out;  // a packing at 100 kPa: most spheres touch
+  EXPECT_NE(r.out.find("the deepest overlap "), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("loose"), std::string::npos) << r.err;
+
+  double box = 0.0;
+  std::vector<Sphere> spheres;
+  ASSERT_NO_FATAL_FAILURE(random_spheres(200, 0.2, true, 5, spheres, box));
+  write_data_file(dir / "loose.data", spheres, box);
+  write_bytes(dir / "loose.json", deck_from("loose.data"));
+  for (const std::string& cmd : {"check '" + (dir / "loose.json").string() + "'",
+                                 run_args(dir / "loose.json", dir / "rl", "--quiet")}) {
+    r = celldem(dir, cmd);
+    EXPECT_NE(r.err.find("loose gas of spheres"), std::string::npos) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("add \"prepare\" beside \"initial_state\""), std::string::npos) << r.err;
+  }
+  r = celldem(dir, "check '" + (dir / "loose.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(printed_after(r.out, "solid fraction "), 0.2, 1e-3) << r.out;
+  EXPECT_EQ(printed_after(r.out, "tests: as loaded "), 0) << r.out;
 }
 
 }  // namespace
