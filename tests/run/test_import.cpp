@@ -298,15 +298,31 @@ TEST(Import, LoosePackingIsPreparedFromItsOwnSolidFraction) {
   write_data_file(dir / "loose.data", spheres, box);
   write_bytes(dir / "a.json", deck_preparing(300, "loose.data", kShortTtc));
 
-  // plan: the fast leg from 0.2 to 0.55 at 1e-4 per step, then the servo's min_steps..max_steps.
+  // plan: the fast leg from 0.2 to 0.55 at 1e-4 per step (each axis at strain n 1e-4 after n steps), then the
+  // servo's min_steps..max_steps; each leg listed as a test's.
   Result r = celldem(dir, "plan '" + (dir / "a.json").string() + "' --json");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto plan = nlohmann::json::parse(r.out);
   EXPECT_NEAR(plan["prepare"]["start"]["solid_fraction"].get<double>(), 0.2, 1e-12);
   EXPECT_EQ(plan["prepare"]["start"]["fast_leg_skipped"], false);
-  const std::int64_t fast = std::llround(std::ceil(std::log(0.55 / 0.2) / (-3.0 * std::log1p(-1e-4))));
+  std::int64_t fast = 0;
+  while (0.2 / std::pow(1.0 - static_cast<double>(fast) * 1e-4, 3) < 0.55) ++fast;
   EXPECT_EQ(plan["prepare"]["steps"]["low"].get<std::int64_t>(), fast + 1000);
   EXPECT_EQ(plan["prepare"]["steps"]["high"].get<std::int64_t>(), fast + 200000);
+  const auto& legs = plan["prepare"]["legs"];
+  ASSERT_EQ(legs.size(), 2u) << legs;
+  EXPECT_EQ(legs[0]["steps"]["low"], fast);
+  EXPECT_EQ(legs[0]["end"]["solid_fraction"], 0.55);
+  EXPECT_EQ(legs[0]["driving_increment"], 1e-4);
+  EXPECT_EQ(legs[1]["end"]["equilibrium"], true);
+  EXPECT_EQ(legs[1]["servo"], true);
+  EXPECT_TRUE(legs[1]["rows"].is_null());
+  EXPECT_TRUE(plan["prepare"]["rows"].is_null());
+  r = celldem(dir, "plan '" + (dir / "a.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("leg 0: ends at solid fraction 0.55, " + std::to_string(fast) + " steps"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("leg 1: ends in equilibrium"), std::string::npos) << r.out;
   r = celldem(dir, "check '" + (dir / "a.json").string() + "'");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("prepare: starts from"), std::string::npos) << r.out;
@@ -322,6 +338,20 @@ TEST(Import, LoosePackingIsPreparedFromItsOwnSolidFraction) {
   EXPECT_FALSE(prepared["started_from"].contains("skipped"));
   EXPECT_NEAR(prepared["p"].get<double>(), 1e5, 0.01 * 1e5);
   EXPECT_GT(prepared["steps"].get<std::int64_t>(), fast);
+  // The fast leg took the planned steps and wrote the planned rows: its end is the first row off the output
+  // interval (500), and the rows up to it are the ones listed.
+  const std::vector<SeriesRow> prep_rows = read_series(dir / "ra" / "prepare" / "series.csv");
+  ASSERT_NE(fast % 500, 0);
+  std::int64_t first_off = -1, rows_to_it = 0;
+  for (const SeriesRow& row : prep_rows) {
+    ++rows_to_it;
+    if (std::llround(row.step) % 500 != 0) {
+      first_off = std::llround(row.step);
+      break;
+    }
+  }
+  EXPECT_EQ(first_off, fast);
+  EXPECT_EQ(rows_to_it, legs[0]["rows"].get<std::int64_t>());
   EXPECT_GT(prepared["void_ratio"].get<double>(), 0.45);  // frictionless, 300 spheres: about 0.55-0.6
   EXPECT_LT(prepared["void_ratio"].get<double>(), 0.75);
   EXPECT_GT(prepared["Zm"].get<double>(), 5.0);
