@@ -91,6 +91,8 @@ Command add_check_command(CLI::App& app) {
       start_fraction = start.solid_fraction;
       const int skipped = preparation_program(*deck.prepare, start_fraction).skipped;
       std::printf("%s\n", describe_preparation_start(deck, start, skipped).c_str());
+    } else if (deck.initial_state) {  // what the tests start from (preflight warns of a loose one)
+      std::printf("%s\n", describe_test_start(deck, preparation_start(deck)).c_str());
     }
     std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s, %s mode)\n%s\n", path->c_str(),
                 deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name,

@@ -53,21 +53,59 @@ Json axis_json(const AxisControl& a) {
 }
 
 Json end_json(const LegEnd& e) {
+  Json j;
   switch (e.kind) {
-    case LegEndKind::Strain: return {{"axis", kAxisNames[e.axis]}, {"strain", e.value}};
-    case LegEndKind::Ratio: return {{"ratio", e.value}};
-    case LegEndKind::Stress: return {{"axis", kAxisNames[e.axis]}, {"stress", e.value}};
-    case LegEndKind::Steps: return {{"steps", e.steps}};
-    case LegEndKind::SolidFraction: return {{"solid_fraction", e.value}};
-    case LegEndKind::Equilibrium: return {{"equilibrium", true}};
+    case LegEndKind::Strain: j = {{"axis", kAxisNames[e.axis]}, {"strain", e.value}}; break;
+    case LegEndKind::Ratio: j = {{"ratio", e.value}}; break;
+    case LegEndKind::Stress: j = {{"axis", kAxisNames[e.axis]}, {"stress", e.value}}; break;
+    case LegEndKind::Steps: j = {{"steps", e.steps}}; break;
+    case LegEndKind::SolidFraction: j = {{"solid_fraction", e.value}}; break;
+    case LegEndKind::Equilibrium: j = {{"equilibrium", true}}; break;
   }
-  return nullptr;
+  if (e.max_steps > 0) j["max_steps"] = e.max_steps;
+  return j;
+}
+
+// A leg's end in words, from end_json.
+std::string describe_end(const Json& end) {
+  char buf[128];
+  const auto num = [&](const char* key) { return end[key].get<double>(); };
+  if (end.contains("strain"))
+    std::snprintf(buf, sizeof buf, "ends at %s strain %.4g", end["axis"].get<std::string>().c_str(), num("strain"));
+  else if (end.contains("stress"))
+    std::snprintf(buf, sizeof buf, "ends at %s stress %.4g Pa", end["axis"].get<std::string>().c_str(), num("stress"));
+  else if (end.contains("ratio")) std::snprintf(buf, sizeof buf, "ends at s11/s33 %.4g", num("ratio"));
+  else if (end.contains("steps"))
+    std::snprintf(buf, sizeof buf, "ends after %lld steps", static_cast<long long>(end["steps"].get<std::int64_t>()));
+  else if (end.contains("solid_fraction")) std::snprintf(buf, sizeof buf, "ends at solid fraction %.4g", num("solid_fraction"));
+  else std::snprintf(buf, sizeof buf, "ends in equilibrium");
+  std::string text = buf;
+  if (end.contains("max_steps")) text += " (max_steps " + std::to_string(end["max_steps"].get<std::int64_t>()) + ")";
+  return text;
 }
 
 Json axes_json(const Leg& leg) {
   Json axes;
   for (int k = 0; k < 3; ++k) axes[std::string(kAxisNames[k])] = axis_json(leg.axes[k]);
   return axes;
+}
+
+Json known(std::int64_t n) { return n >= 0 ? Json(n) : Json(nullptr); }
+
+// A program's legs as core/plan's plan_legs gives them, for a test and the preparation alike.
+Json legs_json(const std::vector<Leg>& legs, const std::vector<LegPlan>& plans) {
+  Json out = Json::array();
+  for (std::size_t k = 0; k < legs.size(); ++k) {
+    const LegPlan& p = plans[k];
+    // What the servo can follow: the leg's driving strain per step against its cap (check refuses a ratio
+    // below kMinServoCapRatio in a leg with servo axes).
+    const double d = p.driving_increment, cap = p.servo_cap;
+    out.push_back({{"axes", axes_json(legs[k])}, {"end", end_json(legs[k].end)},
+                   {"steps", {{"low", p.steps.low}, {"high", known(p.steps.high)}}}, {"rows", known(p.rows)},
+                   {"driving_increment", d}, {"driving_rate", p.driving_rate}, {"servo_cap", cap}, {"servo", p.servo},
+                   {"cap_ratio", d > 0.0 ? Json(cap / d) : Json(nullptr)}});
+  }
+  return out;
 }
 
 Json plan_json(const Deck& deck) {
@@ -168,7 +206,14 @@ Json plan_json(const Deck& deck) {
   }
   const RunEstimate estimate = estimate_run(deck, start_fraction);
   const auto steps = [](const StepRange& r) { return Json{{"low", r.low}, {"high", r.high < 0 ? Json() : Json(r.high)}}; };
-  if (deck.prepare) out["prepare"]["steps"] = steps(estimate.preparation);
+  if (deck.prepare) {
+    out["prepare"]["steps"] = steps(estimate.preparation);
+    const PreparationPlan prep = plan_preparation(deck, start_fraction);
+    out["prepare"]["legs"] = legs_json(prep.legs, prep.listed);
+    std::int64_t rows = 0;
+    for (const LegPlan& leg : prep.listed) rows = rows < 0 || leg.rows < 0 ? -1 : rows + leg.rows;
+    out["prepare"]["rows"] = known(rows);
+  }
   out["estimate"] = {{"bytes", estimate.bytes}, {"preparation_steps", steps(estimate.preparation)},
                      {"test_steps", steps(estimate.tests)}, {"particle_steps_low", estimate.particle_steps_low},
                      {"particle_steps_high", estimate.particle_steps_high < 0 ? Json() : Json(estimate.particle_steps_high)},
@@ -183,17 +228,7 @@ Json plan_json(const Deck& deck) {
     const Json inertia = stress_axes ? Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample),
                                                             deck.sample.density, stress_sum / stress_axes))
                                      : Json(nullptr);
-    Json legs = Json::array();
-    for (const Leg& leg : t.legs) {
-      // What the servo can follow: the leg's driving strain per step against its cap (check refuses a ratio
-      // below kMinServoCapRatio in a leg with servo axes).
-      const double d = leg_driving_increment(leg, deck.time_step);
-      const double cap = servo_cap(deck.servo, leg, deck.time_step);
-      legs.push_back({{"axes", axes_json(leg)}, {"end", end_json(leg.end)}, {"driving_increment", d},
-                      {"servo_cap", cap}, {"servo", leg_has_servo(leg)},
-                      {"cap_ratio", d > 0.0 ? Json(cap / d) : Json(nullptr)}});
-    }
-    const auto known = [](std::int64_t n) { return n >= 0 ? Json(n) : Json(nullptr); };
+    const Json legs = legs_json(t.legs, p.legs);
     out["tests"].push_back({{"name", t.name}, {"friction", t.friction}, {"steps", known(p.steps)},
                             {"end_axis", kAxisNames[first.end.axis]}, {"end_strain", first.end.value},
                             {"strain_per_step", p.strain_per_step}, {"strain_rate", p.strain_rate},
@@ -259,26 +294,33 @@ Command add_plan_command(CLI::App& app) {
       if (realised)
         std::printf("    largest deviation %.2f percentage points\n", g["largest_deviation_percent"].get<double>());
     }
-    if (deck.prepare) {
-      const Json& s = plan["prepare"]["steps"];
-      std::printf("  %-12s %lld%s steps (the servo leg ends in equilibrium)\n", "prepare",
-                  static_cast<long long>(s["low"].get<std::int64_t>()),
-                  s["high"].is_null() ? " or more" : (" to " + std::to_string(s["high"].get<std::int64_t>())).c_str());
-    }
-    for (const Json& t : plan["tests"]) {
-      const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
-      std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", t["name"].get<std::string>().c_str(), t["legs"].size(),
-                  t["legs"].size() > 1 ? "s" : "", count(t["steps"]).c_str(), count(t["rows"]).c_str());
-      for (std::size_t j = 0; j < t["legs"].size(); ++j) {
-        const Json& leg = t["legs"][j];
-        if (!leg["servo"].get<bool>()) continue;
+    // A stage and its legs, the preparation's as a test's: steps, rows, each leg's end, driving and servo cap.
+    const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
+    const auto range = [&](const Json& r) {
+      return r["high"] == r["low"] ? count(r["low"]) : count(r["low"]) + (r["high"].is_null() ? " or more" : " to " + count(r["high"]));
+    };
+    const auto print_stage = [&](const std::string& name, const Json& steps, const Json& rows, const Json& legs) {
+      std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", name.c_str(), legs.size(), legs.size() > 1 ? "s" : "",
+                  steps.is_object() ? range(steps).c_str() : count(steps).c_str(), count(rows).c_str());
+      for (std::size_t j = 0; j < legs.size(); ++j) {
+        const Json& leg = legs[j];
         const double d = leg["driving_increment"].get<double>(), cap = leg["servo_cap"].get<double>();
-        std::printf("    leg %zu: driving %.3g per step, servo cap %.3g", j, d, cap);
-        if (d > 0.0)
-          std::printf(" = %.3g x driving%s", cap / d, cap < kMinServoCapRatio * d ? " (below 3: refused)" : "");
+        std::printf("    leg %zu: %s, %s steps, %s rows", j, describe_end(leg["end"]).c_str(), range(leg["steps"]).c_str(),
+                    count(leg["rows"]).c_str());
+        if (d > 0.0) std::printf("; driving %.3g per step (%.3g /s)", d, leg["driving_rate"].get<double>());
+        if (leg["servo"].get<bool>()) {
+          std::printf("; servo cap %.3g", cap);
+          if (d > 0.0)
+            std::printf(" = %.3g x driving%s", cap / d, cap < kMinServoCapRatio * d ? " (below 3: refused)" : "");
+        }
         std::printf("\n");
       }
+    };
+    if (deck.prepare) {
+      const Json& p = plan["prepare"];
+      print_stage("prepare", p["steps"], p["rows"], p["legs"]);
     }
+    for (const Json& t : plan["tests"]) print_stage(t["name"].get<std::string>(), t["steps"], t["rows"], t["legs"]);
     const Json& start = plan["prepare"].is_object() ? plan["prepare"].value("start", Json()) : Json();
     std::printf("%s\n", describe_estimate(deck, start.is_null() ? -1.0 : start["solid_fraction"].get<double>()).c_str());
     return 0;

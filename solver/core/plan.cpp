@@ -73,19 +73,54 @@ std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double
   return steps;
 }
 
+namespace {
+StepRange add(StepRange a, StepRange b) {
+  return {a.low + b.low, a.high < 0 || b.high < 0 ? -1 : a.high + b.high};
+}
+}  // namespace
+
+std::vector<LegPlan> plan_legs(const Deck& deck, const std::vector<Leg>& legs, const std::vector<StepRange>& steps,
+                               std::int64_t output_interval) {
+  std::vector<LegPlan> out;
+  std::int64_t at = 0;  // the stage step where the leg starts; -1 once unknown
+  for (std::size_t k = 0; k < legs.size(); ++k) {
+    const Leg& leg = legs[k];
+    LegPlan p;
+    p.steps = steps[k];
+    p.driving_increment = leg_driving_increment(leg, deck.time_step);
+    p.driving_rate = p.driving_increment / deck.time_step;
+    p.servo_cap = servo_cap(deck.servo, leg, deck.time_step);
+    p.servo = leg_has_servo(leg);
+    if (at >= 0 && p.steps.exact()) {
+      const std::int64_t end = at + p.steps.low;
+      // The interval's rows in (at, end], the leg's end row unless the interval wrote it, the stage's first row.
+      p.rows = end / output_interval - at / output_interval + (end % output_interval != 0) + (k == 0);
+      at = end;
+    } else {
+      at = -1;
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
 TestPlan plan_test(const Deck& deck, const TestDef& test) {
   TestPlan p;
   const Leg& first = test.legs.front();
   p.strain_per_step = first.strain_per_step(first.end.axis, deck.time_step);
   p.strain_rate = p.strain_per_step / deck.time_step;
-  for (const std::int64_t n : program_leg_steps(test.legs, deck.time_step)) {
-    if (n < 0) {
+  std::vector<StepRange> steps;
+  for (const std::int64_t n : program_leg_steps(test.legs, deck.time_step))
+    steps.push_back(n >= 0 ? StepRange{n, n} : StepRange{0, -1});
+  p.legs = plan_legs(deck, test.legs, steps, test.output_interval);
+  for (const LegPlan& leg : p.legs) {
+    if (leg.rows < 0) {
       p.steps = p.rows = -1;
       return p;
     }
-    p.steps += n;
+    p.steps += leg.steps.low;
+    p.rows += leg.rows;
   }
-  p.rows = 1 + p.steps / test.output_interval + (p.steps % test.output_interval != 0);
   return p;
 }
 
@@ -265,51 +300,63 @@ double mean_sphere_volume(const SampleDef& sample) {
   return solid;
 }
 
-namespace {
-StepRange add(StepRange a, StepRange b) {
-  return {a.low + b.low, a.high < 0 || b.high < 0 ? -1 : a.high + b.high};
-}
-}  // namespace
-
-StepRange preparation_steps(const Deck& deck, double start_solid_fraction) {
-  if (!deck.prepare) return {};
+PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction) {
+  PreparationPlan plan;
+  if (!deck.prepare) return plan;
   const PrepareDef& prep = *deck.prepare;
   const EquilibriumDef& eq = prep.equilibrium;
   const SampleDef& s = deck.sample;
   int side = 1;  // the grid sample's (run/sample.cpp)
   while (static_cast<long long>(side) * side * side < s.count) ++side;
   const double solid = mean_sphere_volume(s);
-  double fraction = s.count * solid / std::pow(side * s.grid_spacing, 3);  // -1 once unknown
+  // The solid fraction at the stage's start (the grid sample's for the mean sphere volume: its drawn sizes make
+  // it differ a little), and the axes' strains since then while the legs so far tell them.
+  double reference = s.count * solid / std::pow(side * s.grid_spacing, 3);
   // A generated sample runs the deck's legs as they are; a loaded one may leave the fast leg out.
-  std::vector<Leg> legs = prep.legs;
+  plan.legs = prep.legs;
   if (start_solid_fraction > 0.0) {
-    fraction = start_solid_fraction;
-    legs = preparation_program(prep, fraction).legs;
+    reference = start_solid_fraction;
+    const PreparationProgram program = preparation_program(prep, reference);
+    plan.legs = program.legs;
+    plan.skipped = program.skipped;
   }
-  StepRange total;
-  for (const Leg& leg : legs) {
-    const std::int64_t n = leg_steps(leg, deck.time_step);
-    const double d = leg.axes[0].value;
-    const bool isotropic = std::all_of(leg.axes.begin(), leg.axes.end(), [d](const AxisControl& a) {
-      return a.mode == AxisMode::StrainIncrement && a.value == d;
-    });
+  Vec3 strain = Vec3::Zero();
+  bool strain_known = true;
+  for (const Leg& leg : plan.legs) {
+    const LegEnd& e = leg.end;
+    std::int64_t n = e.kind == LegEndKind::Steps || strain_known ? leg_steps(leg, deck.time_step, strain[e.axis]) : -1;
+    const double d = leg.strain_per_step(0, deck.time_step);
+    const bool isotropic = std::all_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.strain_driven(); }) &&
+                           leg.strain_per_step(1, deck.time_step) == d && leg.strain_per_step(2, deck.time_step) == d;
+    if (n < 0 && e.kind == LegEndKind::SolidFraction && isotropic && d > 0.0 && strain_known &&
+        strain[1] == strain[0] && strain[2] == strain[0]) {
+      // Every axis follows h = L (1 - (e0 + n d)) (cell/control.cpp), so the solid fraction after n steps is
+      // reference / (1 - e0 - n d)^3: the leg ends at the first n where that reaches the end's.
+      const double x = (1.0 - std::cbrt(reference / e.value) - strain[0]) / d;
+      n = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::ceil(x * (1.0 - 1e-12))));
+    }
     if (n >= 0) {
-      total = add(total, {n, n});
-      fraction = -1.0;
-    } else if (leg.end.kind == LegEndKind::SolidFraction && isotropic && d > 0.0 && fraction > 0.0) {
-      // Each step scales every axis by 1 - d: the solid fraction grows by (1 - d)^-3.
-      const double steps = std::ceil(std::log(leg.end.value / fraction) / (-3.0 * std::log1p(-d)));
-      const std::int64_t k = fraction >= leg.end.value ? 0 : std::llround(steps);
-      total = add(total, {k, k});
-      fraction = std::max(fraction, leg.end.value);
-    } else if (leg.end.kind == LegEndKind::Equilibrium) {
-      total = add(total, {eq.min_steps, leg.end.max_steps > 0 ? leg.end.max_steps : eq.max_steps});
-      fraction = -1.0;
+      plan.steps.push_back({n, n});
+      for (int k = 0; k < 3; ++k) {
+        if (!leg.axes[k].strain_driven()) strain_known = false;
+        strain[k] += static_cast<double>(n) * leg.strain_per_step(k, deck.time_step);
+      }
+      if (e.kind == LegEndKind::Strain && n != e.max_steps) strain[e.axis] = e.value;
+    } else if (e.kind == LegEndKind::Equilibrium) {
+      plan.steps.push_back({eq.min_steps, e.max_steps > 0 ? e.max_steps : eq.max_steps});
+      strain_known = false;
     } else {
-      total.high = -1;
-      fraction = -1.0;
+      plan.steps.push_back({0, -1});
+      strain_known = false;
     }
   }
+  plan.listed = plan_legs(deck, plan.legs, plan.steps, prep.output_interval);
+  return plan;
+}
+
+StepRange preparation_steps(const Deck& deck, double start_solid_fraction) {
+  StepRange total;
+  for (const StepRange& r : plan_preparation(deck, start_solid_fraction).steps) total = add(total, r);
   return total;
 }
 

@@ -54,11 +54,35 @@ inline constexpr double kMinServoCapRatio = 3.0;
 std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
                                             std::vector<double>* from = nullptr);
 
+// A range of steps: a leg that ends in equilibrium runs between its min_steps and max_steps; -1 where only
+// running tells (a stress or ratio end).
+struct StepRange {
+  std::int64_t low = 0;
+  std::int64_t high = 0;  // -1: unknown
+  bool exact() const { return low == high; }
+};
+
+// One leg of a load program as `plan` lists it, a test's and the preparation's alike.
+struct LegPlan {
+  StepRange steps;                 // exact, a range (equilibrium), or high -1 where only running tells
+  double driving_increment = 0.0;  // leg_driving_increment: the fastest strain-driven axis's |strain| per step
+  double driving_rate = 0.0;       // the same per second [1/s]
+  double servo_cap = 0.0;          // servo_cap: the servo's largest strain per step in this leg
+  bool servo = false;              // leg_has_servo
+  std::int64_t rows = -1;          // series rows the leg writes (the stage's first row counts in its first leg); -1: unknown
+};
+// The legs of a stage's program whose legs take `steps` (one range each). A stage writes a row at its start,
+// at every output_interval-th stage step and at each leg's end (unless the interval has just written it), so a
+// leg's rows are known while every leg up to it has an exact length.
+std::vector<LegPlan> plan_legs(const Deck& deck, const std::vector<Leg>& legs, const std::vector<StepRange>& steps,
+                               std::int64_t output_interval);
+
 struct TestPlan {
   std::int64_t steps = 0;        // all legs; -1 when a leg's length is known only by running it
   double strain_per_step = 0.0;  // the first leg's end axis, per step (compression +)
   double strain_rate = 0.0;      // the same per second [1/s]
-  std::int64_t rows = 0;         // series rows: the first, one per output interval, and the last (-1: unknown)
+  std::int64_t rows = 0;         // series rows: the first, one per output interval, each leg's end (-1: unknown)
+  std::vector<LegPlan> legs;     // plan_legs of the test's legs
 };
 TestPlan plan_test(const Deck& deck, const TestDef& test);
 
@@ -208,18 +232,24 @@ double skin_length(const Deck& deck);
 double mean_diameter(const SampleDef& sample);
 double mean_sphere_volume(const SampleDef& sample);
 
-// What a whole run costs, for `check` and `plan` before it starts. Steps are a range: a leg that ends in
-// equilibrium runs between its min_steps and max_steps; -1 where only running tells (a stress or ratio end).
-struct StepRange {
-  std::int64_t low = 0;
-  std::int64_t high = 0;  // -1: unknown
-};
-// The preparation's steps: the default program's fast compression from the grid sample's solid fraction to
-// fast_solid_fraction (exact: each step scales the cell by 1 - fast_strain_increment), then its servo leg;
-// a deck's own legs as leg_steps() knows them.
-// With `start_solid_fraction` > 0 (a preparation from initial_state, as loaded and relaxed) the fast leg
-// starts there instead of at the grid sample's.
+// What a whole run costs, for `check` and `plan` before it starts, in StepRanges.
+// The preparation's steps: an isotropic leg that ends on a solid fraction, such as the default program's fast
+// compression, from the solid fraction where it starts (each axis at strain e0 + n d after n steps, so the
+// fraction is the stage start's / (1 - e0 - n d)^3; the grid sample's from the mean sphere volume, a little
+// off its drawn sizes'), then the servo leg's min_steps to max_steps; other legs as leg_steps() knows them,
+// each strain end from the strain where the leg starts.
+// With `start_solid_fraction` > 0 (a preparation from initial_state, as loaded and relaxed) the stage starts
+// there (exact) instead of at the grid sample's.
 StepRange preparation_steps(const Deck& deck, double start_solid_fraction = -1.0);
+// The same leg by leg: the legs the preparation runs (preparation_program's from a loaded start) and each one's
+// steps; preparation_steps is their sum. Empty without prepare.
+struct PreparationPlan {
+  std::vector<Leg> legs;
+  std::vector<StepRange> steps;  // one per leg
+  int skipped = 0;               // default legs left out at the start (preparation_program)
+  std::vector<LegPlan> listed;   // plan_legs of them, at prepare.output_interval
+};
+PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction = -1.0);
 StepRange test_steps(const Deck& deck, const TestDef& test);
 // Memory and work of the run: about kBytesPerParticle per sphere (the arrays and the pair list at a packing's
 // ~3 listed pairs per sphere, measured: 356-396 B at 8 k to 1 M spheres with the linear law; laws with

@@ -43,8 +43,7 @@ Json parse_json(const std::string& json_text) {
       path += std::to_string(f.index);
       path += ']';
     } else {
-      if (!path.empty()) path += '.';
-      path += f.key;
+      path = key_path(path, f.key);
     }
     return path;
   };

@@ -16,6 +16,7 @@ namespace {
 
 using deck_json::fail;
 using deck_json::fmt;
+using deck_json::key_path;
 using deck_json::Json;
 using deck_json::parse_json;
 
@@ -105,6 +106,7 @@ class ObjectReader {
     return *it;
   }
 
+  // The path of a key the code names (it may go deeper: "end.strain"); the deck's own keys go through key_path.
   std::string at(std::string_view key) const {
     return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
   }
@@ -114,7 +116,7 @@ class ObjectReader {
   // Call after reading every key: anything not asked for is a typo or an unsupported option.
   void finish() const {
     for (const auto& [key, _] : j_.items())
-      if (!known_.count(key)) fail(at(key), "unknown key");
+      if (!known_.count(key)) fail(key_path(path_, key), "unknown key");  // the deck's own key, quoted if odd
   }
 
  private:

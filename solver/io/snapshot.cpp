@@ -359,6 +359,8 @@ std::string lammps_dump(const State& state, std::int64_t step) {
   const DumpFrame frame = dump_frame(state.cell.h);
   const Mat3& b = frame.box;
   const std::vector<std::int32_t> contacts = contacts_per_particle(state);
+  const std::vector<Vec3> net_force = net_contact_forces(state);
+  const std::vector<Mat3> stress = particle_stresses(state);
   std::string o;
   o += "ITEM: TIMESTEP\n";
   put(o, step);
@@ -388,7 +390,8 @@ std::string lammps_dump(const State& state, std::int64_t step) {
       o += '\n';
     }
   }
-  o += "ITEM: ATOMS id radius x y z vx vy vz wx wy wz contacts\n";
+  o += "ITEM: ATOMS id radius x y z vx vy vz wx wy wz contacts fx fy fz c_stress[1] c_stress[2] c_stress[3] "
+       "c_stress[4] c_stress[5] c_stress[6]\n";
   for (std::size_t i = 0; i < p.size(); ++i) {
     put(o, static_cast<std::int64_t>(i + 1));
     o += ' ';
@@ -401,6 +404,16 @@ std::string lammps_dump(const State& state, std::int64_t step) {
     put(o, Vec3(frame.rotation * p.spin[i]));
     o += ' ';
     put(o, std::int64_t{contacts[i]});
+    o += ' ';
+    put(o, Vec3(frame.rotation * net_force[i]));
+    // The tensor in the dump's frame, as LAMMPS's six: xx yy zz xy xz yz (it is symmetric: the mean of the two
+    // off-diagonal entries is either of them).
+    const Mat3 t = frame.rotation * stress[i] * frame.rotation.transpose();
+    for (const double x : {t(0, 0), t(1, 1), t(2, 2), 0.5 * (t(0, 1) + t(1, 0)), 0.5 * (t(0, 2) + t(2, 0)),
+                           0.5 * (t(1, 2) + t(2, 1))}) {
+      o += ' ';
+      put(o, x);
+    }
     o += '\n';
   }
   return o;

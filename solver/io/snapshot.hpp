@@ -26,8 +26,13 @@
 //                           outwards, leaving the cell); cell data branch, normal_force, tangential_force,
 //                           sliding (0/1), i, j.
 //   <stem>_S.dump           LAMMPS text dump (one file per snapshot; OVITO loads the series with the
-//                           wildcard <stem>_*.dump): id radius x y z vx vy vz wx wy wz contacts, ids from 1
-//                           as in `celldem translate` data files.
+//                           wildcard <stem>_*.dump): id radius x y z vx vy vz wx wy wz contacts fx fy fz
+//                           c_stress[1] ... c_stress[6], ids from 1 as in `celldem translate` data files;
+//                           fx fy fz the net_force and c_stress[1-6] the particle stress of the .vtu, in the
+//                           dump's frame (xx yy zz xy xz yz, LAMMPS's order; the names OVITO maps to Force
+//                           and Stress Tensor). Unlike LAMMPS's compute stress/atom
+//                           the stress is in Pa (not multiplied by the particle's volume) and positive in
+//                           compression.
 // and two collections listing every snapshot with its time, rewritten after each snapshot:
 //   <stem>.pvd              the particle files      <stem>_contacts.pvd   the contact files
 // (two collections rather than one with two parts, so ParaView opens each as a plain dataset that the

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/model.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
 #include "io/lammps_data.hpp"
@@ -52,7 +53,9 @@ void check_prepared_cell(const Deck& deck) {
 inline constexpr double kDeepOverlap = keys::prepare_relax_overlaps.max;
 inline constexpr double kCoincident = 1e-6;  // centre distance / (r_i + r_j)
 
-void check_overlaps(const Deck& deck, State state, const std::vector<std::int64_t>& atom_ids, const std::string& path) {
+// Returns the overlaps as loaded.
+Overlaps check_overlaps(const Deck& deck, State state, const std::vector<std::int64_t>& atom_ids,
+                        const std::string& path) {
   const auto name = [&](Index i) {
     return atom_ids.empty() ? "particle " + std::to_string(i) : "atom " + std::to_string(atom_ids[i]);
   };
@@ -62,7 +65,7 @@ void check_overlaps(const Deck& deck, State state, const std::vector<std::int64_
     throw DeckError("initial_state: " + name(o.closest_i) + " and " + name(o.closest_j) + " of " + path +
                     " lie at the same place (centre distance " + fmt(o.closest) + " of the sum of their radii): "
                     "remove one of them");
-  if (r.max_overlap > 0.0 || o.worst <= kDeepOverlap) return;
+  if (r.max_overlap > 0.0 || o.worst <= kDeepOverlap) return o;
   const std::string where = deck.prepare ? "set \"prepare.relax_overlaps\" (e.g. 0.01)"
                                          : "prepare a sample from it (\"prepare\" beside \"initial_state\") with "
                                            "\"prepare.relax_overlaps\" (e.g. 0.01)";
@@ -93,9 +96,16 @@ std::vector<std::string> physics_differences(const std::string& deck_record, con
   return out;
 }
 
-void check_physics(const Deck& deck, const std::string& record, const std::string& path,
+void check_physics(const Deck& deck, const InitialSample& sample, const std::string& path,
                    std::vector<std::string>& warnings) {
-  if (record.empty()) return;  // written before states kept their physics
+  const std::string& record = sample.physics;
+  if (record.empty()) {  // a LAMMPS data file's density was checked as it was read; it has no contact law
+    if (sample.state_file)
+      warnings.push_back("initial_state: " + path + " records no physics (a state file of format 2 or 3, written "
+                         "before states recorded the density and contact law they were made with): nothing was "
+                         "checked, so make sure sample.density and the contact keys are the ones it was made with");
+    return;
+  }
   const std::vector<std::string> differences = physics_differences(state_physics(deck), record);
   if (differences.empty()) return;
   std::string list;
@@ -106,11 +116,28 @@ void check_physics(const Deck& deck, const std::string& record, const std::strin
   warnings.push_back("override_state_physics: initial_state " + path + " runs with the deck's physics: " + list);
 }
 
+// A packing of spheres at rest under a confining stress fills at least about 0.55 of its volume (random loose
+// packing); a state below kLooseSolidFraction, or one whose spheres do not touch, is a gas, not a sample: a test
+// from it measures nothing (a strain-driven test stops at the first contacts, whose energy jumps).
+inline constexpr double kLooseSolidFraction = 0.5;
+
+// Tests that start from initial_state without a preparation: warn of a start that is no packing, and point to
+// `prepare`, which compresses the loaded state to its target first.
+void warn_loose_start(const Deck& deck, const State& state, const Overlaps& o, const std::string& path,
+                      std::vector<std::string>& warnings) {
+  const double solid_fraction = make_model(deck, state.particles.radius).solid_volume / state.cell.volume();
+  if (o.count > 0 && solid_fraction >= kLooseSolidFraction) return;
+  warnings.push_back("initial_state: " + path + " fills " + fmt(solid_fraction) + " of its cell (solid fraction) with " +
+                     std::to_string(o.count) + " touching pairs: the tests would start from a loose gas of spheres, not "
+                     "a packing (spheres at rest under a stress touch and fill at least about 0.55); add \"prepare\" "
+                     "beside \"initial_state\" to compress it to prepare.target_pressure first");
+}
+
 void check_state(const Deck& deck, const std::string& path, std::vector<std::string>& warnings) {
   const InitialSample sample = load_initial_sample(deck);
   const State& state = sample.state;
   const std::vector<std::int64_t>& atom_ids = sample.atom_ids;
-  check_physics(deck, sample.physics, path, warnings);
+  check_physics(deck, sample, path, warnings);
   const std::size_t n = state.particles.size();
   if (n != static_cast<std::size_t>(deck.sample.count))
     throw DeckError("sample.count: the deck says " + std::to_string(deck.sample.count) + " spheres, initial_state " +
@@ -136,7 +163,8 @@ void check_state(const Deck& deck, const std::string& path, std::vector<std::str
   if (width <= needed)
     throw DeckError("initial_state: the cell of " + path + " is " + fmt(width) + " m wide, too small for its "
                     "largest diameter and the skin (it must exceed " + fmt(needed) + " m)");
-  check_overlaps(deck, state, atom_ids, path);
+  const Overlaps o = check_overlaps(deck, state, atom_ids, path);
+  if (!deck.prepare) warn_loose_start(deck, state, o, path, warnings);
 }
 
 // The largest axis-1 strain a test reaches at the ends of its legs; NaN unless every leg drives axis 1 by
@@ -238,6 +266,7 @@ InitialSample load_initial_sample(const Deck& deck) {
   InitialSample sample;
   if (read_file(path).rfind("CELLDEMS", 0) == 0) {
     sample.state = read_state(path, nullptr, &sample.physics);
+    sample.state_file = true;
     return sample;
   }
   LammpsData data;

@@ -30,6 +30,7 @@ struct InitialSample {
   State state;
   std::vector<std::int64_t> atom_ids;  // (N) a LAMMPS data file's atom ids; empty for a state file
   std::string physics;                 // a state file's physics record (state_physics); may be empty
+  bool state_file = false;             // a celldem state file (else a LAMMPS data file)
 };
 InitialSample load_initial_sample(const Deck& deck);
 State load_initial_state(const Deck& deck);  // load_initial_sample(deck).state

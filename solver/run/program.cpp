@@ -230,6 +230,23 @@ std::string control_failure_message(const Program& program, int leg_index, const
          ") or lower the rate";
 }
 
+// A strain leg that its end.max_steps stopped short of its end strain (by more than half a step's strain):
+// the warning, else empty. Before the run, preflight warns of the legs whose start strain is known ahead;
+// `known_ahead` says this leg is one of them, so that the warning is not given twice. The others (a leg after
+// one that ends on a ratio, a stress or equilibrium, and the preparation's legs) are only known here.
+std::string strain_leg_cut_short(const Program& program, const Model& model, const State& state, bool known_ahead) {
+  const Leg& leg = program.legs[static_cast<std::size_t>(state.control.leg)];
+  const LegEnd& e = leg.end;
+  if (known_ahead || e.kind != LegEndKind::Strain || !leg.axes[e.axis].strain_driven() || e.max_steps <= 0 ||
+      state.control.leg_steps < e.max_steps)
+    return "";
+  const double reached = axis_strains(state)[e.axis];
+  if (std::abs(reached - e.value) <= 0.5 * std::abs(leg.strain_per_step(e.axis, model.dt))) return "";
+  return stage_name(program) + " " + leg_name(state) + ": end.max_steps " + std::to_string(e.max_steps) +
+         " stopped the leg at x" + std::to_string(e.axis + 1) + " strain " + fmt(reached) + ", short of its end strain " +
+         fmt(e.value) + " (raise max_steps, or give the leg a step count as its end)";
+}
+
 }  // namespace
 
 void run_program(const Model& model, const Program& program, State& state, StageOutput& out,
@@ -240,6 +257,10 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   std::string status;
   const int threads = omp_get_max_threads();
   ThreadGovernor governor(program.adaptive_threads ? threads : 1);
+  // Where each leg starts when the plan knows it ahead (NaN where only running tells): preflight has warned of
+  // those tests' legs cut short by max_steps.
+  std::vector<double> planned_from;
+  program_leg_steps(program.legs, model.dt, &planned_from);
   for (;;) {
     const Leg& leg = program.legs[c.leg];
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
@@ -296,6 +317,8 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     if (c.leg_steps == 0)
       throw RunError(stage_name(program) + " " + leg_name(state) + " ended after 0 steps (its end condition "
                      "held when it started): give it an end it has to reach");
+    const bool known_ahead = program.stage != "prepare" && std::isfinite(planned_from[static_cast<std::size_t>(c.leg)]);
+    if (const std::string cut = strain_leg_cut_short(program, model, state, known_ahead); !cut.empty()) out.warn(cut);
     if (static_cast<std::size_t>(c.leg) + 1 == program.legs.size()) return;
     if (!leg_over) rebuild = out.after_step(state, -1.0, status);  // an equilibrium leg that is not the last
     out.end_leg(state);  // the leg's end is a row

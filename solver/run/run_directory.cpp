@@ -40,10 +40,10 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
     : dir_(options.out_dir), resume_(options.resume) {
   if (options.resume) {
     if (!fs::exists(dir_ / kProgressName))
-      throw RunError(dir_.string() + " holds no interrupted run to resume (no " + kProgressName + ")");
+      throw UsageError(dir_.string() + " holds no interrupted run to resume (no " + kProgressName + ")");
     progress_ = read_json(dir_ / kProgressName);
     if (progress_.value("deck", std::string()) != deck.canonical)
-      throw RunError("--resume: the deck differs from the one this run was started with");
+      throw UsageError("--resume: the deck differs from the one this run was started with");
     summary_ = fs::exists(dir_ / kSummaryName) ? read_json(dir_ / kSummaryName) : Json::object();
     return;
   }

@@ -82,7 +82,11 @@ std::string skipped_fast_leg_note(const Deck& deck, double start_solid_fraction)
   return buf;
 }
 
-std::string describe_preparation_start(const Deck& deck, const PreparationStart& start, int skipped) {
+namespace {
+
+// `stage` starts each line ("prepare", "tests"); `starts` says it ("starts", "start").
+std::string describe_start(const Deck& deck, const PreparationStart& start, int skipped, const std::string& stage,
+                           const std::string& starts) {
   const auto who = [&](Index i) {
     return start.atom_ids.empty() ? "particle " + std::to_string(i) : "atom " + std::to_string(start.atom_ids[i]);
   };
@@ -95,9 +99,9 @@ std::string describe_preparation_start(const Deck& deck, const PreparationStart&
   };
   const OverlapRelaxation& r = start.relaxation;
   char buf[160];
-  std::string out = "prepare: starts from ";
+  std::string out = stage + ": " + starts + " from ";
   out += initial_state_path(deck);
-  std::snprintf(buf, sizeof buf, ", solid fraction %.4g\nprepare: as loaded ", start.solid_fraction);
+  std::snprintf(buf, sizeof buf, ", solid fraction %.4g\n%s: as loaded ", start.solid_fraction, stage.c_str());
   out += buf;
   overlap_text(out, r.before);
   if (r.max_overlap > 0.0) {
@@ -108,6 +112,16 @@ std::string describe_preparation_start(const Deck& deck, const PreparationStart&
   }
   if (skipped > 0) out.append("\nprepare: ").append(skipped_fast_leg_note(deck, start.solid_fraction));
   return out;
+}
+
+}  // namespace
+
+std::string describe_preparation_start(const Deck& deck, const PreparationStart& start, int skipped) {
+  return describe_start(deck, start, skipped, "prepare", "starts");
+}
+
+std::string describe_test_start(const Deck& deck, const PreparationStart& loaded) {
+  return describe_start(deck, loaded, 0, "tests", "start");
 }
 
 }  // namespace celldem

@@ -49,5 +49,8 @@ std::string skipped_fast_leg_note(const Deck& deck, double start_solid_fraction)
 // The start in words, a line each (no trailing newline): the file and its solid fraction, its overlaps and
 // their relaxation, a fast leg left out. Printed by `run` and `check`.
 std::string describe_preparation_start(const Deck& deck, const PreparationStart& start, int skipped);
+// The same for a deck without prepare, whose tests start from initial_state as loaded (preparation_start
+// relaxes nothing without prepare): the file, its solid fraction and its overlaps. Printed by `check`.
+std::string describe_test_start(const Deck& deck, const PreparationStart& loaded);
 
 }  // namespace celldem

@@ -1,5 +1,6 @@
 #include "run/stage_output.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <sstream>
@@ -38,6 +39,7 @@ void StageOutput::open(const State& state, bool resumed) {
     elapsed_before_ = run_.elapsed_of(stage_);
     for (const auto& e : run_.memory_of(stage_).value("control_errors", nlohmann::json::array()))
       control_errors_.push_back(control_errors_from_json(e));
+    for (const auto& w : run_.memory_of(stage_).value("warnings", nlohmann::json::array())) warn(w.get<std::string>());
   }
   if (resumed && fs::exists(path)) {
     std::istringstream in(read_file(path));
@@ -165,7 +167,14 @@ void StageOutput::checkpoint(const State& state) {
   write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_));
   nlohmann::json errors = nlohmann::json::array();
   for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));
-  run_.record_checkpoint(stage_, elapsed(), {{"control_errors", errors}});
+  nlohmann::json memory = {{"control_errors", errors}};
+  if (!warnings_.empty()) memory["warnings"] = warnings_;
+  run_.record_checkpoint(stage_, elapsed(), memory);
+}
+
+void StageOutput::warn(const std::string& warning) {
+  if (std::find(warnings_.begin(), warnings_.end(), warning) == warnings_.end()) warnings_.push_back(warning);
+  run_.add_warning(warning);
 }
 
 }  // namespace celldem

@@ -45,6 +45,10 @@ class StageOutput {
   void end_leg(const State& state);
   void finish(const State& state);
 
+  // A warning found while the stage runs: printed and recorded in summary.json (RunDirectory::add_warning),
+  // and kept with the stage's checkpoints so that a resumed run records it too.
+  void warn(const std::string& warning);
+
   double elapsed() const;
   const std::filesystem::path& dir() const { return dir_; }
   // Every row of the stage so far, as series.csv holds them.
@@ -74,6 +78,7 @@ class StageOutput {
   AppendFile series_;
   std::vector<SeriesRow> rows_;
   std::vector<ControlErrors> control_errors_;
+  std::vector<std::string> warnings_;  // this stage's own (warn), for the checkpoints
   bool loading_test_;
   SnapshotDef snapshot_plan_;
   std::unique_ptr<SnapshotWriter> snapshots_;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "cell/control.hpp"
 #include "core/model.hpp"
 #include "core/plan.hpp"
 #include "helpers.hpp"
@@ -48,18 +49,23 @@ TEST(Model, DampedCoefficients) {
   EXPECT_GT(m.velocity_keep[0], 0.0);
 }
 
-// The run's estimate: the preparation's fast compression takes as many steps as scaling the grid sample's
-// cell by 1 - d per step takes to reach the solid fraction (counted here step by step), its servo leg between
-// the equilibrium's min and max steps; the tests their planned steps; memory per sphere as measured.
+// The run's estimate: the preparation's fast compression takes as many steps as the cell control
+// (advance_cell) takes to bring the grid sample's cell to the solid fraction (counted here step by step), its
+// servo leg between the equilibrium's min and max steps; the tests their planned steps; memory per sphere as
+// measured.
 TEST(Plan, RunEstimateCountsThePreparationsCompressionStepByStep) {
   const Deck deck = parse_deck(testing::small_deck_json(1000, R"([{"name": "t", "friction": 0.5,
       "axes": {"x1": {"strain_increment": 1e-5}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
       "end": {"axis": "x1", "strain": 0.01}}])"));
   double solid = 0.0;
   for (double d : deck.sample.diameters) solid += M_PI / 6.0 * d * d * d / 4.0;
-  double fraction = 1000 * solid / std::pow(10 * 5e-3, 3);  // 10^3 grid sites 5 mm apart
+  State cell = testing::make_state(Mat3::Identity() * (10 * 5e-3), {}, {}, 0.0);  // 10^3 grid sites 5 mm apart
+  begin_stage(cell);
+  const Model model = make_model(deck, {});
+  Loading fast_leg;
+  fast_leg.axes.fill({AxisMode::StrainIncrement, 1e-4});
   std::int64_t fast = 0;
-  for (; fraction < 0.55; ++fast) fraction /= std::pow(1.0 - 1e-4, 3);
+  for (; 1000 * solid / cell.cell.volume() < 0.55; ++fast) advance_cell(model, fast_leg, cell);
   const RunEstimate e = estimate_run(deck);
   EXPECT_EQ(e.preparation.low, fast + 1000);  // the servo leg's min_steps
   EXPECT_EQ(e.preparation.high, fast + 200000);

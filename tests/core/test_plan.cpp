@@ -145,5 +145,94 @@ TEST(TimeStepBounds, TheKeyTableNamesEachBoundWithItsFraction) {
   }
 }
 
+// The rows a stage writes, by its rule followed step by step: the first at step 0, one at every
+// output_interval-th step, one at each leg's end unless the interval has just written it. Rows per leg.
+std::vector<std::int64_t> rows_by_stepping(const std::vector<std::int64_t>& leg_steps, std::int64_t interval) {
+  std::vector<std::int64_t> rows;
+  std::int64_t step = 0, last_row = 0;
+  for (std::size_t k = 0; k < leg_steps.size(); ++k) {
+    std::int64_t n = k == 0 ? 1 : 0;
+    for (std::int64_t j = 0; j < leg_steps[k]; ++j)
+      if (++step % interval == 0) ++n, last_row = step;
+    if (last_row != step) ++n, last_row = step;
+    rows.push_back(n);
+  }
+  return rows;
+}
+
+// The preparation's own legs, listed as a test's: an isotropic compression to a solid fraction (its steps by
+// following the solid fraction step by step: every axis at strain n d after n steps), a strain leg from where
+// that left the axis, a leg of fixed steps and the servo to equilibrium (min_steps to max_steps; its rows and
+// those after it unknown); each leg's driving increment and rate, servo cap and rows.
+TEST(Plan, PreparationLegsListedAsATestsAreFromWhereTheyStart) {
+  Deck d = testing::model_deck(1e6, 1e6, 2e-6, 2650.0);
+  d.prepare->output_interval = 300;
+  d.servo.max_strain_increment = 4e-5;
+  d.servo.max_strain_increment_given = true;
+  Leg fast, shear, hold, servo;
+  fast.axes.fill({AxisMode::StrainIncrement, 1e-4});
+  fast.end = {.kind = LegEndKind::SolidFraction, .value = 0.6};
+  shear.axes = {AxisControl{AxisMode::StrainRate, 5.0}, AxisControl{AxisMode::StrainIncrement, 0.0},
+                AxisControl{AxisMode::Stress, 1e5}};
+  shear.end = {.kind = LegEndKind::Strain, .axis = 0, .value = 0.25};
+  hold.axes.fill({AxisMode::Stress, 1e5});
+  hold.end = {.kind = LegEndKind::Steps, .steps = 450};
+  servo.axes.fill({AxisMode::Stress, 1e5});
+  servo.end = {.kind = LegEndKind::Equilibrium, .max_steps = 7000};
+  d.prepare->legs = {fast, shear, hold, servo};
+  d.prepare->default_legs = false;
+
+  const double start = 0.3;  // a loaded state's solid fraction
+  std::int64_t n_fast = 0;
+  while (start / std::pow(1.0 - static_cast<double>(n_fast) * 1e-4, 3) < 0.6) ++n_fast;
+  const double e1 = static_cast<double>(n_fast) * 1e-4;
+  const std::int64_t n_shear = std::llround((0.25 - e1) / (5.0 * 2e-6));
+  ASSERT_GT(n_shear, 1000);
+  const PreparationPlan plan = plan_preparation(d, start);
+  ASSERT_EQ(plan.listed.size(), 4u);
+  EXPECT_EQ(plan.skipped, 0);
+  const std::vector<std::int64_t> exact = {n_fast, n_shear, 450};
+  const std::vector<std::int64_t> rows = rows_by_stepping(exact, 300);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(plan.listed[k].steps.low, exact[k]) << k;
+    EXPECT_EQ(plan.listed[k].steps.high, exact[k]) << k;
+    EXPECT_EQ(plan.listed[k].rows, rows[k]) << k;
+  }
+  EXPECT_EQ(plan.listed[3].steps.low, d.prepare->equilibrium.min_steps);
+  EXPECT_EQ(plan.listed[3].steps.high, 7000);
+  EXPECT_EQ(plan.listed[3].rows, -1);
+  EXPECT_EQ(preparation_steps(d, start).low, n_fast + n_shear + 450 + d.prepare->equilibrium.min_steps);
+
+  EXPECT_EQ(plan.listed[0].driving_increment, 1e-4);
+  EXPECT_DOUBLE_EQ(plan.listed[0].driving_rate, 1e-4 / 2e-6);
+  EXPECT_FALSE(plan.listed[0].servo);
+  EXPECT_DOUBLE_EQ(plan.listed[1].driving_increment, 5.0 * 2e-6);
+  EXPECT_TRUE(plan.listed[1].servo);
+  EXPECT_EQ(plan.listed[1].servo_cap, 4e-5);  // the deck's cap
+  EXPECT_EQ(plan.listed[3].driving_increment, 0.0);
+
+  // The fast leg's length follows from where the stage starts (its rows with it); unknown steps make the rows
+  // of every later leg unknown, a test's as well.
+  EXPECT_GT(plan_preparation(d, 0.2).listed[0].steps.low, n_fast);
+  TestDef t;
+  t.name = "t";
+  t.output_interval = 300;
+  Leg ratio = shear;
+  ratio.end = {.kind = LegEndKind::Ratio, .value = 1.5};
+  t.legs = {hold, ratio, hold};
+  const TestPlan tp = plan_test(d, t);
+  ASSERT_EQ(tp.legs.size(), 3u);
+  EXPECT_EQ(tp.legs[0].rows, rows_by_stepping({450}, 300)[0]);
+  EXPECT_EQ(tp.legs[1].rows, -1);
+  EXPECT_EQ(tp.legs[2].rows, -1);
+  EXPECT_EQ(tp.legs[2].steps.high, -1);  // program_leg_steps: every leg after an unknown one
+  EXPECT_EQ(tp.rows, -1);
+  t.legs = {hold, shear, hold};  // every length known: the test's rows are the legs', leg ends included
+  const TestPlan known = plan_test(d, t);
+  std::int64_t sum = 0;
+  for (const std::int64_t r : rows_by_stepping({450, std::llround(0.25 / 1e-5), 450}, 300)) sum += r;
+  EXPECT_EQ(known.rows, sum);
+}
+
 }  // namespace
 }  // namespace celldem

@@ -409,6 +409,35 @@ TEST(DeckErrors, UnknownKeysTopLevelAndNested) {
   expect_error(j, "tests[0].end.at", "unknown key");
 }
 
+// A key that is empty or holds what a path uses ('.', '[') or spaces is quoted in the path, as JSON writes it,
+// so that the message shows it: sample[""], not "sample.".
+TEST(DeckErrors, OddKeysAreQuotedInThePath) {
+  Json j = minimal_deck();
+  j["sample"][""] = 1;
+  expect_error(j, "sample[\"\"]", "unknown key");
+  j = minimal_deck();
+  j[""] = 1;
+  expect_error(j, "deck[\"\"]", "unknown key");
+  j = minimal_deck();
+  j["contact"]["k n"] = 1;
+  expect_error(j, "contact[\"k n\"]", "unknown key");
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x1.b"] = 1;
+  expect_error(j, "tests[0].axes[\"x1.b\"]", "unknown key");
+  j = minimal_deck();
+  j["sample"]["say \"hi\""] = 1;
+  expect_error(j, "sample[\"say \\\"hi\\\"\"]", "unknown key");
+  // A duplicate key is found before the JSON library keeps one of the two: its path is quoted the same way.
+  std::string text = minimal_deck().dump();
+  text.replace(text.find("\"sample\":{"), 10, "\"sample\":{\"\":1,\"\":2,");
+  try {
+    (void)parse_deck(text);
+    ADD_FAILURE() << "no error for a duplicate empty key";
+  } catch (const DeckError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("sample[\"\"]: duplicate key", 0), 0u) << e.what();
+  }
+}
+
 TEST(DeckErrors, WrongTypes) {
   Json j = minimal_deck();
   j["sample"]["density"] = "heavy";

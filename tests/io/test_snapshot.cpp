@@ -564,11 +564,28 @@ TEST(Snapshot, DumpHoldsTheTiltedBoxAndEveryAtom) {
   EXPECT_EQ(number(lines[7][1]), h(2, 2));
 
   EXPECT_EQ(lines[8], (std::vector<std::string>{"ITEM:", "ATOMS", "id", "radius", "x", "y", "z", "vx", "vy", "vz",
-                                                "wx", "wy", "wz", "contacts"}));
+                                                "wx", "wy", "wz", "contacts", "fx", "fy", "fz", "c_stress[1]",
+                                                "c_stress[2]", "c_stress[3]", "c_stress[4]", "c_stress[5]",
+                                                "c_stress[6]"}));
   const std::vector<int> contacts = contact_count(s);
+  // The net force and particle stress read back are the .vtu's (an upper triangular cell: the dump's frame is
+  // celldem's), the stress as LAMMPS's six: xx yy zz and the symmetric part's xy xz yz.
+  const std::vector<Vec3> force = net_contact_forces(s);
+  const std::vector<Mat3> stress = particle_stresses(s);
+  double largest_force = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     const auto& w = lines[9 + i];
-    ASSERT_EQ(w.size(), 12u);
+    ASSERT_EQ(w.size(), 21u);
+    EXPECT_EQ(Vec3(number(w[12]), number(w[13]), number(w[14])), force[i]) << i;
+    largest_force = std::max(largest_force, force[i].norm());
+    const Mat3& t = stress[i];
+    const double six[6] = {t(0, 0), t(1, 1), t(2, 2), 0.5 * (t(0, 1) + t(1, 0)), 0.5 * (t(0, 2) + t(2, 0)),
+                           0.5 * (t(1, 2) + t(2, 1))};
+    for (int k = 0; k < 6; ++k) EXPECT_EQ(number(w[15 + k]), six[k]) << i << " c_stress[" << k + 1 << "]";
+  }
+  EXPECT_GT(largest_force, 0.0);  // the sheared state's contacts push
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& w = lines[9 + i];
     EXPECT_EQ(w[0], std::to_string(i + 1));
     EXPECT_EQ(number(w[1]), s.particles.radius[i]);
     expect_same_place(s, i, Vec3(number(w[2]), number(w[3]), number(w[4])));
@@ -610,6 +627,8 @@ TEST(Snapshot, DumpRotatesAGeneralCellIntoTheLammpsFrame) {
   s.cell.h(2, 0) = -0.1;
   s.cell.h(2, 1) = 0.07;
   const std::string dump = lammps_dump(s, 3);
+  const std::vector<Vec3> force = net_contact_forces(s);
+  const std::vector<Mat3> stress = particle_stresses(s);
   testing::TempDir dir;
   testing::write_bytes(dir.path() / "d.dump", dump);
   const auto lines = dump_lines(dir.path() / "d.dump");
@@ -630,6 +649,16 @@ TEST(Snapshot, DumpRotatesAGeneralCellIntoTheLammpsFrame) {
     EXPECT_NEAR((sx - expected).norm(), 0.0, 1e-12);
     EXPECT_NEAR((box.transpose() * v - s.cell.h.transpose() * s.particles.velocity[i]).norm(), 0.0, 1e-12);
     EXPECT_NEAR((box.transpose() * spin - s.cell.h.transpose() * s.particles.spin[i]).norm(), 0.0, 1e-12);
+    // Force and stress rotate with the frame: box^T f and box^T T box are the same as with h.
+    const Vec3 f(number(w[12]), number(w[13]), number(w[14]));
+    const Vec3 f_cell = s.cell.h.transpose() * force[i];
+    EXPECT_NEAR((box.transpose() * f - f_cell).norm(), 0.0, 1e-12 * std::max(1.0, f_cell.norm())) << i;
+    Mat3 t;
+    t << number(w[15]), number(w[18]), number(w[19]), number(w[18]), number(w[16]), number(w[20]), number(w[19]),
+        number(w[20]), number(w[17]);
+    const Mat3 sym = 0.5 * (stress[i] + stress[i].transpose());
+    const Mat3 t_cell = s.cell.h.transpose() * sym * s.cell.h;
+    EXPECT_NEAR((box.transpose() * t * box - t_cell).norm(), 0.0, 1e-12 * std::max(1.0, t_cell.norm())) << i;
   }
 }
 

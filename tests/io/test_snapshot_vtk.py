@@ -6,7 +6,8 @@ vtkXMLUnstructuredGridReader / vtkXMLPolyDataReader read every file without an e
   physics, so the three runs have the same states);
 - VTK's values agree with what the run wrote as text and VTK did not read: the ascii files parsed here with
   ElementTree, and the LAMMPS dump of the same step (ids, radii, positions, velocities, spins, contact counts,
-  the box: the test's cell is orthogonal, so the dump's frame is celldem's);
+  the net force and the particle stress's six components; the box: the test's cell is orthogonal, so the dump's
+  frame is celldem's);
 - the field data names the snapshot: TimeValue is the collection's time, step the file's step, cell_h the
   dump's box;
 - the contact network is consistent with the particles: each line runs from i's centre by the branch, the
@@ -194,13 +195,20 @@ def main(tmp):
             box, atoms = dump(os.path.join(folders["binary"], f"{stage}_{step}.dump"))
             check(f"{where}: dump box = cell_h", [b[1] for b in box] == np.diag(h).tolist()
                   and [b[0] for b in box] == [0.0] * 3 and np.count_nonzero(h - np.diag(np.diag(h))) == 0)
-            check(f"{where}: dump atoms", atoms.shape == (n, 12))
+            check(f"{where}: dump atoms", atoms.shape == (n, 21))
             check(f"{where}: ids", np.array_equal(atoms[:, 0] - 1, p[("point", "id")]))
             check(f"{where}: radii", np.array_equal(atoms[:, 1], p[("point", "radius")]))
             check(f"{where}: positions", np.array_equal(atoms[:, 2:5], p[("points", "")]))
             check(f"{where}: velocities", np.array_equal(atoms[:, 5:8], p[("point", "velocity")]))
             check(f"{where}: spins", np.array_equal(atoms[:, 8:11], p[("point", "spin")]))
             check(f"{where}: contact counts", np.array_equal(atoms[:, 11], p[("point", "contacts")]))
+            check(f"{where}: dump net force (fx fy fz) = the .vtu's",
+                  np.array_equal(atoms[:, 12:15], p[("point", "net_force")].reshape(n, 3)))
+            t = p[("point", "stress")].reshape(n, 3, 3)
+            six = np.stack([t[:, 0, 0], t[:, 1, 1], t[:, 2, 2], 0.5 * (t[:, 0, 1] + t[:, 1, 0]),
+                            0.5 * (t[:, 0, 2] + t[:, 2, 0]), 0.5 * (t[:, 1, 2] + t[:, 2, 1])], axis=1)
+            check(f"{where}: dump c_stress[1-6] = the .vtu's stress (xx yy zz, symmetric xy xz yz)",
+                  np.array_equal(atoms[:, 15:21], six))
             check(f"{where}: one vertex per particle", np.array_equal(p[("cells", "types")], np.full(n, vtk.VTK_VERTEX))
                   and np.array_equal(p[("cells", "connectivity")], np.arange(n)))
 

@@ -83,6 +83,30 @@ TEST(EndToEnd, PrepareAndTriaxialTestWriteDocumentedFiles) {
   EXPECT_EQ(files, before.size());
 }
 
+// Asking to resume what cannot be resumed, or to write an ensemble over one, is a usage error (exit 2, as
+// "already holds results" is), not a run-time failure (1): nothing ran.
+TEST(EndToEnd, ResumeAndEnsembleMisuseExitTwo) {
+  const fs::path dir = test_dir("usage_errors");
+  const fs::path deck = dir / "deck.json";
+  testing::write_bytes(deck, testing::small_deck_json(125, "[]"));
+  Result r = celldem(dir, run_args(deck, dir / "nothing", "--resume"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("holds no interrupted run to resume"), std::string::npos) << r.err;
+
+  ASSERT_EQ(celldem(dir, run_args(deck, dir / "run", "--quiet")).code, 0);
+  std::string other = testing::small_deck_json(125, "[]");
+  other.replace(other.find("\"seed\": 3"), 9, "\"seed\": 4");
+  testing::write_bytes(dir / "other.json", other);
+  r = celldem(dir, run_args(dir / "other.json", dir / "run", "--resume"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--resume: the deck differs"), std::string::npos) << r.err;
+
+  ASSERT_EQ(celldem(dir, run_args(deck, dir / "ensemble", "--quiet --seeds 1,2")).code, 0);
+  r = celldem(dir, run_args(deck, dir / "ensemble", "--quiet --seeds 1,2"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("already holds an ensemble"), std::string::npos) << r.err;
+}
+
 TEST(EndToEnd, DeckErrorExitsTwoNamingTheKey) {
   const fs::path dir = test_dir("deck_error");
   std::string text = testing::small_deck_json(200, kTtc);

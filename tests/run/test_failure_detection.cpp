@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "cli.hpp"
 #include "helpers.hpp"
 #include "run/run_directory.hpp"
 #include "run/preflight.hpp"
@@ -134,9 +135,6 @@ TEST_F(FailureDetection, SaturatedServoNamesTheCap) {
   EXPECT_TRUE(fs::exists(dir_->path() / "capped" / "capped" / kCheckpointName));
 }
 
-// A time step just under sqrt(m_min/kn) passes validation (kt = kn / 10: the normal mode limits), but a sphere
-// pressed by several neighbours oscillates at sqrt(Z kn / m): the packing boils (unbalanced force 0.41,
-// kinetic energy 0.037 of the elastic) or runs away, and the run must stop with the cause.
 // A leg that does not reach its end condition within end.max_steps stops the run naming the test and the leg;
 // a strain leg that end.max_steps stops short of its end strain is warned about before the run.
 TEST_F(FailureDetection, LegLimitedByMaxStepsNamesTheTestOrIsWarned) {
@@ -157,6 +155,32 @@ TEST_F(FailureDetection, LegLimitedByMaxStepsNamesTheTestOrIsWarned) {
                      "end strain 0.01"), std::string::npos) << all;
 }
 
+// A strain leg after a leg whose length only running tells (here a ratio end) starts at a strain nobody knows
+// before the run: when end.max_steps stops it short of its end strain, the run says so when the leg ends, on
+// stderr and in summary.json's warnings, through the binary as a user runs it.
+TEST_F(FailureDetection, StrainLegCutShortByMaxStepsIsWarnedAtRunTime) {
+  testing::write_bytes(dir_->path() / "cut.json", test_deck(R"({"name": "cut", "friction": 0.5, "output_interval": 100,
+      "legs": [
+        {"axes": {"x1": {"strain_increment": 2e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+         "end": {"ratio": 1.2, "max_steps": 20000}},
+        {"axes": {"x1": {"strain_increment": 2e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+         "end": {"axis": "x1", "strain": 0.05, "max_steps": 100}}]})"));
+  const testing::Result r = testing::celldem(dir_->path(), testing::run_args(dir_->path() / "cut.json", dir_->path() / "cut"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string expected = "test 'cut' leg 1: end.max_steps 100 stopped the leg at x1 strain ";
+  EXPECT_NE(r.err.find(expected), std::string::npos) << r.err;
+  std::string recorded;
+  const nlohmann::json written = summary("cut");
+  for (const auto& w : written["warnings"]) recorded += w.get<std::string>() + "\n";
+  EXPECT_NE(recorded.find(expected), std::string::npos) << recorded;
+  EXPECT_NE(recorded.find("short of its end strain 0.05"), std::string::npos) << recorded;
+  // Only the warning of the run: the check before it could not know where the leg starts.
+  EXPECT_EQ(recorded.find("stops the leg"), std::string::npos) << recorded;
+}
+
+// A time step just under sqrt(m_min/kn) passes validation (kt = kn / 10: the normal mode limits), but a sphere
+// pressed by several neighbours oscillates at sqrt(Z kn / m): the packing boils (unbalanced force 0.41,
+// kinetic energy 0.037 of the elastic) or runs away, and the run must stop with the cause.
 TEST_F(FailureDetection, UnstableTimeStepStopsTheRunWithTheCause) {
   std::string deck =
       test_deck(R"({"name": "unstable", "friction": 0.5, "axes": {"x1": {"strain_increment": 2e-7},

@@ -14,6 +14,7 @@
 
 #include "cli.hpp"
 #include "helpers.hpp"
+#include "io/state_file.hpp"
 #include "measure/series.hpp"
 
 namespace celldem {
@@ -137,6 +138,23 @@ TEST(Import, StateAndDeckMustAgreeOnThePhysics) {
   EXPECT_EQ(r.code, 0) << r.err;
   const auto summary = nlohmann::json::parse(read_bytes(dir / "override" / "summary.json"));
   EXPECT_NE(summary.dump().find("override_state_physics: initial_state"), std::string::npos) << summary.dump();
+
+  // A state of the older formats (2 and 3, which write_state still writes without a record) holds no physics
+  // to check the deck against: check and run say that nothing was checked; a state with a record is not warned of.
+  EXPECT_EQ(celldem(dir, "check '" + (dir / "same.json").string() + "'").err.find("records no physics"),
+            std::string::npos);
+  write_state((dir / "old.state").string(), read_state((dir / "prep" / "prepared.state").string()), "prepared");
+  std::string record = "unread";
+  read_state((dir / "old.state").string(), nullptr, &record);
+  ASSERT_TRUE(record.empty());
+  write_bytes(dir / "old.json", deck_from("old.state"));
+  for (const std::string& cmd : {"check '" + (dir / "old.json").string() + "'", run_args(dir / "old.json", dir / "old")}) {
+    r = celldem(dir, cmd);
+    EXPECT_EQ(r.code, 0) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("old.state records no physics"), std::string::npos) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("nothing was checked"), std::string::npos) << r.err;
+  }
+  EXPECT_NE(read_bytes(dir / "old" / "summary.json").find("records no physics"), std::string::npos);
 }
 
 // The data file with atom 1 moved to atom 2's position plus `offset` of the sum of their radii along x.
@@ -280,15 +298,31 @@ TEST(Import, LoosePackingIsPreparedFromItsOwnSolidFraction) {
   write_data_file(dir / "loose.data", spheres, box);
   write_bytes(dir / "a.json", deck_preparing(300, "loose.data", kShortTtc));
 
-  // plan: the fast leg from 0.2 to 0.55 at 1e-4 per step, then the servo's min_steps..max_steps.
+  // plan: the fast leg from 0.2 to 0.55 at 1e-4 per step (each axis at strain n 1e-4 after n steps), then the
+  // servo's min_steps..max_steps; each leg listed as a test's.
   Result r = celldem(dir, "plan '" + (dir / "a.json").string() + "' --json");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto plan = nlohmann::json::parse(r.out);
   EXPECT_NEAR(plan["prepare"]["start"]["solid_fraction"].get<double>(), 0.2, 1e-12);
   EXPECT_EQ(plan["prepare"]["start"]["fast_leg_skipped"], false);
-  const std::int64_t fast = std::llround(std::ceil(std::log(0.55 / 0.2) / (-3.0 * std::log1p(-1e-4))));
+  std::int64_t fast = 0;
+  while (0.2 / std::pow(1.0 - static_cast<double>(fast) * 1e-4, 3) < 0.55) ++fast;
   EXPECT_EQ(plan["prepare"]["steps"]["low"].get<std::int64_t>(), fast + 1000);
   EXPECT_EQ(plan["prepare"]["steps"]["high"].get<std::int64_t>(), fast + 200000);
+  const auto& legs = plan["prepare"]["legs"];
+  ASSERT_EQ(legs.size(), 2u) << legs;
+  EXPECT_EQ(legs[0]["steps"]["low"], fast);
+  EXPECT_EQ(legs[0]["end"]["solid_fraction"], 0.55);
+  EXPECT_EQ(legs[0]["driving_increment"], 1e-4);
+  EXPECT_EQ(legs[1]["end"]["equilibrium"], true);
+  EXPECT_EQ(legs[1]["servo"], true);
+  EXPECT_TRUE(legs[1]["rows"].is_null());
+  EXPECT_TRUE(plan["prepare"]["rows"].is_null());
+  r = celldem(dir, "plan '" + (dir / "a.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("leg 0: ends at solid fraction 0.55, " + std::to_string(fast) + " steps"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("leg 1: ends in equilibrium"), std::string::npos) << r.out;
   r = celldem(dir, "check '" + (dir / "a.json").string() + "'");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("prepare: starts from"), std::string::npos) << r.out;
@@ -304,6 +338,20 @@ TEST(Import, LoosePackingIsPreparedFromItsOwnSolidFraction) {
   EXPECT_FALSE(prepared["started_from"].contains("skipped"));
   EXPECT_NEAR(prepared["p"].get<double>(), 1e5, 0.01 * 1e5);
   EXPECT_GT(prepared["steps"].get<std::int64_t>(), fast);
+  // The fast leg took the planned steps and wrote the planned rows: its end is the first row off the output
+  // interval (500), and the rows up to it are the ones listed.
+  const std::vector<SeriesRow> prep_rows = read_series(dir / "ra" / "prepare" / "series.csv");
+  ASSERT_NE(fast % 500, 0);
+  std::int64_t first_off = -1, rows_to_it = 0;
+  for (const SeriesRow& row : prep_rows) {
+    ++rows_to_it;
+    if (std::llround(row.step) % 500 != 0) {
+      first_off = std::llround(row.step);
+      break;
+    }
+  }
+  EXPECT_EQ(first_off, fast);
+  EXPECT_EQ(rows_to_it, legs[0]["rows"].get<std::int64_t>());
   EXPECT_GT(prepared["void_ratio"].get<double>(), 0.45);  // frictionless, 300 spheres: about 0.55-0.6
   EXPECT_LT(prepared["void_ratio"].get<double>(), 0.75);
   EXPECT_GT(prepared["Zm"].get<double>(), 5.0);
@@ -391,6 +439,65 @@ TEST(Import, DeepOverlapsAreRefusedOrRelaxedBySoftStart) {
               static_cast<long long>(from["overlaps"]["deep_pairs"].get<std::int64_t>()),
               from["overlaps"]["worst"].get<double>(), relax["dilation"].get<double>(),
               static_cast<long long>(summary["prepared"]["steps"].get<std::int64_t>()));
+}
+
+// The solid fraction of a LAMMPS data file of the translator's or write_data_file's form, computed from its text
+// alone (box bounds and diameters): the oracle of what check prints.
+double data_file_solid_fraction(const std::string& data) {
+  std::istringstream in(data);
+  double volume = 1.0, solid = 0.0;
+  bool atoms = false;
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream ss(line);
+    std::vector<std::string> f;
+    for (std::string w; ss >> w;) f.push_back(w);
+    if (f.size() == 4 && f[2].size() == 3 && f[2].substr(1) == "lo" && f[3].size() == 3 && f[3].substr(1) == "hi")
+      volume *= std::stod(f[1]) - std::stod(f[0]);
+    if (!f.empty() && f[0] == "Atoms") atoms = true;
+    else if (atoms && f.size() >= 7) solid += M_PI / 6.0 * std::pow(std::stod(f[2]), 3);
+    else if (atoms && !f.empty() && f[0] == "Velocities") break;
+  }
+  return solid / volume;
+}
+
+// The number check prints after `label` ("solid fraction ").
+double printed_after(const std::string& out, const std::string& label) {
+  const auto at = out.find(label);
+  return at == std::string::npos ? std::nan("") : std::stod(out.substr(at + label.size()));
+}
+
+// check on a deck whose tests start from initial_state (no prepare) says what they start from: the solid
+// fraction and the overlaps (count, deepest as a fraction of the smaller radius). A loose import (no contacts,
+// solid fraction 0.2) is warned about, pointing to prepare; a prepared packing is not.
+TEST(Import, CheckDescribesWhatTestsStartFromAndWarnsOfALooseOne) {
+  const fs::path dir = testing::test_dir("test_start_" + std::to_string(getpid()));
+  ASSERT_NO_FATAL_FAILURE(prepare_and_translate(dir));
+  write_bytes(dir / "b.json", deck_from("lmp/state.data"));
+  Result r = celldem(dir, "check '" + (dir / "b.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("tests: start from "), std::string::npos) << r.out;
+  const double dense = data_file_solid_fraction(read_bytes(dir / "lmp" / "state.data"));
+  EXPECT_GT(dense, 0.5);
+  EXPECT_NEAR(printed_after(r.out, "solid fraction "), dense, 1e-3 * dense) << r.out;  // printed to 4 digits
+  EXPECT_GT(printed_after(r.out, "tests: as loaded "), 100) << r.out;  // a packing at 100 kPa: most spheres touch
+  EXPECT_NE(r.out.find("the deepest overlap "), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("loose"), std::string::npos) << r.err;
+
+  double box = 0.0;
+  std::vector<Sphere> spheres;
+  ASSERT_NO_FATAL_FAILURE(random_spheres(200, 0.2, true, 5, spheres, box));
+  write_data_file(dir / "loose.data", spheres, box);
+  write_bytes(dir / "loose.json", deck_from("loose.data"));
+  for (const std::string& cmd : {"check '" + (dir / "loose.json").string() + "'",
+                                 run_args(dir / "loose.json", dir / "rl", "--quiet")}) {
+    r = celldem(dir, cmd);
+    EXPECT_NE(r.err.find("loose gas of spheres"), std::string::npos) << cmd << ": " << r.err;
+    EXPECT_NE(r.err.find("add \"prepare\" beside \"initial_state\""), std::string::npos) << r.err;
+  }
+  r = celldem(dir, "check '" + (dir / "loose.json").string() + "'");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(printed_after(r.out, "solid fraction "), 0.2, 1e-3) << r.out;
+  EXPECT_EQ(printed_after(r.out, "tests: as loaded "), 0) << r.out;
 }
 
 }  // namespace

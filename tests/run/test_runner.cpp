@@ -93,8 +93,8 @@ TEST(Runner, RefusesToOverwriteResultsWithoutForce) {
   options.quiet = true;
   EXPECT_THROW(run_deck(read_deck((dir.path() / "deck.json").string()), options), UsageError);
   EXPECT_EQ(read_bytes(out / "summary.json"), "{}");
-  options.resume = true;  // nothing to resume either
-  EXPECT_THROW(run_deck(read_deck((dir.path() / "deck.json").string()), options), RunError);
+  options.resume = true;  // nothing to resume either: a usage error too
+  EXPECT_THROW(run_deck(read_deck((dir.path() / "deck.json").string()), options), UsageError);
 }
 
 }  // namespace
