@@ -22,10 +22,9 @@ import sys
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "..", "tools"))
-from celldem import binary  # noqa: E402
-from celldem import study_runs as study  # noqa: E402
-from celldem import study_scene as sa  # noqa: E402
+from celldem import binary
+from celldem.study import runs as study
+from celldem.study import scene as sa
 
 COLUMNS = ("step", "time", "e1", "e2", "e3", "ev", "s11", "s22", "s33", "s12", "s13", "s23", "p", "q", "ratio13",
            "b", "Z", "kinetic_energy", "void_ratio")

@@ -118,7 +118,8 @@ for f in test_ttc test_psc fig02_stress_ratio overview prepare force_chains; do
 done
 "$PY" - "$TMP/ens" <<'EOF' || fail "ensemble report"
 import json, os, re, sys
-from celldem import figures, plotting, results
+from celldem import results
+from celldem.reports import figures, plotting
 from checking import done, error
 ens_dir = sys.argv[1]
 ens = results.load_run_or_report(ens_dir, "test")
@@ -174,7 +175,7 @@ EOF
 echo "5. the force-chain slab: strong contacts only, the particle inside the slab, periodic images"
 "$PY" - <<'EOF' || fail "force-chain slab"
 import numpy as np
-from celldem import force_chains
+from celldem.reports import force_chains
 from checking import check, done, error
 h = np.diag([0.01, 0.01, 0.01])
 xi = np.array([[0.005, 0.005, 0.005],    # in the slab (x2 = 5 mm): kept, from i

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Tests tools/roofline.py (tools/celldem/roofline.py): the flop classifier on a synthetic objdump listing, the
+# Tests tools/roofline.py (tools/celldem/performance/roofline.py): the flop classifier on a synthetic objdump listing, the
 # callgrind parser on a synthetic profile (name compression, relative positions, the inclusive cost after calls=),
 # exact flop, division and step counts from the two together, the compulsory-bytes table, the command line's
 # refusals; then, where valgrind, objdump and g++ are installed and the paper's prepared sample exists, a short
@@ -10,7 +10,7 @@ CELLDEM="${1:-$ROOT/build/celldem}"
 
 echo "1. classifier, parser and counts on synthetic inputs"
 "$PY" - <<'EOF' || fail "classifier and parser"
-from celldem import roofline as rl
+from celldem.performance import roofline as rl
 from checking import check, done, error
 
 # One instruction per line as `objdump -d --no-show-raw-insn -C` prints it; flops per execution beside.

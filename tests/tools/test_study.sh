@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Tests the analysis half of tools/study.py (tools/celldem/study_analysis.py) without running a simulation: the
+# Tests the analysis half of tools/study.py (tools/celldem/study/analysis.py) without running a simulation: the
 # compared quantities (summary.json's, and `celldem summarize` against values worked out by hand), what plan.json
 # gives,
 # the noise floor, the errors, the Pareto front, the presets' choice, the stability and
@@ -12,7 +12,8 @@ echo "1. the analysis functions on hand-made inputs"
 "$PY" - <<'EOF' || fail "analysis functions"
 import math
 import numpy as np
-from celldem import binary, decks, study_analysis as sa, study_runs as study, study_scene as scene
+from celldem import binary, decks
+from celldem.study import analysis as sa, runs as study, scene
 
 from checking import check, done
 

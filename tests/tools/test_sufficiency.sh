@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Tests tools/sufficiency.py (tools/celldem/sufficiency.py): the switches' decks (linear equivalents at the mean
+# Tests tools/sufficiency.py (tools/celldem/study/sufficiency.py): the switches' decks (linear equivalents at the mean
 # contact force, unused keys removed, drag kept, every variant accepted by celldem), the change measure and its
 # verdicts on known numbers; then a real run of the tool on a small scene of inputs/paper.json (100 spheres, tests to
 # ε1 = 4 %, past most peaks; a peak at a test's end is left out and listed, 2 seeds, about 10 s): sufficiency.json and sufficiency.md, the switches the paper deck does not
@@ -13,7 +13,8 @@ export CELLDEM
 echo "1. the switches and the change measure on known inputs"
 "$PY" - "$ROOT" "$TMP" <<'EOF' || fail "switches and change measure"
 import json, math, os, subprocess, sys
-from celldem import binary, decks, sufficiency as su
+from celldem import binary, decks
+from celldem.study import sufficiency as su
 from checking import check, done, error
 
 repo, tmp = sys.argv[1], sys.argv[2]

@@ -95,7 +95,8 @@ echo "1b. the package on the alike run: series columns by header, units, a serie
 "$PY" - "$TMP/alike" <<'EOF' || fail "package functions on the alike run"
 import sys
 import os, tempfile
-from celldem import binary, plotting, results
+from celldem import binary, results
+from celldem.reports import plotting
 from checking import check, done, error
 run = results.load_run(sys.argv[1])
 for test in run.test_names:

@@ -17,10 +17,11 @@ import time
 
 import numpy as np
 
-from . import binary, plotting
+from . import binary
+from .reports import plotting
 from .metrics import on_grid
 from .results import column, load_series, read_json
-from .tables import fmt_spec, md_table
+from .reports.tables import fmt_spec, md_table
 
 EXE = {"lammps": "lmp", "liggghts": "liggghts"}
 STRAIN_SCENE_ROWS = 250   # rows of the strain-controlled scene

@@ -17,9 +17,9 @@ import subprocess
 import sys
 import time
 
-from . import binary, decks
-from .results import read_json
-from .study_scene import (END_STRAIN, PAPER_DAMPING, PAPER_DT, PAPER_INC, PAPER_RATE, REF_SEEDS, ROW_STRAIN,
+from .. import binary, decks
+from ..results import read_json
+from .scene import (END_STRAIN, PAPER_DAMPING, PAPER_DT, PAPER_INC, PAPER_RATE, REF_SEEDS, ROW_STRAIN,
                           SCENE_COUNT, SERVO_CAP_FACTOR, SERVO_INC, SERVO_OUTPUT_INTERVAL, SERVO_STRAIN,
                           STABILITY_STRAIN)
 

@@ -11,10 +11,10 @@ import os
 
 import numpy as np
 
-from . import binary
-from .metrics import all_finite, curve_difference
-from .results import RunError, load_series, number, read_json
-from .study_scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, P_REF, PAPER_DAMPING,
+from .. import binary
+from ..metrics import all_finite, curve_difference
+from ..results import RunError, load_series, number, read_json
+from .scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, P_REF, PAPER_DAMPING,
                           PAPER_DT, PRESET_RULES, QUANTITIES, SCENE_COUNT, SERVO_TOLERANCE, STRESS_QUANTITIES,
                           SUMMARY_KEYS)
 

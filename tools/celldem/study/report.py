@@ -7,12 +7,13 @@ import os
 
 import numpy as np
 
-from . import plotting, sufficiency
-from .study_analysis import pareto_front
-from .study_scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, PAPER_DT, QUANTITIES,
+from ..reports import plotting
+from . import sufficiency
+from .analysis import pareto_front
+from .scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, PAPER_DT, QUANTITIES,
                           QUANTITY_LABELS, QUASI_STATIC_I, SCENE_COUNT, SERVO_INC, SERVO_OUTPUT_INTERVAL,
                           SERVO_STRAIN, SERVO_TOLERANCE, STABILITY_STRAIN)
-from .tables import fmt, fmt_spec, md_table, scaled
+from ..reports.tables import fmt, fmt_spec, md_table, scaled
 
 GROUP_STYLE = {
     "reference": ("k", "*", "reference (paper settings)"),
