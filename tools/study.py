@@ -20,7 +20,7 @@ Z over the end window), the mean over its seeds of its difference from the refer
 the same sample, divided by the noise floor, the standard deviation of that quantity over reference samples that
 differ only in sample.seed. Below 1 it is not an error. Runs with dt changed in its 9th digit show what
 round-off alone (DEM is chaotic) does. The work is in tools/celldem/study/ (scene, runs, analysis,
-report); tests/tools/test_study.sh tests the analysis on synthetic results.
+report); tests/tools/test_study_analysis.py tests the analysis on synthetic results.
 
 Decks for settings with a larger strain increment raise servo.max_strain_increment to 5 × Δε1 (the paper's own
 ratio, 1e-6 = 5 × 2e-7): PSC's free axis dilates at about 2 × Δε1 per step and the default cap stops the servo

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Writes a synthetic study root (the run folders tools/study.py leaves) with known answers, for test_study.sh.
+"""Writes a synthetic study root (the run folders tools/study.py leaves) with known answers, for tests/tools/test_study_analysis.py.
 
 Usage: /usr/bin/python3 tests/tools/make_fake_study.py ROOT
 

@@ -2,7 +2,7 @@
 the presets' choice, the stability measures.
 
 Everything here is a function of the run folders under the study root (spec.json, outcome.json, plan.json,
-summary.json, <test>/series.csv), so tests/tools/test_study.sh can check it on synthetic results without
+summary.json, <test>/series.csv), so tests/tools/test_study_analysis.py can check it on synthetic results without
 running celldem. The compared quantities are summary.json's; what a deck implies is plan.json's.
 """
 
@@ -18,7 +18,7 @@ from .scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES,
                           PAPER_DT, PRESET_RULES, QUANTITIES, SCENE_COUNT, SERVO_TOLERANCE, STRESS_QUANTITIES,
                           SUMMARY_KEYS)
 
-# ---- analysis: pure functions of run metrics (tested by tests/tools/test_study.sh) ---------------------------
+# ---- analysis: pure functions of run metrics (tested by tests/tools/test_study_analysis.py) ---------------------------
 
 def test_metrics(summary_test, end_strain):
     """The compared quantities of one test, from its entry in summary.json (celldem's definitions, SUMMARY_KEYS);
