@@ -24,3 +24,9 @@ How the package is found: the entry scripts live in tools/, beside it, and Pytho
 first on sys.path, so `/usr/bin/python3 tools/report.py RUN_DIR` imports it with no set-up; other scripts and
 the tests put tools/ on PYTHONPATH (ctest does: tests/CMakeLists.txt).
 """
+
+from .api import (Deck, DeckError, Ensemble, Run, RunFailed, Stage, check_deck, open_ensemble,  # noqa: E402
+                  open_run, run_deck)
+
+__all__ = ["Deck", "DeckError", "Ensemble", "Run", "RunFailed", "Stage", "check_deck", "open_ensemble", "open_run",
+           "run_deck"]
