@@ -52,6 +52,9 @@ DIAMETERS = np.linspace(3.0e-3, 4.5e-3, 16)       # [m] the paper's 16 sizes
 DENSITY = 2650.0                                  # [kg/m^3]
 DEFAULT_SERVO_CAP = 1.0e-6                        # celldem's default servo.max_strain_increment
 END_WINDOW = 0.005                                # celldem's end window: the last 0.5 % of ε1
+# The time step's bounds as fractions of the critical time step: celldem's table (`celldem plan --json`).
+BOUND_FRACTIONS = [{k: v for k, v in b.items() if k != "time_step"}
+                   for b in binary.plan(os.path.join(binary.REPO, "inputs", "paper.json"))["time_step_bounds"]]
 
 
 def series(peak, e_peak, ev_end, z_end, b_peak=None, s22_noise=None, blow_up=False, ke_level=1e-7):
@@ -90,8 +93,10 @@ def fake_plan(spec):
               "inertial_number": rate * d_mean * math.sqrt(density / sa.P_REF),
               "axes": {"x1": {"strain_increment": spec["strain_increment"]}, "x2": {"stress": sa.P_REF},
                        "x3": {"stress": sa.P_REF}}} for name in spec.get("tests", [])]
-    return {"time_step": spec["time_step"], "critical_time_step": TC * math.sqrt(spec.get("density_factor", 1.0)),
-            "time_step_ratio": spec["time_step"] / (TC * math.sqrt(spec.get("density_factor", 1.0))),
+    critical = TC * math.sqrt(spec.get("density_factor", 1.0))
+    return {"time_step": spec["time_step"], "critical_time_step": critical,
+            "time_step_ratio": spec["time_step"] / critical,
+            "time_step_bounds": [dict(b, time_step=b["fraction"] * critical) for b in BOUND_FRACTIONS],
             "sample": {"count": spec["count"], "density": density, "mean_diameter": d_mean},
             "particle_types": [{"diameter": float(d), "mass": float(m)} for d, m in zip(DIAMETERS, masses)],
             "tests": tests}

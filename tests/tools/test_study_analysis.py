@@ -168,6 +168,31 @@ def test_what_a_deck_implies_comes_from_plan_json():
           1.0 / (scene.P_REF * 0.5 * 2.0))
 
 
+def test_time_step_warning_bound_comes_from_the_plan(celldem):
+    """The settings the loading-rate threshold uses are those whose time step celldem does not warn about: the
+    bound of `celldem plan --json`'s time_step_bounds, not a number of the tools'."""
+    plan = binary.plan(os.path.join(binary.REPO, "tests", "run", "small_run.json"), celldem)
+    warn = [b for b in plan["time_step_bounds"] if b["action"] == "warn" and b["when"] == "above"]
+    assert len(warn) == 1, f"celldem plan lists {len(warn)} bounds warned above"
+    bound = warn[0]["time_step"]
+    assert 0 < bound < plan["critical_time_step"]
+    check("below the bound", sa.within_time_step_warning(dict(plan, time_step=0.99 * bound)), True)
+    check("at the bound", sa.within_time_step_warning(dict(plan, time_step=bound)), True)
+    check("above the bound", sa.within_time_step_warning(dict(plan, time_step=1.01 * bound)), False)
+    check("a plan without the table", sa.within_time_step_warning({"time_step": 1e-6}), None)
+    check("no plan", sa.describe({"plan": None})["dt_within_warning"], None)
+    check("describe", sa.describe({"plan": dict(plan, time_step=1.01 * bound)})["dt_within_warning"], False)
+
+    # Only settings within the warning count for the loading-rate thresholds.
+    def row(i, score, within):
+        return {"group": "strain_increment", "inertial_number": i, "score_stress": score, "score_volume": score,
+                "ke_max": 1e-6, "dt_within_warning": within, "dt_over_tc": None}
+    limits = sa.thresholds([row(1e-4, 0.5, True), row(3e-3, 0.5, False), row(2e-3, 2.0, True),
+                            row(1e-5, 5.0, None)], [], {"dt": [], "servo": []})
+    check("largest I inside the floor, within the warning", limits["I_stress_ok_max"], 1e-4)
+    check("smallest I outside the floor, within the warning", limits["I_stress_bad_min"], 2e-3)
+
+
 def test_servo_error():
     # std, |mean| and max of σ/target − 1 after the first 10 % of rows.
     n = 100
