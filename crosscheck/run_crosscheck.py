@@ -33,6 +33,8 @@ import os
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+# The one script outside tools/ that users run by hand: it finds the package as the entry scripts in tools/ do
+# (there, Python's own first path entry is the script's folder; here it is added).
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
 from celldem import binary, crosscheck  # noqa: E402
 

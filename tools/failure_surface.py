@@ -9,15 +9,14 @@ the row of the largest s11/s33). Writes RUN_DIR/figures/failure_surface_phi_b.pn
 RUN_DIR/figures/failure_surface_pi_plane.png and RUN_DIR/failure_surface.md (the table and the fits). Tests whose control failed or that reached no peak
 (summary.json "controlled" / "peak_reached" false) are kept out of the fits, with the count and the reason
 printed; with fewer tests left than a criterion's constants + 1 there is no fit and the exit status is 1.
-The fits are described in tools/celldem/failure_surface.py.
+The fits are described in tools/celldem/reports/failure_surface.py.
 """
 
 import argparse
-import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from celldem import failure_surface, results  # noqa: E402
+from celldem import results
+from celldem.reports import failure_surface
 
 
 def main():

@@ -4,14 +4,14 @@ plots them (Figures 2-12, for the paper's deck or two tests or more), the force 
 
 Usage: /usr/bin/python3 tools/figures.py RUN_DIR [--out FIGDIR] [--paper]
 Writes one PNG per figure to FIGDIR (default RUN_DIR/figures); what the run holds no data for is not drawn.
-The drawing is tools/celldem/figures.py.
+The drawing is tools/celldem/reports/figures.py.
 """
 
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from celldem import figures, results, scenes  # noqa: E402
+from celldem import results, scenes
+from celldem.reports import figures
 
 
 def main(argv=None):

@@ -1,22 +1,21 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Scaling table and plot from `celldem bench --scaling` output.
 
 Usage: /usr/bin/python3 tools/plot_bench.py BENCH_DIR   (reads BENCH_DIR/bench.json, writes scaling.png and
-scaling.md beside it; the work is tools/celldem/bench.py)
+scaling.md beside it; the work is tools/celldem/performance/bench.py)
 """
-import os
+import argparse
 import sys
 from pathlib import Path
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from celldem import bench  # noqa: E402
+from celldem.performance import bench
 
 
-def main(argv):
-    if len(argv) != 2:
-        print(__doc__, file=sys.stderr)
-        return 2
-    folder = Path(argv[1])
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[1], epilog=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("bench_dir", metavar="BENCH_DIR", help="folder of `celldem bench --scaling --out`")
+    folder = Path(parser.parse_args(argv).bench_dir)
     path = folder / "bench.json"
     if not path.is_file():
         print(f"plot_bench: {path} not found (run celldem bench --scaling --out {folder})", file=sys.stderr)
@@ -27,4 +26,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv))
+    sys.exit(main())

@@ -7,14 +7,13 @@ Usage: /usr/bin/python3 tools/report.py RUN_DIR [--refresh-figures] [--paper | -
 The figures are (re)drawn into RUN_DIR/figures when any is missing or older than a file of the run (a test that went
 on, an ensemble that gained seeds), or always with --refresh-figures.
 The paper's comparison is made when the run is the paper's deck (its scene, tests named ttc/psc); --paper forces
-it, --no-paper leaves it out. The report is tools/celldem/report.py (ensembles: ensemble_report.py).
+it, --no-paper leaves it out. The report is tools/celldem/reports/report.py (ensembles: ensemble_report.py).
 """
 
-import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from celldem import report, results  # noqa: E402
+from celldem import results
+from celldem.reports import writer
 
 
 def main(argv=None):
@@ -27,7 +26,7 @@ def main(argv=None):
     run = results.load_run_or_report(args.run_dir, "report.py")
     if run is None:
         return 2
-    print(f"wrote {report.write_report(run, args.refresh_figures, args.paper)}")
+    print(f"wrote {writer.write_report(run, args.refresh_figures, args.paper)}")
     return 0
 
 

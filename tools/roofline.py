@@ -10,7 +10,7 @@ Writes OUT/roofline.json (every number with its unit and how it was obtained), O
 OUT/roofline.png (the roofline plot); raw outputs (callgrind files, benches, perf data) in OUT/raw. Needs valgrind,
 objdump and g++ (perf, for the kernels' time shares, where it works). Everything runs on one thread; about
 2.5 minutes (--copies 0 skips the cache simulation of the larger sample: about 1.5 minutes less).
-Method: tools/celldem/roofline.py.
+Method: tools/celldem/performance/roofline.py.
 """
 
 import argparse
@@ -18,8 +18,8 @@ import os
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from celldem import binary, roofline  # noqa: E402
+from celldem import binary
+from celldem.performance import roofline
 
 
 def main(argv=None):

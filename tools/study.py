@@ -19,8 +19,8 @@ The accuracy of a setting: for each compared quantity (summary.json's peak σ1/�
 Z over the end window), the mean over its seeds of its difference from the reference (the paper's settings) on
 the same sample, divided by the noise floor, the standard deviation of that quantity over reference samples that
 differ only in sample.seed. Below 1 it is not an error. Runs with dt changed in its 9th digit show what
-round-off alone (DEM is chaotic) does. The work is in tools/celldem/ (study_scene, study_runs, study_analysis,
-study_report); tests/tools/test_study.sh tests the analysis on synthetic results.
+round-off alone (DEM is chaotic) does. The work is in tools/celldem/study/ (scene, runs, analysis,
+report); tests/tools/test_study_analysis.py tests the analysis on synthetic results.
 
 Decks for settings with a larger strain increment raise servo.max_strain_increment to 5 × Δε1 (the paper's own
 ratio, 1e-6 = 5 × 2e-7): PSC's free axis dilates at about 2 × Δε1 per step and the default cap stops the servo
@@ -31,11 +31,10 @@ import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from celldem import binary, decks  # noqa: E402
-from celldem import study_analysis, study_report, study_runs  # noqa: E402
-from celldem.study_runs import DEFAULT_ROOT  # noqa: E402
-from celldem.study_scene import END_STRAIN, SCENE_COUNT  # noqa: E402
+from celldem import binary, decks
+from celldem.study import analysis as study_analysis, report as study_report, runs as study_runs
+from celldem.study.runs import DEFAULT_ROOT
+from celldem.study.scene import END_STRAIN, SCENE_COUNT
 
 
 def error(message):

@@ -15,15 +15,15 @@ smallest change detectable at 80 % power, and a verdict: needed, not needed or u
 --switches round_off adds a calibration switch that changes nothing physical (time_step × (1 + 1e-9)).
 Resumable: runs with an outcome.json are not run again (runs of another deck or scene in DIR are removed).
 tools/study.py analyse includes DIR/sufficiency.md in the study's report when DIR (named sufficiency*) lies beside
-the study's results folder. Method: tools/celldem/sufficiency.py.
+the study's results folder. Method: tools/celldem/study/sufficiency.py.
 """
 
 import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from celldem import binary, decks, sufficiency  # noqa: E402
+from celldem import binary, decks
+from celldem.study import sufficiency
 
 
 def main(argv=None):

@@ -41,8 +41,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
-sys.path.insert(0, os.path.join(ROOT, "tools"))
-from celldem import crosscheck, results  # noqa: E402
+from celldem import crosscheck, results
 
 import xc_common  # noqa: E402
 

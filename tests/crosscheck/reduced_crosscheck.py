@@ -32,10 +32,8 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
-sys.path.insert(0, os.path.join(ROOT, "crosscheck"))
-sys.path.insert(0, os.path.join(ROOT, "tools"))
 import run_crosscheck  # noqa: E402
-from celldem import binary, crosscheck, results  # noqa: E402
+from celldem import binary, crosscheck, results
 
 import xc_common  # noqa: E402
 

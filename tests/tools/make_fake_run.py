@@ -19,13 +19,11 @@ import argparse
 import json
 import math
 import os
-import sys
 import tempfile
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
-from celldem import binary  # noqa: E402
+from celldem import binary
 
 PARTICLES = 8000
 S3 = 100e3                      # [Pa] lateral confining stress

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Writes a synthetic study root (the run folders tools/study.py leaves) with known answers, for test_study.sh.
+"""Writes a synthetic study root (the run folders tools/study.py leaves) with known answers, for tests/tools/test_study_analysis.py.
 
 Usage: /usr/bin/python3 tests/tools/make_fake_study.py ROOT
 
@@ -22,10 +22,9 @@ import sys
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "..", "tools"))
-from celldem import binary  # noqa: E402
-from celldem import study_runs as study  # noqa: E402
-from celldem import study_scene as sa  # noqa: E402
+from celldem import binary
+from celldem.study import runs as study
+from celldem.study import scene as sa
 
 COLUMNS = ("step", "time", "e1", "e2", "e3", "ev", "s11", "s22", "s33", "s12", "s13", "s23", "p", "q", "ratio13",
            "b", "Z", "kinetic_energy", "void_ratio")
@@ -53,6 +52,9 @@ DIAMETERS = np.linspace(3.0e-3, 4.5e-3, 16)       # [m] the paper's 16 sizes
 DENSITY = 2650.0                                  # [kg/m^3]
 DEFAULT_SERVO_CAP = 1.0e-6                        # celldem's default servo.max_strain_increment
 END_WINDOW = 0.005                                # celldem's end window: the last 0.5 % of ε1
+# The time step's bounds as fractions of the critical time step: celldem's table (`celldem plan --json`).
+BOUND_FRACTIONS = [{k: v for k, v in b.items() if k != "time_step"}
+                   for b in binary.plan(os.path.join(binary.REPO, "inputs", "paper.json"))["time_step_bounds"]]
 
 
 def series(peak, e_peak, ev_end, z_end, b_peak=None, s22_noise=None, blow_up=False, ke_level=1e-7):
@@ -91,8 +93,10 @@ def fake_plan(spec):
               "inertial_number": rate * d_mean * math.sqrt(density / sa.P_REF),
               "axes": {"x1": {"strain_increment": spec["strain_increment"]}, "x2": {"stress": sa.P_REF},
                        "x3": {"stress": sa.P_REF}}} for name in spec.get("tests", [])]
-    return {"time_step": spec["time_step"], "critical_time_step": TC * math.sqrt(spec.get("density_factor", 1.0)),
-            "time_step_ratio": spec["time_step"] / (TC * math.sqrt(spec.get("density_factor", 1.0))),
+    critical = TC * math.sqrt(spec.get("density_factor", 1.0))
+    return {"time_step": spec["time_step"], "critical_time_step": critical,
+            "time_step_ratio": spec["time_step"] / critical,
+            "time_step_bounds": [dict(b, time_step=b["fraction"] * critical) for b in BOUND_FRACTIONS],
             "sample": {"count": spec["count"], "density": density, "mean_diameter": d_mean},
             "particle_types": [{"diameter": float(d), "mass": float(m)} for d, m in zip(DIAMETERS, masses)],
             "tests": tests}

@@ -1,14 +1,11 @@
 """pytest: tools/celldem/stats.py against scipy and against cases worked by hand."""
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 from scipy import stats as st
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
-from celldem import stats  # noqa: E402
+from celldem import stats
 
 
 def test_describe_intervals_against_scipy():

@@ -1,4 +1,4 @@
-"""pytest: the model-sufficiency verdicts (tools/celldem/sufficiency.py) under no effect and under a real one.
+"""pytest: the model-sufficiency verdicts (tools/celldem/study/sufficiency.py) under no effect and under a real one.
 
 Synthetic paired data as the tool sees them: per seed a baseline value and a variant value of each quantity, both
 from the same prepared sample (a shared seed effect) plus run-to-run scatter. Under no effect the old rule
@@ -7,14 +7,12 @@ of its quantities crosses) is reproduced to cry wolf; the new one (paired t, Hol
 calls a switch needed at most 5 % of the time.
 """
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
-from celldem import stats, sufficiency as su  # noqa: E402
+from celldem import stats
+from celldem.study import sufficiency as su
 
 N_SEEDS = 4
 N_QUANTITIES = 10

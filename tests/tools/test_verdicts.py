@@ -1,13 +1,10 @@
 """pytest: the reports refuse what they cannot judge (uncontrolled tests, tests without a peak) and the failure
 surface fits nothing it cannot fit."""
-import os
-import sys
 
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools"))
-from celldem import ensemble_report, failure_surface, report  # noqa: E402
-from celldem.results import Ensemble, Run  # noqa: E402
+from celldem.reports import ensemble_report, failure_surface, report
+from celldem.results import Ensemble, Run
 
 
 def run(seed, psc_controlled=True):

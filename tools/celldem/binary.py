@@ -2,7 +2,7 @@
 rows, the particle types' masses and damping, the critical time step, the inertial number, the mean contact at
 the confining stress), for the deck's keys: `celldem schema --json`, and for what a
 series implies: `celldem summarize SERIES` (summary.json's peak and end quantities of any series). The tools
-ask it instead of deriving these again.
+ask it instead of deriving these again. `celldem check` and the command line of `celldem run` are here too.
 """
 
 import json
@@ -55,6 +55,36 @@ def schema(binary=None):
     if exe not in _SCHEMAS:
         _SCHEMAS[exe] = run_json(["schema", "--json"], exe)
     return _SCHEMAS[exe]
+
+
+def check(deck_path, binary=None):
+    """`celldem check DECK`: returns what it prints for a valid deck (particles, tests, the critical time step,
+    the estimated cost); raises BinaryError with celldem's own message (naming the key) when it refuses it."""
+    exe = find(binary)
+    if not os.access(exe, os.X_OK):
+        raise BinaryError(f"no celldem binary at {exe} (build it with tools/build.sh, or give --celldem)")
+    r = subprocess.run([exe, "check", str(deck_path)], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise BinaryError(r.stderr.strip() or f"celldem check {deck_path} failed (exit {r.returncode})")
+    return r.stdout
+
+
+def run_command(deck_path, out, threads=None, seeds=None, force=False, resume=False, quiet=True, binary=None):
+    """The command line of `celldem run DECK --out OUT` with the given options, the binary first (find(binary))."""
+    if force and resume:
+        raise ValueError("force and resume exclude each other")
+    cmd = [find(binary), "run", str(deck_path), "--out", str(out)]
+    if threads is not None:
+        cmd += ["--threads", str(threads)]
+    if seeds is not None:
+        cmd += ["--seeds", str(seeds)]
+    if quiet:
+        cmd.append("--quiet")
+    if resume:
+        cmd.append("--resume")
+    if force:
+        cmd.append("--force")
+    return cmd
 
 
 def plan(deck_path, binary=None):

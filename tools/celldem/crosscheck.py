@@ -17,10 +17,11 @@ import time
 
 import numpy as np
 
-from . import binary, plotting
+from . import binary
+from .reports import plotting
 from .metrics import on_grid
 from .results import column, load_series, read_json
-from .tables import fmt_spec, md_table
+from .reports.tables import fmt_spec, md_table
 
 EXE = {"lammps": "lmp", "liggghts": "liggghts"}
 STRAIN_SCENE_ROWS = 250   # rows of the strain-controlled scene
@@ -158,9 +159,8 @@ def run_celldem(args, deck, folder):
         return run_dir, None
     with open(deck_path, "w") as f:
         json.dump(deck, f, indent=2)
-    cmd = [args.celldem, "run", deck_path, "--out", run_dir, "--force", "--quiet"]
-    if args.threads:
-        cmd += ["--threads", str(args.threads)]
+    cmd = binary.run_command(deck_path, run_dir, threads=args.threads or None, force=True, quiet=True,
+                             binary=args.celldem)
     wall = sh(cmd, log=os.path.join(folder, "celldem.log"))
     return run_dir, wall
 

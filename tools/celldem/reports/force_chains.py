@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from .results import RunError, read_json
+from ..results import RunError, read_json
 
 SLAB_DIAMETERS = 1.5   # slab thickness in mean diameters
 MAX_WIDTH = 3.0        # line width (points) of the largest force of all the tests drawn

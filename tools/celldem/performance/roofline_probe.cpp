@@ -1,4 +1,4 @@
-// The roofs of one core for tools/roofline.py (tools/celldem/roofline.py compiles and runs this):
+// The roofs of one core for tools/roofline.py (tools/celldem/performance/roofline.py compiles and runs this):
 //   clock_ghz        a chain of dependent integer adds, one cycle each on any x86-64 core
 //   fma_gflops       independent vector FMA chains (the widest the compiler may use), all lanes busy
 //   div_glanes, sqrt_glanes  the same with vector divisions and square roots: lane-operations per ns (the

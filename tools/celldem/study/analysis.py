@@ -2,7 +2,7 @@
 the presets' choice, the stability measures.
 
 Everything here is a function of the run folders under the study root (spec.json, outcome.json, plan.json,
-summary.json, <test>/series.csv), so tests/tools/test_study.sh can check it on synthetic results without
+summary.json, <test>/series.csv), so tests/tools/test_study_analysis.py can check it on synthetic results without
 running celldem. The compared quantities are summary.json's; what a deck implies is plan.json's.
 """
 
@@ -11,14 +11,14 @@ import os
 
 import numpy as np
 
-from . import binary
-from .metrics import all_finite, curve_difference
-from .results import RunError, load_series, number, read_json
-from .study_scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, P_REF, PAPER_DAMPING,
+from .. import binary
+from ..metrics import all_finite, curve_difference
+from ..results import RunError, load_series, number, read_json
+from .scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, P_REF, PAPER_DAMPING,
                           PAPER_DT, PRESET_RULES, QUANTITIES, SCENE_COUNT, SERVO_TOLERANCE, STRESS_QUANTITIES,
                           SUMMARY_KEYS)
 
-# ---- analysis: pure functions of run metrics (tested by tests/tools/test_study.sh) ---------------------------
+# ---- analysis: pure functions of run metrics (tested by tests/tools/test_study_analysis.py) ---------------------------
 
 def test_metrics(summary_test, end_strain):
     """The compared quantities of one test, from its entry in summary.json (celldem's definitions, SUMMARY_KEYS);
@@ -223,10 +223,23 @@ def run_cost(entry):
 
 # ---- analysis: the study ------------------------------------------------------------------------------------------
 
+def within_time_step_warning(plan):
+    """Whether a deck's time step is at most the bound above which celldem warns (its plan.json's
+    time_step_bounds: the bound with action "warn", when "above"; core/plan's stable_fraction of the critical
+    time step); None for a plan without that table."""
+    bounds = [number(b.get("time_step")) for b in (plan or {}).get("time_step_bounds") or []
+              if b.get("action") == "warn" and b.get("when") == "above"]
+    dt = number((plan or {}).get("time_step"))
+    if dt is None or not bounds or None in bounds:
+        return None
+    return dt <= min(bounds)
+
+
 def describe(entry):
     """What a run's deck implies, from its plan.json (None without one)."""
     dt, t_c = planned(entry, "time_step"), planned(entry, "normal_time_step")
     return {"dt_over_tc": dt / t_c if dt and t_c else planned(entry, "time_step_ratio"),  # in sqrt(m_min/kn)
+            "dt_within_warning": within_time_step_warning(entry.get("plan")),
             "rate": planned(entry, "strain_rate"),
             "inertial_number": planned(entry, "inertial_number"),
             "steps_per_test": None if planned(entry, "steps") is None else int(planned(entry, "steps"))}
@@ -411,8 +424,8 @@ def thresholds(rows, cap_rows, stability):
     all_dt = [r for r in stability["dt"] if r.get("ke_max") is not None]
     out["ke_stable_max"] = max((r["ke_max"] for r in all_dt if r["state"] in ("stable", "drift")), default=None)
     out["ke_unstable_min"] = min((r["ke_max"] for r in all_dt if r["state"] == "unstable"), default=None)
-    # Loading rate: settings at a stable time step, by inertial number.
-    stable_rows = [r for r in rows if r["dt_over_tc"] is not None and r["dt_over_tc"] <= 0.5 and r["group"] in
+    # Loading rate: settings at a time step celldem does not warn about, by inertial number.
+    stable_rows = [r for r in rows if r.get("dt_within_warning") and r["group"] in
                    ("reference", "null", "strain_increment", "time_step", "density", "combined")
                    and r.get("score_stress") is not None]
     ok_i = [r["inertial_number"] for r in stable_rows if r["score_stress"] <= 1.0 and r["inertial_number"]]

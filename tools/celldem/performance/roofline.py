@@ -20,8 +20,8 @@ import tempfile
 from collections import Counter
 from pathlib import Path
 
-from . import plotting
-from .tables import md_table
+from ..reports import plotting
+from ..reports.tables import md_table
 
 # Collection is switched on inside the step function: the first of these the binary has (advance_steps runs many
 # steps in one parallel region; advance_one_step is the older one-step form). Steps are counted by the calls of
@@ -414,7 +414,7 @@ def step_function(disassembly):
         if f"<{name}" in disassembly:
             return name + "*)"
     raise RooflineError(f"the binary defines none of {', '.join(n[:-1] for n in STEP_FUNCTIONS)}: "
-                        "update STEP_FUNCTIONS in tools/celldem/roofline.py")
+                        "update STEP_FUNCTIONS in tools/celldem/performance/roofline.py")
 
 
 def steps_in(profile, what):
@@ -422,7 +422,7 @@ def steps_in(profile, what):
     steps = profile.calls_into(STEP_COUNTER)
     if steps <= 0:
         raise RooflineError(f"no call of {STEP_COUNTER[:-1]} in {what}: update STEP_COUNTER in "
-                            "tools/celldem/roofline.py")
+                            "tools/celldem/performance/roofline.py")
     return steps
 
 
@@ -442,7 +442,7 @@ def rebuild_cost(celldem, deck, state, workdir, flops_at, objects):
     profile = parse_callgrind(path.read_text())
     calls = profile.calls_into(REBUILD)
     if calls <= 0:
-        raise RooflineError(f"no call of {REBUILD[:-1]} in {path}: update REBUILD in tools/celldem/roofline.py")
+        raise RooflineError(f"no call of {REBUILD[:-1]} in {path}: update REBUILD in tools/celldem/performance/roofline.py")
     whole = totals(attribute(profile, flops_at, objects))
     return {"instructions": whole["instructions"] / calls, "flops": whole["flops"] / calls, "calls_measured": calls}
 
@@ -583,7 +583,7 @@ def summarise(m):
 
     compulsory = compulsory_bytes(pairs, sample["crossings_per_particle"])
     if abs(compulsory["footprint"] - sample["bytes_per_particle"]) > 0.02 * sample["bytes_per_particle"]:
-        notes.append(f"WARNING: the layout table (ARRAYS in tools/celldem/roofline.py) holds "
+        notes.append(f"WARNING: the layout table (ARRAYS in tools/celldem/performance/roofline.py) holds "
                      f"{compulsory['footprint']:.0f} bytes per particle, the bench counts "
                      f"{sample['bytes_per_particle']:.0f}: the compulsory bytes are out of date")
     # Simulated L2 misses against the touched bytes: about 1 when every array comes from beyond L2 once a step.

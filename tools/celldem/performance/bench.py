@@ -4,8 +4,8 @@ DIR/scaling.md and DIR/scaling.png."""
 import json
 from pathlib import Path
 
-from . import plotting
-from .tables import md_table
+from ..reports import plotting
+from ..reports.tables import md_table
 
 
 def _mega(value):

@@ -17,9 +17,9 @@ import subprocess
 import sys
 import time
 
-from . import binary, decks
-from .results import read_json
-from .study_scene import (END_STRAIN, PAPER_DAMPING, PAPER_DT, PAPER_INC, PAPER_RATE, REF_SEEDS, ROW_STRAIN,
+from .. import binary, decks
+from ..results import read_json
+from .scene import (END_STRAIN, PAPER_DAMPING, PAPER_DT, PAPER_INC, PAPER_RATE, REF_SEEDS, ROW_STRAIN,
                           SCENE_COUNT, SERVO_CAP_FACTOR, SERVO_INC, SERVO_OUTPUT_INTERVAL, SERVO_STRAIN,
                           STABILITY_STRAIN)
 
@@ -349,8 +349,8 @@ def start(root, paper, spec, celldem, samples):
     resume = read_json(os.path.join(directory, "progress.json")) is not None
     if not resume:
         remove_quietly(os.path.join(directory, "partial_cpu.json"))
-    cmd = [celldem, "run", "deck.json", "--out", ".", "--threads", "1", "--quiet",
-           "--resume" if resume else "--force"]
+    cmd = binary.run_command("deck.json", ".", threads=1, quiet=True, resume=resume, force=not resume,
+                             binary=celldem)
     env = dict(os.environ, OMP_WAIT_POLICY="passive", OMP_NUM_THREADS="1")
     log = open(os.path.join(directory, "celldem.log"), "a", encoding="utf-8")
     log.write(f"$ {' '.join(cmd)}\n")
@@ -487,7 +487,8 @@ def write_presets(study, paper, celldem):
         decks.write(path, deck)
         written.append(path)
         if os.access(celldem, os.X_OK):
-            r = subprocess.run([celldem, "check", path], capture_output=True, text=True)
-            if r.returncode != 0:
-                print(f"study.py: warning: celldem check {path} failed: {r.stderr.strip()}", file=sys.stderr)
+            try:
+                binary.check(path, celldem)
+            except binary.BinaryError as err:
+                print(f"study.py: warning: celldem check {path} failed: {err}", file=sys.stderr)
     return written

@@ -5,7 +5,7 @@ inertial number) comes from `celldem plan`, saved as plan.json beside each run's
 measured comes from its summary.json.
 """
 
-from . import decks
+from .. import decks
 
 PAPER = decks.load()
 _PAPER_TTC = next(t for t in PAPER["tests"] if t["name"] == "ttc")

@@ -50,13 +50,13 @@ import os
 import shutil
 import time
 
-from . import binary, decks, study_runs
-from .results import number, read_json
-from . import stats
-from .stats import describe
-from .study_analysis import noise_floor, test_metrics
-from .study_scene import QUANTITY_LABELS
-from .tables import fmt, md_table
+from .. import binary, decks, stats
+from . import runs as study_runs
+from ..results import number, read_json
+from ..stats import describe
+from .analysis import noise_floor, test_metrics
+from .scene import QUANTITY_LABELS
+from ..reports.tables import fmt, md_table
 
 DEFAULT_COUNT = 300          # spheres of the reduced scene
 DEFAULT_END_STRAIN = 0.04    # the tests' end strain on the reduced scene (rolling resistance moves the peak late)

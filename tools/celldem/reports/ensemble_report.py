@@ -10,7 +10,8 @@ the 95 % interval excludes the compared value (Student t; stats.py), else it is 
 
 import os
 
-from . import metrics, report, stats
+from .. import metrics, stats
+from . import figures, report
 from .tables import fmt, md_table
 
 PERCENT = 100.0
@@ -331,7 +332,7 @@ def build_report(ens, paper, planned):
     out = [f"# celldem ensemble report: {name}", "",
            f"Deck: `{first.summary.get('deck', 'n/a')}`. Seeds: {seeds} ({len(ens.runs)} runs, `seed-<k>/`). Tests: "
            f"{', '.join(ens.test_names) or 'none'}. Statistics: {ens.stats.get('statistics', 'n/a')} "
-           "(celldem's ensemble.json). Figures: " + report.figures.BAND_TEXT + ".", ""]
+           "(celldem's ensemble.json). Figures: " + figures.BAND_TEXT + ".", ""]
     if paper:
         out += report.section("Comparison with the paper", paper_section(ens))
     out += report.section("Controls of each seed", controls_section(ens))

@@ -3,7 +3,7 @@
   - the preparation against steps (prepare.png): p, void ratio, Z, unbalanced force, kinetic energy;
   - the paper's Figures 2-12 and two diagnostic figures, every test overlaid (for the paper's deck, or any run
     with two tests or more), and an overview of them;
-  - the strong force chains at each test's peak (force_chains.png, tools/celldem/force_chains.py).
+  - the strong force chains at each test's peak (force_chains.png, tools/celldem/reports/force_chains.py).
 A figure or panel whose quantity the run does not hold is not drawn. For an ensemble every curve is the mean
 over the seeds in bins of its x with a band of ± 1 standard deviation (metrics.seed_band).
 """
@@ -13,7 +13,8 @@ import os
 
 import numpy as np
 
-from . import force_chains, metrics, plotting
+from . import force_chains, plotting
+from .. import metrics
 from .plotting import thin
 
 PERCENT = 100.0

@@ -13,8 +13,9 @@ import os
 
 import numpy as np
 
-from . import failure_surface, figures, metrics, scenes
-from .results import Ensemble, number, read_json
+from . import failure_surface
+from .. import metrics, scenes
+from ..results import number, read_json
 from .tables import fmt, fmt_spec, md_table, scaled, yes_no
 
 PERCENT = 100.0
@@ -557,23 +558,3 @@ def build_report(run, paper, planned):
     out += section("Speed–accuracy study", study)
     return "\n".join(out)
 
-
-def write_report(run, refresh_figures=False, paper=None):
-    """Draws the figures when any is missing or older than the run's files (or always with refresh_figures), writes
-    report.md; returns its path.
-    paper None: the paper's comparison when the run is the paper's deck (scenes.is_paper); True forces it. An
-    Ensemble gets ensemble_report's report."""
-    paper = scenes.is_paper(run) if paper is None else paper
-    planned = figures.plan(run, paper)
-    fig_dir = os.path.join(run.directory, "figures")
-    if refresh_figures or figures.stale(fig_dir, planned, run.directory):
-        figures.write_figures(run, fig_dir, paper)
-    if isinstance(run, Ensemble):
-        from . import ensemble_report  # imports this module
-        text = ensemble_report.build_report(run, paper, planned)
-    else:
-        text = build_report(run, paper, planned)
-    path = os.path.join(run.directory, "report.md")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text)
-    return path

@@ -1,0 +1,239 @@
+"""celldem's public Python API, for one's own scripts (docs/python.md has the tour and an example).
+
+    import celldem
+    run = celldem.open_run("results/paper")          # a run folder
+    df = run.tests["ttc"].series                     # pandas DataFrame, one column per series column
+    df.attrs["units"]["s11"]                         # "Pa", from series.columns.json
+    run.tests["ttc"].summary["peak_ratio13"]         # summary.json's value, computed by celldem
+
+    deck = celldem.Deck.load("inputs/paper.json")
+    deck["sample"]["count"] = 500
+    celldem.check_deck(deck)                         # raises DeckError with celldem's message
+    small = celldem.run_deck(deck, "results/small", threads=2)
+
+Everything here reads what celldem wrote or asks the binary; nothing is computed again (the peak of a test is
+summary.json's, what a deck implies is `celldem plan`'s). The binary is found as the tools find it: the
+`celldem` argument, else $CELLDEM, else build/celldem, else celldem on PATH.
+"""
+
+import copy
+import json
+import os
+import subprocess
+import tempfile
+
+from . import binary, decks, results
+
+__all__ = ["Stage", "Run", "Ensemble", "open_run", "open_ensemble", "Deck", "DeckError", "RunFailed",
+           "check_deck", "run_deck"]
+
+PREPARE = "prepare"
+
+
+class Stage:
+    """One stage of a run: the preparation ("prepare") or a test.
+
+    name     the stage's name (a test's name in the deck)
+    summary  its entry of summary.json (for the preparation summary.json's "prepared"), a dict ({} if absent)
+    series   <stage>/series.csv as a pandas DataFrame, one column per header name, read on first use; its
+             attrs["units"] and attrs["meanings"] map column names to series.columns.json's unit and meaning
+             (empty for runs older than that file)
+    path     the stage's folder
+    """
+
+    def __init__(self, name, path, summary):
+        self.name, self.path, self.summary = name, path, summary
+        self._series = None
+
+    @property
+    def series(self):
+        if self._series is None:
+            import pandas as pd  # here, so that the tools, which do not use it, import the package without it
+
+            csv = os.path.join(self.path, "series.csv")
+            frame = pd.DataFrame(results.load_series(csv))
+            columns = results.load_columns(csv)
+            frame.attrs["units"] = {n: c["unit"] for n, c in columns.items() if n in frame.columns}
+            frame.attrs["meanings"] = {n: c["meaning"] for n, c in columns.items() if n in frame.columns}
+            self._series = frame
+        return self._series
+
+    def __repr__(self):
+        return f"Stage({self.name!r}, {self.path!r})"
+
+
+class Run:
+    """A run folder (`celldem run DECK --out DIR`).
+
+    directory  the folder
+    summary    summary.json as a dict
+    deck       the deck celldem ran (from progress.json), a dict, or None for a run without progress.json
+    stages     {name: Stage}: the preparation first when the run prepared its sample, then the tests
+    tests      {name: Stage}: the tests only, in the deck's order (then any other <name>/series.csv)
+    """
+
+    def __init__(self, directory):
+        self.directory = os.path.abspath(directory)
+        try:
+            self.summary = results.load_summary(self.directory)
+        except results.RunError as err:
+            raise FileNotFoundError(str(err)) from err
+        self.deck = results.load_deck(self.directory)
+        self.tests = {}
+        names = results.discover_tests(self.directory, self.summary)
+        if self.deck:  # the deck's order (summary.json's keys are sorted)
+            order = [t.get("name") for t in self.deck.get("tests") or [] if isinstance(t, dict)]
+            names.sort(key=lambda n: order.index(n) if n in order else len(order))
+        for name in names:
+            path = os.path.join(self.directory, name)
+            if os.path.isfile(os.path.join(path, "series.csv")):
+                self.tests[name] = Stage(name, path, (self.summary.get("tests") or {}).get(name) or {})
+        self.stages = {}
+        prepare = os.path.join(self.directory, PREPARE)
+        if os.path.isfile(os.path.join(prepare, "series.csv")):
+            self.stages[PREPARE] = Stage(PREPARE, prepare, self.summary.get("prepared") or {})
+        self.stages.update(self.tests)
+
+    def __repr__(self):
+        return f"Run({self.directory!r}, stages={list(self.stages)})"
+
+
+class Ensemble:
+    """A seed ensemble folder (`celldem run DECK --seeds 1-8 --out DIR`).
+
+    directory   the folder
+    statistics  ensemble.json as a dict (celldem's mean, std, intervals of every summary quantity over the seeds,
+                and the paired differences between tests)
+    seeds       the seeds ensemble.json lists
+    runs        {seed: Run} for each seed-<k>/ that holds a summary.json
+    """
+
+    def __init__(self, directory):
+        self.directory = os.path.abspath(directory)
+        path = os.path.join(self.directory, "ensemble.json")
+        if not os.path.isfile(path):
+            raise FileNotFoundError(f"ensemble.json not found in {self.directory} (not a --seeds run folder)")
+        with open(path, encoding="utf-8") as f:
+            self.statistics = json.load(f)
+        self.seeds = list(self.statistics.get("seeds") or [])
+        self.runs = {k: Run(os.path.join(self.directory, f"seed-{k}")) for k in self.seeds
+                     if os.path.isfile(os.path.join(self.directory, f"seed-{k}", "summary.json"))}
+
+    def __repr__(self):
+        return f"Ensemble({self.directory!r}, seeds={self.seeds})"
+
+
+def open_run(path):
+    """The run folder at `path` as a Run; FileNotFoundError when it or its summary.json is missing."""
+    return Run(path)
+
+
+def open_ensemble(path):
+    """The seed ensemble folder at `path` as an Ensemble (ensemble.json and each seed's Run)."""
+    return Ensemble(path)
+
+
+class DeckError(ValueError):
+    """celldem refused a deck; the message is celldem's (it names the key path)."""
+
+
+class RunFailed(RuntimeError):
+    """`celldem run` failed while running (exit 1: a control that failed, a write that failed, ...)."""
+
+    def __init__(self, message, returncode):
+        super().__init__(message)
+        self.returncode = returncode
+
+
+class Deck:
+    """A deck as data: a dict in `data`, indexable like one (deck["sample"]["count"]), and the folder its relative
+    paths (initial_state, say) resolve from, `directory`: the deck file's folder, or for a deck built from a dict
+    the working folder when it was built, unless given."""
+
+    def __init__(self, data, directory=None):
+        if not isinstance(data, dict):
+            raise TypeError(f"a deck is a JSON object (a dict), not {type(data).__name__}")
+        self.data = data
+        self.directory = os.path.abspath(directory or os.getcwd())
+
+    @classmethod
+    def from_dict(cls, data, directory=None):
+        """A deck from a dict (deep-copied: later changes to `data` do not reach the deck)."""
+        return cls(copy.deepcopy(data), directory)
+
+    @classmethod
+    def load(cls, path):
+        """The deck in the JSON file at `path`."""
+        with open(path, encoding="utf-8") as f:
+            return cls(json.load(f), os.path.dirname(os.path.abspath(path)))
+
+    def save(self, path):
+        """Writes the deck as JSON (the tools' layout) to `path`; returns the path. Relative paths in it keep
+        resolving from `directory`, so save into that folder unless the deck has none."""
+        decks.write(str(path), self.data)
+        return path
+
+    def to_dict(self):
+        return copy.deepcopy(self.data)
+
+    def __getitem__(self, key):
+        return self.data[key]
+
+    def __setitem__(self, key, value):
+        self.data[key] = value
+
+    def __contains__(self, key):
+        return key in self.data
+
+    def __repr__(self):
+        return f"Deck({json.dumps(self.data)[:80]}...)"
+
+
+def _as_deck(deck):
+    return deck if isinstance(deck, Deck) else Deck.from_dict(deck)
+
+
+class _DeckFile:
+    """The deck written to a temporary file in its own folder (so that its relative paths resolve as they
+    would from a deck file there), removed on exit."""
+
+    def __init__(self, deck):
+        self.deck = _as_deck(deck)
+
+    def __enter__(self):
+        fd, self.path = tempfile.mkstemp(prefix=".celldem-deck-", suffix=".json", dir=self.deck.directory)
+        os.close(fd)
+        self.deck.save(self.path)
+        return self.path
+
+    def __exit__(self, *exc):
+        os.remove(self.path)
+
+
+def check_deck(deck, celldem=None):
+    """`celldem check` on a Deck or a dict: returns what celldem prints for a valid deck (its particles, tests,
+    critical time step and cost estimate); raises DeckError with celldem's message when it refuses the deck. The
+    temporary file's name reads "<deck>" in both."""
+    with _DeckFile(deck) as path:
+        try:
+            return binary.check(path, celldem).replace(path, "<deck>")
+        except binary.BinaryError as err:
+            raise DeckError(str(err).replace(path, "<deck>")) from err
+
+
+def run_deck(deck, out, threads=None, seeds=None, force=False, resume=False, quiet=True, celldem=None):
+    """`celldem run` of a Deck or a dict into the folder `out`; returns open_run(out), or open_ensemble(out) with
+    seeds ("1-8", "3": `--seeds`). threads None: celldem's default (all cores). force: replace an earlier run's
+    outputs there; resume: continue an interrupted run. quiet False lets celldem's progress lines through to
+    stderr. Raises DeckError when celldem refuses the deck (exit 2), RunFailed when the run fails (exit 1)."""
+    with _DeckFile(deck) as path:
+        cmd = binary.run_command(path, os.path.abspath(out), threads, seeds, force, resume, quiet, celldem)
+        if not os.access(cmd[0], os.X_OK):
+            raise FileNotFoundError(f"no celldem binary at {cmd[0]} (build it with tools/build.sh)")
+        r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE if quiet else None, text=True)
+    message = (r.stderr or "").strip().replace(path, "<deck>")
+    if r.returncode == 2:
+        raise DeckError(message or "celldem refused the deck (exit 2)")
+    if r.returncode != 0:
+        raise RunFailed(message or f"celldem run failed (exit {r.returncode})", r.returncode)
+    return open_ensemble(out) if seeds is not None else open_run(out)
