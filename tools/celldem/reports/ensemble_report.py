@@ -87,7 +87,7 @@ def controls_section(ens):
             legs = "; ".join(f"leg {leg.get('leg', k)}: {report.leg_errors_text(leg.get('control_errors'))}"
                              for k, leg in enumerate(info.get("legs") or []) if isinstance(leg, dict)) or "—"
             rows.append((seed_of(run), test, report.control_state(run, test),
-                         report.percent_text(servo), legs,
+                         report.percent_text(servo), report.over_tolerance_text(info), legs,
                          "yes" if run.peak_reached(test) else "**no**"))
     if not rows:
         return None
@@ -95,8 +95,8 @@ def controls_section(ens):
     return ((f"ensemble.json: {excluded}.\n\n" if excluded else
              "This ensemble.json predates celldem's exclusion of uncontrolled tests: pairs with an uncontrolled "
              "test get no verdict.\n\n")
-            + md_table(("Seed", "Test", "Controls", "Largest servo error", "Control errors per leg", "Peak reached"),
-                       rows))
+            + md_table(("Seed", "Test", "Controls", "Largest stress or p error", "Worst error / tolerance",
+                        "Control errors per leg", "Peak reached"), rows))
 
 
 def excluded_by_celldem(ens):

@@ -263,10 +263,15 @@ def paper_table(run):
 
 # --- the other sections ------------------------------------------------------------------------------------
 
-def setting_text(value):
+# Settings whose null means a rule, not a missing value.
+NULL_SETTING_MEANS = {"servo_max_strain_increment": "per leg: 10 × its driving strain per step, at least 1e-06 "
+                                                    "(each leg's servo_cap in summary.json)"}
+
+
+def setting_text(value, key=None):
     if isinstance(value, float):
         return f"{value:g}"
-    return "n/a" if value is None else str(value)
+    return NULL_SETTING_MEANS.get(key, "n/a") if value is None else str(value)
 
 
 def settings_section(run):
@@ -274,7 +279,7 @@ def settings_section(run):
     out = [f"celldem version: {run.summary.get('celldem_version', 'n/a')}; deck: `{run.summary.get('deck', 'n/a')}`",
            ""]
     if settings:
-        out.append(md_table(("Setting", "Value"), [(k, setting_text(v)) for k, v in settings.items()]))
+        out.append(md_table(("Setting", "Value"), [(k, setting_text(v, k)) for k, v in settings.items()]))
     else:
         out.append("No settings in summary.json.")
     return "\n".join(out)
@@ -487,6 +492,13 @@ def leg_errors_text(errors):
     return ", ".join(bits) or "—"
 
 
+def over_tolerance_text(info):
+    """summary.json's control_error_over_tolerance: the worst control error of any kind as a multiple of its
+    tolerance (above 1 is outside it), '—' where nothing was measured."""
+    v = number(info.get("control_error_over_tolerance"))
+    return "—" if v is None else f"{v:.2g}"
+
+
 def control_state(run, test):
     """'controlled', or 'UNCONTROLLED: <failures>' (summary.json's controlled and control_failures)."""
     if run.controlled(test):
@@ -497,8 +509,9 @@ def control_state(run, test):
 
 
 def controls_section(run):
-    """Each test's control errors: summary.json's servo_max_error, each leg's control_errors, whether the test
-    held its controls and reached a peak; None without tests."""
+    """Each test's control errors: summary.json's servo_max_error (stress and mean-stress axes, relative),
+    control_error_over_tolerance (the worst error of any kind over its tolerance), each leg's control_errors,
+    whether the test held its controls and reached a peak; None without tests."""
     rows = []
     for test in run.test_names:
         info = run.test_summary(test)
@@ -507,11 +520,12 @@ def controls_section(run):
                              for k, leg in enumerate(legs) if isinstance(leg, dict)) or "—"
         servo = info.get("servo_max_error")
         rows.append((test, control_state(run, test),
-                     percent_text(number(servo)), leg_text,
+                     percent_text(number(servo)), over_tolerance_text(info), leg_text,
                      "yes" if run.peak_reached(test) else "**no** (largest σ1/σ3 at the test's end)"))
     if not rows:
         return None
-    out = md_table(("Test", "Controls", "Largest servo error", "Control errors per leg", "Peak reached"), rows)
+    out = md_table(("Test", "Controls", "Largest stress or p error", "Worst error / tolerance", "Control errors per leg",
+                    "Peak reached"), rows)
     bad = [t for t in run.test_names if not run.controlled(t)]
     if bad:
         out += (f"\n\n{', '.join(bad)}: a control failed and the deck chose to continue. Their values are shown but "

@@ -358,22 +358,27 @@ def change(differences, floor, n_quantities=1, margin_floors=MARGIN_FLOORS, alph
 
 
 def judge_switch(changes, alpha=ALPHA):
-    """Sets each change's "p_holm" and "verdict" ("changes", "within margin", "undecided") and returns the switch's
-    verdict: "needed" (some quantity changes: Holm-adjusted paired t <= alpha over the switch's quantities, and
-    not equivalent within its margin), "not needed" (every quantity within its margin by TOST at alpha), or
-    "undecided at n seeds"."""
+    """Sets each change's "p_holm" and "verdict" ("changes", "within margin", "undecided", or "untested" with
+    fewer than two paired seeds, e.g. a peak quantity where only one seed reached a peak) and returns the switch's
+    verdict over its testable quantities: "needed" (some quantity changes: Holm-adjusted paired t <= alpha over
+    them, and not equivalent within its margin), "not needed" (every one within its margin by TOST at alpha), or
+    "undecided at n seeds" (n the most seeds a quantity paired); untested quantities keep their own verdict."""
     keys = [k for k, c in changes.items() if c is not None]
-    if not keys:
-        return "undetermined (no values)"
-    adjusted, _ = stats.holm([changes[k]["p"] for k in keys], alpha)
-    for k, a in zip(keys, adjusted):
+    testable = [k for k in keys if changes[k]["n"] >= 2 and changes[k]["p"] is not None]
+    for k in keys:
+        if k not in testable:
+            changes[k]["verdict"] = "untested"
+    if not testable:
+        return "undetermined (fewer than 2 paired seeds)" if keys else "undetermined (no values)"
+    adjusted, _ = stats.holm([changes[k]["p"] for k in testable], alpha)
+    for k, a in zip(testable, adjusted):
         c = changes[k]
         c["p_holm"] = a
         equivalent = c["p_tost"] is not None and c["p_tost"] <= alpha
         c["verdict"] = ("within margin" if equivalent else
                         "changes" if a is not None and a <= alpha else "undecided")
-    verdicts = [changes[k]["verdict"] for k in keys]
-    n = min(changes[k]["n"] for k in keys)
+    verdicts = [changes[k]["verdict"] for k in testable]
+    n = max(changes[k]["n"] for k in testable)
     if "changes" in verdicts:
         return "needed"
     if all(v == "within margin" for v in verdicts):
@@ -495,9 +500,10 @@ def cell(c, key):
         return "n/a"
     if c["noise_units"] is None:
         return f"{fmt(scaled_value(key, c['delta']))} (no noise floor)"
-    mark = {"changes": " **✗**", "within margin": " ≈"}.get(c.get("verdict"), "")
+    mark = {"changes": " **✗**", "within margin": " ≈",
+            "untested": f" (untested: {c['n']} seed{'s' if c['n'] != 1 else ''})"}.get(c.get("verdict"), "")
     det = "n/a" if c["detectable"] is None else f"{c['detectable'] / c['floor']:.2f}"
-    p = "n/a" if c["p"] is None else f"{c['p']:.2g}, Holm {c['p_holm']:.2g}"
+    p = "n/a" if c["p"] is None or c["p_holm"] is None else f"{c['p']:.2g}, Holm {c['p_holm']:.2g}"
     return f"{fmt(scaled_value(key, c['delta']))} ({c['noise_units']:+.2f} fl.; p {p}; detects {det} fl.){mark}"
 
 
