@@ -48,6 +48,7 @@ Json axis_json(const AxisControl& a) {
     case AxisMode::B: return {{"b", a.value}};
     case AxisMode::MeanStress: return {{"mean_stress", a.value}};
     case AxisMode::ConstantVolume: return {{"constant_volume", true}};
+    case AxisMode::StressRamp: return {{"stress_ramp", {{"from", a.value}, {"rate", a.rate}}}};
   }
   return nullptr;
 }

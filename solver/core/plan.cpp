@@ -120,7 +120,8 @@ double largest_deck_stress(const Deck& deck) {
   const auto scan = [&p](const std::vector<Leg>& legs) {
     for (const Leg& leg : legs) {
       for (const AxisControl& a : leg.axes)
-        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) p = std::max(p, std::abs(a.value));
+        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
+          p = std::max(p, std::abs(a.value));  // a ramp's start (its end, when a stress, is the leg's end below)
       if (leg.end.kind == LegEndKind::Stress) p = std::max(p, std::abs(leg.end.value));
     }
   };

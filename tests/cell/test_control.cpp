@@ -45,7 +45,7 @@ TEST(Control, StressTargetsOfBAndMeanStress) {
       {"a mean_stress axis beside a fixed one takes the rest", {AxisMode::Stress, 50.0}, mean, 160, 50, 90},
   };
   for (const Case& c : cases) {
-    const Vec3 t = stress_targets({driven, c.x2, c.x3}, Vec3(c.s1, 0.0, 0.0));
+    const Vec3 t = stress_targets({driven, c.x2, c.x3}, Vec3(c.s1, 0.0, 0.0), 0.0);
     EXPECT_TRUE(std::isnan(t[0])) << c.what;
     EXPECT_DOUBLE_EQ(t[1], c.t2) << c.what;
     EXPECT_DOUBLE_EQ(t[2], c.t3) << c.what;

@@ -537,7 +537,7 @@ TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
     for (int j = 0; j < 4; ++j) {
       const std::string& block = blocks[j + 1];
       Formula f(block, s);
-      const Vec3 celldem = stress_targets(test.legs[j].axes, s);
+      const Vec3 celldem = stress_targets(test.legs[j].axes, s, 0.0);
       for (int k = 1; k < 3; ++k) {
         std::string name = "t";  // built in steps: GCC 12 warns (-Wrestrict) about "t" + ... + "y"
         name += std::to_string(j + 1);
