@@ -190,16 +190,30 @@ Json plan_json(const Deck& deck) {
       // below kMinServoCapRatio in a leg with servo axes).
       const double d = leg_driving_increment(leg, deck.time_step);
       const double cap = servo_cap(deck.servo, leg, deck.time_step);
-      legs.push_back({{"axes", axes_json(leg)}, {"end", end_json(leg.end)}, {"driving_increment", d},
-                      {"servo_cap", cap}, {"servo", leg_has_servo(leg)},
-                      {"cap_ratio", d > 0.0 ? Json(cap / d) : Json(nullptr)}});
+      Json entry = {{"axes", axes_json(leg)}, {"end", end_json(leg.end)}, {"driving_increment", d},
+                    {"servo_cap", cap}, {"servo", leg_has_servo(leg)},
+                    {"cap_ratio", d > 0.0 ? Json(cap / d) : Json(nullptr)}};
+      // Only for the new kinds of leg, so that every other deck's plan stays as it was.
+      if (const std::int64_t n = ramp_target_steps(leg, deck.time_step); n >= 0) entry["ramp_target_steps"] = n;
+      if (leg.end.kind == LegEndKind::Equilibrium)  // the leg's own end.max_steps, else the criterion's
+        entry["equilibrium_max_steps"] = leg.end.max_steps > 0 ? leg.end.max_steps : t.equilibrium.max_steps;
+      legs.push_back(entry);
     }
+    const bool holds = std::any_of(t.legs.begin(), t.legs.end(),
+                                   [](const Leg& leg) { return leg.end.kind == LegEndKind::Equilibrium; });
     const auto known = [](std::int64_t n) { return n >= 0 ? Json(n) : Json(nullptr); };
     out["tests"].push_back({{"name", t.name}, {"friction", t.friction}, {"steps", known(p.steps)},
                             {"end_axis", kAxisNames[first.end.axis]}, {"end_strain", first.end.value},
                             {"strain_per_step", p.strain_per_step}, {"strain_rate", p.strain_rate},
                             {"output_interval", t.output_interval}, {"rows", known(p.rows)},
                             {"axes", axes_json(first)}, {"legs", legs}, {"inertial_number", inertia}});
+    if (holds) {
+      const EquilibriumDef& e = t.equilibrium;
+      out["tests"].back()["equilibrium"] = {
+          {"pressure_tolerance", e.pressure_tolerance}, {"stress_tolerance", e.stress_tolerance},
+          {"unbalanced_force_ratio", e.unbalanced_force_ratio}, {"min_steps", e.min_steps},
+          {"check_interval", e.check_interval}, {"max_steps", e.max_steps}};
+    }
   }
   return out;
 }
@@ -272,6 +286,24 @@ Command add_plan_command(CLI::App& app) {
                   t["legs"].size() > 1 ? "s" : "", count(t["steps"]).c_str(), count(t["rows"]).c_str());
       for (std::size_t j = 0; j < t["legs"].size(); ++j) {
         const Json& leg = t["legs"][j];
+        for (const char* axis : {"x1", "x2", "x3"})
+          if (const Json& a = leg["axes"][axis]; a.contains("stress_ramp"))
+            std::printf("    leg %zu: %s stress ramp from %.6g Pa at %.6g Pa/s (%.3g Pa per step)\n", j, axis,
+                        a["stress_ramp"]["from"].get<double>(), a["stress_ramp"]["rate"].get<double>(),
+                        a["stress_ramp"]["rate"].get<double>() * deck.time_step);
+        if (leg.contains("ramp_target_steps"))
+          std::printf("    leg %zu: its end stress is the ramp's target after %lld steps (the measured stress ends it)\n",
+                      j, static_cast<long long>(leg["ramp_target_steps"].get<std::int64_t>()));
+        if (leg.contains("equilibrium_max_steps")) {
+          const Json& e = t["equilibrium"];
+          std::printf("    leg %zu: ends in equilibrium after %lld to %lld steps, checked every %lld: |dp| <= %.3g, "
+                      "max|ds| <= %.3g, unbalanced <= %.3g\n",
+                      j, static_cast<long long>(e["min_steps"].get<std::int64_t>()),
+                      static_cast<long long>(leg["equilibrium_max_steps"].get<std::int64_t>()),
+                      static_cast<long long>(e["check_interval"].get<std::int64_t>()),
+                      e["pressure_tolerance"].get<double>(), e["stress_tolerance"].get<double>(),
+                      e["unbalanced_force_ratio"].get<double>());
+        }
         if (!leg["servo"].get<bool>()) continue;
         const double d = leg["driving_increment"].get<double>(), cap = leg["servo_cap"].get<double>();
         std::printf("    leg %zu: driving %.3g per step, servo cap %.3g", j, d, cap);

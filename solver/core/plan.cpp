@@ -43,6 +43,14 @@ double leg_driving_increment(const Leg& leg, double time_step) {
   return d;
 }
 
+std::int64_t ramp_target_steps(const Leg& leg, double time_step) {
+  const LegEnd& e = leg.end;
+  if (e.kind != LegEndKind::Stress) return -1;
+  const AxisControl& a = leg.axes[e.axis];
+  if (a.mode != AxisMode::StressRamp) return -1;
+  return static_cast<std::int64_t>(std::ceil((e.value - a.value) / (a.rate * time_step) * (1.0 - 1e-12)));
+}
+
 bool leg_has_servo(const Leg& leg) {
   return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.stress_driven(); });
 }
