@@ -308,6 +308,14 @@ TEST(LoadProgram, StressRampFailuresAndPlan) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("tests[0].axes.x1.stress_ramp.rate"), std::string::npos) << r.err;
 
+  r = celldem(run.dir, "check '" + (run.dir / "deck.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("the fastest 5 Pa per step (test 'ramp' leg 0 x1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("test 'ramp' leg 0: the ramp's target reaches end.stress 150000 Pa after 10000 steps"),
+            std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("test 'consolidate' leg 1: ends in equilibrium after 1000 to 100000 steps"), std::string::npos)
+      << r.out;
+
   r = celldem(run.dir, "plan --json '" + (run.dir / "deck.json").string() + "'");
   ASSERT_EQ(r.code, 0) << r.err;
   const Json plan = Json::parse(r.out);
