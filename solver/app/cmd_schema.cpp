@@ -180,7 +180,8 @@ Json plan_json(const Deck& deck) {
     double stress_sum = 0.0;
     int stress_axes = 0;
     for (const AxisControl& a : first.axes)
-      if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) stress_sum += a.value, ++stress_axes;
+      if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
+        stress_sum += a.value, ++stress_axes;  // a ramp's start
     const Json inertia = stress_axes ? Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample),
                                                             deck.sample.density, stress_sum / stress_axes))
                                      : Json(nullptr);

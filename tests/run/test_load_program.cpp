@@ -72,7 +72,11 @@ const std::string kTests = R"([
      {"axes": {"x1": {"stress": 1.2e5}, "x2": {"stress": 1.2e5}, "x3": {"stress": 1.2e5}},
       "end": {"equilibrium": true}},
      {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1.2e5}, "x3": {"stress": 1.2e5}},
-      "end": {"axis": "x1", "strain": 0.002}}]}])";
+      "end": {"axis": "x1", "strain": 0.002}}]},
+  {"name": "ramp_path", "friction": 0.5, "output_interval": 200,
+   "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress_ramp": {"from": 1e5, "rate": -5e6}},
+            "x3": {"stress_ramp": {"from": 1e5, "rate": -5e6}}},
+   "end": {"axis": "x1", "strain": 0.005}}])";
 
 // The ramps' rate and time step (kTests): 5 Pa per step.
 constexpr double kRampRate = 5e6, kTimeStep = 1e-6;
@@ -253,6 +257,28 @@ TEST(LoadProgram, StressRampFollowsItsMovingTargetAndEndsOnItsStress) {
   EXPECT_LT(rows[rows.size() - 2].s11, 1.5e5);  // the row before had not reached it
 }
 
+// A stress path: x1 compressed at 1e-6 per step while x2 and x3 unload at 5 Pa per step from 100 kPa (to 75
+// kPa at e1 = 0.5 %): after the settle window (0.2 % of driving strain) both lateral stresses stay within the
+// stress tolerance of 1e5 - R t, measured every step (summary) and at every row (series).
+TEST(LoadProgram, StressRampBesideAStrainDrivenAxis) {
+  const ProgramRun& run = program_run();
+  const Json& test = run.summary["tests"]["ramp_path"];
+  EXPECT_TRUE(test["controlled"].get<bool>()) << test["control_failures"].dump();
+  EXPECT_LT(test["legs"][0]["control_errors"]["stress"].get<double>(), kServoTolerance);
+  EXPECT_GT(test["legs"][0]["control_errors"]["steps"].get<int>(), 2500);
+  int checked = 0;
+  for (const SeriesRow& r : read_series(run.dir / "run" / "ramp_path" / "series.csv")) {
+    if (r.e1 < 0.002) continue;
+    const double target = 1e5 - kRampRate * r.time;
+    EXPECT_NEAR(r.s22 / target, 1.0, kServoTolerance) << r.step;
+    EXPECT_NEAR(r.s33 / target, 1.0, kServoTolerance) << r.step;
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+  EXPECT_NEAR(test["legs"][0]["end"]["s22"].get<double>(), 1e5 - kRampRate * 0.005 / 1e-6 * kTimeStep,
+              kServoTolerance * 1e5);
+}
+
 // A consolidation: an isotropic stress ramp to 120 kPa, a hold leg that ends in equilibrium by the test's
 // criterion (min_steps 1000, checked every 100 steps, stresses within 0.5 %, unbalanced force ratio 0.01),
 // then a strain-driven leg from there. The hold leg ends at a check, not before min_steps, in a state that
@@ -300,6 +326,16 @@ TEST(LoadProgram, StressRampFailuresAndPlan) {
   EXPECT_EQ(r.code, 1) << r.err;
   // 1e5 Pa at 200 Pa per step: the target of step 500 is 0.
   EXPECT_NE(r.err.find("stress_ramp target of axis x1 falls to 0 Pa after 499 steps"), std::string::npos) << r.err;
+
+  // A hold leg that cannot reach its criterion in max_steps stops the run naming the test's key.
+  const std::string hold = R"([{"name": "hold", "friction": 0.5, "output_interval": 100,
+      "equilibrium": {"unbalanced_force_ratio": 1e-12, "min_steps": 100, "check_interval": 100, "max_steps": 300},
+      "axes": {"x1": {"stress": 1.1e5}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"equilibrium": true}}])";
+  write_bytes(run.dir / "hold.json", program_deck(hold));
+  r = celldem(run.dir, run_args(run.dir / "hold.json", run.dir / "hold", "--quiet"));
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("test 'hold' leg 0 did not reach equilibrium in 300 servo steps"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("raise tests[].equilibrium.max_steps"), std::string::npos) << r.err;
 
   std::string bad = program_deck(falling);
   bad.replace(bad.find("\"rate\": -2e8"), 12, "\"rate\": 0");
