@@ -253,7 +253,8 @@ inline constexpr KeySpec equilibrium_max_steps{.path = "prepare.equilibrium.max_
 inline constexpr KeySpec prepare_legs{.path = "prepare.legs", .kind = KeyKind::Array, .required = false,
     .default_text = "fast compression, then the servo",
     .meaning = "instead of the two default legs: a load program as in `tests[].legs`, whose legs may also end on "
-               "`solid_fraction` or `equilibrium` (`target_pressure` and the fast keys are then not used)"};
+               "`solid_fraction`, and end on `equilibrium` by `prepare.equilibrium` (`target_pressure` and the fast "
+               "keys are then not used)"};
 inline constexpr KeySpec end_solid_fraction{.path = "prepare.legs[].end.solid_fraction", .kind = KeyKind::Number,
     .min = 0.01, .max = 0.9, .required = false, .default_text = "-",
     .meaning = "the leg ends when the spheres fill this fraction of the cell"};
