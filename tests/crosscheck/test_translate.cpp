@@ -553,7 +553,9 @@ TEST(TranslateProgram, StressRampTargetsAreCelldems) {
                            "*(v_t" + ramp.tag + ax + "-c_P[" + std::to_string(ramp.axis + 1) + "])/"))
           << where;
       for (const std::string& fix : command_lines(block, "fix"))
-        if (contains(fix, "press/berendsen")) EXPECT_FALSE(contains(fix, " " + ax + " ")) << where << ": " << fix;
+        if (contains(fix, "press/berendsen")) {
+          EXPECT_FALSE(contains(fix, " " + ax + " ")) << where << ": " << fix;
+        }
     }
   }
 }

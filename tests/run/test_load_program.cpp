@@ -366,7 +366,9 @@ TEST(LoadProgram, StressRampFailuresAndPlan) {
       EXPECT_EQ(t["equilibrium"]["min_steps"].get<std::int64_t>(), 1000);
       EXPECT_EQ(t["legs"][1]["equilibrium_max_steps"].get<std::int64_t>(), 100000);
     }
-    if (t["name"] == "bp") EXPECT_FALSE(t["legs"][0].contains("ramp_target_steps"));
+    if (t["name"] == "bp") {
+      EXPECT_FALSE(t["legs"][0].contains("ramp_target_steps"));
+    }
   }
 }
 
