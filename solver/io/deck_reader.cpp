@@ -381,14 +381,13 @@ LegEnd read_end(ObjectReader end, bool preparation) {
 
 // The rules that make a leg's controls well defined; `at` is the leg's path.
 void check_leg(const Leg& leg, const std::string& at) {
-  int driven = 0, stress = 0, b = 0, ramps = 0;
+  int driven = 0, stress = 0, b = 0;
   double mean = -1.0;
   for (int k = 0; k < 3; ++k) {
     const AxisControl& a = leg.axes[k];
     driven += a.strain_driven();
     stress += a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress;
     b += a.mode == AxisMode::B;
-    ramps += a.mode == AxisMode::StressRamp;
     if (a.mode == AxisMode::MeanStress) {
       if (mean >= 0.0 && a.value != mean)
         fail(at + ".axes." + std::string(kAxisNames[k]) + ".mean_stress", "every mean_stress axis must give the same value");

@@ -220,14 +220,13 @@ std::string fmt(double x) {
   return buf;
 }
 
-// A stress ramp that falls to zero has no target a compressive packing can hold (and no relative error).
-void check_ramp_targets(const Leg& leg, double dt, const State& state, const std::string& where) {
-  const double leg_time = static_cast<double>(state.control.leg_steps + 1) * dt;  // the next step's target
+// A stress ramp that falls to zero has no target a compressive packing can hold (and no relative error): the
+// axis whose target for the next step is not positive, or -1.
+int spent_ramp(const Leg& leg, double dt, const State& state) {
+  const double leg_time = static_cast<double>(state.control.leg_steps + 1) * dt;
   for (int k = 0; k < 3; ++k)
-    if (leg.axes[k].mode == AxisMode::StressRamp && !(leg.axes[k].stress_target(leg_time) > 0.0))
-      throw RunError(where + ": the stress_ramp target of axis x" + std::to_string(k + 1) + " falls to 0 Pa after " +
-                     std::to_string(state.control.leg_steps) + " steps of the leg: end the leg before (end.stress or "
-                     "end.steps)");
+    if (leg.axes[k].mode == AxisMode::StressRamp && !(leg.axes[k].stress_target(leg_time) > 0.0)) return k;
+  return -1;
 }
 
 // What the failed control of axis k says: where, how far, and what to change (the servo sat at its cap for
@@ -269,13 +268,17 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
     const LegChecks checks(leg, model);
     const Loading loading{leg.axes, program.friction, checks.cap};
+    const bool ramps = has_stress_ramp(leg);
     bool leg_over = watch.ended(model, state);  // on the state as it stands
     bool leg_done = leg_over;                   // (or an equilibrium leg that is not the last reached it)
     // After each step, on one thread; false to leave the steps' parallel region (the leg is over, or the
     // governor changed the thread count: the loop goes on with the new count).
     const AfterStep after_step = [&](bool) {
       const bool threads_changed = governor.step_done();
-      check_ramp_targets(leg, model.dt, state, stage_name(program) + " " + leg_name(state));
+      if (const int k = ramps ? spent_ramp(leg, model.dt, state) : -1; k >= 0)
+        throw RunError(stage_name(program) + " " + leg_name(state) + ": the stress_ramp target of axis x" +
+                       std::to_string(k + 1) + " falls to 0 Pa after " + std::to_string(c.leg_steps) +
+                       " steps of the leg: end the leg before (end.stress or end.steps)");
       ControlErrors& e = errors[c.leg];
       if (const int k = track_errors(leg, checks, model.dt, state, e); k >= 0) {
         const std::string message = control_failure_message(program, c.leg, checks, e, k, model.servo);
