@@ -98,6 +98,7 @@ Command add_check_command(CLI::App& app) {
                 deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name,
                 describe_estimate(deck, start_fraction).c_str());
     if (const std::string servo = describe_servo_caps(deck); !servo.empty()) std::printf("%s\n", servo.c_str());
+    if (const std::string legs = describe_ramps_and_holds(deck); !legs.empty()) std::printf("%s\n", legs.c_str());
     return 0;
   };
 }

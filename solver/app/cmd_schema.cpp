@@ -48,6 +48,7 @@ Json axis_json(const AxisControl& a) {
     case AxisMode::B: return {{"b", a.value}};
     case AxisMode::MeanStress: return {{"mean_stress", a.value}};
     case AxisMode::ConstantVolume: return {{"constant_volume", true}};
+    case AxisMode::StressRamp: return {{"stress_ramp", {{"from", a.value}, {"rate", a.rate}}}};
   }
   return nullptr;
 }
@@ -224,16 +225,33 @@ Json plan_json(const Deck& deck) {
     double stress_sum = 0.0;
     int stress_axes = 0;
     for (const AxisControl& a : first.axes)
-      if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) stress_sum += a.value, ++stress_axes;
+      if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
+        stress_sum += a.value, ++stress_axes;  // a ramp's start
     const Json inertia = stress_axes ? Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample),
                                                             deck.sample.density, stress_sum / stress_axes))
                                      : Json(nullptr);
-    const Json legs = legs_json(t.legs, p.legs);
+    Json legs = legs_json(t.legs, p.legs);
+    for (std::size_t k = 0; k < t.legs.size(); ++k) {
+      // Only for the new kinds of leg, so that every other deck's plan stays as it was.
+      const Leg& leg = t.legs[k];
+      if (const std::int64_t n = ramp_target_steps(leg, deck.time_step); n >= 0) legs[k]["ramp_target_steps"] = n;
+      if (leg.end.kind == LegEndKind::Equilibrium)  // the leg's own end.max_steps, else the criterion's
+        legs[k]["equilibrium_max_steps"] = leg.end.max_steps > 0 ? leg.end.max_steps : t.equilibrium.max_steps;
+    }
+    const bool holds = std::any_of(t.legs.begin(), t.legs.end(),
+                                   [](const Leg& leg) { return leg.end.kind == LegEndKind::Equilibrium; });
     out["tests"].push_back({{"name", t.name}, {"friction", t.friction}, {"steps", known(p.steps)},
                             {"end_axis", kAxisNames[first.end.axis]}, {"end_strain", first.end.value},
                             {"strain_per_step", p.strain_per_step}, {"strain_rate", p.strain_rate},
                             {"output_interval", t.output_interval}, {"rows", known(p.rows)},
                             {"axes", axes_json(first)}, {"legs", legs}, {"inertial_number", inertia}});
+    if (holds) {
+      const EquilibriumDef& e = t.equilibrium;
+      out["tests"].back()["equilibrium"] = {
+          {"pressure_tolerance", e.pressure_tolerance}, {"stress_tolerance", e.stress_tolerance},
+          {"unbalanced_force_ratio", e.unbalanced_force_ratio}, {"min_steps", e.min_steps},
+          {"check_interval", e.check_interval}, {"max_steps", e.max_steps}};
+    }
   }
   return out;
 }
@@ -299,11 +317,28 @@ Command add_plan_command(CLI::App& app) {
     const auto range = [&](const Json& r) {
       return r["high"] == r["low"] ? count(r["low"]) : count(r["low"]) + (r["high"].is_null() ? " or more" : " to " + count(r["high"]));
     };
-    const auto print_stage = [&](const std::string& name, const Json& steps, const Json& rows, const Json& legs) {
+    const auto print_stage = [&](const std::string& name, const Json& steps, const Json& rows, const Json& legs,
+                                 const Json& equilibrium) {
       std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", name.c_str(), legs.size(), legs.size() > 1 ? "s" : "",
                   steps.is_object() ? range(steps).c_str() : count(steps).c_str(), count(rows).c_str());
       for (std::size_t j = 0; j < legs.size(); ++j) {
         const Json& leg = legs[j];
+        for (const char* axis : {"x1", "x2", "x3"})
+          if (const Json& a = leg["axes"][axis]; a.contains("stress_ramp"))
+            std::printf("    leg %zu: %s stress ramp from %.6g Pa at %.6g Pa/s (%.3g Pa per step)\n", j, axis,
+                        a["stress_ramp"]["from"].get<double>(), a["stress_ramp"]["rate"].get<double>(),
+                        a["stress_ramp"]["rate"].get<double>() * deck.time_step);
+        if (leg.contains("ramp_target_steps"))
+          std::printf("    leg %zu: its end stress is the ramp's target after %lld steps (the measured stress ends it)\n",
+                      j, static_cast<long long>(leg["ramp_target_steps"].get<std::int64_t>()));
+        if (leg.contains("equilibrium_max_steps") && equilibrium.is_object())
+          std::printf("    leg %zu: ends in equilibrium after %lld to %lld steps, checked every %lld: |dp| <= %.3g, "
+                      "max|ds| <= %.3g, unbalanced <= %.3g\n",
+                      j, static_cast<long long>(equilibrium["min_steps"].get<std::int64_t>()),
+                      static_cast<long long>(leg["equilibrium_max_steps"].get<std::int64_t>()),
+                      static_cast<long long>(equilibrium["check_interval"].get<std::int64_t>()),
+                      equilibrium["pressure_tolerance"].get<double>(), equilibrium["stress_tolerance"].get<double>(),
+                      equilibrium["unbalanced_force_ratio"].get<double>());
         const double d = leg["driving_increment"].get<double>(), cap = leg["servo_cap"].get<double>();
         std::printf("    leg %zu: %s, %s steps, %s rows", j, describe_end(leg["end"]).c_str(), range(leg["steps"]).c_str(),
                     count(leg["rows"]).c_str());
@@ -318,9 +353,10 @@ Command add_plan_command(CLI::App& app) {
     };
     if (deck.prepare) {
       const Json& p = plan["prepare"];
-      print_stage("prepare", p["steps"], p["rows"], p["legs"]);
+      print_stage("prepare", p["steps"], p["rows"], p["legs"], Json());
     }
-    for (const Json& t : plan["tests"]) print_stage(t["name"].get<std::string>(), t["steps"], t["rows"], t["legs"]);
+    for (const Json& t : plan["tests"])
+      print_stage(t["name"].get<std::string>(), t["steps"], t["rows"], t["legs"], t.value("equilibrium", Json()));
     const Json& start = plan["prepare"].is_object() ? plan["prepare"].value("start", Json()) : Json();
     std::printf("%s\n", describe_estimate(deck, start.is_null() ? -1.0 : start["solid_fraction"].get<double>()).c_str());
     return 0;

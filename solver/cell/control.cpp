@@ -22,7 +22,7 @@ void begin_leg(State& state, int leg) {
   c.servo_integral = Vec3::Zero();
 }
 
-Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s) {
+Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, double leg_time) {
   Vec3 target = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   int major = -1, b_axis = -1, minor = -1;
   double known = 0.0;  // stress of the axes that are not mean_stress
@@ -33,7 +33,7 @@ Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s) {
     if (a.strain_driven()) major = k;
     if (a.mode == AxisMode::B) b_axis = k;
     if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) minor = k;
-    if (a.mode == AxisMode::Stress) target[k] = a.value;
+    if (a.mode == AxisMode::Stress || a.mode == AxisMode::StressRamp) target[k] = a.stress_target(leg_time);
     if (a.mode == AxisMode::MeanStress) ++mean_axes, mean = a.value;
     else if (a.mode != AxisMode::B) known += a.mode == AxisMode::Stress ? a.value : s[k];
   }
@@ -99,7 +99,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
   const double next_step = static_cast<double>(ctl.leg_steps + 1);
-  const Vec3 target = stress_targets(loading.axes, state.normal_stress);
+  const Vec3 target = stress_targets(loading.axes, state.normal_stress, next_step * model.dt);
   const double cap = loading.servo_cap > 0.0 ? loading.servo_cap : model.servo.max_strain_increment;
   state.servo_saturated = {false, false, false};
   for (int k = 0; k < 3; ++k) {
@@ -113,6 +113,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
         cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_step * a.value * model.dt));
         break;
       case AxisMode::Stress:
+      case AxisMode::StressRamp:
       case AxisMode::MeanStress:
       case AxisMode::B:
         cell.h(k, k) *= 1.0 - servo_increment(model.servo, cap, target[k], k, state);

@@ -12,6 +12,8 @@
 // K_kk = (1/V) sum_c kn (n_k l_k)^2 is the affine stiffness of the axis measured from the contacts, so
 // `gain` is the fraction of the stress error an affine step would remove. The targets (stress_targets()):
 //   stress s:        s;
+//   stress_ramp:     from + rate t, t the time since the leg start (the servo aims at the target of the step's
+//                    end, t = (leg steps + 1) dt), so the target moves instead of stepping;
 //   mean_stress p:   the axes share 3p minus the other axes' stresses equally (p held);
 //   b:               s_minor + b (s_major - s_minor), s_major the strain-driven axis's stress, s_minor the other
 //                    stress axis's; with a mean_stress minor axis both follow from b and p together:
@@ -39,8 +41,9 @@ void begin_stage(State& state);
 // strain-driven axes start from their present strains, the servo's memory is cleared.
 void begin_leg(State& state, int leg);
 
-// The target stresses of the stress-driven axes for the stresses s (NaN for other axes).
-Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s);
+// The target stresses of the stress-driven axes for the stresses s at `leg_time` [s] after the leg start (it
+// moves stress_ramp targets only; NaN for axes that are not stress-driven).
+Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, double leg_time);
 
 // Sets the cell for the end of this step (state.control.leg_steps is the number of steps already done in
 // the leg) and the velocity gradient L with hdot = L h_mid; state.servo_saturated says which servo axes

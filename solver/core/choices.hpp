@@ -17,7 +17,7 @@ enum class TangentialModel { LinearHistory, Mindlin, MindlinRescale };
 enum class RollingModel { None, Sds };                 // no rolling resistance, or spring-dashpot-slider
 enum class TwistingModel { None, Marshall };           // no twisting resistance, or Marshall's (from the tangential law)
 // How an axis of the cell is driven during a leg (cell/control.hpp has the laws).
-enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume };
+enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume, StressRamp };
 // What ends a leg.
 enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium };
 // What a control that stays outside its tolerance does: stop the stage (exit 1), or warn and mark the test.

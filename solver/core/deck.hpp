@@ -113,10 +113,15 @@ struct ServoDef {
 struct AxisControl {
   AxisMode mode = AxisMode::StrainIncrement;
   // StrainIncrement: per step [-]; StrainRate [1/s]; Stress, MeanStress [Pa]; B [-] (compression +);
-  // ConstantVolume: unused.
+  // StressRamp: the target at the leg start [Pa]; ConstantVolume: unused.
   double value = 0.0;
+  double rate = 0.0;  // StressRamp: [Pa/s] the target moves by rate x (time since the leg start)
   bool strain_driven() const { return mode == AxisMode::StrainIncrement || mode == AxisMode::StrainRate; }
-  bool stress_driven() const { return mode == AxisMode::Stress || mode == AxisMode::MeanStress || mode == AxisMode::B; }
+  bool stress_driven() const {
+    return mode == AxisMode::Stress || mode == AxisMode::MeanStress || mode == AxisMode::B || mode == AxisMode::StressRamp;
+  }
+  // The stress target of a stress or stress_ramp axis at `leg_time` [s] after the leg start.
+  double stress_target(double leg_time) const { return mode == AxisMode::StressRamp ? value + rate * leg_time : value; }
 };
 
 struct LegEnd {
@@ -180,6 +185,7 @@ struct TestDef {
   double friction = 0.0;
   double rolling_friction = 0.0;  // contact.rolling_friction unless the test says
   std::vector<Leg> legs;
+  EquilibriumDef equilibrium;  // legs that end in equilibrium: the test's keys, else the preparation's
   std::int64_t output_interval = static_cast<std::int64_t>(keys::test_output_interval.fallback);
   SnapshotDef snapshots;
   bool dynamic = false;  // not held to quasi-static (run/health.hpp)

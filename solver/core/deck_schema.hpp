@@ -255,7 +255,8 @@ inline constexpr KeySpec equilibrium_max_steps{.path = "prepare.equilibrium.max_
 inline constexpr KeySpec prepare_legs{.path = "prepare.legs", .kind = KeyKind::Array, .required = false,
     .default_text = "fast compression, then the servo",
     .meaning = "instead of the two default legs: a load program as in `tests[].legs`, whose legs may also end on "
-               "`solid_fraction` or `equilibrium` (`target_pressure` and the fast keys are then not used)"};
+               "`solid_fraction`, and end on `equilibrium` by `prepare.equilibrium` (`target_pressure` and the fast "
+               "keys are then not used)"};
 inline constexpr KeySpec end_solid_fraction{.path = "prepare.legs[].end.solid_fraction", .kind = KeyKind::Number,
     .min = 0.01, .max = 0.9, .required = false, .default_text = "-",
     .meaning = "the leg ends when the spheres fill this fraction of the cell"};
@@ -309,8 +310,19 @@ inline constexpr KeySpec axis_mean_stress{.path = "tests[].axes.xK.mean_stress",
 inline constexpr KeySpec axis_constant_volume{.path = "tests[].axes.xK.constant_volume", .kind = KeyKind::Boolean,
     .required = false, .default_text = "-",
     .meaning = "`true`: the axis's strain keeps the cell volume at the leg's start (equal strains on two such axes)"};
+inline constexpr KeySpec axis_stress_ramp{.path = "tests[].axes.xK.stress_ramp", .kind = KeyKind::Object,
+    .required = false, .default_text = "-",
+    .meaning = "servo-controlled stress whose target moves during the leg: `from` + `rate` t, t the time since the "
+               "leg start (not beside `b` or `mean_stress` axes; relative error as `stress`)"};
+inline constexpr KeySpec axis_stress_ramp_from{.path = "tests[].axes.xK.stress_ramp.from", .kind = KeyKind::Number,
+    .positive = true, .unit = "Pa",
+    .meaning = "the target at the leg start, compression + (the stress the axis holds there, or the servo chases "
+               "the difference)"};
+inline constexpr KeySpec axis_stress_ramp_rate{.path = "tests[].axes.xK.stress_ramp.rate", .kind = KeyKind::Number,
+    .min = -1e15, .max = 1e15, .unit = "Pa/s",
+    .meaning = "the target's rate, non-zero (negative: unloading; the run stops if the target falls to 0)"};
 inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object,
-    .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`"};
+    .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`, `equilibrium`"};
 inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
     .choices = kAxisNames, .meaning = "the axis of a `strain` or `stress` end"};
 inline constexpr KeySpec test_end_strain{.path = "tests[].end.strain", .kind = KeyKind::Number, .min = -0.9,
@@ -322,6 +334,14 @@ inline constexpr KeySpec test_end_stress{.path = "tests[].end.stress", .kind = K
     .required = false, .default_text = "-", .unit = "Pa", .meaning = "the axis's stress reaches this value"};
 inline constexpr KeySpec test_end_steps{.path = "tests[].end.steps", .kind = KeyKind::Integer, .min = 1,
     .max = kMaxCount, .required = false, .default_text = "-", .meaning = "the leg's length in steps"};
+inline constexpr KeySpec test_end_equilibrium{.path = "tests[].end.equilibrium", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "-",
+    .meaning = "`true`: the leg ends in equilibrium (`tests[].equilibrium`) at its stress targets (every axis on "
+               "`stress` or `mean_stress`: a consolidation or hold leg)"};
+inline constexpr KeySpec test_equilibrium{.path = "tests[].equilibrium", .kind = KeyKind::Object, .required = false,
+    .default_text = "`prepare.equilibrium`",
+    .meaning = "when a leg that ends in `equilibrium` ends: the keys of `prepare.equilibrium`, each defaulting to the "
+               "deck's `prepare.equilibrium` value (or its default)"};
 inline constexpr KeySpec test_end_max_steps{.path = "tests[].end.max_steps", .kind = KeyKind::Integer, .min = 0,
     .max = kMaxCount, .required = false, .fallback = 0,
     .meaning = "a `strain` leg ends here at the latest; any other leg not ended by then stops the run (0: none)"};
@@ -361,8 +381,9 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
-    &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &test_end, &test_end_axis, &test_end_strain,
-    &test_end_ratio, &test_end_stress, &test_end_steps, &test_end_max_steps, &snapshots, &snapshots_interval,
+    &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
+    &axis_stress_ramp_rate, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
+    &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic});
 
 // The keys that choose the contact sub-models; a SubModelSelection names each one's choice in this order.

@@ -43,6 +43,14 @@ double leg_driving_increment(const Leg& leg, double time_step) {
   return d;
 }
 
+std::int64_t ramp_target_steps(const Leg& leg, double time_step) {
+  const LegEnd& e = leg.end;
+  if (e.kind != LegEndKind::Stress) return -1;
+  const AxisControl& a = leg.axes[e.axis];
+  if (a.mode != AxisMode::StressRamp) return -1;
+  return static_cast<std::int64_t>(std::ceil((e.value - a.value) / (a.rate * time_step) * (1.0 - 1e-12)));
+}
+
 bool leg_has_servo(const Leg& leg) {
   return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.stress_driven(); });
 }
@@ -155,7 +163,8 @@ double largest_deck_stress(const Deck& deck) {
   const auto scan = [&p](const std::vector<Leg>& legs) {
     for (const Leg& leg : legs) {
       for (const AxisControl& a : leg.axes)
-        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) p = std::max(p, std::abs(a.value));
+        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
+          p = std::max(p, std::abs(a.value));  // a ramp's start (its end, when a stress, is the leg's end below)
       if (leg.end.kind == LegEndKind::Stress) p = std::max(p, std::abs(leg.end.value));
     }
   };

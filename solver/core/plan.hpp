@@ -34,6 +34,11 @@ PreparationProgram preparation_program(const PrepareDef& prepare, double start_s
 // strain reached by a stress-driven axis). Capped by end.max_steps.
 std::int64_t leg_steps(const Leg& leg, double time_step, double from = 0.0);
 
+// A leg that ends on the stress of a stress_ramp axis: the step at which the ramp's target reaches the end
+// stress, ceil((end - from) / (rate dt)) (the run ends it when the measured stress does, within the servo's
+// lag); -1 for any other leg.
+std::int64_t ramp_target_steps(const Leg& leg, double time_step);
+
 // The largest |strain per step| of the leg's strain-driven axes (0 when none drives it).
 double leg_driving_increment(const Leg& leg, double time_step);
 // Whether a servo moves one of the leg's axes (stress, mean_stress or b).

@@ -336,9 +336,16 @@ AxisControl read_axis(ObjectReader r) {
       }
       ++given;
     }
+  if (r.has(keys::axis_stress_ramp)) {
+    ObjectReader ramp = r.object(keys::axis_stress_ramp);
+    a = {AxisMode::StressRamp, ramp.number(keys::axis_stress_ramp_from), ramp.number(keys::axis_stress_ramp_rate)};
+    if (a.rate == 0.0) fail(ramp.at(keys::axis_stress_ramp_rate), "must be non-zero (a constant target is \"stress\")");
+    ramp.finish();
+    ++given;
+  }
   if (given != 1)
-    fail(r.path(), "give exactly one of \"strain_increment\", \"strain_rate\", \"stress\", \"b\", \"mean_stress\", "
-                   "\"constant_volume\"");
+    fail(r.path(), "give exactly one of \"strain_increment\", \"strain_rate\", \"stress\", \"stress_ramp\", \"b\", "
+                   "\"mean_stress\", \"constant_volume\"");
   r.finish();
   return a;
 }
@@ -352,14 +359,15 @@ LegEnd read_end(ObjectReader end, bool preparation) {
   if (end.has(keys::test_end_steps)) e.kind = LegEndKind::Steps, e.steps = end.integer(keys::test_end_steps), ++given;
   if (preparation && end.has(keys::end_solid_fraction))
     e.kind = LegEndKind::SolidFraction, e.value = end.number(keys::end_solid_fraction), ++given;
-  if (preparation && end.has(keys::end_equilibrium)) {
-    if (!end.boolean(keys::end_equilibrium)) fail(end.at(keys::end_equilibrium), "only true is meaningful");
+  const KeySpec& equilibrium = preparation ? keys::end_equilibrium : keys::test_end_equilibrium;
+  if (end.has(equilibrium)) {
+    if (!end.boolean(equilibrium)) fail(end.at(equilibrium), "only true is meaningful");
     e.kind = LegEndKind::Equilibrium, ++given;
   }
   if (given != 1)
     fail(end.path(), preparation ? "give exactly one of \"strain\", \"ratio\", \"stress\", \"steps\", "
                                    "\"solid_fraction\", \"equilibrium\""
-                                 : "give exactly one of \"strain\", \"ratio\", \"stress\", \"steps\"");
+                                 : "give exactly one of \"strain\", \"ratio\", \"stress\", \"steps\", \"equilibrium\"");
   e.axis = static_cast<int>(end.choice(keys::test_end_axis));
   e.max_steps = end.integer(keys::test_end_max_steps);
   end.finish();
@@ -390,6 +398,11 @@ void check_leg(const Leg& leg, const std::string& at) {
       fail(axis + ".constant_volume", "a constant-volume axis needs a strain-driven axis to balance");
   }
   if (b > 1) fail(at + ".axes", "at most one b axis");
+  for (int k = 0; k < 3; ++k)
+    if (leg.axes[k].mode == AxisMode::StressRamp && (b > 0 || mean >= 0.0))
+      fail(at + ".axes." + std::string(kAxisNames[k]) + ".stress_ramp",
+           "a stress_ramp axis cannot share a leg with b or mean_stress axes (their targets follow the other axes' "
+           "stresses)");
   if (mean >= 0.0 && driven == 0 && b == 0 && stress < 3)
     fail(at + ".axes", "mean_stress axes need a strain-driven or b axis beside them, or all three on mean_stress");
   const LegEnd& e = leg.end;
@@ -408,6 +421,10 @@ void check_leg(const Leg& leg, const std::string& at) {
         fail(end + ".equilibrium", "a leg that ends in equilibrium needs every axis on stress or mean_stress");
   if ((e.kind == LegEndKind::Ratio || e.kind == LegEndKind::Stress) && e.max_steps == 0)
     fail(end + ".max_steps", "a ratio or stress end needs max_steps (it may never be reached)");
+  if (const AxisControl& a = leg.axes[e.axis]; e.kind == LegEndKind::Stress && a.mode == AxisMode::StressRamp &&
+                                                 (e.value - a.value) * a.rate <= 0.0)
+    fail(end + ".stress", "the stress_ramp of axis " + std::string(kAxisNames[e.axis]) + " moves away from this end "
+                          "stress (from " + fmt(a.value) + " Pa at " + fmt(a.rate) + " Pa/s)");
 }
 
 Leg read_leg(ObjectReader& r, bool preparation) {
@@ -490,8 +507,32 @@ void check_leg_lengths(const TestDef& t, double time_step, const std::string& le
   }
 }
 
-TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step) {
+// Which key fills which field.
+template <class S, class T>
+using Bindings = std::initializer_list<std::pair<const KeySpec*, T S::*>>;
+using E = EquilibriumDef;
+using P = PrepareDef;
+const Bindings<E, double> kEquilibriumTolerances = {
+    {&keys::equilibrium_pressure_tolerance, &E::pressure_tolerance},
+    {&keys::equilibrium_stress_tolerance, &E::stress_tolerance},
+    {&keys::equilibrium_unbalanced_force_ratio, &E::unbalanced_force_ratio}};
+const Bindings<E, std::int64_t> kEquilibriumSteps = {{&keys::equilibrium_min_steps, &E::min_steps},
+                                                     {&keys::equilibrium_check_interval, &E::check_interval},
+                                                     {&keys::equilibrium_max_steps, &E::max_steps}};
+
+// The listed keys the object gives into the struct's fields; the others keep their values.
+template <class S, class T>
+void read_given_fields(ObjectReader& r, S& s, const Bindings<S, T>& fields) {
+  for (const auto& [key, field] : fields)
+    if (r.has(*key)) {
+      if constexpr (std::is_same_v<T, double>) s.*field = r.number(*key);
+      else s.*field = r.integer(*key);
+    }
+}
+
+TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, const EquilibriumDef& equilibrium) {
   TestDef t;
+  t.equilibrium = equilibrium;
   t.name = r.string(keys::test_name);
   if (t.name.empty() || t.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
                             std::string::npos)
@@ -525,6 +566,12 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step) {
     t.legs.push_back(leg);
     check_leg_lengths(t, time_step, r.path(), true);
   }
+  if (r.has(keys::test_equilibrium)) {
+    ObjectReader e = r.object(keys::test_equilibrium);
+    read_given_fields(e, t.equilibrium, kEquilibriumTolerances);
+    read_given_fields(e, t.equilibrium, kEquilibriumSteps);
+    e.finish();
+  }
   t.output_interval = r.integer(keys::test_output_interval);
   if (r.has(keys::snapshots)) t.snapshots = read_snapshots(r.object(keys::snapshots));
   t.dynamic = r.boolean(keys::test_dynamic);
@@ -532,18 +579,6 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step) {
   return t;
 }
 
-// Which key fills which field.
-template <class S, class T>
-using Bindings = std::initializer_list<std::pair<const KeySpec*, T S::*>>;
-using E = EquilibriumDef;
-using P = PrepareDef;
-const Bindings<E, double> kEquilibriumTolerances = {
-    {&keys::equilibrium_pressure_tolerance, &E::pressure_tolerance},
-    {&keys::equilibrium_stress_tolerance, &E::stress_tolerance},
-    {&keys::equilibrium_unbalanced_force_ratio, &E::unbalanced_force_ratio}};
-const Bindings<E, std::int64_t> kEquilibriumSteps = {{&keys::equilibrium_min_steps, &E::min_steps},
-                                                     {&keys::equilibrium_check_interval, &E::check_interval},
-                                                     {&keys::equilibrium_max_steps, &E::max_steps}};
 const Bindings<P, double> kPrepareNumbers = {{&keys::prepare_friction, &P::friction},
                                              {&keys::prepare_rolling_friction, &P::rolling_friction},
                                              {&keys::prepare_target_pressure, &P::target_pressure},
@@ -630,7 +665,8 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
     std::set<std::string> names;
     for (std::size_t i = 0; i < tests.size(); ++i) {
       const std::string path = "tests[" + std::to_string(i) + "]";
-      d.tests.push_back(read_test(ObjectReader(tests[i], path), d.contact, d.time_step));
+      d.tests.push_back(read_test(ObjectReader(tests[i], path), d.contact, d.time_step,
+                                  d.prepare ? d.prepare->equilibrium : EquilibriumDef{}));
       if (!names.insert(d.tests.back().name).second)
         fail(path + ".name", "duplicate test name \"" + d.tests.back().name + "\"");
     }

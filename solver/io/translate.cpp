@@ -27,6 +27,7 @@ std::string axis_text(const AxisControl& a) {
     case AxisMode::B: return "b " + num(a.value);
     case AxisMode::MeanStress: return "mean stress " + num(a.value) + " Pa";
     case AxisMode::ConstantVolume: return "constant volume";
+    case AxisMode::StressRamp: return "stress ramp from " + num(a.value) + " Pa at " + num(a.rate) + " Pa/s";
   }
   return "";
 }

@@ -49,8 +49,9 @@ std::string lit(double x) {
 
 // celldem's stress_targets() (cell/control.hpp) as formulas of this step's contact stresses c_P[1..3]: the
 // target of each stress-driven axis (empty for the others). A mean_stress minor axis beside a b axis is
-// referred to by its variable t<tag><axis>.
-std::array<std::string, 3> servo_targets(const Leg& leg, const std::string& tag) {
+// referred to by its variable t<tag><axis>. A stress_ramp target moves with the steps since the leg start v_S<tag>
+// (celldem aims each step at the target of the step's end; LAMMPS evaluates the variable during the step).
+std::array<std::string, 3> servo_targets(const Leg& leg, const std::string& tag, double time_step) {
   std::array<std::string, 3> target;
   int major = -1, b_axis = -1, minor = -1, mean_axes = 0;
   double mean = 0.0;
@@ -61,6 +62,8 @@ std::array<std::string, 3> servo_targets(const Leg& leg, const std::string& tag)
     if (a.mode == AxisMode::B) b_axis = k;
     if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) minor = k;
     if (a.mode == AxisMode::Stress) target[k] = lit(a.value);
+    if (a.mode == AxisMode::StressRamp)
+      target[k] = "(" + lit(a.value) + "+" + lit(a.rate * time_step) + "*(step-v_S" + tag + "))";
     if (a.mode == AxisMode::MeanStress) {
       ++mean_axes, mean = a.value;
     } else if (a.mode != AxisMode::B) {
@@ -125,6 +128,10 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
         r.limit = e.max_steps;
       }
     } else if (e.kind == LegEndKind::Equilibrium) {
+      if (!p.preparation())  // its unbalanced force ratio is measured by the preparation's script only
+        throw DeckError("test \"" + p.name + "\", leg " + std::to_string(j + 1) +
+                        ": end.equilibrium (a test leg that ends in equilibrium) is not translated; end the leg on "
+                        "steps to translate the test");
       r.length = LegLength::Equilibrium;
       r.limit = e.max_steps > 0 ? e.max_steps : p.equilibrium->max_steps;
     } else {
@@ -247,8 +254,9 @@ void ProgramWriter::controls(int j) {
   const bool strain_variable = !lmp_ && !by_erate;
   const bool strain_vel = lmp_ && !by_erate;
   const TranslatedServo servo = translated_servo(deck_);
-  const std::array<std::string, 3> target = servo_targets(leg, t);
-  if (strain_variable || chunked(j)) freeze("S" + t, "step");
+  const std::array<std::string, 3> target = servo_targets(leg, t, deck_.time_step);
+  const bool ramp = has_mode(leg, AxisMode::StressRamp);
+  if (strain_variable || chunked(j) || ramp) freeze("S" + t, "step");
 
   std::string deform, baro, vars;
   bool units_box = false, coupled = false;
@@ -279,6 +287,7 @@ void ProgramWriter::controls(int j) {
           break;
         }
         [[fallthrough]];
+      case AxisMode::StressRamp:  // a moving target: the press/berendsen law as a fix deform variable
       case AxisMode::B:
       case AxisMode::MeanStress: {
         std::string goal = target[k];
@@ -324,8 +333,10 @@ void ProgramWriter::controls(int j) {
                 : "")
        << "as a fix deform variable (L = L_start + d);\n# constant-volume axes by fix deform volume\n";
   }
-  if (coupled)
+  if (coupled && !ramp)
     o_ << "# b / mean_stress targets from this step's contact stresses, as celldem's stress_targets()\n";
+  if (ramp)
+    o_ << "# stress_ramp targets: from + rate dt (steps since the leg start), as celldem's stress_targets()\n";
   if (!lmp_ || !vars.empty()) o_ << vars;
   if (!deform.empty()) {
     o_ << pad("fix") << "dfm all deform 1" << deform << " remap x" << (units_box ? " units box" : "") << "\n";
@@ -420,7 +431,7 @@ void ProgramWriter::equilibrium(int j) {
   const Leg& leg = p_.legs[j];
   const EquilibriumDef& c = *p_.equilibrium;
   const std::string t = tag(j), label = "leg" + t;
-  const Vec3 target = stress_targets(leg.axes, Vec3::Zero());  // stress and mean_stress axes only: constants
+  const Vec3 target = stress_targets(leg.axes, Vec3::Zero(), 0.0);  // stress and mean_stress axes only: constants
   const double p = target[0] == target[1] && target[1] == target[2] ? target[0] : target.mean();
   o_ << "# equilibrium, celldem's criterion (prepare.equilibrium): |p - p*|/p* <= " << num(c.pressure_tolerance)
      << ", every |s_kk - t_k|/t_k <= " << num(c.stress_tolerance) << ",\n# unbalanced force ratio <= "

@@ -131,7 +131,8 @@ std::string not_quasi_static_cause(const Deck& deck, const TestDef& test) {
   double p = 0.0;  // the first leg's stress target, for the inertial number
   int n = 0;
   for (const AxisControl& a : test.legs.front().axes)
-    if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) p += a.value, ++n;
+    if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
+      p += a.value, ++n;  // a ramp's start
   const double inertia = n ? inertial_number(loading_rate(deck, test), mean_diameter(deck.sample),
                                              deck.sample.density, p / n) : 0.0;
   char rate[160];

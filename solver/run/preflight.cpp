@@ -308,6 +308,41 @@ std::string describe_servo_caps(const Deck& deck) {
          "; `celldem plan` lists every leg";
 }
 
+std::string describe_ramps_and_holds(const Deck& deck) {
+  std::string out;
+  double fastest = 0.0;
+  std::string where;
+  std::size_t ramps = 0;
+  for (const TestDef& t : deck.tests)
+    for (std::size_t j = 0; j < t.legs.size(); ++j) {
+      const Leg& leg = t.legs[j];
+      const std::string at = "test '" + t.name + "' leg " + std::to_string(j);
+      for (int k = 0; k < 3; ++k) {
+        if (leg.axes[k].mode != AxisMode::StressRamp) continue;
+        ++ramps;
+        const double per_step = std::abs(leg.axes[k].rate) * deck.time_step;
+        if (per_step > fastest) fastest = per_step, where = at + " x" + std::to_string(k + 1);
+      }
+      if (const std::int64_t n = ramp_target_steps(leg, deck.time_step); n >= 0)
+        out += "\n  " + at + ": the ramp's target reaches end.stress " + fmt(leg.end.value) + " Pa after " +
+               std::to_string(n) + " steps";
+      if (leg.end.kind == LegEndKind::Equilibrium) {
+        const EquilibriumDef& e = t.equilibrium;
+        out += "\n  " + at + ": ends in equilibrium after " + std::to_string(e.min_steps) + " to " +
+               std::to_string(leg.end.max_steps > 0 ? leg.end.max_steps : e.max_steps) + " steps (|dp| <= " +
+               fmt(e.pressure_tolerance) + ", max|ds| <= " + fmt(e.stress_tolerance) + ", unbalanced <= " +
+               fmt(e.unbalanced_force_ratio) + ", checked every " + std::to_string(e.check_interval) + ")";
+      }
+    }
+  if (out.empty()) return "";
+  std::string head = "stress ramps and holds:";
+  if (ramps > 0)
+    head += " " + std::to_string(ramps) + " ramp axis(es), the fastest " + fmt(fastest) + " Pa per step (" + where +
+            "; a ramp needs about that over the packing's tangent modulus as strain per step, within the leg's "
+            "servo cap: `celldem plan` lists it)";
+  return head + out;
+}
+
 std::string initial_state_path(const Deck& deck) {
   return (std::filesystem::path(deck.source).parent_path() / deck.initial_state.value()).string();
 }

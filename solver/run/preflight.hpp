@@ -20,6 +20,11 @@ std::vector<std::string> preflight(const Deck& deck);
 // Below kMinServoCapRatio preflight refuses the deck; `plan` lists every leg.
 std::string describe_servo_caps(const Deck& deck);
 
+// Stress ramps and test legs that end in equilibrium, for `check` to say before a run: the fastest ramp (Pa per
+// step, where) and the steps a ramp's target takes to its end stress; each equilibrium leg's criterion. Empty
+// when the deck has neither.
+std::string describe_ramps_and_holds(const Deck& deck);
+
 // The deck's initial_state, resolved against the deck's folder.
 std::string initial_state_path(const Deck& deck);
 

@@ -59,7 +59,8 @@ ControlErrors control_errors_from_json(const Json& j) {
 
 double control_tolerance(AxisMode mode) {
   switch (mode) {
-    case AxisMode::Stress: return kServoTolerance;
+    case AxisMode::Stress:
+    case AxisMode::StressRamp: return kServoTolerance;  // relative to the moving target
     case AxisMode::MeanStress: return kMeanStressTolerance;
     case AxisMode::B: return kBTolerance;
     case AxisMode::ConstantVolume: return kVolumeTolerance;
@@ -69,7 +70,8 @@ double control_tolerance(AxisMode mode) {
 
 std::string control_kind(AxisMode mode) {
   switch (mode) {
-    case AxisMode::Stress: return "stress";
+    case AxisMode::Stress:
+    case AxisMode::StressRamp: return "stress";  // one kind: summary.json's stress errors hold both
     case AxisMode::MeanStress: return "mean_stress";
     case AxisMode::B: return "b";
     case AxisMode::ConstantVolume: return "volume";
@@ -137,16 +139,28 @@ class LegEndWatch {
   int side_ = 1;
 };
 
+bool has_stress_ramp(const Leg& leg) {
+  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.mode == AxisMode::StressRamp; });
+}
+
 // What a leg's control checks need: its driving increment per step, how many steps of it make the settle
-// window and the persistence run (kPersistStrain), and its servo cap.
+// window and the persistence run (kPersistStrain), and its servo cap. A leg that only a stress ramp drives
+// (no strain-driven axis) is checked too: its settle window and persistence run are kRampSettleSteps and
+// kMinPersistSteps.
 struct LegChecks {
   double driving = 0.0;          // largest |strain per step| of a strain-driven axis (0: nothing drives the leg)
+  bool checked = false;          // whether the leg's errors are measured at all
   std::int64_t settle = 0;       // steps before the errors count
   std::int64_t persist = 0;      // consecutive steps above tolerance that fail a control
   double cap = 0.0;              // the servo's cap of this leg
   LegChecks(const Leg& leg, const Model& model)
       : driving(leg_driving_increment(leg, model.dt)), cap(servo_cap(model.servo, leg, model.dt)) {
-    if (driving > 0.0) {  // whole steps: a quotient rounded just above an integer does not add one
+    if (driving == 0.0 && has_stress_ramp(leg)) {
+      checked = true;
+      settle = kRampSettleSteps;
+      persist = kMinPersistSteps;
+    } else if (driving > 0.0) {  // whole steps: a quotient rounded just above an integer does not add one
+      checked = true;
       const auto steps_for = [&](double strain) {
         return static_cast<std::int64_t>(std::ceil(strain / driving * (1.0 - 1e-12)));
       };
@@ -160,9 +174,10 @@ double worst(double a, double b) { return std::isfinite(a) ? std::max(a, b) : b;
 
 // The errors of the leg's controls at this step (after the settle window), and the run of steps above the
 // tolerance. Returns the axis whose control has just failed (stayed above its tolerance kPersistStrain), or -1.
-int track_errors(const Leg& leg, const LegChecks& checks, const State& state, ControlErrors& errors) {
+int track_errors(const Leg& leg, const LegChecks& checks, double dt, const State& state, ControlErrors& errors) {
   for (int k = 0; k < 3; ++k) errors.saturated_steps[k] += state.servo_saturated[k];
-  if (checks.driving == 0.0 || state.control.leg_steps < checks.settle) return -1;
+  if (!checks.checked || state.control.leg_steps < checks.settle) return -1;
+  const double leg_time = static_cast<double>(state.control.leg_steps) * dt;  // the stresses are the step's end's
   int driver = -1;
   for (int k = 2; k >= 0; --k)
     if (leg.axes[k].strain_driven()) driver = k;
@@ -171,7 +186,8 @@ int track_errors(const Leg& leg, const LegChecks& checks, const State& state, Co
   for (int k = 0; k < 3; ++k) {
     const AxisControl& a = leg.axes[k];
     double err = std::numeric_limits<double>::quiet_NaN();
-    if (a.mode == AxisMode::Stress) errors.stress = worst(errors.stress, err = std::abs(s[k] / a.value - 1.0));
+    if (a.mode == AxisMode::Stress || a.mode == AxisMode::StressRamp)
+      errors.stress = worst(errors.stress, err = std::abs(s[k] / a.stress_target(leg_time) - 1.0));
     if (a.mode == AxisMode::MeanStress)
       errors.mean_stress = worst(errors.mean_stress, err = std::abs(s.sum() / 3.0 / a.value - 1.0));
     if (a.mode == AxisMode::ConstantVolume)
@@ -204,6 +220,15 @@ std::string fmt(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", x);
   return buf;
+}
+
+// A stress ramp that falls to zero has no target a compressive packing can hold (and no relative error): the
+// axis whose target for the next step is not positive, or -1.
+int spent_ramp(const Leg& leg, double dt, const State& state) {
+  const double leg_time = static_cast<double>(state.control.leg_steps + 1) * dt;
+  for (int k = 0; k < 3; ++k)
+    if (leg.axes[k].mode == AxisMode::StressRamp && !(leg.axes[k].stress_target(leg_time) > 0.0)) return k;
+  return -1;
 }
 
 // What the failed control of axis k says: where, how far, and what to change (the servo sat at its cap for
@@ -266,14 +291,19 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
     const LegChecks checks(leg, model);
     const Loading loading{leg.axes, program.friction, checks.cap};
+    const bool ramps = has_stress_ramp(leg);
     bool leg_over = watch.ended(model, state);  // on the state as it stands
     bool leg_done = leg_over;                   // (or an equilibrium leg that is not the last reached it)
     // After each step, on one thread; false to leave the steps' parallel region (the leg is over, or the
     // governor changed the thread count: the loop goes on with the new count).
     const AfterStep after_step = [&](bool) {
       const bool threads_changed = governor.step_done();
+      if (const int k = ramps ? spent_ramp(leg, model.dt, state) : -1; k >= 0)
+        throw RunError(stage_name(program) + " " + leg_name(state) + ": the stress_ramp target of axis x" +
+                       std::to_string(k + 1) + " falls to 0 Pa after " + std::to_string(c.leg_steps) +
+                       " steps of the leg: end the leg before (end.stress or end.steps)");
       ControlErrors& e = errors[c.leg];
-      if (const int k = track_errors(leg, checks, state, e); k >= 0) {
+      if (const int k = track_errors(leg, checks, model.dt, state, e); k >= 0) {
         const std::string message = control_failure_message(program, c.leg, checks, e, k, model.servo);
         if (program.control_failure == ControlFailure::Stop)
           throw RunError(message + ". The last checkpoint is kept; with \"control_failure\": \"warn\" the run goes on "
@@ -283,7 +313,8 @@ void run_program(const Model& model, const Program& program, State& state, Stage
       std::optional<ContactMeasures> contacts;  // measured once when the check and the step's row both read them
       if (leg.end.kind == LegEndKind::Equilibrium && c.leg_steps % program.equilibrium->check_interval == 0) {
         const EquilibriumDef& criterion = *program.equilibrium;
-        const Vec3 targets = stress_targets(leg.axes, state.normal_stress);
+        const Vec3 targets =
+            stress_targets(leg.axes, state.normal_stress, static_cast<double>(c.leg_steps) * model.dt);
         if (out.row_due(state)) contacts = measure_contacts(model, state);
         const EquilibriumCheck eq = contacts ? check_equilibrium(state, *contacts, criterion, targets)
                                              : check_equilibrium(model, state, criterion, targets);
@@ -297,12 +328,13 @@ void run_program(const Model& model, const Program& program, State& state, Stage
           // boiling, not slow: more steps or looser tolerances would not help. (A packing still far from its
           // pressure is loose, and a loose packing's unbalanced force is naturally high.)
           const bool boiling = eq.pressure_error < 0.05 && eq.unbalanced > kMaxQuasiStaticUnbalanced;
-          throw RunError("the preparation did not reach equilibrium in " + std::to_string(c.leg_steps) +
+          const std::string who = program.stage == "prepare" ? "the preparation" : stage_name(program) + " " + leg_name(state);
+          throw RunError(who + " did not reach equilibrium in " + std::to_string(c.leg_steps) +
                          " servo steps (" + status + "); " +
                          (boiling ? "an unbalanced force ratio above " + fmt(kMaxQuasiStaticUnbalanced) +
                                         " at the target pressure means the packing boils: the time step is likely too close to the "
                                         "stability limit (`celldem plan` gives it per mode) or damping too low"
-                                  : std::string("raise prepare.equilibrium.max_steps or relax its tolerances")));
+                                  : "raise " + program.equilibrium_key + ".max_steps or relax its tolerances"));
         }
       }
       const double fraction = program.planned_steps > 0

@@ -29,6 +29,10 @@ inline constexpr double kSettleStrain = 0.002;
 // and caught long before a test's peak (1-3 % of strain). The floor keeps fast legs from counting a spike.
 inline constexpr double kPersistStrain = 0.001;
 inline constexpr std::int64_t kMinPersistSteps = 500;
+// A leg that only a stress ramp drives (no strain-driven axis) has no driving strain to measure its settle
+// window in: its errors count after this many steps, twice the integral term's time constant at the default
+// integral_gain (the ramp's lag under the proportional term alone is removed by then).
+inline constexpr std::int64_t kRampSettleSteps = 1000;
 struct ControlErrors {
   double stress = std::numeric_limits<double>::quiet_NaN();       // stress axes: max |s - target| / target
   double b = std::numeric_limits<double>::quiet_NaN();            // b axis: max |b - target| (axis stresses)
@@ -56,11 +60,12 @@ std::string control_kind(AxisMode mode);
 struct Program {
   const std::vector<Leg>& legs;
   Friction friction;  // sliding and rolling
-  const EquilibriumDef* equilibrium = nullptr;  // for legs that end in equilibrium (the preparation)
+  const EquilibriumDef* equilibrium = nullptr;  // for legs that end in equilibrium
   std::int64_t planned_steps = -1;              // all legs, when known (progress and ETA)
   bool adaptive_threads = true;                 // a ThreadGovernor may drop to one thread under contention
   std::string stage = "prepare";                // the stage's name (messages)
   ControlFailure control_failure = ControlFailure::Stop;  // a failed control stops the stage, or is recorded
+  std::string equilibrium_key = "prepare.equilibrium";    // where the deck sets `equilibrium` (messages)
 };
 
 // Runs the program from the state's current leg (state.control.leg) to its end. `errors` holds one entry

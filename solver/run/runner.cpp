@@ -103,7 +103,8 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
   if (!resumed && deck.initial_state && !deck.prepare) out.set_start_cause(loaded_overlap_cause(deck, state));
   out.open(state, resumed);
-  Program program{test.legs, test.stage_friction(), nullptr, plan_test(deck, test).steps};
+  Program program{test.legs, test.stage_friction(), &test.equilibrium, plan_test(deck, test).steps};
+  program.equilibrium_key = "tests[].equilibrium";
   program.adaptive_threads = !options.fixed_threads;
   program.stage = test.name;
   program.control_failure = deck.control_failure;

@@ -45,7 +45,7 @@ TEST(Control, StressTargetsOfBAndMeanStress) {
       {"a mean_stress axis beside a fixed one takes the rest", {AxisMode::Stress, 50.0}, mean, 160, 50, 90},
   };
   for (const Case& c : cases) {
-    const Vec3 t = stress_targets({driven, c.x2, c.x3}, Vec3(c.s1, 0.0, 0.0));
+    const Vec3 t = stress_targets({driven, c.x2, c.x3}, Vec3(c.s1, 0.0, 0.0), 0.0);
     EXPECT_TRUE(std::isnan(t[0])) << c.what;
     EXPECT_DOUBLE_EQ(t[1], c.t2) << c.what;
     EXPECT_DOUBLE_EQ(t[2], c.t3) << c.what;
@@ -143,6 +143,39 @@ TEST(Control, ServoStepFollowsItsLaw) {
   }
   EXPECT_LT(s.cell.h(0, 0), 1.0);  // too little stress: compress
   EXPECT_GT(s.cell.h(1, 1), 1.0);  // too much: extend
+}
+
+// A stress ramp's servo step by hand: the same law, towards the target of the step's end, from + rate (n + 1) dt
+// after n steps of the leg; its target moves by rate dt per step, whatever the stresses.
+TEST(Control, StressRampServoAimsAtTheTargetOfTheStepsEnd) {
+  Deck deck = model_deck(1e4, 1e4, 1e-3);
+  deck.servo = ServoDef{0.05, 0.002, 1e-3};
+  const Model model = make_model(deck, {});
+  const double from = 1.0e5, rate = 3.0e7, K = 2.0e8, s_x = 0.9e5;
+  const AxisControl ramp{AxisMode::StressRamp, from, rate};
+  const Loading loading{{ramp, AxisControl{AxisMode::Stress, from}, AxisControl{AxisMode::StrainIncrement, 0.0}}, 0.0};
+  State s = cell_state(Mat3::Identity() * 1.0);
+  s.normal_stress = Vec3(s_x, from, 0.0);
+  s.axis_stiffness = Vec3(K, K, K);
+  double integral = 0.0, hx = 1.0;
+  for (int n = 0; n < 4; ++n) {
+    const double target = from + rate * (n + 1) * model.dt;
+    const Vec3 t = stress_targets(loading.axes, s.normal_stress, (n + 1) * model.dt);
+    EXPECT_DOUBLE_EQ(t[0], target);
+    EXPECT_DOUBLE_EQ(t[1], from);  // a constant stress stays
+    EXPECT_TRUE(std::isnan(t[2]));
+    advance_cell(model, loading, s);
+    const double err = target - s_x;
+    const double de = (0.05 * err + 0.002 * (integral + err)) / K;
+    integral += err;
+    hx *= 1.0 - de;
+    EXPECT_NEAR(s.cell.h(0, 0), hx, 1e-15) << n;
+    EXPECT_NEAR(s.control.servo_integral[0], integral, 1e-6) << n;
+    EXPECT_EQ(s.cell.h(1, 1), 1.0);  // at its target
+  }
+  // A falling ramp: the target is below the start by |rate| t.
+  const AxisControl down{AxisMode::StressRamp, from, -rate};
+  EXPECT_DOUBLE_EQ(down.stress_target(2e-3), from - rate * 2e-3);
 }
 
 TEST(Control, ServoSaturatesWithoutWindupAndWithoutContacts) {

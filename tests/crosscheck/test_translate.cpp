@@ -511,6 +511,72 @@ TEST(TranslateProgram, LegMovingAwayFromItsEndStrainIsAnError) {
   EXPECT_NO_THROW(translate_test(back, back.tests[0], TargetCode::Lammps));
 }
 
+// A stress ramp: the translated target, a formula of the steps since the leg start (v_S<leg>, frozen at the
+// leg's start), evaluated some steps into the leg, is celldem's stress_targets() at that time; the axis is
+// servoed by the press/berendsen law as a fix deform variable (never fix press/berendsen, whose target is fixed).
+TEST(TranslateProgram, StressRampTargetsAreCelldems) {
+  const Deck deck = program_deck(R"({"name": "ramps", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress_ramp": {"from": 1e5, "rate": -1e6}},
+                "x3": {"stress": 1e5}}, "end": {"axis": "x1", "strain": 0.001}},
+      {"axes": {"x1": {"stress_ramp": {"from": 1.2e5, "rate": 5e6}}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "stress": 1.5e5, "max_steps": 100000}}]},
+    {"name": "one", "friction": 0.5,
+     "axes": {"x1": {"stress_ramp": {"from": 1e5, "rate": 2e6}}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+     "end": {"axis": "x1", "stress": 1.1e5, "max_steps": 100000}})");
+  const Vec3 s(1.6e5, 1.1e5, 4.0e4);  // the contact stresses of some step (a ramp's target does not use them)
+  const double start = 1000.0, now = 1500.0;  // the leg's first step and this one
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    struct Ramp {
+      const TestDef& test;
+      int leg, axis;
+      std::string tag;  // "" in the one-leg form
+    };
+    for (const Ramp& ramp : {Ramp{deck.tests[0], 0, 1, "1"}, Ramp{deck.tests[0], 1, 0, "2"}, Ramp{deck.tests[1], 0, 0, ""}}) {
+      const std::string script = translate_test(deck, ramp.test, code);
+      const std::vector<std::string> blocks = leg_blocks(script);
+      const std::string& block = ramp.test.legs.size() > 1 ? blocks[static_cast<std::size_t>(ramp.leg) + 1] : script;
+      const std::string ax(1, "xyz"[ramp.axis]);
+      const std::string where = ramp.test.name + " leg " + std::to_string(ramp.leg + 1) + " " + ax;
+      // The leg start's step is frozen at the leg start.
+      const std::string frozen = code == TargetCode::Lammps ? "$(step:%.17g)" : "${S" + ramp.tag + "_f}";
+      EXPECT_EQ(formula(block, "S" + ramp.tag), frozen) << where;
+      std::string target = formula(block, "t" + ramp.tag + ax);
+      ASSERT_FALSE(target.empty()) << where;
+      const std::string since = "step-v_S" + ramp.tag;
+      ASSERT_NE(target.find(since), std::string::npos) << target;
+      target.replace(target.find(since), since.size(), std::to_string(static_cast<int>(now)) + "-" + std::to_string(static_cast<int>(start)));
+      Formula f(block, s);
+      const double leg_time = (now - start) * deck.time_step;
+      const double celldem = stress_targets(ramp.test.legs[ramp.leg].axes, s, leg_time)[ramp.axis];
+      EXPECT_NEAR(f.eval(target), celldem, 1e-9 * celldem) << where << ": " << target;
+      EXPECT_TRUE(contains(formula(block, "d" + ramp.tag + ax),
+                           "*(v_t" + ramp.tag + ax + "-c_P[" + std::to_string(ramp.axis + 1) + "])/"))
+          << where;
+      for (const std::string& fix : command_lines(block, "fix"))
+        if (contains(fix, "press/berendsen")) {
+          EXPECT_FALSE(contains(fix, " " + ax + " ")) << where << ": " << fix;
+        }
+    }
+  }
+}
+
+// A test leg that ends in equilibrium is named as not translated (its unbalanced force is the preparation's).
+TEST(TranslateProgram, TestEquilibriumLegIsNamedUntranslatable) {
+  const Deck deck = program_deck(R"({"name": "hold", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"axis": "x1", "strain": 0.001}},
+      {"axes": {"x1": {"stress": 1.5e5}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"equilibrium": true}}]})");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    try {
+      translate_test(deck, deck.tests[0], code);
+      ADD_FAILURE() << "no DeckError";
+    } catch (const DeckError& e) {
+      EXPECT_TRUE(contains(e.what(), "test \"hold\", leg 2: end.equilibrium")) << e.what();
+      EXPECT_TRUE(contains(e.what(), "not translated")) << e.what();
+    }
+  }
+}
+
 // b and mean_stress: the translated targets, evaluated for a known stress state, are celldem's stress_targets().
 TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
   const Deck deck = program_deck(R"({"name": "bp", "friction": 0.5, "legs": [
@@ -537,7 +603,7 @@ TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
     for (int j = 0; j < 4; ++j) {
       const std::string& block = blocks[j + 1];
       Formula f(block, s);
-      const Vec3 celldem = stress_targets(test.legs[j].axes, s);
+      const Vec3 celldem = stress_targets(test.legs[j].axes, s, 0.0);
       for (int k = 1; k < 3; ++k) {
         std::string name = "t";  // built in steps: GCC 12 warns (-Wrestrict) about "t" + ... + "y"
         name += std::to_string(j + 1);

@@ -683,6 +683,158 @@ TEST(Deck, SnapshotFormatIsBinaryUnlessTheDeckSaysOtherwise) {
   expect_error(j, "prepare.snapshots", "\"interval\" or \"e1\"");
 }
 
+// A stress_ramp axis: its target moves from `from` at `rate` (tests[].axes.xK.stress_ramp).
+Json ramp_deck() {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"] = Json::parse(R"({"x1": {"stress_ramp": {"from": 1e5, "rate": 5e6}},
+      "x2": {"stress": 1e5}, "x3": {"stress": 1e5}})");
+  j["tests"][0]["end"] = Json::parse(R"({"axis": "x1", "stress": 1.5e5, "max_steps": 100000})");
+  return j;
+}
+
+TEST(Deck, StressRampAxisParses) {
+  const Deck d = parse_deck(ramp_deck().dump(), "x.json");
+  const AxisControl& a = d.tests[0].legs[0].axes[0];
+  EXPECT_EQ(a.mode, AxisMode::StressRamp);
+  EXPECT_EQ(a.value, 1e5);
+  EXPECT_EQ(a.rate, 5e6);
+  EXPECT_TRUE(a.stress_driven());
+  EXPECT_FALSE(a.strain_driven());
+  EXPECT_DOUBLE_EQ(a.stress_target(0.004), 1e5 + 5e6 * 0.004);
+  // Unloading: a negative rate towards a lower end stress.
+  Json down = ramp_deck();
+  down["tests"][0]["axes"]["x1"]["stress_ramp"]["rate"] = -5e6;
+  down["tests"][0]["end"]["stress"] = 5e4;
+  EXPECT_EQ(parse_deck(down.dump()).tests[0].legs[0].axes[0].rate, -5e6);
+  // Beside a strain-driven axis, ending on a strain or a step count.
+  Json path = ramp_deck();
+  path["tests"][0]["axes"]["x1"] = {{"strain_increment", 2e-7}};
+  path["tests"][0]["axes"]["x2"] = {{"stress_ramp", {{"from", 1e5}, {"rate", -1e6}}}};
+  path["tests"][0]["end"] = {{"axis", "x1"}, {"strain", 0.01}};
+  EXPECT_EQ(parse_deck(path.dump()).tests[0].legs[0].axes[1].mode, AxisMode::StressRamp);
+}
+
+TEST(DeckErrors, StressRampBadValuesNameTheKey) {
+  const std::string at = "tests[0].axes.x1.stress_ramp";
+  Json j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress_ramp"]["rate"] = 0.0;
+  expect_error(j, at + ".rate", "non-zero");
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress_ramp"]["rate"] = 1e16;
+  expect_error(j, at + ".rate", "must be in");
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress_ramp"]["rate"] = "fast";
+  expect_error(j, at + ".rate", "number");
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress_ramp"].erase("rate");
+  expect_error(j, at + ".rate", "missing");
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress_ramp"].erase("from");
+  expect_error(j, at + ".from", "missing");
+  for (const double from : {0.0, -1e5}) {
+    j = ramp_deck();
+    j["tests"][0]["axes"]["x1"]["stress_ramp"]["from"] = from;
+    expect_error(j, at + ".from", "> 0");
+  }
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress_ramp"]["to"] = 2e5;
+  expect_error(j, at + ".to", "unknown key");
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress_ramp"] = 5e6;
+  expect_error(j, at, "object");
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x1"]["stress"] = 1e5;
+  expect_error(j, "tests[0].axes.x1", "exactly one");
+  // The end stress lies behind the ramp.
+  j = ramp_deck();
+  j["tests"][0]["end"]["stress"] = 9e4;
+  expect_error(j, "tests[0].end.stress", "moves away");
+  // Beside axes whose targets follow the other stresses.
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x2"] = {{"strain_increment", 1e-7}};
+  j["tests"][0]["axes"]["x3"] = {{"mean_stress", 1e5}};
+  expect_error(j, at, "b or mean_stress");
+  j = ramp_deck();
+  j["tests"][0]["axes"]["x2"] = {{"strain_increment", 1e-7}};
+  j["tests"][0]["axes"]["x3"] = {{"b", 0.5}};
+  expect_error(j, "tests[0].axes.x3.b", "one other stress");
+  // An equilibrium end needs constant targets.
+  j = ramp_deck();
+  j["tests"][0]["end"] = {{"equilibrium", true}};
+  expect_error(j, "tests[0].end.equilibrium", "every axis on stress or mean_stress");
+}
+
+// A test leg may end in equilibrium; its criterion is the test's `equilibrium`, each key defaulting to the
+// preparation's.
+Json hold_deck() {
+  Json j = minimal_deck();
+  j["prepare"]["equilibrium"] = {{"unbalanced_force_ratio", 0.02}, {"min_steps", 700}};
+  j["tests"][0].erase("axes");
+  j["tests"][0].erase("end");
+  j["tests"][0]["legs"] = Json::parse(R"([
+      {"axes": {"x1": {"stress_ramp": {"from": 1e5, "rate": 5e6}}, "x2": {"stress_ramp": {"from": 1e5, "rate": 5e6}},
+                "x3": {"stress_ramp": {"from": 1e5, "rate": 5e6}}}, "end": {"axis": "x1", "stress": 1.2e5, "max_steps": 10000}},
+      {"axes": {"x1": {"stress": 1.2e5}, "x2": {"stress": 1.2e5}, "x3": {"stress": 1.2e5}}, "end": {"equilibrium": true}}])");
+  j["tests"][0]["equilibrium"] = {{"check_interval", 50}, {"stress_tolerance", 0.01}};
+  return j;
+}
+
+TEST(Deck, TestLegsEndInEquilibriumWithTheTestsOrThePreparationsCriterion) {
+  const Deck d = parse_deck(hold_deck().dump(), "x.json");
+  const TestDef& t = d.tests[0];
+  EXPECT_EQ(t.legs[1].end.kind, LegEndKind::Equilibrium);
+  EXPECT_EQ(t.equilibrium.check_interval, 50);     // the test's
+  EXPECT_EQ(t.equilibrium.stress_tolerance, 0.01);  // the test's
+  EXPECT_EQ(t.equilibrium.unbalanced_force_ratio, 0.02);  // the preparation's
+  EXPECT_EQ(t.equilibrium.min_steps, 700);                 // the preparation's
+  EXPECT_EQ(t.equilibrium.pressure_tolerance, keys::equilibrium_pressure_tolerance.fallback);  // the default
+  EXPECT_EQ(t.equilibrium.max_steps, static_cast<std::int64_t>(keys::equilibrium_max_steps.fallback));
+  // Another test without the key takes the preparation's criterion whole.
+  EXPECT_EQ(d.tests[1].equilibrium.min_steps, 700);
+  EXPECT_EQ(d.tests[1].equilibrium.check_interval, d.prepare->equilibrium.check_interval);
+  // Without a preparation: the defaults.
+  Json state = hold_deck();
+  state.erase("prepare");
+  state["initial_state"] = "a.state";
+  EXPECT_EQ(parse_deck(state.dump()).tests[0].equilibrium.min_steps,
+            static_cast<std::int64_t>(keys::equilibrium_min_steps.fallback));
+  // The one-leg form too.
+  Json one = minimal_deck();
+  one["tests"][0]["axes"] = Json::parse(R"({"x1": {"stress": 2e5}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}})");
+  one["tests"][0]["end"] = {{"equilibrium", true}};
+  EXPECT_EQ(parse_deck(one.dump()).tests[0].legs[0].end.kind, LegEndKind::Equilibrium);
+}
+
+TEST(DeckErrors, TestEquilibriumBadValuesNameTheKey) {
+  Json j = hold_deck();
+  j["tests"][0]["legs"][1]["end"]["equilibrium"] = false;
+  expect_error(j, "tests[0].legs[1].end.equilibrium", "only true");
+  j = hold_deck();
+  j["tests"][0]["legs"][1]["axes"]["x1"] = {{"strain_increment", 0.0}};
+  expect_error(j, "tests[0].legs[1].end.equilibrium", "every axis on stress or mean_stress");
+  j = hold_deck();
+  j["tests"][0]["legs"][1]["end"]["steps"] = 10;
+  expect_error(j, "tests[0].legs[1].end", "exactly one");
+  j = hold_deck();
+  j["tests"][0]["equilibrium"]["tolerance"] = 0.1;
+  expect_error(j, "tests[0].equilibrium.tolerance", "unknown key");
+  j = hold_deck();
+  j["tests"][0]["equilibrium"]["check_interval"] = 0;
+  expect_error(j, "tests[0].equilibrium.check_interval", "must be in");
+  j = hold_deck();
+  j["tests"][0]["equilibrium"]["unbalanced_force_ratio"] = 2.0;
+  expect_error(j, "tests[0].equilibrium.unbalanced_force_ratio", "must be in");
+  j = hold_deck();
+  j["tests"][0]["equilibrium"]["min_steps"] = 1.5;
+  expect_error(j, "tests[0].equilibrium.min_steps", "integer");
+  j = hold_deck();
+  j["tests"][0]["equilibrium"] = 1;
+  expect_error(j, "tests[0].equilibrium", "object");
+  j = hold_deck();  // solid_fraction stays the preparation's
+  j["tests"][0]["legs"][1]["end"] = {{"solid_fraction", 0.6}};
+  expect_error(j, "tests[0].legs[1].end", "\"steps\", \"equilibrium\"");
+}
+
 TEST(DeckErrors, NotJsonOrTooDeepIsADeckError) {
   EXPECT_THROW(parse_deck("{\"format\": 1,"), DeckError);
   EXPECT_THROW(parse_deck(""), DeckError);

@@ -1,7 +1,8 @@
 // Load programs on a real packing (solver/run/program.hpp, cell/control.hpp): each control holds what it
 // promises (b within 0.01, p within 0.5 %, volume within 1e-6, checked independently from the series), legs
-// end where they should (strain in either direction, a stress ratio, a step count), repeated blocks run
-// in order, and a program resumed from a checkpoint ends byte-identical.
+// end where they should (strain in either direction, a stress ratio, a step count, a stress reached by a
+// stress ramp, equilibrium), repeated blocks run in order, a stress ramp's axis follows its moving target, and
+// a program resumed from a checkpoint ends byte-identical.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,6 +14,8 @@
 #include "cli.hpp"
 #include "helpers.hpp"
 #include "measure/series.hpp"
+#include "run/health.hpp"
+#include "run/program.hpp"
 
 namespace celldem {
 namespace {
@@ -55,7 +58,41 @@ const std::string kTests = R"([
      {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
       "end": {"ratio": 1.8, "max_steps": 100000}},
      {"axes": {"x1": {"strain_increment": 0}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
-      "end": {"steps": 300}}]}])";
+      "end": {"steps": 300}}]},
+  {"name": "ramp", "friction": 0.5, "output_interval": 200,
+   "axes": {"x1": {"stress_ramp": {"from": 1e5, "rate": 5e6}}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+   "end": {"axis": "x1", "stress": 1.5e5, "max_steps": 20000}},
+  {"name": "consolidate", "friction": 0.5, "output_interval": 250,
+   "equilibrium": {"pressure_tolerance": 0.005, "stress_tolerance": 0.005, "unbalanced_force_ratio": 0.01,
+                   "min_steps": 1000, "check_interval": 100, "max_steps": 100000},
+   "legs": [
+     {"axes": {"x1": {"stress_ramp": {"from": 1e5, "rate": 5e6}}, "x2": {"stress_ramp": {"from": 1e5, "rate": 5e6}},
+               "x3": {"stress_ramp": {"from": 1e5, "rate": 5e6}}},
+      "end": {"axis": "x1", "stress": 1.2e5, "max_steps": 20000}},
+     {"axes": {"x1": {"stress": 1.2e5}, "x2": {"stress": 1.2e5}, "x3": {"stress": 1.2e5}},
+      "end": {"equilibrium": true}},
+     {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1.2e5}, "x3": {"stress": 1.2e5}},
+      "end": {"axis": "x1", "strain": 0.002}}]},
+  {"name": "ramp_path", "friction": 0.5, "output_interval": 200,
+   "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress_ramp": {"from": 1e5, "rate": -5e6}},
+            "x3": {"stress_ramp": {"from": 1e5, "rate": -5e6}}},
+   "end": {"axis": "x1", "strain": 0.005}}])";
+
+// The ramps' rate and time step (kTests): 5 Pa per step.
+constexpr double kRampRate = 5e6, kTimeStep = 1e-6;
+
+// A deck of these tests on the prepared packing prep/prepared.state, at kTimeStep, with the servo's default
+// cap (each leg's follows its rate), not the small decks' fixed one.
+std::string program_deck(const std::string& tests) {
+  std::string deck = testing::small_deck_json(300, tests, 11);
+  const std::string cap = "\"servo\": {\"max_strain_increment\": 4e-5},";
+  EXPECT_NE(deck.find(cap), std::string::npos);
+  deck.erase(deck.find(cap), cap.size());
+  const auto at = deck.find("\"prepare\"");
+  deck.replace(at, deck.find("}},", at) + 3 - at, "\"initial_state\": \"prep/prepared.state\",");
+  deck.replace(deck.find("\"time_step\": 3.0e-6"), 19, "\"time_step\": 1.0e-6");
+  return deck;
+}
 
 // One prepared packing and one run of the tests above, shared by the checks below.
 struct ProgramRun {
@@ -67,14 +104,7 @@ struct ProgramRun {
     write_bytes(dir / "prep.json", prep);
     Result r = celldem(dir, run_args(dir / "prep.json", dir / "prep"));
     EXPECT_EQ(r.code, 0) << r.err;
-    std::string deck = testing::small_deck_json(300, kTests, 11);
-    // The servo's default cap (each leg's follows its rate), not the small decks' fixed one.
-    const std::string cap = "\"servo\": {\"max_strain_increment\": 4e-5},";
-    EXPECT_NE(deck.find(cap), std::string::npos);
-    deck.erase(deck.find(cap), cap.size());
-    const auto at = deck.find("\"prepare\"");
-    deck.replace(at, deck.find("}},", at) + 3 - at, "\"initial_state\": \"prep/prepared.state\",");
-    deck.replace(deck.find("\"time_step\": 3.0e-6"), 19, "\"time_step\": 1.0e-6");
+    const std::string deck = program_deck(kTests);
     write_bytes(dir / "deck.json", deck);
     r = celldem(dir, run_args(dir / "deck.json", dir / "run", "--quiet"));
     EXPECT_EQ(r.code, 0) << r.err;
@@ -190,6 +220,156 @@ TEST(LoadProgram, RatioAndStepEnds) {
   EXPECT_GE(before.ratio13, 1.8);
   EXPECT_LT(rows[static_cast<std::size_t>(first_leg1) - 2].ratio13, 1.8);
   EXPECT_EQ(rows.back().step - (before.step), 300.0);  // the second leg's 300 steps
+}
+
+// A stress ramp (x1 from 100 kPa at 5 Pa per step, x2 and x3 held at 100 kPa) to an end stress of 150 kPa:
+// after the settle window every row's s11 is within the stress tolerance of the moving target 1e5 + R t (t the
+// row's time: one leg from the test start), and the leg ends when s11 reaches 150 kPa, where the target does:
+// (150 - 100) kPa / (R dt) steps, within one output interval.
+TEST(LoadProgram, StressRampFollowsItsMovingTargetAndEndsOnItsStress) {
+  const ProgramRun& run = program_run();
+  const Json& test = run.summary["tests"]["ramp"];
+  EXPECT_TRUE(test["controlled"].get<bool>()) << test["control_failures"].dump();
+  const Json& errors = test["legs"][0]["control_errors"];
+  EXPECT_LT(errors["stress"].get<double>(), kServoTolerance);
+  EXPECT_GT(errors["steps"].get<int>(), 5000);  // a ramp alone drives the leg: checked after kRampSettleSteps
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "ramp" / "series.csv");
+  double worst = 0.0;
+  int checked = 0;
+  for (const SeriesRow& r : rows) {
+    if (r.step < static_cast<double>(kRampSettleSteps)) continue;
+    const double target = 1e5 + kRampRate * r.time;
+    EXPECT_NEAR(r.time, r.step * kTimeStep, 1e-12);
+    worst = std::max(worst, std::abs(r.s11 / target - 1.0));
+    EXPECT_NEAR(r.s11 / target, 1.0, kServoTolerance) << r.step;
+    EXPECT_NEAR(r.s22 / 1e5, 1.0, kServoTolerance) << r.step;
+    EXPECT_NEAR(r.s33 / 1e5, 1.0, kServoTolerance) << r.step;
+    ++checked;
+  }
+  EXPECT_GT(checked, 40);
+  std::printf("stress ramp: largest |s11 / target - 1| over %d rows %.3g (summary, every step: %.3g)\n", checked, worst,
+              errors["stress"].get<double>());
+  const double expected_steps = (1.5e5 - 1e5) / (kRampRate * kTimeStep);
+  const Json& end = test["legs"][0]["end"];
+  EXPECT_NEAR(end["step"].get<double>(), expected_steps, 200.0);  // the output interval
+  EXPECT_GE(end["s11"].get<double>(), 1.5e5);
+  EXPECT_EQ(rows.back().step, end["step"].get<double>());
+  EXPECT_LT(rows[rows.size() - 2].s11, 1.5e5);  // the row before had not reached it
+}
+
+// A stress path: x1 compressed at 1e-6 per step while x2 and x3 unload at 5 Pa per step from 100 kPa (to 75
+// kPa at e1 = 0.5 %): after the settle window (0.2 % of driving strain) both lateral stresses stay within the
+// stress tolerance of 1e5 - R t, measured every step (summary) and at every row (series).
+TEST(LoadProgram, StressRampBesideAStrainDrivenAxis) {
+  const ProgramRun& run = program_run();
+  const Json& test = run.summary["tests"]["ramp_path"];
+  EXPECT_TRUE(test["controlled"].get<bool>()) << test["control_failures"].dump();
+  EXPECT_LT(test["legs"][0]["control_errors"]["stress"].get<double>(), kServoTolerance);
+  EXPECT_GT(test["legs"][0]["control_errors"]["steps"].get<int>(), 2500);
+  int checked = 0;
+  for (const SeriesRow& r : read_series(run.dir / "run" / "ramp_path" / "series.csv")) {
+    if (r.e1 < 0.002) continue;
+    const double target = 1e5 - kRampRate * r.time;
+    EXPECT_NEAR(r.s22 / target, 1.0, kServoTolerance) << r.step;
+    EXPECT_NEAR(r.s33 / target, 1.0, kServoTolerance) << r.step;
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+  EXPECT_NEAR(test["legs"][0]["end"]["s22"].get<double>(), 1e5 - kRampRate * 0.005 / 1e-6 * kTimeStep,
+              kServoTolerance * 1e5);
+}
+
+// A consolidation: an isotropic stress ramp to 120 kPa, a hold leg that ends in equilibrium by the test's
+// criterion (min_steps 1000, checked every 100 steps, stresses within 0.5 %, unbalanced force ratio 0.01),
+// then a strain-driven leg from there. The hold leg ends at a check, not before min_steps, in a state that
+// meets the criterion; its end is a row and a legs[] entry like any other leg's.
+TEST(LoadProgram, TestLegEndsInEquilibrium) {
+  const ProgramRun& run = program_run();
+  const Json& test = run.summary["tests"]["consolidate"];
+  ASSERT_EQ(test["legs"].size(), 3u);
+  const Json& ramp_end = test["legs"][0]["end"];
+  const Json& hold_end = test["legs"][1]["end"];
+  EXPECT_NEAR(ramp_end["step"].get<double>(), (1.2e5 - 1e5) / (kRampRate * kTimeStep), 250.0);
+  EXPECT_LT(test["legs"][0]["control_errors"]["stress"].get<double>(), kServoTolerance);
+  const auto hold_steps = static_cast<std::int64_t>(hold_end["step"].get<double>() - ramp_end["step"].get<double>());
+  EXPECT_GE(hold_steps, 1000);
+  EXPECT_EQ(hold_steps % 100, 0) << hold_steps;
+  EXPECT_LT(hold_steps, 100000);
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "consolidate" / "series.csv");
+  bool found = false;
+  for (const SeriesRow& r : rows) {
+    if (r.step != hold_end["step"].get<double>()) continue;
+    found = true;
+    EXPECT_EQ(r.leg, 1.0);
+    EXPECT_NEAR(r.p / 1.2e5, 1.0, 0.005);
+    for (const double s : {r.s11, r.s22, r.s33}) EXPECT_NEAR(s / 1.2e5, 1.0, 0.005) << r.step;
+    EXPECT_LE(r.unbalanced_force, 0.01);
+    EXPECT_DOUBLE_EQ(r.s11, hold_end["s11"].get<double>());
+  }
+  EXPECT_TRUE(found) << "no row at the end of the equilibrium leg";
+  // The next leg runs from there to its end strain.
+  EXPECT_EQ(rows.back().leg, 2.0);
+  EXPECT_NEAR(rows.back().e1, 0.002, 0.5e-6);  // its steps round from where the hold left e1: half a step
+  EXPECT_GT(rows.back().s11, 1.5 * 1.2e5);
+}
+
+// A falling ramp whose target reaches 0 Pa stops the run (a run-time failure, exit 1) naming the axis; a bad
+// ramp is a deck error (exit 2) naming the key; `plan` gives the step where the ramp's target meets the end
+// stress, and the equilibrium criterion of a test with an equilibrium leg.
+TEST(LoadProgram, StressRampFailuresAndPlan) {
+  const ProgramRun& run = program_run();
+  const std::string falling = R"([{"name": "falling", "friction": 0.5, "output_interval": 100,
+      "axes": {"x1": {"stress_ramp": {"from": 1e5, "rate": -2e8}}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+      "end": {"steps": 2000}}])";
+  write_bytes(run.dir / "falling.json", program_deck(falling));
+  Result r = celldem(run.dir, run_args(run.dir / "falling.json", run.dir / "falling", "--quiet"));
+  EXPECT_EQ(r.code, 1) << r.err;
+  // 1e5 Pa at 200 Pa per step: the target of step 500 is 0.
+  EXPECT_NE(r.err.find("stress_ramp target of axis x1 falls to 0 Pa after 499 steps"), std::string::npos) << r.err;
+
+  // A hold leg that cannot reach its criterion in max_steps stops the run naming the test's key.
+  const std::string hold = R"([{"name": "hold", "friction": 0.5, "output_interval": 100,
+      "equilibrium": {"unbalanced_force_ratio": 1e-12, "min_steps": 100, "check_interval": 100, "max_steps": 300},
+      "axes": {"x1": {"stress": 1.1e5}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"equilibrium": true}}])";
+  write_bytes(run.dir / "hold.json", program_deck(hold));
+  r = celldem(run.dir, run_args(run.dir / "hold.json", run.dir / "hold", "--quiet"));
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("test 'hold' leg 0 did not reach equilibrium in 300 servo steps"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("raise tests[].equilibrium.max_steps"), std::string::npos) << r.err;
+
+  std::string bad = program_deck(falling);
+  bad.replace(bad.find("\"rate\": -2e8"), 12, "\"rate\": 0");
+  write_bytes(run.dir / "bad.json", bad);
+  r = celldem(run.dir, "check '" + (run.dir / "bad.json").string() + "'");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("tests[0].axes.x1.stress_ramp.rate"), std::string::npos) << r.err;
+
+  r = celldem(run.dir, "check '" + (run.dir / "deck.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("the fastest 5 Pa per step (test 'ramp' leg 0 x1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("test 'ramp' leg 0: the ramp's target reaches end.stress 150000 Pa after 10000 steps"),
+            std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("test 'consolidate' leg 1: ends in equilibrium after 1000 to 100000 steps"), std::string::npos)
+      << r.out;
+
+  r = celldem(run.dir, "plan --json '" + (run.dir / "deck.json").string() + "'");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Json plan = Json::parse(r.out);
+  for (const Json& t : plan["tests"]) {
+    if (t["name"] == "ramp") {
+      EXPECT_EQ(t["legs"][0]["axes"]["x1"]["stress_ramp"]["rate"].get<double>(), kRampRate);
+      EXPECT_EQ(t["legs"][0]["ramp_target_steps"].get<std::int64_t>(),
+                std::llround((1.5e5 - 1e5) / (kRampRate * kTimeStep)));
+      EXPECT_FALSE(t.contains("equilibrium"));
+    }
+    if (t["name"] == "consolidate") {
+      EXPECT_EQ(t["equilibrium"]["min_steps"].get<std::int64_t>(), 1000);
+      EXPECT_EQ(t["legs"][1]["equilibrium_max_steps"].get<std::int64_t>(), 100000);
+    }
+    if (t["name"] == "bp") {
+      EXPECT_FALSE(t["legs"][0].contains("ramp_target_steps"));
+    }
+  }
 }
 
 }  // namespace
