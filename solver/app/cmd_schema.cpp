@@ -222,14 +222,10 @@ Json plan_json(const Deck& deck) {
   for (const TestDef& t : deck.tests) {
     const TestPlan p = plan_test(deck, t);
     const Leg& first = t.legs.front();
-    double stress_sum = 0.0;
-    int stress_axes = 0;
-    for (const AxisControl& a : first.axes)
-      if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
-        stress_sum += a.value, ++stress_axes;  // a ramp's start
-    const Json inertia = stress_axes ? Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample),
-                                                            deck.sample.density, stress_sum / stress_axes))
-                                     : Json(nullptr);
+    const double stress = first_leg_stress(t);
+    const Json inertia = std::isnan(stress) ? Json(nullptr)
+                                            : Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample),
+                                                                   deck.sample.density, stress));
     Json legs = legs_json(t.legs, p.legs);
     for (std::size_t k = 0; k < t.legs.size(); ++k) {
       // Only for the new kinds of leg, so that every other deck's plan stays as it was.

@@ -132,6 +132,15 @@ TestPlan plan_test(const Deck& deck, const TestDef& test) {
   return p;
 }
 
+double first_leg_stress(const TestDef& test) {
+  double sum = 0.0;
+  int n = 0;
+  for (const AxisControl& a : test.legs.front().axes)
+    if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
+      sum += a.value, ++n;  // a ramp's value is its start
+  return n ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
 double loading_rate(const Deck& deck, const TestDef& test) {
   double rate = 0.0;
   for (const Leg& leg : test.legs)

@@ -93,6 +93,9 @@ TestPlan plan_test(const Deck& deck, const TestDef& test);
 
 // The fastest strain rate [1/s] of the test's strain-driven axes over its legs (the inertial number's rate).
 double loading_rate(const Deck& deck, const TestDef& test);
+// [Pa] the mean stress target of a test's first leg over its stress, mean_stress and stress_ramp axes (a ramp at
+// its start): the stress of its planned inertial number. NaN when no axis holds a stress.
+double first_leg_stress(const TestDef& test);
 
 // The contact stiffnesses that set the time-step limit and the damping's critical values [N/m]: kn and kt of
 // the linear laws; for hertz and mindlin the tangent stiffnesses 2 E* a and 8 G* a at the reference overlap of

@@ -128,13 +128,9 @@ std::string not_quasi_static_cause(const Deck& deck, const TestDef& test) {
   std::snprintf(step, sizeof step, "time step too large for the %s mode (time_step %.3g s is %.3g of its limit "
                 "%.3g s, %s = %.3g)", limit.limiting().name, deck.time_step, fraction, limit.value(),
                 limit.limiting().stiffness_name, limit.limiting().stiffness);
-  double p = 0.0;  // the first leg's stress target, for the inertial number
-  int n = 0;
-  for (const AxisControl& a : test.legs.front().axes)
-    if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
-      p += a.value, ++n;  // a ramp's start
-  const double inertia = n ? inertial_number(loading_rate(deck, test), mean_diameter(deck.sample),
-                                             deck.sample.density, p / n) : 0.0;
+  const double p = first_leg_stress(test);
+  const double inertia = std::isnan(p) ? 0.0 : inertial_number(loading_rate(deck, test), mean_diameter(deck.sample),
+                                                               deck.sample.density, p);
   char rate[160];
   std::snprintf(rate, sizeof rate, "loading too fast (inertial number %.3g, quasi-static below %.3g)", inertia,
                 kQuasiStaticInertia);
