@@ -327,7 +327,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
           // A packing held at its pressure whose unbalanced force stays at a test's not-quasi-static level is
           // boiling, not slow: more steps or looser tolerances would not help. (A packing still far from its
           // pressure is loose, and a loose packing's unbalanced force is naturally high.)
-          const bool boiling = eq.pressure_error < 0.05 && eq.unbalanced > kMaxQuasiStaticUnbalanced;
+          const bool boiling = eq.pressure_error < kHeldAtPressure && eq.unbalanced > kMaxQuasiStaticUnbalanced;
           const std::string who = program.stage == "prepare" ? "the preparation" : stage_name(program) + " " + leg_name(state);
           throw RunError(who + " did not reach equilibrium in " + std::to_string(c.leg_steps) +
                          " servo steps (" + status + "); " +
