@@ -57,6 +57,28 @@ Command add_run_command(CLI::App& app) {
                   "quantity)");
   cmd->add_flag("--include-uncontrolled", args->include_uncontrolled,
                 "With --seeds: keep tests whose control failed in the ensemble statistics (left out by default)");
+  VerifyRateOptions& verify = args->options.verify_rate;
+  cmd->add_flag("--verify-rate", verify.enabled,
+                "Each test checks its own convergence: at its peak and end it runs again from a state a short window "
+                "before, at a fraction of its rate, and compares (summary.json verify_rate; <test>/verify/<point>/)");
+  cmd->add_option("--verify-at", verify.at, "With --verify-rate: the points to check")
+      ->delimiter(',')
+      ->check(CLI::IsMember(kVerifyPoints))
+      ->capture_default_str();
+  cmd->add_option("--verify-window", verify.window_strain,
+                  "With --verify-rate: driving strain of each branch, ending at its point")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--verify-rate-factor", verify.rate_factor,
+                  "With --verify-rate: the branch's driving rate over the test's (strain increments and rates, stress "
+                  "ramps)")
+      ->check(CLI::Range(1e-3, 0.999))
+      ->capture_default_str();
+  cmd->add_option("--floors", verify.floors_path,
+                  "With --verify-rate: the noise floors, an ensemble.json of this deck or a JSON of seed-to-seed stds "
+                  "{\"ratio13\", \"ev\", \"Z\"} (optionally under tests.<name>); default: the reference ensemble's, "
+                  "scaled to the deck's particle count (docs/outputs.md)")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--progress-interval", args->options.progress_interval,
                   "Seconds between progress lines when stderr is not a terminal (a log file)")
       ->capture_default_str()
@@ -66,6 +88,12 @@ Command add_run_command(CLI::App& app) {
     if (args->options.force && args->options.resume)
       throw CLI::ValidationError("--force and --resume exclude each other");
     const Deck deck = read_deck(args->deck);
+    const bool verify_options = !args->options.verify_rate.floors_path.empty() || cmd->count("--verify-at") > 0 ||
+                                cmd->count("--verify-window") > 0 || cmd->count("--verify-rate-factor") > 0;
+    if (verify_options && !args->options.verify_rate.enabled)
+      throw CLI::ValidationError("--verify-at, --verify-window, --verify-rate-factor and --floors need --verify-rate");
+    if (args->options.verify_rate.enabled)  // a floors file that cannot serve is refused before any work
+      for (const TestDef& test : deck.tests) noise_floors(args->options.verify_rate.floors_path, test.name, deck.sample.count);
     args->options.progress = args->options.quiet     ? ProgressMode::Off
                              : stderr_is_terminal() ? ProgressMode::Terminal
                                                     : ProgressMode::Log;
