@@ -247,8 +247,8 @@ void add_verdict(Json& point, double tolerance) {
   } else {
     point["verdict"] = "unresolved";
     point["reason"] = at + ": over the tolerance " + fmt(tolerance) + " but within the " + fmt(margin) +
-                      " floors by which chaos alone can part one pair of runs (95 %); one branch cannot tell (more "
-                      "seeds can: tools/study.py compare)";
+                      " floors by which chaos alone can part one pair of runs (95 %); one branch cannot tell (an ensemble "
+                      "of seeds at both rates can)";
   }
 }
 
