@@ -8,6 +8,11 @@ Usage: /usr/bin/python3 tools/study.py plan                 list the runs and wh
                                                             tables, charts, results/study/study.md and study.json;
                                                             with --write-presets also inputs/fast.json and
                                                             inputs/balanced.json
+       /usr/bin/python3 tools/study.py compare BASE_DIR OTHER_DIR [--margin FLOORS] [--json FILE]
+                                                            two `celldem run --seeds` folders of one deck on the
+                                                            same seeds: each summary quantity's mean paired
+                                                            difference in BASE's floors, paired t and TOST, and
+                                                            the particle-steps and wall-time ratios
 
 The scene: SCENE_COUNT spheres with the paper's sizes, density, contact law and preparation, tests to
 ε1 = END_STRAIN (the peak lies well inside it). Each sample is prepared once (samples/<name>/prepared.state)
@@ -32,7 +37,8 @@ import os
 import sys
 
 from celldem import binary, decks
-from celldem.study import analysis as study_analysis, report as study_report, runs as study_runs
+from celldem.study import analysis as study_analysis, compare as study_compare, report as study_report
+from celldem.study import runs as study_runs
 from celldem.study.runs import DEFAULT_ROOT
 from celldem.study.scene import END_STRAIN, SCENE_COUNT
 
@@ -103,6 +109,17 @@ def cmd_analyse(args):
     return 0
 
 
+def cmd_compare(args):
+    try:
+        result = study_compare.compare(args.base, args.other, args.margin)
+    except study_compare.CompareError as err:
+        return error(err)
+    print(study_compare.markdown(result))
+    if args.json:
+        study_runs.write_json(args.json, result)
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -122,7 +139,15 @@ def main(argv=None):
             p.add_argument("--retry-failed", action="store_true", help="run again the runs that failed")
         if name == "analyse":
             p.add_argument("--write-presets", action="store_true", help="write inputs/fast.json, inputs/balanced.json")
+    p = sub.add_parser("compare", help="two ensembles of one deck on the same seeds, quantity by quantity")
+    p.add_argument("base", help="the BASE ensemble folder (its seed-to-seed spread is the floor)")
+    p.add_argument("other", help="the OTHER ensemble folder (same deck and seeds, other settings)")
+    p.add_argument("--margin", type=float, default=study_compare.MARGIN_FLOORS,
+                   help="equivalence margin of TOST in floors (default 1)")
+    p.add_argument("--json", help="also write the comparison to this file")
     args = parser.parse_args(argv)
+    if args.command == "compare":
+        return cmd_compare(args)
     args.root = os.path.abspath(args.root)
     args.celldem = os.path.abspath(args.celldem)
     if args.command in ("plan", "run"):  # the plan places its time steps by the paper deck's critical step
