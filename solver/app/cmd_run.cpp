@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstdio>
 
 #include "app/commands.hpp"
@@ -57,7 +58,7 @@ Command add_run_command(CLI::App& app) {
                   "quantity)");
   cmd->add_flag("--include-uncontrolled", args->include_uncontrolled,
                 "With --seeds: keep tests whose control failed in the ensemble statistics (left out by default)");
-  VerifyRateOptions& verify = args->options.verify_rate;
+  VerifyRateOptions& verify = args->options.verify_rate;  // NOLINT: lives as long as args
   cmd->add_flag("--verify-rate", verify.enabled,
                 "Each test checks its own convergence: at its peak and end it runs again from a state a short window "
                 "before, at a fraction of its rate, and compares (summary.json verify_rate; <test>/verify/<point>/)");
@@ -88,12 +89,17 @@ Command add_run_command(CLI::App& app) {
     if (args->options.force && args->options.resume)
       throw CLI::ValidationError("--force and --resume exclude each other");
     const Deck deck = read_deck(args->deck);
-    const bool verify_options = !args->options.verify_rate.floors_path.empty() || cmd->count("--verify-at") > 0 ||
-                                cmd->count("--verify-window") > 0 || cmd->count("--verify-rate-factor") > 0;
-    if (verify_options && !args->options.verify_rate.enabled)
-      throw CLI::ValidationError("--verify-at, --verify-window, --verify-rate-factor and --floors need --verify-rate");
-    if (args->options.verify_rate.enabled)  // a floors file that cannot serve is refused before any work
-      for (const TestDef& test : deck.tests) noise_floors(args->options.verify_rate.floors_path, test.name, deck.sample.count);
+    VerifyRateOptions& verify = args->options.verify_rate;
+    verify.at_given = cmd->count("--verify-at") > 0;
+    verify.window_given = cmd->count("--verify-window") > 0;
+    verify.factor_given = cmd->count("--verify-rate-factor") > 0;
+    const bool checked = verify.enabled || std::any_of(deck.tests.begin(), deck.tests.end(),
+                                                       [](const TestDef& t) { return t.verify_rate.has_value(); });
+    if ((verify.at_given || verify.window_given || verify.factor_given || !verify.floors_path.empty()) && !checked)
+      throw CLI::ValidationError("--verify-at, --verify-window, --verify-rate-factor and --floors need --verify-rate "
+                                 "(or a test's verify_rate key)");
+    for (const TestDef& test : deck.tests)  // a floors file that cannot serve is refused before any work
+      if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
     args->options.progress = args->options.quiet     ? ProgressMode::Off
                              : stderr_is_terminal() ? ProgressMode::Terminal
                                                     : ProgressMode::Log;

@@ -103,8 +103,9 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
   if (!resumed && deck.initial_state && !deck.prepare) out.set_start_cause(loaded_overlap_cause(deck, state));
   out.open(state, resumed);
-  BranchPoints branch_points(test, deck, options.verify_rate);
-  if (options.verify_rate.enabled) {
+  const std::optional<VerifyRateOptions> check = verify_rate_for(options.verify_rate, test);
+  BranchPoints branch_points(test, deck, check.value_or(VerifyRateOptions{}));
+  if (check) {
     if (resumed) branch_points.skip_rows(out.rows());  // the rows read back: no state was kept before them
     else branch_points.on_row(state, out.rows().front());  // the first row, written by open
     out.set_row_observer([&](const State& s, const SeriesRow& row) { branch_points.on_row(s, row); });
@@ -122,8 +123,8 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
                                      state.control.stage_steps, state.particles.size(), warnings);
   run.update_summary([&](Json& s) { s["tests"][test.name] = result; });
   for (const std::string& w : warnings) run.add_warning(w);
-  if (options.verify_rate.enabled) {
-    const Json verified = verify_test_rate(run, deck, options, test, branch_points, out.rows());
+  if (check) {
+    const Json verified = verify_test_rate(run, deck, options, test, *check, branch_points, out.rows());
     run.update_summary([&](Json& s) { s["tests"][test.name]["verify_rate"] = verified; });
   }
 }

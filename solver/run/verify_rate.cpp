@@ -254,9 +254,20 @@ void add_verdict(Json& point, double tolerance) {
 
 }  // namespace
 
+std::optional<VerifyRateOptions> verify_rate_for(const VerifyRateOptions& command_line, const TestDef& test) {
+  if (!command_line.enabled && !test.verify_rate) return std::nullopt;
+  VerifyRateOptions o = command_line;
+  o.enabled = true;
+  if (test.verify_rate) {
+    if (!o.at_given) o.at = test.verify_rate->at;
+    if (!o.window_given) o.window_strain = test.verify_rate->window_strain;
+    if (!o.factor_given) o.rate_factor = test.verify_rate->rate_factor;
+  }
+  return o;
+}
+
 Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                      const BranchPoints& points, const std::vector<SeriesRow>& rows) {
-  const VerifyRateOptions& o = options.verify_rate;
+                      const VerifyRateOptions& o, const BranchPoints& points, const std::vector<SeriesRow>& rows) {
   const NoiseFloors floors = noise_floors(o.floors_path, test.name, deck.sample.count);
   Json result = {{"rate_factor", o.rate_factor}, {"window_strain", o.window_strain}, {"tolerance_floors", o.tolerance},
                  {"floors", {{"ratio13", floors.ratio13}, {"ev", floors.ev}, {"Z", floors.Z}, {"source", floors.source}}},

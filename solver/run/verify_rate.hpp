@@ -9,6 +9,7 @@
 // its window. The test's own series and summary are untouched: each branch writes <test>/verify/<point>/.
 #pragma once
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -22,22 +23,27 @@ namespace celldem {
 class RunDirectory;
 struct RunOptions;
 
-// What --verify-rate asks for.
+// What a rate check asks for: the command line's (--verify-rate and its options) or a test's verify_rate key.
+// The defaults are the key table's (core/deck_schema.hpp). The window (0.5 % of driving strain) is long enough for
+// the branch's rate to set the stresses (the inertial stresses follow the rate within a few hundred steps) and
+// short enough to cost a fraction of the test (2 points x 0.5 % at half rate: a third of a 3 % test).
 struct VerifyRateOptions {
-  bool enabled = false;
-  std::vector<std::string> at = {"peak", "end"};  // the points, by name
-  // [-] driving strain of each branch, ending at its point: long enough for the branch's rate to set the
-  // stresses (the inertial stresses follow the rate within a few hundred steps) and for the peak to be a peak
-  // of the window, short enough to cost a fraction of the test (2 points x 0.5 % at half rate: a 3 % test's
-  // third).
-  double window_strain = 0.005;
-  double rate_factor = 0.5;  // the branch's driving rate over the test's (strain increments, rates, stress ramps)
+  bool enabled = false;                           // --verify-rate: every test is checked
+  std::vector<std::string> at = {"peak", "end"};  // the points, by name (kVerifyPointNames)
+  double window_strain = keys::verify_rate_window_strain.fallback;  // [-] driving strain of each branch
+  double rate_factor = keys::verify_rate_rate_factor.fallback;      // the branch's rate over the test's
   double tolerance = 1.0;    // [noise floors] the largest difference of a converged point
   std::string floors_path;   // an ensemble.json or {"ratio13", "ev", "Z"} stds (optionally per test); empty: default
+  // Given on the command line: these replace a test's verify_rate values.
+  bool at_given = false, window_given = false, factor_given = false;
 };
 
-// Names of the points a branch can end at.
-inline const std::vector<std::string> kVerifyPoints = {"peak", "end"};
+// Names of the points a branch can end at (for the command line's check).
+inline const std::vector<std::string> kVerifyPoints(kVerifyPointNames.begin(), kVerifyPointNames.end());
+
+// The rate check of one test: the deck's tests[].verify_rate with the command line's given values over it, or the
+// command line's alone (--verify-rate); nullopt when neither asks for one.
+std::optional<VerifyRateOptions> verify_rate_for(const VerifyRateOptions& command_line, const TestDef& test);
 
 // The seed-to-seed standard deviations that make one noise floor of each compared quantity, and where they
 // came from (words, for summary.json).
@@ -99,6 +105,7 @@ class BranchPoints {
 // "verify_rate" of the test: per point the window, both values of each quantity, their difference in floors,
 // the floors, and the verdict. A branch that fails is recorded as such (its error), not thrown.
 nlohmann::json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                                const BranchPoints& points, const std::vector<SeriesRow>& rows);
+                                const VerifyRateOptions& check, const BranchPoints& points,
+                                const std::vector<SeriesRow>& rows);
 
 }  // namespace celldem

@@ -8,7 +8,9 @@ hundred times it:
 - the run a hundred times too fast (inertial number near 1e-2, which the run warns of) is flagged: at least one
   point is "not converged" (beyond the tolerance plus the chaos margin of one pair of runs);
 - the test's own series are the bytes of a run without --verify-rate (the branches leave them alone), the
-  branches' series exist where summary.json says, and a branch gives the same bytes on one thread and on two.
+  branches' series exist where summary.json says, and a branch gives the same bytes on one thread and on two;
+- a test's verify_rate key asks for the check of that test alone, with its points and window, and a bad value of
+  it or a floors file without floors is refused with exit 2 naming the key.
 
 Ten times the paper's rate is not enough on 150 spheres: its branches differ from the test by no more than the
 paper-rate run's (chaos, not the rate, sets the difference at this size), so the verdict there is honest about it
@@ -105,6 +107,24 @@ with tempfile.TemporaryDirectory() as work:
         for point, p in t["verify_rate"]["points"].items():
             check(read(os.path.join(work, "fast", p["series"])) == read(os.path.join(work, "two", p["series"])),
                   f"{test} {point}: the branch's series differs between 1 and 2 threads")
+
+    with open(fast_deck) as f:
+        keyed = json.load(f)
+    keyed["tests"][1]["verify_rate"] = {"at": ["end"], "window_strain": 0.004}
+    keyed_deck = os.path.join(work, "keyed.json")
+    with open(keyed_deck, "w") as f:
+        json.dump(keyed, f)
+    by_key = run(keyed_deck, os.path.join(work, "keyed"), "--threads", "1")
+    name0, name1 = keyed["tests"][0]["name"], keyed["tests"][1]["name"]
+    check("verify_rate" not in by_key["tests"][name0], f"{name0}: checked without being asked")
+    check(list(by_key["tests"][name1]["verify_rate"]["points"]) == ["end"] and
+          by_key["tests"][name1]["verify_rate"]["window_strain"] == 0.004, f"{name1}: the key's points and window")
+    keyed["tests"][1]["verify_rate"] = {"at": ["middle"]}
+    with open(keyed_deck, "w") as f:
+        json.dump(keyed, f)
+    bad = subprocess.run([CELLDEM, "check", keyed_deck], capture_output=True, text=True)
+    check(bad.returncode == 2 and "tests[1].verify_rate.at[0]" in bad.stderr,
+          f"an unknown point: exit 2 naming the key, got {bad.returncode}: {bad.stderr}")
 
     bad = subprocess.run([CELLDEM, "run", fast_deck, "--out", os.path.join(work, "bad"), "--verify-rate", "--floors",
                           os.path.join(ROOT, "tests", "run", "small_run.json")], capture_output=True, text=True)
