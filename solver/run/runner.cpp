@@ -106,7 +106,7 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   const std::optional<VerifyRateOptions> check = verify_rate_for(options.verify_rate, test);
   BranchPoints branch_points(test, deck, check.value_or(VerifyRateOptions{}));
   if (check) {
-    if (resumed) branch_points.skip_rows(out.rows());  // the rows read back: no state was kept before them
+    if (resumed) branch_points.resume(state, out.rows());  // the rows read back, and the state resumed from
     else branch_points.on_row(state, out.rows().front());  // the first row, written by open
     out.set_row_observer([&](const State& s, const SeriesRow& row) { branch_points.on_row(s, row); });
   }

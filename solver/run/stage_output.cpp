@@ -111,8 +111,14 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
   if (row_due(state)) write_row(state, contacts);
   snapshot_if_due(state, false);
   progress_.update(s, fraction, status);
+  if (stop_requested() && branch_) {  // a rate check is run again whole, with the tail of its test
+    progress_.finish();
+    throw Interrupted("stopped by a signal in the rate check '" + stage_ + "' at step " + std::to_string(s) +
+                      "; the test's last checkpoint is kept. Continue with: celldem run " + deck_.source + " --out " +
+                      options_.out_dir + " --resume (its points before that checkpoint are then not checked)");
+  }
   if (stop_requested()) {
-    if (!branch_) checkpoint(state);
+    checkpoint(state);
     progress_.finish();
     throw Interrupted("stopped by a signal in stage '" + stage_ + "' at step " + std::to_string(s) +
                       "; a checkpoint was written. Continue with: celldem run " + deck_.source + " --out " +

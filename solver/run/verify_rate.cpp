@@ -117,12 +117,12 @@ void BranchPoints::on_row(const State& state, const SeriesRow& row) {
   const int axis = driving_axis(test_.legs[static_cast<std::size_t>(leg)], dt_);
   const double strain = axis >= 0 ? axis_strains(state)[axis] : kNaN;
   if (axis >= 0) {
-    const double spacing = 0.25 * options_.window_strain;
-    if (ring_.empty() || ring_.back().leg != leg || std::abs(strain - ring_.back().strain) >= spacing)
+    const double spacing = 0.25 * options_.window_strain;  // reached up to round-off, as the window
+    if (ring_.empty() || ring_.back().leg != leg || std::abs(strain - ring_.back().strain) >= spacing * (1.0 - 1e-9))
       ring_.push_back({std::make_shared<const State>(state), leg, strain});
     // Behind the newest state at least a window back, nothing is needed again (nor states of earlier legs).
-    while (ring_.size() > 1 && (ring_.front().leg != leg || (ring_[1].leg == leg &&
-                                                             std::abs(strain - ring_[1].strain) >= options_.window_strain)))
+    while (ring_.size() > 1 && (ring_.front().leg != leg ||
+                                (ring_[1].leg == leg && std::abs(strain - ring_[1].strain) >= window_reached())))
       ring_.erase(ring_.begin());
   }
   last_ = start_for(leg, axis, strain, index);
@@ -132,11 +132,19 @@ void BranchPoints::on_row(const State& state, const SeriesRow& row) {
   }
 }
 
-void BranchPoints::skip_rows(const std::vector<SeriesRow>& rows) {
+void BranchPoints::resume(const State& state, const std::vector<SeriesRow>& rows) {
   for (const SeriesRow& row : rows) best_ratio_ = std::max(best_ratio_, row.ratio13);
   rows_ = rows.size();
+  resumed_ = true;
+  const std::string missing = "the test was resumed after the window began (the states kept before are lost with "
+                              "the run that was stopped; --force runs it again whole)";
   peak_ = Start{};
-  peak_.missing = "the test was resumed after its peak so far; no state before it was kept";
+  peak_.missing = missing;
+  last_ = peak_;
+  // The state it resumes from: a start for the points a window after it.
+  const int leg = state.control.leg;
+  const int axis = driving_axis(test_.legs[static_cast<std::size_t>(leg)], dt_);
+  if (axis >= 0) ring_.push_back({std::make_shared<const State>(state), leg, axis_strains(state)[axis]});
 }
 
 BranchPoints::Start BranchPoints::start_for(int leg, int axis, double strain, std::size_t row) const {
@@ -151,7 +159,7 @@ BranchPoints::Start BranchPoints::start_for(int leg, int axis, double strain, st
   }
   const Kept* chosen = nullptr;  // the newest a whole window back, else the oldest of the leg (a shorter window)
   for (const Kept& k : ring_)
-    if (k.leg == leg && std::abs(strain - k.strain) >= options_.window_strain) chosen = &k;
+    if (k.leg == leg && std::abs(strain - k.strain) >= window_reached()) chosen = &k;
   if (!chosen)
     for (const Kept& k : ring_)
       if (k.leg == leg && k.strain != strain) {
@@ -159,8 +167,9 @@ BranchPoints::Start BranchPoints::start_for(int leg, int axis, double strain, st
         break;
       }
   if (chosen) s.state = chosen->state, s.from_strain = chosen->strain;
-  else s.missing = "no state before the point in its leg (the point is the leg's first row, or the test was resumed "
-                   "after the window began)";
+  else s.missing = resumed_ ? "no state before the point in its leg (the test was resumed after the window began: "
+                              "--force runs it again whole)"
+                            : "no state before the point in its leg (the point is the leg's first row)";
   return s;
 }
 

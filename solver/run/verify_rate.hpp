@@ -68,8 +68,9 @@ class BranchPoints {
   // After each row of the test (`row` as printed): keeps a copy of the state every quarter window of driving
   // strain, drops what is more than a window behind, and pins the branch start of a new largest s11/s33.
   void on_row(const State& state, const SeriesRow& row);
-  // A resumed test: the rows read back count (the peak so far among them), with no state kept before them.
-  void skip_rows(const std::vector<SeriesRow>& rows);
+  // A resumed test: the rows read back count (the peak so far among them), and the state it resumes from is the
+  // only one kept before them.
+  void resume(const State& state, const std::vector<SeriesRow>& rows);
 
   struct Start {
     std::shared_ptr<const State> state;  // null: no state to branch from
@@ -90,6 +91,7 @@ class BranchPoints {
     double strain;  // of the leg's driving axis
   };
   Start start_for(int leg, int axis, double strain, std::size_t row) const;
+  double window_reached() const { return options_.window_strain * (1.0 - 1e-9); }  // up to round-off
 
   const TestDef& test_;
   double dt_;
@@ -97,6 +99,7 @@ class BranchPoints {
   std::vector<Kept> ring_;  // oldest first
   double best_ratio_ = -1.0;
   std::size_t rows_ = 0;
+  bool resumed_ = false;
   Start peak_;
   Start last_;
 };
