@@ -197,9 +197,9 @@ Leg branch_leg(const Leg& parent, const BranchPoints::Start& start, double facto
 // margin (two-sided 95 %), a difference is the rate's and not chance's.
 double chaos_margin() { return boost::math::quantile(boost::math::normal_distribution<double>(), 0.975) * std::sqrt(2.0); }
 
-Json compare(const std::string& quantity, double parent, double branch, double floor, double tolerance) {
+Json compare(double parent, double branch, double floor, double tolerance) {
   const double floors = (branch - parent) / floor;
-  return {{"quantity", quantity}, {"parent", number_or_null(parent)}, {"branch", number_or_null(branch)},
+  return {{"parent", number_or_null(parent)}, {"branch", number_or_null(branch)},
           {"difference", number_or_null(branch - parent)}, {"floor", floor}, {"floors", number_or_null(floors)},
           {"within_tolerance", std::isfinite(floors) && std::abs(floors) <= tolerance}};
 }
@@ -237,9 +237,9 @@ void add_verdict(Json& point, double tolerance) {
   const double margin = chaos_margin();
   double largest = -1.0;
   std::string which;
-  for (const Json& c : point["comparisons"]) {
+  for (const auto& [quantity, c] : point["comparisons"].items()) {
     const double d = c["floors"].is_number() ? std::abs(c["floors"].get<double>()) : INFINITY;
-    if (d > largest) largest = d, which = c["quantity"].get<std::string>();
+    if (d > largest) largest = d, which = quantity;
   }
   point["largest"] = {{"quantity", which}, {"floors", number_or_null(largest)}};
   point["tolerance_floors"] = tolerance;
@@ -324,18 +324,20 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
       point["window"]["branch_end_strain"] = axis_strains(state)[start.axis];
       const ControlErrors& e = errors.back();
       point["controlled"] = std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
-      Json comparisons = Json::array();
+      // By quantity: with --seeds, ensemble.json then holds each difference's mean and interval over the seeds
+      // (e.g. verify_rate.points.peak.comparisons.Z.floors), the answer one branch cannot give.
+      Json comparisons = Json::object();
       if (name == "peak") {
         double peak = -INFINITY;
         for (const SeriesRow& r : branch) peak = std::max(peak, r.ratio13);
-        comparisons.push_back(compare("peak_ratio13", at.ratio13, peak, floors.ratio13, o.tolerance));
+        comparisons["peak_ratio13"] = compare(at.ratio13, peak, floors.ratio13, o.tolerance);
       }
       const double span = kEndShare * std::abs(start.point_strain - start.from_strain);
       const EndMeans p = end_means(rows, start, span), b = end_means(branch, start, span);
       point["window"]["end_means"] = {{"strain", span}, {"parent_rows", p.rows}, {"branch_rows", b.rows}};
-      comparisons.push_back(compare("ratio13", p.ratio13, b.ratio13, floors.ratio13, o.tolerance));
-      comparisons.push_back(compare("ev", p.ev, b.ev, floors.ev, o.tolerance));
-      comparisons.push_back(compare("Z", p.Z, b.Z, floors.Z, o.tolerance));
+      comparisons["ratio13"] = compare(p.ratio13, b.ratio13, floors.ratio13, o.tolerance);
+      comparisons["ev"] = compare(p.ev, b.ev, floors.ev, o.tolerance);
+      comparisons["Z"] = compare(p.Z, b.Z, floors.Z, o.tolerance);
       point["comparisons"] = comparisons;
       point["series"] = (fs::path(test.name) / "verify" / name / "series.csv").string();
       add_verdict(point, o.tolerance);

@@ -178,7 +178,7 @@ def test_report_shows_the_rate_check(alike, tmp_path):
         "points": {
             "peak": {"point": "peak", "verdict": "unresolved", "reason": "REASON-PEAK",
                      "window": {"axis": "x1", "from_strain": 0.02, "to_strain": 0.025},
-                     "comparisons": [{"quantity": "peak_ratio13", "parent": 3.9, "branch": 3.75, "floors": -1.5}]},
+                     "comparisons": {"peak_ratio13": {"parent": 3.9, "branch": 3.75, "floors": -1.5}}},
             "end": {"point": "end", "verdict": "not checked", "reason": "REASON-END"}}}
     with open(path, "w") as f:
         json.dump(s, f)

@@ -553,8 +553,11 @@ def verify_rate_section(run):
             window = p.get("window") or {}
             span = (f"{window.get('axis', '')} {fmt(window.get('from_strain'))} → {fmt(window.get('to_strain'))}"
                     if window else "—")
-            diffs = "; ".join(f"{c['quantity']} {fmt(c.get('parent'))} → {fmt(c.get('branch'))} "
-                              f"({fmt_spec(c.get('floors'), '+.2f')})" for c in p.get("comparisons") or []) or "—"
+            order = ("peak_ratio13", "ratio13", "ev", "Z")  # summary.json's object is in key order
+            comparisons = sorted((p.get("comparisons") or {}).items(),
+                                 key=lambda kv: order.index(kv[0]) if kv[0] in order else len(order))
+            diffs = "; ".join(f"{q} {fmt(c.get('parent'))} → {fmt(c.get('branch'))} "
+                              f"({fmt_spec(c.get('floors'), '+.2f')})" for q, c in comparisons) or "—"
             rows.append((test, point, span, diffs, f"**{p.get('verdict', 'n/a')}**", p.get("reason", "")))
     if not rows:
         return None
