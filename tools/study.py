@@ -126,6 +126,8 @@ def cmd_any_deck(args):
             print(f"study of {args.deck}: {plan['count']} spheres, {plan['seeds']} seeds, loading rate x "
                   f"{', '.join(f'{f:g}' for f in plan['factors'])}: about {plan['core_hours']:.3g} core-hours at "
                   f"{plan['throughput']:.3g} particle-steps/s ({plan['throughput_source']}); plan in {root}")
+            if plan.get("affordable_count", 0) > plan["count"]:
+                print(f"the budget allows about {plan['affordable_count']} spheres (--count) for the same study")
         plan = any_deck.read_plan(root)
         if args.command == "run":
             any_deck.run_study(root, plan, args.celldem)

@@ -154,6 +154,11 @@ def plan_study(deck_path, root, budget_core_hours, celldem, count=DEFAULT_COUNT,
         throughput = plans[1.0]["estimate"]["particle_steps_per_core_second"]
         source = "celldem plan's stated figure (particle_steps_per_core_second)"
     choice = choose(costs, budget_core_hours, throughput)
+    # Every setting on MAX_SEEDS with budget to spare: the spheres the budget would allow (cost ~ spheres), up to
+    # the deck's own count, for the user to ask for with --count.
+    if len(choice["factors"]) == len(RATE_FACTORS) and choice["seeds"] == MAX_SEEDS:
+        affordable = int(base["sample"]["count"] * budget_core_hours / choice["core_hours"])
+        choice["affordable_count"] = min(int(deck["sample"]["count"]), affordable)
     result = {"deck": os.path.abspath(deck_path), "count": base["sample"]["count"],
               "budget_core_hours": budget_core_hours, "throughput": throughput, "throughput_source": source,
               "predicted_particle_steps": {f"{f:g}": costs[f] for f in RATE_FACTORS},
