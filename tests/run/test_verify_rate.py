@@ -8,7 +8,9 @@ hundred times it:
 - the run a hundred times too fast (inertial number near 1e-2, which the run warns of) is flagged: at least one
   point is "not converged" (beyond the tolerance plus the chaos margin of one pair of runs);
 - the test's own series are the bytes of a run without --verify-rate (the branches leave them alone), the
-  branches' series exist where summary.json says, and a branch gives the same bytes on one thread and on two;
+  branches' series exist where summary.json says, each branch starts from the test's own state (its first row is
+  the test's row of that step, every column but the centred dilatancy index, which depends on the rows around
+  it), and a branch gives the same bytes on one thread and on two;
 - a test's verify_rate key asks for the check of that test alone, with its points and window, and a bad value of
   it or a floors file without floors is refused with exit 2 naming the key.
 
@@ -18,7 +20,7 @@ rather than flagged. About 30 s of CPU.
 
 Usage: test_verify_rate.py CELLDEM
 """
-import copy
+import csv
 import json
 import os
 import subprocess
@@ -91,7 +93,15 @@ with tempfile.TemporaryDirectory() as work:
     check("not converged" in v.values(), f"a run 100 x too fast has a point not converged: {v}")
     for test, t in fast["tests"].items():
         for point, p in t["verify_rate"]["points"].items():
-            check(os.path.isfile(os.path.join(work, "fast", p["series"])), f"{test} {point}: {p['series']} missing")
+            branch_path = os.path.join(work, "fast", p["series"])
+            check(os.path.isfile(branch_path), f"{test} {point}: {p['series']} missing")
+            with open(branch_path) as f:
+                first = next(csv.DictReader(f))
+            with open(os.path.join(work, "fast", test, "series.csv")) as f:
+                parent = {row["step"]: row for row in csv.DictReader(f)}
+            same = parent.get(first["step"])
+            check(same is not None and all(same[k] == v for k, v in first.items() if k != "DI"),
+                  f"{test} {point}: the branch's first row (step {first['step']}) is not the test's row there")
             window = p["window"]
             check(abs(window["to_strain"] - window["from_strain"]) >= t["verify_rate"]["window_strain"] - 1e-12,
                   f"{test} {point}: the branch spans a whole window: {window}")
