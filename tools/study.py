@@ -8,6 +8,16 @@ Usage: /usr/bin/python3 tools/study.py plan                 list the runs and wh
                                                             tables, charts, results/study/study.md and study.json;
                                                             with --write-presets also inputs/fast.json and
                                                             inputs/balanced.json
+       /usr/bin/python3 tools/study.py plan|run|analyse --deck DECK --budget-core-hours H [--count N]
+                                                            the study on any deck: its loading rate × 1 to 32,
+                                                            as many settings and seeds as the budget allows,
+                                                            the floor from its own ensemble, the chart
+                                                            (results/study-<deck>/; celldem/study/any_deck.py)
+       /usr/bin/python3 tools/study.py compare BASE_DIR OTHER_DIR [--margin FLOORS] [--json FILE]
+                                                            two `celldem run --seeds` folders of one deck on the
+                                                            same seeds: each summary quantity's mean paired
+                                                            difference in BASE's floors, paired t and TOST, and
+                                                            the particle-steps and wall-time ratios
 
 The scene: SCENE_COUNT spheres with the paper's sizes, density, contact law and preparation, tests to
 ε1 = END_STRAIN (the peak lies well inside it). Each sample is prepared once (samples/<name>/prepared.state)
@@ -32,7 +42,8 @@ import os
 import sys
 
 from celldem import binary, decks
-from celldem.study import analysis as study_analysis, report as study_report, runs as study_runs
+from celldem.study import analysis as study_analysis, any_deck, compare as study_compare, report as study_report
+from celldem.study import runs as study_runs
 from celldem.study.runs import DEFAULT_ROOT
 from celldem.study.scene import END_STRAIN, SCENE_COUNT
 
@@ -103,12 +114,56 @@ def cmd_analyse(args):
     return 0
 
 
+def cmd_any_deck(args):
+    """plan, run or analyse the study of args.deck (any_deck)."""
+    root = os.path.abspath(args.root_given or any_deck.default_root(args.deck))
+    try:
+        if args.command == "plan" or (args.command == "run" and args.budget_core_hours is not None):
+            if args.budget_core_hours is None:
+                return error("plan --deck needs --budget-core-hours")
+            plan = any_deck.plan_study(args.deck, root, args.budget_core_hours, args.celldem, args.count,
+                                       args.throughput)
+            print(f"study of {args.deck}: {plan['count']} spheres, {plan['seeds']} seeds, loading rate x "
+                  f"{', '.join(f'{f:g}' for f in plan['factors'])}: about {plan['core_hours']:.3g} core-hours at "
+                  f"{plan['throughput']:.3g} particle-steps/s ({plan['throughput_source']}); plan in {root}")
+            if plan.get("affordable_count", 0) > plan["count"]:
+                print(f"the budget allows about {plan['affordable_count']} spheres (--count) for the same study")
+        plan = any_deck.read_plan(root)
+        if args.command == "run":
+            any_deck.run_study(root, plan, args.celldem)
+        if args.command == "analyse":
+            paths = any_deck.write_report(root, plan, any_deck.analyse_study(root, plan))
+            print("wrote " + ", ".join(paths))
+    except (any_deck.StudyError, study_compare.CompareError, binary.BinaryError) as err:
+        return error(err)
+    return 0
+
+
+def cmd_compare(args):
+    try:
+        result = study_compare.compare(args.base, args.other, args.margin)
+    except study_compare.CompareError as err:
+        return error(err)
+    print(study_compare.markdown(result))
+    if args.json:
+        study_runs.write_json(args.json, result)
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     for name in ("plan", "run", "analyse"):
         p = sub.add_parser(name)
-        p.add_argument("--root", default=DEFAULT_ROOT, help="study results folder (default results/study)")
+        p.add_argument("--root", dest="root_given", help="study results folder (default results/study, with --deck "
+                       "results/study-<deck name>)")
+        p.add_argument("--deck", help="study this deck instead of the paper's reduced scene")
+        p.add_argument("--budget-core-hours", type=float, help="with --deck: the core-hours the study may take")
+        p.add_argument("--count", type=int, default=any_deck.DEFAULT_COUNT,
+                       help="with --deck: spheres of the reduced scene (default 1000, at most the deck's)")
+        p.add_argument("--throughput", type=float,
+                       help="with --deck: particle-steps per core-second for the budget (default: measured by the "
+                       "study's runs so far, else celldem plan's figure)")
         p.add_argument("--celldem", default=binary.find(),
                        help="celldem binary (default $CELLDEM, else build/celldem)")
         if name == "run":
@@ -122,9 +177,19 @@ def main(argv=None):
             p.add_argument("--retry-failed", action="store_true", help="run again the runs that failed")
         if name == "analyse":
             p.add_argument("--write-presets", action="store_true", help="write inputs/fast.json, inputs/balanced.json")
+    p = sub.add_parser("compare", help="two ensembles of one deck on the same seeds, quantity by quantity")
+    p.add_argument("base", help="the BASE ensemble folder (its seed-to-seed spread is the floor)")
+    p.add_argument("other", help="the OTHER ensemble folder (same deck and seeds, other settings)")
+    p.add_argument("--margin", type=float, default=study_compare.MARGIN_FLOORS,
+                   help="equivalence margin of TOST in floors (default 1)")
+    p.add_argument("--json", help="also write the comparison to this file")
     args = parser.parse_args(argv)
-    args.root = os.path.abspath(args.root)
+    if args.command == "compare":
+        return cmd_compare(args)
     args.celldem = os.path.abspath(args.celldem)
+    if args.deck:
+        return cmd_any_deck(args)
+    args.root = os.path.abspath(args.root_given or DEFAULT_ROOT)
     if args.command in ("plan", "run"):  # the plan places its time steps by the paper deck's critical step
         try:
             args.paper_plan = binary.plan(decks.PAPER_DECK, args.celldem)

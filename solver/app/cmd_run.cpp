@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstdio>
 
 #include "app/commands.hpp"
@@ -57,6 +58,28 @@ Command add_run_command(CLI::App& app) {
                   "quantity)");
   cmd->add_flag("--include-uncontrolled", args->include_uncontrolled,
                 "With --seeds: keep tests whose control failed in the ensemble statistics (left out by default)");
+  VerifyRateOptions& verify = args->options.verify_rate;  // NOLINT: lives as long as args
+  cmd->add_flag("--verify-rate", verify.enabled,
+                "Each test checks its own convergence: at its peak and end it runs again from a state a short window "
+                "before, at a fraction of its rate, and compares (summary.json verify_rate; <test>/verify/<point>/)");
+  cmd->add_option("--verify-at", verify.at, "With --verify-rate: the points to check")
+      ->delimiter(',')
+      ->check(CLI::IsMember(kVerifyPoints))
+      ->capture_default_str();
+  cmd->add_option("--verify-window", verify.window_strain,
+                  "With --verify-rate: driving strain of each branch, ending at its point")
+      ->check(CLI::Range(1e-6, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--verify-rate-factor", verify.rate_factor,
+                  "With --verify-rate: the branch's driving rate over the test's (strain increments and rates, stress "
+                  "ramps)")
+      ->check(CLI::Range(1e-3, 0.999))
+      ->capture_default_str();
+  cmd->add_option("--floors", verify.floors_path,
+                  "With --verify-rate: the noise floors, an ensemble.json of this deck or a JSON of seed-to-seed stds "
+                  "{\"ratio13\", \"ev\", \"Z\"} (optionally under tests.<name>); default: the reference ensemble's, "
+                  "scaled to the deck's particle count (docs/outputs.md)")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--progress-interval", args->options.progress_interval,
                   "Seconds between progress lines when stderr is not a terminal (a log file)")
       ->capture_default_str()
@@ -66,6 +89,17 @@ Command add_run_command(CLI::App& app) {
     if (args->options.force && args->options.resume)
       throw CLI::ValidationError("--force and --resume exclude each other");
     const Deck deck = read_deck(args->deck);
+    VerifyRateOptions& verify = args->options.verify_rate;
+    verify.at_given = cmd->count("--verify-at") > 0;
+    verify.window_given = cmd->count("--verify-window") > 0;
+    verify.factor_given = cmd->count("--verify-rate-factor") > 0;
+    const bool checked = verify.enabled || std::any_of(deck.tests.begin(), deck.tests.end(),
+                                                       [](const TestDef& t) { return t.verify_rate.has_value(); });
+    if ((verify.at_given || verify.window_given || verify.factor_given || !verify.floors_path.empty()) && !checked)
+      throw CLI::ValidationError("--verify-at, --verify-window, --verify-rate-factor and --floors need --verify-rate "
+                                 "(or a test's verify_rate key)");
+    for (const TestDef& test : deck.tests)  // a floors file that cannot serve is refused before any work
+      if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
     args->options.progress = args->options.quiet     ? ProgressMode::Off
                              : stderr_is_terminal() ? ProgressMode::Terminal
                                                     : ProgressMode::Log;

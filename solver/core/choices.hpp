@@ -39,6 +39,8 @@ inline constexpr std::array<std::string_view, 2> kControlFailureNames = {"stop",
 inline constexpr std::array<std::string_view, 3> kSnapshotFormatNames = {"binary", "zlib", "ascii"};
 inline constexpr std::array<std::string_view, 2> kGradingBasisNames = {"mass", "number"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
+// The points of a test a rate check (tests[].verify_rate, run --verify-rate) branches to.
+inline constexpr std::array<std::string_view, 2> kVerifyPointNames = {"peak", "end"};
 
 // Mindlin's stiffness 8 G* a, with or without the rescaling.
 constexpr bool is_mindlin(TangentialModel t) {

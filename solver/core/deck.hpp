@@ -179,6 +179,13 @@ struct PrepareDef {
   bool default_legs = true;  // legs are preparation_legs(): the fast leg is dropped when the start is denser
 };
 
+// A test's own rate check (tests[].verify_rate; run/verify_rate.hpp runs it).
+struct VerifyRateDef {
+  std::vector<std::string> at = {"peak", "end"};                    // points, kVerifyPointNames
+  double window_strain = keys::verify_rate_window_strain.fallback;  // [-] driving strain of each branch
+  double rate_factor = keys::verify_rate_rate_factor.fallback;      // the branch's rate over the test's
+};
+
 // A loading test: a load program of one or more legs from the prepared state.
 struct TestDef {
   std::string name;
@@ -189,6 +196,7 @@ struct TestDef {
   std::int64_t output_interval = static_cast<std::int64_t>(keys::test_output_interval.fallback);
   SnapshotDef snapshots;
   bool dynamic = false;  // not held to quasi-static (run/health.hpp)
+  std::optional<VerifyRateDef> verify_rate;  // the deck asks for the rate check of this test
   Friction stage_friction() const { return {friction, rolling_friction}; }
 };
 

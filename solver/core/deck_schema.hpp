@@ -363,6 +363,22 @@ inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval",
 inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind::Boolean, .required = false,
     .default_text = "false", .meaning = "`true`: the test is meant to be dynamic; otherwise a test whose unbalanced "
     "force and kinetic energy stay high (not quasi-static) stops the run, naming the likely cause"};
+inline constexpr KeySpec test_verify_rate{.path = "tests[].verify_rate", .kind = KeyKind::Object, .required = false,
+    .default_text = "none (`celldem run --verify-rate` checks every test)",
+    .meaning = "the test checks its own convergence: at each point it runs again from a state a window of driving "
+               "strain before it at `rate_factor` times its rate and reports the difference in noise floors "
+               "(summary.json `verify_rate`, `<test>/verify/<point>/`; docs/outputs.md); the command line's "
+               "`--verify-*` values, when given, replace these"};
+inline constexpr KeySpec verify_rate_at{.path = "tests[].verify_rate.at", .kind = KeyKind::Array, .required = false,
+    .default_text = "[\"peak\", \"end\"]", .choices = kVerifyPointNames,
+    .meaning = "the points: `peak` (the first row of the largest s11/s33) and `end` (the last row)"};
+inline constexpr KeySpec verify_rate_window_strain{.path = "tests[].verify_rate.window_strain", .kind = KeyKind::Number,
+    .min = 1e-6, .max = 1.0, .required = false, .fallback = 0.005,
+    .meaning = "driving strain of each branch, ending at its point"};
+inline constexpr KeySpec verify_rate_rate_factor{.path = "tests[].verify_rate.rate_factor", .kind = KeyKind::Number,
+    .min = 1e-3, .max = 0.999, .required = false, .fallback = 0.5,
+    .meaning = "the branch's driving rate over the test's: strain increments and rates of the strain-driven axes, "
+               "and stress ramps' rates"};
 // clang-format on
 
 // Every key in table order (the order of docs/deck.md's table).
@@ -384,7 +400,8 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
     &axis_stress_ramp_rate, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
-    &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic});
+    &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic, &test_verify_rate, &verify_rate_at,
+    &verify_rate_window_strain, &verify_rate_rate_factor});
 
 // The keys that choose the contact sub-models; a SubModelSelection names each one's choice in this order.
 inline constexpr auto kSubModels = std::to_array<const KeySpec*>({&contact_normal, &contact_tangential,

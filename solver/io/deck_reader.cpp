@@ -461,6 +461,28 @@ void read_program(const Json& list, const std::string& path, bool preparation, s
   }
 }
 
+VerifyRateDef read_verify_rate(ObjectReader r) {
+  VerifyRateDef v;
+  if (r.has(keys::verify_rate_at)) {
+    const Json& list = r.raw(keys::verify_rate_at);
+    const std::string path = r.at(keys::verify_rate_at);
+    if (!list.is_array() || list.empty()) fail(path, "expected a non-empty array of \"peak\" and \"end\"");
+    v.at.clear();
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string item = path + "[" + std::to_string(i) + "]";
+      if (!list[i].is_string() || std::find(kVerifyPointNames.begin(), kVerifyPointNames.end(),
+                                            list[i].get<std::string>()) == kVerifyPointNames.end())
+        fail(item, "expected \"peak\" or \"end\"");
+      if (std::find(v.at.begin(), v.at.end(), list[i].get<std::string>()) != v.at.end()) fail(item, "given twice");
+      v.at.push_back(list[i].get<std::string>());
+    }
+  }
+  v.window_strain = r.number(keys::verify_rate_window_strain);
+  v.rate_factor = r.number(keys::verify_rate_rate_factor);
+  r.finish();
+  return v;
+}
+
 SnapshotDef read_snapshots(ObjectReader r) {
   SnapshotDef s;
   s.interval = r.integer(keys::snapshots_interval);
@@ -575,6 +597,7 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
   t.output_interval = r.integer(keys::test_output_interval);
   if (r.has(keys::snapshots)) t.snapshots = read_snapshots(r.object(keys::snapshots));
   t.dynamic = r.boolean(keys::test_dynamic);
+  if (r.has(keys::test_verify_rate)) t.verify_rate = read_verify_rate(r.object(keys::test_verify_rate));
   r.finish();
   return t;
 }

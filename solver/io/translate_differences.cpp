@@ -225,6 +225,8 @@ std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
   if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.snapshots.any(); }))
     out.push_back("snapshots (tests[].snapshots): not translated; the scripts write the series only (add a dump "
                   "for particle snapshots)");
+  if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.verify_rate.has_value(); }))
+    out.push_back("rate check (tests[].verify_rate): not translated; the scripts run each test once, at its rate");
   return out;
 }
 

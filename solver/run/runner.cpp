@@ -103,6 +103,13 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
   if (!resumed && deck.initial_state && !deck.prepare) out.set_start_cause(loaded_overlap_cause(deck, state));
   out.open(state, resumed);
+  const std::optional<VerifyRateOptions> check = verify_rate_for(options.verify_rate, test);
+  BranchPoints branch_points(test, deck, check.value_or(VerifyRateOptions{}));
+  if (check) {
+    if (resumed) branch_points.resume(state, out.rows());  // the rows read back, and the state resumed from
+    else branch_points.on_row(state, out.rows().front());  // the first row, written by open
+    out.set_row_observer([&](const State& s, const SeriesRow& row) { branch_points.on_row(s, row); });
+  }
   Program program{test.legs, test.stage_friction(), &test.equilibrium, plan_test(deck, test).steps};
   program.equilibrium_key = "tests[].equilibrium";
   program.adaptive_threads = !options.fixed_threads;
@@ -116,6 +123,10 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
                                      state.control.stage_steps, state.particles.size(), warnings);
   run.update_summary([&](Json& s) { s["tests"][test.name] = result; });
   for (const std::string& w : warnings) run.add_warning(w);
+  if (check) {
+    const Json verified = verify_test_rate(run, deck, options, test, *check, branch_points, out.rows());
+    run.update_summary([&](Json& s) { s["tests"][test.name]["verify_rate"] = verified; });
+  }
 }
 
 void print_test_done(const RunDirectory& run, const std::string& name) {

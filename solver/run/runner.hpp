@@ -6,6 +6,7 @@
 
 #include "core/deck.hpp"
 #include "run/progress.hpp"
+#include "run/verify_rate.hpp"
 
 namespace celldem {
 
@@ -18,6 +19,7 @@ struct RunOptions {
   double progress_interval = 30.0;            // [s] between progress lines in a log
   bool quiet = false;     // no stage messages on stdout
   bool fixed_threads = false;  // keep the thread count (no ThreadGovernor trials of one thread)
+  VerifyRateOptions verify_rate;  // each test's own convergence check (run/verify_rate.hpp)
 };
 
 // Thrown after SIGINT/SIGTERM once a checkpoint has been written.

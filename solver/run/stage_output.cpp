@@ -111,6 +111,12 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
   if (row_due(state)) write_row(state, contacts);
   snapshot_if_due(state, false);
   progress_.update(s, fraction, status);
+  if (stop_requested() && branch_) {  // a rate check is run again whole, with the tail of its test
+    progress_.finish();
+    throw Interrupted("stopped by a signal in the rate check '" + stage_ + "' at step " + std::to_string(s) +
+                      "; the test's last checkpoint is kept. Continue with: celldem run " + deck_.source + " --out " +
+                      options_.out_dir + " --resume (its points before that checkpoint are then not checked)");
+  }
   if (stop_requested()) {
     checkpoint(state);
     progress_.finish();
@@ -118,7 +124,7 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
                       "; a checkpoint was written. Continue with: celldem run " + deck_.source + " --out " +
                       options_.out_dir + " --resume");
   }
-  if (s % deck_.checkpoint_interval == 0) {
+  if (!branch_ && s % deck_.checkpoint_interval == 0) {
     checkpoint(state);
     return true;
   }
@@ -157,10 +163,11 @@ void StageOutput::write_row(const State& state, const ContactMeasures* measured)
   check_row_finite(row, stage_, state.control.stage_steps);
   series_.append(format_series_row(row));
   rows_.push_back(as_printed(row));
-  if (loading_test_ && rows_.back().ratio13 > best_ratio_) {
+  if (loading_test_ && !branch_ && rows_.back().ratio13 > best_ratio_) {
     best_ratio_ = rows_.back().ratio13;
     write_peak_contacts(state, rows_.back());
   }
+  if (row_observer_) row_observer_(state, rows_.back());
 }
 
 void StageOutput::checkpoint(const State& state) {

@@ -5,6 +5,7 @@
 #pragma once
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -57,6 +58,13 @@ class StageOutput {
   std::vector<ControlErrors>& control_errors() { return control_errors_; }
   // What the stage started from that a runaway would most likely come from (RunawayMonitor::set_start_cause).
   void set_start_cause(std::string cause) { monitor_.set_start_cause(std::move(cause)); }
+  // Called with the state and the row (as printed) after each row is written (--verify-rate keeps states).
+  void set_row_observer(std::function<void(const State&, const SeriesRow&)> observer) {
+    row_observer_ = std::move(observer);
+  }
+  // A branch of a test (--verify-rate): a short stage with no checkpoints (it is run again whole) and no
+  // peak contact network.
+  void set_branch() { branch_ = true; }
 
  private:
   void write_row(const State& state, const ContactMeasures* contacts = nullptr);
@@ -84,6 +92,8 @@ class StageOutput {
   std::unique_ptr<SnapshotWriter> snapshots_;
   std::size_t next_e1_snapshot_ = 0;
   double best_ratio_ = -1.0;  // the largest s11/s33 of a row so far (its contacts: peak_contacts.csv)
+  std::function<void(const State&, const SeriesRow&)> row_observer_;
+  bool branch_ = false;
 };
 
 }  // namespace celldem

@@ -162,6 +162,34 @@ def test_report_quotes_summary(alike, tmp_path):
     assert "| εv, Z over the end window (%, –) | -5.550, 4.56 |" in r, "per-test table lacks the end window"
 
 
+def test_report_shows_the_rate_check(alike, tmp_path):
+    """A run with --verify-rate: the report's Rate check section quotes summary.json's verify_rate (window, both
+    values and the difference in floors of each quantity, the verdict and its reason); a run without it has no
+    such section."""
+    edited = str(tmp_path / "verified")
+    shutil.copytree(alike, edited)
+    tool("report", edited)
+    assert "## Rate check" not in read_text(os.path.join(edited, "report.md"))
+    path = os.path.join(edited, "summary.json")
+    s = json.load(open(path))
+    s["tests"]["ttc"]["verify_rate"] = {
+        "rate_factor": 0.5, "window_strain": 0.005, "tolerance_floors": 1.0,
+        "floors": {"ratio13": 0.1, "ev": 0.002, "Z": 0.05, "source": "FLOORS-SOURCE"},
+        "points": {
+            "peak": {"point": "peak", "verdict": "unresolved", "reason": "REASON-PEAK",
+                     "window": {"axis": "x1", "from_strain": 0.02, "to_strain": 0.025},
+                     "comparisons": {"peak_ratio13": {"parent": 3.9, "branch": 3.75, "floors": -1.5}}},
+            "end": {"point": "end", "verdict": "not checked", "reason": "REASON-END"}}}
+    with open(path, "w") as f:
+        json.dump(s, f)
+    tool("report", edited)
+    r = read_text(os.path.join(edited, "report.md"))
+    assert "## Rate check" in r and "FLOORS-SOURCE" in r and "0.500 times the test's rate" in r
+    assert ("| ttc | peak | x1 0.020 → 0.025 | peak_ratio13 3.900 → 3.750 (-1.50) | **unresolved** | REASON-PEAK |"
+            in r), r[r.index("## Rate check"):][:1500]
+    assert "| ttc | end | — | — | **not checked** | REASON-END |" in r
+
+
 def test_diverging_run_figures(diverging):
     check_pngs(os.path.join(diverging, "figures"))
 

@@ -539,6 +539,40 @@ def uncontrolled_note(run):
             f"{'it' if len(bad) == 1 else 'them'} does not judge the paper's loading path.**" if bad else "")
 
 
+def verify_rate_section(run):
+    """`celldem run --verify-rate`: per test and point, the branch's window, each quantity's value in the test and
+    in the branch at half the rate (or the run's rate factor), the difference in noise floors and the verdict with
+    its reason (summary.json verify_rate); None when no test was checked."""
+    rows, floors = [], []
+    for test in run.test_names:
+        check = run.test_summary(test).get("verify_rate")
+        if not isinstance(check, dict):
+            continue
+        floors.append(f"{test}: {check.get('floors', {}).get('source', 'n/a')}")
+        for point, p in (check.get("points") or {}).items():
+            window = p.get("window") or {}
+            span = (f"{window.get('axis', '')} {fmt(window.get('from_strain'))} → {fmt(window.get('to_strain'))}"
+                    if window else "—")
+            order = ("peak_ratio13", "ratio13", "ev", "Z")  # summary.json's object is in key order
+            comparisons = sorted((p.get("comparisons") or {}).items(),
+                                 key=lambda kv: order.index(kv[0]) if kv[0] in order else len(order))
+            diffs = "; ".join(f"{q} {fmt(c.get('parent'))} → {fmt(c.get('branch'))} "
+                              f"({fmt_spec(c.get('floors'), '+.2f')})" for q, c in comparisons) or "—"
+            rows.append((test, point, span, diffs, f"**{p.get('verdict', 'n/a')}**", p.get("reason", "")))
+    if not rows:
+        return None
+    factor = next((run.test_summary(t)["verify_rate"].get("rate_factor") for t in run.test_names
+                   if isinstance(run.test_summary(t).get("verify_rate"), dict)), None)
+    intro = (f"Each point was run again from a state a short window of driving strain before it, at {fmt(factor)} "
+             "times the test's rate (`--verify-rate`); the branch's value against the test's, the difference in "
+             "noise floors in brackets (the peak: the branch's largest σ1/σ3 in the window against the test's peak; "
+             "σ1/σ3, εv and Z: means over the window's last quarter). Converged: every difference within the "
+             "tolerance; not converged: one beyond the tolerance plus what chaos alone makes of one pair of runs; "
+             "unresolved: in between, where one branch cannot tell. Floors: " + "; ".join(floors) + ".")
+    return intro + "\n\n" + md_table(("Test", "Point", "Window (driving strain)", "Test → branch (floors)", "Verdict",
+                                      "Why"), rows)
+
+
 def section(title, body):
     return [] if body is None else [f"## {title}", "", body, ""]
 
@@ -556,6 +590,7 @@ def build_report(run, paper, planned):
                 "shows what the paper reports, by the criterion in the last column." + uncontrolled_note(run), "",
                 paper_table(run), ""]
     out += section("Controls", controls_section(run))
+    out += section("Rate check", verify_rate_section(run))
     if run.test_names:
         out += ["## Per-test values", "",
                 "The peak of σ1/σ3, ε1, b, p, q and the friction angle there, the final values and the end-window "

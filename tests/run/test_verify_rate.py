@@ -1,0 +1,144 @@
+#!/usr/bin/env python3
+"""`celldem run --verify-rate` on a small deck (tests/run/small_run.json, 150 spheres, tests to 3 % of axial
+strain: past their peaks) at two driving rates, the paper's strain increment (inputs/paper.json's tests) and a
+hundred times it:
+
+- at the paper's rate no checked point is "not converged" and every point that a branch checked is
+  "converged" (within 1 noise floor);
+- the run a hundred times too fast (inertial number near 1e-2, which the run warns of) is flagged: at least one
+  point is "not converged" (beyond the tolerance plus the chaos margin of one pair of runs);
+- the test's own series are the bytes of a run without --verify-rate (the branches leave them alone), the
+  branches' series exist where summary.json says, each branch starts from the test's own state (its first row is
+  the test's row of that step, every column but the centred dilatancy index, which depends on the rows around
+  it), and a branch gives the same bytes on one thread and on two;
+- a test's verify_rate key asks for the check of that test alone, with its points and window, and a bad value of
+  it or a floors file without floors is refused with exit 2 naming the key.
+
+Ten times the paper's rate is not enough on 150 spheres: its branches differ from the test by no more than the
+paper-rate run's (chaos, not the rate, sets the difference at this size), so the verdict there is honest about it
+rather than flagged. About 30 s of CPU.
+
+Usage: test_verify_rate.py CELLDEM
+"""
+import csv
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+CELLDEM = os.path.abspath(sys.argv[1])
+END_STRAIN = 0.03
+STRAIN_PER_ROW = 2.5e-4  # the same rows per strain at every rate (a peak's row sampling does not change)
+failures = []
+
+
+def check(condition, message):
+    if not condition:
+        failures.append(message)
+        print("FAIL:", message)
+
+
+def paper_increment():
+    with open(os.path.join(ROOT, "inputs", "paper.json")) as f:
+        paper = json.load(f)
+    increments = {t["axes"]["x1"]["strain_increment"] for t in paper["tests"]}
+    assert len(increments) == 1, increments
+    return increments.pop()
+
+
+def deck_at(increment, folder, name):
+    with open(os.path.join(ROOT, "tests", "run", "small_run.json")) as f:
+        deck = json.load(f)
+    for test in deck["tests"]:
+        test["axes"]["x1"]["strain_increment"] = increment
+        test["end"]["strain"] = END_STRAIN
+        test["output_interval"] = max(1, round(STRAIN_PER_ROW / increment))
+    path = os.path.join(folder, name + ".json")
+    with open(path, "w") as f:
+        json.dump(deck, f)
+    return path
+
+
+def run(deck, out, *extra):
+    result = subprocess.run([CELLDEM, "run", deck, "--out", out, "--quiet", *extra], capture_output=True, text=True)
+    check(result.returncode == 0, f"{deck} {extra}: exit {result.returncode}: {result.stderr[-2000:]}")
+    with open(os.path.join(out, "summary.json")) as f:
+        return json.load(f)
+
+
+def verdicts(summary):
+    return {(test, point): p["verdict"] for test, t in summary["tests"].items()
+            for point, p in t["verify_rate"]["points"].items()}
+
+
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+with tempfile.TemporaryDirectory() as work:
+    paper = paper_increment()
+    slow = run(deck_at(paper, work, "paper_rate"), os.path.join(work, "paper"), "--verify-rate", "--threads", "1")
+    v = verdicts(slow)
+    print("paper rate:", v)
+    check(len(v) == 4, f"two points of two tests checked, got {v}")
+    check(all(x == "converged" for x in v.values()), f"at the paper's rate every point converges: {v}")
+
+    fast_deck = deck_at(100 * paper, work, "too_fast")
+    fast = run(fast_deck, os.path.join(work, "fast"), "--verify-rate", "--threads", "1")
+    v = verdicts(fast)
+    print("100 x the paper's rate:", v)
+    check("not converged" in v.values(), f"a run 100 x too fast has a point not converged: {v}")
+    for test, t in fast["tests"].items():
+        for point, p in t["verify_rate"]["points"].items():
+            branch_path = os.path.join(work, "fast", p["series"])
+            check(os.path.isfile(branch_path), f"{test} {point}: {p['series']} missing")
+            with open(branch_path) as f:
+                first = next(csv.DictReader(f))
+            with open(os.path.join(work, "fast", test, "series.csv")) as f:
+                parent = {row["step"]: row for row in csv.DictReader(f)}
+            same = parent.get(first["step"])
+            check(same is not None and all(same[k] == v for k, v in first.items() if k != "DI"),
+                  f"{test} {point}: the branch's first row (step {first['step']}) is not the test's row there")
+            window = p["window"]
+            check(abs(window["to_strain"] - window["from_strain"]) >= t["verify_rate"]["window_strain"] - 1e-12,
+                  f"{test} {point}: the branch spans a whole window: {window}")
+
+    plain = run(fast_deck, os.path.join(work, "plain"), "--threads", "1")
+    for test in fast["tests"]:
+        check(read(os.path.join(work, "fast", test, "series.csv")) == read(os.path.join(work, "plain", test, "series.csv")),
+              f"{test}: --verify-rate changed the test's own series")
+        check("verify_rate" not in plain["tests"][test], f"{test}: verify_rate without --verify-rate")
+
+    two = run(fast_deck, os.path.join(work, "two"), "--verify-rate", "--threads", "2", "--fixed-threads")
+    for test, t in fast["tests"].items():
+        for point, p in t["verify_rate"]["points"].items():
+            check(read(os.path.join(work, "fast", p["series"])) == read(os.path.join(work, "two", p["series"])),
+                  f"{test} {point}: the branch's series differs between 1 and 2 threads")
+
+    with open(fast_deck) as f:
+        keyed = json.load(f)
+    keyed["tests"][1]["verify_rate"] = {"at": ["end"], "window_strain": 0.004}
+    keyed_deck = os.path.join(work, "keyed.json")
+    with open(keyed_deck, "w") as f:
+        json.dump(keyed, f)
+    by_key = run(keyed_deck, os.path.join(work, "keyed"), "--threads", "1")
+    name0, name1 = keyed["tests"][0]["name"], keyed["tests"][1]["name"]
+    check("verify_rate" not in by_key["tests"][name0], f"{name0}: checked without being asked")
+    check(list(by_key["tests"][name1]["verify_rate"]["points"]) == ["end"] and
+          by_key["tests"][name1]["verify_rate"]["window_strain"] == 0.004, f"{name1}: the key's points and window")
+    keyed["tests"][1]["verify_rate"] = {"at": ["middle"]}
+    with open(keyed_deck, "w") as f:
+        json.dump(keyed, f)
+    bad = subprocess.run([CELLDEM, "check", keyed_deck], capture_output=True, text=True)
+    check(bad.returncode == 2 and "tests[1].verify_rate.at[0]" in bad.stderr,
+          f"an unknown point: exit 2 naming the key, got {bad.returncode}: {bad.stderr}")
+
+    bad = subprocess.run([CELLDEM, "run", fast_deck, "--out", os.path.join(work, "bad"), "--verify-rate", "--floors",
+                          os.path.join(ROOT, "tests", "run", "small_run.json")], capture_output=True, text=True)
+    check(bad.returncode == 2 and "ratio13" in bad.stderr, f"a floors file without floors: exit 2 naming the key, got "
+          f"{bad.returncode}: {bad.stderr}")
+
+sys.exit(1 if failures else 0)
