@@ -1,6 +1,7 @@
 #include "run/run_directory.hpp"
 
 #include <cstdio>
+#include <sstream>
 
 #include "io/files.hpp"
 #include "io/tolerance.hpp"
@@ -47,9 +48,14 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
     const Json started = progress_.value("tolerance", Json());
     const Json asked = deck.tolerance ? Json(*deck.tolerance) : Json();
     if (started != asked) {
-      const auto name = [](const Json& t) { return t.is_null() ? std::string("no tolerance") : "--tolerance " + t.dump(); };
-      throw UsageError("--resume: this run was started with " + name(started) + ", not " + name(asked) +
-                       "; resume it with the same (or start it again with --force)");
+      const auto name = [](const Json& t) {
+        if (t.is_null()) return std::string("without --tolerance");
+        std::ostringstream s;
+        s << "with --tolerance " << t.get<double>();
+        return s.str();
+      };
+      throw UsageError("--resume: the run was started " + name(started) + " and is resumed " + name(asked) +
+                       ": resume it as it was started (or start it again with --force)");
     }
     if (progress_.value("deck", std::string()) != deck.canonical)
       throw UsageError("--resume: the deck differs from the one this run was started with");

@@ -13,6 +13,7 @@
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
 #include "io/tolerance.hpp"
+#include "io/translate.hpp"
 #include "measure/quasi_static.hpp"
 
 namespace celldem {
@@ -76,6 +77,19 @@ TEST(StageTimeStep, BoundsOfTheDeckKeyApplyPerStage) {
     }
     where["time_step"] = 0.5 * kMinTimeStepFraction * limit;  // below the minimum: refused too
     EXPECT_THROW(parse_deck(j.dump()), DeckError) << stage;
+  }
+}
+
+// The translated scripts run every stage at the deck's time step: a stage with its own is refused, by name.
+TEST(StageTimeStep, TranslationRefusesStagesWithTheirOwn) {
+  Json j = deck_json();
+  EXPECT_NO_THROW(translate_preparation(parse_deck(j.dump()), TargetCode::Lammps));
+  j["tests"][1]["time_step"] = 2.0e-6;
+  try {
+    translate_preparation(parse_deck(j.dump()), TargetCode::Lammps);
+    ADD_FAILURE() << "a deck whose test has its own time step was translated";
+  } catch (const DeckError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("tests[1].time_step:", 0), 0u) << e.what();
   }
 }
 
