@@ -283,6 +283,21 @@ TEST(EndToEnd, ToleranceRunRecordsItsDeckWhichRunsAgainAsWritten) {
   r = celldem(dir, run_args(deck, out, "--quiet --resume"));
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("and is resumed without --tolerance"), std::string::npos) << r.err;
+  // plan --tolerance --json: each stage's particle-steps against the deck as written, as the two plans count them.
+  r = celldem(dir, "plan '" + deck.string() + "' --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto written_plan = nlohmann::json::parse(r.out);
+  EXPECT_FALSE(written_plan.contains("tolerance"));
+  r = celldem(dir, "plan '" + deck.string() + "' --json --tolerance 1");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto plan = nlohmann::json::parse(r.out);
+  const auto& ttc = plan["tolerance"]["stages"][1];
+  EXPECT_EQ(ttc["stage"], "ttc");
+  EXPECT_EQ(ttc["particle_steps"]["low"].get<double>(), 150.0 * plan["tests"][0]["steps"].get<double>());
+  EXPECT_EQ(ttc["particle_steps_written"]["low"].get<double>(), 150.0 * written_plan["tests"][0]["steps"].get<double>());
+  EXPECT_DOUBLE_EQ(ttc["ratio_low"].get<double>(),
+                   written_plan["tests"][0]["steps"].get<double>() / plan["tests"][0]["steps"].get<double>());
+  EXPECT_EQ(plan["tests"][0]["time_step"].get<double>(), dt);
   // Outside the rules' range: a deck error naming the flag.
   r = celldem(dir, run_args(deck, dir / "outside", "--quiet --tolerance 100"));
   EXPECT_EQ(r.code, 2) << r.err;
