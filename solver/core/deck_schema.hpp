@@ -184,8 +184,8 @@ inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number,
 
 inline constexpr KeySpec tolerance{.path = "tolerance", .kind = KeyKind::Number, .positive = true, .required = false,
     .default_text = "none (the deck as written)", .unit = "noise floors",
-    .meaning = "ask for an answer within this many seed-to-seed noise floors of the deck as written at the paper's "
-               "settings: the time steps, strain rates, preparation schedule and output intervals are rewritten by "
+    .meaning = "ask for an answer within this many seed-to-seed noise floors of the deck as written, in fewer steps: "
+               "the time steps, strain rates, preparation schedule and output intervals are rewritten by "
                "the study's rules (io/time_to_answer_rules.json, levels 0.5 to 3; `celldem plan --tolerance`); "
                "`run --tolerance` overrides it"};
 
