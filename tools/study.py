@@ -4,10 +4,11 @@
 Usage: /usr/bin/python3 tools/study.py plan                 list the runs and whether each is done
        /usr/bin/python3 tools/study.py run [--jobs N] ...   run what is missing (resumable, one run at a time
                                                             by default, most important runs first)
-       /usr/bin/python3 tools/study.py analyse [--write-presets]
+       /usr/bin/python3 tools/study.py analyse [--write-presets] [--write-rules [PATH]]
                                                             tables, charts, results/study/study.md and study.json;
                                                             with --write-presets also inputs/fast.json and
-                                                            inputs/balanced.json
+                                                            inputs/balanced.json; with --write-rules the
+                                                            time-to-answer rules of `celldem --tolerance`
        /usr/bin/python3 tools/study.py plan|run|analyse --deck DECK --budget-core-hours H [--count N]
                                                             the study on any deck: its loading rate × 1 to 32,
                                                             as many settings and seeds as the budget allows,
@@ -111,6 +112,11 @@ def cmd_analyse(args):
     if args.write_presets:
         for p in study_runs.write_presets(study, decks.load(), args.celldem):
             print(f"wrote {p}")
+    if args.write_rules:
+        try:
+            print(f"wrote {study_runs.write_rules(study, args.write_rules)} (rebuild celldem to carry it)")
+        except ValueError as err:
+            return error(err)
     return 0
 
 
@@ -177,6 +183,9 @@ def main(argv=None):
             p.add_argument("--retry-failed", action="store_true", help="run again the runs that failed")
         if name == "analyse":
             p.add_argument("--write-presets", action="store_true", help="write inputs/fast.json, inputs/balanced.json")
+            p.add_argument("--write-rules", nargs="?", const=study_runs.RULES_PATH, metavar="PATH",
+                           help="write the time-to-answer rules of `celldem --tolerance` (default "
+                                "solver/io/time_to_answer_rules.json)")
     p = sub.add_parser("compare", help="two ensembles of one deck on the same seeds, quantity by quantity")
     p.add_argument("base", help="the BASE ensemble folder (its seed-to-seed spread is the floor)")
     p.add_argument("other", help="the OTHER ensemble folder (same deck and seeds, other settings)")

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 
 #include "app/commands.hpp"
 #include "core/plan.hpp"
@@ -39,6 +40,7 @@ Command add_run_command(CLI::App& app) {
     std::string deck, seeds;
     RunOptions options;
     bool include_uncontrolled = false;
+    std::optional<double> tolerance;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("run", "Run a deck: prepare a sample (or load one) and run its tests");
@@ -49,6 +51,10 @@ Command add_run_command(CLI::App& app) {
   cmd->add_flag("--fixed-threads", args->options.fixed_threads,
                 "Keep the thread count: no trials of one thread (by default a stage times one thread against its "
                 "count now and then and keeps the faster: same results, faster under contention)");
+  cmd->add_option("--tolerance", args->tolerance,
+                  "Answer within T seed-to-seed noise floors of the deck at its written settings, in fewer steps: "
+                  "time steps, strain rates, the preparation's schedule and output intervals rewritten by the "
+                  "study's rules (`celldem plan --tolerance T` shows them; overrides the deck's `tolerance`)");
   cmd->add_flag("--force", args->options.force, "Overwrite results already in the run directory");
   cmd->add_flag("--resume", args->options.resume, "Continue an interrupted run from its last checkpoint");
   cmd->add_flag("--quiet", args->options.quiet, "No progress or stage messages");
@@ -88,7 +94,7 @@ Command add_run_command(CLI::App& app) {
     if (!cmd->parsed()) return -1;
     if (args->options.force && args->options.resume)
       throw CLI::ValidationError("--force and --resume exclude each other");
-    const Deck deck = read_deck(args->deck);
+    const Deck deck = read_deck(args->deck, args->tolerance);
     VerifyRateOptions& verify = args->options.verify_rate;
     verify.at_given = cmd->count("--verify-at") > 0;
     verify.window_given = cmd->count("--verify-window") > 0;
@@ -131,6 +137,7 @@ Command add_check_command(CLI::App& app) {
     std::printf("%s: valid (%d particles, %zu tests, critical time step %.3g s, %s mode)\n%s\n", path->c_str(),
                 deck.sample.count, deck.tests.size(), limit.value(), limit.limiting().name,
                 describe_estimate(deck, start_fraction).c_str());
+    if (const std::string steps = describe_stage_time_steps(deck); !steps.empty()) std::printf("%s\n", steps.c_str());
     if (const std::string servo = describe_servo_caps(deck); !servo.empty()) std::printf("%s\n", servo.c_str());
     if (const std::string legs = describe_ramps_and_holds(deck); !legs.empty()) std::printf("%s\n", legs.c_str());
     return 0;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "app/commands.hpp"
@@ -193,7 +194,9 @@ Json plan_json(const Deck& deck) {
     out["prepare"] = {{"friction", deck.prepare->friction}, {"target_pressure", deck.prepare->target_pressure},
                       {"fast_solid_fraction", deck.prepare->fast_solid_fraction},
                       {"fast_strain_increment", deck.prepare->fast_strain_increment},
-                      {"output_interval", deck.prepare->output_interval}};
+                      {"output_interval", deck.prepare->output_interval},
+                      {"time_step", deck.stage_time_step(*deck.prepare)},
+                      {"time_step_ratio", deck.stage_time_step(*deck.prepare) / dt_crit}};
   if (deck.initial_state) out["initial_state"] = (fs::path(deck.source).parent_path() / *deck.initial_state).string();
   double start_fraction = -1.0;  // a preparation from initial_state starts at the state's solid fraction
   if (deck.prepare && deck.initial_state) {
@@ -230,7 +233,7 @@ Json plan_json(const Deck& deck) {
     for (std::size_t k = 0; k < t.legs.size(); ++k) {
       // Only for the new kinds of leg, so that every other deck's plan stays as it was.
       const Leg& leg = t.legs[k];
-      if (const std::int64_t n = ramp_target_steps(leg, deck.time_step); n >= 0) legs[k]["ramp_target_steps"] = n;
+      if (const std::int64_t n = ramp_target_steps(leg, deck.stage_time_step(t)); n >= 0) legs[k]["ramp_target_steps"] = n;
       if (leg.end.kind == LegEndKind::Equilibrium)  // the leg's own end.max_steps, else the criterion's
         legs[k]["equilibrium_max_steps"] = leg.end.max_steps > 0 ? leg.end.max_steps : t.equilibrium.max_steps;
     }
@@ -240,7 +243,9 @@ Json plan_json(const Deck& deck) {
                             {"end_axis", kAxisNames[first.end.axis]}, {"end_strain", first.end.value},
                             {"strain_per_step", p.strain_per_step}, {"strain_rate", p.strain_rate},
                             {"output_interval", t.output_interval}, {"rows", known(p.rows)},
-                            {"axes", axes_json(first)}, {"legs", legs}, {"inertial_number", inertia}});
+                            {"axes", axes_json(first)}, {"legs", legs}, {"inertial_number", inertia},
+                            {"time_step", deck.stage_time_step(t)},
+                            {"time_step_ratio", deck.stage_time_step(t) / dt_crit}});
     if (holds) {
       const EquilibriumDef& e = t.equilibrium;
       out["tests"].back()["equilibrium"] = {
@@ -252,22 +257,114 @@ Json plan_json(const Deck& deck) {
   return out;
 }
 
+// What --tolerance did (io/tolerance's resolved settings per stage) and the particle-steps each stage is
+// predicted to take, against the deck as written and the ratio.
+Json tolerance_json(const Deck& written, const Deck& resolved) {
+  Json out = Json::parse(resolved.tolerance_settings);
+  const double n = resolved.sample.count;
+  const auto steps_json = [n](const StepRange& w, const StepRange& r) {
+    const auto high = [n](const StepRange& s) { return s.high < 0 ? Json() : Json(n * static_cast<double>(s.high)); };
+    return Json{{"particle_steps_written", {{"low", n * static_cast<double>(w.low)}, {"high", high(w)}}},
+                {"particle_steps", {{"low", n * static_cast<double>(r.low)}, {"high", high(r)}}},
+                {"ratio_low", r.low > 0 ? Json(static_cast<double>(w.low) / static_cast<double>(r.low)) : Json()}};
+  };
+  double start_fraction = -1.0;
+  if (written.prepare && written.initial_state) start_fraction = preparation_start(written).solid_fraction;
+  StepRange all_written, all;
+  const auto add = [](StepRange& a, const StepRange& b) {
+    a.low += b.low;
+    a.high = a.high < 0 || b.high < 0 ? -1 : a.high + b.high;
+  };
+  std::size_t k = 0;
+  if (written.prepare) {
+    const StepRange w = preparation_steps(written, start_fraction), r = preparation_steps(resolved, start_fraction);
+    out["stages"][k++].update(steps_json(w, r));
+    add(all_written, w), add(all, r);
+  }
+  for (std::size_t i = 0; i < written.tests.size(); ++i) {
+    const StepRange w = test_steps(written, written.tests[i]), r = test_steps(resolved, resolved.tests[i]);
+    out["stages"][k++].update(steps_json(w, r));
+    add(all_written, w), add(all, r);
+  }
+  out["total"] = steps_json(all_written, all);
+  return out;
+}
+
+// The tolerance block of `plan` in words: per stage its time step, each leg's driving and inertial number,
+// the damping, the output interval and the particle-steps against the deck as written.
+void print_tolerance(const Json& t) {
+  const auto steps = [](const Json& s) {
+    char buf[96];
+    if (s["high"].is_null()) std::snprintf(buf, sizeof buf, "%.3g or more", s["low"].get<double>());
+    else if (s["high"] == s["low"]) std::snprintf(buf, sizeof buf, "%.3g", s["low"].get<double>());
+    else std::snprintf(buf, sizeof buf, "%.3g to %.3g", s["low"].get<double>(), s["high"].get<double>());
+    return std::string(buf);
+  };
+  const auto ratio = [](const Json& r) { return r.is_null() ? std::string("?") : std::to_string(r.get<double>()).substr(0, 5); };
+  const Json& rules = t["rules"];
+  std::printf("tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the stability limit %.3g s "
+              "(preparation %.3f), inertial number %.3g, damping translational %.3g rotational %.3g\n",
+              t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(), t["stability_limit"].get<double>(),
+              rules["prepare_time_step_fraction"].get<double>(), rules["inertial_number"].get<double>(),
+              t["damping"]["translational"].get<double>(), t["damping"]["rotational"].get<double>());
+  for (const Json& s : t["stages"]) {
+    std::printf("  %-12s dt %.3g s = %.3f of the limit (written %.3g s = %.3f); output every %lld steps (written %lld); "
+                "%s particle-steps (written %s: %sx)\n",
+                s["stage"].get<std::string>().c_str(), s["time_step"].get<double>(), s["time_step_fraction"].get<double>(),
+                s["time_step_written"].get<double>(), s["time_step_fraction_written"].get<double>(),
+                static_cast<long long>(s["output_interval"].get<std::int64_t>()),
+                static_cast<long long>(s["output_interval_written"].get<std::int64_t>()), steps(s["particle_steps"]).c_str(),
+                steps(s["particle_steps_written"]).c_str(), ratio(s["ratio_low"]).c_str());
+    if (s.contains("fast_strain_increment"))
+      std::printf("    fast compression %.3g per step (written %.3g)\n", s["fast_strain_increment"].get<double>(),
+                  s["fast_strain_increment_written"].get<double>());
+    if (s.contains("equilibrium"))
+      std::printf("    equilibrium: min_steps %lld (written %lld), checked every %lld (written %lld)\n",
+                  static_cast<long long>(s["equilibrium"]["min_steps"].get<std::int64_t>()),
+                  static_cast<long long>(s["equilibrium"]["min_steps_written"].get<std::int64_t>()),
+                  static_cast<long long>(s["equilibrium"]["check_interval"].get<std::int64_t>()),
+                  static_cast<long long>(s["equilibrium"]["check_interval_written"].get<std::int64_t>()));
+    for (std::size_t j = 0; j < s["legs"].size(); ++j) {
+      const Json& leg = s["legs"][j];
+      if (!leg["strain_driven"].get<bool>()) {
+        std::printf("    leg %zu: no strain-driven axis (its step ends keep their time)\n", j);
+        continue;
+      }
+      std::printf("    leg %zu: %.3g per step = %.3g /s (written %.3g per step = %.3g /s)", j,
+                  leg["driving_increment"].get<double>(), leg["strain_rate"].get<double>(),
+                  leg["driving_increment_written"].get<double>(), leg["strain_rate_written"].get<double>());
+      if (leg.contains("inertial_number"))
+        std::printf(", inertial number %.3g (written %.3g) at %.3g Pa", leg["inertial_number"].get<double>(),
+                    leg["inertial_number_written"].get<double>(), leg["confining_stress"].get<double>());
+      std::printf("\n");
+    }
+  }
+  std::printf("  total        %s particle-steps (written %s: %sx fewer, counting each equilibrium at its min_steps)\n",
+              steps(t["total"]["particle_steps"]).c_str(), steps(t["total"]["particle_steps_written"]).c_str(),
+              ratio(t["total"]["ratio_low"]).c_str());
+}
+
 }  // namespace
 
 Command add_plan_command(CLI::App& app) {
   struct Args {
     std::string deck;
     bool json = false;
+    std::optional<double> tolerance;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("plan", "What a deck implies before it runs: steps and rows per test, "
                                              "particle masses and damping, the stability limit");
   cmd->add_option("deck", a->deck, "Deck file (JSON)")->required()->check(CLI::ExistingFile);
   cmd->add_flag("--json", a->json, "Print JSON (for tools)");
+  cmd->add_option("--tolerance", a->tolerance,
+                  "The deck rewritten for T noise floors (as `run --tolerance T`): each stage's settings and "
+                  "particle-steps against the deck as written");
   return [cmd, a]() -> int {
     if (!cmd->parsed()) return -1;
-    const Deck deck = read_deck(a->deck);
-    const Json plan = plan_json(deck);
+    const Deck deck = read_deck(a->deck, a->tolerance);
+    Json plan = plan_json(deck);
+    if (deck.tolerance) plan["tolerance"] = tolerance_json(read_deck_as_written(a->deck), deck);
     if (a->json) {
       std::printf("%s\n", plan.dump(1).c_str());
       return 0;
@@ -314,16 +411,17 @@ Command add_plan_command(CLI::App& app) {
       return r["high"] == r["low"] ? count(r["low"]) : count(r["low"]) + (r["high"].is_null() ? " or more" : " to " + count(r["high"]));
     };
     const auto print_stage = [&](const std::string& name, const Json& steps, const Json& rows, const Json& legs,
-                                 const Json& equilibrium) {
-      std::printf("  %-12s %zu leg%s, %s steps, %s rows\n", name.c_str(), legs.size(), legs.size() > 1 ? "s" : "",
-                  steps.is_object() ? range(steps).c_str() : count(steps).c_str(), count(rows).c_str());
+                                 const Json& equilibrium, double time_step, double ratio) {
+      std::printf("  %-12s %zu leg%s, %s steps, %s rows; time step %.3g s = %.3f of the limit\n", name.c_str(),
+                  legs.size(), legs.size() > 1 ? "s" : "", steps.is_object() ? range(steps).c_str() : count(steps).c_str(),
+                  count(rows).c_str(), time_step, ratio);
       for (std::size_t j = 0; j < legs.size(); ++j) {
         const Json& leg = legs[j];
         for (const char* axis : {"x1", "x2", "x3"})
           if (const Json& a = leg["axes"][axis]; a.contains("stress_ramp"))
             std::printf("    leg %zu: %s stress ramp from %.6g Pa at %.6g Pa/s (%.3g Pa per step)\n", j, axis,
                         a["stress_ramp"]["from"].get<double>(), a["stress_ramp"]["rate"].get<double>(),
-                        a["stress_ramp"]["rate"].get<double>() * deck.time_step);
+                        a["stress_ramp"]["rate"].get<double>() * time_step);
         if (leg.contains("ramp_target_steps"))
           std::printf("    leg %zu: its end stress is the ramp's target after %lld steps (the measured stress ends it)\n",
                       j, static_cast<long long>(leg["ramp_target_steps"].get<std::int64_t>()));
@@ -349,12 +447,15 @@ Command add_plan_command(CLI::App& app) {
     };
     if (deck.prepare) {
       const Json& p = plan["prepare"];
-      print_stage("prepare", p["steps"], p["rows"], p["legs"], Json());
+      print_stage("prepare", p["steps"], p["rows"], p["legs"], Json(), p["time_step"].get<double>(),
+                  p["time_step_ratio"].get<double>());
     }
     for (const Json& t : plan["tests"])
-      print_stage(t["name"].get<std::string>(), t["steps"], t["rows"], t["legs"], t.value("equilibrium", Json()));
+      print_stage(t["name"].get<std::string>(), t["steps"], t["rows"], t["legs"], t.value("equilibrium", Json()),
+                  t["time_step"].get<double>(), t["time_step_ratio"].get<double>());
     const Json& start = plan["prepare"].is_object() ? plan["prepare"].value("start", Json()) : Json();
     std::printf("%s\n", describe_estimate(deck, start.is_null() ? -1.0 : start["solid_fraction"].get<double>()).c_str());
+    if (plan.contains("tolerance")) print_tolerance(plan["tolerance"]);
     return 0;
   };
 }

@@ -172,6 +172,7 @@ struct PrepareDef {
   std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
   SnapshotDef snapshots;
   bool dynamic = false;  // not held to quasi-static (run/health.hpp)
+  std::optional<double> time_step;  // [s] the stage's own time step; nullopt: the deck's (Deck::stage_time_step)
   Friction stage_friction() const { return {friction, rolling_friction}; }
   // The program; when a deck gives none, the two legs above: fast isotropic compression to the solid
   // fraction, then the isotropic servo at the target pressure to equilibrium (preparation_legs()).
@@ -197,6 +198,7 @@ struct TestDef {
   SnapshotDef snapshots;
   bool dynamic = false;  // not held to quasi-static (run/health.hpp)
   std::optional<VerifyRateDef> verify_rate;  // the deck asks for the rate check of this test
+  std::optional<double> time_step;  // [s] the stage's own time step; nullopt: the deck's (Deck::stage_time_step)
   Friction stage_friction() const { return {friction, rolling_friction}; }
 };
 
@@ -217,6 +219,14 @@ struct Deck {
   std::optional<std::string> initial_state; // path, relative to the deck's folder; with prepare: its start
   bool override_state_physics = false;      // run a state made with other physics (differences are warned)
   std::vector<TestDef> tests;
+  // The deck's `tolerance` key as read; after io/tolerance resolved it (read_deck), the tolerance the deck was
+  // rewritten for, with the resolved settings per stage as JSON text (the run's summary.json records them).
+  std::optional<double> tolerance;
+  std::string tolerance_settings;
+  // The time step a stage runs with: its own (prepare.time_step, tests[].time_step), else the deck's. A test
+  // that starts from a state made at another time step just continues: velocities and spins are physical.
+  double stage_time_step(const PrepareDef& p) const { return p.time_step.value_or(time_step); }
+  double stage_time_step(const TestDef& t) const { return t.time_step.value_or(time_step); }
 };
 
 }  // namespace celldem

@@ -182,6 +182,13 @@ inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number,
                "rolling and twisting modes: `celldem plan`) and below 1e-3 t_c; warned about above 0.93 t_c and below "
                "0.02 t_c"};
 
+inline constexpr KeySpec tolerance{.path = "tolerance", .kind = KeyKind::Number, .positive = true, .required = false,
+    .default_text = "none (the deck as written)", .unit = "noise floors",
+    .meaning = "ask for an answer within this many seed-to-seed noise floors of the deck as written, in fewer steps: "
+               "the time steps, strain rates, preparation schedule and output intervals are rewritten by "
+               "the study's rules (io/time_to_answer_rules.json, levels 0.5 to 3; `celldem plan --tolerance`); "
+               "`run --tolerance` overrides it"};
+
 inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
     .default_text = "defaults", .meaning = "the stress servo (docs/physics.md: Mixed control)"};
 inline constexpr KeySpec servo_gain{.path = "servo.gain", .kind = KeyKind::Number, .min = 0, .max = 1,
@@ -229,6 +236,10 @@ inline constexpr KeySpec prepare_relax_overlaps{.path = "prepare.relax_overlaps"
                "dilated (scaled isotropically, scaled positions kept) by the smallest factor that brings every "
                "overlap to at most this fraction of the smaller radius, and the preparation compresses it back. "
                "Without it, overlaps beyond 0.05 of the smaller radius are refused"};
+inline constexpr KeySpec prepare_time_step{.path = "prepare.time_step", .kind = KeyKind::Number, .positive = true,
+    .required = false, .default_text = "`time_step`", .unit = "s",
+    .meaning = "the preparation's own time step, with the bounds of `time_step` (`check` and `plan` give its fraction "
+               "of the stability limit)"};
 inline constexpr KeySpec prepare_output_interval{.path = "prepare.output_interval", .kind = KeyKind::Integer,
     .min = 1, .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 inline constexpr KeySpec prepare_equilibrium{.path = "prepare.equilibrium", .kind = KeyKind::Object,
@@ -358,6 +369,10 @@ inline constexpr KeySpec snapshots_format{.path = "tests[].snapshots.format", .k
     .choices = kSnapshotFormatNames,
     .meaning = "how the `.vtu`/`.vtp` arrays are stored: `binary` (raw, appended after the XML), `zlib` (the same, "
                "compressed) or `ascii` (text, %.17g); ParaView reads all three, the `.dump` is always text"};
+inline constexpr KeySpec test_time_step{.path = "tests[].time_step", .kind = KeyKind::Number, .positive = true,
+    .required = false, .default_text = "`time_step`", .unit = "s",
+    .meaning = "this test's own time step, with the bounds of `time_step`; a test from a state prepared at another "
+               "time step continues it (velocities are physical)"};
 inline constexpr KeySpec test_output_interval{.path = "tests[].output_interval", .kind = KeyKind::Integer, .min = 1,
     .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind::Boolean, .required = false,
@@ -390,18 +405,18 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &sample_grid_spacing, &contact, &contact_normal, &contact_tangential, &contact_rolling, &contact_twisting, &contact_kn, &contact_kt,
     &contact_youngs_modulus, &contact_poisson_ratio, &contact_rolling_stiffness, &contact_rolling_damping,
     &contact_rolling_friction, &contact_reference_overlap, &contact_tangential_rotation, &contact_moment_arm,
-    &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &servo, &servo_gain,
+    &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &tolerance, &servo, &servo_gain,
     &servo_integral_gain, &servo_max_strain_increment, &control_failure, &neighbor_skin, &checkpoint_interval, &prepare,
     &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
-    &prepare_relax_overlaps, &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
+    &prepare_relax_overlaps, &prepare_time_step, &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
     &axis_stress_ramp_rate, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
-    &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic, &test_verify_rate, &verify_rate_at,
-    &verify_rate_window_strain, &verify_rate_rate_factor});
+    &snapshots_e1, &snapshots_format, &test_time_step, &test_output_interval, &test_dynamic, &test_verify_rate,
+    &verify_rate_at, &verify_rate_window_strain, &verify_rate_rate_factor});
 
 // The keys that choose the contact sub-models; a SubModelSelection names each one's choice in this order.
 inline constexpr auto kSubModels = std::to_array<const KeySpec*>({&contact_normal, &contact_tangential,

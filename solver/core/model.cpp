@@ -9,8 +9,12 @@ namespace celldem {
 double Model::mass_of(double radius) const { return body_properties(radius, density, {}, {}).mass; }
 
 Model make_model(const Deck& deck, const std::vector<double>& radius) {
+  return make_model(deck, radius, deck.time_step);
+}
+
+Model make_model(const Deck& deck, const std::vector<double>& radius, double time_step) {
   Model m;
-  m.dt = deck.time_step;
+  m.dt = time_step;
   m.density = deck.sample.density;
   m.contact = deck.contact;
   m.kinematics = deck.kinematics;

@@ -24,6 +24,8 @@ struct Model {
   double mass_of(double radius) const;
 };
 
+// The model of a stage that runs with `time_step` (Deck::stage_time_step); without it, the deck's.
+Model make_model(const Deck& deck, const std::vector<double>& radius, double time_step);
 Model make_model(const Deck& deck, const std::vector<double>& radius);
 
 }  // namespace celldem

@@ -88,16 +88,16 @@ StepRange add(StepRange a, StepRange b) {
 }  // namespace
 
 std::vector<LegPlan> plan_legs(const Deck& deck, const std::vector<Leg>& legs, const std::vector<StepRange>& steps,
-                               std::int64_t output_interval) {
+                               std::int64_t output_interval, double time_step) {
   std::vector<LegPlan> out;
   std::int64_t at = 0;  // the stage step where the leg starts; -1 once unknown
   for (std::size_t k = 0; k < legs.size(); ++k) {
     const Leg& leg = legs[k];
     LegPlan p;
     p.steps = steps[k];
-    p.driving_increment = leg_driving_increment(leg, deck.time_step);
-    p.driving_rate = p.driving_increment / deck.time_step;
-    p.servo_cap = servo_cap(deck.servo, leg, deck.time_step);
+    p.driving_increment = leg_driving_increment(leg, time_step);
+    p.driving_rate = p.driving_increment / time_step;
+    p.servo_cap = servo_cap(deck.servo, leg, time_step);
     p.servo = leg_has_servo(leg);
     if (at >= 0 && p.steps.exact()) {
       const std::int64_t end = at + p.steps.low;
@@ -115,12 +115,13 @@ std::vector<LegPlan> plan_legs(const Deck& deck, const std::vector<Leg>& legs, c
 TestPlan plan_test(const Deck& deck, const TestDef& test) {
   TestPlan p;
   const Leg& first = test.legs.front();
-  p.strain_per_step = first.strain_per_step(first.end.axis, deck.time_step);
-  p.strain_rate = p.strain_per_step / deck.time_step;
+  const double dt = deck.stage_time_step(test);
+  p.strain_per_step = first.strain_per_step(first.end.axis, dt);
+  p.strain_rate = p.strain_per_step / dt;
   std::vector<StepRange> steps;
-  for (const std::int64_t n : program_leg_steps(test.legs, deck.time_step))
+  for (const std::int64_t n : program_leg_steps(test.legs, dt))
     steps.push_back(n >= 0 ? StepRange{n, n} : StepRange{0, -1});
-  p.legs = plan_legs(deck, test.legs, steps, test.output_interval);
+  p.legs = plan_legs(deck, test.legs, steps, test.output_interval, dt);
   for (const LegPlan& leg : p.legs) {
     if (leg.rows < 0) {
       p.steps = p.rows = -1;
@@ -145,7 +146,7 @@ double loading_rate(const Deck& deck, const TestDef& test) {
   double rate = 0.0;
   for (const Leg& leg : test.legs)
     for (const AxisControl& a : leg.axes) {
-      if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / deck.time_step);
+      if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / deck.stage_time_step(test));
       if (a.mode == AxisMode::StrainRate) rate = std::max(rate, std::abs(a.value));
     }
   return rate;
@@ -323,6 +324,7 @@ PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction) 
   if (!deck.prepare) return plan;
   const PrepareDef& prep = *deck.prepare;
   const EquilibriumDef& eq = prep.equilibrium;
+  const double dt = deck.stage_time_step(prep);
   const SampleDef& s = deck.sample;
   int side = 1;  // the grid sample's (run/sample.cpp)
   while (static_cast<long long>(side) * side * side < s.count) ++side;
@@ -342,10 +344,10 @@ PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction) 
   bool strain_known = true;
   for (const Leg& leg : plan.legs) {
     const LegEnd& e = leg.end;
-    std::int64_t n = e.kind == LegEndKind::Steps || strain_known ? leg_steps(leg, deck.time_step, strain[e.axis]) : -1;
-    const double d = leg.strain_per_step(0, deck.time_step);
+    std::int64_t n = e.kind == LegEndKind::Steps || strain_known ? leg_steps(leg, dt, strain[e.axis]) : -1;
+    const double d = leg.strain_per_step(0, dt);
     const bool isotropic = std::all_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.strain_driven(); }) &&
-                           leg.strain_per_step(1, deck.time_step) == d && leg.strain_per_step(2, deck.time_step) == d;
+                           leg.strain_per_step(1, dt) == d && leg.strain_per_step(2, dt) == d;
     if (n < 0 && e.kind == LegEndKind::SolidFraction && isotropic && d > 0.0 && strain_known &&
         strain[1] == strain[0] && strain[2] == strain[0]) {
       // Every axis follows h = L (1 - (e0 + n d)) (cell/control.cpp), so the solid fraction after n steps is
@@ -357,7 +359,7 @@ PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction) 
       plan.steps.push_back({n, n});
       for (int k = 0; k < 3; ++k) {
         if (!leg.axes[k].strain_driven()) strain_known = false;
-        strain[k] += static_cast<double>(n) * leg.strain_per_step(k, deck.time_step);
+        strain[k] += static_cast<double>(n) * leg.strain_per_step(k, dt);
       }
       if (e.kind == LegEndKind::Strain && n != e.max_steps) strain[e.axis] = e.value;
     } else if (e.kind == LegEndKind::Equilibrium) {
@@ -368,7 +370,7 @@ PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction) 
       strain_known = false;
     }
   }
-  plan.listed = plan_legs(deck, plan.legs, plan.steps, prep.output_interval);
+  plan.listed = plan_legs(deck, plan.legs, plan.steps, prep.output_interval, dt);
   return plan;
 }
 

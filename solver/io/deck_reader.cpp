@@ -10,6 +10,7 @@
 
 #include "core/plan.hpp"
 #include "io/deck_parts.hpp"
+#include "io/tolerance.hpp"
 
 namespace celldem {
 namespace {
@@ -566,6 +567,8 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
   if (is_reserved_stage_name(t.name))
     fail(r.at(keys::test_name), "\"" + t.name + "\" is reserved (the preparation stage); choose another name");
   t.friction = r.number(keys::test_friction);
+  if (r.has(keys::test_time_step)) t.time_step = r.number(keys::test_time_step);
+  time_step = t.time_step.value_or(time_step);  // the leg lengths below are the stage's
   check_sub_model_keys(r, "tests[].", contact.selection());
   t.rolling_friction = r.has(keys::test_rolling_friction) ? r.number(keys::test_rolling_friction)
                                                           : contact.rolling_friction;
@@ -616,6 +619,7 @@ PrepareDef read_prepare(ObjectReader r) {
   else if (!r.has(keys::prepare_target_pressure))
     fail(r.at(keys::prepare_target_pressure), "missing required key (or give \"legs\")");
   read_fields(r, p, kPrepareNumbers);
+  if (r.has(keys::prepare_time_step)) p.time_step = r.number(keys::prepare_time_step);
   p.output_interval = r.integer(keys::prepare_output_interval);
   if (r.has(keys::snapshots)) p.snapshots = read_snapshots(r.object(keys::snapshots));
   if (r.has(keys::prepare_equilibrium)) {
@@ -640,8 +644,15 @@ void check_time_step(Deck& d) {
     if (c.reference_overlap == 0.0)
       fail("contact.reference_overlap", "missing; the deck names no stress to estimate the largest overlap from");
   }
-  for (const TimeStepFinding& f : time_step_findings(d.time_step, critical_time_steps(d.sample, c)))
-    if (f.bound->refuse) fail("time_step", f.message);
+  const CriticalTimeStep limit = critical_time_steps(d.sample, c);
+  const auto check = [&](double time_step, const std::string& path) {
+    for (const TimeStepFinding& f : time_step_findings(time_step, limit))
+      if (f.bound->refuse) fail(path, f.message);
+  };
+  check(d.time_step, "time_step");
+  if (d.prepare && d.prepare->time_step) check(*d.prepare->time_step, "prepare.time_step");
+  for (std::size_t i = 0; i < d.tests.size(); ++i)
+    if (d.tests[i].time_step) check(*d.tests[i].time_step, "tests[" + std::to_string(i) + "].time_step");
 }
 
 }  // namespace
@@ -662,6 +673,7 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
   d.damping = read_damping(r.object(keys::damping));
   d.kinematics = r.choice_of<Kinematics>(keys::kinematics);
   d.time_step = r.number(keys::time_step);
+  if (r.has(keys::tolerance)) d.tolerance = r.number(keys::tolerance);
   if (r.has(keys::servo)) d.servo = read_servo(r.object(keys::servo));
   d.control_failure = r.choice_of<ControlFailure>(keys::control_failure);
   d.neighbor_skin = r.number(keys::neighbor_skin);
@@ -704,12 +716,23 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
   return d;
 }
 
-Deck read_deck(const std::string& path) {
+std::string read_deck_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DeckError(path + ": cannot open the deck");
   std::ostringstream text;
   text << in.rdbuf();
-  return parse_deck(text.str(), path);
+  return text.str();
+}
+
+Deck read_deck_as_written(const std::string& path) { return parse_deck(read_deck_text(path), path); }
+
+Deck read_deck(const std::string& path, std::optional<double> tolerance) {
+  const std::string text = read_deck_text(path);
+  Deck written = parse_deck(text, path);
+  const std::string key = tolerance ? "--tolerance" : "tolerance";
+  if (!tolerance) tolerance = written.tolerance;
+  if (!tolerance) return written;
+  return resolve_tolerance(written, text, *tolerance, key);
 }
 
 }  // namespace celldem

@@ -88,6 +88,14 @@ void require_listed_sizes(const Deck& deck) {
   if (deck.sample.grading)
     throw DeckError("sample.diameters.grading: the translated scripts give one atom type per listed diameter "
                     "(per-type damping), which a graded sample does not have: translate a deck with a `list`");
+  // The scripts run every stage at the deck's time step (their damping and servo constants are made from it).
+  const auto own = [&](const std::optional<double>& dt, const std::string& path) {
+    if (dt && *dt != deck.time_step)
+      throw DeckError(path + ": the translated scripts run every stage at the deck's time_step; translate a deck "
+                      "whose stages use it");
+  };
+  if (deck.prepare) own(deck.prepare->time_step, "prepare.time_step");
+  for (std::size_t i = 0; i < deck.tests.size(); ++i) own(deck.tests[i].time_step, "tests[" + std::to_string(i) + "].time_step");
 }
 }  // namespace
 

@@ -123,10 +123,11 @@ std::vector<std::string> control_warnings(const TestDef& test, const std::vector
 
 std::string not_quasi_static_cause(const Deck& deck, const TestDef& test) {
   const CriticalTimeStep limit = critical_time_steps(deck.sample, deck.contact);
-  const double fraction = deck.time_step / limit.value();
+  const double dt = deck.stage_time_step(test);
+  const double fraction = dt / limit.value();
   char step[256];
   std::snprintf(step, sizeof step, "time step too large for the %s mode (time_step %.3g s is %.3g of its limit "
-                "%.3g s, %s = %.3g)", limit.limiting().name, deck.time_step, fraction, limit.value(),
+                "%.3g s, %s = %.3g)", limit.limiting().name, dt, fraction, limit.value(),
                 limit.limiting().stiffness_name, limit.limiting().stiffness);
   const double p = first_leg_stress(test);
   const double inertia = std::isnan(p) ? 0.0 : inertial_number(loading_rate(deck, test), mean_diameter(deck.sample),
@@ -142,8 +143,15 @@ std::string not_quasi_static_cause(const Deck& deck, const TestDef& test) {
 
 std::vector<std::string> deck_warnings(const Deck& deck) {
   std::vector<std::string> out;
-  for (const TimeStepFinding& f : time_step_findings(deck.time_step, critical_time_steps(deck.sample, deck.contact)))
-    if (!f.bound->refuse) out.push_back("time_step " + f.message);
+  const CriticalTimeStep limit = critical_time_steps(deck.sample, deck.contact);
+  const auto warn = [&](double time_step, const std::string& path) {
+    for (const TimeStepFinding& f : time_step_findings(time_step, limit))
+      if (!f.bound->refuse) out.push_back(path + " " + f.message);
+  };
+  warn(deck.time_step, "time_step");
+  if (deck.prepare && deck.prepare->time_step) warn(*deck.prepare->time_step, "prepare.time_step");
+  for (std::size_t i = 0; i < deck.tests.size(); ++i)
+    if (deck.tests[i].time_step) warn(*deck.tests[i].time_step, "tests[" + std::to_string(i) + "].time_step");
   return out;
 }
 

@@ -170,12 +170,13 @@ void check_state(const Deck& deck, const std::string& path, std::vector<std::str
 // The largest axis-1 strain a test reaches at the ends of its legs; NaN unless every leg drives axis 1 by
 // strain and ends on its strain or on a step count (otherwise only running the test tells).
 double largest_e1(const Deck& deck, const TestDef& test) {
+  const double dt = deck.stage_time_step(test);
   double e1 = 0.0, largest = 0.0;
   for (const Leg& leg : test.legs) {
     if (!leg.axes[0].strain_driven()) return std::nan("");
     if (leg.end.kind == LegEndKind::Strain && leg.end.axis == 0) e1 = leg.end.value;
-    else if (leg.end.kind == LegEndKind::Steps) e1 += static_cast<double>(leg_steps(leg, deck.time_step)) *
-                                                      leg.strain_per_step(0, deck.time_step);
+    else if (leg.end.kind == LegEndKind::Steps) e1 += static_cast<double>(leg_steps(leg, dt)) *
+                                                      leg.strain_per_step(0, dt);
     else return std::nan("");
     largest = std::max(largest, e1);
   }
@@ -188,22 +189,23 @@ double largest_e1(const Deck& deck, const TestDef& test) {
 void warn_capped_strain_legs(const Deck& deck, std::vector<std::string>& warnings) {
   for (std::size_t t = 0; t < deck.tests.size(); ++t) {
     const TestDef& test = deck.tests[t];
+    const double dt = deck.stage_time_step(test);
     Vec3 strain = Vec3::Zero();
     for (std::size_t k = 0; k < test.legs.size(); ++k) {
       const Leg& leg = test.legs[k];
       const LegEnd& e = leg.end;
-      const std::int64_t n = leg_steps(leg, deck.time_step, strain[e.axis]);
+      const std::int64_t n = leg_steps(leg, dt, strain[e.axis]);
       if (n < 0) break;
       const bool strain_end = e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven();
       if (strain_end && e.max_steps > 0 && n == e.max_steps) {
-        const double reached = strain[e.axis] + static_cast<double>(n) * leg.strain_per_step(e.axis, deck.time_step);
-        if (std::abs(reached - e.value) > 0.5 * std::abs(leg.strain_per_step(e.axis, deck.time_step)))
+        const double reached = strain[e.axis] + static_cast<double>(n) * leg.strain_per_step(e.axis, dt);
+        if (std::abs(reached - e.value) > 0.5 * std::abs(leg.strain_per_step(e.axis, dt)))
           warnings.push_back("tests[" + std::to_string(t) + "] (test '" + test.name + "', leg " + std::to_string(k) +
                              "): end.max_steps " + std::to_string(e.max_steps) + " stops the leg at x" +
                              std::to_string(e.axis + 1) + " strain " + fmt(reached) + ", short of its end strain " +
                              fmt(e.value));
       }
-      for (int a = 0; a < 3; ++a) strain[a] += static_cast<double>(n) * leg.strain_per_step(a, deck.time_step);
+      for (int a = 0; a < 3; ++a) strain[a] += static_cast<double>(n) * leg.strain_per_step(a, dt);
       if (strain_end && n != e.max_steps) strain[e.axis] = e.value;
     }
   }
@@ -226,11 +228,11 @@ void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnin
 // A servo axis beside an axis driven at d per step moves about d to 2d per step (its dilation): a cap below
 // kMinServoCapRatio x d saturates the servo, and the control fails.
 void check_servo_caps(const Deck& deck) {
-  const auto check = [&](const std::vector<Leg>& legs, const std::string& stage) {
+  const auto check = [&](const std::vector<Leg>& legs, double dt, const std::string& stage) {
     for (std::size_t j = 0; j < legs.size(); ++j) {
       const Leg& leg = legs[j];
-      const double d = leg_driving_increment(leg, deck.time_step);
-      const double cap = servo_cap(deck.servo, leg, deck.time_step);
+      const double d = leg_driving_increment(leg, dt);
+      const double cap = servo_cap(deck.servo, leg, dt);
       if (leg_has_servo(leg) && d > 0.0 && cap < kMinServoCapRatio * d)
         throw DeckError("servo.max_strain_increment: " + fmt(cap) + " is below " + fmt(kMinServoCapRatio) +
                         " x the driving strain per step " + fmt(d) + " of " + stage + " leg " + std::to_string(j) +
@@ -239,8 +241,8 @@ void check_servo_caps(const Deck& deck) {
                         "lower the strain rate");
     }
   };
-  if (deck.prepare) check(deck.prepare->legs, "the preparation");
-  for (const TestDef& t : deck.tests) check(t.legs, "test '" + t.name + "'");
+  if (deck.prepare) check(deck.prepare->legs, deck.stage_time_step(*deck.prepare), "the preparation");
+  for (const TestDef& t : deck.tests) check(t.legs, deck.stage_time_step(t), "test '" + t.name + "'");
 }
 
 }  // namespace
@@ -290,22 +292,36 @@ std::string describe_servo_caps(const Deck& deck) {
   double smallest = std::numeric_limits<double>::infinity();
   std::string where;
   std::size_t legs = 0;
-  const auto scan = [&](const std::vector<Leg>& program, const std::string& stage) {
+  const auto scan = [&](const std::vector<Leg>& program, double dt, const std::string& stage) {
     for (std::size_t j = 0; j < program.size(); ++j) {
-      const double d = leg_driving_increment(program[j], deck.time_step);
+      const double d = leg_driving_increment(program[j], dt);
       if (!leg_has_servo(program[j]) || !(d > 0.0)) continue;
       ++legs;
-      const double ratio = servo_cap(deck.servo, program[j], deck.time_step) / d;
+      const double ratio = servo_cap(deck.servo, program[j], dt) / d;
       if (ratio < smallest) smallest = ratio, where = stage + " leg " + std::to_string(j);
     }
   };
-  if (deck.prepare) scan(deck.prepare->legs, "the preparation's");
-  for (const TestDef& t : deck.tests) scan(t.legs, "test '" + t.name + "'");
+  if (deck.prepare) scan(deck.prepare->legs, deck.stage_time_step(*deck.prepare), "the preparation's");
+  for (const TestDef& t : deck.tests) scan(t.legs, deck.stage_time_step(t), "test '" + t.name + "'");
   if (legs == 0) return "";
   return "servo: " + std::to_string(legs) + " leg(s) with a servo beside a driven axis; the tightest cap is " +
          fmt(smallest) + " x its driving strain per step (" + where + "); the servo's axes need about 1 to 2 x, " +
          "so it can follow" + (deck.servo.max_strain_increment_given ? "" : " (each leg's cap follows its rate)") +
          "; `celldem plan` lists every leg";
+}
+
+std::string describe_stage_time_steps(const Deck& deck) {
+  const bool own = (deck.prepare && deck.prepare->time_step) ||
+                   std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.time_step.has_value(); });
+  if (!own) return "";
+  const double limit = critical_time_step(deck.sample, deck.contact);
+  const auto line = [&](const std::string& stage, double dt, bool given) {
+    return "\n  " + stage + ": " + fmt(dt) + " s = " + fmt(dt / limit) + " of the limit" + (given ? "" : " (the deck's)");
+  };
+  std::string out = "time step per stage (stability limit " + fmt(limit) + " s):";
+  if (deck.prepare) out += line("prepare", deck.stage_time_step(*deck.prepare), deck.prepare->time_step.has_value());
+  for (const TestDef& t : deck.tests) out += line("test '" + t.name + "'", deck.stage_time_step(t), t.time_step.has_value());
+  return out;
 }
 
 std::string describe_ramps_and_holds(const Deck& deck) {
@@ -315,15 +331,16 @@ std::string describe_ramps_and_holds(const Deck& deck) {
   std::size_t ramps = 0;
   for (const TestDef& t : deck.tests)
     for (std::size_t j = 0; j < t.legs.size(); ++j) {
+      const double dt = deck.stage_time_step(t);
       const Leg& leg = t.legs[j];
       const std::string at = "test '" + t.name + "' leg " + std::to_string(j);
       for (int k = 0; k < 3; ++k) {
         if (leg.axes[k].mode != AxisMode::StressRamp) continue;
         ++ramps;
-        const double per_step = std::abs(leg.axes[k].rate) * deck.time_step;
+        const double per_step = std::abs(leg.axes[k].rate) * dt;
         if (per_step > fastest) fastest = per_step, where = at + " x" + std::to_string(k + 1);
       }
-      if (const std::int64_t n = ramp_target_steps(leg, deck.time_step); n >= 0)
+      if (const std::int64_t n = ramp_target_steps(leg, dt); n >= 0)
         out += "\n  " + at + ": the ramp's target reaches end.stress " + fmt(leg.end.value) + " Pa after " +
                std::to_string(n) + " steps";
       if (leg.end.kind == LegEndKind::Equilibrium) {

@@ -20,6 +20,10 @@ std::vector<std::string> preflight(const Deck& deck);
 // Below kMinServoCapRatio preflight refuses the deck; `plan` lists every leg.
 std::string describe_servo_caps(const Deck& deck);
 
+// The stages' time steps and their fractions of the stability limit, for `check`, when some stage has its own
+// (prepare.time_step, tests[].time_step); empty otherwise.
+std::string describe_stage_time_steps(const Deck& deck);
+
 // Stress ramps and test legs that end in equilibrium, for `check` to say before a run: the fastest ramp (Pa per
 // step, where) and the steps a ramp's target takes to its end stress; each equilibrium leg's criterion. Empty
 // when the deck has neither.

@@ -1,8 +1,10 @@
 #include "run/run_directory.hpp"
 
 #include <cstdio>
+#include <sstream>
 
 #include "io/files.hpp"
+#include "io/tolerance.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -29,7 +31,7 @@ bool is_run_output(const fs::directory_entry& entry) {
       if (fs::exists(entry.path() / f)) return true;
     return false;
   }
-  for (const char* f : {kSummaryName, kProgressName, kPreparedName, "report.md"})
+  for (const char* f : {kSummaryName, kProgressName, kPreparedName, kResolvedDeckName, "report.md"})
     if (name == f || name == std::string(f) + ".tmp") return true;
   return false;
 }
@@ -42,6 +44,19 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
     if (!fs::exists(dir_ / kProgressName))
       throw UsageError(dir_.string() + " holds no interrupted run to resume (no " + kProgressName + ")");
     progress_ = read_json(dir_ / kProgressName);
+    // A run at another tolerance (or none) ran another deck: say which, before the deck's text differs.
+    const Json started = progress_.value("tolerance", Json());
+    const Json asked = deck.tolerance ? Json(*deck.tolerance) : Json();
+    if (started != asked) {
+      const auto name = [](const Json& t) {
+        if (t.is_null()) return std::string("without --tolerance");
+        std::ostringstream s;
+        s << "with --tolerance " << t.get<double>();
+        return s.str();
+      };
+      throw UsageError("--resume: the run was started " + name(started) + " and is resumed " + name(asked) +
+                       ": resume it as it was started (or start it again with --force)");
+    }
     if (progress_.value("deck", std::string()) != deck.canonical)
       throw UsageError("--resume: the deck differs from the one this run was started with");
     summary_ = fs::exists(dir_ / kSummaryName) ? read_json(dir_ / kSummaryName) : Json::object();
@@ -60,6 +75,10 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
   }
   fs::create_directories(dir_);
   progress_ = {{"deck", deck.canonical}, {"completed", Json::array()}, {"elapsed", Json::object()}};
+  if (deck.tolerance) {
+    progress_["tolerance"] = *deck.tolerance;
+    write_file_atomic(dir_ / kResolvedDeckName, resolved_deck_json(deck));
+  }
   summary_ = Json::object();
   write_progress();
 }

@@ -16,6 +16,8 @@ namespace celldem {
 
 inline constexpr const char* kCheckpointName = "checkpoint.state";  // in the stage's folder
 inline constexpr const char* kPreparedName = "prepared.state";
+// The deck a run with --tolerance ran: rewritten by the time-to-answer rules, runnable as written.
+inline constexpr const char* kResolvedDeckName = "resolved_deck.json";
 inline constexpr const char* kProgressName = "progress.json";
 inline constexpr const char* kSummaryName = "summary.json";
 

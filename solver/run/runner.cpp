@@ -49,7 +49,7 @@ std::string loaded_overlap_cause(const Deck& deck, const State& state) {
 void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& options, State& state, bool resumed,
                      const std::vector<Leg>& legs) {
   const PrepareDef& prep = *deck.prepare;
-  const Model model = make_model(deck, state.particles.radius);
+  const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(prep));
   if (!resumed) evaluate_forces(model, prep.stage_friction(), state);
   StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false, prep.snapshots);
   if (!resumed && deck.initial_state) out.set_start_cause(loaded_overlap_cause(deck, state));
@@ -97,7 +97,7 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
                 : deck.initial_state && !deck.prepare ? load_initial_state(deck)
                                                       : read_state(prepared.string());
   if (!resumed) begin_stage(state);
-  const Model model = make_model(deck, state.particles.radius);
+  const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   if (!resumed) evaluate_forces(model, test.stage_friction(), state);  // the first row: the state as loaded
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);

@@ -73,7 +73,7 @@ Json summarize_legs(const Deck& deck, const TestDef& test, const std::vector<Ser
         if (!peak || r.ratio13 > peak->ratio13) peak = &r;
       }
     // The servo's cap on this leg as the run used it (the deck's, or the default that follows the leg's rate).
-    Json leg = {{"leg", k}, {"rows", count}, {"servo_cap", servo_cap(deck.servo, test.legs[k], deck.time_step)}};
+    Json leg = {{"leg", k}, {"rows", count}, {"servo_cap", servo_cap(deck.servo, test.legs[k], deck.stage_time_step(test))}};
     const SeriesRow* end = nullptr;  // the leg's last row: its end (run_program writes it)
     for (const SeriesRow& r : rows)
       if (r.leg == static_cast<double>(k) && (!end || r.step > end->step)) end = &r;
@@ -207,7 +207,7 @@ Json run_settings(const Deck& deck, int threads) {
     if (parameter.field != &ContactDef::kn && parameter.field != &ContactDef::kt &&
         key_used(*parameter.key, c.selection()))
       law[std::string(parameter.key->name())] = c.*parameter.field;
-  return {{"deck", deck.source},
+  Json settings = {{"deck", deck.source},
           {"particles", deck.sample.count},
           {"diameters_m", deck.sample.diameters},
           {"mean_diameter_m", mean_diameter(deck.sample)},
@@ -229,6 +229,19 @@ Json run_settings(const Deck& deck, int threads) {
                                              ? Json(deck.servo.max_strain_increment)
                                              : Json(nullptr)},
           {"threads", threads}};
+  // The stages that run with their own time step (prepare.time_step, tests[].time_step), each stage's [s].
+  Json stage_steps = Json::object();
+  if (deck.prepare && deck.prepare->time_step) stage_steps["prepare"] = *deck.prepare->time_step;
+  for (const TestDef& t : deck.tests)
+    if (t.time_step) stage_steps[t.name] = *t.time_step;
+  if (!stage_steps.empty()) settings["stage_time_steps"] = stage_steps;
+  // A deck rewritten by --tolerance: the tolerance and each stage's resolved settings beside the deck's
+  // (io/tolerance); resolved_deck.json in the run directory is the deck that ran.
+  if (deck.tolerance) {
+    settings["tolerance"] = *deck.tolerance;
+    settings["resolved"] = Json::parse(deck.tolerance_settings);
+  }
+  return settings;
 }
 
 Json grading_json(const GradingDef& grading, const std::vector<double>& diameters) {

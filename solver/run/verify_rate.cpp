@@ -109,7 +109,7 @@ NoiseFloors noise_floors(const std::string& path, const std::string& test, int p
 }
 
 BranchPoints::BranchPoints(const TestDef& test, const Deck& deck, const VerifyRateOptions& options)
-    : test_(test), dt_(deck.time_step), options_(options) {}
+    : test_(test), dt_(deck.stage_time_step(test)), options_(options) {}
 
 void BranchPoints::on_row(const State& state, const SeriesRow& row) {
   const std::size_t index = rows_++;
@@ -276,7 +276,9 @@ std::optional<VerifyRateOptions> verify_rate_for(const VerifyRateOptions& comman
 }
 
 Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                      const VerifyRateOptions& o, const BranchPoints& points, const std::vector<SeriesRow>& rows) {
+                      const VerifyRateOptions& given, const BranchPoints& points, const std::vector<SeriesRow>& rows) {
+  VerifyRateOptions o = given;
+  if (deck.tolerance) o.tolerance = *deck.tolerance;  // a run asked for a tolerance is checked against it
   const NoiseFloors floors = noise_floors(o.floors_path, test.name, deck.sample.count);
   Json result = {{"rate_factor", o.rate_factor}, {"window_strain", o.window_strain}, {"tolerance_floors", o.tolerance},
                  {"floors", {{"ratio13", floors.ratio13}, {"ev", floors.ev}, {"Z", floors.Z}, {"source", floors.source}}},
@@ -292,7 +294,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     }
     const SeriesRow& at = rows.at(start.point_row);
     State state = *start.state;
-    const Model model = make_model(deck, state.particles.radius);
+    const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
     // The test's legs up to the point's, which goes on from where the branch starts at its new rate (the servo
     // keeps its memory; the series' leg column stays the test's).
     std::vector<Leg> legs(test.legs.begin(), test.legs.begin() + start.leg + 1);

@@ -32,7 +32,7 @@ struct VerifyRateOptions {
   std::vector<std::string> at = {"peak", "end"};  // the points, by name (kVerifyPointNames)
   double window_strain = keys::verify_rate_window_strain.fallback;  // [-] driving strain of each branch
   double rate_factor = keys::verify_rate_rate_factor.fallback;      // the branch's rate over the test's
-  double tolerance = 1.0;    // [noise floors] the largest difference of a converged point
+  double tolerance = 1.0;    // [noise floors] the largest difference of a converged point (a run's --tolerance over it)
   std::string floors_path;   // an ensemble.json or {"ratio13", "ev", "Z"} stds (optionally per test); empty: default
   // Given on the command line: these replace a test's verify_rate values.
   bool at_given = false, window_given = false, factor_given = false;

@@ -197,11 +197,10 @@ TEST(EndToEnd, GradedSamplePreparesAndReportsItsCurve) {
 
 // Interrupted by SIGINT part-way (during the preparation or the test, whichever it happens to be), then
 // resumed: the series and states are byte-identical to an uninterrupted run's.
-TEST(EndToEnd, InterruptedRunResumesToSameBytes) {
-  const fs::path dir = test_dir("resume");
+// Runs the deck, then the same run stopped at about 40 % of its wall time and resumed: the same bytes.
+void expect_resume_to_same_bytes(const std::string& name, const std::string& text) {
+  const fs::path dir = test_dir(name);
   const fs::path deck = dir / "deck.json";
-  std::string text = testing::small_deck_json(200, kTtc);
-  text.replace(text.find("\"time_step\""), 0, "\"checkpoint_interval\": 700,\n  ");
   testing::write_bytes(deck, text);
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -234,6 +233,75 @@ TEST(EndToEnd, InterruptedRunResumesToSameBytes) {
   for (const char* f : {"prepared.state", "prepare/series.csv", "ttc/series.csv", "ttc/final.state"})
     EXPECT_EQ(read_bytes(out / f), read_bytes(dir / "ref" / f)) << f;
   for (const char* stage : {"prepare", "ttc"}) EXPECT_FALSE(fs::exists(out / stage / "checkpoint.state")) << stage;
+}
+
+std::string checkpointed_deck() {
+  std::string text = testing::small_deck_json(200, kTtc);
+  text.replace(text.find("\"time_step\""), 0, "\"checkpoint_interval\": 700,\n  ");
+  return text;
+}
+
+TEST(EndToEnd, InterruptedRunResumesToSameBytes) { expect_resume_to_same_bytes("resume", checkpointed_deck()); }
+
+// Stages with their own time steps (the test continuing a state prepared at another one) resume exactly too.
+TEST(EndToEnd, InterruptedRunWithStageTimeStepsResumesToSameBytes) {
+  std::string text = checkpointed_deck();
+  text.replace(text.find("\"target_pressure\""), 0, "\"time_step\": 2.0e-6, ");
+  text.replace(text.find("\"friction\": 0.5"), 0, "\"time_step\": 2.5e-6, ");
+  expect_resume_to_same_bytes("resume_stage_time_steps", text);
+}
+
+// --tolerance: the run records the tolerance and each stage's resolved settings, writes the deck it ran,
+// which runs again as written to the same bytes, and refuses to resume at another tolerance.
+TEST(EndToEnd, ToleranceRunRecordsItsDeckWhichRunsAgainAsWritten) {
+  const fs::path dir = test_dir("tolerance");
+  const fs::path deck = dir / "deck.json", out = dir / "run";
+  std::string text = testing::small_deck_json(150, kTtc);
+  const std::string written_step = "\"time_step\": 3.0e-6";
+  text.replace(text.find(written_step), written_step.size(), "\"time_step\": 1.0e-6");
+  testing::write_bytes(deck, text);
+  Result r = celldem(dir, run_args(deck, out, "--quiet --tolerance 1"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto summary = nlohmann::json::parse(read_bytes(out / "summary.json"));
+  const auto& settings = summary["settings"];
+  EXPECT_EQ(settings["tolerance"], 1.0);
+  ASSERT_EQ(settings["resolved"]["stages"].size(), 2u);
+  const double dt = settings["resolved"]["stages"][1]["time_step"].get<double>();
+  EXPECT_EQ(settings["stage_time_steps"]["ttc"].get<double>(), dt);
+  EXPECT_GT(dt, 2.0 * 1.0e-6);  // the rules' fraction of the limit, not the deck's 0.3 of it
+  EXPECT_EQ(settings["stage_time_steps"]["prepare"].get<double>(), settings["resolved"]["stages"][0]["time_step"].get<double>());
+  // The resolved deck, run as written: the same bytes.
+  ASSERT_TRUE(fs::exists(out / "resolved_deck.json"));
+  r = celldem(dir, run_args(out / "resolved_deck.json", dir / "again", "--quiet"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* f : {"prepared.state", "prepare/series.csv", "ttc/series.csv", "ttc/final.state"})
+    EXPECT_EQ(read_bytes(dir / "again" / f), read_bytes(out / f)) << f;
+  // Resuming at another tolerance, or none, is refused before anything runs.
+  r = celldem(dir, run_args(deck, out, "--quiet --resume --tolerance 2"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("started with --tolerance 1 and is resumed with --tolerance 2"), std::string::npos) << r.err;
+  r = celldem(dir, run_args(deck, out, "--quiet --resume"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("and is resumed without --tolerance"), std::string::npos) << r.err;
+  // plan --tolerance --json: each stage's particle-steps against the deck as written, as the two plans count them.
+  r = celldem(dir, "plan '" + deck.string() + "' --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto written_plan = nlohmann::json::parse(r.out);
+  EXPECT_FALSE(written_plan.contains("tolerance"));
+  r = celldem(dir, "plan '" + deck.string() + "' --json --tolerance 1");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto plan = nlohmann::json::parse(r.out);
+  const auto& ttc = plan["tolerance"]["stages"][1];
+  EXPECT_EQ(ttc["stage"], "ttc");
+  EXPECT_EQ(ttc["particle_steps"]["low"].get<double>(), 150.0 * plan["tests"][0]["steps"].get<double>());
+  EXPECT_EQ(ttc["particle_steps_written"]["low"].get<double>(), 150.0 * written_plan["tests"][0]["steps"].get<double>());
+  EXPECT_DOUBLE_EQ(ttc["ratio_low"].get<double>(),
+                   written_plan["tests"][0]["steps"].get<double>() / plan["tests"][0]["steps"].get<double>());
+  EXPECT_EQ(plan["tests"][0]["time_step"].get<double>(), dt);
+  // Outside the rules' range: a deck error naming the flag.
+  r = celldem(dir, run_args(deck, dir / "outside", "--quiet --tolerance 100"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("--tolerance: 100 is outside"), std::string::npos) << r.err;
 }
 
 }  // namespace

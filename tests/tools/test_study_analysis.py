@@ -256,6 +256,36 @@ def test_study_json_against_the_synthetic_answers(analysed_study):
         assert needle in md, f"study.md lacks {needle!r}"
 
 
+def test_write_rules_from_the_synthetic_study(analysed_study, tmp_path):
+    """analyse --write-rules: one level per setting of the front of test steps against error, each the cheapest
+    setting within its tolerance, the lowest at RULES_MIN_TOLERANCE, time steps as fractions of the plan's limit."""
+    path = tmp_path / "rules.json"
+    tool("study", "analyse", "--root", analysed_study, "--write-rules", path)
+    table = json.load(open(path))
+    got = json.load(open(f"{analysed_study}/study.json"))
+    rows = [r for r in got["rows"] if r["key"] in {lv["evidence"]["run"].split(":")[0] for lv in table["levels"]}]
+    levels = table["levels"]
+    assert len(levels) >= 2, levels
+    tolerances = [lv["tolerance"] for lv in levels]
+    assert tolerances == sorted(set(tolerances)), "levels must ascend"
+    assert tolerances[0] == sa.RULES_MIN_TOLERANCE  # the cheapest setting as good as the reference's round-off
+    limit = got["scene"]["critical_time_step"]
+    by_key = {r["key"]: r for r in got["rows"]}
+    ref = by_key["reference"]
+    candidates = [r for r in got["rows"] if r["group"] in ("reference", "strain_increment", "time_step", "combined")
+                  and r["count"] == scene.SCENE_COUNT and len(r["seeds"]) >= 2 and r["score"] is not None
+                  and math.isfinite(r["score"]) and r["dt_within_warning"] is not False]
+    for lv in levels:
+        row = by_key[lv["evidence"]["run"].split(":")[0]]
+        assert row["score"] <= lv["tolerance"] + 1e-9 and lv["tolerance"] <= sa.RULES_MAX_TOLERANCE
+        check("time step fraction", lv["time_step_fraction"], row["time_step"] / limit, 1e-3)
+        check("inertial number", lv["inertial_number"], row["inertial_number"], 1e-3)
+        check("speed-up", lv["evidence"]["speedup"], ref["steps_per_test"] / row["steps_per_test"], 1e-3)
+        # No setting within the tolerance takes fewer test steps.
+        assert all(r["steps_per_test"] >= row["steps_per_test"] for r in candidates if r["score"] <= lv["tolerance"])
+    assert rows, "the levels name the study's settings"
+
+
 def test_missing_study_root_is_an_error(tmp_path):
     r = tool("study", "analyse", "--root", tmp_path / "none", check=False)
     assert r.returncode != 0, "analyse accepted a missing root"

@@ -400,6 +400,7 @@ def analyse(root):
     t_c = planned(ref, "normal_time_step") or planned(ref, "critical_time_step")
     dt = planned(ref, "time_step")
     return {"scene": {"count": SCENE_COUNT, "end_strain": END_STRAIN, "t_c": t_c,
+                      "critical_time_step": planned(ref, "critical_time_step"),
                       "d_mean": planned(ref, "mean_diameter"), "density": planned(ref, "density"),
                       "p": P_REF, "paper_dt_over_tc": dt / t_c if dt and t_c else None,
                       "paper_inertial_number": planned(ref, "inertial_number"),
@@ -410,6 +411,54 @@ def analyse(root):
             "binaries": read_json(os.path.join(root, "binaries.json")) or [],
             "thresholds": limits, "rows": rows, "servo_cap_rows": cap_rows, "presets": presets,
             "modelling": modelling, "stability": stability, "samples": samples}
+
+
+# The time-to-answer rules (solver/io/time_to_answer_rules.json): celldem's `--tolerance T` rewrites a deck by them.
+RULES_MIN_TOLERANCE = 0.5   # below about 0.7 floors no setting can be told from the reference (round-off alone)
+RULES_MAX_TOLERANCE = 3.0   # the table ends here: larger errors are not an answer
+
+
+def rules_levels(study):
+    """The levels of the time-to-answer rules from a study: at each tolerance T (noise floors) the cheapest setting
+    (fewest test steps) whose error is at most T, for the settings a whole deck can carry (the presets'
+    candidates, at a time step celldem does not warn about); one level per setting of the Pareto front of steps
+    against error, the reference's at RULES_MIN_TOLERANCE, up to RULES_MAX_TOLERANCE. The time step is a fraction
+    of the stability limit celldem applies (the reference plan's critical_time_step) and the loading rate an
+    inertial number; each level carries its evidence (the setting, its error, its speed-up in test steps, whether
+    its preparation was measured)."""
+    limit = study["scene"].get("critical_time_step")
+    rows = [r for r in study["rows"] if r["group"] in ("reference", "strain_increment", "time_step", "combined")
+            and r["count"] == SCENE_COUNT and len(r["seeds"]) >= 2 and r.get("score") is not None
+            and math.isfinite(r["score"]) and r["dt_within_warning"] is not False and r.get("steps_per_test")
+            and r.get("inertial_number")]
+    ref = next((r for r in rows if r["key"] == "reference"), None)
+    if ref is None or not limit:
+        return []
+    levels = []
+    by_score = sorted(rows, key=lambda r: (r["score"], r["steps_per_test"]))
+    for row in by_score:
+        tolerance = max(row["score"], RULES_MIN_TOLERANCE) if row is not ref else RULES_MIN_TOLERANCE
+        if tolerance > RULES_MAX_TOLERANCE:
+            break
+        best = cheapest_within(rows, tolerance, cost_key="steps_per_test")
+        if best is not row:
+            continue  # a cheaper setting is at least as accurate: it is that level
+        if levels and levels[-1]["tolerance"] >= tolerance:
+            continue
+        own_preparation = row is ref or preparation_ok(study["rows"], row["time_step"], row["servo_max_strain_increment"],
+                                                       {"stress": tolerance, "volume": tolerance},
+                                                       ref["servo_max_strain_increment"])
+        fraction = row["time_step"] / limit
+        levels.append({
+            "tolerance": round(tolerance, 4), "time_step_fraction": round(fraction, 4),
+            "prepare_time_step_fraction": round(fraction, 4), "inertial_number": float(f"{row['inertial_number']:.4g}"),
+            "fast_strain_increment_scale": 1.0, "damping_scale": 1.0,
+            "evidence": {"run": f"{row['key']}: {row['label']}", "error_floors": round(row["score"], 3),
+                         "speedup": round(ref["steps_per_test"] / row["steps_per_test"], 3), "measured": True,
+                         "seeds": row["seeds"],
+                         "note": "tests measured on the study's scene; the preparation at this time step "
+                                 + ("measured" if own_preparation else "extrapolated (no sample prepared so was run)")}})
+    return levels
 
 
 def thresholds(rows, cap_rows, stability):

@@ -19,6 +19,7 @@ import time
 
 from .. import binary, decks
 from ..results import read_json
+from .analysis import rules_levels
 from .scene import (END_STRAIN, PAPER_DAMPING, PAPER_DT, PAPER_INC, PAPER_RATE, REF_SEEDS, ROW_STRAIN,
                           SCENE_COUNT, SERVO_CAP_FACTOR, SERVO_INC, SERVO_OUTPUT_INTERVAL, SERVO_STRAIN,
                           STABILITY_STRAIN)
@@ -492,3 +493,38 @@ def write_presets(study, paper, celldem):
             except binary.BinaryError as err:
                 print(f"study.py: warning: celldem check {path} failed: {err}", file=sys.stderr)
     return written
+
+
+RULES_PATH = os.path.join(binary.REPO, "solver", "io", "time_to_answer_rules.json")
+
+
+def write_rules(study, path=RULES_PATH):
+    """The time-to-answer rules from the study (analysis.rules_levels), as celldem reads them at build time; the
+    binary carries them once rebuilt. Refuses a study that gives fewer than two levels."""
+    levels = rules_levels(study)
+    if len(levels) < 2:
+        raise ValueError(f"the study gives {len(levels)} level(s) of the time-to-answer rules; at least 2 are needed")
+    table = {
+        "format": 1,
+        "description": ("What `--tolerance T` (T in noise floors) does to a deck's cost knobs, per level; celldem "
+                        "interpolates log-linearly in T between levels and refuses T outside them. Written by "
+                        "tools/study.py analyse --write-rules from the study's results: at each level the cheapest "
+                        "setting whose error (the mean over seeds of the paired difference from the paper's settings, "
+                        "over the seed-to-seed standard deviation) is at most T."),
+        "source": f"tools/study.py on {study['scene']['count']} spheres, tests to e1 = {study['scene']['end_strain']:g}, "
+                  f"reference seeds {study['scene']['reference_seeds']}",
+        "columns": {
+            "tolerance": "T, noise floors",
+            "time_step_fraction": "tests' time step / the stage's stability limit (core/plan critical_time_step)",
+            "prepare_time_step_fraction": "the preparation's time step / the stability limit",
+            "inertial_number": "strain-driven legs: strain rate = I / (d_mean sqrt(rho / p)), p the leg's confining stress",
+            "fast_strain_increment_scale": "the preparation's fast-compression strain per step, times the deck's",
+            "damping_scale": "body damping (translational and rotational), times the deck's",
+        },
+        "levels": levels,
+    }
+    tmp = path + ".tmp"  # whole or not at all: the build embeds it
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(json.dumps(table, indent=2) + "\n")
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,315 @@
+#include "io/tolerance.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <nlohmann/json.hpp>
+
+#include "core/plan.hpp"
+#include "io/deck_parts.hpp"
+#include "io/deck_reader.hpp"
+#include "measure/quasi_static.hpp"
+
+namespace celldem {
+
+// The table's text, compiled in (CMake writes it from io/time_to_answer_rules.json).
+extern const char* const kTimeToAnswerRules;
+
+namespace {
+
+using deck_json::fmt;
+using deck_json::Json;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double positive_number(const Json& level, const char* key, const std::string& at) {
+  if (!level.contains(key) || !level[key].is_number() || !(level[key].get<double>() > 0.0) ||
+      !std::isfinite(level[key].get<double>()))
+    throw DeckError("time-to-answer rules: " + at + "." + key + ": expected a positive number");
+  return level[key].get<double>();
+}
+
+// The axes' strain rate [1/s] that drives the leg: the largest |strain_increment| / dt or |strain_rate|.
+double driving_rate(const Json& axes, double time_step) {
+  double rate = 0.0;
+  for (const auto& [name, axis] : axes.items()) {
+    if (axis.contains("strain_increment")) rate = std::max(rate, std::abs(axis["strain_increment"].get<double>()) / time_step);
+    if (axis.contains("strain_rate")) rate = std::max(rate, std::abs(axis["strain_rate"].get<double>()));
+  }
+  return rate;
+}
+
+// [Pa] the mean of the leg's stress targets (stress, mean_stress, a ramp's start); NaN without one.
+double leg_stress(const Json& axes) {
+  double sum = 0.0;
+  int n = 0;
+  for (const auto& [name, axis] : axes.items()) {
+    for (const char* key : {"stress", "mean_stress"})
+      if (axis.contains(key)) sum += axis[key].get<double>(), ++n;
+    if (axis.contains("stress_ramp")) sum += axis["stress_ramp"]["from"].get<double>(), ++n;
+  }
+  return n ? sum / n : kNaN;
+}
+
+// A stage's time step: the level's fraction of the limit, down to three significant digits, so that the deck
+// reads as a person would write it (the paper's 1e-6 s stays 1e-6 s) and stays below the level's fraction.
+double stage_time_step(double fraction, double limit) {
+  const double dt = fraction * limit;
+  // digits / 10^k with 10^k exact: the nearest double to the decimal number, as the deck's literal would be
+  const double scale = std::pow(10.0, 2.0 - std::floor(std::log10(dt)));
+  return std::floor(dt * scale * (1.0 + 1e-12)) / scale;
+}
+
+std::int64_t scaled_count(std::int64_t n, double factor, std::int64_t at_least) {
+  return std::max<std::int64_t>(at_least, std::llround(static_cast<double>(n) * factor));
+}
+
+// Every leg of a program, blocks {"repeat", "legs"} entered (each leg of a block once: they share the JSON).
+template <class F>
+void for_each_leg(Json& legs, F&& f) {
+  for (Json& leg : legs) {
+    if (leg.contains("repeat")) for_each_leg(leg["legs"], f);
+    else f(leg);
+  }
+}
+
+struct Resolver {
+  const Deck& written;
+  ToleranceLevel level;
+  double limit = 0.0;       // [s] the stability limit (core/plan critical_time_step)
+  double largest_stress = 0.0;
+  double fastest_step_factor = 1.0;  // the largest strain-per-step multiplier of any leg
+
+  // One leg of a stage that runs at `dt` instead of `dt_written`. A strain-driven test leg: its rate from the
+  // level's inertial number at its confining stress; a strain-driven preparation leg: its strain per step x the
+  // scale; any other leg keeps the time of its step ends. Returns the leg's report and the strain-per-step
+  // factor (0 for a leg without a strain-driven axis).
+  Json leg(Json& leg, double dt_written, double dt, double stage_stress, bool preparation, double& step_factor) {
+    Json& axes = leg["axes"];
+    const double rate = driving_rate(axes, dt_written);
+    Json report = {{"strain_driven", rate > 0.0}};
+    double steps_factor = dt_written / dt;  // steps of the same physical time
+    step_factor = 0.0;
+    if (rate > 0.0) {
+      double stress = leg_stress(axes);
+      if (std::isnan(stress)) stress = stage_stress;
+      if (std::isnan(stress) || stress <= 0.0) stress = largest_stress;
+      const double d = mean_diameter(written.sample), rho = written.sample.density;
+      const double new_rate = preparation ? rate * level.fast_strain_increment_scale * dt_written / dt
+                                          : level.inertial_number / (d * std::sqrt(rho / stress));
+      const double rate_factor = new_rate / rate;
+      step_factor = rate_factor * dt / dt_written;
+      for (auto& [name, axis] : axes.items()) {
+        if (axis.contains("strain_increment")) axis["strain_increment"] = axis["strain_increment"].get<double>() * step_factor;
+        if (axis.contains("strain_rate")) axis["strain_rate"] = axis["strain_rate"].get<double>() * rate_factor;
+      }
+      steps_factor = 1.0 / step_factor;  // steps of the same strain
+      fastest_step_factor = std::max(fastest_step_factor, step_factor);
+      report["confining_stress"] = stress;
+      report["strain_rate_written"] = rate;
+      report["strain_rate"] = new_rate;
+      report["driving_increment_written"] = rate * dt_written;
+      report["driving_increment"] = new_rate * dt;
+      if (stress > 0.0) {
+        report["inertial_number_written"] = inertial_number(rate, d, rho, stress);
+        report["inertial_number"] = inertial_number(new_rate, d, rho, stress);
+      }
+    }
+    Json& end = leg["end"];
+    for (const char* key : {"steps", "max_steps"})
+      if (end.contains(key) && end[key].get<std::int64_t>() > 0)
+        end[key] = scaled_count(end[key].get<std::int64_t>(), steps_factor, 1);
+    return report;
+  }
+
+  // Equilibrium min_steps and check_interval at the stage's time step, from the values the deck gives it.
+  static void equilibrium(Json& object, const EquilibriumDef& e, double time_factor) {
+    if (!object.is_object()) object = Json::object();
+    object["min_steps"] = scaled_count(e.min_steps, time_factor, 0);
+    object["check_interval"] = scaled_count(e.check_interval, time_factor, 1);
+  }
+
+  static Json stage_time(double dt_written, double dt, double limit) {
+    return {{"time_step_written", dt_written}, {"time_step", dt}, {"time_step_fraction_written", dt_written / limit},
+            {"time_step_fraction", dt / limit}};
+  }
+
+  Json preparation(Json& j) {
+    const PrepareDef& p = *written.prepare;
+    const double dt_written = written.stage_time_step(p), dt = stage_time_step(level.prepare_time_step_fraction, limit);
+    const double time_factor = dt_written / dt;
+    j["time_step"] = dt;
+    Json report = stage_time(dt_written, dt, limit);
+    report["stage"] = "prepare";
+    report["legs"] = Json::array();
+    if (j.contains("legs")) {
+      for_each_leg(j["legs"], [&](Json& leg) {
+        double step_factor = 0.0;
+        report["legs"].push_back(this->leg(leg, dt_written, dt, p.target_pressure, true, step_factor));
+      });
+    } else {
+      j["fast_strain_increment"] = p.fast_strain_increment * level.fast_strain_increment_scale;
+      fastest_step_factor = std::max(fastest_step_factor, level.fast_strain_increment_scale);
+      report["fast_strain_increment_written"] = p.fast_strain_increment;
+      report["fast_strain_increment"] = j["fast_strain_increment"];
+    }
+    equilibrium(j["equilibrium"], p.equilibrium, time_factor);
+    report["equilibrium"] = {{"min_steps_written", p.equilibrium.min_steps}, {"min_steps", j["equilibrium"]["min_steps"]},
+                             {"check_interval_written", p.equilibrium.check_interval},
+                             {"check_interval", j["equilibrium"]["check_interval"]}};
+    j["output_interval"] = scaled_count(p.output_interval, time_factor, 1);
+    report["output_interval_written"] = p.output_interval;
+    report["output_interval"] = j["output_interval"];
+    if (j.contains("snapshots") && j["snapshots"].contains("interval"))
+      j["snapshots"]["interval"] = scaled_count(j["snapshots"]["interval"].get<std::int64_t>(), time_factor, 1);
+    return report;
+  }
+
+  Json test(Json& j, const TestDef& t) {
+    const double dt_written = written.stage_time_step(t), dt = stage_time_step(level.time_step_fraction, limit);
+    const double time_factor = dt_written / dt;
+    j["time_step"] = dt;
+    Json report = stage_time(dt_written, dt, limit);
+    report["stage"] = t.name;
+    report["legs"] = Json::array();
+    const double stress = first_leg_stress(t);
+    double first_step_factor = 0.0;  // the first strain-driven leg's: the output interval keeps its rows per strain
+    const auto one = [&](Json& leg) {
+      double step_factor = 0.0;
+      report["legs"].push_back(this->leg(leg, dt_written, dt, stress, false, step_factor));
+      if (first_step_factor == 0.0) first_step_factor = step_factor;
+    };
+    if (j.contains("legs")) for_each_leg(j["legs"], one);
+    else one(j);
+    const double interval_factor = first_step_factor > 0.0 ? 1.0 / first_step_factor : time_factor;
+    j["output_interval"] = scaled_count(t.output_interval, interval_factor, 1);
+    report["output_interval_written"] = t.output_interval;
+    report["output_interval"] = j["output_interval"];
+    if (j.contains("snapshots") && j["snapshots"].contains("interval"))
+      j["snapshots"]["interval"] = scaled_count(j["snapshots"]["interval"].get<std::int64_t>(), interval_factor, 1);
+    const bool holds = std::any_of(t.legs.begin(), t.legs.end(), [](const Leg& l) { return l.end.kind == LegEndKind::Equilibrium; });
+    if (holds) equilibrium(j["equilibrium"], t.equilibrium, time_factor);
+    return report;
+  }
+};
+
+}  // namespace
+
+const std::string& time_to_answer_rules_text() {
+  static const std::string text = kTimeToAnswerRules;
+  return text;
+}
+
+const ToleranceRules& time_to_answer_rules() {
+  static const ToleranceRules rules = parse_tolerance_rules(time_to_answer_rules_text());
+  return rules;
+}
+
+ToleranceRules parse_tolerance_rules(const std::string& json_text) {
+  Json j;
+  try {
+    j = Json::parse(json_text);
+  } catch (const Json::exception& e) {
+    throw DeckError(std::string("time-to-answer rules: not JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("levels") || !j["levels"].is_array() || j["levels"].empty())
+    throw DeckError("time-to-answer rules: expected an object with a non-empty array \"levels\"");
+  ToleranceRules rules;
+  for (std::size_t i = 0; i < j["levels"].size(); ++i) {
+    const Json& l = j["levels"][i];
+    const std::string at = "levels[" + std::to_string(i) + "]";
+    if (!l.is_object()) throw DeckError("time-to-answer rules: " + at + ": expected an object");
+    ToleranceLevel level;
+    level.tolerance = positive_number(l, "tolerance", at);
+    level.time_step_fraction = positive_number(l, "time_step_fraction", at);
+    level.prepare_time_step_fraction = positive_number(l, "prepare_time_step_fraction", at);
+    level.inertial_number = positive_number(l, "inertial_number", at);
+    level.fast_strain_increment_scale = positive_number(l, "fast_strain_increment_scale", at);
+    level.damping_scale = positive_number(l, "damping_scale", at);
+    if (level.time_step_fraction > kMaxTimeStepFraction || level.prepare_time_step_fraction > kMaxTimeStepFraction)
+      throw DeckError("time-to-answer rules: " + at + ": a time step fraction above the stability limit (" +
+                      fmt(kMaxTimeStepFraction) + ")");
+    if (!rules.levels.empty() && level.tolerance <= rules.levels.back().tolerance)
+      throw DeckError("time-to-answer rules: " + at + ".tolerance: the levels must ascend");
+    rules.levels.push_back(level);
+  }
+  return rules;
+}
+
+ToleranceLevel interpolate_rules(const ToleranceRules& rules, double tolerance, const std::string& key_path) {
+  const ToleranceLevel& lo = rules.levels.front();
+  const ToleranceLevel& hi = rules.levels.back();
+  if (!(tolerance >= lo.tolerance && tolerance <= hi.tolerance))
+    throw DeckError(key_path + ": " + fmt(tolerance) + " is outside the time-to-answer rules' range [" +
+                    fmt(lo.tolerance) + ", " + fmt(hi.tolerance) + "] noise floors (io/time_to_answer_rules.json)");
+  std::size_t k = 0;
+  while (k + 1 < rules.levels.size() && rules.levels[k + 1].tolerance <= tolerance) ++k;
+  if (k + 1 == rules.levels.size() || rules.levels[k].tolerance == tolerance) {
+    ToleranceLevel out = rules.levels[k];
+    out.tolerance = tolerance;
+    return out;
+  }
+  const ToleranceLevel& a = rules.levels[k];
+  const ToleranceLevel& b = rules.levels[k + 1];
+  const double w = (tolerance - a.tolerance) / (b.tolerance - a.tolerance);
+  const auto mix = [w](double x, double y) { return std::exp((1.0 - w) * std::log(x) + w * std::log(y)); };
+  ToleranceLevel out;
+  out.tolerance = tolerance;
+  out.time_step_fraction = mix(a.time_step_fraction, b.time_step_fraction);
+  out.prepare_time_step_fraction = mix(a.prepare_time_step_fraction, b.prepare_time_step_fraction);
+  out.inertial_number = mix(a.inertial_number, b.inertial_number);
+  out.fast_strain_increment_scale = mix(a.fast_strain_increment_scale, b.fast_strain_increment_scale);
+  out.damping_scale = mix(a.damping_scale, b.damping_scale);
+  return out;
+}
+
+Deck resolve_tolerance(const Deck& written, const std::string& json_text, double tolerance, const std::string& key_path) {
+  Resolver r{written, interpolate_rules(time_to_answer_rules(), tolerance, key_path)};
+  r.limit = critical_time_step(written.sample, written.contact);
+  r.largest_stress = largest_deck_stress(written);
+  Json j = deck_json::parse_json(json_text);
+  j.erase("tolerance");
+  Json stages = Json::array();
+  if (written.prepare) stages.push_back(r.preparation(j["prepare"]));
+  for (std::size_t i = 0; i < written.tests.size(); ++i) stages.push_back(r.test(j["tests"][i], written.tests[i]));
+  if (r.level.damping_scale != 1.0)
+    for (const char* key : {"translational", "rotational"})
+      j["damping"][key] = j["damping"][key].get<double>() * r.level.damping_scale;
+  // An explicit servo cap rises with the fastest leg's strain per step (the default follows each leg's own).
+  if (j.contains("servo") && j["servo"].contains("max_strain_increment") && r.fastest_step_factor > 1.0)
+    j["servo"]["max_strain_increment"] = std::min(keys::servo_max_strain_increment.max,
+                                                  j["servo"]["max_strain_increment"].get<double>() * r.fastest_step_factor);
+  const std::string note = "rewritten by celldem for tolerance " + fmt(tolerance) + " noise floors from " + written.source;
+  j["description"] = j.contains("description") ? j["description"].get<std::string>() + " [" + note + "]" : note;
+  Deck d;
+  try {
+    d = parse_deck(j.dump(), written.source);
+  } catch (const DeckError& e) {
+    throw DeckError(key_path + " " + fmt(tolerance) + ": the rewritten deck is refused: " + e.what());
+  }
+  d.tolerance = tolerance;
+  const ToleranceLevel& l = r.level;
+  d.tolerance_settings = Json{{"tolerance", tolerance},
+                              {"rules", {{"time_step_fraction", l.time_step_fraction},
+                                         {"prepare_time_step_fraction", l.prepare_time_step_fraction},
+                                         {"inertial_number", l.inertial_number},
+                                         {"fast_strain_increment_scale", l.fast_strain_increment_scale},
+                                         {"damping_scale", l.damping_scale}}},
+                              {"stability_limit", r.limit},
+                              {"damping", {{"translational", d.damping.translational}, {"rotational", d.damping.rotational}}},
+                              {"stages", stages}}
+                             .dump();
+  return d;
+}
+
+std::string resolved_deck_json(const Deck& deck) {
+  Json j = Json::parse(deck.canonical);
+  if (deck.initial_state)
+    j["initial_state"] = std::filesystem::absolute(std::filesystem::path(deck.source).parent_path() / *deck.initial_state)
+                             .lexically_normal()
+                             .string();
+  return j.dump(2) + "\n";
+}
+
+}  // namespace celldem

@@ -1,0 +1,195 @@
+// Per-stage time steps (prepare.time_step, tests[].time_step) and `--tolerance` (io/tolerance.hpp): the stage's
+// time step reaches its model and plan and is held to the deck key's bounds; the time-to-answer rules embedded in
+// the binary parse, interpolate log-linearly and refuse a tolerance outside them; a resolved deck meets the
+// rules it was resolved by (time step fraction, inertial number from its definition, rows per unit strain,
+// equilibrium and output in physical time) and leaves a deck without a tolerance as it was.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "core/model.hpp"
+#include "core/plan.hpp"
+#include "io/deck_reader.hpp"
+#include "io/tolerance.hpp"
+#include "io/translate.hpp"
+#include "measure/quasi_static.hpp"
+
+namespace celldem {
+namespace {
+
+using Json = nlohmann::json;
+
+Json deck_json() {
+  return Json::parse(R"({
+    "format": 1,
+    "sample": {"count": 100, "diameters": {"min": 3.0e-3, "max": 4.5e-3, "count": 4}, "density": 2650},
+    "contact": {"kn": 1.0e6, "kt": 1.0e6},
+    "damping": {"translational": 0.05, "rotational": 0.05},
+    "time_step": 1.0e-6,
+    "prepare": {"target_pressure": 1.0e5, "output_interval": 1000,
+                "equilibrium": {"min_steps": 50000, "check_interval": 1000}},
+    "tests": [
+      {"name": "ttc", "friction": 0.5,
+       "axes": {"x1": {"strain_increment": 2.0e-7}, "x2": {"stress": 1.0e5}, "x3": {"stress": 2.0e5}},
+       "end": {"strain": 0.01}, "output_interval": 1000},
+      {"name": "cyc", "friction": 0.5, "legs": [
+         {"axes": {"x1": {"strain_rate": 0.4}, "x2": {"strain_rate": -0.2}, "x3": {"mean_stress": 4.0e5}},
+          "end": {"axis": "x1", "strain": 0.002}},
+         {"axes": {"x1": {"stress": 4.0e5}, "x2": {"stress": 4.0e5}, "x3": {"stress": 4.0e5}},
+          "end": {"steps": 3000}}],
+       "output_interval": 500}
+    ]
+  })");
+}
+
+TEST(StageTimeStep, EachStageRunsWithItsOwnOrTheDecks) {
+  Json j = deck_json();
+  j["prepare"]["time_step"] = 2.0e-6;
+  j["tests"][0]["time_step"] = 1.5e-6;
+  const Deck d = parse_deck(j.dump());
+  EXPECT_EQ(d.stage_time_step(*d.prepare), 2.0e-6);
+  EXPECT_EQ(d.stage_time_step(d.tests[0]), 1.5e-6);
+  EXPECT_EQ(d.stage_time_step(d.tests[1]), 1.0e-6);  // none given: the deck's
+  // The model and the plan of a stage take its time step: the strain-rate leg's steps are strain / (rate dt).
+  EXPECT_EQ(make_model(d, {1.5e-3, 2e-3}, d.stage_time_step(d.tests[0])).dt, 1.5e-6);
+  EXPECT_EQ(plan_test(d, d.tests[1]).legs[0].steps.low, std::llround(0.002 / (0.4 * 1.0e-6)));
+  j["tests"][1]["time_step"] = 2.5e-6;
+  const Deck e = parse_deck(j.dump());
+  EXPECT_EQ(plan_test(e, e.tests[1]).legs[0].steps.low, std::llround(0.002 / (0.4 * 2.5e-6)));
+  EXPECT_DOUBLE_EQ(plan_test(e, e.tests[0]).strain_rate, 2.0e-7 / 1.5e-6);
+}
+
+TEST(StageTimeStep, BoundsOfTheDeckKeyApplyPerStage) {
+  const Deck d = parse_deck(deck_json().dump());
+  const double limit = critical_time_step(d.sample, d.contact);
+  for (const char* stage : {"prepare", "tests"}) {
+    Json j = deck_json();
+    Json& where = std::string(stage) == "prepare" ? j["prepare"] : j["tests"][1];
+    where["time_step"] = 1.01 * limit;  // above the stability limit: refused, naming the stage's key
+    try {
+      parse_deck(j.dump());
+      ADD_FAILURE() << stage << ": a time step above the limit was accepted";
+    } catch (const DeckError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(std::string(stage) == "prepare" ? "prepare.time_step:" : "tests[1].time_step:", 0),
+                0u) << e.what();
+    }
+    where["time_step"] = 0.5 * kMinTimeStepFraction * limit;  // below the minimum: refused too
+    EXPECT_THROW(parse_deck(j.dump()), DeckError) << stage;
+  }
+}
+
+// The translated scripts run every stage at the deck's time step: a stage with its own is refused, by name.
+TEST(StageTimeStep, TranslationRefusesStagesWithTheirOwn) {
+  Json j = deck_json();
+  EXPECT_NO_THROW(translate_preparation(parse_deck(j.dump()), TargetCode::Lammps));
+  j["tests"][1]["time_step"] = 2.0e-6;
+  try {
+    translate_preparation(parse_deck(j.dump()), TargetCode::Lammps);
+    ADD_FAILURE() << "a deck whose test has its own time step was translated";
+  } catch (const DeckError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("tests[1].time_step:", 0), 0u) << e.what();
+  }
+}
+
+TEST(ToleranceRules, EmbeddedTableParsesAndInterpolatesLogLinearly) {
+  const ToleranceRules& rules = time_to_answer_rules();
+  ASSERT_GE(rules.levels.size(), 2u);
+  for (std::size_t k = 1; k < rules.levels.size(); ++k) EXPECT_GT(rules.levels[k].tolerance, rules.levels[k - 1].tolerance);
+  // At a level: the level. Halfway between two: each number the geometric mean of theirs.
+  for (const ToleranceLevel& level : rules.levels)
+    EXPECT_EQ(interpolate_rules(rules, level.tolerance, "t").inertial_number, level.inertial_number);
+  const ToleranceLevel& a = rules.levels[0];
+  const ToleranceLevel& b = rules.levels[1];
+  const ToleranceLevel mid = interpolate_rules(rules, 0.5 * (a.tolerance + b.tolerance), "t");
+  EXPECT_NEAR(mid.inertial_number, std::sqrt(a.inertial_number * b.inertial_number), 1e-12 * a.inertial_number);
+  EXPECT_NEAR(mid.time_step_fraction, std::sqrt(a.time_step_fraction * b.time_step_fraction), 1e-12);
+  // Outside the table: refused, naming where the tolerance came from and the range.
+  try {
+    interpolate_rules(rules, rules.levels.back().tolerance * 1.5, "--tolerance");
+    ADD_FAILURE() << "a tolerance above the table was accepted";
+  } catch (const DeckError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--tolerance: ", 0), 0u) << e.what();
+  }
+  EXPECT_THROW(interpolate_rules(rules, 0.5 * rules.levels.front().tolerance, "t"), DeckError);
+}
+
+TEST(ToleranceRules, MalformedTablesAreRefused) {
+  const std::string level = R"({"tolerance": 1, "time_step_fraction": 0.5, "prepare_time_step_fraction": 0.5,
+                                "inertial_number": 1e-4, "fast_strain_increment_scale": 1, "damping_scale": 1})";
+  EXPECT_NO_THROW(parse_tolerance_rules(R"({"levels": [)" + level + "]}"));
+  EXPECT_THROW(parse_tolerance_rules(R"({"levels": [)" + level + "," + level + "]}"), DeckError);  // not ascending
+  EXPECT_THROW(parse_tolerance_rules(R"({"levels": []})"), DeckError);
+  Json bad = Json::parse(level);
+  bad["time_step_fraction"] = 1.2;  // above the stability limit
+  EXPECT_THROW(parse_tolerance_rules(Json{{"levels", {bad}}}.dump()), DeckError);
+  bad["time_step_fraction"] = -0.5;
+  EXPECT_THROW(parse_tolerance_rules(Json{{"levels", {bad}}}.dump()), DeckError);
+}
+
+TEST(Tolerance, ResolvedDeckMeetsTheRules) {
+  const std::string text = deck_json().dump();
+  const Deck written = parse_deck(text, "deck.json");
+  const double limit = critical_time_step(written.sample, written.contact);
+  const double d_mean = mean_diameter(written.sample), rho = written.sample.density;
+  for (const double t : {0.7, 1.0, 2.5}) {
+    SCOPED_TRACE(t);
+    const ToleranceLevel level = interpolate_rules(time_to_answer_rules(), t, "tolerance");
+    const Deck d = resolve_tolerance(written, text, t);
+    ASSERT_TRUE(d.tolerance.has_value());
+    EXPECT_EQ(*d.tolerance, t);
+    // Time steps: the level's fraction of the limit, rounded down to three significant digits.
+    const double dt = d.stage_time_step(d.tests[0]);
+    EXPECT_LE(dt, level.time_step_fraction * limit);
+    EXPECT_GT(dt, 0.99 * level.time_step_fraction * limit);
+    EXPECT_LE(d.stage_time_step(*d.prepare), level.prepare_time_step_fraction * limit);
+    // Strain-driven legs: the level's inertial number at the leg's confining stress (the mean of its targets).
+    const double ttc_stress = 1.5e5;
+    EXPECT_NEAR(inertial_number(plan_test(d, d.tests[0]).strain_rate, d_mean, rho, ttc_stress), level.inertial_number,
+                1e-9 * level.inertial_number);
+    const Leg& leg = d.tests[1].legs[0];
+    EXPECT_NEAR(inertial_number(leg.axes[0].value, d_mean, rho, 4.0e5), level.inertial_number, 1e-9 * level.inertial_number);
+    EXPECT_DOUBLE_EQ(leg.axes[1].value / leg.axes[0].value, -0.5);  // the axes scaled together
+    // The hold leg keeps its physical time; the output interval its rows per unit strain.
+    const double dt_cyc = d.stage_time_step(d.tests[1]);
+    EXPECT_NEAR(static_cast<double>(d.tests[1].legs[1].end.steps) * dt_cyc, 3000 * 1.0e-6, 0.5 * dt_cyc);
+    const double written_rows_per_strain = 1.0 / (1000 * 2.0e-7);
+    const double rows_per_strain = 1.0 / (static_cast<double>(d.tests[0].output_interval) * plan_test(d, d.tests[0]).strain_per_step);
+    EXPECT_NEAR(rows_per_strain / written_rows_per_strain, 1.0, 0.5 / static_cast<double>(d.tests[0].output_interval));
+    // The preparation's equilibrium checks and rows keep their physical time.
+    const double dt_prep = d.stage_time_step(*d.prepare);
+    EXPECT_NEAR(static_cast<double>(d.prepare->equilibrium.min_steps) * dt_prep, 50000 * 1.0e-6, dt_prep);
+    EXPECT_NEAR(static_cast<double>(d.prepare->equilibrium.check_interval) * dt_prep, 1000 * 1.0e-6, dt_prep);
+    EXPECT_NEAR(static_cast<double>(d.prepare->output_interval) * dt_prep, 1000 * 1.0e-6, dt_prep);
+    // The resolved settings name every stage.
+    const Json settings = Json::parse(d.tolerance_settings);
+    ASSERT_EQ(settings["stages"].size(), 3u);
+    EXPECT_EQ(settings["stages"][2]["stage"], "cyc");
+    // The resolved deck reads again as written, to the same deck.
+    const Json resolved = Json::parse(d.canonical);
+    EXPECT_FALSE(resolved.contains("tolerance"));
+    EXPECT_EQ(parse_deck(d.canonical).canonical, d.canonical);
+  }
+}
+
+TEST(Tolerance, DeckKeyAndArgumentResolveAlikeAndNoneLeavesTheDeck) {
+  Json j = deck_json();
+  const Deck plain = parse_deck(j.dump());
+  EXPECT_FALSE(plain.tolerance.has_value());
+  EXPECT_EQ(plain.canonical, j.dump());
+  j["tolerance"] = 1.0;
+  const std::string with_key = j.dump();
+  const Deck as_written = parse_deck(with_key);  // parse_deck reads the key, read_deck applies it
+  ASSERT_TRUE(as_written.tolerance.has_value());
+  const Deck by_key = resolve_tolerance(as_written, with_key, *as_written.tolerance);
+  const Deck by_argument = resolve_tolerance(plain, deck_json().dump(), 1.0);
+  Json a = Json::parse(by_key.canonical), b = Json::parse(by_argument.canonical);
+  a.erase("description"), b.erase("description");
+  EXPECT_EQ(a, b);
+  j["tolerance"] = 42.0;  // outside the table
+  EXPECT_THROW(resolve_tolerance(parse_deck(j.dump()), j.dump(), 42.0), DeckError);
+}
+
+}  // namespace
+}  // namespace celldem
