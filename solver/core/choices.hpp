@@ -39,6 +39,10 @@ inline constexpr std::array<std::string_view, 2> kControlFailureNames = {"stop",
 inline constexpr std::array<std::string_view, 3> kSnapshotFormatNames = {"binary", "zlib", "ascii"};
 inline constexpr std::array<std::string_view, 2> kGradingBasisNames = {"mass", "number"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
+// The shear axes: the tilts h(0,1), h(0,2), h(1,2) of the cell (LAMMPS's xy, xz, yz), each strained
+// against the reference length of its column's axis (cell/control.hpp has the convention).
+inline constexpr std::array<std::string_view, 3> kShearAxisNames = {"x12", "x13", "x23"};
+inline constexpr std::array<std::array<int, 2>, 3> kShearAxisEntries = {{{0, 1}, {0, 2}, {1, 2}}};
 
 // Mindlin's stiffness 8 G* a, with or without the rescaling.
 constexpr bool is_mindlin(TangentialModel t) {

@@ -137,10 +137,19 @@ struct LegEnd {
 struct Leg {
   std::array<AxisControl, 3> axes;
   LegEnd end;
+  // The shear axes x12, x13, x23: strain_increment, strain_rate or stress (a shear stress of either sign);
+  // none: the cell's tilt is held as it stands.
+  std::array<std::optional<AxisControl>, 3> shear = {};
   // The strain-driven axes' strain per step (0 for other axes): increments, or rates times the time step.
   double strain_per_step(int axis, double time_step) const {
     const AxisControl& a = axes[axis];
     return a.mode == AxisMode::StrainIncrement ? a.value : a.mode == AxisMode::StrainRate ? a.value * time_step : 0.0;
+  }
+  // The same for shear axis `shear_axis` (x12, x13, x23): 0 unless the leg drives it by its strain.
+  double shear_strain_per_step(int shear_axis, double time_step) const {
+    const std::optional<AxisControl>& a = shear[static_cast<std::size_t>(shear_axis)];
+    if (!a) return 0.0;
+    return a->mode == AxisMode::StrainIncrement ? a->value : a->mode == AxisMode::StrainRate ? a->value * time_step : 0.0;
   }
 };
 

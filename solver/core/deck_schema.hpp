@@ -26,7 +26,8 @@ using SubModelUses = std::array<SubModelChoice, 3>;
 constexpr SubModelUses used_by(SubModelChoice a, SubModelChoice b = {}, SubModelChoice c = {}) { return {a, b, c}; }
 
 struct KeySpec {
-  std::string_view path;     // JSON path; "tests[]" stands for every test, "xK" for x1, x2 and x3
+  std::string_view path;     // JSON path; "tests[]" stands for every test, "xK" for x1, x2 and x3,
+                             // "xIJ" for the shear axes x12, x13 and x23
   KeyKind kind = KeyKind::Number;
   double min = -std::numeric_limits<double>::infinity();  // inclusive bounds (numbers and integers)
   double max = std::numeric_limits<double>::infinity();
@@ -290,7 +291,8 @@ inline constexpr KeySpec test_legs{.path = "tests[].legs", .kind = KeyKind::Arra
 inline constexpr KeySpec leg_repeat{.path = "tests[].legs[].repeat", .kind = KeyKind::Integer, .min = 1,
     .max = 100000, .required = false, .default_text = "-", .meaning = "times the block's `legs` run in a row"};
 inline constexpr KeySpec test_axes{.path = "tests[].axes", .kind = KeyKind::Object,
-    .meaning = "`x1`, `x2`, `x3`: each exactly one of the controls below"};
+    .meaning = "`x1`, `x2`, `x3`: each exactly one of the controls below; the shear axes `x12`, `x13`, `x23` "
+               "optional (`xIJ` below; an axis left out keeps its tilt)"};
 inline constexpr KeySpec axis_strain_increment{.path = "tests[].axes.xK.strain_increment", .kind = KeyKind::Number,
     .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
     .meaning = "engineering strain per step relative to the test start, compression +"};
@@ -321,6 +323,22 @@ inline constexpr KeySpec axis_stress_ramp_from{.path = "tests[].axes.xK.stress_r
 inline constexpr KeySpec axis_stress_ramp_rate{.path = "tests[].axes.xK.stress_ramp.rate", .kind = KeyKind::Number,
     .min = -1e15, .max = 1e15, .unit = "Pa/s",
     .meaning = "the target's rate, non-zero (negative: unloading; the run stops if the target falls to 0)"};
+inline constexpr KeySpec shear_axis_strain_increment{.path = "tests[].axes.xIJ.strain_increment",
+    .kind = KeyKind::Number, .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
+    .meaning = "engineering shear strain per step, g_ij = -(h_ij - h_ij(start)) / h_jj(start) (the tilt xy, xz or yz "
+               "over the stage-start length of axis j; sign: a positive g_ij raises the compression-signed s_ij), "
+               "relative to the test start; exactly one of `strain_increment`, `strain_rate`, `stress` per shear axis"};
+inline constexpr KeySpec shear_axis_strain_rate{.path = "tests[].axes.xIJ.strain_rate", .kind = KeyKind::Number,
+    .min = -1e6, .max = 1e6, .required = false, .default_text = "-", .unit = "1/s",
+    .meaning = "engineering shear strain rate dg_ij/dt"};
+inline constexpr KeySpec shear_axis_stress{.path = "tests[].axes.xIJ.stress", .kind = KeyKind::Number,
+    .min = -1e12, .max = 1e12, .required = false, .default_text = "-", .unit = "Pa",
+    .meaning = "servo-controlled contact shear stress s_ij (either sign, 0 allowed), its stiffness (1/V) sum kn "
+               "(n_i l_j)^2 from the contacts; error relative to max(|target|, p)"};
+inline constexpr KeySpec test_zero_shear_stress{.path = "tests[].zero_shear_stress", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "false",
+    .meaning = "`true`: the leg (beside `axes`; in `legs`, per leg) servo-holds s12, s13 and s23 at 0, so the "
+               "principal stresses stay on the axes (e.g. with `b` and `mean_stress` axes); not beside shear axes"};
 inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object,
     .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`, `equilibrium`"};
 inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
@@ -382,7 +400,8 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
-    &axis_stress_ramp_rate, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
+    &axis_stress_ramp_rate, &shear_axis_strain_increment, &shear_axis_strain_rate, &shear_axis_stress,
+    &test_zero_shear_stress, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic});
 

@@ -350,6 +350,20 @@ AxisControl read_axis(ObjectReader r) {
   return a;
 }
 
+// A shear axis (x12, x13, x23): its strain per step or rate, or a shear stress target of either sign.
+AxisControl read_shear_axis(ObjectReader r) {
+  AxisControl a;
+  int given = 0;
+  const std::pair<const KeySpec*, AxisMode> controls[] = {{&keys::shear_axis_strain_increment, AxisMode::StrainIncrement},
+                                                          {&keys::shear_axis_strain_rate, AxisMode::StrainRate},
+                                                          {&keys::shear_axis_stress, AxisMode::Stress}};
+  for (const auto& [spec, mode] : controls)
+    if (r.has(*spec)) a = {mode, r.number(*spec)}, ++given;
+  r.finish();  // first: a normal axis's control (b, mean_stress, ...) is an unknown key here, named as such
+  if (given != 1) fail(r.path(), "give exactly one of \"strain_increment\", \"strain_rate\", \"stress\" (a shear axis)");
+  return a;
+}
+
 LegEnd read_end(ObjectReader end, bool preparation) {
   LegEnd e;
   int given = 0;
@@ -415,10 +429,15 @@ void check_leg(const Leg& leg, const std::string& at) {
       fail(end + ".max_steps", "a strain end on an axis that is not strain-driven needs max_steps (it may never be "
                                "reached)");
   }
-  if (e.kind == LegEndKind::Equilibrium)
+  if (e.kind == LegEndKind::Equilibrium) {
     for (int k = 0; k < 3; ++k)
       if (leg.axes[k].mode != AxisMode::Stress && leg.axes[k].mode != AxisMode::MeanStress)
         fail(end + ".equilibrium", "a leg that ends in equilibrium needs every axis on stress or mean_stress");
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear_strain_per_step(a, 1.0) != 0.0)
+        fail(at + ".axes." + std::string(kShearAxisNames[a]),
+             "a leg that ends in equilibrium cannot strain a shear axis (hold it: stress or a zero strain)");
+  }
   if ((e.kind == LegEndKind::Ratio || e.kind == LegEndKind::Stress) && e.max_steps == 0)
     fail(end + ".max_steps", "a ratio or stress end needs max_steps (it may never be reached)");
   if (const AxisControl& a = leg.axes[e.axis]; e.kind == LegEndKind::Stress && a.mode == AxisMode::StressRamp &&
@@ -432,7 +451,18 @@ Leg read_leg(ObjectReader& r, bool preparation) {
   {
     ObjectReader axes = r.object(keys::test_axes);
     for (int i = 0; i < 3; ++i) leg.axes[i] = read_axis(axes.object(kAxisNames[i]));
+    for (int a = 0; a < 3; ++a)
+      if (axes.has(kShearAxisNames[a])) leg.shear[a] = read_shear_axis(axes.object(kShearAxisNames[a]));
     axes.finish();
+  }
+  if (r.has(keys::test_zero_shear_stress)) {
+    if (!r.boolean(keys::test_zero_shear_stress))
+      fail(r.at(keys::test_zero_shear_stress), "only true is meaningful (leave the key out otherwise)");
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear[a])
+        fail(r.at(keys::test_zero_shear_stress), "contradicts the shear axis axes." + std::string(kShearAxisNames[a]) +
+                                                     " (zero_shear_stress sets all three): give one or the other");
+    for (auto& shear : leg.shear) shear = AxisControl{AxisMode::Stress, 0.0};
   }
   leg.end = read_end(r.object(keys::test_end), preparation);
   return leg;

@@ -683,6 +683,72 @@ TEST(Deck, SnapshotFormatIsBinaryUnlessTheDeckSaysOtherwise) {
   expect_error(j, "prepare.snapshots", "\"interval\" or \"e1\"");
 }
 
+// Shear axes x12, x13, x23 beside the normal ones (tests[].axes.xIJ), and zero_shear_stress.
+TEST(Deck, ShearAxesParse) {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 1e-6}};
+  j["tests"][0]["axes"]["x13"] = {{"stress", -2.5e3}};
+  j["tests"][0]["axes"]["x23"] = {{"strain_rate", 0.3}};
+  Deck d = parse_deck(j.dump());
+  const Leg& leg = d.tests[0].legs[0];
+  ASSERT_TRUE(leg.shear[0] && leg.shear[1] && leg.shear[2]);
+  EXPECT_EQ(leg.shear[0]->mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.shear[0]->value, 1e-6);
+  EXPECT_EQ(leg.shear[1]->mode, AxisMode::Stress);
+  EXPECT_EQ(leg.shear[1]->value, -2.5e3);
+  EXPECT_EQ(leg.shear[2]->mode, AxisMode::StrainRate);
+  EXPECT_DOUBLE_EQ(leg.shear_strain_per_step(2, 1e-6), 0.3e-6);
+  EXPECT_FALSE(d.tests[1].legs[0].shear[0]);  // left out: the tilt is held
+  // zero_shear_stress: the three shear stresses servo-held at 0, in a program's leg too.
+  j = minimal_deck();
+  j["tests"][0]["zero_shear_stress"] = true;
+  d = parse_deck(j.dump());
+  for (const auto& a : d.tests[0].legs[0].shear) {
+    ASSERT_TRUE(a);
+    EXPECT_EQ(a->mode, AxisMode::Stress);
+    EXPECT_EQ(a->value, 0.0);
+  }
+  j = minimal_deck();
+  Json leg0 = {{"axes", j["tests"][0]["axes"]}, {"end", j["tests"][0]["end"]}, {"zero_shear_stress", true}};
+  j["tests"][0].erase("axes");
+  j["tests"][0].erase("end");
+  j["tests"][0]["legs"] = Json::array({leg0});
+  EXPECT_TRUE(parse_deck(j.dump()).tests[0].legs[0].shear[2].has_value());
+}
+
+TEST(DeckErrors, ShearAxesNameTheKey) {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 1e-6}, {"stress", 0.0}};
+  expect_error(j, "tests[0].axes.x12", "exactly one");
+  j["tests"][0]["axes"]["x12"] = Json::object();
+  expect_error(j, "tests[0].axes.x12", "exactly one");
+  j["tests"][0]["axes"]["x12"] = {{"b", 0.5}};  // the normal axes' couplings are not shear controls
+  expect_error(j, "tests[0].axes.x12.b", "unknown key");
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 0.5}};
+  expect_error(j, "tests[0].axes.x12.strain_increment", "must be in");
+  j["tests"][0]["axes"]["x12"] = {{"stress", "zero"}};
+  expect_error(j, "tests[0].axes.x12.stress", "expected a number");
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x21"] = {{"stress", 0.0}};  // the lower triangle is no axis
+  expect_error(j, "tests[0].axes.x21", "unknown key");
+  // Contradictory: all three shear stresses at zero and a shear axis of its own.
+  j = minimal_deck();
+  j["tests"][0]["zero_shear_stress"] = true;
+  j["tests"][0]["axes"]["x23"] = {{"strain_increment", 1e-6}};
+  expect_error(j, "tests[0].zero_shear_stress", "x23");
+  j["tests"][0]["axes"].erase("x23");
+  j["tests"][0]["zero_shear_stress"] = false;
+  expect_error(j, "tests[0].zero_shear_stress", "only true");
+  // A leg that ends in equilibrium cannot shear: a shear strain that moves, refused; a held one accepted.
+  j = minimal_deck();
+  j["tests"][0]["axes"] = {{"x1", {{"stress", 1e5}}}, {"x2", {{"stress", 1e5}}}, {"x3", {{"mean_stress", 1e5}}},
+                           {"x12", {{"strain_rate", 1.0}}}};
+  j["tests"][0]["end"] = {{"equilibrium", true}};
+  expect_error(j, "tests[0].axes.x12", "equilibrium");
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 0.0}};
+  EXPECT_NO_THROW((void)parse_deck(j.dump()));
+}
+
 // A stress_ramp axis: its target moves from `from` at `rate` (tests[].axes.xK.stress_ramp).
 Json ramp_deck() {
   Json j = minimal_deck();
