@@ -339,6 +339,20 @@ inline constexpr KeySpec test_zero_shear_stress{.path = "tests[].zero_shear_stre
     .required = false, .default_text = "false",
     .meaning = "`true`: the leg (beside `axes`; in `legs`, per leg) servo-holds s12, s13 and s23 at 0, so the "
                "principal stresses stay on the axes (e.g. with `b` and `mean_stress` axes); not beside shear axes"};
+inline constexpr KeySpec test_simple_shear{.path = "tests[].simple_shear", .kind = KeyKind::Object,
+    .required = false, .default_text = "-",
+    .meaning = "instead of `axes` (beside `end`; in `legs`, per leg): direct simple shear in the x1-x2 plane, g12 "
+               "driven by `gamma_increment` or `gamma_rate`, s22 held at `normal_stress` by the servo, e1 = e3 = 0 "
+               "and the tilts xz, yz held (end it on `steps`)"};
+inline constexpr KeySpec simple_shear_gamma_increment{.path = "tests[].simple_shear.gamma_increment",
+    .kind = KeyKind::Number, .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
+    .meaning = "engineering shear strain g12 per step (as `axes.x12.strain_increment`); this or `gamma_rate`"};
+inline constexpr KeySpec simple_shear_gamma_rate{.path = "tests[].simple_shear.gamma_rate", .kind = KeyKind::Number,
+    .min = -1e6, .max = 1e6, .required = false, .default_text = "-", .unit = "1/s",
+    .meaning = "engineering shear strain rate dg12/dt (as `axes.x12.strain_rate`)"};
+inline constexpr KeySpec simple_shear_normal_stress{.path = "tests[].simple_shear.normal_stress",
+    .kind = KeyKind::Number, .positive = true, .unit = "Pa",
+    .meaning = "the normal stress s22 on the shear plane, compression + (as `axes.x2.stress`)"};
 inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object,
     .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`, `equilibrium`"};
 inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
@@ -401,7 +415,8 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
     &axis_stress_ramp_rate, &shear_axis_strain_increment, &shear_axis_strain_rate, &shear_axis_stress,
-    &test_zero_shear_stress, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
+    &test_zero_shear_stress, &test_simple_shear, &simple_shear_gamma_increment, &simple_shear_gamma_rate,
+    &simple_shear_normal_stress, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic});
 

@@ -446,9 +446,27 @@ void check_leg(const Leg& leg, const std::string& at) {
                           "stress (from " + fmt(a.value) + " Pa at " + fmt(a.rate) + " Pa/s)");
 }
 
+// simple_shear: g12 driven, s22 held by the servo, e1 = e3 = 0, the tilts xz and yz held.
+void read_simple_shear(ObjectReader r, Leg& leg) {
+  const bool by_increment = r.has(keys::simple_shear_gamma_increment), by_rate = r.has(keys::simple_shear_gamma_rate);
+  if (by_increment == by_rate) fail(r.path(), "give exactly one of \"gamma_increment\", \"gamma_rate\"");
+  const AxisControl shear = by_increment ? AxisControl{AxisMode::StrainIncrement, r.number(keys::simple_shear_gamma_increment)}
+                                         : AxisControl{AxisMode::StrainRate, r.number(keys::simple_shear_gamma_rate)};
+  if (shear.value == 0.0) fail(r.at(by_increment ? keys::simple_shear_gamma_increment : keys::simple_shear_gamma_rate),
+                               "must be non-zero (a simple shear that does not shear)");
+  const AxisControl held{AxisMode::StrainIncrement, 0.0};
+  leg.axes = {held, AxisControl{AxisMode::Stress, r.number(keys::simple_shear_normal_stress)}, held};
+  leg.shear = {shear, std::nullopt, std::nullopt};
+  r.finish();
+}
+
 Leg read_leg(ObjectReader& r, bool preparation) {
   Leg leg;
-  {
+  const bool simple_shear = r.has(keys::test_simple_shear);
+  if (simple_shear) {
+    if (r.has(keys::test_axes)) fail(r.at(keys::test_simple_shear), "give either \"simple_shear\" or \"axes\", not both");
+    read_simple_shear(r.object(keys::test_simple_shear), leg);
+  } else {
     ObjectReader axes = r.object(keys::test_axes);
     for (int i = 0; i < 3; ++i) leg.axes[i] = read_axis(axes.object(kAxisNames[i]));
     for (int a = 0; a < 3; ++a)
@@ -460,8 +478,10 @@ Leg read_leg(ObjectReader& r, bool preparation) {
       fail(r.at(keys::test_zero_shear_stress), "only true is meaningful (leave the key out otherwise)");
     for (int a = 0; a < 3; ++a)
       if (leg.shear[a])
-        fail(r.at(keys::test_zero_shear_stress), "contradicts the shear axis axes." + std::string(kShearAxisNames[a]) +
-                                                     " (zero_shear_stress sets all three): give one or the other");
+        fail(r.at(keys::test_zero_shear_stress),
+             simple_shear ? std::string("contradicts simple_shear (which drives x12)")
+                          : "contradicts the shear axis axes." + std::string(kShearAxisNames[a]) +
+                                " (zero_shear_stress sets all three): give one or the other");
     for (auto& shear : leg.shear) shear = AxisControl{AxisMode::Stress, 0.0};
   }
   leg.end = read_end(r.object(keys::test_end), preparation);
@@ -578,8 +598,8 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
   t.rolling_friction = r.has(keys::test_rolling_friction) ? r.number(keys::test_rolling_friction)
                                                           : contact.rolling_friction;
   if (r.has(keys::test_legs)) {
-    if (r.has(keys::test_axes) || r.has(keys::test_end))
-      fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" and \"end\", not both");
+    if (r.has(keys::test_axes) || r.has(keys::test_end) || r.has(keys::test_simple_shear))
+      fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" (or \"simple_shear\") and \"end\", not both");
     read_program(r.raw(keys::test_legs), r.at(keys::test_legs), false, t.legs);
     check_leg_lengths(t, time_step, r.at(keys::test_legs), false);
   } else {

@@ -111,6 +111,14 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
   for (std::size_t j = 0; j < p.legs.size(); ++j) {
     const Leg& leg = p.legs[j];
     const LegEnd& e = leg.end;
+    // The scripts' box stays orthogonal: a shear axis that moves its tilt (by strain or by its servo) has no
+    // counterpart in them; a held one (a zero strain) is what they do anyway.
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear[a] && (leg.shear[a]->stress_driven() || leg.shear_strain_per_step(a, deck.time_step) != 0.0))
+        throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
+                        std::to_string(j + 1) + ": axes." + std::string(kShearAxisNames[a]) + " (a " +
+                        (leg.shear[a]->stress_driven() ? "stress-controlled" : "strain-driven") +
+                        " shear axis, or zero_shear_stress) is not translated: the scripts keep an orthogonal box");
     LegRun r;
     if (e.kind == LegEndKind::Steps) {
       r.steps = e.steps;

@@ -577,6 +577,33 @@ TEST(TranslateProgram, TestEquilibriumLegIsNamedUntranslatable) {
   }
 }
 
+// Shear axes that move the cell's tilt (by strain or by the servo, zero_shear_stress too) are named as not
+// translated; a held one (zero strain) is what the orthogonal box does anyway.
+TEST(TranslateProgram, MovingShearAxesAreNamedUntranslatable) {
+  const std::string axes = R"("x1": {"strain_increment": 0}, "x2": {"stress": 1e5}, "x3": {"strain_increment": 0})";
+  const std::pair<std::string, std::string> cases[] = {
+      {R"("x12": {"strain_increment": 1e-6})", "axes.x12 (a strain-driven shear axis"},
+      {R"("x23": {"stress": 0})", "axes.x23 (a stress-controlled shear axis"},
+  };
+  for (const auto& [shear, expected] : cases) {
+    const Deck deck = program_deck(R"({"name": "ss", "friction": 0.5, "legs": [
+        {"axes": {)" + axes + R"(}, "end": {"steps": 100}},
+        {"axes": {)" + axes + ", " + shear + R"(}, "end": {"steps": 100}}]})");
+    for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+      try {
+        translate_test(deck, deck.tests[0], code);
+        ADD_FAILURE() << "no DeckError for " << shear;
+      } catch (const DeckError& e) {
+        EXPECT_TRUE(contains(e.what(), "test \"ss\", leg 2: " + expected)) << e.what();
+        EXPECT_TRUE(contains(e.what(), "not translated")) << e.what();
+      }
+    }
+  }
+  const Deck held = program_deck(R"({"name": "ss", "friction": 0.5,
+      "axes": {)" + axes + R"(, "x12": {"strain_rate": 0}}, "end": {"steps": 100}})");
+  EXPECT_NO_THROW(translate_test(held, held.tests[0], TargetCode::Lammps));
+}
+
 // b and mean_stress: the translated targets, evaluated for a known stress state, are celldem's stress_targets().
 TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
   const Deck deck = program_deck(R"({"name": "bp", "friction": 0.5, "legs": [

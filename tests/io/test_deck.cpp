@@ -716,6 +716,45 @@ TEST(Deck, ShearAxesParse) {
   EXPECT_TRUE(parse_deck(j.dump()).tests[0].legs[0].shear[2].has_value());
 }
 
+// simple_shear: g12 driven, s22 held by the servo, e1 = e3 = 0, the other tilts held.
+TEST(Deck, SimpleShearIsItsAxes) {
+  Json j = minimal_deck();
+  j["tests"][0].erase("axes");
+  j["tests"][0]["simple_shear"] = {{"gamma_increment", 1e-6}, {"normal_stress", 1e5}};
+  j["tests"][0]["end"] = {{"steps", 1000}};
+  Deck d = parse_deck(j.dump());
+  const Leg& leg = d.tests[0].legs[0];
+  EXPECT_EQ(leg.axes[0].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.axes[0].value, 0.0);
+  EXPECT_EQ(leg.axes[1].mode, AxisMode::Stress);
+  EXPECT_EQ(leg.axes[1].value, 1e5);
+  EXPECT_EQ(leg.axes[2].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.axes[2].value, 0.0);
+  ASSERT_TRUE(leg.shear[0]);
+  EXPECT_EQ(leg.shear[0]->mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.shear[0]->value, 1e-6);
+  EXPECT_FALSE(leg.shear[1] || leg.shear[2]);
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", -2.0}, {"normal_stress", 5e4}};
+  d = parse_deck(j.dump());
+  EXPECT_EQ(d.tests[0].legs[0].shear[0]->mode, AxisMode::StrainRate);
+  EXPECT_EQ(d.tests[0].legs[0].shear[0]->value, -2.0);
+  // Errors name the key.
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}, {"gamma_increment", 1e-6}, {"normal_stress", 5e4}};
+  expect_error(j, "tests[0].simple_shear", "exactly one");
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}};
+  expect_error(j, "tests[0].simple_shear.normal_stress", "missing");
+  j["tests"][0]["simple_shear"] = {{"gamma_increment", 0.0}, {"normal_stress", 5e4}};
+  expect_error(j, "tests[0].simple_shear.gamma_increment", "non-zero");
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}, {"normal_stress", -5e4}};
+  expect_error(j, "tests[0].simple_shear.normal_stress", "> 0");
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}, {"normal_stress", 5e4}};
+  j["tests"][0]["zero_shear_stress"] = true;
+  expect_error(j, "tests[0].zero_shear_stress", "simple_shear");
+  j["tests"][0].erase("zero_shear_stress");
+  j["tests"][0]["axes"] = minimal_deck()["tests"][0]["axes"];
+  expect_error(j, "tests[0].simple_shear", "not both");
+}
+
 TEST(DeckErrors, ShearAxesNameTheKey) {
   Json j = minimal_deck();
   j["tests"][0]["axes"]["x12"] = {{"strain_increment", 1e-6}, {"stress", 0.0}};
