@@ -216,7 +216,8 @@ int track_errors(const Leg& leg, const LegChecks& checks, double dt, const State
         errors.shear_stress = worst(errors.shear_stress, err = std::abs(state.shear_stress[k - 3] - shear->value) / scale);
       }
     }
-    const AxisControl& a = k < 3 ? leg.axes[static_cast<std::size_t>(k)] : AxisControl{control_mode(leg, k)};
+    // (a shear axis's error is measured above: none of the normal axes' kinds below applies to it)
+    const AxisControl a = k < 3 ? leg.axes[static_cast<std::size_t>(k)] : AxisControl{AxisMode::StrainIncrement, 0.0};
     if (a.mode == AxisMode::Stress || a.mode == AxisMode::StressRamp)
       errors.stress = worst(errors.stress, err = std::abs(s[k] / a.stress_target(leg_time) - 1.0));
     if (a.mode == AxisMode::MeanStress)
@@ -234,7 +235,7 @@ int track_errors(const Leg& leg, const LegChecks& checks, double dt, const State
     errors.axis_error[k] = worst(errors.axis_error[k], err);
     if (err > control_tolerance(control_mode(leg, k))) {
       ++errors.over_steps[k];
-      errors.over_saturated[k] += state.servo_saturated[k];
+      errors.over_saturated[k] += k < 3 ? state.servo_saturated[k] : state.shear_servo_saturated[k - 3];
       if (errors.over_steps[k] == checks.persist && !errors.failed[k]) {
         errors.failed[k] = true;
         failed = k;
