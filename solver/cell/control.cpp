@@ -173,7 +173,7 @@ Vec3 shear_strains(const State& state) {
   Vec3 g;
   for (int a = 0; a < 3; ++a) {
     const int i = kShearAxisEntries[a][0], j = kShearAxisEntries[a][1];
-    g[a] = -(state.cell.h(i, j) - state.control.reference_tilts[a]) / state.control.reference_lengths[j];
+    g[a] = (state.control.reference_tilts[a] - state.cell.h(i, j)) / state.control.reference_lengths[j];  // (+0 unsheared)
   }
   return g;
 }
