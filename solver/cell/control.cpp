@@ -76,7 +76,8 @@ double servo_increment(const ServoDef& servo, double cap, double target, int k, 
 }
 
 // The shear axes' tilts for the end of this step (the convention in control.hpp); unnamed axes untouched.
-void advance_shear(const Model& model, const Loading& loading, double cap, State& state) {
+// `target`: the shear stress axes' targets.
+void advance_shear(const Model& model, const Loading& loading, double cap, const Vec3& target, State& state) {
   ControlState& ctl = state.control;
   const double next_step = static_cast<double>(ctl.leg_steps + 1);
   state.shear_servo_saturated = {false, false, false};
@@ -93,7 +94,7 @@ void advance_shear(const Model& model, const Loading& loading, double cap, State
         state.cell.h(i, j) = ctl.reference_tilts[a] - length * (g0 + next_step * axis.value * model.dt);
         break;
       default: {  // stress (the deck reader allows no other)
-        const double dg = servo_increment(model.servo, cap, axis.value, state.shear_stress[a], state.shear_stiffness[a],
+        const double dg = servo_increment(model.servo, cap, target[a], state.shear_stress[a], state.shear_stiffness[a],
                                           ctl.shear_servo_integral[a], state.shear_servo_saturated[a]);
         state.cell.h(i, j) -= length * dg;
       }
@@ -134,7 +135,14 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
   const double next_step = static_cast<double>(ctl.leg_steps + 1);
-  const Vec3 target = stress_targets(loading.axes, state.normal_stress, next_step * model.dt);
+  Vec3 target = stress_targets(loading.axes, state.normal_stress, next_step * model.dt);
+  Vec3 shear_target;
+  for (int a = 0; a < 3; ++a) shear_target[a] = loading.shear[a] ? loading.shear[a]->value : 0.0;
+  if (loading.rotation) {
+    const std::array<double, 3> t = loading.rotation->targets(next_step * model.dt, model.dt);
+    const auto [i, j] = kShearAxisEntries[loading.rotation->plane];
+    target[i] = t[0], target[j] = t[1], shear_target[loading.rotation->plane] = t[2];
+  }
   const double cap = loading.servo_cap > 0.0 ? loading.servo_cap : model.servo.max_strain_increment;
   state.servo_saturated = {false, false, false};
   for (int k = 0; k < 3; ++k) {
@@ -157,7 +165,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
         break;
     }
   }
-  advance_shear(model, loading, cap, state);  // before hold_volume, which reads the cell with its new tilts
+  advance_shear(model, loading, cap, shear_target, state);  // before hold_volume, which reads the cell with its new tilts
   hold_volume(loading.axes, ctl.leg_start_volume, cell.h);
   cell.velocity_gradient = (cell.h - h_before) / model.dt * (0.5 * (cell.h + h_before)).inverse();
   ++ctl.leg_steps;

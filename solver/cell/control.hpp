@@ -34,7 +34,9 @@
 // its normal force by kn n_i l_j dg_ij along n; the symmetric part of that force (x) l, with l = |l| n, adds
 // kn n_i l_j (n_i l_j) dg_ij to s_ij (n_i l_j = n_j l_i). Like K_kk it leaves out the tangential springs and
 // the stress's own rotation (terms of order s_ij, far below kn); the servo needs the scale, not the bits.
-// A shear axis a leg does not name keeps its tilt as it stands, untouched.
+// A shear axis a leg does not name keeps its tilt as it stands, untouched. A principal-axis rotation
+// (core/deck.hpp PrincipalRotation) moves the targets of its plane's two normal axes and its shear axis,
+// aimed, like a stress ramp's, at the step's end.
 #pragma once
 #include <array>
 #include <optional>
@@ -49,6 +51,7 @@ struct Loading {
   Friction friction;  // sliding and rolling
   double servo_cap = 0.0;  // [-] cap of a servo axis's strain per step (core/plan servo_cap); 0: the model's
   std::array<std::optional<AxisControl>, 3> shear = {};  // x12, x13, x23 (Leg::shear); none: the tilt held
+  std::optional<PrincipalRotation> rotation;  // (Leg::rotation) its plane's stress targets move with the leg time
 };
 
 // Starts a stage from the state as it stands: step counters and servo memory reset, strains and volume

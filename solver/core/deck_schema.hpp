@@ -353,6 +353,27 @@ inline constexpr KeySpec simple_shear_gamma_rate{.path = "tests[].simple_shear.g
 inline constexpr KeySpec simple_shear_normal_stress{.path = "tests[].simple_shear.normal_stress",
     .kind = KeyKind::Number, .positive = true, .unit = "Pa",
     .meaning = "the normal stress s22 on the shear plane, compression + (as `axes.x2.stress`)"};
+inline constexpr KeySpec test_rotate_principal_axes{.path = "tests[].rotate_principal_axes", .kind = KeyKind::Object,
+    .required = false, .default_text = "-",
+    .meaning = "principal-axis rotation at fixed principal values (hollow-cylinder path), beside `axes` (in `legs`, "
+               "per leg), which then names neither the plane's two axes nor its shear axis: they are servo-held at "
+               "s_ii = m + r cos 2t, s_jj = m - r cos 2t, s_ij = r sin 2t (m, r the mean and half difference of "
+               "`sigma1` and `sigma3`, t the angle of sigma1 from axis i towards j); end it on `steps`"};
+inline constexpr KeySpec rotation_plane{.path = "tests[].rotate_principal_axes.plane", .kind = KeyKind::Choice,
+    .default_text = "required", .choices = kPlaneNames, .meaning = "the plane of the rotation: `x1x2`, `x1x3` or `x2x3`"};
+inline constexpr KeySpec rotation_sigma1{.path = "tests[].rotate_principal_axes.sigma1", .kind = KeyKind::Number,
+    .positive = true, .unit = "Pa", .meaning = "the major principal stress held in the plane, compression +"};
+inline constexpr KeySpec rotation_sigma3{.path = "tests[].rotate_principal_axes.sigma3", .kind = KeyKind::Number,
+    .positive = true, .unit = "Pa", .meaning = "the minor principal stress held in the plane, <= `sigma1`"};
+inline constexpr KeySpec rotation_from{.path = "tests[].rotate_principal_axes.from", .kind = KeyKind::Number,
+    .min = -360, .max = 360, .required = false, .fallback = 0, .unit = "deg",
+    .meaning = "the angle of sigma1 from the plane's first axis at the leg start"};
+inline constexpr KeySpec rotation_rate{.path = "tests[].rotate_principal_axes.rate", .kind = KeyKind::Number,
+    .min = -1e9, .max = 1e9, .required = false, .default_text = "-", .unit = "deg/s",
+    .meaning = "the angle's rate, non-zero; this or `angle_increment`"};
+inline constexpr KeySpec rotation_angle_increment{.path = "tests[].rotate_principal_axes.angle_increment",
+    .kind = KeyKind::Number, .min = -1, .max = 1, .required = false, .default_text = "-", .unit = "deg",
+    .meaning = "the angle's change per step, non-zero"};
 inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object,
     .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`, `equilibrium`"};
 inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
@@ -416,7 +437,8 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
     &axis_stress_ramp_rate, &shear_axis_strain_increment, &shear_axis_strain_rate, &shear_axis_stress,
     &test_zero_shear_stress, &test_simple_shear, &simple_shear_gamma_increment, &simple_shear_gamma_rate,
-    &simple_shear_normal_stress, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
+    &simple_shear_normal_stress, &test_rotate_principal_axes, &rotation_plane, &rotation_sigma1, &rotation_sigma3,
+    &rotation_from, &rotation_rate, &rotation_angle_increment, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_output_interval, &test_dynamic});
 

@@ -429,6 +429,15 @@ void check_leg(const Leg& leg, const std::string& at) {
       fail(end + ".max_steps", "a strain end on an axis that is not strain-driven needs max_steps (it may never be "
                                "reached)");
   }
+  if (leg.rotation) {  // the axis beside the rotation's plane: a plain stress or strain
+    if (e.kind == LegEndKind::Equilibrium)
+      fail(end + ".equilibrium", "a principal-axis rotation's targets move: end it on steps");
+    for (int k = 0; k < 3; ++k)
+      if (leg.axes[k].mode != AxisMode::Stress && !leg.axes[k].strain_driven())
+        fail(at + ".axes." + std::string(kAxisNames[k]),
+             "beside rotate_principal_axes an axis holds a stress or a strain (b, mean_stress, stress_ramp and "
+             "constant_volume follow other axes' stresses or strains)");
+  }
   if (e.kind == LegEndKind::Equilibrium) {
     for (int k = 0; k < 3; ++k)
       if (leg.axes[k].mode != AxisMode::Stress && leg.axes[k].mode != AxisMode::MeanStress)
@@ -460,18 +469,59 @@ void read_simple_shear(ObjectReader r, Leg& leg) {
   r.finish();
 }
 
+// rotate_principal_axes: the plane, the principal values and the angle's course.
+PrincipalRotation read_rotation(ObjectReader r) {
+  constexpr double kRadian = 3.14159265358979323846 / 180.0;
+  PrincipalRotation rot;
+  rot.plane = static_cast<int>(r.choice(keys::rotation_plane));
+  rot.sigma1 = r.number(keys::rotation_sigma1);
+  rot.sigma3 = r.number(keys::rotation_sigma3);
+  if (rot.sigma3 > rot.sigma1) fail(r.at(keys::rotation_sigma3), "must be <= sigma1 (" + fmt(rot.sigma1) + ")");
+  rot.from = r.number(keys::rotation_from) * kRadian;
+  const bool by_rate = r.has(keys::rotation_rate), by_increment = r.has(keys::rotation_angle_increment);
+  if (by_rate == by_increment) fail(r.path(), "give exactly one of \"rate\", \"angle_increment\"");
+  const KeySpec& key = by_rate ? keys::rotation_rate : keys::rotation_angle_increment;
+  rot.rate = r.number(key) * kRadian;
+  rot.per_step = by_increment;
+  if (rot.rate == 0.0) fail(r.at(key), "must be non-zero (a rotation that does not turn is `stress` axes)");
+  r.finish();
+  return rot;
+}
+
 Leg read_leg(ObjectReader& r, bool preparation) {
   Leg leg;
+  if (r.has(keys::test_rotate_principal_axes)) leg.rotation = read_rotation(r.object(keys::test_rotate_principal_axes));
   const bool simple_shear = r.has(keys::test_simple_shear);
   if (simple_shear) {
     if (r.has(keys::test_axes)) fail(r.at(keys::test_simple_shear), "give either \"simple_shear\" or \"axes\", not both");
+    if (leg.rotation) fail(r.at(keys::test_simple_shear), "give either \"simple_shear\" or \"rotate_principal_axes\", not both");
     read_simple_shear(r.object(keys::test_simple_shear), leg);
   } else {
     ObjectReader axes = r.object(keys::test_axes);
-    for (int i = 0; i < 3; ++i) leg.axes[i] = read_axis(axes.object(kAxisNames[i]));
-    for (int a = 0; a < 3; ++a)
+    const int plane = leg.rotation ? leg.rotation->plane : -1;
+    const auto rotated = [&](int i) { return plane >= 0 && (kShearAxisEntries[plane][0] == i || kShearAxisEntries[plane][1] == i); };
+    for (int i = 0; i < 3; ++i) {
+      if (rotated(i)) {
+        if (axes.has(kAxisNames[i]))
+          fail(axes.at(kAxisNames[i]), "set by rotate_principal_axes (plane " + std::string(kPlaneNames[plane]) +
+                                           "): leave it out");
+        continue;
+      }
+      leg.axes[i] = read_axis(axes.object(kAxisNames[i]));
+    }
+    for (int a = 0; a < 3; ++a) {
+      if (a == plane && axes.has(kShearAxisNames[a]))
+        fail(axes.at(kShearAxisNames[a]), "set by rotate_principal_axes (plane " + std::string(kPlaneNames[plane]) +
+                                              "): leave it out");
       if (axes.has(kShearAxisNames[a])) leg.shear[a] = read_shear_axis(axes.object(kShearAxisNames[a]));
+    }
     axes.finish();
+    if (leg.rotation) {  // the plane's controls: stress axes at the leg start's targets (moved by the control)
+      const std::array<double, 3> t = leg.rotation->targets(0.0, 1.0);
+      leg.axes[kShearAxisEntries[plane][0]] = {AxisMode::Stress, t[0]};
+      leg.axes[kShearAxisEntries[plane][1]] = {AxisMode::Stress, t[1]};
+      leg.shear[plane] = AxisControl{AxisMode::Stress, t[2]};
+    }
   }
   if (r.has(keys::test_zero_shear_stress)) {
     if (!r.boolean(keys::test_zero_shear_stress))
@@ -480,6 +530,7 @@ Leg read_leg(ObjectReader& r, bool preparation) {
       if (leg.shear[a])
         fail(r.at(keys::test_zero_shear_stress),
              simple_shear ? std::string("contradicts simple_shear (which drives x12)")
+             : leg.rotation ? std::string("contradicts rotate_principal_axes (which sets its plane's shear stress)")
                           : "contradicts the shear axis axes." + std::string(kShearAxisNames[a]) +
                                 " (zero_shear_stress sets all three): give one or the other");
     for (auto& shear : leg.shear) shear = AxisControl{AxisMode::Stress, 0.0};

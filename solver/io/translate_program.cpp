@@ -124,7 +124,7 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
       if (leg.shear[a] && leg.shear[a]->stress_driven())
         throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
                         std::to_string(j + 1) + ": axes." + std::string(kShearAxisNames[a]) +
-                        " (a stress-controlled shear axis, or zero_shear_stress) is not translated: the scripts "
+                        " (a stress-controlled shear axis: zero_shear_stress, rotate_principal_axes too) is not translated: the scripts "
                         "drive a tilt only by its strain");
     LegRun r;
     if (e.kind == LegEndKind::Steps) {

@@ -162,8 +162,8 @@ class LegEndWatch {
   int side_ = 1;
 };
 
-bool has_stress_ramp(const Leg& leg) {
-  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.mode == AxisMode::StressRamp; });
+bool has_stress_ramp(const Leg& leg) {  // (a principal-axis rotation's targets move too: checked alike)
+  return leg.rotation || std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.mode == AxisMode::StressRamp; });
 }
 
 // What a leg's control checks need: its driving increment per step, how many steps of it make the settle
@@ -206,20 +206,31 @@ int track_errors(const Leg& leg, const LegChecks& checks, double dt, const State
   for (int k = 2; k >= 0; --k)
     if (leg.axes[k].strain_driven()) driver = k;
   const Vec3& s = state.normal_stress;
+  // The moving targets of a principal-axis rotation's plane (s_ii, s_jj, s_ij), else none.
+  std::array<double, 3> rotating = {0.0, 0.0, 0.0};
+  int rot_i = -1, rot_j = -1, rot_shear = -1;
+  if (leg.rotation) {
+    rotating = leg.rotation->targets(leg_time, dt);
+    rot_i = kShearAxisEntries[leg.rotation->plane][0], rot_j = kShearAxisEntries[leg.rotation->plane][1];
+    rot_shear = leg.rotation->plane;
+  }
   int failed = -1;
   for (int k = 0; k < kControlAxes; ++k) {
     double err = std::numeric_limits<double>::quiet_NaN();
     if (k >= 3) {
       const std::optional<AxisControl>& shear = leg.shear[static_cast<std::size_t>(k - 3)];
       if (shear && shear->mode == AxisMode::Stress) {  // relative to max(|target|, p): see ControlErrors
-        const double scale = std::max(std::abs(shear->value), s.sum() / 3.0);
-        errors.shear_stress = worst(errors.shear_stress, err = std::abs(state.shear_stress[k - 3] - shear->value) / scale);
+        const double goal = k - 3 == rot_shear ? rotating[2] : shear->value;
+        const double scale = std::max(std::abs(goal), s.sum() / 3.0);
+        errors.shear_stress = worst(errors.shear_stress, err = std::abs(state.shear_stress[k - 3] - goal) / scale);
       }
     }
     // (a shear axis's error is measured above: none of the normal axes' kinds below applies to it)
     const AxisControl a = k < 3 ? leg.axes[static_cast<std::size_t>(k)] : AxisControl{AxisMode::StrainIncrement, 0.0};
     if (a.mode == AxisMode::Stress || a.mode == AxisMode::StressRamp)
-      errors.stress = worst(errors.stress, err = std::abs(s[k] / a.stress_target(leg_time) - 1.0));
+      errors.stress = worst(errors.stress, err = std::abs(s[k] / (k == rot_i   ? rotating[0]
+                                                                  : k == rot_j ? rotating[1]
+                                                                               : a.stress_target(leg_time)) - 1.0));
     if (a.mode == AxisMode::MeanStress)
       errors.mean_stress = worst(errors.mean_stress, err = std::abs(s.sum() / 3.0 / a.value - 1.0));
     if (a.mode == AxisMode::ConstantVolume)
@@ -322,7 +333,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     const Leg& leg = program.legs[c.leg];
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
     const LegChecks checks(leg, model);
-    const Loading loading{leg.axes, program.friction, checks.cap, leg.shear};
+    const Loading loading{leg.axes, program.friction, checks.cap, leg.shear, leg.rotation};
     const bool ramps = has_stress_ramp(leg);
     bool leg_over = watch.ended(model, state);  // on the state as it stands
     bool leg_done = leg_over;                   // (or an equilibrium leg that is not the last reached it)

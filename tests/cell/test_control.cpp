@@ -444,5 +444,44 @@ TEST_F(ServoOnPacking, SimpleShearHoldsItsStressesAndResumesBitForBit) {
   RecordProperty("worst_zero_shear_error", std::to_string(worst_shear));
 }
 
+// A principal-axis rotation: sigma1 = 120 kPa and sigma3 = 100 kPa turned through 90 degrees in the x1-x2 plane
+// (x3 held at 100 kPa), its three servos aiming at the targets of each step's end. The principal values of the
+// plane's stress stay within 0.5 % of theirs after the start-up transient, and the major principal direction
+// follows the angle.
+TEST_F(ServoOnPacking, PrincipalAxesRotateAtFixedPrincipalValues) {
+  State s = read_state((dir_->path() / "run" / "prepared.state").string());
+  begin_stage(s);
+  const Model model = make_model(*deck_, s.particles.radius);
+  const double sigma1 = 1.2e5, sigma3 = 1.0e5;
+  const int steps = 12000, transient = 2000;
+  PrincipalRotation rotation{0, sigma1, sigma3, 0.0, (M_PI / 2.0) / steps, true};
+  const std::array<double, 3> t0 = rotation.targets(0.0, model.dt);
+  Loading loading{{AxisControl{AxisMode::Stress, t0[0]}, AxisControl{AxisMode::Stress, t0[1]},
+                   AxisControl{AxisMode::Stress, 1.0e5}},
+                  0.5};
+  loading.shear = {AxisControl{AxisMode::Stress, t0[2]}, std::nullopt, std::nullopt};
+  loading.rotation = rotation;
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, loading.friction, s, false);
+  double worst_value = 0.0, worst_angle = 0.0;
+  for (int k = 0; k < steps; ++k) {
+    testing::advance_one_step(model, loading, s, k == 0);
+    if (k < transient) continue;
+    const double s11 = s.normal_stress[0], s22 = s.normal_stress[1], s12 = s.shear_stress[0];
+    const double m = 0.5 * (s11 + s22), r = std::hypot(0.5 * (s11 - s22), s12);
+    worst_value = std::max({worst_value, std::abs((m + r) / sigma1 - 1.0), std::abs((m - r) / sigma3 - 1.0)});
+    const double angle = 0.5 * std::atan2(2.0 * s12, s11 - s22);  // of the major principal stress from x1
+    const double off = angle - rotation.angle((k + 1) * model.dt, model.dt);
+    worst_angle = std::max(worst_angle, std::abs(off - M_PI * std::round(off / M_PI)));  // (directions mod 180)
+  }
+  RecordProperty("worst_principal_value_error", std::to_string(worst_value));
+  RecordProperty("worst_angle_error_deg", std::to_string(worst_angle * 180.0 / M_PI));
+  EXPECT_LT(worst_value, 0.005);
+  EXPECT_LT(worst_angle * 180.0 / M_PI, 2.0);
+  EXPECT_NEAR(s.normal_stress[1], sigma1, 0.005 * sigma1);  // at 90 degrees sigma1 is on x2
+  EXPECT_NEAR(s.normal_stress[0], sigma3, 0.005 * sigma1);
+  EXPECT_NEAR(s.normal_stress[2], 1.0e5, 0.005 * 1.0e5);
+}
+
 }  // namespace
 }  // namespace celldem

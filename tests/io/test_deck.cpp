@@ -755,6 +755,59 @@ TEST(Deck, SimpleShearIsItsAxes) {
   expect_error(j, "tests[0].simple_shear", "not both");
 }
 
+// rotate_principal_axes: the plane's two axes and its shear axis become stress axes whose targets rotate.
+TEST(Deck, PrincipalAxisRotationParsesAndItsMixesAreChecked) {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"] = {{"x3", {{"stress", 1e5}}}};
+  j["tests"][0]["rotate_principal_axes"] = {{"plane", "x1x2"}, {"sigma1", 1.5e5}, {"sigma3", 1e5}, {"from", 30.0},
+                                            {"angle_increment", 1e-3}};
+  j["tests"][0]["end"] = {{"steps", 90000}};
+  const Deck d = parse_deck(j.dump());
+  const Leg& leg = d.tests[0].legs[0];
+  ASSERT_TRUE(leg.rotation);
+  EXPECT_EQ(leg.rotation->plane, 0);
+  EXPECT_TRUE(leg.rotation->per_step);
+  EXPECT_DOUBLE_EQ(leg.rotation->from, M_PI / 6.0);
+  EXPECT_DOUBLE_EQ(leg.rotation->rate, 1e-3 * M_PI / 180.0);
+  // At 30 degrees: s11 = m + r cos 60 = 1.375e5, s22 = 1.125e5, s12 = r sin 60 (m = 1.25e5, r = 2.5e4).
+  EXPECT_EQ(leg.axes[0].mode, AxisMode::Stress);
+  EXPECT_NEAR(leg.axes[0].value, 1.375e5, 1e-9);
+  EXPECT_NEAR(leg.axes[1].value, 1.125e5, 1e-9);
+  ASSERT_TRUE(leg.shear[0]);
+  EXPECT_NEAR(leg.shear[0]->value, 2.5e4 * std::sqrt(3.0) / 2.0, 1e-9);
+  EXPECT_EQ(leg.axes[2].value, 1e5);
+  // 60000 steps later the angle is 90 degrees: sigma1 on x2.
+  const std::array<double, 3> t = leg.rotation->targets(60000 * 1e-6, 1e-6);
+  EXPECT_NEAR(t[0], 1e5, 1e-6);
+  EXPECT_NEAR(t[1], 1.5e5, 1e-6);
+  EXPECT_NEAR(t[2], 0.0, 1e-6);
+  const std::string at = "tests[0]";
+  Json e = j;
+  e["tests"][0]["axes"]["x1"] = {{"stress", 1e5}};
+  expect_error(e, at + ".axes.x1", "rotate_principal_axes");
+  e = j;
+  e["tests"][0]["axes"]["x12"] = {{"stress", 0.0}};
+  expect_error(e, at + ".axes.x12", "rotate_principal_axes");
+  e = j;
+  e["tests"][0]["rotate_principal_axes"]["sigma3"] = 2e5;
+  expect_error(e, at + ".rotate_principal_axes.sigma3", "<= sigma1");
+  e = j;
+  e["tests"][0]["rotate_principal_axes"]["rate"] = 10.0;
+  expect_error(e, at + ".rotate_principal_axes", "exactly one");
+  e = j;
+  e["tests"][0]["rotate_principal_axes"]["plane"] = "x2x1";
+  expect_error(e, at + ".rotate_principal_axes.plane", "unknown value");
+  e = j;
+  e["tests"][0]["axes"]["x3"] = {{"mean_stress", 1e5}};
+  expect_error(e, at + ".axes.x3", "beside rotate_principal_axes");
+  e = j;
+  e["tests"][0]["end"] = {{"equilibrium", true}};
+  expect_error(e, at + ".end.equilibrium", "rotation");
+  e = j;
+  e["tests"][0]["zero_shear_stress"] = true;
+  expect_error(e, at + ".zero_shear_stress", "rotate_principal_axes");
+}
+
 TEST(DeckErrors, ShearAxesNameTheKey) {
   Json j = minimal_deck();
   j["tests"][0]["axes"]["x12"] = {{"strain_increment", 1e-6}, {"stress", 0.0}};
