@@ -11,6 +11,8 @@ void begin_stage(State& state) {
   state.control.reference_lengths = state.cell.h.diagonal();
   state.control.reference_volume = state.cell.volume();
   state.control.leg_start_volume = state.control.reference_volume;
+  for (int a = 0; a < 3; ++a)
+    state.control.reference_tilts[a] = state.cell.h(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
 }
 
 void begin_leg(State& state, int leg) {
@@ -20,6 +22,8 @@ void begin_leg(State& state, int leg) {
   c.leg_start_strains = axis_strains(state);
   c.leg_start_volume = state.cell.volume();
   c.servo_integral = Vec3::Zero();
+  c.leg_start_shear = shear_strains(state);
+  c.shear_servo_integral = Vec3::Zero();
 }
 
 Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, double leg_time) {
@@ -50,20 +54,52 @@ Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, doubl
 
 namespace {
 
-// The servo's strain increment of axis k towards `target` (and its integral, anti-windup), at most `cap`.
-double servo_increment(const ServoDef& servo, double cap, double target, int k, State& state) {
-  const double err = target - state.normal_stress[k];
-  const double stiffness = state.axis_stiffness[k];
+// The servo's strain increment of an axis towards `target` from its stress and stiffness (and its integral,
+// anti-windup), at most `cap`; `saturated` says whether it sat at the cap.
+double servo_increment(const ServoDef& servo, double cap, double target, double stress, double stiffness,
+                       double& integral, bool& saturated) {
+  const double err = target - stress;
   double de;
   if (stiffness > 0.0) {
-    de = (servo.gain * err + servo.integral_gain * (state.control.servo_integral[k] + err)) / stiffness;
+    de = (servo.gain * err + servo.integral_gain * (integral + err)) / stiffness;
   } else {
     de = err > 0.0 ? cap : -cap;  // nothing touches yet
   }
-  const bool saturated = !(std::abs(de) < cap);
-  if (!saturated) state.control.servo_integral[k] += err;
-  state.servo_saturated[k] = saturated;
+  saturated = !(std::abs(de) < cap);
+  if (!saturated) integral += err;
   return std::clamp(de, -cap, cap);
+}
+
+double servo_increment(const ServoDef& servo, double cap, double target, int k, State& state) {
+  return servo_increment(servo, cap, target, state.normal_stress[k], state.axis_stiffness[k],
+                         state.control.servo_integral[k], state.servo_saturated[k]);
+}
+
+// The shear axes' tilts for the end of this step (the convention in control.hpp); unnamed axes untouched.
+// `target`: the shear stress axes' targets.
+void advance_shear(const Model& model, const Loading& loading, double cap, const Vec3& target, State& state) {
+  ControlState& ctl = state.control;
+  const double next_step = static_cast<double>(ctl.leg_steps + 1);
+  state.shear_servo_saturated = {false, false, false};
+  for (int a = 0; a < 3; ++a) {
+    if (!loading.shear[a]) continue;
+    const AxisControl& axis = *loading.shear[a];
+    const int i = kShearAxisEntries[a][0], j = kShearAxisEntries[a][1];
+    const double length = ctl.reference_lengths[j], g0 = ctl.leg_start_shear[a];
+    switch (axis.mode) {
+      case AxisMode::StrainIncrement:  // exact: no drift from summing increments
+        state.cell.h(i, j) = ctl.reference_tilts[a] - length * (g0 + next_step * axis.value);
+        break;
+      case AxisMode::StrainRate:
+        state.cell.h(i, j) = ctl.reference_tilts[a] - length * (g0 + next_step * axis.value * model.dt);
+        break;
+      default: {  // stress (the deck reader allows no other)
+        const double dg = servo_increment(model.servo, cap, target[a], state.shear_stress[a], state.shear_stiffness[a],
+                                          ctl.shear_servo_integral[a], state.shear_servo_saturated[a]);
+        state.cell.h(i, j) -= length * dg;
+      }
+    }
+  }
 }
 
 // Scales the constant-volume axes by one common factor x so that det h = volume. det h is a polynomial of
@@ -99,7 +135,14 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
   const double next_step = static_cast<double>(ctl.leg_steps + 1);
-  const Vec3 target = stress_targets(loading.axes, state.normal_stress, next_step * model.dt);
+  Vec3 target = stress_targets(loading.axes, state.normal_stress, next_step * model.dt);
+  Vec3 shear_target;
+  for (int a = 0; a < 3; ++a) shear_target[a] = loading.shear[a] ? loading.shear[a]->value : 0.0;
+  if (loading.rotation) {
+    const std::array<double, 3> t = loading.rotation->targets(next_step * model.dt, model.dt);
+    const auto [i, j] = kShearAxisEntries[loading.rotation->plane];
+    target[i] = t[0], target[j] = t[1], shear_target[loading.rotation->plane] = t[2];
+  }
   const double cap = loading.servo_cap > 0.0 ? loading.servo_cap : model.servo.max_strain_increment;
   state.servo_saturated = {false, false, false};
   for (int k = 0; k < 3; ++k) {
@@ -122,6 +165,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
         break;
     }
   }
+  advance_shear(model, loading, cap, shear_target, state);  // before hold_volume, which reads the cell with its new tilts
   hold_volume(loading.axes, ctl.leg_start_volume, cell.h);
   cell.velocity_gradient = (cell.h - h_before) / model.dt * (0.5 * (cell.h + h_before)).inverse();
   ++ctl.leg_steps;
@@ -131,6 +175,15 @@ Vec3 axis_strains(const State& state) {
   Vec3 e;
   for (int k = 0; k < 3; ++k) e[k] = 1.0 - state.cell.h(k, k) / state.control.reference_lengths[k];
   return e;
+}
+
+Vec3 shear_strains(const State& state) {
+  Vec3 g;
+  for (int a = 0; a < 3; ++a) {
+    const int i = kShearAxisEntries[a][0], j = kShearAxisEntries[a][1];
+    g[a] = (state.control.reference_tilts[a] - state.cell.h(i, j)) / state.control.reference_lengths[j];  // (+0 unsheared)
+  }
+  return g;
 }
 
 }  // namespace celldem

@@ -19,9 +19,27 @@
 //                    stress axis's; with a mean_stress minor axis both follow from b and p together:
 //                    s_minor = (3p - (1 + b) s_major) / (2 - b).
 // Constant-volume axes scale together (equal strain increments from the leg start) so that det h stays at
-// the leg's start volume. Off-diagonal terms of h are held.
+// the leg's start volume.
+//
+// Shear axes x12, x13, x23 drive the tilts of the upper-triangular cell, h(0,1), h(0,2), h(1,2) (LAMMPS's xy,
+// xz, yz); the lower-triangular terms are always held. The engineering shear strain of axis ij, compression
+// sign like the normal strains, is the tilt's change over the stage-start length of axis j:
+//   g_ij = -(h(i,j) - h_ref(i,j)) / L_j,      i.e. h = (I - E) h_ref with E(i,j) = g_ij (the upper triangle).
+// The sign makes g_ij and the contact shear stress s_ij (compression sign: (1/V) sum f (x) l) work-conjugate:
+// a positive g_ij raises s_ij, so the shear servo is the normal one. A strain-driven shear axis follows
+// g_ij = g_ij(leg start) + n d (or n r dt) exactly; a stress-driven one (target of either sign) steps
+//   dg_ij = (gain * err + integral_gain * I) / K_ij,  |dg_ij| <= cap,   h(i,j) -= L_j dg_ij
+// with K_ij = (1/V) sum_c kn (n_i l_j)^2 (state.shear_stiffness, contact/contact_forces.hpp). Why that sum:
+// the affine tilt moves each branch by dl = -dg_ij l_j e_i, so a contact's overlap grows by n_i l_j dg_ij and
+// its normal force by kn n_i l_j dg_ij along n; the symmetric part of that force (x) l, with l = |l| n, adds
+// kn n_i l_j (n_i l_j) dg_ij to s_ij (n_i l_j = n_j l_i). Like K_kk it leaves out the tangential springs and
+// the stress's own rotation (terms of order s_ij, far below kn); the servo needs the scale, not the bits.
+// A shear axis a leg does not name keeps its tilt as it stands, untouched. A principal-axis rotation
+// (core/deck.hpp PrincipalRotation) moves the targets of its plane's two normal axes and its shear axis,
+// aimed, like a stress ramp's, at the step's end.
 #pragma once
 #include <array>
+#include <optional>
 
 #include "core/model.hpp"
 #include "core/state.hpp"
@@ -32,6 +50,8 @@ struct Loading {
   std::array<AxisControl, 3> axes;  // x1, x2, x3
   Friction friction;  // sliding and rolling
   double servo_cap = 0.0;  // [-] cap of a servo axis's strain per step (core/plan servo_cap); 0: the model's
+  std::array<std::optional<AxisControl>, 3> shear = {};  // x12, x13, x23 (Leg::shear); none: the tilt held
+  std::optional<PrincipalRotation> rotation = {};  // (Leg::rotation) its plane's stress targets move with the leg time
 };
 
 // Starts a stage from the state as it stands: step counters and servo memory reset, strains and volume
@@ -52,5 +72,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state);
 
 // Engineering strains of the cell relative to the stage start, compression positive.
 Vec3 axis_strains(const State& state);
+// Engineering shear strains g12, g13, g23 of the cell relative to the stage start (the convention above).
+Vec3 shear_strains(const State& state);
 
 }  // namespace celldem

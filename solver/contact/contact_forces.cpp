@@ -40,6 +40,8 @@ struct ChunkOut {
   alignas(64) double torque_j[3][kChunk];   // moment on the neighbour
   alignas(64) double normal[3][kChunk];     // force_k * branch_k
   alignas(64) double stiffness[3][kChunk];  // kn (n_k l_k)^2
+  alignas(64) double shear[3][kChunk];      // (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23
+  alignas(64) double shear_stiffness[3][kChunk];  // kn (n_i l_j)^2, ij = 12, 13, 23
   alignas(64) std::int64_t flags[kChunk];   // PairFlag bits
 };
 
@@ -193,6 +195,12 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
     const double kn = r.normal_stiffness;
     o.stiffness[0][k] = kn * (nl.x * nl.x), o.stiffness[1][k] = kn * (nl.y * nl.y), o.stiffness[2][k] = kn * (nl.z * nl.z);
+    o.shear[0][k] = 0.5 * (r.force.x * branch.y + r.force.y * branch.x);
+    o.shear[1][k] = 0.5 * (r.force.x * branch.z + r.force.z * branch.x);
+    o.shear[2][k] = 0.5 * (r.force.y * branch.z + r.force.z * branch.y);
+    const Real3 nt{r.normal.x * branch.y, r.normal.x * branch.z, r.normal.y * branch.z};  // n_i l_j, ij = 12, 13, 23
+    o.shear_stiffness[0][k] = kn * (nt.x * nt.x), o.shear_stiffness[1][k] = kn * (nt.y * nt.y);
+    o.shear_stiffness[2][k] = kn * (nt.z * nt.z);
     o.flags[k] = (r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0);
   }
 }
@@ -202,6 +210,8 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
 struct RunningSums {
   double normal[3] = {};     // sum of force_k branch_k [N m]
   double stiffness[3] = {};  // sum of kn (n_k l_k)^2 [N m]
+  double shear[3] = {};      // sum of (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23 [N m]
+  double shear_stiffness[3] = {};  // sum of kn (n_i l_j)^2 [N m]
   std::int64_t touching = 0;
   Index owner = -1;          // the owner whose net force and moment are being summed, and those sums
   double force[3] = {};
@@ -259,6 +269,8 @@ void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const Pair
     crossed += crossing;
     for (int a = 0; a < 3; ++a) s.normal[a] += c.normal[a][k];
     for (int a = 0; a < 3; ++a) s.stiffness[a] += c.stiffness[a][k];
+    for (int a = 0; a < 3; ++a) s.shear[a] += c.shear[a][k];
+    for (int a = 0; a < 3; ++a) s.shear_stiffness[a] += c.shear_stiffness[a][k];
     s.touching += c.flags[k] & kTouching;
   }
   for (int k = 0; k < m; ++k) flags[q0 + k] = static_cast<std::uint8_t>(c.flags[k]);
@@ -317,6 +329,8 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
       ReductionSums& part = reduction_sums[first_owner / kReductionBlock];
       part.normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
       part.stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
+      part.shear_sum = Vec3(sums.shear[0], sums.shear[1], sums.shear[2]);
+      part.shear_stiffness_sum = Vec3(sums.shear_stiffness[0], sums.shear_stiffness[1], sums.shear_stiffness[2]);
       part.touching = sums.touching;
     }
     if (blocks_done) blocks_done(block_begin, block_end);
@@ -379,11 +393,15 @@ void ContactForceEvaluation::finish() {
   for (const ReductionSums& part : reduction_sums_) {
     total.normal_sum += part.normal_sum;
     total.stiffness_sum += part.stiffness_sum;
+    total.shear_sum += part.shear_sum;
+    total.shear_stiffness_sum += part.shear_stiffness_sum;
     total.touching += part.touching;
   }
   const double volume = state_.cell.volume();
   state_.normal_stress = total.normal_sum / volume;
   state_.axis_stiffness = total.stiffness_sum / volume;
+  state_.shear_stress = total.shear_sum / volume;
+  state_.shear_stiffness = total.shear_stiffness_sum / volume;
   state_.touching = total.touching;
 }
 

@@ -37,7 +37,8 @@
 namespace celldem {
 
 // Evaluates all pairs at the current positions with the half-step velocities, stores per-pair forces and
-// moments and the new history, and sets state.normal_stress, state.axis_stiffness and state.touching.
+// moments and the new history, and sets state.normal_stress, state.axis_stiffness, state.shear_stress,
+// state.shear_stiffness and state.touching.
 // With advance_slip = false no slip is added (the forces of the state as it stands, e.g. at a stage start).
 void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
 
@@ -57,6 +58,8 @@ static_assert(kForceBlock % kReductionBlock == 0, "force blocks are made of whol
 struct ReductionSums {                // one reduction block's sums over its owners' pairs, in list order
   Vec3 normal_sum = Vec3::Zero();     // sum of force_k branch_k [N m]
   Vec3 stiffness_sum = Vec3::Zero();  // sum of kn (n_k l_k)^2 [N m]
+  Vec3 shear_sum = Vec3::Zero();      // sum of (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23 [N m]
+  Vec3 shear_stiffness_sum = Vec3::Zero();  // sum of kn (n_i l_j)^2 [N m] (cell/control.hpp: why)
   std::int64_t touching = 0;
 };
 class ContactForceEvaluation {

@@ -14,7 +14,7 @@ void evaluate_pairs(const ContactParams& params, Kinematics kinematics, const St
   const PairList& pl = state.pairs;
   const Mat3& h = state.cell.h;
   const Mat3& L = state.cell.velocity_gradient;
-  Vec3 normal_sum = Vec3::Zero(), stiffness_sum = Vec3::Zero();
+  Vec3 normal_sum = Vec3::Zero(), stiffness_sum = Vec3::Zero(), shear_sum = Vec3::Zero(), shear_stiffness_sum = Vec3::Zero();
   for_each_pair(pl, [&](Index i, Index q) {
     const Index j = pl.neighbor[q];
     const Vec3 branch = h * (p.scaled[j] - p.scaled[i] + Vec3(pl.image[q][0], pl.image[q][1], pl.image[q][2]));
@@ -41,11 +41,18 @@ void evaluate_pairs(const ContactParams& params, Kinematics kinematics, const St
     const Vec3 nl = vec3(c.normal).cwiseProduct(branch);  // n_k l_k, component by component
     normal_sum += vec3(c.force).cwiseProduct(branch);
     stiffness_sum += c.normal_stiffness * nl.cwiseProduct(nl);
+    const Vec3 f = vec3(c.force), n = vec3(c.normal);
+    shear_sum += 0.5 * Vec3(f[0] * branch[1] + f[1] * branch[0], f[0] * branch[2] + f[2] * branch[0],
+                            f[1] * branch[2] + f[2] * branch[1]);
+    const Vec3 nt(n[0] * branch[1], n[0] * branch[2], n[1] * branch[2]);  // n_i l_j, ij = 12, 13, 23
+    shear_stiffness_sum += c.normal_stiffness * nt.cwiseProduct(nt);
     out.touching += c.touching;
   });
   const double volume = state.cell.volume();
   out.normal_stress = normal_sum / volume;
   out.axis_stiffness = stiffness_sum / volume;
+  out.shear_stress = shear_sum / volume;
+  out.shear_stiffness = shear_stiffness_sum / volume;
 }
 
 }  // namespace

@@ -27,6 +27,8 @@ struct ReferenceContactForces {
   // Per cell: sums over the pairs in list order, divided by the cell volume.
   Vec3 normal_stress = Vec3::Zero();   // [Pa] sum of force_k branch_k / V (component by component)
   Vec3 axis_stiffness = Vec3::Zero();  // [Pa] sum of kn (n_k l_k)^2 / V
+  Vec3 shear_stress = Vec3::Zero();     // [Pa] sum of (force_i l_j + force_j l_i) / 2V, ij = 12, 13, 23
+  Vec3 shear_stiffness = Vec3::Zero();  // [Pa] sum of kn (n_i l_j)^2 / V, ij = 12, 13, 23
   std::int64_t touching = 0;           // pairs in contact
 };
 

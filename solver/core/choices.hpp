@@ -41,6 +41,12 @@ inline constexpr std::array<std::string_view, 2> kGradingBasisNames = {"mass", "
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
 // The points of a test a rate check (tests[].verify_rate, run --verify-rate) branches to.
 inline constexpr std::array<std::string_view, 2> kVerifyPointNames = {"peak", "end"};
+// The shear axes: the tilts h(0,1), h(0,2), h(1,2) of the cell (LAMMPS's xy, xz, yz), each strained
+// against the reference length of its column's axis (cell/control.hpp has the convention).
+inline constexpr std::array<std::string_view, 3> kShearAxisNames = {"x12", "x13", "x23"};
+inline constexpr std::array<std::array<int, 2>, 3> kShearAxisEntries = {{{0, 1}, {0, 2}, {1, 2}}};
+// The planes of a principal-axis rotation, in the order of the shear axes (x1x2 is x12's plane).
+inline constexpr std::array<std::string_view, 3> kPlaneNames = {"x1x2", "x1x3", "x2x3"};
 
 // Mindlin's stiffness 8 G* a, with or without the rescaling.
 constexpr bool is_mindlin(TangentialModel t) {

@@ -2,6 +2,7 @@
 // every default below comes from the key table in core/deck_schema.hpp, the single place that declares them.
 #pragma once
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -124,6 +125,23 @@ struct AxisControl {
   double stress_target(double leg_time) const { return mode == AxisMode::StressRamp ? value + rate * leg_time : value; }
 };
 
+// A rotation of the principal stress axes at fixed principal values (the hollow-cylinder path) in one plane of
+// the cell: its two normal axes and its shear axis are stress-controlled to the targets of principal values
+// sigma1 (major) and sigma3 at the angle theta(t) = from + rate t of sigma1 from the plane's first axis towards
+// its second (compression +; m = (sigma1 + sigma3)/2, r = (sigma1 - sigma3)/2):
+//   s_ii = m + r cos 2 theta,  s_jj = m - r cos 2 theta,  s_ij = r sin 2 theta.
+struct PrincipalRotation {
+  int plane = 0;        // kPlaneNames: the shear axis of the plane, whose entries (kShearAxisEntries) are i, j
+  double sigma1 = 0.0;  // [Pa]
+  double sigma3 = 0.0;  // [Pa]
+  double from = 0.0;    // [rad] theta at the leg start
+  double rate = 0.0;    // [rad/s], or [rad] per step with per_step (angle_increment)
+  bool per_step = false;
+  // The angle theta at `leg_time` [s] after the leg start, and the targets s_ii, s_jj, s_ij there.
+  double angle(double leg_time, double dt) const { return from + (per_step ? rate * (leg_time / dt) : rate * leg_time); }
+  std::array<double, 3> targets(double leg_time, double dt) const;
+};
+
 struct LegEnd {
   LegEndKind kind = LegEndKind::Strain;
   int axis = 0;                // Strain, Stress: the axis (0-based)
@@ -137,10 +155,22 @@ struct LegEnd {
 struct Leg {
   std::array<AxisControl, 3> axes;
   LegEnd end;
+  // The shear axes x12, x13, x23: strain_increment, strain_rate or stress (a shear stress of either sign);
+  // none: the cell's tilt is held as it stands.
+  std::array<std::optional<AxisControl>, 3> shear = {};
+  // A principal-axis rotation (rotate_principal_axes): its plane's axes are Stress and its shear axis Stress,
+  // their values the targets at the leg start; the targets move as PrincipalRotation says.
+  std::optional<PrincipalRotation> rotation;
   // The strain-driven axes' strain per step (0 for other axes): increments, or rates times the time step.
   double strain_per_step(int axis, double time_step) const {
     const AxisControl& a = axes[axis];
     return a.mode == AxisMode::StrainIncrement ? a.value : a.mode == AxisMode::StrainRate ? a.value * time_step : 0.0;
+  }
+  // The same for shear axis `shear_axis` (x12, x13, x23): 0 unless the leg drives it by its strain.
+  double shear_strain_per_step(int shear_axis, double time_step) const {
+    const std::optional<AxisControl>& a = shear[static_cast<std::size_t>(shear_axis)];
+    if (!a) return 0.0;
+    return a->mode == AxisMode::StrainIncrement ? a->value : a->mode == AxisMode::StrainRate ? a->value * time_step : 0.0;
   }
 };
 
@@ -228,5 +258,10 @@ struct Deck {
   double stage_time_step(const PrepareDef& p) const { return p.time_step.value_or(time_step); }
   double stage_time_step(const TestDef& t) const { return t.time_step.value_or(time_step); }
 };
+
+inline std::array<double, 3> PrincipalRotation::targets(double leg_time, double dt) const {
+  const double m = 0.5 * (sigma1 + sigma3), r = 0.5 * (sigma1 - sigma3), two_theta = 2.0 * angle(leg_time, dt);
+  return {m + r * std::cos(two_theta), m - r * std::cos(two_theta), r * std::sin(two_theta)};
+}
 
 }  // namespace celldem

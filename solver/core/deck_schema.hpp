@@ -26,7 +26,8 @@ using SubModelUses = std::array<SubModelChoice, 3>;
 constexpr SubModelUses used_by(SubModelChoice a, SubModelChoice b = {}, SubModelChoice c = {}) { return {a, b, c}; }
 
 struct KeySpec {
-  std::string_view path;     // JSON path; "tests[]" stands for every test, "xK" for x1, x2 and x3
+  std::string_view path;     // JSON path; "tests[]" stands for every test, "xK" for x1, x2 and x3,
+                             // "xIJ" for the shear axes x12, x13 and x23
   KeyKind kind = KeyKind::Number;
   double min = -std::numeric_limits<double>::infinity();  // inclusive bounds (numbers and integers)
   double max = std::numeric_limits<double>::infinity();
@@ -301,7 +302,8 @@ inline constexpr KeySpec test_legs{.path = "tests[].legs", .kind = KeyKind::Arra
 inline constexpr KeySpec leg_repeat{.path = "tests[].legs[].repeat", .kind = KeyKind::Integer, .min = 1,
     .max = 100000, .required = false, .default_text = "-", .meaning = "times the block's `legs` run in a row"};
 inline constexpr KeySpec test_axes{.path = "tests[].axes", .kind = KeyKind::Object,
-    .meaning = "`x1`, `x2`, `x3`: each exactly one of the controls below"};
+    .meaning = "`x1`, `x2`, `x3`: each exactly one of the controls below; the shear axes `x12`, `x13`, `x23` "
+               "optional (`xIJ` below; an axis left out keeps its tilt)"};
 inline constexpr KeySpec axis_strain_increment{.path = "tests[].axes.xK.strain_increment", .kind = KeyKind::Number,
     .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
     .meaning = "engineering strain per step relative to the test start, compression +"};
@@ -332,6 +334,57 @@ inline constexpr KeySpec axis_stress_ramp_from{.path = "tests[].axes.xK.stress_r
 inline constexpr KeySpec axis_stress_ramp_rate{.path = "tests[].axes.xK.stress_ramp.rate", .kind = KeyKind::Number,
     .min = -1e15, .max = 1e15, .unit = "Pa/s",
     .meaning = "the target's rate, non-zero (negative: unloading; the run stops if the target falls to 0)"};
+inline constexpr KeySpec shear_axis_strain_increment{.path = "tests[].axes.xIJ.strain_increment",
+    .kind = KeyKind::Number, .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
+    .meaning = "engineering shear strain per step, g_ij = -(h_ij - h_ij(start)) / h_jj(start) (the tilt xy, xz or yz "
+               "over the stage-start length of axis j; sign: a positive g_ij raises the compression-signed s_ij), "
+               "relative to the test start; exactly one of `strain_increment`, `strain_rate`, `stress` per shear axis"};
+inline constexpr KeySpec shear_axis_strain_rate{.path = "tests[].axes.xIJ.strain_rate", .kind = KeyKind::Number,
+    .min = -1e6, .max = 1e6, .required = false, .default_text = "-", .unit = "1/s",
+    .meaning = "engineering shear strain rate dg_ij/dt"};
+inline constexpr KeySpec shear_axis_stress{.path = "tests[].axes.xIJ.stress", .kind = KeyKind::Number,
+    .min = -1e12, .max = 1e12, .required = false, .default_text = "-", .unit = "Pa",
+    .meaning = "servo-controlled contact shear stress s_ij (either sign, 0 allowed), its stiffness (1/V) sum kn "
+               "(n_i l_j)^2 from the contacts; error relative to max(|target|, p)"};
+inline constexpr KeySpec test_zero_shear_stress{.path = "tests[].zero_shear_stress", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "false",
+    .meaning = "`true`: the leg (beside `axes`; in `legs`, per leg) servo-holds s12, s13 and s23 at 0, so the "
+               "principal stresses stay on the axes (e.g. with `b` and `mean_stress` axes); not beside shear axes"};
+inline constexpr KeySpec test_simple_shear{.path = "tests[].simple_shear", .kind = KeyKind::Object,
+    .required = false, .default_text = "-",
+    .meaning = "instead of `axes` (beside `end`; in `legs`, per leg): direct simple shear in the x1-x2 plane, g12 "
+               "driven by `gamma_increment` or `gamma_rate`, s22 held at `normal_stress` by the servo, e1 = e3 = 0 "
+               "and the tilts xz, yz held (end it on `steps`)"};
+inline constexpr KeySpec simple_shear_gamma_increment{.path = "tests[].simple_shear.gamma_increment",
+    .kind = KeyKind::Number, .min = -0.01, .max = 0.01, .required = false, .default_text = "-",
+    .meaning = "engineering shear strain g12 per step (as `axes.x12.strain_increment`); this or `gamma_rate`"};
+inline constexpr KeySpec simple_shear_gamma_rate{.path = "tests[].simple_shear.gamma_rate", .kind = KeyKind::Number,
+    .min = -1e6, .max = 1e6, .required = false, .default_text = "-", .unit = "1/s",
+    .meaning = "engineering shear strain rate dg12/dt (as `axes.x12.strain_rate`)"};
+inline constexpr KeySpec simple_shear_normal_stress{.path = "tests[].simple_shear.normal_stress",
+    .kind = KeyKind::Number, .positive = true, .unit = "Pa",
+    .meaning = "the normal stress s22 on the shear plane, compression + (as `axes.x2.stress`)"};
+inline constexpr KeySpec test_rotate_principal_axes{.path = "tests[].rotate_principal_axes", .kind = KeyKind::Object,
+    .required = false, .default_text = "-",
+    .meaning = "principal-axis rotation at fixed principal values (hollow-cylinder path), beside `axes` (in `legs`, "
+               "per leg), which then names neither the plane's two axes nor its shear axis: they are servo-held at "
+               "s_ii = m + r cos 2t, s_jj = m - r cos 2t, s_ij = r sin 2t (m, r the mean and half difference of "
+               "`sigma1` and `sigma3`, t the angle of sigma1 from axis i towards j); end it on `steps`"};
+inline constexpr KeySpec rotation_plane{.path = "tests[].rotate_principal_axes.plane", .kind = KeyKind::Choice,
+    .default_text = "required", .choices = kPlaneNames, .meaning = "the plane of the rotation: `x1x2`, `x1x3` or `x2x3`"};
+inline constexpr KeySpec rotation_sigma1{.path = "tests[].rotate_principal_axes.sigma1", .kind = KeyKind::Number,
+    .positive = true, .unit = "Pa", .meaning = "the major principal stress held in the plane, compression +"};
+inline constexpr KeySpec rotation_sigma3{.path = "tests[].rotate_principal_axes.sigma3", .kind = KeyKind::Number,
+    .positive = true, .unit = "Pa", .meaning = "the minor principal stress held in the plane, <= `sigma1`"};
+inline constexpr KeySpec rotation_from{.path = "tests[].rotate_principal_axes.from", .kind = KeyKind::Number,
+    .min = -360, .max = 360, .required = false, .fallback = 0, .unit = "deg",
+    .meaning = "the angle of sigma1 from the plane's first axis at the leg start"};
+inline constexpr KeySpec rotation_rate{.path = "tests[].rotate_principal_axes.rate", .kind = KeyKind::Number,
+    .min = -1e9, .max = 1e9, .required = false, .default_text = "-", .unit = "deg/s",
+    .meaning = "the angle's rate, non-zero; this or `angle_increment`"};
+inline constexpr KeySpec rotation_angle_increment{.path = "tests[].rotate_principal_axes.angle_increment",
+    .kind = KeyKind::Number, .min = -1, .max = 1, .required = false, .default_text = "-", .unit = "deg",
+    .meaning = "the angle's change per step, non-zero"};
 inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object,
     .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`, `equilibrium`"};
 inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
@@ -413,7 +466,10 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
-    &axis_stress_ramp_rate, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
+    &axis_stress_ramp_rate, &shear_axis_strain_increment, &shear_axis_strain_rate, &shear_axis_stress,
+    &test_zero_shear_stress, &test_simple_shear, &simple_shear_gamma_increment, &simple_shear_gamma_rate,
+    &simple_shear_normal_stress, &test_rotate_principal_axes, &rotation_plane, &rotation_sigma1, &rotation_sigma3,
+    &rotation_from, &rotation_rate, &rotation_angle_increment, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_time_step, &test_output_interval, &test_dynamic, &test_verify_rate,
     &verify_rate_at, &verify_rate_window_strain, &verify_rate_rate_factor});

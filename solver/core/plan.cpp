@@ -40,6 +40,7 @@ std::int64_t leg_steps(const Leg& leg, double time_step, double from) {
 double leg_driving_increment(const Leg& leg, double time_step) {
   double d = 0.0;
   for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(leg.strain_per_step(k, time_step)));
+  for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(leg.shear_strain_per_step(k, time_step)));  // shear drives too
   return d;
 }
 
@@ -52,7 +53,8 @@ std::int64_t ramp_target_steps(const Leg& leg, double time_step) {
 }
 
 bool leg_has_servo(const Leg& leg) {
-  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.stress_driven(); });
+  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.stress_driven(); }) ||
+         std::any_of(leg.shear.begin(), leg.shear.end(), [](const auto& a) { return a && a->stress_driven(); });
 }
 
 double servo_cap(const ServoDef& servo, const Leg& leg, double time_step) {

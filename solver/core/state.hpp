@@ -134,6 +134,11 @@ struct ControlState {
   Vec3 leg_start_strains = Vec3::Zero(); // [-] axis strains (against the stage start) where the leg began: a
                                          // strain-driven axis is at leg_start + (leg_steps) increment
   double leg_start_volume = 1.0;         // [m^3] cell volume where the leg began (constant-volume axes)
+  // The shear axes x12, x13, x23 (cell/control.hpp): the tilts h(0,1), h(0,2), h(1,2) at the stage start,
+  // the engineering shear strains where the leg began, and the shear servo's memory.
+  Vec3 reference_tilts = Vec3::Zero();   // [m]
+  Vec3 leg_start_shear = Vec3::Zero();   // [-] shear strains (against the stage start) where the leg began
+  Vec3 shear_servo_integral = Vec3::Zero();  // [Pa] accumulated shear stress error per shear axis
 };
 
 struct State {
@@ -147,10 +152,13 @@ struct State {
   Vec3 normal_stress = Vec3::Zero();  // [Pa] sigma_kk from the contacts, compression positive (the full
                                       // tensor, when a row needs it: measure_contacts)
   Vec3 axis_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ii)/d(e_ii) from the normal springs
+  Vec3 shear_stress = Vec3::Zero();     // [Pa] s12, s13, s23 from the contacts (symmetric part, compression sign)
+  Vec3 shear_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ij)/d(g_ij) from the normal springs
   std::int64_t touching = 0;    // contacts in the last force evaluation
   // Set by the last step's advance_cell: the servo axes whose increment sat at its cap (not saved: every step
   // sets it before anything reads it).
   std::array<bool, 3> servo_saturated = {false, false, false};
+  std::array<bool, 3> shear_servo_saturated = {false, false, false};  // the same for x12, x13, x23
 };
 
 }  // namespace celldem

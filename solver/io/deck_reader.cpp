@@ -351,6 +351,20 @@ AxisControl read_axis(ObjectReader r) {
   return a;
 }
 
+// A shear axis (x12, x13, x23): its strain per step or rate, or a shear stress target of either sign.
+AxisControl read_shear_axis(ObjectReader r) {
+  AxisControl a;
+  int given = 0;
+  const std::pair<const KeySpec*, AxisMode> controls[] = {{&keys::shear_axis_strain_increment, AxisMode::StrainIncrement},
+                                                          {&keys::shear_axis_strain_rate, AxisMode::StrainRate},
+                                                          {&keys::shear_axis_stress, AxisMode::Stress}};
+  for (const auto& [spec, mode] : controls)
+    if (r.has(*spec)) a = {mode, r.number(*spec)}, ++given;
+  r.finish();  // first: a normal axis's control (b, mean_stress, ...) is an unknown key here, named as such
+  if (given != 1) fail(r.path(), "give exactly one of \"strain_increment\", \"strain_rate\", \"stress\" (a shear axis)");
+  return a;
+}
+
 LegEnd read_end(ObjectReader end, bool preparation) {
   LegEnd e;
   int given = 0;
@@ -416,10 +430,24 @@ void check_leg(const Leg& leg, const std::string& at) {
       fail(end + ".max_steps", "a strain end on an axis that is not strain-driven needs max_steps (it may never be "
                                "reached)");
   }
-  if (e.kind == LegEndKind::Equilibrium)
+  if (leg.rotation) {  // the axis beside the rotation's plane: a plain stress or strain
+    if (e.kind == LegEndKind::Equilibrium)
+      fail(end + ".equilibrium", "a principal-axis rotation's targets move: end it on steps");
+    for (int k = 0; k < 3; ++k)
+      if (leg.axes[k].mode != AxisMode::Stress && !leg.axes[k].strain_driven())
+        fail(at + ".axes." + std::string(kAxisNames[k]),
+             "beside rotate_principal_axes an axis holds a stress or a strain (b, mean_stress, stress_ramp and "
+             "constant_volume follow other axes' stresses or strains)");
+  }
+  if (e.kind == LegEndKind::Equilibrium) {
     for (int k = 0; k < 3; ++k)
       if (leg.axes[k].mode != AxisMode::Stress && leg.axes[k].mode != AxisMode::MeanStress)
         fail(end + ".equilibrium", "a leg that ends in equilibrium needs every axis on stress or mean_stress");
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear_strain_per_step(a, 1.0) != 0.0)
+        fail(at + ".axes." + std::string(kShearAxisNames[a]),
+             "a leg that ends in equilibrium cannot strain a shear axis (hold it: stress or a zero strain)");
+  }
   if ((e.kind == LegEndKind::Ratio || e.kind == LegEndKind::Stress) && e.max_steps == 0)
     fail(end + ".max_steps", "a ratio or stress end needs max_steps (it may never be reached)");
   if (const AxisControl& a = leg.axes[e.axis]; e.kind == LegEndKind::Stress && a.mode == AxisMode::StressRamp &&
@@ -428,12 +456,85 @@ void check_leg(const Leg& leg, const std::string& at) {
                           "stress (from " + fmt(a.value) + " Pa at " + fmt(a.rate) + " Pa/s)");
 }
 
+// simple_shear: g12 driven, s22 held by the servo, e1 = e3 = 0, the tilts xz and yz held.
+void read_simple_shear(ObjectReader r, Leg& leg) {
+  const bool by_increment = r.has(keys::simple_shear_gamma_increment), by_rate = r.has(keys::simple_shear_gamma_rate);
+  if (by_increment == by_rate) fail(r.path(), "give exactly one of \"gamma_increment\", \"gamma_rate\"");
+  const AxisControl shear = by_increment ? AxisControl{AxisMode::StrainIncrement, r.number(keys::simple_shear_gamma_increment)}
+                                         : AxisControl{AxisMode::StrainRate, r.number(keys::simple_shear_gamma_rate)};
+  if (shear.value == 0.0) fail(r.at(by_increment ? keys::simple_shear_gamma_increment : keys::simple_shear_gamma_rate),
+                               "must be non-zero (a simple shear that does not shear)");
+  const AxisControl held{AxisMode::StrainIncrement, 0.0};
+  leg.axes = {held, AxisControl{AxisMode::Stress, r.number(keys::simple_shear_normal_stress)}, held};
+  leg.shear = {shear, std::nullopt, std::nullopt};
+  r.finish();
+}
+
+// rotate_principal_axes: the plane, the principal values and the angle's course.
+PrincipalRotation read_rotation(ObjectReader r) {
+  constexpr double kRadian = 3.14159265358979323846 / 180.0;
+  PrincipalRotation rot;
+  rot.plane = static_cast<int>(r.choice(keys::rotation_plane));
+  rot.sigma1 = r.number(keys::rotation_sigma1);
+  rot.sigma3 = r.number(keys::rotation_sigma3);
+  if (rot.sigma3 > rot.sigma1) fail(r.at(keys::rotation_sigma3), "must be <= sigma1 (" + fmt(rot.sigma1) + ")");
+  rot.from = r.number(keys::rotation_from) * kRadian;
+  const bool by_rate = r.has(keys::rotation_rate), by_increment = r.has(keys::rotation_angle_increment);
+  if (by_rate == by_increment) fail(r.path(), "give exactly one of \"rate\", \"angle_increment\"");
+  const KeySpec& key = by_rate ? keys::rotation_rate : keys::rotation_angle_increment;
+  rot.rate = r.number(key) * kRadian;
+  rot.per_step = by_increment;
+  if (rot.rate == 0.0) fail(r.at(key), "must be non-zero (a rotation that does not turn is `stress` axes)");
+  r.finish();
+  return rot;
+}
+
 Leg read_leg(ObjectReader& r, bool preparation) {
   Leg leg;
-  {
+  if (r.has(keys::test_rotate_principal_axes)) leg.rotation = read_rotation(r.object(keys::test_rotate_principal_axes));
+  const bool simple_shear = r.has(keys::test_simple_shear);
+  if (simple_shear) {
+    if (r.has(keys::test_axes)) fail(r.at(keys::test_simple_shear), "give either \"simple_shear\" or \"axes\", not both");
+    if (leg.rotation) fail(r.at(keys::test_simple_shear), "give either \"simple_shear\" or \"rotate_principal_axes\", not both");
+    read_simple_shear(r.object(keys::test_simple_shear), leg);
+  } else {
     ObjectReader axes = r.object(keys::test_axes);
-    for (int i = 0; i < 3; ++i) leg.axes[i] = read_axis(axes.object(kAxisNames[i]));
+    const int plane = leg.rotation ? leg.rotation->plane : -1;
+    const auto rotated = [&](int i) { return plane >= 0 && (kShearAxisEntries[plane][0] == i || kShearAxisEntries[plane][1] == i); };
+    for (int i = 0; i < 3; ++i) {
+      if (rotated(i)) {
+        if (axes.has(kAxisNames[i]))
+          fail(axes.at(kAxisNames[i]), "set by rotate_principal_axes (plane " + std::string(kPlaneNames[plane]) +
+                                           "): leave it out");
+        continue;
+      }
+      leg.axes[i] = read_axis(axes.object(kAxisNames[i]));
+    }
+    for (int a = 0; a < 3; ++a) {
+      if (a == plane && axes.has(kShearAxisNames[a]))
+        fail(axes.at(kShearAxisNames[a]), "set by rotate_principal_axes (plane " + std::string(kPlaneNames[plane]) +
+                                              "): leave it out");
+      if (axes.has(kShearAxisNames[a])) leg.shear[a] = read_shear_axis(axes.object(kShearAxisNames[a]));
+    }
     axes.finish();
+    if (leg.rotation) {  // the plane's controls: stress axes at the leg start's targets (moved by the control)
+      const std::array<double, 3> t = leg.rotation->targets(0.0, 1.0);
+      leg.axes[kShearAxisEntries[plane][0]] = {AxisMode::Stress, t[0]};
+      leg.axes[kShearAxisEntries[plane][1]] = {AxisMode::Stress, t[1]};
+      leg.shear[plane] = AxisControl{AxisMode::Stress, t[2]};
+    }
+  }
+  if (r.has(keys::test_zero_shear_stress)) {
+    if (!r.boolean(keys::test_zero_shear_stress))
+      fail(r.at(keys::test_zero_shear_stress), "only true is meaningful (leave the key out otherwise)");
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear[a])
+        fail(r.at(keys::test_zero_shear_stress),
+             simple_shear ? std::string("contradicts simple_shear (which drives x12)")
+             : leg.rotation ? std::string("contradicts rotate_principal_axes (which sets its plane's shear stress)")
+                          : "contradicts the shear axis axes." + std::string(kShearAxisNames[a]) +
+                                " (zero_shear_stress sets all three): give one or the other");
+    for (auto& shear : leg.shear) shear = AxisControl{AxisMode::Stress, 0.0};
   }
   leg.end = read_end(r.object(keys::test_end), preparation);
   return leg;
@@ -573,8 +674,8 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
   t.rolling_friction = r.has(keys::test_rolling_friction) ? r.number(keys::test_rolling_friction)
                                                           : contact.rolling_friction;
   if (r.has(keys::test_legs)) {
-    if (r.has(keys::test_axes) || r.has(keys::test_end))
-      fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" and \"end\", not both");
+    if (r.has(keys::test_axes) || r.has(keys::test_end) || r.has(keys::test_simple_shear))
+      fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" (or \"simple_shear\") and \"end\", not both");
     read_program(r.raw(keys::test_legs), r.at(keys::test_legs), false, t.legs);
     check_leg_lengths(t, time_step, r.at(keys::test_legs), false);
   } else {

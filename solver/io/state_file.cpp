@@ -93,7 +93,9 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   const std::vector<StoredContact> contacts = stored_contacts(s);
   const bool rotational = !s.pairs.rolling.empty();
   const bool radius = !s.pairs.contact_radius.empty();
-  const std::uint32_t version = radius || !physics.empty() ? 4 : rotational ? 3 : 2;
+  // Format 5 is format 4 with the shear record (the shear stresses in the stress tensor's slot, the shear
+  // stiffnesses and the shear axes' control memory); every state with a physics record has it.
+  const std::uint32_t version = radius || !physics.empty() ? 5 : rotational ? 3 : 2;
   w.put_string(label);
   if (version >= 4) w.put_string(physics);
   w.put(static_cast<std::uint64_t>(s.particles.size()));
@@ -110,8 +112,20 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   w.put(s.control.servo_integral);
   w.put(s.control.leg_start_strains);  // format 2
   w.put(s.control.leg_start_volume);
-  w.put(Mat3(s.normal_stress.asDiagonal()));  // a full tensor's slot: earlier files held the whole tensor
+  Mat3 stress = s.normal_stress.asDiagonal();  // a full tensor's slot: earlier files held the whole tensor
+  if (version >= 5)
+    for (int a = 0; a < 3; ++a) {
+      const auto [i, j] = kShearAxisEntries[a];
+      stress(i, j) = stress(j, i) = s.shear_stress[a];
+    }
+  w.put(stress);
   w.put(s.axis_stiffness);
+  if (version >= 5) {
+    w.put(s.shear_stiffness);
+    w.put(s.control.reference_tilts);
+    w.put(s.control.leg_start_shear);
+    w.put(s.control.shear_servo_integral);
+  }
   w.put(s.touching);
   w.put(s.pairs.skin);
   if (version >= 4)
@@ -189,8 +203,18 @@ State parse_state(const std::string& bytes, std::string* label, std::string* phy
   } else {
     s.control.leg_start_volume = s.control.reference_volume;
   }
-  s.normal_stress = r.mat().diagonal();
+  const Mat3 stress = r.mat();
+  s.normal_stress = stress.diagonal();
   s.axis_stiffness = r.vec();
+  if (version >= 5) {  // the shear record; older files had none: their cells were never sheared by the control
+    for (int a = 0; a < 3; ++a) s.shear_stress[a] = stress(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
+    s.shear_stiffness = r.vec();
+    s.control.reference_tilts = r.vec();
+    s.control.leg_start_shear = r.vec();
+    s.control.shear_servo_integral = r.vec();
+  } else {  // the tilts as they stand are the stage's reference
+    for (int a = 0; a < 3; ++a) s.control.reference_tilts[a] = s.cell.h(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
+  }
   s.touching = r.get<std::int64_t>();
   s.pairs.skin = r.finite();
   // The optional fields of each contact: the rotational springs from format 3 on, as format 4 says.

@@ -17,9 +17,12 @@ struct StateFileError : std::runtime_error {
 // is still written as format 2). 4: after the label, the physics the state was made with (JSON text, possibly
 // empty: run/preflight.hpp's state_physics); after the skin, a byte that says which of the optional contact
 // fields follow each contact (bit 0: the rotational springs, bit 1: the contact radius of mindlin_rescale).
-// Written for states with a physics record (every state a run writes) or contact radii; without either, format
-// 2 or 3 as before. Formats 1 to 3 are still read.
-inline constexpr std::uint32_t kStateFormatVersion = 4;
+// 5: format 4 with the shear record: the contact shear stresses s12, s13, s23 in the off-diagonal of the
+// stress tensor's slot, and after the axis stiffnesses the shear stiffnesses, the stage's reference tilts,
+// the leg's start shear strains and the shear servo's integral (cell/control.hpp), so a leg with shear axes
+// resumes bit for bit. Written for states with a physics record (every state a run writes) or contact radii;
+// without either, format 2 or 3 as before. Formats 1 to 4 are still read (their tilts are the reference).
+inline constexpr std::uint32_t kStateFormatVersion = 5;
 inline constexpr std::uint8_t kStateRotationalFields = 1, kStateRadiusField = 2;
 
 // label says what the state is (e.g. "prepared", "checkpoint:ttc"); physics, when not empty, the physics it

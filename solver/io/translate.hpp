@@ -55,6 +55,8 @@ inline constexpr std::int64_t kLiggghtsCheckSteps = 100;
 // Columns of the series the scripts write (a subset of celldem's series.csv names, plus the lengths).
 inline constexpr const char* kTranslatedSeriesHeader =
     "step,time,e1,e2,e3,ev,s11,s22,s33,Z,n_contacts,kinetic_energy,l1,l2,l3";
+// Appended to them by a test whose program drives a shear axis by its strain (program_shears).
+inline constexpr const char* kTranslatedShearColumns = ",s12,s13,s23,g12,g13,g23";
 
 // What the target code does differently from the deck's physics in its tests (deck only: the same for every
 // state).

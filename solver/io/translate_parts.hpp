@@ -88,6 +88,9 @@ struct ScriptProgram {
 };
 
 ScriptProgram test_program(const TestDef& test);
+// Whether a leg of the program drives a shear axis by its strain: the script then makes the box triclinic
+// (change_box) and writes the shear columns of its series (kTranslatedShearColumns).
+bool program_shears(const ScriptProgram& p);
 
 // How a leg's length is decided in the script.
 enum class LegLength {

@@ -98,6 +98,13 @@ std::string pad(const std::string& command) {
 
 }  // namespace
 
+bool program_shears(const ScriptProgram& p) {
+  for (const Leg& leg : p.legs)
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear_strain_per_step(a, 1.0) != 0.0) return true;
+  return false;
+}
+
 ScriptProgram test_program(const TestDef& test) {
   return {test.name, test.legs, test.friction, test.output_interval, nullptr, test.rolling_friction};
 }
@@ -111,6 +118,14 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
   for (std::size_t j = 0; j < p.legs.size(); ++j) {
     const Leg& leg = p.legs[j];
     const LegEnd& e = leg.end;
+    // A shear stress axis has no counterpart in the scripts (fix deform drives a tilt, no barostat holds one
+    // at a shear stress here); a strain-driven one is fix deform's tilt (controls()).
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear[a] && leg.shear[a]->stress_driven())
+        throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
+                        std::to_string(j + 1) + ": axes." + std::string(kShearAxisNames[a]) +
+                        " (a stress-controlled shear axis: zero_shear_stress, rotate_principal_axes too) is not translated: the scripts "
+                        "drive a tilt only by its strain");
     LegRun r;
     if (e.kind == LegEndKind::Steps) {
       r.steps = e.steps;
@@ -247,6 +262,7 @@ void ProgramWriter::controls(int j) {
   const Leg& leg = p_.legs[j];
   const std::string t = tag(j);
   const bool volume = has_mode(leg, AxisMode::ConstantVolume);
+  const bool triclinic = program_shears(p_);  // the box is made triclinic (shear axes driven by their strain)
   // Strain axes by erate in a first leg of known length (L = L0 (1 + rate t), its run starting at the test
   // start). Otherwise LAMMPS uses vel (erate refuses a nominal run longer than the box allows), LIGGGHTS a fix
   // deform variable (independent of how the leg's runs are cut into chunks).
@@ -282,7 +298,7 @@ void ProgramWriter::controls(int j) {
         break;
       }
       case AxisMode::Stress:
-        if (lmp_ && !volume) {
+        if (lmp_ && !volume && !triclinic) {  // (fix press/berendsen refuses a triclinic box)
           baro += " " + ax + " " + num(a.value) + " " + num(a.value) + " " + num(servo.pdamp);
           break;
         }
@@ -314,6 +330,27 @@ void ProgramWriter::controls(int j) {
       case AxisMode::ConstantVolume:
         deform += " " + ax + " volume";
         break;
+    }
+  }
+  // Strain-driven shear axes: fix deform's tilt (the box made triclinic after read_data). celldem's tilt is
+  // h_ij = h_ij(test start) - L_j(test start) g_ij, LAMMPS's erate T = T0 + L0 erate t with L0 the perpendicular
+  // length at the run's start: erate = -dg/dt in a first leg of known length (its run starts at the test start),
+  // else vel V = -L_j(test start) dg/dt, which adds the same per step from the tilt at the leg start.
+  for (int a = 0; a < 3; ++a) {
+    const double per_step = leg.shear_strain_per_step(a, deck_.time_step);
+    if (per_step == 0.0) continue;
+    static constexpr const char* kTilt[3] = {"xy", "xz", "yz"};
+    const double rate = -per_step / deck_.time_step;  // [1/s] d(tilt)/dt over L_j
+    const std::string l0 = "v_L0" + std::to_string(kShearAxisEntries[a][1] + 1);
+    if (by_erate) {
+      deform += std::string(" ") + kTilt[a] + " erate " + num(rate);
+    } else if (lmp_) {
+      deform += std::string(" ") + kTilt[a] + " vel $(" + lit(rate) + "*" + l0 + ":%.17g)";
+      units_box = true;
+    } else {
+      throw DeckError("test \"" + p_.name + "\", leg " + std::to_string(j + 1) + ": axes." +
+                      std::string(kShearAxisNames[a]) + " is translated for LIGGGHTS only in a first leg of known "
+                      "length (its fix deform has no variable style for a tilt)");
     }
   }
   if (p_.one_leg() && !coupled && !volume) {  // the scripts of one-leg tests, as they were before programs

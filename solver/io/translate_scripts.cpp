@@ -120,7 +120,8 @@ void header(std::ostringstream& o, const Deck& deck, const ScriptProgram& p, Tar
   }
   o << "#   in parallel, unchanged:  mpirun -np 4 " << exe << " -in " << script
     << "   (as root: mpirun --allow-run-as-root ...)\n";
-  o << "# Writes " << series << ": " << kTranslatedSeriesHeader << "\n"
+  o << "# Writes " << series << ": " << kTranslatedSeriesHeader << (program_shears(p) ? kTranslatedShearColumns : "")
+    << "\n"
     << "#   e = 1 - L/L0 (compression +), ev = 1 - V/V0, s = contact stress [Pa] (compression +), Z = 2 contacts/N,\n"
     << "#   kinetic energy [J] translation + rotation; lengths l [m] and stresses are those of the step's force\n"
     << "#   evaluation (taken before fix deform / the servo move the box at the end of the step).\n"
@@ -154,7 +155,7 @@ void header(std::ostringstream& o, const Deck& deck, const ScriptProgram& p, Tar
 
 // Observation before the box moves: fix ave/time evaluates at end_of_step in definition order, so placed
 // before fix deform / the servo it sees the box and virial of this step's force evaluation.
-void observation(std::ostringstream& o, const Deck& deck, TargetCode code) {
+void observation(std::ostringstream& o, const Deck& deck, TargetCode code, bool shear) {
   const bool lmp = code == TargetCode::Lammps;
   o << "\n# measurements: contact stress (virial only, no kinetic part) [Pa, compression +], contacts, energy\n"
     << (lmp ? "compute         P all pressure NULL virial\n" : "compute         P all pressure thermo_temp virial\n")
@@ -166,7 +167,9 @@ void observation(std::ostringstream& o, const Deck& deck, TargetCode code) {
     << "variable        l2now equal ly\n"
     << "variable        l3now equal lz\n"
     << "# every step (the virial must be tallied each step); before the box moves (see the header)\n"
-    << "fix             obs all ave/time 1 1 1 v_l1now v_l2now v_l3now c_P[1] c_P[2] c_P[3] c_nc2 c_ket c_ker\n"
+    << (shear ? "variable        xynow equal xy\nvariable        xznow equal xz\nvariable        yznow equal yz\n" : "")
+    << "fix             obs all ave/time 1 1 1 v_l1now v_l2now v_l3now c_P[1] c_P[2] c_P[3] c_nc2 c_ket c_ker"
+    << (shear ? " v_xynow v_xznow v_yznow c_P[4] c_P[5] c_P[6]" : "") << "\n"
     << "# lengths at the test start (frozen now), for engineering strains\n";
   for (int k = 0; k < 3; ++k)
     o << "variable        L0" << k + 1 << " equal " << (lmp ? std::string("$(l") + kAxisName[k] + ":%.17g)" : "${l" + std::to_string(k + 1) + "now}") << "\n";
@@ -184,6 +187,18 @@ void observation(std::ostringstream& o, const Deck& deck, TargetCode code) {
     << "variable        l1 equal f_obs[1]\n"
     << "variable        l2 equal f_obs[2]\n"
     << "variable        l3 equal f_obs[3]\n";
+  if (!shear) return;
+  o << "# shear: g_ij = -(tilt - tilt(test start)) / L_j(test start) (celldem's sign), s_ij = the virial's P_ij\n";
+  const char* tilt[3] = {"xy", "xz", "yz"};
+  for (int a = 0; a < 3; ++a)
+    o << "variable        T0" << tilt[a] << " equal "
+      << (lmp ? std::string("$(") + tilt[a] + ":%.17g)" : std::string("${") + tilt[a] + "now}") << "\n";
+  for (int a = 0; a < 3; ++a) {
+    const std::string name = std::string(kShearAxisNames[a]).substr(1);  // "12"
+    o << "variable        g" << name << " equal -(f_obs[" << 10 + a << "]-v_T0" << tilt[a] << ")/v_L0"
+      << kShearAxisEntries[a][1] + 1 << "\n"
+      << "variable        s" << name << " equal f_obs[" << 13 + a << "]\n";
+  }
 }
 
 // The preparation's unbalanced force ratio (measure/micro.hpp): mean |net contact force| over the particles
@@ -215,20 +230,22 @@ void unbalanced_force(std::ostringstream& o, const Deck& deck, TargetCode code) 
 
 // The series output; the one-leg form of a test of known length also runs here.
 void output(std::ostringstream& o, const ScriptProgram& p, TargetCode code, bool run_steps) {
-  const bool lmp = code == TargetCode::Lammps;
+  const bool lmp = code == TargetCode::Lammps, shear = program_shears(p);
+  const std::string header = std::string(kTranslatedSeriesHeader) + (shear ? kTranslatedShearColumns : "");
   o << "\n# series (LAMMPS prints step 0 too; LIGGGHTS starts at the first output step)\n";
   if (lmp) {
     o << "fix             out all print " << p.output_interval
       << " \"$(step),$(v_time:%.10g),$(v_e1:%.10g),$(v_e2:%.10g),$(v_e3:%.10g),$(v_ev:%.10g),"
          "$(v_s11:%.10g),$(v_s22:%.10g),$(v_s33:%.10g),$(v_Z:%.10g),$(v_nc:%.0f),$(v_ek:%.10g),"
-         "$(v_l1:%.17g),$(v_l2:%.17g),$(v_l3:%.17g)\" file ${out} screen no title \""
-      << kTranslatedSeriesHeader << "\"\n";
+         "$(v_l1:%.17g),$(v_l2:%.17g),$(v_l3:%.17g)"
+      << (shear ? ",$(v_s12:%.10g),$(v_s13:%.10g),$(v_s23:%.10g),$(v_g12:%.10g),$(v_g13:%.10g),$(v_g23:%.10g)" : "")
+      << "\" file ${out} screen no title \"" << header << "\"\n";
   } else {
     o << "variable        st equal step\n"
       << "fix             out all print " << p.output_interval
-      << " \"${st},${time},${e1},${e2},${e3},${ev},${s11},${s22},${s33},${Z},${nc},${ek},${l1},${l2},${l3}\""
-         " file ${out} screen no title \""
-      << kTranslatedSeriesHeader << "\"\n";
+      << " \"${st},${time},${e1},${e2},${e3},${ev},${s11},${s22},${s33},${Z},${nc},${ek},${l1},${l2},${l3}"
+      << (shear ? ",${s12},${s13},${s23},${g12},${g13},${g23}" : "") << "\" file ${out} screen no title \""
+      << header << "\"\n";
   }
   o << "thermo_style    custom step v_e1 v_e2 v_e3 v_s11 v_s22 v_s33 v_Z" << (p.preparation() ? " v_ubf" : "") << "\n"
     << "thermo_modify   norm no\n"
@@ -250,7 +267,9 @@ void script_variables(std::ostringstream& o, const Deck& deck, const ScriptProgr
       << "variable        out index " << p.name << "." << target_code_name(code) << ".csv\n";
     if (p.one_leg() && runs[0].length == LegLength::Known) o << "variable        steps index " << runs[0].steps << "\n";
   }
-  o << "read_data       ${data}\n"
+  o << "read_data       ${data}\n";
+  if (program_shears(p)) o << "change_box      all triclinic    # (the shear axes tilt the box)\n";
+  o
     << "neighbor        " << num(skin_length(deck)) << " bin\n"
     << "neigh_modify    delay 0 every 1 check yes\n";
 }
@@ -330,7 +349,7 @@ std::string lammps_script(const Deck& deck, const ScriptProgram& p) {
       << "# viscous: the rest of c_t, g = c_t - m/s\n";
   if (deck.damping.translational > 0.0 || damping.clamped)
     o << "fix             bdt all viscous 1.0" << scales(damping.viscous_scale) << "\n";
-  observation(o, deck, TargetCode::Lammps);
+  observation(o, deck, TargetCode::Lammps, program_shears(p));
   program_body(o, deck, p, TargetCode::Lammps, w);
   return o.str();
 }
@@ -397,7 +416,7 @@ std::string liggghts_script(const Deck& deck, const ScriptProgram& p) {
   o << "\n# body damping per type: c_t = " << num(deck.damping.translational)
     << " * 2 sqrt(m kn) on v; no rotational body damping exists in LIGGGHTS\n";
   if (deck.damping.translational > 0.0) o << "fix             bdt all viscous 1.0" << scales(ct) << "\n";
-  observation(o, deck, TargetCode::Liggghts);
+  observation(o, deck, TargetCode::Liggghts, program_shears(p));
   program_body(o, deck, p, TargetCode::Liggghts, w);
   return o.str();
 }

@@ -77,6 +77,10 @@ const std::array kColumns = std::to_array<SeriesColumn>({
      "atan((2 sigma2 - sigma1 - sigma3)/(sqrt(3) (sigma1 - sigma3))): -30 compression (b = 0), +30 extension", false},
     {"Zm_frictionless", &R::Zm_frictionless, kReal, "-",
      "mechanical coordination number with the frictionless rule: rattlers have < 4 contacts (d + 1)", false},
+    {"g12", &R::g12, kReal, "-",
+     "engineering shear strain -(h12 - h12(start))/h22(start): the tilt xy over axis 2's length, sign as s12", false},
+    {"g13", &R::g13, kReal, "-", "engineering shear strain -(h13 - h13(start))/h33(start)", false},
+    {"g23", &R::g23, kReal, "-", "engineering shear strain -(h23 - h23(start))/h33(start)", false},
 });
 // clang-format on
 
@@ -169,6 +173,8 @@ SeriesRow series_row(const Model& model, const State& state, const ContactMeasur
   r.sigma1 = principal[0], r.sigma2 = principal[1], r.sigma3 = principal[2];
   r.b_principal = b_above_noise(r.sigma1, r.sigma2, r.sigma3);
   r.Zm_frictionless = m.coordination_frictionless.z_mechanical;
+  const Vec3 g = shear_strains(state);
+  r.g12 = g[0], r.g13 = g[1], r.g23 = g[2];
   r.ratio_principal = ratio(r.sigma1, r.sigma3);
   r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /
                                                   (std::sqrt(3.0) * (r.sigma1 - r.sigma3))) * 180.0 / M_PI

@@ -28,6 +28,7 @@ struct SeriesRow {
   double sigma1 = 0, sigma2 = 0, sigma3 = 0;        // principal stresses, descending
   double b_principal = 0, ratio_principal = 0, lode_angle = 0;
   double Zm_frictionless = 0;                       // Zm with the frictionless rattler rule (< 4 contacts)
+  double g12 = 0, g13 = 0, g23 = 0;                 // engineering shear strains (cell/control.hpp's convention)
 
   // Engineering strain of axis k (0-based), compression positive.
   double strain(int k) const { return k == 0 ? e1 : k == 1 ? e2 : e3; }

@@ -65,7 +65,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   omp_set_num_threads(threads);
   State state = initial;
   begin_stage(state);
-  const Model model = make_model(deck, state.particles.radius);
+  const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
   state.pairs.skin = skin_length(deck);
   const Loading loading{test.legs.front().axes, test.stage_friction()};
   evaluate_forces(model, test.stage_friction(), state);

@@ -79,6 +79,8 @@ ControlErrorMaxima control_error_maxima(const std::vector<ControlErrors>& errors
     worst(m.servo, e.mean_stress);
     worst(m.b, e.b);
     worst(m.volume, e.volume);
+    worst(m.servo, e.shear_stress);
+    worst(m.over_tolerance, e.shear_stress / kServoTolerance);
     worst(m.over_tolerance, e.stress / kServoTolerance);
     worst(m.over_tolerance, e.mean_stress / kMeanStressTolerance);
     worst(m.over_tolerance, e.b / kBTolerance);
@@ -90,10 +92,11 @@ ControlErrorMaxima control_error_maxima(const std::vector<ControlErrors>& errors
 std::vector<ControlFailureRecord> control_failures(const TestDef& test, const std::vector<ControlErrors>& errors) {
   std::vector<ControlFailureRecord> out;
   for (std::size_t leg = 0; leg < errors.size() && leg < test.legs.size(); ++leg)
-    for (int k = 0; k < 3; ++k)
+    for (int k = 0; k < kControlAxes; ++k)
       if (errors[leg].failed[k]) {
-        const AxisMode mode = test.legs[leg].axes[k].mode;
-        out.push_back({leg, k, control_kind(mode), errors[leg].axis_error[k], control_tolerance(mode)});
+        const AxisMode mode = control_mode(test.legs[leg], k);
+        out.push_back({leg, k, k < 3 ? control_kind(mode) : "shear_stress", errors[leg].axis_error[k],
+                       control_tolerance(mode)});
       }
   return out;
 }
@@ -113,9 +116,9 @@ std::vector<std::string> control_warnings(const TestDef& test, const std::vector
     const char* unit = f.kind == "b" ? "" : " %";
     char buf[240];
     std::snprintf(buf, sizeof buf,
-                  "test '%s' leg %zu: the %s control of axis x%d failed (error up to %.3g%s, tolerance %.3g%s); "
+                  "test '%s' leg %zu: the %s control of axis %s failed (error up to %.3g%s, tolerance %.3g%s); "
                   "the test is marked uncontrolled (control_failure \"warn\")",
-                  test.name.c_str(), f.leg, f.kind.c_str(), f.axis + 1, scale * f.error, unit, scale * f.tolerance, unit);
+                  test.name.c_str(), f.leg, f.kind.c_str(), control_axis_name(f.axis).c_str(), scale * f.error, unit, scale * f.tolerance, unit);
     out.push_back(buf);
   }
   return out;

@@ -28,14 +28,35 @@ double number_of(const Json& j, const char* key) {
 }
 }  // namespace
 
+std::string control_axis_name(int k) {
+  return std::string(k < 3 ? kAxisNames[static_cast<std::size_t>(k)] : kShearAxisNames[static_cast<std::size_t>(k - 3)]);
+}
+
+AxisMode control_mode(const Leg& leg, int k) {
+  if (k < 3) return leg.axes[static_cast<std::size_t>(k)].mode;
+  const auto& shear = leg.shear[static_cast<std::size_t>(k - 3)];
+  return shear ? shear->mode : AxisMode::StrainIncrement;
+}
+
 Json to_json(const ControlErrors& e) {
+  const auto axis = [&](int k) {
+    return Json{{"error", number_or_null(e.axis_error[k])}, {"saturated_steps", e.saturated_steps[k]},
+                {"over_steps", e.over_steps[k]}, {"over_saturated", e.over_saturated[k]}, {"failed", e.failed[k]}};
+  };
   Json axes = Json::array();
-  for (int k = 0; k < 3; ++k)
-    axes.push_back({{"error", number_or_null(e.axis_error[k])}, {"saturated_steps", e.saturated_steps[k]},
-                    {"over_steps", e.over_steps[k]}, {"over_saturated", e.over_saturated[k]}, {"failed", e.failed[k]}});
-  return {{"stress", number_or_null(e.stress)}, {"b", number_or_null(e.b)},
-          {"mean_stress", number_or_null(e.mean_stress)}, {"volume", number_or_null(e.volume)},
-          {"steps", e.steps}, {"axes", axes}};
+  for (int k = 0; k < 3; ++k) axes.push_back(axis(k));
+  Json out = {{"stress", number_or_null(e.stress)}, {"b", number_or_null(e.b)},
+              {"mean_stress", number_or_null(e.mean_stress)}, {"volume", number_or_null(e.volume)},
+              {"steps", e.steps}, {"axes", axes}};
+  bool shear = std::isfinite(e.shear_stress);
+  for (int k = 3; k < kControlAxes; ++k) shear |= e.saturated_steps[k] > 0 || e.over_steps[k] > 0 || e.failed[k];
+  if (shear) {  // only a leg with a shear stress axis: the other legs' records stay as they were
+    Json shear_axes = Json::array();
+    for (int k = 3; k < kControlAxes; ++k) shear_axes.push_back(axis(k));
+    out["shear_stress"] = number_or_null(e.shear_stress);
+    out["shear_axes"] = shear_axes;
+  }
+  return out;
 }
 
 ControlErrors control_errors_from_json(const Json& j) {
@@ -44,16 +65,18 @@ ControlErrors control_errors_from_json(const Json& j) {
   e.b = number_of(j, "b");
   e.mean_stress = number_of(j, "mean_stress");
   e.volume = number_of(j, "volume");
+  e.shear_stress = number_of(j, "shear_stress");
   e.steps = j.value("steps", std::int64_t{0});
-  if (j.contains("axes"))
-    for (int k = 0; k < 3 && k < static_cast<int>(j["axes"].size()); ++k) {
-      const Json& a = j["axes"][k];
-      e.axis_error[k] = number_of(a, "error");
-      e.saturated_steps[k] = a.value("saturated_steps", std::int64_t{0});
-      e.over_steps[k] = a.value("over_steps", std::int64_t{0});
-      e.over_saturated[k] = a.value("over_saturated", std::int64_t{0});
-      e.failed[k] = a.value("failed", false);
-    }
+  for (const auto& [key, first] : {std::pair{"axes", 0}, std::pair{"shear_axes", 3}})
+    if (j.contains(key))
+      for (int k = 0; k < 3 && k < static_cast<int>(j[key].size()); ++k) {
+        const Json& a = j[key][k];
+        e.axis_error[first + k] = number_of(a, "error");
+        e.saturated_steps[first + k] = a.value("saturated_steps", std::int64_t{0});
+        e.over_steps[first + k] = a.value("over_steps", std::int64_t{0});
+        e.over_saturated[first + k] = a.value("over_saturated", std::int64_t{0});
+        e.failed[first + k] = a.value("failed", false);
+      }
   return e;
 }
 
@@ -139,8 +162,8 @@ class LegEndWatch {
   int side_ = 1;
 };
 
-bool has_stress_ramp(const Leg& leg) {
-  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.mode == AxisMode::StressRamp; });
+bool has_stress_ramp(const Leg& leg) {  // (a principal-axis rotation's targets move too: checked alike)
+  return leg.rotation || std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.mode == AxisMode::StressRamp; });
 }
 
 // What a leg's control checks need: its driving increment per step, how many steps of it make the settle
@@ -176,18 +199,38 @@ double worst(double a, double b) { return std::isfinite(a) ? std::max(a, b) : b;
 // tolerance. Returns the axis whose control has just failed (stayed above its tolerance kPersistStrain), or -1.
 int track_errors(const Leg& leg, const LegChecks& checks, double dt, const State& state, ControlErrors& errors) {
   for (int k = 0; k < 3; ++k) errors.saturated_steps[k] += state.servo_saturated[k];
+  for (int a = 0; a < 3; ++a) errors.saturated_steps[3 + a] += state.shear_servo_saturated[a];
   if (!checks.checked || state.control.leg_steps < checks.settle) return -1;
   const double leg_time = static_cast<double>(state.control.leg_steps) * dt;  // the stresses are the step's end's
   int driver = -1;
   for (int k = 2; k >= 0; --k)
     if (leg.axes[k].strain_driven()) driver = k;
   const Vec3& s = state.normal_stress;
+  // The moving targets of a principal-axis rotation's plane (s_ii, s_jj, s_ij), else none.
+  std::array<double, 3> rotating = {0.0, 0.0, 0.0};
+  int rot_i = -1, rot_j = -1, rot_shear = -1;
+  if (leg.rotation) {
+    rotating = leg.rotation->targets(leg_time, dt);
+    rot_i = kShearAxisEntries[leg.rotation->plane][0], rot_j = kShearAxisEntries[leg.rotation->plane][1];
+    rot_shear = leg.rotation->plane;
+  }
   int failed = -1;
-  for (int k = 0; k < 3; ++k) {
-    const AxisControl& a = leg.axes[k];
+  for (int k = 0; k < kControlAxes; ++k) {
     double err = std::numeric_limits<double>::quiet_NaN();
+    if (k >= 3) {
+      const std::optional<AxisControl>& shear = leg.shear[static_cast<std::size_t>(k - 3)];
+      if (shear && shear->mode == AxisMode::Stress) {  // relative to max(|target|, p): see ControlErrors
+        const double goal = k - 3 == rot_shear ? rotating[2] : shear->value;
+        const double scale = std::max(std::abs(goal), s.sum() / 3.0);
+        errors.shear_stress = worst(errors.shear_stress, err = std::abs(state.shear_stress[k - 3] - goal) / scale);
+      }
+    }
+    // (a shear axis's error is measured above: none of the normal axes' kinds below applies to it)
+    const AxisControl a = k < 3 ? leg.axes[static_cast<std::size_t>(k)] : AxisControl{AxisMode::StrainIncrement, 0.0};
     if (a.mode == AxisMode::Stress || a.mode == AxisMode::StressRamp)
-      errors.stress = worst(errors.stress, err = std::abs(s[k] / a.stress_target(leg_time) - 1.0));
+      errors.stress = worst(errors.stress, err = std::abs(s[k] / (k == rot_i   ? rotating[0]
+                                                                  : k == rot_j ? rotating[1]
+                                                                               : a.stress_target(leg_time)) - 1.0));
     if (a.mode == AxisMode::MeanStress)
       errors.mean_stress = worst(errors.mean_stress, err = std::abs(s.sum() / 3.0 / a.value - 1.0));
     if (a.mode == AxisMode::ConstantVolume)
@@ -201,9 +244,9 @@ int track_errors(const Leg& leg, const LegChecks& checks, double dt, const State
     }
     if (!std::isfinite(err)) continue;
     errors.axis_error[k] = worst(errors.axis_error[k], err);
-    if (err > control_tolerance(a.mode)) {
+    if (err > control_tolerance(control_mode(leg, k))) {
       ++errors.over_steps[k];
-      errors.over_saturated[k] += state.servo_saturated[k];
+      errors.over_saturated[k] += k < 3 ? state.servo_saturated[k] : state.shear_servo_saturated[k - 3];
       if (errors.over_steps[k] == checks.persist && !errors.failed[k]) {
         errors.failed[k] = true;
         failed = k;
@@ -236,12 +279,12 @@ int spent_ramp(const Leg& leg, double dt, const State& state) {
 std::string control_failure_message(const Program& program, int leg_index, const LegChecks& checks,
                                     const ControlErrors& e, int k, const ServoDef& servo) {
   const Leg& leg = program.legs[static_cast<std::size_t>(leg_index)];
-  const AxisMode mode = leg.axes[k].mode;
+  const AxisMode mode = control_mode(leg, k);
   const bool relative = mode != AxisMode::B;
   const double scale = relative ? 100.0 : 1.0;
   const std::string unit = relative ? " %" : "";
   std::string m = stage_name(program) + " leg " + std::to_string(leg_index) + ": the " +
-                  control_kind(mode) + " control of axis x" + std::to_string(k + 1) + " stayed outside its tolerance for " +
+                  (k < 3 ? control_kind(mode) : "shear stress") + " control of axis " + control_axis_name(k) + " stayed outside its tolerance for " +
                   std::to_string(e.over_steps[k]) + " steps in a row (" + fmt(100 * kPersistStrain) +
                   " % of driving strain): error " + fmt(scale * e.axis_error[k]) + unit + ", tolerance " +
                   fmt(scale * control_tolerance(mode)) + unit;
@@ -290,7 +333,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     const Leg& leg = program.legs[c.leg];
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
     const LegChecks checks(leg, model);
-    const Loading loading{leg.axes, program.friction, checks.cap};
+    const Loading loading{leg.axes, program.friction, checks.cap, leg.shear, leg.rotation};
     const bool ramps = has_stress_ramp(leg);
     bool leg_over = watch.ended(model, state);  // on the state as it stands
     bool leg_done = leg_over;                   // (or an equilibrium leg that is not the last reached it)

@@ -33,22 +33,31 @@ inline constexpr std::int64_t kMinPersistSteps = 500;
 // window in: its errors count after this many steps, twice the integral term's time constant at the default
 // integral_gain (the ramp's lag under the proportional term alone is removed by then).
 inline constexpr std::int64_t kRampSettleSteps = 1000;
+// Axes of the per-axis records below: x1, x2, x3, then the shear axes x12, x13, x23 (control_axis_name).
+inline constexpr int kControlAxes = 6;
+std::string control_axis_name(int k);
 struct ControlErrors {
   double stress = std::numeric_limits<double>::quiet_NaN();       // stress axes: max |s - target| / target
   double b = std::numeric_limits<double>::quiet_NaN();            // b axis: max |b - target| (axis stresses)
   double mean_stress = std::numeric_limits<double>::quiet_NaN();  // mean_stress axes: max |p - target| / target
   double volume = std::numeric_limits<double>::quiet_NaN();       // constant-volume axes: max |V/V(leg start) - 1|
+  // Shear stress axes: max |s_ij - target| / max(|target|, p), p the mean stress: a shear target (0 most of
+  // all) has no scale of its own, and the mean stress is the one the packing carries (summary.json
+  // `shear_stress`, written with `shear_axes` only by legs that have such an axis; tolerance as `stress`).
+  double shear_stress = std::numeric_limits<double>::quiet_NaN();
   std::int64_t steps = 0;                                         // steps checked
-  // Per axis (x1, x2, x3): its worst error (of its kind, as above), the steps of the leg whose servo increment
-  // sat at its cap, the present run of consecutive checked steps above the tolerance and how many of those
-  // were at the cap, and whether the control failed (stayed above the tolerance, see kPersistStrain).
-  std::array<double, 3> axis_error = {std::numeric_limits<double>::quiet_NaN(),
-                                      std::numeric_limits<double>::quiet_NaN(),
-                                      std::numeric_limits<double>::quiet_NaN()};
-  std::array<std::int64_t, 3> saturated_steps = {0, 0, 0};
-  std::array<std::int64_t, 3> over_steps = {0, 0, 0};
-  std::array<std::int64_t, 3> over_saturated = {0, 0, 0};
-  std::array<bool, 3> failed = {false, false, false};
+  // Per axis (x1, x2, x3, x12, x13, x23): its worst error (of its kind, as above), the steps of the leg whose
+  // servo increment sat at its cap, the present run of consecutive checked steps above the tolerance and how
+  // many of those were at the cap, and whether the control failed (stayed above the tolerance, see
+  // kPersistStrain).
+  std::array<double, kControlAxes> axis_error = {
+      std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+      std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+      std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  std::array<std::int64_t, kControlAxes> saturated_steps = {};
+  std::array<std::int64_t, kControlAxes> over_steps = {};
+  std::array<std::int64_t, kControlAxes> over_saturated = {};
+  std::array<bool, kControlAxes> failed = {};
 };
 nlohmann::json to_json(const ControlErrors& e);
 ControlErrors control_errors_from_json(const nlohmann::json& j);
@@ -56,6 +65,9 @@ ControlErrors control_errors_from_json(const nlohmann::json& j);
 // The tolerance of a control of this kind (run/health.hpp), and its name in messages and summary.json.
 double control_tolerance(AxisMode mode);
 std::string control_kind(AxisMode mode);
+// The control mode of axis k (control_axis_name) in the leg; a shear axis the leg does not name is held
+// (a strain control).
+AxisMode control_mode(const Leg& leg, int k);
 
 struct Program {
   const std::vector<Leg>& legs;

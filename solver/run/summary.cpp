@@ -150,7 +150,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   for (const std::string& w : control_warnings(test, errors)) warnings.push_back(w);
   Json failures = Json::array();
   for (const ControlFailureRecord& f : control_failures(test, errors))
-    failures.push_back({{"leg", f.leg}, {"axis", std::string(kAxisNames[f.axis])}, {"kind", f.kind},
+    failures.push_back({{"leg", f.leg}, {"axis", control_axis_name(f.axis)}, {"kind", f.kind},
                         {"error", number_or_null(f.error)}, {"tolerance", f.tolerance}});
 
   Json out = summarize_series(rows, test.legs.back().end.axis);

@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "contact/contact_forces.hpp"
+#include "contact_stress.hpp"
 #include "helpers.hpp"
 #include "core/deck.hpp"
 #include "io/state_file.hpp"
@@ -211,6 +213,135 @@ TEST(Control, ServoSaturatesWithoutWindupAndWithoutContacts) {
   EXPECT_FALSE(t.servo_saturated[0] || t.servo_saturated[1] || t.servo_saturated[2]);
 }
 
+// Shear axes (control.hpp's convention): a strain-driven shear axis sets its tilt from its exact engineering
+// shear strain, g_ij = -(h_ij - h_ij(start)) / L_j; a shear axis the leg does not name keeps its tilt to the bit.
+TEST(Control, ShearStrainFollowsItsIncrementsExactlyAndUnnamedTiltsAreHeld) {
+  const double dt = 1e-3;
+  const Model model = make_model(model_deck(1e4, 1e4, dt), {});
+  const Mat3 h0 = (Mat3() << 2.0, 0.3, -0.1, 0.0, 3.0, 0.2, 0.0, 0.0, 4.0).finished();
+  State s = cell_state(h0);
+  begin_stage(s);
+  const AxisControl held{AxisMode::StrainIncrement, 0.0};
+  Loading loading{{AxisControl{AxisMode::StrainIncrement, 1e-4}, held, held}, 0.0};
+  loading.shear = {AxisControl{AxisMode::StrainIncrement, 2e-4}, AxisControl{AxisMode::StrainRate, -0.5}, std::nullopt};
+  const int steps = 1000;
+  for (int k = 0; k < steps; ++k) {
+    const Mat3 before = s.cell.h;
+    advance_cell(model, loading, s);
+    const Mat3 hdot = (s.cell.h - before) / dt;
+    EXPECT_NEAR((s.cell.velocity_gradient * 0.5 * (s.cell.h + before) - hdot).norm(), 0.0, 1e-12);
+  }
+  EXPECT_DOUBLE_EQ(s.cell.h(0, 1), 0.3 - 3.0 * (steps * 2e-4));        // g12 = 0.2 over L2 = 3
+  EXPECT_DOUBLE_EQ(s.cell.h(0, 2), -0.1 - 4.0 * (steps * -0.5 * dt));  // g13 = -0.5 over L3 = 4
+  EXPECT_EQ(s.cell.h(1, 2), 0.2);                                      // x23 not named
+  EXPECT_EQ(s.cell.h(1, 0), 0.0);
+  EXPECT_EQ(s.cell.h(2, 0), 0.0);
+  EXPECT_EQ(s.cell.h(2, 1), 0.0);
+  const Vec3 g = shear_strains(s);
+  EXPECT_NEAR(g[0], 0.2, 1e-14);
+  EXPECT_NEAR(g[1], -0.5, 1e-14);
+  EXPECT_EQ(g[2], 0.0);
+  EXPECT_NEAR(axis_strains(s)[0], 0.1, 1e-14);  // the normal axes as before
+  // A later leg continues from the present shear strains; x13, no longer named, stays where it is.
+  begin_leg(s, 1);
+  EXPECT_NEAR(s.control.leg_start_shear[0], 0.2, 1e-14);
+  Loading back = loading;
+  back.shear = {AxisControl{AxisMode::StrainIncrement, -1e-4}, std::nullopt, std::nullopt};
+  const double tilt13 = s.cell.h(0, 2);
+  for (int k = 0; k < 500; ++k) advance_cell(model, back, s);
+  EXPECT_NEAR(shear_strains(s)[0], 0.2 - 0.05, 1e-14);
+  EXPECT_EQ(s.cell.h(0, 2), tilt13);
+}
+
+// One shear servo step by hand: err = target - s_ij, dg = (gain err + integral_gain (I + err)) / K_ij,
+// h_ij -= L_j dg. A negative target, and a zero target met exactly (the tilt stays).
+TEST(Control, ShearServoStepFollowsItsLaw) {
+  Deck deck = model_deck(1e4, 1e4, 1e-3);
+  deck.servo = ServoDef{0.05, 0.002, 1e-3};
+  const Model model = make_model(deck, {});
+  const double target = -2.0e4, K = 5.0e7, s12 = 1.0e4, L2 = 1.5;
+  const AxisControl held{AxisMode::StrainIncrement, 0.0};
+  Loading loading{{held, held, held}, 0.0};
+  loading.shear = {AxisControl{AxisMode::Stress, target}, AxisControl{AxisMode::Stress, 0.0}, std::nullopt};
+  State s = cell_state(Vec3(1.0, L2, 2.0).asDiagonal());
+  begin_stage(s);
+  s.shear_stress = Vec3(s12, 0.0, 3.0e3);
+  s.shear_stiffness = Vec3(K, K, K);
+  double integral = 0.0, tilt = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    advance_cell(model, loading, s);
+    const double err = target - s12;
+    const double dg = (0.05 * err + 0.002 * (integral + err)) / K;
+    integral += err;
+    tilt -= L2 * dg;
+    EXPECT_NEAR(s.cell.h(0, 1), tilt, 1e-15);
+    EXPECT_NEAR(s.control.shear_servo_integral[0], integral, 1e-9);
+  }
+  EXPECT_LT(shear_strains(s)[0], 0.0);  // too much shear stress: shear back
+  EXPECT_EQ(s.cell.h(0, 2), 0.0);       // x13 at its zero target
+  EXPECT_EQ(s.cell.h(1, 2), 0.0);       // x23 not named: its stress does not matter
+  EXPECT_EQ(s.cell.h.diagonal(), Vec3(1.0, L2, 2.0));
+  EXPECT_FALSE(s.shear_servo_saturated[0]);
+  // Nothing touching (K = 0): the cap, towards the target, and no integral.
+  State t = cell_state(Mat3::Identity());
+  begin_stage(t);
+  t.shear_stress = Vec3(s12, 0.0, 0.0);
+  advance_cell(model, loading, t);
+  EXPECT_DOUBLE_EQ(t.cell.h(0, 1), 1e-3);  // dg = -cap: the tilt grows by L2 cap
+  EXPECT_TRUE(t.shear_servo_saturated[0]);
+  EXPECT_EQ(t.control.shear_servo_integral[0], 0.0);
+}
+
+// ---- shear on an FCC lattice: an elastic network with an analytic shear modulus ----
+// Equal spheres on an FCC lattice (constant a = 1, overlap 1e-3 of the contact distance, frictionless): the
+// lattice is centrosymmetric, so it deforms affinely and its contact network's shear modulus from the normal
+// springs is C44 = kn / a (contact/test_contact_forces.cpp, FccShearStressAndShearStiffnessMatchAnalytic).
+// Through the whole step loop: simple shear by strain (all other strains zero) gives s12 = C44 g12, and the
+// shear servo finds the strain g12 = target / C44 that carries a target shear stress.
+struct FccLattice {
+  static constexpr double kKn = 1.0e4, kA = 1.0;
+  double radius = 0.5 * (kA / std::sqrt(2.0)) * (1.0 + 1e-3);
+  State state = testing::fcc_state(2, radius, kA, 0.05);
+  Model model = make_model(model_deck(kKn, 0.0, 1e-4, testing::kUnitMassDensity, 0.1, 0.1),
+                           std::vector<double>(state.particles.size(), radius));
+  FccLattice() {
+    begin_stage(state);
+    rebuild_pairs(model, state);
+    compute_contact_forces(model, 0.0, state, false);
+  }
+};
+
+TEST(Control, SimpleShearOfAnFccLatticeFollowsItsShearModulus) {
+  FccLattice lattice;
+  State& s = lattice.state;
+  const AxisControl held{AxisMode::StrainIncrement, 0.0};
+  Loading loading{{held, held, held}, 0.0};
+  loading.shear = {AxisControl{AxisMode::StrainIncrement, 1e-8}, held, held};
+  const int steps = 1000;
+  for (int k = 0; k < steps; ++k) testing::advance_one_step(lattice.model, loading, s, k == 0);
+  const double g = shear_strains(s)[0], modulus = FccLattice::kKn / FccLattice::kA;
+  EXPECT_NEAR(g, steps * 1e-8, 1e-15);
+  const Mat3 stress = testing::contact_stress(s);
+  EXPECT_NEAR(stress(0, 1), modulus * g, 5e-3 * modulus * g);  // O(overlap/d + g) from the prestress
+  EXPECT_NEAR(s.shear_stress[0], stress(0, 1), 1e-9 * stress(0, 0));
+  EXPECT_NEAR(stress(0, 2), 0.0, 1e-6 * modulus * g);
+  EXPECT_NEAR(stress(1, 2), 0.0, 1e-6 * modulus * g);
+}
+
+TEST(Control, ShearServoHoldsATargetOnAnFccLattice) {
+  FccLattice lattice;
+  State& s = lattice.state;
+  const double modulus = FccLattice::kKn / FccLattice::kA, target = 0.1;  // [Pa]: g12 = 1e-5
+  const AxisControl held{AxisMode::StrainIncrement, 0.0};
+  Loading loading{{held, held, held}, 0.0};
+  loading.shear = {AxisControl{AxisMode::Stress, target}, AxisControl{AxisMode::Stress, 0.0}, std::nullopt};
+  for (int k = 0; k < 3000; ++k) testing::advance_one_step(lattice.model, loading, s, k == 0);
+  EXPECT_NEAR(s.shear_stress[0], target, 1e-3 * target);
+  EXPECT_NEAR(shear_strains(s)[0], target / modulus, 5e-3 * target / modulus);
+  EXPECT_NEAR(s.shear_stress[1], 0.0, 1e-6 * target);
+  EXPECT_NEAR(shear_strains(s)[1], 0.0, 1e-9);
+}
+
 // ---- the servo on a real packing ----
 
 // Prepares a ~250-sphere packing at 100 kPa (frictionless, loose equilibrium tolerances) with the runner.
@@ -273,6 +404,83 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
   EXPECT_GT(s.normal_stress[0], 1.5 * target);
   // The servo moved the lateral walls (the sample changed volume), not just held them.
   EXPECT_GT(std::abs(axis_strains(s)[1]), 1e-5);
+}
+
+// Simple shear of the packing (g12 driven, s22 held at 100 kPa, e1 = e3 = 0) with s13 and s23 servo-held at
+// zero: the servos hold their targets, and the leg continued from a state file (format 5, the shear record)
+// gives the same bytes as the uninterrupted one.
+TEST_F(ServoOnPacking, SimpleShearHoldsItsStressesAndResumesBitForBit) {
+  State s = read_state((dir_->path() / "run" / "prepared.state").string());
+  begin_stage(s);
+  const Model model = make_model(*deck_, s.particles.radius);
+  const double target = 1.0e5, increment = 1e-6;
+  const AxisControl held{AxisMode::StrainIncrement, 0.0};
+  Loading loading{{held, AxisControl{AxisMode::Stress, target}, held}, 0.5};
+  loading.shear = {AxisControl{AxisMode::StrainIncrement, increment}, AxisControl{AxisMode::Stress, 0.0},
+                   AxisControl{AxisMode::Stress, 0.0}};
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, loading.friction, s, false);
+  const int steps = 2000, transient = 300, cut = 1200;
+  double worst_normal = 0.0, worst_shear = 0.0;
+  std::string resumed_from;
+  for (int k = 0; k < cut; ++k) {
+    testing::advance_one_step(model, loading, s, k == 0);
+    if (k < transient) continue;
+    const double p = s.normal_stress.sum() / 3.0;
+    worst_normal = std::max(worst_normal, std::abs(s.normal_stress[1] / target - 1.0));
+    worst_shear = std::max({worst_shear, std::abs(s.shear_stress[1]) / p, std::abs(s.shear_stress[2]) / p});
+  }
+  State resumed = parse_state(serialize_state(s, "checkpoint", R"({"contact.kn":1})"));
+  for (int k = cut; k < steps; ++k) testing::advance_one_step(model, loading, s);
+  for (int k = cut; k < steps; ++k) testing::advance_one_step(model, loading, resumed, k == cut);
+  EXPECT_EQ(serialize_state(resumed, "end"), serialize_state(s, "end"));
+  EXPECT_NEAR(shear_strains(s)[0], steps * increment, 1e-15);
+  EXPECT_GT(s.shear_stress[0], 0.02 * target);  // the packing carries the shear it is given
+  EXPECT_LT(worst_normal, 0.005);
+  EXPECT_LT(worst_shear, 0.005);  // relative to p, as the control check measures a zero target
+  EXPECT_EQ(axis_strains(s)[0], 0.0);
+  EXPECT_EQ(axis_strains(s)[2], 0.0);
+  RecordProperty("worst_s22_error", std::to_string(worst_normal));
+  RecordProperty("worst_zero_shear_error", std::to_string(worst_shear));
+}
+
+// A principal-axis rotation: sigma1 = 120 kPa and sigma3 = 100 kPa turned through 90 degrees in the x1-x2 plane
+// (x3 held at 100 kPa), its three servos aiming at the targets of each step's end. The principal values of the
+// plane's stress stay within 0.5 % of theirs after the start-up transient, and the major principal direction
+// follows the angle.
+TEST_F(ServoOnPacking, PrincipalAxesRotateAtFixedPrincipalValues) {
+  State s = read_state((dir_->path() / "run" / "prepared.state").string());
+  begin_stage(s);
+  const Model model = make_model(*deck_, s.particles.radius);
+  const double sigma1 = 1.2e5, sigma3 = 1.0e5;
+  const int steps = 12000, transient = 2000;
+  PrincipalRotation rotation{0, sigma1, sigma3, 0.0, (M_PI / 2.0) / steps, true};
+  const std::array<double, 3> t0 = rotation.targets(0.0, model.dt);
+  Loading loading{{AxisControl{AxisMode::Stress, t0[0]}, AxisControl{AxisMode::Stress, t0[1]},
+                   AxisControl{AxisMode::Stress, 1.0e5}},
+                  0.5};
+  loading.shear = {AxisControl{AxisMode::Stress, t0[2]}, std::nullopt, std::nullopt};
+  loading.rotation = rotation;
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, loading.friction, s, false);
+  double worst_value = 0.0, worst_angle = 0.0;
+  for (int k = 0; k < steps; ++k) {
+    testing::advance_one_step(model, loading, s, k == 0);
+    if (k < transient) continue;
+    const double s11 = s.normal_stress[0], s22 = s.normal_stress[1], s12 = s.shear_stress[0];
+    const double m = 0.5 * (s11 + s22), r = std::hypot(0.5 * (s11 - s22), s12);
+    worst_value = std::max({worst_value, std::abs((m + r) / sigma1 - 1.0), std::abs((m - r) / sigma3 - 1.0)});
+    const double angle = 0.5 * std::atan2(2.0 * s12, s11 - s22);  // of the major principal stress from x1
+    const double off = angle - rotation.angle((k + 1) * model.dt, model.dt);
+    worst_angle = std::max(worst_angle, std::abs(off - M_PI * std::round(off / M_PI)));  // (directions mod 180)
+  }
+  RecordProperty("worst_principal_value_error", std::to_string(worst_value));
+  RecordProperty("worst_angle_error_deg", std::to_string(worst_angle * 180.0 / M_PI));
+  EXPECT_LT(worst_value, 0.005);
+  EXPECT_LT(worst_angle * 180.0 / M_PI, 2.0);
+  EXPECT_NEAR(s.normal_stress[1], sigma1, 0.005 * sigma1);  // at 90 degrees sigma1 is on x2
+  EXPECT_NEAR(s.normal_stress[0], sigma3, 0.005 * sigma1);
+  EXPECT_NEAR(s.normal_stress[2], 1.0e5, 0.005 * 1.0e5);
 }
 
 }  // namespace

@@ -210,6 +210,47 @@ TEST(ContactForces, LatticeStressAndStiffnessMatchAnalytic) {
   EXPECT_NEAR((t.normal_stress[0] - s.normal_stress[0]) / eps, s.axis_stiffness[0], 1e-6 * s.axis_stiffness[0]);
 }
 
+// The FCC lattice (each sphere touching 12 neighbours along <110> at d = a/sqrt(2), overlap 2R - d) under an
+// affine tilt of h(0,1) by g12 = g (cell/control.hpp: every branch l -> l - g l_y e_x, scaled positions kept).
+// Each contact's force is kn (2R - |l|) along l, so s12 = (1/V) sum f_x l_y is a sum over the six contact
+// directions of a sphere's half list, evaluated here by hand. The shear stiffness (1/V) sum kn (n_x l_y)^2 of
+// the unsheared lattice is kn / a: only (1, +-1, 0)/sqrt(2) have n_x n_y != 0, (n_x n_y)^2 = 1/4, with
+// N/V = 4/a^3 and d^2 = a^2/2. That is the lattice's C44 from its normal springs (the lattice is centrosymmetric,
+// so the affine field is its equilibrium): the finite difference of s12 reproduces it to O(overlap/d).
+TEST(ContactForces, FccShearStressAndShearStiffnessMatchAnalytic) {
+  const int n = 2;
+  const double a = 1.0, d = a / std::sqrt(2.0), overlap = 1e-4 * d, R = 0.5 * (d + overlap);
+  const Model model = make_model(model_deck(kKn, kKt, kDt), std::vector<double>(4 * n * n * n, R));
+  State s = testing::fcc_state(n, R, a, 0.05);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, 0.5, s, false);
+  const double spheres = 4.0 * n * n * n, volume = std::pow(a * n, 3);
+  ASSERT_EQ(s.touching, static_cast<std::int64_t>(6 * spheres));
+  for (int k = 0; k < 3; ++k) {  // cubic symmetry: every shear plane alike, and no shear stress unsheared
+    EXPECT_NEAR(s.shear_stiffness[k], kKn / a, 1e-9 * kKn / a) << k;
+    EXPECT_NEAR(s.shear_stress[k], 0.0, 1e-9 * s.normal_stress[0]) << k;
+  }
+  const double g = 1e-5;
+  State t = s;
+  t.cell.h(0, 1) -= g * t.cell.h(1, 1);
+  rebuild_pairs(model, t);
+  compute_contact_forces(model, 0.5, t, false);
+  double expected = 0.0;
+  const double r2 = 1.0 / std::sqrt(2.0);
+  for (const Vec3& n_c : {Vec3(r2, r2, 0), Vec3(r2, -r2, 0), Vec3(r2, 0, r2), Vec3(r2, 0, -r2), Vec3(0, r2, r2),
+                          Vec3(0, r2, -r2)}) {
+    const Vec3 l0 = d * n_c;
+    const Vec3 l(l0.x() - g * l0.y(), l0.y(), l0.z());
+    expected += kKn * (2.0 * R - l.norm()) / l.norm() * l.x() * l.y();
+  }
+  expected *= spheres / volume;
+  EXPECT_GT(expected, 0.0);  // a positive g12 raises the compression-signed s12
+  EXPECT_NEAR(t.shear_stress[0], expected, 1e-9 * expected);
+  EXPECT_NEAR(t.shear_stress[0], contact_stress(t)(0, 1), 1e-12 * s.normal_stress[0]);  // the series' s12
+  EXPECT_NEAR(t.shear_stress[0] / g, s.shear_stiffness[0], 2e-3 * s.shear_stiffness[0]);
+  EXPECT_NEAR(t.shear_stress[1], 0.0, 1e-9 * s.normal_stress[0]);
+}
+
 // Two evaluations of one scene agree to the bit: reductions, per-pair results, net forces, kicked velocities.
 void expect_same_bits(const State& a, const State& b) {
   EXPECT_EQ(a.touching, b.touching);

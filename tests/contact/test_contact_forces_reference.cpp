@@ -87,10 +87,14 @@ void expect_agreement(const Model& model, const Friction& friction, State s, int
   if (s.particles.size() <= kReductionBlock) {
     EXPECT_TRUE(same_bits(s.normal_stress, ref.normal_stress));
     EXPECT_TRUE(same_bits(s.axis_stiffness, ref.axis_stiffness));
+    EXPECT_TRUE(same_bits(s.shear_stiffness, ref.shear_stiffness));
+    EXPECT_TRUE(same_bits(s.shear_stress, ref.shear_stress));
   } else {
     for (int a = 0; a < 3; ++a) {
       EXPECT_NEAR(s.normal_stress[a], ref.normal_stress[a], 1e-12 * ref.normal_stress.cwiseAbs().maxCoeff());
       EXPECT_NEAR(s.axis_stiffness[a], ref.axis_stiffness[a], 1e-12 * ref.axis_stiffness.cwiseAbs().maxCoeff());
+      EXPECT_NEAR(s.shear_stress[a], ref.shear_stress[a], 1e-12 * ref.normal_stress.cwiseAbs().maxCoeff());
+      EXPECT_NEAR(s.shear_stiffness[a], ref.shear_stiffness[a], 1e-12 * ref.shear_stiffness.cwiseAbs().maxCoeff());
     }
   }
 }

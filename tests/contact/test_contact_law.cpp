@@ -407,7 +407,7 @@ TEST(ContactForces, MindlinRescaleRadiiSurviveRebuildAndStateFile) {
   const std::string bytes = serialize_state(s, "test");
   std::uint32_t version = 0;
   std::memcpy(&version, bytes.data() + 8, sizeof version);
-  EXPECT_EQ(version, 4u);
+  EXPECT_EQ(version, 5u);  // contact radii: format 4, with the shear record (5)
   State loaded = parse_state(bytes);
   rebuild_pairs(model, loaded);
   EXPECT_EQ(rebuilt.pairs.contact_radius, s.pairs.contact_radius);

@@ -577,6 +577,48 @@ TEST(TranslateProgram, TestEquilibriumLegIsNamedUntranslatable) {
   }
 }
 
+// A shear stress axis (zero_shear_stress too) is named as not translated; a strain-driven one is fix deform's
+// tilt on a triclinic box: erate -dg/dt in a first leg of known length, else (LAMMPS) vel -L_j dg/dt; the
+// series gain the shear stresses and strains. A held one (zero strain) leaves the script as it was.
+TEST(TranslateProgram, ShearAxesAreFixDeformTiltsOrNamedUntranslatable) {
+  const std::string axes = R"("x1": {"strain_increment": 0}, "x2": {"stress": 1e5}, "x3": {"strain_increment": 0})";
+  const auto two_legs = [&](const std::string& first, const std::string& second) {
+    return program_deck(R"({"name": "ss", "friction": 0.5, "legs": [
+        {"axes": {)" + axes + first + R"(}, "end": {"steps": 100}},
+        {"axes": {)" + axes + second + R"(}, "end": {"steps": 100}}]})");
+  };
+  const Deck stress = two_legs("", R"(, "x23": {"stress": 0})");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    try {
+      translate_test(stress, stress.tests[0], code);
+      ADD_FAILURE() << "no DeckError";
+    } catch (const DeckError& e) {
+      EXPECT_TRUE(contains(e.what(), "test \"ss\", leg 2: axes.x23 (a stress-controlled shear axis")) << e.what();
+      EXPECT_TRUE(contains(e.what(), "not translated")) << e.what();
+    }
+  }
+  const Deck strain = two_legs(R"(, "x12": {"strain_increment": 2e-6})", R"(, "x12": {"strain_rate": -1.0})");
+  const std::string lmp = translate_test(strain, strain.tests[0], TargetCode::Lammps);
+  EXPECT_TRUE(contains(lmp, "change_box      all triclinic")) << lmp;
+  EXPECT_TRUE(contains(lmp, " xy erate -2 ")) << lmp;                 // -dg/dt = -2e-6 / 1e-6 s
+  EXPECT_TRUE(contains(lmp, " xy vel $(1*v_L02:%.17g)")) << lmp;      // -L2 dg/dt
+  EXPECT_TRUE(contains(lmp, "c_P[4] c_P[5] c_P[6]")) << lmp;
+  EXPECT_TRUE(contains(lmp, "variable        g12 equal -(f_obs[10]-v_T0xy)/v_L02")) << lmp;
+  EXPECT_TRUE(contains(lmp, std::string(kTranslatedSeriesHeader) + kTranslatedShearColumns)) << lmp;
+  try {
+    translate_test(strain, strain.tests[0], TargetCode::Liggghts);
+    ADD_FAILURE() << "no DeckError";
+  } catch (const DeckError& e) {
+    EXPECT_TRUE(contains(e.what(), "test \"ss\", leg 2: axes.x12")) << e.what();
+  }
+  const Deck first_only = two_legs(R"(, "x13": {"strain_increment": 1e-6})", "");
+  EXPECT_TRUE(contains(translate_test(first_only, first_only.tests[0], TargetCode::Liggghts), " xz erate -1 "));
+  // A held shear axis: the same script as without it.
+  const Deck held = two_legs(R"(, "x12": {"strain_rate": 0})", "");
+  const Deck plain = two_legs("", "");
+  EXPECT_EQ(translate_test(held, held.tests[0], TargetCode::Lammps), translate_test(plain, plain.tests[0], TargetCode::Lammps));
+}
+
 // b and mean_stress: the translated targets, evaluated for a known stress state, are celldem's stress_targets().
 TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
   const Deck deck = program_deck(R"({"name": "bp", "friction": 0.5, "legs": [

@@ -683,6 +683,164 @@ TEST(Deck, SnapshotFormatIsBinaryUnlessTheDeckSaysOtherwise) {
   expect_error(j, "prepare.snapshots", "\"interval\" or \"e1\"");
 }
 
+// Shear axes x12, x13, x23 beside the normal ones (tests[].axes.xIJ), and zero_shear_stress.
+TEST(Deck, ShearAxesParse) {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 1e-6}};
+  j["tests"][0]["axes"]["x13"] = {{"stress", -2.5e3}};
+  j["tests"][0]["axes"]["x23"] = {{"strain_rate", 0.3}};
+  Deck d = parse_deck(j.dump());
+  const Leg& leg = d.tests[0].legs[0];
+  ASSERT_TRUE(leg.shear[0] && leg.shear[1] && leg.shear[2]);
+  EXPECT_EQ(leg.shear[0]->mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.shear[0]->value, 1e-6);
+  EXPECT_EQ(leg.shear[1]->mode, AxisMode::Stress);
+  EXPECT_EQ(leg.shear[1]->value, -2.5e3);
+  EXPECT_EQ(leg.shear[2]->mode, AxisMode::StrainRate);
+  EXPECT_DOUBLE_EQ(leg.shear_strain_per_step(2, 1e-6), 0.3e-6);
+  EXPECT_FALSE(d.tests[1].legs[0].shear[0]);  // left out: the tilt is held
+  // zero_shear_stress: the three shear stresses servo-held at 0, in a program's leg too.
+  j = minimal_deck();
+  j["tests"][0]["zero_shear_stress"] = true;
+  d = parse_deck(j.dump());
+  for (const auto& a : d.tests[0].legs[0].shear) {
+    ASSERT_TRUE(a);
+    EXPECT_EQ(a->mode, AxisMode::Stress);
+    EXPECT_EQ(a->value, 0.0);
+  }
+  j = minimal_deck();
+  Json leg0 = {{"axes", j["tests"][0]["axes"]}, {"end", j["tests"][0]["end"]}, {"zero_shear_stress", true}};
+  j["tests"][0].erase("axes");
+  j["tests"][0].erase("end");
+  j["tests"][0]["legs"] = Json::array({leg0});
+  EXPECT_TRUE(parse_deck(j.dump()).tests[0].legs[0].shear[2].has_value());
+}
+
+// simple_shear: g12 driven, s22 held by the servo, e1 = e3 = 0, the other tilts held.
+TEST(Deck, SimpleShearIsItsAxes) {
+  Json j = minimal_deck();
+  j["tests"][0].erase("axes");
+  j["tests"][0]["simple_shear"] = {{"gamma_increment", 1e-6}, {"normal_stress", 1e5}};
+  j["tests"][0]["end"] = {{"steps", 1000}};
+  Deck d = parse_deck(j.dump());
+  const Leg& leg = d.tests[0].legs[0];
+  EXPECT_EQ(leg.axes[0].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.axes[0].value, 0.0);
+  EXPECT_EQ(leg.axes[1].mode, AxisMode::Stress);
+  EXPECT_EQ(leg.axes[1].value, 1e5);
+  EXPECT_EQ(leg.axes[2].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.axes[2].value, 0.0);
+  ASSERT_TRUE(leg.shear[0]);
+  EXPECT_EQ(leg.shear[0]->mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.shear[0]->value, 1e-6);
+  EXPECT_FALSE(leg.shear[1] || leg.shear[2]);
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", -2.0}, {"normal_stress", 5e4}};
+  d = parse_deck(j.dump());
+  EXPECT_EQ(d.tests[0].legs[0].shear[0]->mode, AxisMode::StrainRate);
+  EXPECT_EQ(d.tests[0].legs[0].shear[0]->value, -2.0);
+  // Errors name the key.
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}, {"gamma_increment", 1e-6}, {"normal_stress", 5e4}};
+  expect_error(j, "tests[0].simple_shear", "exactly one");
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}};
+  expect_error(j, "tests[0].simple_shear.normal_stress", "missing");
+  j["tests"][0]["simple_shear"] = {{"gamma_increment", 0.0}, {"normal_stress", 5e4}};
+  expect_error(j, "tests[0].simple_shear.gamma_increment", "non-zero");
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}, {"normal_stress", -5e4}};
+  expect_error(j, "tests[0].simple_shear.normal_stress", "> 0");
+  j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}, {"normal_stress", 5e4}};
+  j["tests"][0]["zero_shear_stress"] = true;
+  expect_error(j, "tests[0].zero_shear_stress", "simple_shear");
+  j["tests"][0].erase("zero_shear_stress");
+  j["tests"][0]["axes"] = minimal_deck()["tests"][0]["axes"];
+  expect_error(j, "tests[0].simple_shear", "not both");
+}
+
+// rotate_principal_axes: the plane's two axes and its shear axis become stress axes whose targets rotate.
+TEST(Deck, PrincipalAxisRotationParsesAndItsMixesAreChecked) {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"] = {{"x3", {{"stress", 1e5}}}};
+  j["tests"][0]["rotate_principal_axes"] = {{"plane", "x1x2"}, {"sigma1", 1.5e5}, {"sigma3", 1e5}, {"from", 30.0},
+                                            {"angle_increment", 1e-3}};
+  j["tests"][0]["end"] = {{"steps", 90000}};
+  const Deck d = parse_deck(j.dump());
+  const Leg& leg = d.tests[0].legs[0];
+  ASSERT_TRUE(leg.rotation);
+  EXPECT_EQ(leg.rotation->plane, 0);
+  EXPECT_TRUE(leg.rotation->per_step);
+  EXPECT_DOUBLE_EQ(leg.rotation->from, M_PI / 6.0);
+  EXPECT_DOUBLE_EQ(leg.rotation->rate, 1e-3 * M_PI / 180.0);
+  // At 30 degrees: s11 = m + r cos 60 = 1.375e5, s22 = 1.125e5, s12 = r sin 60 (m = 1.25e5, r = 2.5e4).
+  EXPECT_EQ(leg.axes[0].mode, AxisMode::Stress);
+  EXPECT_NEAR(leg.axes[0].value, 1.375e5, 1e-9);
+  EXPECT_NEAR(leg.axes[1].value, 1.125e5, 1e-9);
+  ASSERT_TRUE(leg.shear[0]);
+  EXPECT_NEAR(leg.shear[0]->value, 2.5e4 * std::sqrt(3.0) / 2.0, 1e-9);
+  EXPECT_EQ(leg.axes[2].value, 1e5);
+  // 60000 steps later the angle is 90 degrees: sigma1 on x2.
+  const std::array<double, 3> t = leg.rotation->targets(60000 * 1e-6, 1e-6);
+  EXPECT_NEAR(t[0], 1e5, 1e-6);
+  EXPECT_NEAR(t[1], 1.5e5, 1e-6);
+  EXPECT_NEAR(t[2], 0.0, 1e-6);
+  const std::string at = "tests[0]";
+  Json e = j;
+  e["tests"][0]["axes"]["x1"] = {{"stress", 1e5}};
+  expect_error(e, at + ".axes.x1", "rotate_principal_axes");
+  e = j;
+  e["tests"][0]["axes"]["x12"] = {{"stress", 0.0}};
+  expect_error(e, at + ".axes.x12", "rotate_principal_axes");
+  e = j;
+  e["tests"][0]["rotate_principal_axes"]["sigma3"] = 2e5;
+  expect_error(e, at + ".rotate_principal_axes.sigma3", "<= sigma1");
+  e = j;
+  e["tests"][0]["rotate_principal_axes"]["rate"] = 10.0;
+  expect_error(e, at + ".rotate_principal_axes", "exactly one");
+  e = j;
+  e["tests"][0]["rotate_principal_axes"]["plane"] = "x2x1";
+  expect_error(e, at + ".rotate_principal_axes.plane", "unknown value");
+  e = j;
+  e["tests"][0]["axes"]["x3"] = {{"mean_stress", 1e5}};
+  expect_error(e, at + ".axes.x3", "beside rotate_principal_axes");
+  e = j;
+  e["tests"][0]["end"] = {{"equilibrium", true}};
+  expect_error(e, at + ".end.equilibrium", "rotation");
+  e = j;
+  e["tests"][0]["zero_shear_stress"] = true;
+  expect_error(e, at + ".zero_shear_stress", "rotate_principal_axes");
+}
+
+TEST(DeckErrors, ShearAxesNameTheKey) {
+  Json j = minimal_deck();
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 1e-6}, {"stress", 0.0}};
+  expect_error(j, "tests[0].axes.x12", "exactly one");
+  j["tests"][0]["axes"]["x12"] = Json::object();
+  expect_error(j, "tests[0].axes.x12", "exactly one");
+  j["tests"][0]["axes"]["x12"] = {{"b", 0.5}};  // the normal axes' couplings are not shear controls
+  expect_error(j, "tests[0].axes.x12.b", "unknown key");
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 0.5}};
+  expect_error(j, "tests[0].axes.x12.strain_increment", "must be in");
+  j["tests"][0]["axes"]["x12"] = {{"stress", "zero"}};
+  expect_error(j, "tests[0].axes.x12.stress", "expected a number");
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x21"] = {{"stress", 0.0}};  // the lower triangle is no axis
+  expect_error(j, "tests[0].axes.x21", "unknown key");
+  // Contradictory: all three shear stresses at zero and a shear axis of its own.
+  j = minimal_deck();
+  j["tests"][0]["zero_shear_stress"] = true;
+  j["tests"][0]["axes"]["x23"] = {{"strain_increment", 1e-6}};
+  expect_error(j, "tests[0].zero_shear_stress", "x23");
+  j["tests"][0]["axes"].erase("x23");
+  j["tests"][0]["zero_shear_stress"] = false;
+  expect_error(j, "tests[0].zero_shear_stress", "only true");
+  // A leg that ends in equilibrium cannot shear: a shear strain that moves, refused; a held one accepted.
+  j = minimal_deck();
+  j["tests"][0]["axes"] = {{"x1", {{"stress", 1e5}}}, {"x2", {{"stress", 1e5}}}, {"x3", {{"mean_stress", 1e5}}},
+                           {"x12", {{"strain_rate", 1.0}}}};
+  j["tests"][0]["end"] = {{"equilibrium", true}};
+  expect_error(j, "tests[0].axes.x12", "equilibrium");
+  j["tests"][0]["axes"]["x12"] = {{"strain_increment", 0.0}};
+  EXPECT_NO_THROW((void)parse_deck(j.dump()));
+}
+
 // A stress_ramp axis: its target moves from `from` at `rate` (tests[].axes.xK.stress_ramp).
 Json ramp_deck() {
   Json j = minimal_deck();

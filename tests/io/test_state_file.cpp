@@ -102,21 +102,39 @@ TEST(StateFile, ResumedStateComputesSameForces) {
   EXPECT_EQ(a2.pairs.tangential, b.pairs.tangential);
 }
 
-// A state keeps the physics it was made with (format 4); without a record it is written as before (format 2
+// A state keeps the physics it was made with (format 4, and 5 with the shear record); without a record it is written as before (format 2
 // for the linear law), so older readers' files and the record-less ones stay the same bytes.
-TEST(StateFile, PhysicsRecordRoundTripsAndSetsFormatFour) {
+TEST(StateFile, PhysicsRecordRoundTripsAndSetsFormatFive) {
   const State a = sample_state();
   const std::string record = R"({"contact.kn":1000000.0,"contact.normal":"linear","sample.density":2650.0})";
   const std::string bytes = serialize_state(a, "prepared", record);
   std::uint32_t version = 0;
   std::memcpy(&version, bytes.data() + 8, sizeof version);
-  EXPECT_EQ(version, 4u);
+  EXPECT_EQ(version, 5u);
   std::string label, physics;
   const State b = parse_state(bytes, &label, &physics);
   EXPECT_EQ(label, "prepared");
   EXPECT_EQ(physics, record);
   EXPECT_EQ(b.particles.scaled, a.particles.scaled);
   EXPECT_EQ(serialize_state(b, "prepared", record), bytes);
+  // The shear record (format 5): what a leg with shear axes needs to resume bit for bit.
+  ASSERT_GT(a.shear_stiffness.minCoeff(), 0.0);
+  ASSERT_NE(a.shear_stress, Vec3::Zero());
+  EXPECT_EQ(b.shear_stress, a.shear_stress);
+  EXPECT_EQ(b.shear_stiffness, a.shear_stiffness);
+  EXPECT_EQ(b.normal_stress, a.normal_stress);
+  State c = a;
+  c.control.reference_tilts = Vec3(0.01, -0.02, 0.03);
+  c.control.leg_start_shear = Vec3(1e-3, 0.0, -2e-3);
+  c.control.shear_servo_integral = Vec3(-5.0, 6.0, 7.0);
+  const State d = parse_state(serialize_state(c, "prepared", record));
+  EXPECT_EQ(d.control.reference_tilts, c.control.reference_tilts);
+  EXPECT_EQ(d.control.leg_start_shear, c.control.leg_start_shear);
+  EXPECT_EQ(d.control.shear_servo_integral, c.control.shear_servo_integral);
+  // Without a record (format 2): no shear record; the tilts as they stand are the stage's reference.
+  const State e = parse_state(serialize_state(c, "prepared"));
+  EXPECT_EQ(e.shear_stress, Vec3::Zero());
+  EXPECT_EQ(e.control.reference_tilts, Vec3(c.cell.h(0, 1), c.cell.h(0, 2), c.cell.h(1, 2)));
   std::memcpy(&version, serialize_state(a, "prepared").data() + 8, sizeof version);
   EXPECT_EQ(version, 2u);
   (void)parse_state(serialize_state(a, "prepared"), nullptr, &physics);

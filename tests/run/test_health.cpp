@@ -61,6 +61,35 @@ TEST(Health, ControlFailuresNameLegAxisKindAndTolerance) {
   EXPECT_TRUE(control_failures(test, std::vector<ControlErrors>(2)).empty());
 }
 
+// A shear stress axis's failure (axis 3 + 0..2: x12, x13, x23) is named by its axis and kind, and its error
+// enters the maxima as a servo error; its record round-trips through summary.json's shear_axes.
+TEST(Health, ShearStressControlFailuresNameTheShearAxis) {
+  TestDef test = three_axis_test(AxisMode::StrainIncrement, AxisMode::Stress, AxisMode::Stress);
+  for (Leg& leg : test.legs) leg.shear[1] = AxisControl{AxisMode::Stress, 0.0};
+  std::vector<ControlErrors> errors(test.legs.size());
+  ControlErrors& e = errors.back();
+  e.failed[4] = true, e.axis_error[4] = 0.02, e.shear_stress = 0.02, e.over_steps[4] = 600, e.saturated_steps[4] = 7;
+  const std::vector<ControlFailureRecord> f = control_failures(test, errors);
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_EQ(f[0].axis, 4);
+  EXPECT_EQ(f[0].kind, "shear_stress");
+  EXPECT_EQ(f[0].tolerance, kServoTolerance);
+  EXPECT_EQ(control_axis_name(f[0].axis), "x13");
+  const std::vector<std::string> w = control_warnings(test, errors);
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("axis x13"), std::string::npos) << w[0];
+  EXPECT_EQ(control_error_maxima(errors).servo, 0.02);
+  EXPECT_DOUBLE_EQ(control_error_maxima(errors).over_tolerance, 0.02 / kServoTolerance);
+  const nlohmann::json j = to_json(e);
+  ASSERT_TRUE(j.contains("shear_axes"));
+  const ControlErrors back = control_errors_from_json(j);
+  EXPECT_EQ(back.shear_stress, 0.02);
+  EXPECT_TRUE(back.failed[4]);
+  EXPECT_EQ(back.over_steps[4], 600);
+  EXPECT_EQ(back.saturated_steps[4], 7);
+  EXPECT_FALSE(to_json(ControlErrors{}).contains("shear_axes"));  // legs without shear stress axes as before
+}
+
 TEST(Health, InertialNumberAboveTheQuasiStaticLimitIsAWarning) {
   const TestDef test = three_axis_test(AxisMode::StrainIncrement, AxisMode::Stress, AxisMode::Stress);
   EXPECT_TRUE(test_warnings(test, 9e-4).empty());

@@ -41,6 +41,9 @@ const std::string kTests = R"([
   {"name": "bp_fast_b1", "friction": 0.5, "output_interval": 200,
    "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"b": 1.0}, "x3": {"mean_stress": 1e5}},
    "end": {"axis": "x1", "strain": 0.01}},
+  {"name": "bp_fast_b1_zero_shear", "friction": 0.5, "output_interval": 200, "zero_shear_stress": true,
+   "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"b": 1.0}, "x3": {"mean_stress": 1e5}},
+   "end": {"axis": "x1", "strain": 0.01}},
   {"name": "volume", "friction": 0.5, "output_interval": 200,
    "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"constant_volume": true}, "x3": {"constant_volume": true}},
    "end": {"axis": "x1", "strain": 0.004}},
@@ -114,6 +117,36 @@ struct ProgramRun {
 const ProgramRun& program_run() {
   static const ProgramRun run;
   return run;
+}
+
+// zero_shear_stress beside b = 1 and p: the shear stresses held at 0 (their errors relative to p, in
+// summary.json and independently from the series), so the principal stresses stay on the axes and
+// b_principal is the axis b the control holds; without it the free shear stresses pull them apart.
+TEST(LoadProgram, ZeroShearStressKeepsThePrincipalStressesOnTheAxes) {
+  const ProgramRun& run = program_run();
+  const Json errors = run.summary["tests"]["bp_fast_b1_zero_shear"]["legs"][0]["control_errors"];
+  ASSERT_TRUE(errors.contains("shear_axes")) << errors.dump();
+  const double shear_error = errors["shear_stress"].get<double>();
+  EXPECT_LT(shear_error, kServoTolerance);
+  double worst_axis = 0.0;
+  for (const Json& a : errors["shear_axes"]) worst_axis = std::max(worst_axis, a["error"].get<double>());
+  EXPECT_EQ(worst_axis, shear_error);
+  EXPECT_LT(errors["b"].get<double>(), 0.01);
+  EXPECT_FALSE(run.summary["tests"]["bp_fast_b1"]["legs"][0]["control_errors"].contains("shear_axes"));
+  int checked = 0;
+  double free_gap = 0.0;
+  for (const SeriesRow& r : read_series(run.dir / "run" / "bp_fast_b1_zero_shear" / "series.csv")) {
+    if (r.e1 < 0.002) continue;
+    for (const double shear : {r.s12, r.s13, r.s23}) EXPECT_LT(std::abs(shear) / r.p, kServoTolerance) << r.step;
+    EXPECT_NEAR(r.b_principal, r.b, 0.02) << r.step;
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "bp_fast_b1_zero_shear" / "series.csv");
+  EXPECT_GT(std::abs(rows.back().g12) + std::abs(rows.back().g13) + std::abs(rows.back().g23), 1e-6);
+  for (const SeriesRow& r : read_series(run.dir / "run" / "bp_fast_b1" / "series.csv"))
+    if (r.e1 >= 0.002) free_gap = std::max(free_gap, std::abs(r.b_principal - r.b));
+  RecordProperty("free_shear_largest_b_gap", std::to_string(free_gap));
 }
 
 TEST(LoadProgram, BAndMeanStressHeldTogether) {

@@ -76,6 +76,23 @@ inline State lattice_state(int n, double radius, const Vec3& spacing, double ski
   return make_state(h, r, x, skin);
 }
 
+// A face-centred cubic lattice of n^3 cubic cells (4 n^3 equal spheres of radius `radius`), lattice constant
+// a: each sphere touches its 12 nearest neighbours at distance a / sqrt(2) when 2 radius exceeds it.
+inline State fcc_state(int n, double radius, double a, double skin) {
+  const Mat3 h = Mat3::Identity() * (a * n);
+  const Vec3 basis[4] = {Vec3(0.25, 0.25, 0.25), Vec3(0.75, 0.75, 0.25), Vec3(0.75, 0.25, 0.75), Vec3(0.25, 0.75, 0.75)};
+  std::vector<double> r;
+  std::vector<Vec3> x;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        for (const Vec3& b : basis) {
+          r.push_back(radius);
+          x.push_back(a * (Vec3(i, j, k) + b));
+        }
+  return make_state(h, r, x, skin);
+}
+
 // The state after three force evaluations and a kick from `base`, once per thread count: for comparing bits.
 inline std::vector<State> on_thread_counts(const Model& model, const State& base, const Friction& friction,
                                            std::initializer_list<int> thread_counts) {
