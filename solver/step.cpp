@@ -83,7 +83,7 @@ class StepThread {
           force_rebuild_ = false;
           if (needed) adapt_skin(state_);  // (not after a forced rebuild: the list had not run its course)
           if (shared_.rebuilt) shared_.search.emplace(model_, state_);
-          else shared_.forces.emplace(model_, loading_.friction, state_);
+          else shared_.forces.emplace(model_, loading_.friction, state_, /*advance_slip=*/true, needs_shear_sums(loading_));
           shared_.pair_loop_shares_done.store(0, std::memory_order_relaxed);  // (the serial section's barrier orders it)
         }))
       return false;
@@ -92,7 +92,7 @@ class StepThread {
     team_.wait();
     if (!team_.serial([&] {
           rebuild_pairs(model_, state_, *shared_.search), shared_.search.reset();
-          shared_.forces.emplace(model_, loading_.friction, state_);
+          shared_.forces.emplace(model_, loading_.friction, state_, /*advance_slip=*/true, needs_shear_sums(loading_));
         }))
       return false;
     deal_force_blocks();

@@ -6,6 +6,13 @@
 
 namespace celldem {
 
+bool needs_shear_sums(const Loading& loading) {
+  if (loading.rotation) return true;
+  for (const std::optional<AxisControl>& a : loading.shear)
+    if (a && a->stress_driven()) return true;
+  return false;
+}
+
 void begin_stage(State& state) {
   state.control = ControlState{};
   state.control.reference_lengths = state.cell.h.diagonal();

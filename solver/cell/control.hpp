@@ -54,6 +54,11 @@ struct Loading {
   std::optional<PrincipalRotation> rotation = {};  // (Leg::rotation) its plane's stress targets move with the leg time
 };
 
+// Whether the loading's control reads the shear stresses (a stress-driven shear axis or a principal-axis
+// rotation): only then does the pair loop sum them (contact/contact_forces.hpp); otherwise the state's shear
+// stresses read zero after a step (the series measures them apart, measure/micro.hpp).
+bool needs_shear_sums(const Loading& loading);
+
 // Starts a stage from the state as it stands: step counters and servo memory reset, strains and volume
 // measured from the current cell. The one place that resets the control.
 void begin_stage(State& state);

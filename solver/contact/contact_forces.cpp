@@ -162,7 +162,7 @@ std::atomic<bool> portable_gather{false};
 // The law for every pair of the chunk, one SIMD lane each. tangential and force are the chunk's slices of
 // the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
 // knows no store in the loop changes the parameters or the cell.
-template <class Law, Kinematics K, bool Diagonal>
+template <class Law, Kinematics K, bool Diagonal, bool Shear>
 CELLDEM_ISA_CLONES
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
                     double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
@@ -195,12 +195,14 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
     const double kn = r.normal_stiffness;
     o.stiffness[0][k] = kn * (nl.x * nl.x), o.stiffness[1][k] = kn * (nl.y * nl.y), o.stiffness[2][k] = kn * (nl.z * nl.z);
-    o.shear[0][k] = 0.5 * (r.force.x * branch.y + r.force.y * branch.x);
-    o.shear[1][k] = 0.5 * (r.force.x * branch.z + r.force.z * branch.x);
-    o.shear[2][k] = 0.5 * (r.force.y * branch.z + r.force.z * branch.y);
-    const Real3 nt{r.normal.x * branch.y, r.normal.x * branch.z, r.normal.y * branch.z};  // n_i l_j, ij = 12, 13, 23
-    o.shear_stiffness[0][k] = kn * (nt.x * nt.x), o.shear_stiffness[1][k] = kn * (nt.y * nt.y);
-    o.shear_stiffness[2][k] = kn * (nt.z * nt.z);
+    if constexpr (Shear) {
+      o.shear[0][k] = 0.5 * (r.force.x * branch.y + r.force.y * branch.x);
+      o.shear[1][k] = 0.5 * (r.force.x * branch.z + r.force.z * branch.x);
+      o.shear[2][k] = 0.5 * (r.force.y * branch.z + r.force.z * branch.y);
+      const Real3 nt{r.normal.x * branch.y, r.normal.x * branch.z, r.normal.y * branch.z};  // n_i l_j, ij = 12, 13, 23
+      o.shear_stiffness[0][k] = kn * (nt.x * nt.x), o.shear_stiffness[1][k] = kn * (nt.y * nt.y);
+      o.shear_stiffness[2][k] = kn * (nt.z * nt.z);
+    }
     o.flags[k] = (r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0);
   }
 }
@@ -231,6 +233,7 @@ struct HandOver {
 // net force and moment when it is in the force block, else (the moment) into the next crossing slot and
 // (the force) nowhere: the kick reads it from the pair. Pairs apart add zeros, so they change no sum:
 // nothing depends on whether a pair touches.
+template <bool Shear>
 void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const PairList& pl,
                std::uint8_t* __restrict flags, double* __restrict net_force, double* __restrict net_torque,
                RunningSums& block, HandOver& to) {
@@ -269,8 +272,10 @@ void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const Pair
     crossed += crossing;
     for (int a = 0; a < 3; ++a) s.normal[a] += c.normal[a][k];
     for (int a = 0; a < 3; ++a) s.stiffness[a] += c.stiffness[a][k];
-    for (int a = 0; a < 3; ++a) s.shear[a] += c.shear[a][k];
-    for (int a = 0; a < 3; ++a) s.shear_stiffness[a] += c.shear_stiffness[a][k];
+    if constexpr (Shear) {
+      for (int a = 0; a < 3; ++a) s.shear[a] += c.shear[a][k];
+      for (int a = 0; a < 3; ++a) s.shear_stiffness[a] += c.shear_stiffness[a][k];
+    }
     s.touching += c.flags[k] & kTouching;
   }
   for (int k = 0; k < m; ++k) flags[q0 + k] = static_cast<std::uint8_t>(c.flags[k]);
@@ -282,8 +287,9 @@ void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const Pair
 // each in reduction blocks (kReductionBlock owners), each in chunks; neither kind of block depends on
 // which thread takes it. Diagonal: the cell and the velocity gradient are diagonal
 // (principal-axis loading, the common case); the products with h and L then skip their zero terms, which
-// gives the same numbers bit for bit.
-template <class Law, Kinematics K, bool Diagonal>
+// gives the same numbers bit for bit. Shear: the shear stresses and stiffnesses are summed too (a shear servo
+// reads them; 7 % of the linear law's pair loop, so only loadings that need them pay for them).
+template <class Law, Kinematics K, bool Diagonal, bool Shear>
 void evaluate_share(const ContactParams& law, State& state, double dt, std::vector<ReductionSums>& reduction_sums,
                     const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done) {
   Particles& p = state.particles;
@@ -321,10 +327,10 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
         const int m = std::min<Index>(kChunk, end - q0);
         chunk_owners(pl.first.data(), q0, m, owner, in.owner);
         gather(p, pl, q0, m, in);
-        evaluate_chunk<Law, K, Diagonal>(law, h, L, dt, m, in, pl.tangential[q0].data(),
+        evaluate_chunk<Law, K, Diagonal, Shear>(law, h, L, dt, m, in, pl.tangential[q0].data(),
                                          rolling ? rolling + 3 * q0 : nullptr, twist ? twist + q0 : nullptr,
                                          radius ? radius + q0 : nullptr, pl.force[q0].data(), out);
-        sum_chunk(in, out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
+        sum_chunk<Shear>(in, out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
       }
       ReductionSums& part = reduction_sums[first_owner / kReductionBlock];
       part.normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
@@ -339,8 +345,9 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
 
 // The law's share function for the deck's law and the cell's shape: the one run-time choice of the loop.
 template <class Law, Kinematics K>
-ContactForceEvaluation::ShareFn share_for(bool diagonal) {
-  return diagonal ? &evaluate_share<Law, K, true> : &evaluate_share<Law, K, false>;
+ContactForceEvaluation::ShareFn share_for(bool diagonal, bool shear) {
+  if (shear) return diagonal ? &evaluate_share<Law, K, true, true> : &evaluate_share<Law, K, false, true>;
+  return diagonal ? &evaluate_share<Law, K, true, false> : &evaluate_share<Law, K, false, false>;
 }
 
 }  // namespace
@@ -366,7 +373,7 @@ Mat3 ContactStressSum::stress(double volume) const {
 }
 
 ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Friction& friction, State& state,
-                                               bool advance_slip)
+                                               bool advance_slip, bool shear_sums)
     : params_(contact_params(model.contact, friction)),
       state_(state),
       dt_(advance_slip ? model.dt : 0.0),
@@ -379,8 +386,8 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
     throw std::logic_error("compute_contact_forces: the pair list has no contact radii (rebuild it first)");
   share_ = with_law(model.contact, [&](auto law) {
     using Law = decltype(law);
-    return model.kinematics == Kinematics::Affine ? share_for<Law, Kinematics::Affine>(diagonal)
-                                                  : share_for<Law, Kinematics::Lammps>(diagonal);
+    return model.kinematics == Kinematics::Affine ? share_for<Law, Kinematics::Affine>(diagonal, shear_sums)
+                                                  : share_for<Law, Kinematics::Lammps>(diagonal, shear_sums);
   });
 }
 
@@ -400,7 +407,7 @@ void ContactForceEvaluation::finish() {
   const double volume = state_.cell.volume();
   state_.normal_stress = total.normal_sum / volume;
   state_.axis_stiffness = total.stiffness_sum / volume;
-  state_.shear_stress = total.shear_sum / volume;
+  state_.shear_stress = total.shear_sum / volume;  // (zero when not summed)
   state_.shear_stiffness = total.shear_stiffness_sum / volume;
   state_.touching = total.touching;
 }

@@ -64,7 +64,10 @@ struct ReductionSums {                // one reduction block's sums over its own
 };
 class ContactForceEvaluation {
  public:
-  ContactForceEvaluation(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
+  // shear_sums: also sum state.shear_stress and shear_stiffness (else they are set to zero); a loading with a
+  // shear servo needs them (cell/control.hpp needs_shear_sums), and a stage's first evaluation makes them.
+  ContactForceEvaluation(const Model& model, const Friction& friction, State& state, bool advance_slip = true,
+                         bool shear_sums = true);
   void evaluate_share(const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done = {});
   void finish();  // the reductions, summed block by block in order: the same for any thread count
 

@@ -323,6 +323,10 @@ TEST(Control, SimpleShearOfAnFccLatticeFollowsItsShearModulus) {
   EXPECT_NEAR(g, steps * 1e-8, 1e-15);
   const Mat3 stress = testing::contact_stress(s);
   EXPECT_NEAR(stress(0, 1), modulus * g, 5e-3 * modulus * g);  // O(overlap/d + g) from the prestress
+  // A strain-driven shear needs no shear sums in the pair loop; a stage's first evaluation makes them.
+  EXPECT_FALSE(needs_shear_sums(loading));
+  EXPECT_EQ(s.shear_stress[0], 0.0);
+  compute_contact_forces(lattice.model, 0.0, s, /*advance_slip=*/false);
   EXPECT_NEAR(s.shear_stress[0], stress(0, 1), 1e-9 * stress(0, 0));
   EXPECT_NEAR(stress(0, 2), 0.0, 1e-6 * modulus * g);
   EXPECT_NEAR(stress(1, 2), 0.0, 1e-6 * modulus * g);
