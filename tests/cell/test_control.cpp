@@ -82,6 +82,16 @@ TEST(Control, ConstantVolumeAxesHoldTheVolume) {
   }
 }
 
+// Advances the cell `steps` times, checking each step's velocity gradient: hdot = L h_mid over the step.
+void advance_checking_velocity_gradient(const Model& model, const Loading& loading, State& s, int steps) {
+  for (int k = 0; k < steps; ++k) {
+    const Mat3 before = s.cell.h;
+    advance_cell(model, loading, s);
+    const Mat3 hdot = (s.cell.h - before) / model.dt;
+    EXPECT_NEAR((s.cell.velocity_gradient * 0.5 * (s.cell.h + before) - hdot).norm(), 0.0, 1e-12);
+  }
+}
+
 TEST(Control, StrainIncrementAndRateFollowExactEngineeringStrain) {
   const double dt = 1e-3;
   const Model model = make_model(model_deck(1e4, 1e4, dt), {});
@@ -91,13 +101,7 @@ TEST(Control, StrainIncrementAndRateFollowExactEngineeringStrain) {
                          AxisControl{AxisMode::StrainIncrement, 0.0}},
                         0.0};
   const int steps = 1000;
-  for (int k = 0; k < steps; ++k) {
-    const Mat3 before = s.cell.h;
-    advance_cell(model, loading, s);
-    // Velocity gradient with hdot = L h_mid over the step.
-    const Mat3 hdot = (s.cell.h - before) / dt;
-    EXPECT_NEAR((s.cell.velocity_gradient * 0.5 * (s.cell.h + before) - hdot).norm(), 0.0, 1e-12);
-  }
+  advance_checking_velocity_gradient(model, loading, s, steps);
   EXPECT_EQ(s.control.leg_steps, steps);
   EXPECT_DOUBLE_EQ(s.cell.h(0, 0), 2.0 * (1.0 - steps * 1e-4));        // compression 10 %
   EXPECT_DOUBLE_EQ(s.cell.h(1, 1), 3.0 * (1.0 + steps * 0.5 * dt));   // extension 50 %
@@ -225,12 +229,7 @@ TEST(Control, ShearStrainFollowsItsIncrementsExactlyAndUnnamedTiltsAreHeld) {
   Loading loading{{AxisControl{AxisMode::StrainIncrement, 1e-4}, held, held}, 0.0};
   loading.shear = {AxisControl{AxisMode::StrainIncrement, 2e-4}, AxisControl{AxisMode::StrainRate, -0.5}, std::nullopt};
   const int steps = 1000;
-  for (int k = 0; k < steps; ++k) {
-    const Mat3 before = s.cell.h;
-    advance_cell(model, loading, s);
-    const Mat3 hdot = (s.cell.h - before) / dt;
-    EXPECT_NEAR((s.cell.velocity_gradient * 0.5 * (s.cell.h + before) - hdot).norm(), 0.0, 1e-12);
-  }
+  advance_checking_velocity_gradient(model, loading, s, steps);
   EXPECT_DOUBLE_EQ(s.cell.h(0, 1), 0.3 - 3.0 * (steps * 2e-4));        // g12 = 0.2 over L2 = 3
   EXPECT_DOUBLE_EQ(s.cell.h(0, 2), -0.1 - 4.0 * (steps * -0.5 * dt));  // g13 = -0.5 over L3 = 4
   EXPECT_EQ(s.cell.h(1, 2), 0.2);                                      // x23 not named
