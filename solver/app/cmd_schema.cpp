@@ -318,6 +318,9 @@ void print_tolerance(const Json& t) {
     if (s.contains("fast_strain_increment"))
       std::printf("    fast compression %.3g per step (written %.3g)\n", s["fast_strain_increment"].get<double>(),
                   s["fast_strain_increment_written"].get<double>());
+    if (s.contains("servo_max_strain_increment"))
+      std::printf("    servo cap %.3g per step (written %.3g): the same strain rate\n",
+                  s["servo_max_strain_increment"].get<double>(), s["servo_max_strain_increment_written"].get<double>());
     if (s.contains("equilibrium"))
       std::printf("    equilibrium: min_steps %lld (written %lld), checked every %lld (written %lld)\n",
                   static_cast<long long>(s["equilibrium"]["min_steps"].get<std::int64_t>()),

@@ -197,6 +197,7 @@ struct PrepareDef {
   double target_pressure = 1e5;                       // [Pa] (required in a deck without legs)
   double fast_solid_fraction = keys::prepare_fast_solid_fraction.fallback;
   double fast_strain_increment = keys::prepare_fast_strain_increment.fallback;
+  std::optional<double> servo_max_strain_increment;  // the preparation's own servo cap (Deck::stage_servo)
   double relax_overlaps = 0.0;  // with initial_state: largest overlap / smaller radius after the soft start; 0: none
   EquilibriumDef equilibrium;
   std::int64_t output_interval = static_cast<std::int64_t>(keys::prepare_output_interval.fallback);
@@ -257,6 +258,13 @@ struct Deck {
   // that starts from a state made at another time step just continues: velocities and spins are physical.
   double stage_time_step(const PrepareDef& p) const { return p.time_step.value_or(time_step); }
   double stage_time_step(const TestDef& t) const { return t.time_step.value_or(time_step); }
+  // The servo a stage runs with: the deck's, with the preparation's own cap when it gives one.
+  ServoDef stage_servo(const PrepareDef& p) const {
+    ServoDef s = servo;
+    if (p.servo_max_strain_increment) s.max_strain_increment = *p.servo_max_strain_increment, s.max_strain_increment_given = true;
+    return s;
+  }
+  const ServoDef& stage_servo(const TestDef&) const { return servo; }
 };
 
 inline std::array<double, 3> PrincipalRotation::targets(double leg_time, double dt) const {

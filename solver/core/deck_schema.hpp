@@ -241,6 +241,12 @@ inline constexpr KeySpec prepare_time_step{.path = "prepare.time_step", .kind = 
     .required = false, .default_text = "`time_step`", .unit = "s",
     .meaning = "the preparation's own time step, with the bounds of `time_step` (`check` and `plan` give its fraction "
                "of the stability limit)"};
+inline constexpr KeySpec prepare_servo_max_strain_increment{.path = "prepare.servo_max_strain_increment",
+    .kind = KeyKind::Number, .min = 1e-12, .max = 1e-2, .required = false,
+    .default_text = "`servo.max_strain_increment`'s rule",
+    .meaning = "the preparation's own cap of a stress-driven axis's strain per step: its isotropic servo compresses "
+               "a loose packing at this cap until the contacts stiffen, so the cap sets how long that takes "
+               "(`--tolerance` keeps its strain rate, cap / time step, when it raises the preparation's time step)"};
 inline constexpr KeySpec prepare_output_interval{.path = "prepare.output_interval", .kind = KeyKind::Integer,
     .min = 1, .max = kMaxCount, .required = false, .fallback = 1000, .meaning = "steps between series rows"};
 inline constexpr KeySpec prepare_equilibrium{.path = "prepare.equilibrium", .kind = KeyKind::Object,
@@ -461,7 +467,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &tolerance, &servo, &servo_gain,
     &servo_integral_gain, &servo_max_strain_increment, &control_failure, &neighbor_skin, &checkpoint_interval, &prepare,
     &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
-    &prepare_relax_overlaps, &prepare_time_step, &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
+    &prepare_relax_overlaps, &prepare_time_step, &prepare_servo_max_strain_increment, &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
     &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
     &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,

@@ -89,7 +89,7 @@ StepRange add(StepRange a, StepRange b) {
 }
 }  // namespace
 
-std::vector<LegPlan> plan_legs(const Deck& deck, const std::vector<Leg>& legs, const std::vector<StepRange>& steps,
+std::vector<LegPlan> plan_legs(const ServoDef& servo, const std::vector<Leg>& legs, const std::vector<StepRange>& steps,
                                std::int64_t output_interval, double time_step) {
   std::vector<LegPlan> out;
   std::int64_t at = 0;  // the stage step where the leg starts; -1 once unknown
@@ -99,7 +99,7 @@ std::vector<LegPlan> plan_legs(const Deck& deck, const std::vector<Leg>& legs, c
     p.steps = steps[k];
     p.driving_increment = leg_driving_increment(leg, time_step);
     p.driving_rate = p.driving_increment / time_step;
-    p.servo_cap = servo_cap(deck.servo, leg, time_step);
+    p.servo_cap = servo_cap(servo, leg, time_step);
     p.servo = leg_has_servo(leg);
     if (at >= 0 && p.steps.exact()) {
       const std::int64_t end = at + p.steps.low;
@@ -123,7 +123,7 @@ TestPlan plan_test(const Deck& deck, const TestDef& test) {
   std::vector<StepRange> steps;
   for (const std::int64_t n : program_leg_steps(test.legs, dt))
     steps.push_back(n >= 0 ? StepRange{n, n} : StepRange{0, -1});
-  p.legs = plan_legs(deck, test.legs, steps, test.output_interval, dt);
+  p.legs = plan_legs(deck.stage_servo(test), test.legs, steps, test.output_interval, dt);
   for (const LegPlan& leg : p.legs) {
     if (leg.rows < 0) {
       p.steps = p.rows = -1;
@@ -372,7 +372,7 @@ PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction) 
       strain_known = false;
     }
   }
-  plan.listed = plan_legs(deck, plan.legs, plan.steps, prep.output_interval, dt);
+  plan.listed = plan_legs(deck.stage_servo(prep), plan.legs, plan.steps, prep.output_interval, dt);
   return plan;
 }
 

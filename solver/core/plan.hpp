@@ -79,8 +79,8 @@ struct LegPlan {
 // The legs of a stage's program whose legs take `steps` (one range each). A stage writes a row at its start,
 // at every output_interval-th stage step and at each leg's end (unless the interval has just written it), so a
 // leg's rows are known while every leg up to it has an exact length.
-// `time_step` is the stage's (Deck::stage_time_step).
-std::vector<LegPlan> plan_legs(const Deck& deck, const std::vector<Leg>& legs, const std::vector<StepRange>& steps,
+// `servo` and `time_step` are the stage's (Deck::stage_servo, Deck::stage_time_step).
+std::vector<LegPlan> plan_legs(const ServoDef& servo, const std::vector<Leg>& legs, const std::vector<StepRange>& steps,
                                std::int64_t output_interval, double time_step);
 
 struct TestPlan {

@@ -721,6 +721,8 @@ PrepareDef read_prepare(ObjectReader r) {
     fail(r.at(keys::prepare_target_pressure), "missing required key (or give \"legs\")");
   read_fields(r, p, kPrepareNumbers);
   if (r.has(keys::prepare_time_step)) p.time_step = r.number(keys::prepare_time_step);
+  if (r.has(keys::prepare_servo_max_strain_increment))
+    p.servo_max_strain_increment = r.number(keys::prepare_servo_max_strain_increment);
   p.output_interval = r.integer(keys::prepare_output_interval);
   if (r.has(keys::snapshots)) p.snapshots = read_snapshots(r.object(keys::snapshots));
   if (r.has(keys::prepare_equilibrium)) {

@@ -149,10 +149,19 @@ struct Resolver {
         report["legs"].push_back(this->leg(leg, dt_written, dt, p.target_pressure, true, step_factor));
       });
     } else {
-      j["fast_strain_increment"] = p.fast_strain_increment * level.fast_strain_increment_scale;
-      fastest_step_factor = std::max(fastest_step_factor, level.fast_strain_increment_scale);
+      // The fast leg keeps its strain rate (increment / dt) times the level's scale, as the servo leg below.
+      const double fast_factor = level.fast_strain_increment_scale / time_factor;
+      j["fast_strain_increment"] = p.fast_strain_increment * fast_factor;
+      fastest_step_factor = std::max(fastest_step_factor, fast_factor);
       report["fast_strain_increment_written"] = p.fast_strain_increment;
       report["fast_strain_increment"] = j["fast_strain_increment"];
+      // The servo leg compresses the loose packing at its cap per step until the contacts stiffen: the cap keeps
+      // its strain rate (cap / dt), so the preparation follows the same schedule in time at the larger step.
+      const ServoDef servo = written.stage_servo(p);
+      const double cap_written = servo.max_strain_increment_given ? servo.max_strain_increment : kDefaultServoCap;
+      j["servo_max_strain_increment"] = std::min(keys::prepare_servo_max_strain_increment.max, cap_written / time_factor);
+      report["servo_max_strain_increment_written"] = cap_written;
+      report["servo_max_strain_increment"] = j["servo_max_strain_increment"];
     }
     equilibrium(j["equilibrium"], p.equilibrium, time_factor);
     report["equilibrium"] = {{"min_steps_written", p.equilibrium.min_steps}, {"min_steps", j["equilibrium"]["min_steps"]},

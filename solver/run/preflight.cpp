@@ -228,21 +228,28 @@ void warn_unreached_snapshots(const Deck& deck, std::vector<std::string>& warnin
 // A servo axis beside an axis driven at d per step moves about d to 2d per step (its dilation): a cap below
 // kMinServoCapRatio x d saturates the servo, and the control fails.
 void check_servo_caps(const Deck& deck) {
-  const auto check = [&](const std::vector<Leg>& legs, double dt, const std::string& stage) {
+  const auto check = [&](const std::vector<Leg>& legs, const ServoDef& servo, const std::string& cap_key, double dt,
+                         const std::string& stage) {
     for (std::size_t j = 0; j < legs.size(); ++j) {
       const Leg& leg = legs[j];
       const double d = leg_driving_increment(leg, dt);
-      const double cap = servo_cap(deck.servo, leg, dt);
+      const double cap = servo_cap(servo, leg, dt);
       if (leg_has_servo(leg) && d > 0.0 && cap < kMinServoCapRatio * d)
-        throw DeckError("servo.max_strain_increment: " + fmt(cap) + " is below " + fmt(kMinServoCapRatio) +
+        throw DeckError(cap_key + ": " + fmt(cap) + " is below " + fmt(kMinServoCapRatio) +
                         " x the driving strain per step " + fmt(d) + " of " + stage + " leg " + std::to_string(j) +
                         " (the servo's axes need about 1 to 2 x it): raise it to at least " +
                         fmt(kMinServoCapRatio * d) + ", leave it out (the default follows each leg's rate) or "
                         "lower the strain rate");
     }
   };
-  if (deck.prepare) check(deck.prepare->legs, deck.stage_time_step(*deck.prepare), "the preparation");
-  for (const TestDef& t : deck.tests) check(t.legs, deck.stage_time_step(t), "test '" + t.name + "'");
+  if (deck.prepare)
+    check(deck.prepare->legs, deck.stage_servo(*deck.prepare),
+          std::string(deck.prepare->servo_max_strain_increment ? keys::prepare_servo_max_strain_increment.path
+                                                               : keys::servo_max_strain_increment.path),
+          deck.stage_time_step(*deck.prepare), "the preparation");
+  for (const TestDef& t : deck.tests)
+    check(t.legs, deck.stage_servo(t), std::string(keys::servo_max_strain_increment.path), deck.stage_time_step(t),
+          "test '" + t.name + "'");
 }
 
 }  // namespace
@@ -292,17 +299,18 @@ std::string describe_servo_caps(const Deck& deck) {
   double smallest = std::numeric_limits<double>::infinity();
   std::string where;
   std::size_t legs = 0;
-  const auto scan = [&](const std::vector<Leg>& program, double dt, const std::string& stage) {
+  const auto scan = [&](const std::vector<Leg>& program, const ServoDef& servo, double dt, const std::string& stage) {
     for (std::size_t j = 0; j < program.size(); ++j) {
       const double d = leg_driving_increment(program[j], dt);
       if (!leg_has_servo(program[j]) || !(d > 0.0)) continue;
       ++legs;
-      const double ratio = servo_cap(deck.servo, program[j], dt) / d;
+      const double ratio = servo_cap(servo, program[j], dt) / d;
       if (ratio < smallest) smallest = ratio, where = stage + " leg " + std::to_string(j);
     }
   };
-  if (deck.prepare) scan(deck.prepare->legs, deck.stage_time_step(*deck.prepare), "the preparation's");
-  for (const TestDef& t : deck.tests) scan(t.legs, deck.stage_time_step(t), "test '" + t.name + "'");
+  if (deck.prepare)
+    scan(deck.prepare->legs, deck.stage_servo(*deck.prepare), deck.stage_time_step(*deck.prepare), "the preparation's");
+  for (const TestDef& t : deck.tests) scan(t.legs, deck.stage_servo(t), deck.stage_time_step(t), "test '" + t.name + "'");
   if (legs == 0) return "";
   return "servo: " + std::to_string(legs) + " leg(s) with a servo beside a driven axis; the tightest cap is " +
          fmt(smallest) + " x its driving strain per step (" + where + "); the servo's axes need about 1 to 2 x, " +

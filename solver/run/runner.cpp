@@ -49,7 +49,9 @@ std::string loaded_overlap_cause(const Deck& deck, const State& state) {
 void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& options, State& state, bool resumed,
                      const std::vector<Leg>& legs) {
   const PrepareDef& prep = *deck.prepare;
-  const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(prep));
+  Model stage_model = make_model(deck, state.particles.radius, deck.stage_time_step(prep));
+  stage_model.servo = deck.stage_servo(prep);
+  const Model& model = stage_model;
   if (!resumed) evaluate_forces(model, prep.stage_friction(), state);
   StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false, prep.snapshots);
   if (!resumed && deck.initial_state) out.set_start_cause(loaded_overlap_cause(deck, state));

@@ -128,6 +128,25 @@ TEST(ToleranceRules, MalformedTablesAreRefused) {
   EXPECT_THROW(parse_tolerance_rules(Json{{"levels", {bad}}}.dump()), DeckError);
 }
 
+// The preparation's own servo cap binds its legs only; a value out of range is refused naming its key.
+TEST(StageServo, PreparationCapIsItsOwnAndOutOfRangeIsRefused) {
+  Json j = deck_json();
+  j["prepare"]["servo_max_strain_increment"] = 4.0e-6;
+  const Deck d = parse_deck(j.dump(), "deck.json");
+  EXPECT_EQ(d.stage_servo(*d.prepare).max_strain_increment, 4.0e-6);
+  EXPECT_TRUE(d.stage_servo(*d.prepare).max_strain_increment_given);
+  EXPECT_FALSE(d.stage_servo(d.tests[0]).max_strain_increment_given);
+  for (const double bad : {0.5, -1.0e-6}) {
+    j["prepare"]["servo_max_strain_increment"] = bad;
+    try {
+      parse_deck(j.dump(), "deck.json");
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const DeckError& e) {
+      EXPECT_NE(std::string(e.what()).find("prepare.servo_max_strain_increment"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Tolerance, ResolvedDeckMeetsTheRules) {
   const std::string text = deck_json().dump();
   const Deck written = parse_deck(text, "deck.json");
@@ -162,6 +181,15 @@ TEST(Tolerance, ResolvedDeckMeetsTheRules) {
     EXPECT_NEAR(static_cast<double>(d.prepare->equilibrium.min_steps) * dt_prep, 50000 * 1.0e-6, dt_prep);
     EXPECT_NEAR(static_cast<double>(d.prepare->equilibrium.check_interval) * dt_prep, 1000 * 1.0e-6, dt_prep);
     EXPECT_NEAR(static_cast<double>(d.prepare->output_interval) * dt_prep, 1000 * 1.0e-6, dt_prep);
+    // Its fast leg and its servo's cap keep their strain rates (the fast leg times the level's scale), so the
+    // preparation follows the deck's schedule in time; the tests keep the deck's servo rule.
+    EXPECT_NEAR(d.prepare->fast_strain_increment / dt_prep,
+                level.fast_strain_increment_scale * written.prepare->fast_strain_increment / 1.0e-6,
+                1e-12 * d.prepare->fast_strain_increment / dt_prep);
+    ASSERT_TRUE(d.prepare->servo_max_strain_increment.has_value());
+    EXPECT_NEAR(*d.prepare->servo_max_strain_increment / dt_prep, kDefaultServoCap / 1.0e-6, 1e-12 / 1.0e-6);
+    EXPECT_EQ(d.stage_servo(*d.prepare).max_strain_increment, *d.prepare->servo_max_strain_increment);
+    EXPECT_FALSE(d.stage_servo(d.tests[0]).max_strain_increment_given);
     // The resolved settings name every stage.
     const Json settings = Json::parse(d.tolerance_settings);
     ASSERT_EQ(settings["stages"].size(), 3u);

@@ -518,7 +518,7 @@ def write_rules(study, path=RULES_PATH):
             "time_step_fraction": "tests' time step / the stage's stability limit (core/plan critical_time_step)",
             "prepare_time_step_fraction": "the preparation's time step / the stability limit",
             "inertial_number": "strain-driven legs: strain rate = I / (d_mean sqrt(rho / p)), p the leg's confining stress",
-            "fast_strain_increment_scale": "the preparation's fast-compression strain per step, times the deck's",
+            "fast_strain_increment_scale": "the preparation's fast-compression strain rate (its strain per step over the stage's time step), times the deck's; its servo leg's cap keeps the deck's strain rate too",
             "damping_scale": "body damping (translational and rotational), times the deck's",
         },
         "levels": levels,
