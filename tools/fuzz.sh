@@ -10,8 +10,23 @@ mkdir -p "$out"
 # -fopenmp: the neighbour search the state reader rebuilds with runs in OpenMP (clang's libomp, libomp-dev).
 flags=(-std=c++20 -O1 -g -fopenmp -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I solver -I /usr/include/eigen3)
-common=(solver/io/deck_reader.cpp solver/io/deck_prescan.cpp solver/core/plan.cpp solver/io/files.cpp solver/io/state_file.cpp solver/neighbor/neighbor_list.cpp solver/core/state.cpp
-        solver/core/grading.cpp)
+# The deck reader resolves --tolerance with the time-to-answer rules, which CMake compiles in from their JSON
+# (solver/CMakeLists.txt); the same substitution here.
+python3 - <<'PY'
+template = open("solver/io/time_to_answer_rules.cpp.in").read()
+rules = open("solver/io/time_to_answer_rules.json").read()
+text = template.replace("@CELLDEM_TIME_TO_ANSWER_RULES@", rules)
+path = "build-fuzz/time_to_answer_rules.cpp"
+try:
+    unchanged = open(path).read() == text
+except OSError:
+    unchanged = False
+if not unchanged:
+    open(path, "w").write(text)
+PY
+common=(solver/io/deck_reader.cpp solver/io/deck_prescan.cpp solver/io/tolerance.cpp "$out/time_to_answer_rules.cpp"
+        solver/core/plan.cpp solver/io/files.cpp solver/io/state_file.cpp solver/neighbor/neighbor_list.cpp
+        solver/core/state.cpp solver/core/grading.cpp)
 for target in deck state; do
   if [[ ! -x "$out/fuzz_$target" || -n "$(find solver tests/fuzz -newer "$out/fuzz_$target" -name '*.[ch]pp' | head -1)" ]]; then
     clang++ "${flags[@]}" "tests/fuzz/fuzz_$target.cpp" "${common[@]}" -o "$out/fuzz_$target"

@@ -44,8 +44,4 @@ EquilibriumCheck check_equilibrium(const State& state, const ContactMeasures& co
   return equilibrium(state, [&] { return contacts.unbalanced_force; }, criterion, targets);
 }
 
-double inertial_number(double strain_rate, double diameter, double density, double mean_stress) {
-  return mean_stress > 0.0 ? strain_rate * diameter * std::sqrt(density / mean_stress) : INFINITY;
-}
-
 }  // namespace celldem

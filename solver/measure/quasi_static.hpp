@@ -1,6 +1,7 @@
 // Is the packing at rest, is the loading slow: the preparation's equilibrium criterion and the inertial
 // number of a test.
 #pragma once
+#include <cmath>
 #include <string>
 
 #include "core/deck.hpp"
@@ -30,7 +31,9 @@ EquilibriumCheck check_equilibrium(const State& state, const ContactMeasures& co
 
 // Inertial number I = rate d sqrt(rho / p): the time a grain needs to rearrange under p over the loading
 // time (quasi-static below about 1e-3). Infinite when p <= 0.
-double inertial_number(double strain_rate, double diameter, double density, double mean_stress);
+inline double inertial_number(double strain_rate, double diameter, double density, double mean_stress) {
+  return mean_stress > 0.0 ? strain_rate * diameter * std::sqrt(density / mean_stress) : INFINITY;
+}
 inline constexpr double kQuasiStaticInertia = 1e-3;
 
 }  // namespace celldem
