@@ -126,7 +126,8 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   run.update_summary([&](Json& s) { s["tests"][test.name] = result; });
   for (const std::string& w : warnings) run.add_warning(w);
   if (check) {
-    const Json verified = verify_test_rate(run, deck, options, test, *check, branch_points, out.rows());
+    const Json verified = verify_test_rate(run, deck, options, test, *check, branch_points, out.rows(),
+                                         result.value("peak_reached", true));
     run.update_summary([&](Json& s) { s["tests"][test.name]["verify_rate"] = verified; });
   }
 }

@@ -106,9 +106,10 @@ class BranchPoints {
 
 // Runs the branches of a finished test (the test's rows as series.csv holds them) and returns summary.json's
 // "verify_rate" of the test: per point the window, both values of each quantity, their difference in floors,
-// the floors, and the verdict. A branch that fails is recorded as such (its error), not thrown.
+// the floors, and the verdict. A branch that fails is recorded as such (its error), not thrown. Without a peak
+// (`peak_reached`: summary.json's, s11/s33 largest at the last row) the peak is not checked.
 nlohmann::json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
                                 const VerifyRateOptions& check, const BranchPoints& points,
-                                const std::vector<SeriesRow>& rows);
+                                const std::vector<SeriesRow>& rows, bool peak_reached);
 
 }  // namespace celldem

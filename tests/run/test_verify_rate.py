@@ -84,7 +84,12 @@ with tempfile.TemporaryDirectory() as work:
     v = verdicts(slow)
     print("paper rate:", v)
     check(len(v) == 4, f"two points of two tests checked, got {v}")
-    check(all(x == "converged" for x in v.values()), f"at the paper's rate every point converges: {v}")
+    # A test whose s11/s33 is largest at its last row has no peak to check (summary.json peak_reached).
+    for (test, point), x in v.items():
+        no_peak = point == "peak" and not slow["tests"][test]["peak_reached"]
+        check(x == ("not checked" if no_peak else "converged"),
+              f"at the paper's rate every point converges, a peak that is the last row is not checked: {v}")
+    check(list(v.values()).count("converged") >= 3, f"at least three points checked and converged: {v}")
 
     fast_deck = deck_at(100 * paper, work, "too_fast")
     fast = run(fast_deck, os.path.join(work, "fast"), "--verify-rate", "--threads", "1")
@@ -93,6 +98,9 @@ with tempfile.TemporaryDirectory() as work:
     check("not converged" in v.values(), f"a run 100 x too fast has a point not converged: {v}")
     for test, t in fast["tests"].items():
         for point, p in t["verify_rate"]["points"].items():
+            if p["verdict"] == "not checked":
+                check(point == "peak" and not t["peak_reached"], f"{test} {point}: not checked: {p.get('reason')}")
+                continue
             branch_path = os.path.join(work, "fast", p["series"])
             check(os.path.isfile(branch_path), f"{test} {point}: {p['series']} missing")
             with open(branch_path) as f:
@@ -115,6 +123,8 @@ with tempfile.TemporaryDirectory() as work:
     two = run(fast_deck, os.path.join(work, "two"), "--verify-rate", "--threads", "2", "--fixed-threads")
     for test, t in fast["tests"].items():
         for point, p in t["verify_rate"]["points"].items():
+            if "series" not in p:  # (not checked: no branch)
+                continue
             check(read(os.path.join(work, "fast", p["series"])) == read(os.path.join(work, "two", p["series"])),
                   f"{test} {point}: the branch's series differs between 1 and 2 threads")
 
