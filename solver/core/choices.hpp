@@ -41,6 +41,13 @@ inline constexpr std::array<std::string_view, 2> kGradingBasisNames = {"mass", "
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
 // The points of a test a rate check (tests[].verify_rate, run --verify-rate) branches to.
 inline constexpr std::array<std::string_view, 2> kVerifyPointNames = {"peak", "end"};
+// Probes (tests[].probes, run/probes.hpp): what a probe controls, the plane of stress probes' directions, and
+// the named points a probe set starts from (beside strains of axis 1).
+enum class ProbeKind { Stress, Strain };
+inline constexpr std::array<std::string_view, 2> kProbeKindNames = {"stress", "strain"};
+enum class ProbePlane { Rendulic, Deviatoric, List };
+inline constexpr std::array<std::string_view, 3> kProbePlaneNames = {"rendulic", "pi", "list"};
+inline constexpr std::array<std::string_view, 2> kProbePointNames = {"peak", "end"};
 // The shear axes: the tilts h(0,1), h(0,2), h(1,2) of the cell (LAMMPS's xy, xz, yz), each strained
 // against the reference length of its column's axis (cell/control.hpp has the convention).
 inline constexpr std::array<std::string_view, 3> kShearAxisNames = {"x12", "x13", "x23"};

@@ -218,6 +218,19 @@ struct VerifyRateDef {
   double rate_factor = keys::verify_rate_rate_factor.fallback;      // the branch's rate over the test's
 };
 
+// A test's incremental response probes (tests[].probes; run/probes.hpp runs them).
+struct ProbeDef {
+  std::vector<std::string> at;  // named points, kProbePointNames
+  std::vector<double> at_e1;    // points at strains of axis 1, ascending
+  ProbeKind kind = ProbeKind::Stress;
+  ProbePlane plane = ProbePlane::Rendulic;
+  int directions = static_cast<int>(keys::probes_directions.fallback);
+  std::vector<std::array<double, 3>> list;  // plane List: unit directions (ds11, ds22, ds33)
+  std::vector<double> magnitudes;           // [Pa] stress, [-] strain
+  std::int64_t steps = static_cast<std::int64_t>(keys::probes_steps.fallback);
+  std::int64_t hold_steps = static_cast<std::int64_t>(keys::probes_hold_steps.fallback);
+};
+
 // A loading test: a load program of one or more legs from the prepared state.
 struct TestDef {
   std::string name;
@@ -229,6 +242,7 @@ struct TestDef {
   SnapshotDef snapshots;
   bool dynamic = false;  // not held to quasi-static (run/health.hpp)
   std::optional<VerifyRateDef> verify_rate;  // the deck asks for the rate check of this test
+  std::optional<ProbeDef> probes;            // incremental response probes from points of the test
   std::optional<double> time_step;  // [s] the stage's own time step; nullopt: the deck's (Deck::stage_time_step)
   Friction stage_friction() const { return {friction, rolling_friction}; }
 };

@@ -453,6 +453,44 @@ inline constexpr KeySpec verify_rate_rate_factor{.path = "tests[].verify_rate.ra
     .min = 1e-3, .max = 0.999, .required = false, .fallback = 0.5,
     .meaning = "the branch's driving rate over the test's: strain increments and rates of the strain-driven axes, "
                "and stress ramps' rates"};
+inline constexpr KeySpec test_probes{.path = "tests[].probes", .kind = KeyKind::Object, .required = false,
+    .default_text = "none",
+    .meaning = "incremental response probes: from the exact state at each point of the test, small stress or strain "
+               "loadings in several directions, each followed by its unloading, beside a probe of no loading whose "
+               "response (creep) is subtracted; `<test>/probes/` (`probes.csv`, `stiffness.json`; docs/outputs.md); "
+               "the test's own series are untouched"};
+inline constexpr KeySpec probes_at{.path = "tests[].probes.at", .kind = KeyKind::Array, .required = false,
+    .default_text = "[]", .choices = kProbePointNames,
+    .meaning = "named points: `peak` (the first row of the largest s11/s33) and `end` (the last row)"};
+inline constexpr KeySpec probes_at_e1{.path = "tests[].probes.at_e1", .kind = KeyKind::Array, .required = false,
+    .default_text = "[]", .meaning = "points at the first row whose e1 reaches each of these strains (at least one "
+                                     "point in `at` or `at_e1`)"};
+inline constexpr KeySpec probes_kind{.path = "tests[].probes.kind", .kind = KeyKind::Choice, .required = false,
+    .default_text = "stress", .choices = kProbeKindNames,
+    .meaning = "`stress`: the three normal stresses follow a ramp to s + M d and back, shear strains held; "
+               "`strain`: the six strains (e11, e22, e33, g12, g13, g23) one at a time by M and back, the others "
+               "held (the tangent stiffness and its elastic part)"};
+inline constexpr KeySpec probes_plane{.path = "tests[].probes.plane", .kind = KeyKind::Choice, .required = false,
+    .default_text = "rendulic", .choices = kProbePlaneNames,
+    .meaning = "stress probes' directions d: `rendulic` (cos a, sin a / sqrt 2, sin a / sqrt 2), `pi` (the "
+               "deviatoric plane at constant p: cos a (2, -1, -1) / sqrt 6 + sin a (0, 1, -1) / sqrt 2), a = 360 "
+               "deg k / `directions`; or `list`"};
+inline constexpr KeySpec probes_directions{.path = "tests[].probes.directions", .kind = KeyKind::Integer, .min = 1,
+    .max = 720, .required = false, .fallback = 16, .meaning = "stress probes in the `rendulic` or `pi` plane: how many, "
+                                                              "equally spaced from a = 0"};
+inline constexpr KeySpec probes_list{.path = "tests[].probes.list", .kind = KeyKind::Array, .required = false,
+    .default_text = "required with `list`",
+    .meaning = "stress probes' directions (ds11, ds22, ds33), each normalised to length 1"};
+inline constexpr KeySpec probes_magnitudes{.path = "tests[].probes.magnitudes", .kind = KeyKind::Array,
+    .default_text = "required",
+    .meaning = "the probes' sizes M, each a probe set: [Pa] the stress increment's length (stress), [-] the strain "
+               "(strain, at most 0.01); two show the linear range"};
+inline constexpr KeySpec probes_steps{.path = "tests[].probes.steps", .kind = KeyKind::Integer, .min = 1,
+    .max = kMaxCount, .required = false, .fallback = 3000, .meaning = "steps of the loading ramp, and of the "
+                                                                      "unloading ramp"};
+inline constexpr KeySpec probes_hold_steps{.path = "tests[].probes.hold_steps", .kind = KeyKind::Integer, .min = 1,
+    .max = kMaxCount, .required = false, .fallback = 1000,
+    .meaning = "steps held after the loading and after the unloading (the response is read at their ends)"};
 // clang-format on
 
 // Every key in table order (the order of docs/deck.md's table).
@@ -478,7 +516,9 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &rotation_from, &rotation_rate, &rotation_angle_increment, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_time_step, &test_output_interval, &test_dynamic, &test_verify_rate,
-    &verify_rate_at, &verify_rate_window_strain, &verify_rate_rate_factor});
+    &verify_rate_at, &verify_rate_window_strain, &verify_rate_rate_factor, &test_probes, &probes_at, &probes_at_e1,
+    &probes_kind, &probes_plane, &probes_directions, &probes_list, &probes_magnitudes, &probes_steps,
+    &probes_hold_steps});
 
 // The keys that choose the contact sub-models; a SubModelSelection names each one's choice in this order.
 inline constexpr auto kSubModels = std::to_array<const KeySpec*>({&contact_normal, &contact_tangential,

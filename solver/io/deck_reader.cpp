@@ -585,6 +585,70 @@ VerifyRateDef read_verify_rate(ObjectReader r) {
   return v;
 }
 
+ProbeDef read_probes(ObjectReader r) {
+  ProbeDef p;
+  if (r.has(keys::probes_at)) {
+    const Json& list = r.raw(keys::probes_at);
+    const std::string path = r.at(keys::probes_at);
+    if (!list.is_array()) fail(path, "expected an array of \"peak\" and \"end\"");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string item = path + "[" + std::to_string(i) + "]";
+      if (!list[i].is_string() || std::find(kProbePointNames.begin(), kProbePointNames.end(),
+                                            list[i].get<std::string>()) == kProbePointNames.end())
+        fail(item, "expected \"peak\" or \"end\"");
+      if (std::find(p.at.begin(), p.at.end(), list[i].get<std::string>()) != p.at.end()) fail(item, "given twice");
+      p.at.push_back(list[i].get<std::string>());
+    }
+  }
+  if (r.has(keys::probes_at_e1)) {
+    p.at_e1 = read_numbers(r, keys::probes_at_e1);
+    for (std::size_t i = 0; i < p.at_e1.size(); ++i)
+      if (std::abs(p.at_e1[i]) > 0.9) fail(r.at(keys::probes_at_e1) + "[" + std::to_string(i) + "]", "expected a strain in [-0.9, 0.9]");
+    std::sort(p.at_e1.begin(), p.at_e1.end());
+    if (std::adjacent_find(p.at_e1.begin(), p.at_e1.end()) != p.at_e1.end()) fail(r.at(keys::probes_at_e1), "a strain given twice");
+  }
+  if (p.at.empty() && p.at_e1.empty()) fail(r.path(), "give the points: \"at\" ([\"peak\", \"end\"]) or \"at_e1\" (strains)");
+  p.kind = r.choice_of<ProbeKind>(keys::probes_kind);
+  const bool stress = p.kind == ProbeKind::Stress;
+  for (const KeySpec* key : {&keys::probes_plane, &keys::probes_directions, &keys::probes_list})
+    if (!stress && r.has(*key)) fail(r.at(*key), "only stress probes have directions in a plane (strain probes take the six strains)");
+  p.plane = r.choice_of<ProbePlane>(keys::probes_plane);
+  if (r.has(keys::probes_directions) && p.plane == ProbePlane::List)
+    fail(r.at(keys::probes_directions), "the `list` plane takes its directions from \"list\"");
+  p.directions = static_cast<int>(r.integer(keys::probes_directions));
+  if (p.plane == ProbePlane::List) {
+    const Json& list = r.raw(keys::probes_list);
+    const std::string path = r.at(keys::probes_list);
+    if (!list.is_array() || list.empty()) fail(path, "expected a non-empty array of [ds11, ds22, ds33]");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string item = path + "[" + std::to_string(i) + "]";
+      if (!list[i].is_array() || list[i].size() != 3) fail(item, "expected [ds11, ds22, ds33]");
+      std::array<double, 3> d{};
+      for (int k = 0; k < 3; ++k) {
+        if (!list[i][k].is_number() || !std::isfinite(list[i][k].get<double>())) fail(item, "expected three finite numbers");
+        d[k] = list[i][k].get<double>();
+      }
+      const double length = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      if (!(length > 0.0)) fail(item, "the direction has length 0");
+      for (double& x : d) x /= length;
+      p.list.push_back(d);
+    }
+  } else if (r.has(keys::probes_list)) {
+    fail(r.at(keys::probes_list), "a list of directions needs \"plane\": \"list\"");
+  }
+  p.magnitudes = read_numbers(r, keys::probes_magnitudes);
+  if (p.magnitudes.empty()) fail(r.at(keys::probes_magnitudes), "expected at least one magnitude");
+  for (std::size_t i = 0; i < p.magnitudes.size(); ++i) {
+    const std::string item = r.at(keys::probes_magnitudes) + "[" + std::to_string(i) + "]";
+    if (!(p.magnitudes[i] > 0.0)) fail(item, "must be > 0");
+    if (!stress && p.magnitudes[i] > 0.01) fail(item, "a strain probe's strain must be at most 0.01 (it probes the tangent)");
+  }
+  p.steps = r.integer(keys::probes_steps);
+  p.hold_steps = r.integer(keys::probes_hold_steps);
+  r.finish();
+  return p;
+}
+
 SnapshotDef read_snapshots(ObjectReader r) {
   SnapshotDef s;
   s.interval = r.integer(keys::snapshots_interval);
@@ -702,6 +766,7 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
   if (r.has(keys::snapshots)) t.snapshots = read_snapshots(r.object(keys::snapshots));
   t.dynamic = r.boolean(keys::test_dynamic);
   if (r.has(keys::test_verify_rate)) t.verify_rate = read_verify_rate(r.object(keys::test_verify_rate));
+  if (r.has(keys::test_probes)) t.probes = read_probes(r.object(keys::test_probes));
   r.finish();
   return t;
 }

@@ -227,6 +227,8 @@ std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
                   "for particle snapshots)");
   if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.verify_rate.has_value(); }))
     out.push_back("rate check (tests[].verify_rate): not translated; the scripts run each test once, at its rate");
+  if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.probes.has_value(); }))
+    out.push_back("probes (tests[].probes): not translated; the scripts run each test's own program only");
   return out;
 }
 

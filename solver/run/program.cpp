@@ -351,7 +351,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
         if (program.control_failure == ControlFailure::Stop)
           throw RunError(message + ". The last checkpoint is kept; with \"control_failure\": \"warn\" the run goes on "
                          "and marks the test uncontrolled");
-        std::fprintf(stderr, "warning: %s\n", message.c_str());
+        if (program.print_control_warnings) std::fprintf(stderr, "warning: %s\n", message.c_str());
       }
       std::optional<ContactMeasures> contacts;  // measured once when the check and the step's row both read them
       if (leg.end.kind == LegEndKind::Equilibrium && c.leg_steps % program.equilibrium->check_interval == 0) {

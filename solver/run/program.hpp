@@ -78,6 +78,7 @@ struct Program {
   std::string stage = "prepare";                // the stage's name (messages)
   ControlFailure control_failure = ControlFailure::Stop;  // a failed control stops the stage, or is recorded
   std::string equilibrium_key = "prepare.equilibrium";    // where the deck sets `equilibrium` (messages)
+  bool print_control_warnings = true;  // with control_failure warn: print a failed control (probes record it only)
 };
 
 // Runs the program from the state's current leg (state.control.leg) to its end. `errors` holds one entry

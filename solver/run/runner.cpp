@@ -15,6 +15,7 @@
 #include "measure/quasi_static.hpp"
 #include "run/health.hpp"
 #include "run/preflight.hpp"
+#include "run/probes.hpp"
 #include "run/program.hpp"
 #include "run/run_directory.hpp"
 #include "run/sample.hpp"
@@ -107,11 +108,21 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   out.open(state, resumed);
   const std::optional<VerifyRateOptions> check = verify_rate_for(options.verify_rate, test);
   BranchPoints branch_points(test, deck, check.value_or(VerifyRateOptions{}));
+  const ProbeDef no_probes;
+  ProbePoints probe_points(test.probes ? *test.probes : no_probes);
   if (check) {
     if (resumed) branch_points.resume(state, out.rows());  // the rows read back, and the state resumed from
     else branch_points.on_row(state, out.rows().front());  // the first row, written by open
-    out.set_row_observer([&](const State& s, const SeriesRow& row) { branch_points.on_row(s, row); });
   }
+  if (test.probes) {
+    if (resumed) probe_points.resume(out.rows());
+    else probe_points.on_row(state, out.rows().front());
+  }
+  if (check || test.probes)
+    out.set_row_observer([&](const State& s, const SeriesRow& row) {
+      if (check) branch_points.on_row(s, row);
+      if (test.probes) probe_points.on_row(s, row);
+    });
   Program program{test.legs, test.stage_friction(), &test.equilibrium, plan_test(deck, test).steps};
   program.equilibrium_key = "tests[].equilibrium";
   program.adaptive_threads = !options.fixed_threads;
@@ -125,6 +136,11 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
                                      state.control.stage_steps, state.particles.size(), warnings);
   run.update_summary([&](Json& s) { s["tests"][test.name] = result; });
   for (const std::string& w : warnings) run.add_warning(w);
+  if (test.probes) {
+    probe_points.finish(state, out.rows().back());
+    const Json probes = run_test_probes(run, deck, options, test, probe_points, result.value("peak_reached", true));
+    run.update_summary([&](Json& s) { s["tests"][test.name]["probes"] = probes; });
+  }
   if (check) {
     const Json verified = verify_test_rate(run, deck, options, test, *check, branch_points, out.rows(),
                                          result.value("peak_reached", true));

@@ -111,11 +111,11 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
   if (row_due(state)) write_row(state, contacts);
   snapshot_if_due(state, false);
   progress_.update(s, fraction, status);
-  if (stop_requested() && branch_) {  // a rate check is run again whole, with the tail of its test
+  if (stop_requested() && branch_) {  // a rate check or a probe is run again whole, with the tail of its test
     progress_.finish();
-    throw Interrupted("stopped by a signal in the rate check '" + stage_ + "' at step " + std::to_string(s) +
+    throw Interrupted("stopped by a signal in the branch '" + stage_ + "' at step " + std::to_string(s) +
                       "; the test's last checkpoint is kept. Continue with: celldem run " + deck_.source + " --out " +
-                      options_.out_dir + " --resume (its points before that checkpoint are then not checked)");
+                      options_.out_dir + " --resume (its rate checks and probes at points before that checkpoint are then not run)");
   }
   if (stop_requested()) {
     checkpoint(state);

@@ -1,0 +1,436 @@
+#include "run/probes.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include <Eigen/Dense>
+
+#include "cell/control.hpp"
+#include "core/model.hpp"
+#include "core/plan.hpp"
+#include "io/files.hpp"
+#include "run/program.hpp"
+#include "run/progress.hpp"
+#include "run/run_directory.hpp"
+#include "run/runner.hpp"
+#include "run/stage_output.hpp"
+
+namespace celldem {
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+using Vec6 = std::array<double, 6>;
+constexpr std::array<const char*, 6> kStressNames = {"s11", "s22", "s33", "s12", "s13", "s23"};
+constexpr std::array<const char*, 6> kStrainNames = {"e1", "e2", "e3", "g12", "g13", "g23"};
+constexpr std::array<const char*, 6> kStrainProbeNames = {"e11", "e22", "e33", "g12", "g13", "g23"};
+
+std::string fmt(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", x);
+  return buf;
+}
+
+Vec6 stresses(const SeriesRow& r) { return {r.s11, r.s22, r.s33, r.s12, r.s13, r.s23}; }
+Vec6 strains(const SeriesRow& r) { return {r.e1, r.e2, r.e3, r.g12, r.g13, r.g23}; }
+Vec6 minus(const Vec6& a, const Vec6& b) {
+  Vec6 d;
+  for (int k = 0; k < 6; ++k) d[k] = a[k] - b[k];
+  return d;
+}
+double norm(const Vec6& a) {
+  double s = 0.0;
+  for (double x : a) s += x * x;
+  return std::sqrt(s);
+}
+
+}  // namespace
+
+ProbePoints::ProbePoints(const ProbeDef& def) : def_(def) {
+  for (const double e1 : def.at_e1) {
+    Point p;
+    p.name = "e1_" + fmt(e1);
+    p.missing = "the test ended before e1 reached " + fmt(e1);
+    e1_.push_back(p);
+  }
+  peak_.name = "peak";
+  end_.name = "end";
+}
+
+void ProbePoints::on_row(const State& state, const SeriesRow& row) {
+  std::shared_ptr<const State> copy;  // one copy for every point this row is
+  const auto keep = [&](Point& p) {
+    if (!copy) copy = std::make_shared<const State>(state);
+    p.state = copy;
+    p.row = row;
+    p.missing.clear();
+  };
+  for (std::size_t k = 0; k < e1_.size(); ++k) {
+    const double target = def_.at_e1[k];
+    const bool reached = target >= 0.0 ? row.e1 >= target : row.e1 <= target;
+    if (reached && !e1_[k].state && e1_[k].missing.rfind("the test was resumed", 0) != 0) keep(e1_[k]);
+  }
+  const bool wants_peak = std::find(def_.at.begin(), def_.at.end(), "peak") != def_.at.end();
+  if (row.ratio13 > best_ratio_) {  // the summary's peak: the first row of the largest s11/s33
+    best_ratio_ = row.ratio13;
+    if (wants_peak && !resumed_) keep(peak_);
+  }
+}
+
+void ProbePoints::resume(const std::vector<SeriesRow>& rows) {
+  resumed_ = true;
+  const std::string lost = "the test was resumed after this point (the states kept before are lost with the run "
+                           "that was stopped; --force runs it again whole)";
+  for (const SeriesRow& row : rows) best_ratio_ = std::max(best_ratio_, row.ratio13);
+  for (std::size_t k = 0; k < e1_.size(); ++k) {
+    const double target = def_.at_e1[k];
+    const bool passed = std::any_of(rows.begin(), rows.end(), [&](const SeriesRow& r) {
+      return target >= 0.0 ? r.e1 >= target : r.e1 <= target;
+    });
+    if (passed) e1_[k].missing = lost;
+  }
+  peak_.missing = lost;
+}
+
+void ProbePoints::finish(const State& state, const SeriesRow& row) {
+  end_.state = std::make_shared<const State>(state);
+  end_.row = row;
+}
+
+std::vector<ProbePoints::Point> ProbePoints::points(bool peak_reached) const {
+  std::vector<Point> out = e1_;
+  for (const std::string& name : def_.at) {
+    Point p = name == "peak" ? peak_ : end_;
+    if (name == "peak" && !peak_reached) {
+      p.state.reset();
+      p.missing = "no peak reached: s11/s33 is largest at the end of the test (summary.json peak_reached)";
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+std::vector<ProbeDirection> probe_directions(const ProbeDef& def) {
+  std::vector<ProbeDirection> out;
+  out.push_back({"reference", 0.0, 0.0, {}});
+  for (std::size_t m = 0; m < def.magnitudes.size(); ++m) {
+    const std::string prefix = def.magnitudes.size() > 1 ? "m" + std::to_string(m + 1) + "-" : "";
+    if (def.kind == ProbeKind::Strain) {
+      for (int k = 0; k < 6; ++k) {
+        ProbeDirection p{prefix + kStrainProbeNames[k], def.magnitudes[m], 0.0, {}};
+        p.direction[k] = 1.0;
+        out.push_back(p);
+      }
+      continue;
+    }
+    const int n = def.plane == ProbePlane::List ? static_cast<int>(def.list.size()) : def.directions;
+    for (int i = 0; i < n; ++i) {
+      char name[16];
+      std::snprintf(name, sizeof name, "d%02d", i);
+      ProbeDirection p{prefix + name, def.magnitudes[m], 0.0, {}};
+      if (def.plane == ProbePlane::List) {
+        for (int k = 0; k < 3; ++k) p.direction[k] = def.list[static_cast<std::size_t>(i)][k];
+      } else {
+        const double a = 2.0 * kPi * i / n;
+        p.angle_deg = 360.0 * i / n;
+        const double c = std::cos(a), s = std::sin(a);
+        if (def.plane == ProbePlane::Rendulic) {
+          p.direction = {c, s / std::sqrt(2.0), s / std::sqrt(2.0), 0, 0, 0};
+        } else {  // the deviatoric plane: a = 0 is triaxial compression (s11 up, s22 and s33 down alike)
+          p.direction = {2.0 * c / std::sqrt(6.0), -c / std::sqrt(6.0) + s / std::sqrt(2.0),
+                         -c / std::sqrt(6.0) - s / std::sqrt(2.0), 0, 0, 0};
+        }
+      }
+      out.push_back(p);
+    }
+  }
+  return out;
+}
+
+std::vector<Leg> probe_legs(const ProbeDef& def, const ProbeDirection& probe, const Vec3& s, double time_step) {
+  const auto ends_after = [](std::int64_t steps) {
+    LegEnd e;
+    e.kind = LegEndKind::Steps;
+    e.steps = steps;
+    return e;
+  };
+  std::vector<Leg> legs(4);
+  const double ramp_time = static_cast<double>(def.steps) * time_step;
+  for (int phase = 0; phase < 4; ++phase) {  // load, hold, unload, hold
+    Leg& leg = legs[static_cast<std::size_t>(phase)];
+    leg.end = ends_after(phase % 2 == 0 ? def.steps : def.hold_steps);
+    const double sign = phase == 0 ? 1.0 : phase == 2 ? -1.0 : 0.0;  // the ramps' direction
+    const bool loaded = phase == 1 || phase == 2;                    // the phase starts at the loaded point
+    if (def.kind == ProbeKind::Stress) {
+      for (int k = 0; k < 3; ++k) {
+        const double increment = probe.magnitude * probe.direction[static_cast<std::size_t>(k)];
+        const double from = s[k] + (loaded ? increment : 0.0);
+        leg.axes[static_cast<std::size_t>(k)] =
+            sign != 0.0 ? AxisControl{AxisMode::StressRamp, from, sign * increment / ramp_time}
+                        : AxisControl{AxisMode::Stress, from};
+      }
+      continue;  // the shear axes are held (no shear axis named: the tilts stay as they stand)
+    }
+    const double per_step = sign * probe.magnitude / static_cast<double>(def.steps);
+    for (int k = 0; k < 3; ++k)
+      leg.axes[static_cast<std::size_t>(k)] = {AxisMode::StrainIncrement, per_step * probe.direction[static_cast<std::size_t>(k)]};
+    for (int a = 0; a < 3; ++a)
+      if (probe.direction[static_cast<std::size_t>(3 + a)] != 0.0)
+        leg.shear[static_cast<std::size_t>(a)] = AxisControl{AxisMode::StrainIncrement, per_step};
+  }
+  return legs;
+}
+
+namespace {
+
+// What one probe did: its rows at the end of the loaded hold and of the unloaded hold.
+struct ProbeResult {
+  bool ran = false;
+  bool controlled = true;
+  std::string error;   // the probe failed (a RunError), else empty
+  SeriesRow loaded, unloaded;
+  std::int64_t steps = 0;
+};
+
+struct Job {
+  std::size_t point;
+  ProbeDirection probe;
+};
+
+ProbeResult run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
+                      const ProbePoints::Point& point, const ProbeDirection& probe) {
+  ProbeResult result;
+  const ProbeDef& def = *test.probes;
+  State state = *point.state;
+  Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
+  // The servo keeps the cap of the test's leg at the point: a probe's stress axes follow a sample that moves at
+  // the test's rate when the probe starts (the probe's own legs, driven by nothing, would get the smallest cap).
+  model.servo.max_strain_increment =
+      servo_cap(deck.stage_servo(test), test.legs[static_cast<std::size_t>(state.control.leg)], model.dt);
+  model.servo.max_strain_increment_given = true;
+  const std::vector<Leg> legs = probe_legs(def, probe, state.normal_stress, model.dt);
+  begin_leg(state, 0);
+  const std::int64_t from_step = state.control.stage_steps;
+  const std::int64_t total = 2 * (def.steps + def.hold_steps);
+  const std::int64_t interval = std::max<std::int64_t>(1, def.steps / 10);
+  const std::string stage = test.name + "/probes/" + point.name + "/" + probe.name;
+  RunOptions quiet = options;
+  quiet.progress = ProgressMode::Off;  // one line for the whole set (run_test_probes)
+  try {
+    StageOutput out(run, deck, quiet, model, stage, interval, /*loading_test=*/true);
+    out.set_branch();
+    out.open(state, /*resumed=*/false);
+    Program program{legs, test.stage_friction(), &test.equilibrium, from_step + total};
+    program.adaptive_threads = false;
+    program.stage = stage;
+    program.control_failure = ControlFailure::Warn;  // recorded with the probe, not a stop of the run
+    program.print_control_warnings = false;
+    std::vector<ControlErrors> errors;
+    run_program(model, program, state, out, errors);
+    out.finish(state);
+    result.ran = true;
+    for (const ControlErrors& e : errors)
+      result.controlled &= std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
+    const std::vector<SeriesRow>& rows = out.rows();
+    const auto last_of_leg = [&](double leg) {
+      for (auto it = rows.rbegin(); it != rows.rend(); ++it)
+        if (it->leg == leg) return *it;
+      throw RunError(stage + ": no row of leg " + fmt(leg));
+    };
+    result.loaded = last_of_leg(1.0);
+    result.unloaded = rows.back();
+    result.steps = state.control.stage_steps - from_step;
+  } catch (const RunError& e) {
+    result.ran = false;
+    result.error = e.what();
+  }
+  return result;
+}
+
+Json matrix_json(const Eigen::Matrix<double, 6, 6>& m) {
+  Json rows = Json::array();
+  for (int i = 0; i < 6; ++i) {
+    Json row = Json::array();
+    for (int j = 0; j < 6; ++j) row.push_back(m(i, j));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// ||A - A^T|| / ||A|| (Frobenius): 0 for a symmetric matrix.
+double asymmetry(const Eigen::Matrix<double, 6, 6>& a) {
+  const double n = a.norm();
+  return n > 0.0 ? (a - a.transpose()).norm() / n : NAN;
+}
+
+}  // namespace
+
+Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
+                     const ProbePoints& probe_points, bool peak_reached) {
+  const ProbeDef& def = *test.probes;
+  const std::vector<ProbePoints::Point> points = probe_points.points(peak_reached);
+  const std::vector<ProbeDirection> directions = probe_directions(def);
+  std::vector<Job> jobs;
+  for (std::size_t p = 0; p < points.size(); ++p)
+    if (points[p].state)
+      for (const ProbeDirection& d : directions) jobs.push_back({p, d});
+
+  // Side by side over the test's threads, each probe on one (its result does not depend on the count).
+  const int workers = std::max(1, std::min<int>(omp_get_max_threads(), static_cast<int>(jobs.size())));
+  std::vector<ProbeResult> results(jobs.size());
+  std::atomic<std::size_t> next{0};
+  std::atomic<std::int64_t> steps_done{0};
+  std::mutex progress_mutex;
+  Progress progress(test.name + " probes", options.progress, options.progress_interval);
+  const std::int64_t steps_each = 2 * (def.steps + def.hold_steps);
+  std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
+  const auto work = [&](int w) {
+    omp_set_num_threads(1);
+    try {
+      for (std::size_t j; (j = next.fetch_add(1)) < jobs.size();) {
+        results[j] = run_probe(run, deck, options, test, points[jobs[j].point], jobs[j].probe);
+        const std::int64_t done = steps_done += steps_each;
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        progress.update(done, static_cast<double>(done) / static_cast<double>(steps_each * static_cast<std::int64_t>(jobs.size())));
+      }
+    } catch (...) {
+      errors[static_cast<std::size_t>(w)] = std::current_exception();
+      next = jobs.size();  // the others stop after their present probe
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int w = 1; w < workers; ++w) threads.emplace_back(work, w);
+  work(0);
+  for (std::thread& t : threads) t.join();
+  progress.finish();
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+
+  // probes.csv: each probe's response net of its point's reference, at the loaded and the unloaded ends.
+  std::string csv = "point,point_step,point_e1,kind,probe,magnitude,angle_deg,d11,d22,d33,d12,d13,d23";
+  const auto add_columns = [&](const std::array<const char*, 6>& names, const char* suffix) {
+    for (const char* name : names) csv.append(",d").append(name).append(suffix);
+  };
+  add_columns(kStressNames, "");
+  add_columns(kStrainNames, "");
+  add_columns(kStrainNames, "_plastic");
+  add_columns(kStrainNames, "_elastic");
+  add_columns(kStressNames, "_residual");
+  csv += ",controlled,status\n";
+  Json summary = {{"kind", std::string(name_of(def.kind, kProbeKindNames))}, {"steps", def.steps},
+                  {"hold_steps", def.hold_steps}, {"magnitudes", def.magnitudes}, {"points", Json::object()},
+                  {"table", (fs::path(test.name) / "probes" / "probes.csv").string()}};
+  if (def.kind == ProbeKind::Stress) summary["plane"] = std::string(name_of(def.plane, kProbePlaneNames));
+  Json stiffness = {{"voigt_order", {"11", "22", "33", "12", "13", "23"}},
+                    {"units", "Pa per unit strain; engineering shear strains g_ij; compression +"},
+                    {"points", Json::object()}};
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    const ProbePoints::Point& point = points[p];
+    Json entry = {{"step", point.row.step}, {"e1", point.row.e1}};
+    if (!point.state) {
+      entry["status"] = "not run";
+      entry["reason"] = point.missing;
+      summary["points"][point.name] = entry;
+      continue;
+    }
+    const auto first = std::find_if(jobs.begin(), jobs.end(), [&](const Job& j) { return j.point == p; });
+    const ProbeResult& reference = results[static_cast<std::size_t>(first - jobs.begin())];
+    if (!reference.ran) {
+      entry["status"] = "failed";
+      entry["reason"] = "the reference probe failed: " + reference.error;
+      summary["points"][point.name] = entry;
+      continue;
+    }
+    int ran = 0, controlled = 0, failed = 0;
+    // Strain probes: per magnitude, the columns of the tangent and elastic stiffness.
+    std::vector<Eigen::Matrix<double, 6, 6>> tangent(def.magnitudes.size(), Eigen::Matrix<double, 6, 6>::Zero()),
+        elastic = tangent;
+    // Stress probes: the strain response's length per direction and magnitude (linearity across magnitudes).
+    std::vector<std::vector<double>> response(def.magnitudes.size());
+    for (std::size_t j = static_cast<std::size_t>(first - jobs.begin()); j < jobs.size() && jobs[j].point == p; ++j) {
+      const ProbeDirection& d = jobs[j].probe;
+      const ProbeResult& r = results[j];
+      if (d.magnitude == 0.0) continue;  // the reference itself
+      const std::size_t m = static_cast<std::size_t>(std::find(def.magnitudes.begin(), def.magnitudes.end(), d.magnitude) - def.magnitudes.begin());
+      csv.append(point.name).append(",").append(fmt(point.row.step)).append(",").append(fmt(point.row.e1));
+      csv.append(",").append(name_of(def.kind, kProbeKindNames)).append(",").append(d.name);
+      csv.append(",").append(fmt(d.magnitude)).append(",").append(fmt(d.angle_deg));
+      for (double x : d.direction) csv.append(",").append(fmt(x));
+      if (!r.ran) {
+        ++failed;
+        for (int k = 0; k < 30; ++k) csv += ",";
+        std::string why = r.error;
+        std::replace(why.begin(), why.end(), ',', ';');
+        std::replace(why.begin(), why.end(), '\n', ' ');
+        csv.append(",false,failed: ").append(why).append("\n");
+        continue;
+      }
+      ++ran;
+      controlled += r.controlled;
+      const Vec6 ds = minus(stresses(r.loaded), stresses(reference.loaded));
+      const Vec6 de = minus(strains(r.loaded), strains(reference.loaded));
+      const Vec6 de_plastic = minus(strains(r.unloaded), strains(reference.unloaded));
+      const Vec6 ds_residual = minus(stresses(r.unloaded), stresses(reference.unloaded));
+      const Vec6 de_elastic = minus(de, de_plastic);
+      for (const Vec6* v : {&ds, &de, &de_plastic, &de_elastic, &ds_residual})
+        for (double x : *v) csv.append(",").append(fmt(x));
+      csv.append(r.controlled ? ",true,ok\n" : ",false,ok\n");
+      if (def.kind == ProbeKind::Strain) {
+        const int column = static_cast<int>(std::max_element(d.direction.begin(), d.direction.end()) - d.direction.begin());
+        for (int i = 0; i < 6; ++i) {
+          tangent[m](i, column) = ds[static_cast<std::size_t>(i)] / d.magnitude;
+          elastic[m](i, column) = (ds[static_cast<std::size_t>(i)] - ds_residual[static_cast<std::size_t>(i)]) / d.magnitude;
+        }
+      } else {
+        response[m].push_back(norm(de));
+      }
+    }
+    entry["status"] = failed == 0 ? "ran" : "ran with failures";
+    entry["probes"] = ran + failed;
+    entry["failed"] = failed;
+    entry["controlled"] = controlled;
+    entry["folder"] = (fs::path(test.name) / "probes" / point.name).string();
+    if (def.kind == ProbeKind::Strain && failed == 0) {
+      Json per_magnitude = Json::array();
+      for (std::size_t m = 0; m < def.magnitudes.size(); ++m)
+        per_magnitude.push_back({{"magnitude", def.magnitudes[m]}, {"tangent", matrix_json(tangent[m])},
+                                 {"elastic", matrix_json(elastic[m])}, {"elastic_asymmetry", asymmetry(elastic[m])},
+                                 {"tangent_asymmetry", asymmetry(tangent[m])}});
+      stiffness["points"][point.name] = {{"step", point.row.step}, {"e1", point.row.e1}, {"magnitudes", per_magnitude}};
+      entry["elastic_asymmetry"] = per_magnitude[0]["elastic_asymmetry"];
+    }
+    if (def.kind == ProbeKind::Stress && def.magnitudes.size() > 1 && failed == 0) {
+      // Linear response scales with the magnitude: the median over directions of
+      // |de(M_last)| / |de(M_first)| / (M_last / M_first) is 1 in the linear range.
+      std::vector<double> ratios;
+      const std::size_t last = def.magnitudes.size() - 1;
+      for (std::size_t i = 0; i < response[0].size() && i < response[last].size(); ++i)
+        ratios.push_back(response[last][i] / response[0][i] / (def.magnitudes[last] / def.magnitudes[0]));
+      std::sort(ratios.begin(), ratios.end());
+      if (!ratios.empty())
+        entry["linearity"] = {{"median_ratio", ratios[ratios.size() / 2]},
+                              {"meaning", "median over directions of |de| at the largest magnitude over |de| at the "
+                                          "smallest, divided by the magnitudes' ratio: 1 where the response is linear"}};
+    }
+    summary["points"][point.name] = entry;
+  }
+  const fs::path dir = run.stage_dir(test.name) / "probes";
+  fs::create_directories(dir);
+  write_file_atomic(dir / "probes.csv", csv);
+  if (def.kind == ProbeKind::Strain) {
+    write_file_atomic(dir / "stiffness.json", stiffness.dump(1));
+    summary["stiffness"] = (fs::path(test.name) / "probes" / "stiffness.json").string();
+  }
+  return summary;
+}
+
+}  // namespace celldem

@@ -1,0 +1,84 @@
+// Incremental response probes (tests[].probes): from the exact state at chosen points of a loading test (strains
+// of axis 1, the peak, the end), small loadings in several directions, each loaded, held, unloaded and held
+// again, so that the response splits into its recovered (elastic) and irrecoverable (plastic) parts.
+//
+// Each probe set also runs a reference probe that loads nothing: from a state in motion the sample goes on
+// deforming (creep under held stresses, relaxation under held strains), and the reference's response at the
+// same step is subtracted from every probe's (as in the stress-probe studies of Calvetti, Viggiani & Tamagnini
+// 2003 and Kuhn 2006 with DEM).
+//
+// Stress probes: the three normal stresses follow a ramp from the point's stresses s to s + M d over `steps`,
+// are held for `hold_steps`, ramp back to s and are held again; the cell's tilts (shear strains) are held. The
+// directions d lie in the Rendulic plane, the deviatoric (pi) plane at constant p, or are listed. Strain probes:
+// each of the six strains (e11, e22, e33, g12, g13, g23) in turn moves by M and back, the others held; the
+// stress increments over M are a column of the tangent stiffness, the recovered ones of its elastic part.
+//
+// The points' states are copies of the test's State taken at its rows as it runs (ProbePoints); the test's own
+// series and summary are untouched. Outputs: <test>/probes/<point>/<probe>/series.csv, <test>/probes/probes.csv
+// and <test>/probes/stiffness.json (docs/outputs.md).
+#pragma once
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/deck.hpp"
+#include "core/state.hpp"
+#include "measure/series.hpp"
+
+namespace celldem {
+
+class RunDirectory;
+struct RunOptions;
+
+// The states a test's probes start from, taken at its rows.
+class ProbePoints {
+ public:
+  explicit ProbePoints(const ProbeDef& def);
+  // After each row of the test: keeps a copy of the state at the first row reaching each e1 point, and at each new
+  // largest s11/s33 (the peak so far).
+  void on_row(const State& state, const SeriesRow& row);
+  // A resumed test: the rows read back count; a point among them has lost its state (it is reported, not run).
+  void resume(const std::vector<SeriesRow>& rows);
+  // The test's last row and state (the end point).
+  void finish(const State& state, const SeriesRow& row);
+
+  struct Point {
+    std::string name;                    // "e1_0.002", "peak", "end": the folder under <test>/probes/
+    std::shared_ptr<const State> state;  // null: not reached or lost (missing says which)
+    SeriesRow row;                       // the test's row at the point
+    std::string missing;
+  };
+  // In order: the e1 points, then the named ones as the deck lists them.
+  std::vector<Point> points(bool peak_reached) const;
+
+ private:
+  const ProbeDef& def_;
+  std::vector<Point> e1_;
+  Point peak_, end_;
+  double best_ratio_ = -1.0;
+  bool resumed_ = false;
+};
+
+// One probe of a set: its name (the folder), and what it loads.
+struct ProbeDirection {
+  std::string name;                 // "reference", "d03", "e11", "g12"
+  double magnitude = 0.0;           // M [Pa] or [-]; 0 for the reference
+  double angle_deg = 0.0;           // stress probes in a plane: a
+  std::array<double, 6> direction{};  // unit: (ds11, ds22, ds33, 0, 0, 0) or a unit strain (e11, ..., g23)
+};
+// The probes of a set at each magnitude, after its reference (first).
+std::vector<ProbeDirection> probe_directions(const ProbeDef& def);
+
+// The load program of one probe from a point whose normal stresses are `s` (stress probes' base).
+std::vector<Leg> probe_legs(const ProbeDef& def, const ProbeDirection& probe, const Vec3& s, double time_step);
+
+// Runs a finished test's probes (in parallel over the test's threads, each probe on one; the results do not
+// depend on the thread count) and writes probes.csv and stiffness.json. Returns summary.json's "probes" of the
+// test: per point its probes, how many held their controls, and (stress probes) the response's linearity
+// across magnitudes or (strain probes) the elastic stiffness's symmetry. A probe that fails is recorded (its
+// error), not thrown; a stop request stops the run (probes are run again whole on --resume).
+nlohmann::json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
+                               const ProbePoints& points, bool peak_reached);
+
+}  // namespace celldem
