@@ -1,0 +1,120 @@
+// The probes' directions and load programs (run/probes.hpp): stress directions are unit vectors in their plane
+// (Rendulic: ds22 = ds33; deviatoric: no change of p), strain probes name each of the six strains once, and a
+// probe's legs load by exactly M d over `steps` and give it back.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "run/probes.hpp"
+
+namespace celldem {
+namespace {
+
+ProbeDef stress_probes(ProbePlane plane, int directions) {
+  ProbeDef def;
+  def.at = {"end"};
+  def.plane = plane;
+  def.directions = directions;
+  def.magnitudes = {1000.0, 3000.0};
+  def.steps = 200;
+  def.hold_steps = 50;
+  return def;
+}
+
+double length(const std::array<double, 6>& d) {
+  double s = 0.0;
+  for (double x : d) s += x * x;
+  return std::sqrt(s);
+}
+
+TEST(ProbeDirections, RendulicAndDeviatoricPlanes) {
+  for (const ProbePlane plane : {ProbePlane::Rendulic, ProbePlane::Deviatoric}) {
+    const std::vector<ProbeDirection> all = probe_directions(stress_probes(plane, 12));
+    ASSERT_EQ(all.size(), 1u + 2u * 12u);
+    EXPECT_EQ(all[0].name, "reference");
+    EXPECT_EQ(all[0].magnitude, 0.0);
+    for (std::size_t i = 1; i < all.size(); ++i) {
+      const ProbeDirection& p = all[i];
+      EXPECT_NEAR(length(p.direction), 1.0, 1e-14) << p.name;
+      if (plane == ProbePlane::Rendulic) {
+        EXPECT_DOUBLE_EQ(p.direction[1], p.direction[2]) << p.name;
+      } else {
+        EXPECT_NEAR(p.direction[0] + p.direction[1] + p.direction[2], 0.0, 1e-14) << p.name;
+      }
+      if (i <= 6) {  // directions k and k + n/2 are opposite
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(p.direction[k], -all[i + 6].direction[k], 1e-14) << p.name;
+      }
+    }
+    EXPECT_EQ(all[1].name, "m1-d00");
+    EXPECT_EQ(all[13].name, "m2-d00");
+    EXPECT_DOUBLE_EQ(all[13].magnitude, 3000.0);
+  }
+  // a = 0: axial compression in the Rendulic plane, triaxial compression in the deviatoric plane.
+  const ProbeDirection r = probe_directions(stress_probes(ProbePlane::Rendulic, 4))[1];
+  EXPECT_EQ(r.direction[0], 1.0);
+  const ProbeDirection d = probe_directions(stress_probes(ProbePlane::Deviatoric, 4))[1];
+  EXPECT_GT(d.direction[0], 0.0);
+  EXPECT_DOUBLE_EQ(d.direction[1], d.direction[2]);
+}
+
+TEST(ProbeDirections, StrainProbesNameTheSixStrains) {
+  ProbeDef def;
+  def.kind = ProbeKind::Strain;
+  def.magnitudes = {1e-5};
+  const std::vector<ProbeDirection> all = probe_directions(def);
+  ASSERT_EQ(all.size(), 7u);
+  const char* names[] = {"e11", "e22", "e33", "g12", "g13", "g23"};
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(all[k + 1].name, names[k]);
+    EXPECT_EQ(all[k + 1].direction[k], 1.0);
+    EXPECT_EQ(length(all[k + 1].direction), 1.0);
+  }
+}
+
+TEST(ProbeLegs, StressProbeRampsToItsTargetAndBack) {
+  const ProbeDef def = stress_probes(ProbePlane::Rendulic, 8);
+  const ProbeDirection p = probe_directions(def)[2];  // m1-d01: a = 45 deg
+  const Vec3 s(2e5, 1e5, 1e5);
+  const double dt = 1e-6;
+  const std::vector<Leg> legs = probe_legs(def, p, s, dt);
+  ASSERT_EQ(legs.size(), 4u);
+  const double ramp = static_cast<double>(def.steps) * dt;
+  for (int k = 0; k < 3; ++k) {
+    const double to = s[k] + p.magnitude * p.direction[k];
+    EXPECT_EQ(legs[0].axes[k].mode, AxisMode::StressRamp);
+    EXPECT_NEAR(legs[0].axes[k].stress_target(ramp), to, 1e-9 * to);    // loaded at the end of the ramp
+    EXPECT_EQ(legs[1].axes[k].mode, AxisMode::Stress);
+    EXPECT_DOUBLE_EQ(legs[1].axes[k].value, to);
+    EXPECT_NEAR(legs[2].axes[k].stress_target(ramp), s[k], 1e-9 * s[k]);  // given back
+    EXPECT_DOUBLE_EQ(legs[3].axes[k].value, s[k]);
+  }
+  for (const Leg& leg : legs) {
+    EXPECT_EQ(leg.end.kind, LegEndKind::Steps);
+    for (const auto& shear : leg.shear) EXPECT_FALSE(shear.has_value());  // tilts held
+  }
+  EXPECT_EQ(legs[0].end.steps, def.steps);
+  EXPECT_EQ(legs[1].end.steps, def.hold_steps);
+}
+
+TEST(ProbeLegs, StrainProbeMovesOneStrainByM) {
+  ProbeDef def;
+  def.kind = ProbeKind::Strain;
+  def.magnitudes = {2e-5};
+  def.steps = 400;
+  const std::vector<ProbeDirection> all = probe_directions(def);
+  for (int k = 0; k < 6; ++k) {
+    const std::vector<Leg> legs = probe_legs(def, all[k + 1], Vec3(1e5, 1e5, 1e5), 1e-6);
+    for (int phase = 0; phase < 4; ++phase) {
+      const double sign = phase == 0 ? 1.0 : phase == 2 ? -1.0 : 0.0;
+      for (int j = 0; j < 3; ++j) {
+        EXPECT_EQ(legs[phase].axes[j].mode, AxisMode::StrainIncrement);
+        EXPECT_DOUBLE_EQ(legs[phase].strain_per_step(j, 1e-6), j == k ? sign * 2e-5 / 400 : 0.0);
+      }
+      for (int a = 0; a < 3; ++a)
+        EXPECT_DOUBLE_EQ(legs[phase].shear_strain_per_step(a, 1e-6), 3 + a == k ? sign * 2e-5 / 400 : 0.0);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace celldem
