@@ -27,7 +27,10 @@ std::string describe_estimate(const Deck& deck, double start_solid_fraction) {
   std::snprintf(rate, sizeof rate, "%.3g", kParticleStepsPerCoreSecond);
   return "estimate: about " + span(e.bytes / 1e6, e.bytes / 1e6, "%.3g") + " MB of memory; " +
          span(e.preparation.low, e.preparation.high, "%.0f") + " preparation steps and " +
-         span(e.tests.low, e.tests.high, "%.0f") + " test steps, " +
+         span(e.tests.low, e.tests.high, "%.0f") + " test steps" +
+         (e.probe_steps > 0 ? " and " + span(static_cast<double>(e.probe_steps), static_cast<double>(e.probe_steps), "%.0f") +
+                                  " probe steps at most"
+                            : std::string()) + ", " +
          span(e.particle_steps_low, e.particle_steps_high, "%.3g") + " particle-steps: about " +
          span(e.particle_steps_low * to_hours, e.particle_steps_high < 0 ? -1.0 : e.particle_steps_high * to_hours,
               "%.2g") +

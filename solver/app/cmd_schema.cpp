@@ -246,6 +246,11 @@ Json plan_json(const Deck& deck) {
                             {"axes", axes_json(first)}, {"legs", legs}, {"inertial_number", inertia},
                             {"time_step", deck.stage_time_step(t)},
                             {"time_step_ratio", deck.stage_time_step(t) / dt_crit}});
+    if (t.probes) {
+      const ProbePlan probes = plan_probes(t);
+      out["tests"].back()["probes"] = {{"points", probes.points}, {"probes_per_point", probes.probes_per_point},
+                                       {"steps_per_probe", probes.steps_per_probe}, {"steps", probes.steps()}};
+    }
     if (holds) {
       const EquilibriumDef& e = t.equilibrium;
       out["tests"].back()["equilibrium"] = {
@@ -453,9 +458,18 @@ Command add_plan_command(CLI::App& app) {
       print_stage("prepare", p["steps"], p["rows"], p["legs"], Json(), p["time_step"].get<double>(),
                   p["time_step_ratio"].get<double>());
     }
-    for (const Json& t : plan["tests"])
+    for (const Json& t : plan["tests"]) {
       print_stage(t["name"].get<std::string>(), t["steps"], t["rows"], t["legs"], t.value("equilibrium", Json()),
                   t["time_step"].get<double>(), t["time_step_ratio"].get<double>());
+      if (const Json& p = t.value("probes", Json()); p.is_object())
+        std::printf("    probes: %lld points x %lld probes (a reference and the directions at each magnitude) x %lld "
+                    "steps = %lld steps at most (a point the test does not reach is not probed), side by side on the "
+                    "test's threads\n",
+                    static_cast<long long>(p["points"].get<std::int64_t>()),
+                    static_cast<long long>(p["probes_per_point"].get<std::int64_t>()),
+                    static_cast<long long>(p["steps_per_probe"].get<std::int64_t>()),
+                    static_cast<long long>(p["steps"].get<std::int64_t>()));
+    }
     const Json& start = plan["prepare"].is_object() ? plan["prepare"].value("start", Json()) : Json();
     std::printf("%s\n", describe_estimate(deck, start.is_null() ? -1.0 : start["solid_fraction"].get<double>()).c_str());
     if (plan.contains("tolerance")) print_tolerance(plan["tolerance"]);

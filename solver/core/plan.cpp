@@ -382,6 +382,18 @@ StepRange preparation_steps(const Deck& deck, double start_solid_fraction) {
   return total;
 }
 
+ProbePlan plan_probes(const TestDef& test) {
+  ProbePlan p;
+  if (!test.probes) return p;
+  const ProbeDef& d = *test.probes;
+  p.points = static_cast<std::int64_t>(d.at.size() + d.at_e1.size());
+  const std::size_t directions = d.kind == ProbeKind::Strain ? 6 : d.plane == ProbePlane::List ? d.list.size()
+                                                                                                 : static_cast<std::size_t>(d.directions);
+  p.probes_per_point = 1 + static_cast<std::int64_t>(directions * d.magnitudes.size());
+  p.steps_per_probe = 2 * (d.steps + d.hold_steps);
+  return p;
+}
+
 StepRange test_steps(const Deck& deck, const TestDef& test) {
   const std::int64_t n = plan_test(deck, test).steps;
   return n >= 0 ? StepRange{n, n} : StepRange{0, -1};
@@ -393,7 +405,8 @@ RunEstimate estimate_run(const Deck& deck, double start_solid_fraction) {
   e.bytes = n * (kBytesPerParticle + (deck.contact.rotational_history() ? kRotationalBytesPerParticle : 0.0));
   e.preparation = preparation_steps(deck, start_solid_fraction);
   for (const TestDef& t : deck.tests) e.tests = add(e.tests, test_steps(deck, t));
-  const StepRange all = add(e.preparation, e.tests);
+  for (const TestDef& t : deck.tests) e.probe_steps += plan_probes(t).steps();
+  const StepRange all = add(add(e.preparation, e.tests), StepRange{e.probe_steps, e.probe_steps});
   e.particle_steps_low = n * static_cast<double>(all.low);
   e.particle_steps_high = all.high < 0 ? -1.0 : n * static_cast<double>(all.high);
   return e;

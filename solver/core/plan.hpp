@@ -91,6 +91,15 @@ struct TestPlan {
   std::vector<LegPlan> legs;     // plan_legs of the test's legs
 };
 TestPlan plan_test(const Deck& deck, const TestDef& test);
+// The steps of a test's probes (tests[].probes) when the test reaches every point: points x (the reference and
+// each direction at each magnitude) x (two ramps and two holds); 0 without probes.
+struct ProbePlan {
+  std::int64_t points = 0;
+  std::int64_t probes_per_point = 0;  // the reference included
+  std::int64_t steps_per_probe = 0;
+  std::int64_t steps() const { return points * probes_per_point * steps_per_probe; }
+};
+ProbePlan plan_probes(const TestDef& test);
 
 // The fastest strain rate [1/s] of the test's strain-driven axes over its legs (the inertial number's rate).
 double loading_rate(const Deck& deck, const TestDef& test);
@@ -271,6 +280,7 @@ struct RunEstimate {
   double bytes = 0.0;
   StepRange preparation;
   StepRange tests;                 // all tests together
+  std::int64_t probe_steps = 0;    // all tests' probes, at most (plan_probes)
   double particle_steps_low = 0.0;
   double particle_steps_high = 0.0;  // negative: unknown
 };
