@@ -266,6 +266,77 @@ Json matrix_json(const Eigen::Matrix<double, 6, 6>& m) {
   return rows;
 }
 
+// The unit basis of a probe plane: a stress direction is cos a u1 + sin a u2, and a strain increment's
+// coordinates in the plane are its projections on u1 and u2 (work-conjugate to the stress's).
+std::pair<std::array<double, 3>, std::array<double, 3>> plane_basis(ProbePlane plane) {
+  if (plane == ProbePlane::Rendulic) return {{1.0, 0.0, 0.0}, {0.0, 1.0 / std::sqrt(2.0), 1.0 / std::sqrt(2.0)}};
+  return {{2.0 / std::sqrt(6.0), -1.0 / std::sqrt(6.0), -1.0 / std::sqrt(6.0)}, {0.0, 1.0 / std::sqrt(2.0), -1.0 / std::sqrt(2.0)}};
+}
+
+struct PlanePoint {
+  double angle;  // [rad] the stress probe's direction in the plane
+  double p1, p2; // its plastic strain increment's coordinates in the plane
+};
+
+double degrees_in_circle(double radians) {
+  const double d = std::fmod(radians * 180.0 / kPi, 360.0);
+  return d < 0.0 ? d + 360.0 : d;
+}
+
+// What the plastic responses of one probe set in a plane say, as an elastoplastic model reads them. With one
+// plastic mechanism every plastic increment has the same direction (the flow direction), and its size grows
+// with the loading direction's projection on the loading surface's normal n: |dep| = c max(0, cos(a - a_n)).
+// The flow direction is the principal axis of the increments' scatter (its concentration
+// lambda_max / (lambda_max + lambda_min) is 1 when all are parallel, 0.5 when they point anywhere), oriented
+// as the increments of the directions that load; the normal is the a_n of the least-squares fit of that law over a 0.1 deg grid. Their angle is
+// the non-associativity (0: associated flow).
+Json plastic_response(const std::vector<PlanePoint>& points, double magnitude) {
+  double sxx = 0.0, sxy = 0.0, syy = 0.0;
+  for (const PlanePoint& q : points) sxx += q.p1 * q.p1, sxy += q.p1 * q.p2, syy += q.p2 * q.p2;
+  if (points.empty() || sxx + syy == 0.0) return Json();
+  const double half_trace = 0.5 * (sxx + syy), root = std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
+  const double lambda_max = half_trace + root, lambda_min = half_trace - root;
+  double flow = 0.5 * std::atan2(2.0 * sxy, sxx - syy);
+  double best = INFINITY, normal = 0.0, scale = 0.0;
+  for (int k = 0; k < 3600; ++k) {
+    const double a = 2.0 * kPi * k / 3600.0;
+    double gg = 0.0, gp = 0.0;
+    for (const PlanePoint& q : points) {
+      const double g = std::max(0.0, std::cos(q.angle - a));
+      gg += g * g, gp += g * std::hypot(q.p1, q.p2);
+    }
+    if (gg == 0.0) continue;
+    const double c = gp / gg;
+    double misfit = 0.0;
+    for (const PlanePoint& q : points) {
+      const double r = std::hypot(q.p1, q.p2) - c * std::max(0.0, std::cos(q.angle - a));
+      misfit += r * r;
+    }
+    if (misfit < best) best = misfit, normal = a, scale = c;
+  }
+  // Oriented as the plastic increments of the loading directions (those the fit loads: cos(a - normal) > 0).
+  double along = 0.0;
+  for (const PlanePoint& q : points)
+    if (std::cos(q.angle - normal) > 0.0) along += std::cos(flow) * q.p1 + std::sin(flow) * q.p2;
+  if (along < 0.0) flow += kPi;
+  double between = std::abs(degrees_in_circle(flow) - degrees_in_circle(normal));
+  if (between > 180.0) between = 360.0 - between;
+  double total = 0.0;
+  for (const PlanePoint& q : points) total += q.p1 * q.p1 + q.p2 * q.p2;
+  return {{"magnitude", magnitude},
+          {"flow_direction_deg", degrees_in_circle(flow)},
+          {"flow_concentration", lambda_max / (lambda_max + lambda_min)},
+          {"loading_normal_deg", degrees_in_circle(normal)},
+          {"plastic_per_magnitude", scale / magnitude},
+          {"fit_explains", total > 0.0 ? 1.0 - best / total : NAN},
+          {"non_associativity_deg", between},
+          {"meaning", "in the probes' plane (angles as the directions'): the plastic increments' principal direction "
+                      "(flow) and how nearly parallel they are (concentration, 1: one mechanism), the loading "
+                      "surface's normal from |de_plastic| = c max(0, cos(a - normal)) fitted over the directions "
+                      "(plastic_per_magnitude = c / M, fit_explains: the share of the squared plastic response it "
+                      "fits), and the angle between flow and normal (0: associated flow)"}};
+}
+
 // ||A - A^T|| / ||A|| (Frobenius): 0 for a symmetric matrix.
 double asymmetry(const Eigen::Matrix<double, 6, 6>& a) {
   const double n = a.norm();
@@ -356,6 +427,7 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
         elastic = tangent;
     // Stress probes: the strain response's length per direction and magnitude (linearity across magnitudes).
     std::vector<std::vector<double>> response(def.magnitudes.size());
+    std::vector<std::vector<PlanePoint>> plastic(def.magnitudes.size());  // stress probes in a plane
     for (std::size_t j = static_cast<std::size_t>(first - jobs.begin()); j < jobs.size() && jobs[j].point == p; ++j) {
       const ProbeDirection& d = jobs[j].probe;
       const ProbeResult& r = results[j];
@@ -392,6 +464,12 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
         }
       } else {
         response[m].push_back(norm(de));
+        if (def.plane != ProbePlane::List) {
+          const auto [u1, u2] = plane_basis(def.plane);
+          double p1 = 0.0, p2 = 0.0;
+          for (int k = 0; k < 3; ++k) p1 += u1[k] * de_plastic[k], p2 += u2[k] * de_plastic[k];
+          plastic[m].push_back({d.angle_deg * kPi / 180.0, p1, p2});
+        }
       }
     }
     entry["status"] = failed == 0 ? "ran" : "ran with failures";
@@ -421,6 +499,8 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
                               {"meaning", "median over directions of |de| at the largest magnitude over |de| at the "
                                           "smallest, divided by the magnitudes' ratio: 1 where the response is linear"}};
     }
+    if (def.kind == ProbeKind::Stress && def.plane != ProbePlane::List && failed == 0)
+      entry["plastic"] = plastic_response(plastic.back(), def.magnitudes.back());
     summary["points"][point.name] = entry;
   }
   const fs::path dir = run.stage_dir(test.name) / "probes";
