@@ -89,12 +89,19 @@ def parse_cell(name, text):
         return text
 
 
+def parse_row(names, cells):
+    """One probes.csv row (its header's names, its cells as text) as a dict of parse_cell values."""
+    return {k: parse_cell(k, v or "") for k, v in zip(names, cells)}
+
+
 def read_table(path):
-    """probes.csv as a list of row dicts (parse_cell), [] when the file is missing."""
+    """probes.csv as a list of row dicts (parse_row), [] when the file is missing."""
     if not os.path.isfile(path):
         return []
     with open(path, encoding="utf-8", newline="") as f:
-        return [{k: parse_cell(k, v or "") for k, v in row.items()} for row in csv.DictReader(f)]
+        reader = csv.reader(f)
+        names = next(reader, [])
+        return [parse_row(names, cells) for cells in reader if cells]
 
 
 def load(run, test):
