@@ -86,6 +86,11 @@ def draw_plane_envelope(ax, rose, probe_set, point):
             ax.plot(*closed(xy).T, style, marker=marker, markersize=3, linewidth=1.1, color=f"C{k}",
                     label=f"M = {label}, {part}")
             drawn.append(xy[np.all(np.isfinite(xy), axis=1)])
+            if k == 0 and part == "total":  # which tip is which direction: the rose's numbers
+                for n, (x, y) in enumerate(xy):
+                    if np.isfinite(x) and np.isfinite(y):
+                        ax.annotate(f"{n}", (x, y), xytext=(3, 3), textcoords="offset points", fontsize=6,
+                                    color="0.25")
     ax.axhline(0.0, color="0.6", linewidth=0.5)
     ax.axvline(0.0, color="0.6", linewidth=0.5)
     ax.set_aspect("equal", adjustable="datalim")
@@ -111,25 +116,26 @@ def draw_listed_envelope(ax, rose, probe_set, point):
                       ha="right")
     ax.set_xlabel("stress direction (ds11, ds22, ds33)", fontsize=8)
     ax.set_ylabel(r"$|\Delta\varepsilon|\;/\;M$ (1/MPa)", fontsize=8)
-    rose.axis("off")  # listed directions are named on the axis
+    rose.set_axis_off()  # listed directions are named on the axis
     return drawn
 
 
-def draw_envelope(ax, rose, key, probe_set, point):
-    """One panel: the envelope of `probe_set` at `point` in ax, its directions in rose, its legend in key."""
+def draw_envelope(ax, side, probe_set, point):
+    """One panel: the envelope of `probe_set` at `point` in ax; beside it (side) its directions and the legend."""
     entry = probe_set.points.get(point)
     ax.set_title(point_title(probe_set.test, point, entry or {}), fontsize=9)
-    key.axis("off")
     if entry is None or not probe_set.point_rows(point):
         why = (f"{probe_set.test} has no point {point}" if entry is None else
                f"{entry.get('status', 'no probes')}: {entry.get('reason', '')}")
-        for a in (ax, rose):
+        for a in (ax, side):
             a.axis("off")
         ax.text(0.5, 0.5, why, transform=ax.transAxes, ha="center", va="center", fontsize=8, wrap=True)
         return
     draw = draw_plane_envelope if probe_set.plane in probes.PLANE_BASES else draw_listed_envelope
-    if draw(ax, rose, probe_set, point):
-        key.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="upper center", frameon=False)
+    if draw(ax, side, probe_set, point):
+        side.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12),
+                    frameon=False)
+    side.set_anchor("N")  # the rose at the top, the legend below it
     ax.grid(True, linewidth=0.4, alpha=0.5)
 
 
@@ -138,13 +144,11 @@ def envelopes_figure(sets, label):
     stress directions and the legend."""
     def make(plt):
         rows = point_rows(sets)
-        fig = plt.figure(figsize=(7.0 * len(sets), 4.8 * len(rows) + 0.4))
-        grid = fig.add_gridspec(2 * len(rows), 2 * len(sets), width_ratios=[4.0, 1.5] * len(sets))
+        fig, axes = plt.subplots(len(rows), 2 * len(sets), figsize=(7.6 * len(sets), 5.0 * len(rows) + 0.4),
+                                 squeeze=False, gridspec_kw={"width_ratios": [4.0, 1.6] * len(sets)})
         for i, point in enumerate(rows):
             for j, s in enumerate(sets):
-                ax = fig.add_subplot(grid[2 * i:2 * i + 2, 2 * j])
-                rose, key = fig.add_subplot(grid[2 * i, 2 * j + 1]), fig.add_subplot(grid[2 * i + 1, 2 * j + 1])
-                draw_envelope(ax, rose, key, s, point)
+                draw_envelope(axes[i, 2 * j], axes[i, 2 * j + 1], s, point)
         fig.suptitle(f"Stress probes: strain response per unit stress (solid total, dashed plastic)\n{label}",
                      fontsize=10)
         return fig
