@@ -4,7 +4,7 @@
     per magnitude M, the tips of the strain response vectors divided by M (a linear response gives one curve for
     every M): the total response as a closed curve through the directions in order (solid) and the plastic
     response left after unloading (dashed), in the probes' plane on the basis of their directions
-    (celldem.probes.PLANE_BASES, σ1's axis up), with the stress directions as a rose in a corner. Listed
+    (celldem.probes.PLANE_BASES, σ1's axis up), with the stress directions as a rose beside it. Listed
     directions: the size of each response against the direction's index.
   - probe_stiffness_<test>.png: per point of a test with strain probes, its elastic and tangent stiffness (and the
     contact network's, when stiffness.json holds it) as heat maps in MPa, each with its asymmetry.
@@ -97,7 +97,8 @@ def draw_plane_envelope(ax, rose, probe_set, point):
     horizontal, vertical = AXIS_LABELS[plane]
     ax.set_xlabel(horizontal, fontsize=8)
     ax.set_ylabel(vertical, fontsize=8)
-    draw_rose(rose, probe_set.point_rows(point, probe_set.magnitudes[0]), plane)
+    rows = probe_set.point_rows(point)
+    draw_rose(rose, probe_set.point_rows(point, rows[0]["magnitude"]), plane)
     return bool(drawn)
 
 
