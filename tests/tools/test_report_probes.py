@@ -210,7 +210,7 @@ def test_probes_section(probe_run):
     assert "stress probes along listed directions, 3 directions" in probes_text
     assert "| e1_0.002 | 0.200 | 2000 | ran | 16 / 16 / 0 | 0.987 |  |" in probes_text
     assert "| peak | 0.750 | 7500 | **ran with failures** | 16 / 15 / 1 | n/a |  |" in probes_text
-    assert f"| e1_0.05 | 5.000 | 0 | **not run** | — | n/a | {NOT_RUN} |" in probes_text
+    assert f"| e1_0.05 | — | — | **not run** | — | n/a | {NOT_RUN} |" in probes_text
     assert f"- peak, m2-d05: {FAILURE}" in probes_text
     ratio = (ELASTIC + PLASTIC) / ELASTIC
     assert (f"- e1_0.002, M = 2 kPa: the largest total response is along d00 (0°; Δσ/M = 1, 0, 0), {ratio:.3g} times "
@@ -232,12 +232,12 @@ def test_probes_section(probe_run):
 
 
 def test_envelope_rows_share_points():
-    """The envelopes' figure: one row per point, in order of first appearance, so tests' envelopes at the same point
-    share a row."""
-    def fake(points):
-        return probes.ProbeSet("t", {"points": {p: {} for p in points}}, [], None)
-    assert probe_figures.point_rows([fake(["e1_0.002", "peak"]), fake(["e1_0.002", "end", "peak"])]) == \
-        ["e1_0.002", "peak", "end"]
+    """The envelopes' figure: one row per point that a test has probes of, in order of first appearance, so tests'
+    envelopes at the same point share a row."""
+    def fake(points, ran):
+        return probes.ProbeSet("t", {"points": {p: {} for p in points}}, [{"point": p} for p in ran], None)
+    sets = [fake(["e1_0.002", "peak", "e1_0.05"], ["e1_0.002"]), fake(["e1_0.002", "end", "peak"], ["peak", "end"])]
+    assert probe_figures.point_rows(sets) == ["e1_0.002", "peak", "end"]
 
 
 def test_no_probes_no_section(tmp_path):

@@ -37,15 +37,18 @@ def magnitude_text(m, kind):
 
 
 def point_title(test, point, entry):
+    """'ttc at peak (ε1 = 0.775 %)'; a point not run has no ε1 of its own."""
     e1 = probes.number(entry.get("e1"))
-    return f"{test} at {point}" + (f" (ε1 = {e1 * PERCENT:.3g} %)" if e1 is not None else "")
+    known = e1 is not None and entry.get("status") != "not run"
+    return f"{test} at {point}" + (f" (ε1 = {e1 * PERCENT:.3g} %)" if known else "")
 
 
 def point_rows(sets):
-    """The points of the sets in order of first appearance: the rows of a figure with a column per set."""
+    """The points that any of the sets has probes of, in order of first appearance: the rows of a figure with a
+    column per set (a point no set ran is only in the report's table, with its reason)."""
     out = []
     for s in sets:
-        out += [p for p in s.points if p not in out]
+        out += [p for p in s.points if p not in out and any(t.point_rows(p) for t in sets)]
     return out
 
 

@@ -609,9 +609,10 @@ def probe_point_row(s, point, entry):
         measure = fmt(probes.number((entry.get("linearity") or {}).get("median_ratio")))
     else:
         measure = fmt(probes.number(entry.get("elastic_asymmetry")))
-    e1 = probes.number(entry.get("e1"))
-    step = probes.number(entry.get("step"))
-    return (point, fmt(scaled(e1, PERCENT)), fmt(None if step is None else round(step)), f"**{status}**" if status != "ran" else status,
+    e1, step = probes.number(entry.get("e1")), probes.number(entry.get("step"))
+    # A point not run has no place in the test (the reason says what the test reached).
+    where = ("—", "—") if status == "not run" or e1 is None or step is None else (fmt(e1 * PERCENT), fmt(round(step)))
+    return (point, *where, f"**{status}**" if status != "ran" else status,
             counts, measure, entry.get("reason", "") or "")
 
 
