@@ -588,7 +588,7 @@ def probe_set_text(s):
     """'stress probes in the rendulic plane, 8 directions, M = 2, 4 kPa; ramps of 3000 steps, holds of 1000'."""
     magnitudes = ", ".join(f"{m * 1e-3:g}" if s.kind == "stress" else f"{m:g}" for m in s.magnitudes)
     if s.kind == "stress":
-        first = next((r for r in s.rows), None)  # the directions of one point and magnitude
+        first = s.rows[0] if s.rows else None  # the directions of one point and magnitude
         count = len(s.point_rows(first["point"], first["magnitude"])) if first else 0
         where = f"in the {s.plane} plane" if s.plane in probes.PLANE_BASES else "along listed directions"
         what = f"stress probes {where}, {count or 'n/a'} directions, M = {magnitudes} kPa"
