@@ -1,6 +1,6 @@
 """tools/report.py on small real runs (tests/run/small_run.json, 150 spheres, a few seconds each): a
 preparation-only run, a graded preparation, tests under arbitrary names, a constant-b (failure-surface) deck, a
-3-seed ensemble; and the force-chain slab on a hand-made contact list."""
+3-seed ensemble, tests with stress and strain probes; and the force-chain slab on a hand-made contact list."""
 
 import json
 import os
@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from celldem import results
+from celldem import probes, results
 from celldem.reports import figures, force_chains, plotting
 from checking import ROOT, check, is_png, read_text, tool
 
@@ -210,6 +210,38 @@ def test_ensemble_figure_curves_have_bands(ensemble):
     ax = fig.axes[0]
     assert (len(ax.collections), len(ax.lines)) == (2, 2), \
         f"stress ratio of an ensemble: {len(ax.collections)} bands, {len(ax.lines)} lines (want 2 and 2)"
+
+
+def test_probes_of_a_real_run(tmp_path, celldem):
+    """Stress probes in the π plane (a point not reached, and no peak in 0.6 % of strain) and strain probes: the
+    report reads celldem's own probes.csv and stiffness.json, quotes summary.json's statuses and reasons, lists the
+    stiffness diagonals as stiffness.json holds them, and draws both figures."""
+    deck = small_deck(json.load(open(SMALL_RUN))["tests"])
+    deck["tests"][0]["probes"] = {"at_e1": [0.002, 0.05], "at": ["peak"], "kind": "stress", "plane": "pi",
+                                  "directions": 6, "magnitudes": [2000], "steps": 500, "hold_steps": 200}
+    deck["tests"][1]["probes"] = {"at_e1": [0.002], "kind": "strain", "magnitudes": [1e-5], "steps": 500,
+                                  "hold_steps": 200}
+    run_dir = run_deck(celldem, tmp_path, deck)
+    tool("report", run_dir)
+    text = read_text(os.path.join(run_dir, "report.md"))
+    assert section_heading(text, "Probes"), "no Probes section"
+    summary = json.load(open(os.path.join(run_dir, "summary.json")))["tests"]
+    ttc = probes.load(results.load_run(run_dir), "ttc")
+    assert len(ttc.point_rows("e1_0.002")) == 6 and all(probes.is_ok(r) for r in ttc.point_rows("e1_0.002")), \
+        "probes.csv of the stress probes not read as six probes that ran"
+    assert "| e1_0.002 | 0.200 | 2000 | ran | 6 / 6 / 0 |" in text
+    for point in ("e1_0.05", "peak"):
+        entry = summary["ttc"]["probes"]["points"][point]
+        assert entry["status"] == "not run"
+        assert f"| {point} | — | — | **not run** | — | n/a | {entry['reason']} |" in text, f"no row for {point}"
+    assert "- e1_0.002, M = 2 kPa: the largest total response is along d0" in text, "no envelope findings"
+    magnitude = json.load(open(os.path.join(run_dir, "psc", "probes", "stiffness.json")))["points"]["e1_0.002"][
+        "magnitudes"][0]
+    for kind in ("elastic", "tangent"):
+        diagonal = " | ".join(f"{magnitude[kind][i][i] * 1e-6:.4g}" for i in range(6))
+        assert f"| {kind} | {diagonal} |" in text, f"the {kind} stiffness's diagonal is not stiffness.json's"
+    for stem in ("probe_envelopes", "probe_stiffness_psc"):
+        assert_figure_in_report(run_dir, stem, text)
 
 
 def test_force_chain_slab():

@@ -336,6 +336,7 @@ def build_report(ens, paper, planned):
     if paper:
         out += report.section("Comparison with the paper", paper_section(ens))
     out += report.section("Controls of each seed", controls_section(ens))
+    out += report.section("Probes (first seed)", report.probes_section(first, planned))
     out += report.section("Per-test values over the seeds", tests_section(ens))
     out += report.section("Differences between tests", paired_section(ens))
     out += report.section("Preparation over the seeds", prepared_section(ens))

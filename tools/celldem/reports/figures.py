@@ -3,7 +3,9 @@
   - the preparation against steps (prepare.png): p, void ratio, Z, unbalanced force, kinetic energy;
   - the paper's Figures 2-12 and two diagnostic figures, every test overlaid (for the paper's deck, or any run
     with two tests or more), and an overview of them;
-  - the strong force chains at each test's peak (force_chains.png, tools/celldem/reports/force_chains.py).
+  - the strong force chains at each test's peak (force_chains.png, tools/celldem/reports/force_chains.py);
+  - the tests' incremental response probes: the stress probes' response envelopes and the strain probes'
+    stiffness (probe_envelopes.png, probe_stiffness_<test>.png; tools/celldem/reports/probe_figures.py).
 A figure or panel whose quantity the run does not hold is not drawn. For an ensemble every curve is the mean
 over the seeds in bins of its x with a band of ± 1 standard deviation (metrics.seed_band).
 """
@@ -13,7 +15,7 @@ import os
 
 import numpy as np
 
-from . import force_chains, plotting
+from . import force_chains, plotting, probe_figures
 from .. import metrics
 from .plotting import thin
 
@@ -300,7 +302,7 @@ def run_label(run):
 
 
 # One figure to write: file stem, caption, report section ("tests", "compare", "prepare", "force_chains",
-# "overview"), and a function of pyplot that returns the figure.
+# "probes", "overview"), and a function of pyplot that returns the figure.
 Plan = collections.namedtuple("Plan", "stem caption section make")
 
 
@@ -353,6 +355,9 @@ def plan(run, paper=False):
         seed = f" (seed {run.seeds[0]})" if is_ensemble(run) else ""
         out.append(Plan(FORCE_CHAINS, f"strong force chains at the peak of {', '.join(chains)}{seed}",
                         "force_chains", lambda plt: force_chains.draw(plt, run.runs[0], chains, seed)))
+    # An ensemble's probes: the first seed's, as its force chains.
+    probes_label = f"seed {run.seeds[0]}" if is_ensemble(run) else run_label(run)
+    out += probe_figures.plans(run.runs[0], probes_label, Plan)
     panels = panels_with_data(run, PREPARE, PREPARE_PANELS)
     if panels:
         out.append(Plan(PREPARE, "the preparation against steps: p, void ratio, Z, unbalanced force, kinetic energy",

@@ -14,7 +14,7 @@ import os
 import numpy as np
 
 from . import failure_surface
-from .. import metrics, scenes
+from .. import metrics, probes, scenes
 from ..results import number, read_json
 from .tables import fmt, fmt_spec, md_table, scaled, yes_no
 
@@ -398,7 +398,7 @@ def end_window_text(run):
     return f"the end window is {width} of the strain of the test's end axis"
 
 
-SECTION_TITLES = {"tests": "Each test", "compare": "Tests compared", "overview": "Overview",
+SECTION_TITLES = {"tests": "Each test", "compare": "Tests compared", "overview": "Overview", "probes": "Probes",
                   "force_chains": "Force chains at the peak", "prepare": "Preparation"}
 
 
@@ -573,6 +573,111 @@ def verify_rate_section(run):
                                       "Why"), rows)
 
 
+PROBES_INTRO = (
+    "Incremental response probes (`tests[].probes`): from the test's state at each point, each probe loads, holds, "
+    "unloads and holds again, and its response is net of a reference probe that loads nothing (the creep of a state "
+    "in motion). Stress probes: the strain response at the end of the loaded hold (total) and what is left after "
+    "unloading (plastic); linearity is celldem's median over directions of |Δε| at the largest magnitude over |Δε| "
+    "at the smallest, divided by the magnitudes' ratio (1: linear). Strain probes: the stress increments per unit "
+    "strain (tangent) and their recovered part (elastic); asymmetry is |C − Cᵀ| / |C|. The sentences under each "
+    "table are measured on probes.csv; a plastic response larger than the total one means that unloading did not "
+    "bring the sample back (as near a peak).")
+
+
+def probe_set_text(s):
+    """'stress probes in the rendulic plane, 8 directions, M = 2, 4 kPa; ramps of 3000 steps, holds of 1000'."""
+    magnitudes = ", ".join(f"{m * 1e-3:g}" if s.kind == "stress" else f"{m:g}" for m in s.magnitudes)
+    if s.kind == "stress":
+        first = s.rows[0] if s.rows else None  # the directions of one point and magnitude
+        count = len(s.point_rows(first["point"], first["magnitude"])) if first else 0
+        where = f"in the {s.plane} plane" if s.plane in probes.PLANE_BASES else "along listed directions"
+        what = f"stress probes {where}, {count or 'n/a'} directions, M = {magnitudes} kPa"
+    else:
+        what = f"strain probes of the six strains (e11, e22, e33, g12, g13, g23), M = {magnitudes}"
+    return (f"{what}; ramps of {fmt(s.info.get('steps'))} steps, holds of {fmt(s.info.get('hold_steps'))} "
+            f"(`{s.info.get('table', 'n/a')}`{', `' + s.info['stiffness'] + '`' if s.info.get('stiffness') else ''})")
+
+
+def probe_point_row(s, point, entry):
+    status = entry.get("status", "n/a")
+    ran = entry.get("probes")
+    counts = "—" if ran is None else f"{fmt(ran)} / {fmt(entry.get('controlled'))} / {fmt(entry.get('failed'))}"
+    if ran is not None and entry.get("controlled") is not None and \
+            entry["controlled"] < ran - (entry.get("failed") or 0):
+        counts += " (**not all controlled**)"
+    if s.kind == "stress":
+        measure = fmt(probes.number((entry.get("linearity") or {}).get("median_ratio")))
+    else:
+        measure = fmt(probes.number(entry.get("elastic_asymmetry")))
+    e1, step = probes.number(entry.get("e1")), probes.number(entry.get("step"))
+    # A point not run has no place in the test (the reason says what the test reached).
+    where = ("—", "—") if status == "not run" or e1 is None or step is None else (fmt(e1 * PERCENT), fmt(round(step)))
+    return (point, *where, f"**{status}**" if status != "ran" else status,
+            counts, measure, entry.get("reason", "") or "")
+
+
+def envelope_lines(s, point):
+    """What each magnitude's envelope at `point` shows, measured on probes.csv (probes.envelope_findings)."""
+    lines = []
+    for m in s.magnitudes:
+        f = probes.envelope_findings(s.point_rows(point, m), s.plane)
+        if f is None:
+            continue
+        lines.append(
+            f"- {point}, M = {m * 1e-3:g} kPa: the largest total response is along {f['largest']}, "
+            f"{fmt_spec(f['ratio'], '.3g', 'n/a')} times the smallest, along {f['smallest']}; the largest plastic "
+            f"response is along {f['most_plastic']}, {f['most_plastic_compliance'] * 1e6:.3g} per MPa "
+            f"({fmt_spec(f['most_plastic_over_total'], '.2f', 'n/a')} times that probe's total); the plastic responses "
+            f"sum to {fmt_spec(f['plastic_over_total'], '.2f', 'n/a')} times the total ones.")
+    return lines
+
+
+def failed_probe_lines(s, point):
+    return [f"- {point}, {r['probe']}: {r['status']}" for r in s.point_rows(point) if not probes.is_ok(r)]
+
+
+def stiffness_table(s, point):
+    """The diagonal of each stiffness matrix at `point` (MPa) and its asymmetry; None without matrices."""
+    matrices = probes.stiffness_matrices(s.stiffness_point(point))
+    if not matrices:
+        return None
+    rows = [(name, *(f"{c[i, i] * 1e-6:.4g}" for i in range(6)), fmt(asym)) for name, c, asym in matrices]
+    return md_table(("Stiffness at " + point + " (MPa)", *(f"C{v}{v}" for v in probes.VOIGT), "asymmetry"), rows,
+                    align="l" + "r" * 7)
+
+
+def probes_section(run, planned, fig_dir_name="figures"):
+    """Each test's probes: per point its status, the probes run, controlled and failed, the linearity (stress) or
+    elastic asymmetry (strain), what the response envelopes show or the stiffness diagonals, and the figures; None
+    when no test ran probes."""
+    sets = probes.load_all(run)
+    if not sets:
+        return None
+    out = [PROBES_INTRO, ""]
+    for s in sets:
+        measure = "Linearity" if s.kind == "stress" else "Elastic asymmetry"
+        rows = [probe_point_row(s, p, e) for p, e in s.points.items()]
+        out += [f"### {s.test}", "", probe_set_text(s) + ".", "",
+                md_table(("Point", "ε1 (%)", "Step", "Status", "Probes / controlled / failed", measure, "Why"), rows)
+                if rows else "No points in summary.json.", ""]
+        details = []
+        for point in s.points:
+            details += failed_probe_lines(s, point)
+            if s.kind == "stress":
+                details += envelope_lines(s, point)
+        if details:
+            out += details + [""]
+        if s.kind == "strain":
+            for point in s.points:
+                table = stiffness_table(s, point)
+                if table:
+                    out += [table, ""]
+    figures = figures_section(planned, ("probes",), fig_dir_name, headings=False)
+    if figures:
+        out += [figures]
+    return "\n".join(out).rstrip()
+
+
 def section(title, body):
     return [] if body is None else [f"## {title}", "", body, ""]
 
@@ -591,6 +696,7 @@ def build_report(run, paper, planned):
                 paper_table(run), ""]
     out += section("Controls", controls_section(run))
     out += section("Rate check", verify_rate_section(run))
+    out += section("Probes", probes_section(run, planned))
     if run.test_names:
         out += ["## Per-test values", "",
                 "The peak of σ1/σ3, ε1, b, p, q and the friction angle there, the final values and the end-window "
