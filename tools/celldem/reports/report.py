@@ -632,6 +632,18 @@ def envelope_lines(s, point):
     return lines
 
 
+def plastic_flow_line(s, point):
+    """celldem's reading of the plastic responses at `point` (summary.json points.<point>.plastic), or None."""
+    p = (s.points.get(point) or {}).get("plastic")
+    if not isinstance(p, dict):
+        return None
+    return (f"- {point}, M = {p['magnitude'] * 1e-3:g} kPa, as an elastoplastic model reads it: plastic flow along "
+            f"{p['flow_direction_deg']:.0f}° (concentration {p['flow_concentration']:.3f}; 1: one mechanism), the "
+            f"loading surface's normal along {p['loading_normal_deg']:.0f}° (the fit |Δε_plastic| = c max(0, cos(a − "
+            f"normal)) explains {p['fit_explains']:.1%} of the squared plastic response), so the flow is "
+            f"{p['non_associativity_deg']:.0f}° from associated.")
+
+
 def failed_probe_lines(s, point):
     return [f"- {point}, {r['probe']}: {r['status']}" for r in s.point_rows(point) if not probes.is_ok(r)]
 
@@ -665,6 +677,8 @@ def probes_section(run, planned, fig_dir_name="figures"):
             details += failed_probe_lines(s, point)
             if s.kind == "stress":
                 details += envelope_lines(s, point)
+                if (line := plastic_flow_line(s, point)) is not None:
+                    details.append(line)
         if details:
             out += details + [""]
         if s.kind == "strain":
