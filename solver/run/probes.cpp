@@ -16,6 +16,8 @@
 #include "core/model.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
+#include "io/state_file.hpp"
+#include "run/preflight.hpp"
 #include "run/program.hpp"
 #include "run/progress.hpp"
 #include "run/run_directory.hpp"
@@ -413,6 +415,10 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
       summary["points"][point.name] = entry;
       continue;
     }
+    // The point's state, for probes run again later or by another code (a deck's initial_state).
+    const fs::path point_state = run.stage_dir(test.name) / "probes" / point.name / "point.state";
+    write_state(point_state.string(), *point.state, "probe point " + test.name + "/" + point.name, state_physics(deck));
+    entry["state"] = (fs::path(test.name) / "probes" / point.name / "point.state").string();
     const auto first = std::find_if(jobs.begin(), jobs.end(), [&](const Job& j) { return j.point == p; });
     const ProbeResult& reference = results[static_cast<std::size_t>(first - jobs.begin())];
     if (!reference.ran) {
