@@ -31,6 +31,12 @@ EndWatch end_watch(const Deck& deck, const LegEnd& e) {
   const std::string i = std::to_string(e.axis + 1);
   switch (e.kind) {
     case LegEndKind::Strain: return {"1.0-l" + std::string(kAxisName[e.axis]) + "/v_L0" + i, true};
+    case LegEndKind::ShearStrain: {  // g_ij = -(tilt - tilt(test start)) / L_j(test start), as the series' g_ij
+      static constexpr const char* kTilt[3] = {"xy", "xz", "yz"};
+      return {"-(" + std::string(kTilt[e.axis]) + "-v_T0" + kTilt[e.axis] + ")/v_L0" +
+                  std::to_string(kShearAxisEntries[e.axis][1] + 1),
+              true};
+    }
     case LegEndKind::Ratio: return {"f_obs[4]/f_obs[6]", true};
     case LegEndKind::Stress: return {"f_obs[" + std::to_string(4 + e.axis) + "]", true};
     case LegEndKind::SolidFraction: return {"mass(all)/(" + num(deck.sample.density) + "*vol)", false};
@@ -114,8 +120,8 @@ ScriptProgram test_program(const Deck& deck, const TestDef& test) {
 // celldem's legs start: e = e(leg start) + n d) for as long as every leg's length is known.
 std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
   std::vector<LegRun> runs;
-  std::array<bool, 3> known = {true, true, true};
-  std::array<double, 3> strain = {0.0, 0.0, 0.0};
+  std::array<bool, 3> known = {true, true, true}, shear_known = {true, true, true};
+  std::array<double, 3> strain = {0.0, 0.0, 0.0}, shear = {0.0, 0.0, 0.0};
   for (std::size_t j = 0; j < p.legs.size(); ++j) {
     const Leg& leg = p.legs[j];
     const LegEnd& e = leg.end;
@@ -143,6 +149,19 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
         r.length = LegLength::FromStrain;
         r.limit = e.max_steps;
       }
+    } else if (e.kind == LegEndKind::ShearStrain) {  // (the deck reader: the leg drives the axis by its strain)
+      const std::size_t a = static_cast<std::size_t>(e.axis);
+      if (shear_known[a]) {
+        if ((e.value - shear[a]) * leg.shear_strain_per_step(e.axis, p.time_step) < 0.0)
+          throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
+                          std::to_string(j + 1) + ": axis " + std::string(kShearAxisNames[a]) +
+                          " moves away from its end strain " + num(e.value) + " (it starts the leg at " +
+                          num(shear[a]) + ")");
+        r.steps = leg_steps(leg, p.time_step, shear[a]);
+      } else {
+        r.length = LegLength::FromStrain;
+        r.limit = e.max_steps;
+      }
     } else if (e.kind == LegEndKind::Equilibrium) {
       if (!p.preparation())  // its unbalanced force ratio is measured by the preparation's script only
         throw DeckError("test \"" + p.name + "\", leg " + std::to_string(j + 1) +
@@ -157,6 +176,10 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
     for (int k = 0; k < 3; ++k) {
       known[k] = known[k] && r.length == LegLength::Known && leg.axes[k].strain_driven();
       if (known[k]) strain[k] += static_cast<double>(r.steps) * leg.strain_per_step(k, p.time_step);
+      // A shear axis the leg does not name keeps its tilt; one it drives moves n d; one at a stress: unknown.
+      const std::optional<AxisControl>& a = leg.shear[static_cast<std::size_t>(k)];
+      shear_known[k] = shear_known[k] && r.length == LegLength::Known && !(a && a->stress_driven());
+      if (shear_known[k]) shear[k] += static_cast<double>(r.steps) * leg.shear_strain_per_step(k, p.time_step);
     }
     runs.push_back(r);
   }
@@ -169,6 +192,7 @@ std::string end_text(const Leg& leg, const LegRun& run) {
   std::string s;
   switch (e.kind) {
     case LegEndKind::Strain: s = "until e" + i + " = " + num(e.value); break;
+    case LegEndKind::ShearStrain: s = "until g" + std::string(kShearAxisNames[e.axis]).substr(1) + " = " + num(e.value); break;
     case LegEndKind::Ratio: s = "until s11/s33 = " + num(e.value); break;
     case LegEndKind::Stress: s = "until s" + i + i + " = " + num(e.value) + " Pa"; break;
     case LegEndKind::Steps: s = "for " + std::to_string(e.steps) + " steps"; break;
@@ -395,12 +419,15 @@ void ProgramWriter::from_strain(int j) {
   const Leg& leg = p_.legs[j];
   const LegEnd& e = leg.end;
   const std::string t = tag(j), now = std::string("(") + num(e.value) + "-(" + end_watch(deck_, e).value + "))";
-  const double per_step = leg.strain_per_step(e.axis, p_.time_step);
-  o_ << "# the steps to e" << e.axis + 1 << " = " << num(e.value) << " from the strain at the leg start (celldem's leg_steps)\n";
+  const bool shear = e.kind == LegEndKind::ShearStrain;
+  const std::string name = shear ? "g" + std::string(kShearAxisNames[e.axis]).substr(1) : "e" + std::to_string(e.axis + 1);
+  const double per_step = leg.end_strain_per_step(p_.time_step);
+  o_ << "# the steps to " << name << " = " << num(e.value) << " from the strain at the leg start (celldem's leg_steps)\n";
   var("n" + t, "round(" + now + "/" + lit(per_step) + ")");
   var("away" + t, now + "*" + lit(per_step) + "<0.0");
-  fail("${away" + t + "}", leg_name(j) + ": axis x" + std::to_string(e.axis + 1) + " moves away from its end strain " +
-                               num(e.value));
+  fail("${away" + t + "}", leg_name(j) + ": axis " +
+                               std::string(shear ? kShearAxisNames[e.axis] : kAxisNames[e.axis]) +
+                               " moves away from its end strain " + num(e.value));
   std::string steps = "n" + t;
   if (runs_[j].limit > 0) {
     const std::string m = std::to_string(runs_[j].limit);

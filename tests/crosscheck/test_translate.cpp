@@ -619,6 +619,39 @@ TEST(TranslateProgram, ShearAxesAreFixDeformTiltsOrNamedUntranslatable) {
   EXPECT_EQ(translate_test(held, held.tests[0], TargetCode::Lammps), translate_test(plain, plain.tests[0], TargetCode::Lammps));
 }
 
+// Shear legs that end on their shear strain: run N with celldem's leg_steps from where the leg starts g12 (known
+// here: the first leg's end), the same steps in both codes; after a leg that leaves g12 where only running tells
+// (a ratio end), N is counted at run time from the tilt.
+TEST(TranslateProgram, ShearStrainEndsRunCelldemsSteps) {
+  const std::string axes = R"("x1": {"strain_increment": 0}, "x2": {"stress": 1e5}, "x3": {"strain_increment": 0})";
+  const Deck deck = program_deck(R"({"name": "ss", "friction": 0.5, "legs": [
+      {"axes": {)" + axes + R"(, "x12": {"strain_increment": 2e-6}}, "end": {"axis": "x12", "strain": 0.01}},
+      {"axes": {)" + axes + R"(, "x12": {"strain_rate": -1.0}}, "end": {"axis": "x12", "strain": 0.004}}]})");
+  const std::vector<std::int64_t> planned = program_leg_steps(deck.tests[0].legs, deck.time_step);
+  ASSERT_EQ(planned, (std::vector<std::int64_t>{5000, 6000}));
+  const std::string lmp = translate_test(deck, deck.tests[0], TargetCode::Lammps);
+  const std::vector<std::string> blocks = leg_blocks(lmp);
+  ASSERT_EQ(blocks.size(), 3u);
+  EXPECT_EQ(command_lines(blocks[1], "run"), std::vector<std::string>{"run             5000"});
+  EXPECT_EQ(command_lines(blocks[2], "run"), std::vector<std::string>{"run             6000"});
+  EXPECT_TRUE(contains(blocks[1], "until g12 = 0.01 (5000 steps)")) << blocks[1];
+  // A one-leg simple shear to g12 = 0.01: run ${steps} with the steps, in LIGGGHTS too.
+  const Deck one = program_deck(R"({"name": "dss", "friction": 0.5,
+      "simple_shear": {"gamma_increment": 2e-6, "normal_stress": 1e5}, "end": {"axis": "x12", "strain": 0.01}})");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts})
+    EXPECT_TRUE(contains(translate_test(one, one.tests[0], code), "\nvariable        steps index 5000\n"));
+  // After a ratio end the leg's start is known at run time only: N from the tilt, celldem's leg_steps.
+  const Deck late = program_deck(R"({"name": "late", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"ratio": 1.5, "max_steps": 10000}},
+      {"axes": {)" + axes + R"(, "x12": {"strain_increment": 2e-6}}, "end": {"axis": "x12", "strain": 0.01}}]})");
+  const std::string run_time = translate_test(late, late.tests[0], TargetCode::Lammps);
+  const std::vector<std::string> late_blocks = leg_blocks(run_time);
+  ASSERT_EQ(late_blocks.size(), 3u);
+  EXPECT_EQ(formula(late_blocks[2], "n2"), "round((0.01-(-(xy-v_T0xy)/v_L02))/2e-06)");
+  EXPECT_EQ(command_lines(late_blocks[2], "run"), std::vector<std::string>{"run             ${n2}"});
+}
+
 // b and mean_stress: the translated targets, evaluated for a known stress state, are celldem's stress_targets().
 TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
   const Deck deck = program_deck(R"({"name": "bp", "friction": 0.5, "legs": [

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -76,6 +77,10 @@ const std::string kTests = R"([
       "end": {"equilibrium": true}},
      {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1.2e5}, "x3": {"stress": 1.2e5}},
       "end": {"axis": "x1", "strain": 0.002}}]},
+  {"name": "shear_end", "friction": 0.5, "output_interval": 400,
+   "legs": [
+     {"simple_shear": {"gamma_increment": 1e-6, "normal_stress": 1e5}, "end": {"axis": "x12", "strain": 0.003}},
+     {"simple_shear": {"gamma_rate": -1.0, "normal_stress": 1e5}, "end": {"axis": "x12", "strain": 0.001}}]},
   {"name": "ramp_path", "friction": 0.5, "output_interval": 200,
    "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress_ramp": {"from": 1e5, "rate": -5e6}},
             "x3": {"stress_ramp": {"from": 1e5, "rate": -5e6}}},
@@ -231,6 +236,32 @@ TEST(LoadProgram, LegsEndOnStrainInEitherDirectionAndRepeat) {
     if (r.step == 4000) unloaded = r.s11;
   }
   EXPECT_LT(unloaded, 0.9 * at_turn);
+}
+
+// Shear legs that end on their shear strain: simple shear to g12 = 0.3 %, then back to 0.1 % (1e-6 per step
+// both ways: an increment, then a rate of -1 /s at dt = 1e-6), each leg's end row at the planned step with g12 at
+// its end strain, e1 = e3 = 0 throughout.
+TEST(LoadProgram, ShearLegsEndOnTheirShearStrain) {
+  const ProgramRun& run = program_run();
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "shear_end" / "series.csv");
+  const double turns[] = {0.003, 0.001};
+  const std::int64_t ends[] = {3000, 5000};
+  for (int leg = 0; leg < 2; ++leg) {
+    bool found = false;
+    for (const SeriesRow& r : rows)
+      if (r.step == static_cast<double>(ends[leg])) {
+        EXPECT_NEAR(r.g12, turns[leg], 1e-12) << "leg " << leg;
+        EXPECT_EQ(r.leg, static_cast<double>(leg));
+        found = true;
+      }
+    EXPECT_TRUE(found) << "no row at the end of leg " << leg << " (step " << ends[leg] << ")";
+    EXPECT_EQ(run.summary["tests"]["shear_end"]["legs"][leg]["end"]["step"].get<double>(), static_cast<double>(ends[leg]));
+  }
+  EXPECT_EQ(rows.back().step, 5000.0);
+  for (const SeriesRow& r : rows) {
+    EXPECT_EQ(r.e1, 0.0) << r.step;
+    EXPECT_EQ(r.e3, 0.0) << r.step;
+  }
 }
 
 TEST(LoadProgram, RatioAndStepEnds) {
