@@ -81,10 +81,11 @@ struct Resolver {
   double largest_stress = 0.0;
   double fastest_step_factor = 1.0;  // the largest strain-per-step multiplier of any leg
 
-  // One leg of a stage that runs at `dt` instead of `dt_written`. A strain-driven test leg: its rate from the
-  // level's inertial number at its confining stress; a strain-driven preparation leg: its strain per step x the
-  // scale; any other leg keeps the time of its step ends. Returns the leg's report and the strain-per-step
-  // factor (0 for a leg without a strain-driven axis).
+  // One leg of a stage that runs at `dt` instead of `dt_written`. A strain-driven test leg (a simple_shear leg
+  // too, by its g12): its rate from the level's inertial number at its confining stress; a strain-driven
+  // preparation leg: its strain per step x the scale; any other leg keeps the time of its step ends (and a
+  // principal-axis rotation its angle per unit time). Returns the leg's report and the strain-per-step factor
+  // (0 for a leg without a strain-driven axis).
   Json leg(Json& leg, double dt_written, double dt, double stage_stress, bool preparation, double& step_factor) {
     // A simple_shear leg names no axes: its g12 drives it, its normal stress confines it.
     Json no_axes = Json::object();
@@ -127,6 +128,11 @@ struct Resolver {
         report["inertial_number_written"] = inertial_number(rate, d, rho, stress);
         report["inertial_number"] = inertial_number(new_rate, d, rho, stress);
       }
+    }
+    // A principal-axis rotation by angle per step keeps its angle per unit time, as its steps keep their time.
+    if (leg.contains("rotate_principal_axes") && leg["rotate_principal_axes"].contains("angle_increment")) {
+      Json& increment = leg["rotate_principal_axes"]["angle_increment"];
+      increment = increment.get<double>() * dt / dt_written;
     }
     Json& end = leg["end"];
     for (const char* key : {"steps", "max_steps"})

@@ -118,6 +118,28 @@ TEST(Tolerance, SimpleShearLegIsResolvedAsItsAxes) {
   EXPECT_EQ(plan_test(shear, shear.tests[0]).steps, std::llround(0.01 / s.shear[0]->value));
 }
 
+// A principal-axis rotation keeps its angular rate: an angle_increment per step scales with the time step as its
+// steps end keeps its time, so the rotation turns through the same angle in the same time.
+TEST(Tolerance, RotationByAnglePerStepKeepsItsRate) {
+  Json j = deck_json();
+  j["tests"] = Json::array({Json::parse(R"({"name": "rot", "friction": 0.5, "output_interval": 1000,
+      "axes": {"x2": {"stress": 1.0e5}},
+      "rotate_principal_axes": {"plane": "x1x3", "sigma1": 1.5e5, "sigma3": 1.0e5, "angle_increment": 0.0009},
+      "end": {"steps": 100000}})")});
+  const Deck written = parse_deck(j.dump());
+  const Deck resolved = resolve_tolerance(written, j.dump(), 1.0);
+  const double dt_written = written.stage_time_step(written.tests[0]), dt = resolved.stage_time_step(resolved.tests[0]);
+  ASSERT_NE(dt, dt_written);
+  const Leg& w = written.tests[0].legs[0];
+  const Leg& r = resolved.tests[0].legs[0];
+  ASSERT_TRUE(w.rotation && r.rotation);
+  EXPECT_DOUBLE_EQ(r.rotation->rate / dt, w.rotation->rate / dt_written);  // [rad/s]
+  const double turned_written = static_cast<double>(w.end.steps) * w.rotation->rate;
+  const double turned = static_cast<double>(r.end.steps) * r.rotation->rate;
+  EXPECT_NEAR(turned, turned_written, std::abs(r.rotation->rate));  // 90 degrees, within one step's angle
+  EXPECT_NEAR(turned_written, M_PI / 2.0, 1e-12);
+}
+
 TEST(ToleranceRules, EmbeddedTableParsesAndInterpolatesLogLinearly) {
   const ToleranceRules& rules = time_to_answer_rules();
   ASSERT_GE(rules.levels.size(), 2u);
