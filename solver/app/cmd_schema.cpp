@@ -58,6 +58,7 @@ Json end_json(const LegEnd& e) {
   Json j;
   switch (e.kind) {
     case LegEndKind::Strain: j = {{"axis", kAxisNames[e.axis]}, {"strain", e.value}}; break;
+    case LegEndKind::ShearStrain: j = {{"axis", kShearAxisNames[e.axis]}, {"strain", e.value}}; break;
     case LegEndKind::Ratio: j = {{"ratio", e.value}}; break;
     case LegEndKind::Stress: j = {{"axis", kAxisNames[e.axis]}, {"stress", e.value}}; break;
     case LegEndKind::Steps: j = {{"steps", e.steps}}; break;

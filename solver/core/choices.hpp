@@ -19,7 +19,8 @@ enum class TwistingModel { None, Marshall };           // no twisting resistance
 // How an axis of the cell is driven during a leg (cell/control.hpp has the laws).
 enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume, StressRamp };
 // What ends a leg.
-enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium };
+// ShearStrain: the engineering shear strain g_ij of a shear axis the leg drives by its strain.
+enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium, ShearStrain };
 // What a control that stays outside its tolerance does: stop the stage (exit 1), or warn and mark the test.
 enum class ControlFailure { Stop, Warn };
 // How a snapshot's VTK arrays are stored: raw bytes appended after the XML, those bytes zlib-compressed, or text.
@@ -52,6 +53,8 @@ inline constexpr std::array<std::string_view, 2> kProbePointNames = {"peak", "en
 // against the reference length of its column's axis (cell/control.hpp has the convention).
 inline constexpr std::array<std::string_view, 3> kShearAxisNames = {"x12", "x13", "x23"};
 inline constexpr std::array<std::array<int, 2>, 3> kShearAxisEntries = {{{0, 1}, {0, 2}, {1, 2}}};
+// The axes a leg's end may name: the normal axes (kAxisNames), then the shear axes (kShearAxisNames).
+inline constexpr std::array<std::string_view, 6> kEndAxisNames = {"x1", "x2", "x3", "x12", "x13", "x23"};
 // The planes of a principal-axis rotation, in the order of the shear axes (x1x2 is x12's plane).
 inline constexpr std::array<std::string_view, 3> kPlaneNames = {"x1x2", "x1x3", "x2x3"};
 

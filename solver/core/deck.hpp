@@ -144,8 +144,9 @@ struct PrincipalRotation {
 
 struct LegEnd {
   LegEndKind kind = LegEndKind::Strain;
-  int axis = 0;                // Strain, Stress: the axis (0-based)
-  double value = 0.0;          // Strain [-] relative to the test start; Ratio s11/s33; Stress [Pa]; SolidFraction
+  int axis = 0;                // Strain, Stress: the axis (0-based); ShearStrain: the shear axis (kShearAxisNames)
+  double value = 0.0;          // Strain, ShearStrain [-] relative to the test start; Ratio s11/s33; Stress [Pa];
+                               // SolidFraction
   std::int64_t steps = 0;      // Steps: the leg's length
   std::int64_t max_steps = 0;  // a Strain leg ends here at the latest; any other leg that has not ended by
                                // then stops the run with an error (0: no limit)
@@ -165,6 +166,17 @@ struct Leg {
   double strain_per_step(int axis, double time_step) const {
     const AxisControl& a = axes[axis];
     return a.mode == AxisMode::StrainIncrement ? a.value : a.mode == AxisMode::StrainRate ? a.value * time_step : 0.0;
+  }
+  // The strain per step of the end's axis when the leg drives it by its strain (a normal axis for a Strain end, a
+  // shear axis for a ShearStrain end), else 0.
+  double end_strain_per_step(double time_step) const {
+    return end.kind == LegEndKind::ShearStrain ? shear_strain_per_step(end.axis, time_step)
+                                               : strain_per_step(end.axis, time_step);
+  }
+  // Whether the leg ends on the strain of an axis it drives by its strain: its steps are known from where it starts.
+  bool ends_on_driven_strain() const {
+    if (end.kind == LegEndKind::ShearStrain) return shear_strain_per_step(end.axis, 1.0) != 0.0;
+    return end.kind == LegEndKind::Strain && axes[end.axis].strain_driven();
   }
   // The same for shear axis `shear_axis` (x12, x13, x23): 0 unless the leg drives it by its strain.
   double shear_strain_per_step(int shear_axis, double time_step) const {

@@ -394,10 +394,13 @@ inline constexpr KeySpec rotation_angle_increment{.path = "tests[].rotate_princi
 inline constexpr KeySpec test_end{.path = "tests[].end", .kind = KeyKind::Object,
     .meaning = "when the leg ends: exactly one of `strain`, `ratio`, `stress`, `steps`, `equilibrium`"};
 inline constexpr KeySpec test_end_axis{.path = "tests[].end.axis", .kind = KeyKind::Choice, .required = false,
-    .choices = kAxisNames, .meaning = "the axis of a `strain` or `stress` end"};
+    .choices = kEndAxisNames,
+    .meaning = "the axis of a `strain` or `stress` end; a `strain` end may name a shear axis `x12`, `x13`, `x23` that "
+               "the leg drives by its strain (`axes.xIJ` or `simple_shear`)"};
 inline constexpr KeySpec test_end_strain{.path = "tests[].end.strain", .kind = KeyKind::Number, .min = -0.9,
     .max = 0.9, .required = false, .default_text = "-",
-    .meaning = "engineering strain of the axis relative to the test start (either direction: unloading too)"};
+    .meaning = "engineering strain of the axis relative to the test start (either direction: unloading too); of a "
+               "shear axis its engineering shear strain g_ij (series `g12`, `g13`, `g23`), its steps known ahead"};
 inline constexpr KeySpec test_end_ratio{.path = "tests[].end.ratio", .kind = KeyKind::Number, .positive = true,
     .required = false, .default_text = "-", .meaning = "s11/s33 reaches this value (from either side)"};
 inline constexpr KeySpec test_end_stress{.path = "tests[].end.stress", .kind = KeyKind::Number, .positive = true,

@@ -31,8 +31,8 @@ std::int64_t leg_steps(const Leg& leg, double time_step, double from) {
   const LegEnd& e = leg.end;
   std::int64_t n = -1;
   if (e.kind == LegEndKind::Steps) n = e.steps;
-  if (e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven())
-    n = std::max<std::int64_t>(0, std::llround((e.value - from) / leg.strain_per_step(e.axis, time_step)));
+  if (leg.ends_on_driven_strain())  // a normal axis's strain, or a shear axis's (g = g(leg start) + n d likewise)
+    n = std::max<std::int64_t>(0, std::llround((e.value - from) / leg.end_strain_per_step(time_step)));
   if (n >= 0 && e.max_steps > 0) n = std::min(n, e.max_steps);
   return n;
 }
@@ -65,20 +65,32 @@ double servo_cap(const ServoDef& servo, const Leg& leg, double time_step) {
 std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
                                             std::vector<double>* from) {
   std::vector<std::int64_t> steps;
-  // A leg starts where the previous one ended: its end axis from the previous strain end of that axis.
-  Vec3 strain = Vec3::Zero();
+  // A leg starts where the previous one ended: its end axis from the previous strain end of that axis. The
+  // shear axes likewise; one that a leg holds by a stress goes where only running tells.
+  Vec3 strain = Vec3::Zero(), shear = Vec3::Zero();
+  std::array<bool, 3> shear_known = {true, true, true};
   bool known = true;
   if (from) from->clear();
   for (const Leg& leg : legs) {
-    if (from) from->push_back(known ? strain[leg.end.axis] : std::numeric_limits<double>::quiet_NaN());
-    const std::int64_t n = known ? leg_steps(leg, time_step, strain[leg.end.axis]) : -1;
+    const LegEnd& e = leg.end;
+    const bool on_shear = e.kind == LegEndKind::ShearStrain;
+    const bool start_known = known && (!on_shear || shear_known[static_cast<std::size_t>(e.axis)]);
+    const double start = on_shear ? shear[e.axis] : strain[e.axis];
+    if (from) from->push_back(start_known ? start : std::numeric_limits<double>::quiet_NaN());
+    const std::int64_t n = start_known || (known && !leg.ends_on_driven_strain()) ? leg_steps(leg, time_step, start) : -1;
     steps.push_back(n);
     if (n < 0) {
       known = false;
       continue;
     }
     for (int k = 0; k < 3; ++k) strain[k] += n * leg.strain_per_step(k, time_step);
-    if (leg.end.kind == LegEndKind::Strain && n != leg.end.max_steps) strain[leg.end.axis] = leg.end.value;
+    for (int k = 0; k < 3; ++k) {
+      shear[k] += n * leg.shear_strain_per_step(k, time_step);
+      if (leg.shear[static_cast<std::size_t>(k)] && leg.shear[static_cast<std::size_t>(k)]->stress_driven())
+        shear_known[static_cast<std::size_t>(k)] = false;
+    }
+    if (e.kind == LegEndKind::Strain && n != e.max_steps) strain[e.axis] = e.value;
+    if (on_shear && n != e.max_steps) shear[e.axis] = e.value;
   }
   return steps;
 }
@@ -118,7 +130,7 @@ TestPlan plan_test(const Deck& deck, const TestDef& test) {
   TestPlan p;
   const Leg& first = test.legs.front();
   const double dt = deck.stage_time_step(test);
-  p.strain_per_step = first.strain_per_step(first.end.axis, dt);
+  p.strain_per_step = first.end_strain_per_step(dt);
   p.strain_rate = p.strain_per_step / dt;
   std::vector<StepRange> steps;
   for (const std::int64_t n : program_leg_steps(test.legs, dt))

@@ -384,6 +384,11 @@ LegEnd read_end(ObjectReader end, bool preparation) {
                                    "\"solid_fraction\", \"equilibrium\""
                                  : "give exactly one of \"strain\", \"ratio\", \"stress\", \"steps\", \"equilibrium\"");
   e.axis = static_cast<int>(end.choice(keys::test_end_axis));
+  if (e.axis >= 3) {  // a shear axis (kEndAxisNames): its engineering shear strain
+    if (e.kind != LegEndKind::Strain)
+      fail(end.at(keys::test_end_axis), "a shear axis ends a leg only on its strain (\"strain\": g_ij)");
+    e.kind = LegEndKind::ShearStrain, e.axis -= 3;
+  }
   e.max_steps = end.integer(keys::test_end_max_steps);
   end.finish();
   return e;
@@ -422,6 +427,16 @@ void check_leg(const Leg& leg, const std::string& at) {
     fail(at + ".axes", "mean_stress axes need a strain-driven or b axis beside them, or all three on mean_stress");
   const LegEnd& e = leg.end;
   const std::string end = at + ".end";
+  if (e.kind == LegEndKind::ShearStrain) {  // on a shear axis the leg drives by its strain, so its steps are known
+    const std::optional<AxisControl>& a = leg.shear[static_cast<std::size_t>(e.axis)];
+    const std::string name(kShearAxisNames[e.axis]);
+    if (!a || !a->strain_driven())
+      fail(end + ".axis", "a strain end on shear axis " + name + " needs the leg to drive " + name + " by its strain (axes." +
+                              name + ".strain_increment or strain_rate, or simple_shear for x12)" +
+                              (a ? "; it holds a shear stress" : "; the leg holds its tilt"));
+    if (leg.shear_strain_per_step(e.axis, 1.0) == 0.0)
+      fail(end + ".axis", "the end axis is held at zero strain increment: it never moves");
+  }
   if (e.kind == LegEndKind::Strain) {
     const bool driven_end = leg.axes[e.axis].strain_driven();
     if (driven_end && leg.strain_per_step(e.axis, 1.0) == 0.0)
@@ -676,17 +691,19 @@ void check_leg_lengths(const TestDef& t, double time_step, const std::string& le
   const std::vector<std::int64_t> steps = program_leg_steps(t.legs, time_step, &from);
   for (std::size_t j = 0; j < t.legs.size(); ++j) {
     const Leg& leg = t.legs[j];
-    if (steps[j] < 0 || leg.end.kind != LegEndKind::Strain || std::isnan(from[j])) continue;
+    const bool shear = leg.end.kind == LegEndKind::ShearStrain;
+    if (steps[j] < 0 || (leg.end.kind != LegEndKind::Strain && !shear) || std::isnan(from[j])) continue;
     const int k = leg.end.axis;
-    const double per_step = leg.strain_per_step(k, time_step), distance = leg.end.value - from[j];
+    const double per_step = leg.end_strain_per_step(time_step), distance = leg.end.value - from[j];
     // A leg that moves away from its end strain is another error, named when the leg starts (LegEndWatch).
     if (distance * per_step < 0.0) continue;
     // One whole step, less round-off (an end strain of exactly one increment is one step).
     if (std::abs(distance) >= std::abs(per_step) * (1.0 - 1e-9)) continue;
     const std::string at = one_leg ? legs_path + ".end.strain" : legs_path + " (leg " + std::to_string(j) +
                                                                       " of the program, repeats unrolled): end.strain";
-    const AxisControl& a = leg.axes[k];
-    fail(at, "the leg is shorter than one step: axis " + std::string(kAxisNames[k]) + " moves " + fmt(per_step) +
+    const AxisControl& a = shear ? *leg.shear[static_cast<std::size_t>(k)] : leg.axes[k];
+    fail(at, "the leg is shorter than one step: axis " + std::string(shear ? kShearAxisNames[k] : kAxisNames[k]) +
+                 " moves " + fmt(per_step) +
                  " per step (" + (a.mode == AxisMode::StrainRate ? "strain_rate " + fmt(a.value) + " 1/s x time_step " +
                                                                        fmt(time_step) + " s"
                                                                  : "strain_increment " + fmt(a.value)) +
@@ -751,6 +768,12 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
       if (leg.end.value == 0.0) fail(r.at("end.strain"), "must be non-zero");
       if (driver.value == 0.0 || (driver.value > 0) != (leg.end.value > 0))
         fail(r.at("end.strain"), "the end axis is not strained towards this value");
+    }
+    if (leg.end.kind == LegEndKind::ShearStrain) {  // (check_leg: the leg drives the shear axis by its strain)
+      const std::optional<AxisControl>& driver = leg.shear[static_cast<std::size_t>(leg.end.axis)];
+      if (leg.end.value == 0.0) fail(r.at("end.strain"), "must be non-zero");
+      if (driver && driver->strain_driven() && driver->value != 0.0 && (driver->value > 0) != (leg.end.value > 0))
+        fail(r.at("end.strain"), "the end axis is not sheared towards this value");
     }
     check_leg(leg, r.path());
     t.legs.push_back(leg);

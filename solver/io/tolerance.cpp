@@ -81,18 +81,27 @@ struct Resolver {
   double largest_stress = 0.0;
   double fastest_step_factor = 1.0;  // the largest strain-per-step multiplier of any leg
 
-  // One leg of a stage that runs at `dt` instead of `dt_written`. A strain-driven test leg: its rate from the
-  // level's inertial number at its confining stress; a strain-driven preparation leg: its strain per step x the
-  // scale; any other leg keeps the time of its step ends. Returns the leg's report and the strain-per-step
-  // factor (0 for a leg without a strain-driven axis).
+  // One leg of a stage that runs at `dt` instead of `dt_written`. A strain-driven test leg (a simple_shear leg
+  // too, by its g12): its rate from the level's inertial number at its confining stress; a strain-driven
+  // preparation leg: its strain per step x the scale; any other leg keeps the time of its step ends (and a
+  // principal-axis rotation its angle per unit time). Returns the leg's report and the strain-per-step factor
+  // (0 for a leg without a strain-driven axis).
   Json leg(Json& leg, double dt_written, double dt, double stage_stress, bool preparation, double& step_factor) {
-    Json& axes = leg["axes"];
-    const double rate = driving_rate(axes, dt_written);
+    // A simple_shear leg names no axes: its g12 drives it, its normal stress confines it.
+    Json no_axes = Json::object();
+    Json& axes = leg.contains("axes") ? leg["axes"] : no_axes;
+    Json* simple_shear = leg.contains("simple_shear") ? &leg["simple_shear"] : nullptr;
+    double rate = driving_rate(axes, dt_written);
+    if (simple_shear && simple_shear->contains("gamma_increment"))
+      rate = std::max(rate, std::abs((*simple_shear)["gamma_increment"].get<double>()) / dt_written);
+    if (simple_shear && simple_shear->contains("gamma_rate"))
+      rate = std::max(rate, std::abs((*simple_shear)["gamma_rate"].get<double>()));
     Json report = {{"strain_driven", rate > 0.0}};
     double steps_factor = dt_written / dt;  // steps of the same physical time
     step_factor = 0.0;
     if (rate > 0.0) {
       double stress = leg_stress(axes);
+      if (std::isnan(stress) && simple_shear) stress = (*simple_shear)["normal_stress"].get<double>();
       if (std::isnan(stress)) stress = stage_stress;
       if (std::isnan(stress) || stress <= 0.0) stress = largest_stress;
       const double d = mean_diameter(written.sample), rho = written.sample.density;
@@ -104,6 +113,10 @@ struct Resolver {
         if (axis.contains("strain_increment")) axis["strain_increment"] = axis["strain_increment"].get<double>() * step_factor;
         if (axis.contains("strain_rate")) axis["strain_rate"] = axis["strain_rate"].get<double>() * rate_factor;
       }
+      if (simple_shear && simple_shear->contains("gamma_increment"))
+        (*simple_shear)["gamma_increment"] = (*simple_shear)["gamma_increment"].get<double>() * step_factor;
+      if (simple_shear && simple_shear->contains("gamma_rate"))
+        (*simple_shear)["gamma_rate"] = (*simple_shear)["gamma_rate"].get<double>() * rate_factor;
       steps_factor = 1.0 / step_factor;  // steps of the same strain
       fastest_step_factor = std::max(fastest_step_factor, step_factor);
       report["confining_stress"] = stress;
@@ -115,6 +128,11 @@ struct Resolver {
         report["inertial_number_written"] = inertial_number(rate, d, rho, stress);
         report["inertial_number"] = inertial_number(new_rate, d, rho, stress);
       }
+    }
+    // A principal-axis rotation by angle per step keeps its angle per unit time, as its steps keep their time.
+    if (leg.contains("rotate_principal_axes") && leg["rotate_principal_axes"].contains("angle_increment")) {
+      Json& increment = leg["rotate_principal_axes"]["angle_increment"];
+      increment = increment.get<double>() * dt / dt_written;
     }
     Json& end = leg["end"];
     for (const char* key : {"steps", "max_steps"})

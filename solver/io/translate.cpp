@@ -88,14 +88,6 @@ void require_listed_sizes(const Deck& deck) {
   if (deck.sample.grading)
     throw DeckError("sample.diameters.grading: the translated scripts give one atom type per listed diameter "
                     "(per-type damping), which a graded sample does not have: translate a deck with a `list`");
-  // The scripts run every stage at the deck's time step (their damping and servo constants are made from it).
-  const auto own = [&](const std::optional<double>& dt, const std::string& path) {
-    if (dt && *dt != deck.time_step)
-      throw DeckError(path + ": the translated scripts run every stage at the deck's time_step; translate a deck "
-                      "whose stages use it");
-  };
-  if (deck.prepare) own(deck.prepare->time_step, "prepare.time_step");
-  for (std::size_t i = 0; i < deck.tests.size(); ++i) own(deck.tests[i].time_step, "tests[" + std::to_string(i) + "].time_step");
 }
 }  // namespace
 
@@ -129,7 +121,7 @@ double nominal_normal_stiffness(const Deck& deck) {
 }
 }  // namespace
 
-TranslatedServo translated_servo(const Deck& deck) {
+TranslatedServo translated_servo(const Deck& deck, double time_step) {
   require_listed_sizes(deck);
   // Nominal affine axis stiffness of a dense random packing, K = (1/V) sum kn (n_k l_k)^2 with <n_k^4> = 1/5:
   // K = kn Z phi <l^2> / (10 <v_s>), Z = 6, phi = 0.64, l = r_i + r_j, sizes drawn with equal probability.
@@ -143,7 +135,7 @@ TranslatedServo translated_servo(const Deck& deck) {
   const double k = nominal_normal_stiffness(deck) * 6.0 * 0.64 * l2 / (10.0 * vs);
   const double decade = std::pow(10.0, std::floor(std::log10(k)) - 2.0);
   s.modulus = std::round(k / decade) * decade;  // 3 significant digits: it is a nominal value
-  s.pdamp = deck.time_step / (3.0 * deck.servo.gain);
+  s.pdamp = time_step / (3.0 * deck.servo.gain);
   return s;
 }
 

@@ -84,11 +84,12 @@ std::string translate_preparation(const Deck& deck, TargetCode code);
 
 // Servo constants of the translated stress control (press/berendsen law, also the LIGGGHTS variable servo):
 // per step, dL/L ~= dt / (3 pdamp modulus) * (target - s). modulus is a nominal affine axis stiffness estimated
-// from the deck, pdamp = dt / (3 gain), so the proportional gain equals celldem's at that stiffness.
+// from the deck, pdamp = dt / (3 gain) at the stage's time step dt, so the proportional gain equals celldem's at
+// that stiffness.
 struct TranslatedServo {
   double modulus = 0.0;  // [Pa]
   double pdamp = 0.0;    // [s]
 };
-TranslatedServo translated_servo(const Deck& deck);
+TranslatedServo translated_servo(const Deck& deck, double time_step);
 
 }  // namespace celldem

@@ -117,20 +117,25 @@ std::vector<std::string> contact_differences(const Deck& deck, TargetCode code) 
 }
 
 // The controls and the ends of the legs.
-void program_differences(const Deck& deck, TargetCode code, const ProgramFeatures& f, std::vector<std::string>& out) {
+// The servo's pdamp is made from each stage's time step: `time_steps` are the distinct time steps of the stages
+// the scripts run (one number when they share it).
+void program_differences(const Deck& deck, const ServoDef& servo, const std::vector<double>& time_steps, TargetCode code,
+                         const ProgramFeatures& f, std::vector<std::string>& out) {
   const bool lmp = code == TargetCode::Lammps;
   if (f.stress) {
-    const TranslatedServo s = translated_servo(deck);
+    const TranslatedServo s = translated_servo(deck, time_steps.front());
+    const std::string pdamp = time_steps.size() == 1 ? "pdamp " + num(s.pdamp) + " s"
+                                                     : "pdamp dt / (3 gain) at each test's own time step";
     out.push_back("servo: celldem's stress servo is proportional-integral with the stiffness measured from the "
                   "contacts each step (gain " + num(deck.servo.gain) + ", integral_gain " +
                   num(deck.servo.integral_gain) + ", cap " +
-                  (deck.servo.max_strain_increment_given
-                       ? num(deck.servo.max_strain_increment)
+                  (servo.max_strain_increment_given
+                       ? num(servo.max_strain_increment)
                        : "max(" + num(kDefaultServoCap) + ", " + num(kServoCapFactor) + " x each leg's driving strain per step)") +
                   "); " +
                   (lmp ? "fix press/berendsen" : "the fix deform variable servo (the press/berendsen law)") +
-                  " is proportional only, with a fixed nominal stiffness (modulus " + num(s.modulus) + " Pa, pdamp " +
-                  num(s.pdamp) + " s: the same proportional gain at that stiffness) and no cap, so it trails a "
+                  " is proportional only, with a fixed nominal stiffness (modulus " + num(s.modulus) + " Pa, " + pdamp +
+                  ": the same proportional gain at that stiffness) and no cap, so it trails a "
                   "dilating sample by about modulus * (lateral strain per step) / gain (compare curves in the "
                   "stresses each code actually held)");
   }
@@ -186,6 +191,19 @@ std::vector<std::string> common_notes(const Deck& deck, TargetCode code) {
   return out;
 }
 
+// A stage that runs at its own time step (prepare.time_step, tests[].time_step, or a deck resolved by --tolerance).
+void time_step_notes(const Deck& deck, const std::vector<double>& time_steps, bool preparation,
+                     std::vector<std::string>& out) {
+  if (time_steps.size() == 1 && time_steps.front() == deck.time_step) return;
+  out.push_back(std::string("per-stage time steps: ") +
+                (preparation ? "the preparation runs at its own prepare.time_step"
+                             : "each test runs at its own time step (tests[].time_step, else the deck's)") +
+                ", as celldem's stages do: each script sets its stage's `timestep` before its first run (one script "
+                "runs one stage, so it never changes within a script) and makes from it what celldem makes per step "
+                "(fix deform rates of strain increments, increment / dt; the servo's pdamp, dt / (3 gain); the "
+                "steps of strain ends; the series' time, steps x dt)");
+}
+
 void program_notes(TargetCode code, const ProgramFeatures& f, std::vector<std::string>& out) {
   const bool lmp = code == TargetCode::Lammps;
   if (f.programs)
@@ -214,6 +232,15 @@ void program_notes(TargetCode code, const ProgramFeatures& f, std::vector<std::s
   }
 }
 
+// The distinct time steps of the deck's tests, in order of appearance (the deck's when it has no tests).
+std::vector<double> test_time_steps(const Deck& deck) {
+  std::vector<double> steps;
+  for (const TestDef& t : deck.tests)
+    if (std::find(steps.begin(), steps.end(), deck.stage_time_step(t)) == steps.end()) steps.push_back(deck.stage_time_step(t));
+  if (steps.empty()) steps.push_back(deck.time_step);
+  return steps;
+}
+
 }  // namespace
 }  // namespace translation
 
@@ -221,7 +248,7 @@ using namespace translation;
 
 std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
   std::vector<std::string> out = contact_differences(deck, code);
-  program_differences(deck, code, test_features(deck), out);
+  program_differences(deck, deck.servo, test_time_steps(deck), code, test_features(deck), out);
   if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.snapshots.any(); }))
     out.push_back("snapshots (tests[].snapshots): not translated; the scripts write the series only (add a dump "
                   "for particle snapshots)");
@@ -234,6 +261,7 @@ std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
 
 std::vector<std::string> model_notes(const Deck& deck, TargetCode code) {
   std::vector<std::string> out = common_notes(deck, code);
+  time_step_notes(deck, test_time_steps(deck), false, out);
   program_notes(code, test_features(deck), out);
   return out;
 }
@@ -243,7 +271,7 @@ std::vector<std::string> preparation_differences(const Deck& deck, TargetCode co
   std::vector<std::string> out = contact_differences(deck, code);
   ProgramFeatures f;
   f.add(deck.prepare->legs);
-  program_differences(deck, code, f, out);
+  program_differences(deck, deck.stage_servo(*deck.prepare), {deck.stage_time_step(*deck.prepare)}, code, f, out);
   if (deck.prepare->snapshots.any())
     out.push_back("snapshots (prepare.snapshots): not translated; the script writes the series only (add a dump "
                   "for particle snapshots)");
@@ -263,6 +291,7 @@ std::vector<std::string> preparation_notes(const Deck& deck, TargetCode code) {
   if (!deck.prepare) throw DeckError("prepare: the deck has no preparation to translate");
   const bool lmp = code == TargetCode::Lammps;
   std::vector<std::string> out = common_notes(deck, code);
+  time_step_notes(deck, {deck.stage_time_step(*deck.prepare)}, true, out);
   ProgramFeatures f;
   f.add(deck.prepare->legs);
   f.programs = true;

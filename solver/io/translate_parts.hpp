@@ -82,12 +82,16 @@ struct ScriptProgram {
   std::int64_t output_interval = 1000;
   const EquilibriumDef* equilibrium = nullptr;    // the preparation only
   double rolling_friction = 0.0;                  // mu_roll (contact.rolling sds)
+  // [s] the stage's own time step (Deck::stage_time_step): the script's `timestep`, and what the script makes per
+  // step from it (fix deform rates of strain increments, the servo's pdamp, the steps of strain ends, the time).
+  // One script runs one stage, so the time step never changes within a script.
+  double time_step = 0.0;
   bool preparation() const { return equilibrium != nullptr; }
   // The one-leg form of a test: the script of a single leg, as before load programs (`-var steps N`).
   bool one_leg() const { return legs.size() == 1 && !preparation(); }
 };
 
-ScriptProgram test_program(const TestDef& test);
+ScriptProgram test_program(const Deck& deck, const TestDef& test);
 // Whether a leg of the program drives a shear axis by its strain: the script then makes the box triclinic
 // (change_box) and writes the shear columns of its series (kTranslatedShearColumns).
 bool program_shears(const ScriptProgram& p);

@@ -16,8 +16,8 @@ namespace {
 constexpr std::int64_t kUnboundedSteps = 1000000000;
 
 // fix deform erate [1/s] of a strain-controlled axis (compression positive in the deck, L = L0 (1 + erate t)).
-double engineering_rate(const Deck& deck, const AxisControl& a) {
-  return a.mode == AxisMode::StrainRate ? -a.value : -a.value / deck.time_step;
+double engineering_rate(const AxisControl& a, double time_step) {
+  return a.mode == AxisMode::StrainRate ? -a.value : -a.value / time_step;
 }
 
 // The end of a leg as the scripts check it: the value watched (a formula of the state after the step's box
@@ -31,6 +31,12 @@ EndWatch end_watch(const Deck& deck, const LegEnd& e) {
   const std::string i = std::to_string(e.axis + 1);
   switch (e.kind) {
     case LegEndKind::Strain: return {"1.0-l" + std::string(kAxisName[e.axis]) + "/v_L0" + i, true};
+    case LegEndKind::ShearStrain: {  // g_ij = -(tilt - tilt(test start)) / L_j(test start), as the series' g_ij
+      static constexpr const char* kTilt[3] = {"xy", "xz", "yz"};
+      return {"-(" + std::string(kTilt[e.axis]) + "-v_T0" + kTilt[e.axis] + ")/v_L0" +
+                  std::to_string(kShearAxisEntries[e.axis][1] + 1),
+              true};
+    }
     case LegEndKind::Ratio: return {"f_obs[4]/f_obs[6]", true};
     case LegEndKind::Stress: return {"f_obs[" + std::to_string(4 + e.axis) + "]", true};
     case LegEndKind::SolidFraction: return {"mass(all)/(" + num(deck.sample.density) + "*vol)", false};
@@ -105,16 +111,17 @@ bool program_shears(const ScriptProgram& p) {
   return false;
 }
 
-ScriptProgram test_program(const TestDef& test) {
-  return {test.name, test.legs, test.friction, test.output_interval, nullptr, test.rolling_friction};
+ScriptProgram test_program(const Deck& deck, const TestDef& test) {
+  return {test.name, test.legs, test.friction, test.output_interval, nullptr, test.rolling_friction,
+          deck.stage_time_step(test)};
 }
 
 // Each leg's length, following the strains of the strain-driven axes from the program's start (exactly as
 // celldem's legs start: e = e(leg start) + n d) for as long as every leg's length is known.
 std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
   std::vector<LegRun> runs;
-  std::array<bool, 3> known = {true, true, true};
-  std::array<double, 3> strain = {0.0, 0.0, 0.0};
+  std::array<bool, 3> known = {true, true, true}, shear_known = {true, true, true};
+  std::array<double, 3> strain = {0.0, 0.0, 0.0}, shear = {0.0, 0.0, 0.0};
   for (std::size_t j = 0; j < p.legs.size(); ++j) {
     const Leg& leg = p.legs[j];
     const LegEnd& e = leg.end;
@@ -131,13 +138,26 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
       r.steps = e.steps;
     } else if (e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven()) {
       if (known[e.axis]) {
-        const double per_step = leg.strain_per_step(e.axis, deck.time_step);
+        const double per_step = leg.strain_per_step(e.axis, p.time_step);
         if ((e.value - strain[e.axis]) * per_step < 0.0)
           throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
                           std::to_string(j + 1) + ": axis " + std::string(kAxisNames[e.axis]) +
                           " moves away from its end strain " + num(e.value) + " (it starts the leg at " +
                           num(strain[e.axis]) + ")");
-        r.steps = leg_steps(leg, deck.time_step, strain[e.axis]);
+        r.steps = leg_steps(leg, p.time_step, strain[e.axis]);
+      } else {
+        r.length = LegLength::FromStrain;
+        r.limit = e.max_steps;
+      }
+    } else if (e.kind == LegEndKind::ShearStrain) {  // (the deck reader: the leg drives the axis by its strain)
+      const std::size_t a = static_cast<std::size_t>(e.axis);
+      if (shear_known[a]) {
+        if ((e.value - shear[a]) * leg.shear_strain_per_step(e.axis, p.time_step) < 0.0)
+          throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
+                          std::to_string(j + 1) + ": axis " + std::string(kShearAxisNames[a]) +
+                          " moves away from its end strain " + num(e.value) + " (it starts the leg at " +
+                          num(shear[a]) + ")");
+        r.steps = leg_steps(leg, p.time_step, shear[a]);
       } else {
         r.length = LegLength::FromStrain;
         r.limit = e.max_steps;
@@ -155,7 +175,11 @@ std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
     }
     for (int k = 0; k < 3; ++k) {
       known[k] = known[k] && r.length == LegLength::Known && leg.axes[k].strain_driven();
-      if (known[k]) strain[k] += static_cast<double>(r.steps) * leg.strain_per_step(k, deck.time_step);
+      if (known[k]) strain[k] += static_cast<double>(r.steps) * leg.strain_per_step(k, p.time_step);
+      // A shear axis the leg does not name keeps its tilt; one it drives moves n d; one at a stress: unknown.
+      const std::optional<AxisControl>& a = leg.shear[static_cast<std::size_t>(k)];
+      shear_known[k] = shear_known[k] && r.length == LegLength::Known && !(a && a->stress_driven());
+      if (shear_known[k]) shear[k] += static_cast<double>(r.steps) * leg.shear_strain_per_step(k, p.time_step);
     }
     runs.push_back(r);
   }
@@ -168,6 +192,7 @@ std::string end_text(const Leg& leg, const LegRun& run) {
   std::string s;
   switch (e.kind) {
     case LegEndKind::Strain: s = "until e" + i + " = " + num(e.value); break;
+    case LegEndKind::ShearStrain: s = "until g" + std::string(kShearAxisNames[e.axis]).substr(1) + " = " + num(e.value); break;
     case LegEndKind::Ratio: s = "until s11/s33 = " + num(e.value); break;
     case LegEndKind::Stress: s = "until s" + i + i + " = " + num(e.value) + " Pa"; break;
     case LegEndKind::Steps: s = "for " + std::to_string(e.steps) + " steps"; break;
@@ -269,8 +294,8 @@ void ProgramWriter::controls(int j) {
   const bool by_erate = j == 0 && runs_[j].length == LegLength::Known;
   const bool strain_variable = !lmp_ && !by_erate;
   const bool strain_vel = lmp_ && !by_erate;
-  const TranslatedServo servo = translated_servo(deck_);
-  const std::array<std::string, 3> target = servo_targets(leg, t, deck_.time_step);
+  const TranslatedServo servo = translated_servo(deck_, p_.time_step);
+  const std::array<std::string, 3> target = servo_targets(leg, t, p_.time_step);
   const bool ramp = has_mode(leg, AxisMode::StressRamp);
   if (strain_variable || chunked(j) || ramp) freeze("S" + t, "step");
 
@@ -282,10 +307,10 @@ void ProgramWriter::controls(int j) {
     switch (a.mode) {
       case AxisMode::StrainIncrement:
       case AxisMode::StrainRate: {
-        const double rate = engineering_rate(deck_, a);  // [1/s]: L = L0 (1 + rate t) from the test start
+        const double rate = engineering_rate(a, p_.time_step);  // [1/s]: L = L0 (1 + rate t) from the test start
         if (rate == 0.0 && !volume) break;                // a fixed axis is left alone
         if (strain_variable) {
-          vars += pad("variable") + "d" + t + ax + " equal " + lit(-leg.strain_per_step(k, deck_.time_step)) + "*" +
+          vars += pad("variable") + "d" + t + ax + " equal " + lit(-leg.strain_per_step(k, p_.time_step)) + "*" +
                   l0 + "*(step-v_S" + t + ")\n" + pad("variable") + "r" + t + ax + " equal " + lit(rate) + "*" + l0 +
                   "\n";
           deform += " " + ax + " variable v_d" + t + ax + " v_r" + t + ax;
@@ -321,7 +346,7 @@ void ProgramWriter::controls(int j) {
           vars += f.str();
           start = "v_Ls" + t + ax;
         }
-        vars += pad("variable") + "d" + t + ax + " equal l" + ax + "*(1.0-" + num(deck_.time_step) + "/" +
+        vars += pad("variable") + "d" + t + ax + " equal l" + ax + "*(1.0-" + num(p_.time_step) + "/" +
                 num(servo.pdamp) + "*(" + goal + "-c_P[" + i + "])/" + num(servo.modulus) + ")^(1.0/3.0)-" +
                 start + "\n" + pad("variable") + "r" + t + ax + " equal 0.0\n";
         deform += " " + ax + " variable v_d" + t + ax + " v_r" + t + ax;
@@ -337,10 +362,10 @@ void ProgramWriter::controls(int j) {
   // length at the run's start: erate = -dg/dt in a first leg of known length (its run starts at the test start),
   // else vel V = -L_j(test start) dg/dt, which adds the same per step from the tilt at the leg start.
   for (int a = 0; a < 3; ++a) {
-    const double per_step = leg.shear_strain_per_step(a, deck_.time_step);
+    const double per_step = leg.shear_strain_per_step(a, p_.time_step);
     if (per_step == 0.0) continue;
     static constexpr const char* kTilt[3] = {"xy", "xz", "yz"};
-    const double rate = -per_step / deck_.time_step;  // [1/s] d(tilt)/dt over L_j
+    const double rate = -per_step / p_.time_step;  // [1/s] d(tilt)/dt over L_j
     const std::string l0 = "v_L0" + std::to_string(kShearAxisEntries[a][1] + 1);
     if (by_erate) {
       deform += std::string(" ") + kTilt[a] + " erate " + num(rate);
@@ -394,12 +419,15 @@ void ProgramWriter::from_strain(int j) {
   const Leg& leg = p_.legs[j];
   const LegEnd& e = leg.end;
   const std::string t = tag(j), now = std::string("(") + num(e.value) + "-(" + end_watch(deck_, e).value + "))";
-  const double per_step = leg.strain_per_step(e.axis, deck_.time_step);
-  o_ << "# the steps to e" << e.axis + 1 << " = " << num(e.value) << " from the strain at the leg start (celldem's leg_steps)\n";
+  const bool shear = e.kind == LegEndKind::ShearStrain;
+  const std::string name = shear ? "g" + std::string(kShearAxisNames[e.axis]).substr(1) : "e" + std::to_string(e.axis + 1);
+  const double per_step = leg.end_strain_per_step(p_.time_step);
+  o_ << "# the steps to " << name << " = " << num(e.value) << " from the strain at the leg start (celldem's leg_steps)\n";
   var("n" + t, "round(" + now + "/" + lit(per_step) + ")");
   var("away" + t, now + "*" + lit(per_step) + "<0.0");
-  fail("${away" + t + "}", leg_name(j) + ": axis x" + std::to_string(e.axis + 1) + " moves away from its end strain " +
-                               num(e.value));
+  fail("${away" + t + "}", leg_name(j) + ": axis " +
+                               std::string(shear ? kShearAxisNames[e.axis] : kAxisNames[e.axis]) +
+                               " moves away from its end strain " + num(e.value));
   std::string steps = "n" + t;
   if (runs_[j].limit > 0) {
     const std::string m = std::to_string(runs_[j].limit);

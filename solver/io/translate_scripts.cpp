@@ -155,7 +155,7 @@ void header(std::ostringstream& o, const Deck& deck, const ScriptProgram& p, Tar
 
 // Observation before the box moves: fix ave/time evaluates at end_of_step in definition order, so placed
 // before fix deform / the servo it sees the box and virial of this step's force evaluation.
-void observation(std::ostringstream& o, const Deck& deck, TargetCode code, bool shear) {
+void observation(std::ostringstream& o, const ScriptProgram& p, TargetCode code, bool shear) {
   const bool lmp = code == TargetCode::Lammps;
   o << "\n# measurements: contact stress (virial only, no kinetic part) [Pa, compression +], contacts, energy\n"
     << (lmp ? "compute         P all pressure NULL virial\n" : "compute         P all pressure thermo_temp virial\n")
@@ -173,7 +173,7 @@ void observation(std::ostringstream& o, const Deck& deck, TargetCode code, bool 
     << "# lengths at the test start (frozen now), for engineering strains\n";
   for (int k = 0; k < 3; ++k)
     o << "variable        L0" << k + 1 << " equal " << (lmp ? std::string("$(l") + kAxisName[k] + ":%.17g)" : "${l" + std::to_string(k + 1) + "now}") << "\n";
-  o << "variable        time equal step*" << num(deck.time_step) << "\n"
+  o << "variable        time equal step*" << num(p.time_step) << "\n"
     << "variable        e1 equal 1.0-f_obs[1]/v_L01\n"
     << "variable        e2 equal 1.0-f_obs[2]/v_L02\n"
     << "variable        e3 equal 1.0-f_obs[3]/v_L03\n"
@@ -336,7 +336,7 @@ std::string lammps_script(const Deck& deck, const ScriptProgram& p) {
       << "pair_style      granular\n"
       << "pair_coeff      * * " << lammps_granular_coeffs(deck.contact, p.friction, p.rolling_friction) << "\n";
   }
-  o << "timestep        " << num(deck.time_step) << "\n"
+  o << "timestep        " << num(p.time_step) << "\n"
     << "fix             int all nve/sphere\n";
   if (p.preparation())
     o << "# the pair (contact) forces of each particle, before the damping fixes add theirs: the unbalanced force\n"
@@ -349,7 +349,7 @@ std::string lammps_script(const Deck& deck, const ScriptProgram& p) {
       << "# viscous: the rest of c_t, g = c_t - m/s\n";
   if (deck.damping.translational > 0.0 || damping.clamped)
     o << "fix             bdt all viscous 1.0" << scales(damping.viscous_scale) << "\n";
-  observation(o, deck, TargetCode::Lammps, program_shears(p));
+  observation(o, p, TargetCode::Lammps, program_shears(p));
   program_body(o, deck, p, TargetCode::Lammps, w);
   return o.str();
 }
@@ -406,7 +406,7 @@ std::string liggghts_script(const Deck& deck, const ScriptProgram& p) {
       << " tangential_damping off\n"
       << "pair_coeff      * *\n";
   }
-  o << "timestep        " << num(deck.time_step) << "\n"
+  o << "timestep        " << num(p.time_step) << "\n"
     << "fix             integr all nve/sphere\n";
   if (p.preparation())
     o << "# the pair (contact) forces of each particle, before the damping fix adds its own: the unbalanced force\n"
@@ -416,7 +416,7 @@ std::string liggghts_script(const Deck& deck, const ScriptProgram& p) {
   o << "\n# body damping per type: c_t = " << num(deck.damping.translational)
     << " * 2 sqrt(m kn) on v; no rotational body damping exists in LIGGGHTS\n";
   if (deck.damping.translational > 0.0) o << "fix             bdt all viscous 1.0" << scales(ct) << "\n";
-  observation(o, deck, TargetCode::Liggghts, program_shears(p));
+  observation(o, p, TargetCode::Liggghts, program_shears(p));
   program_body(o, deck, p, TargetCode::Liggghts, w);
   return o.str();
 }
@@ -427,7 +427,7 @@ std::string liggghts_script(const Deck& deck, const ScriptProgram& p) {
 using namespace translation;
 
 std::string translate_test(const Deck& deck, const TestDef& test, TargetCode code) {
-  const ScriptProgram p = test_program(test);
+  const ScriptProgram p = test_program(deck, test);
   return code == TargetCode::Lammps ? lammps_script(deck, p) : liggghts_script(deck, p);
 }
 
@@ -435,7 +435,7 @@ std::string translate_preparation(const Deck& deck, TargetCode code) {
   if (!deck.prepare) throw DeckError("prepare: the deck has no preparation to translate");
   const PrepareDef& prep = *deck.prepare;
   const ScriptProgram p{"prepare", prep.legs, prep.friction, prep.output_interval, &prep.equilibrium,
-                        prep.rolling_friction};
+                        prep.rolling_friction, deck.stage_time_step(prep)};
   return code == TargetCode::Lammps ? lammps_script(deck, p) : liggghts_script(deck, p);
 }
 

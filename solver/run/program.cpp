@@ -118,12 +118,14 @@ class LegEndWatch {
   LegEndWatch(const Leg& leg, const Model& model, const State& state, std::string where)
       : leg_(leg), where_(std::move(where)) {
     const LegEnd& e = leg.end;
-    if (e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven()) {
-      const double per_step = leg.strain_per_step(e.axis, model.dt);
-      const double from = state.control.leg_start_strains[e.axis];
+    if (leg.ends_on_driven_strain()) {  // a normal axis's strain, or a shear axis's g_ij
+      const bool shear = e.kind == LegEndKind::ShearStrain;
+      const double per_step = leg.end_strain_per_step(model.dt);
+      const double from = shear ? state.control.leg_start_shear[e.axis] : state.control.leg_start_strains[e.axis];
       if ((e.value - from) * per_step < 0.0)
-        throw RunError(where_ + ": axis x" + std::to_string(e.axis + 1) + " moves away from its end strain " +
-                       std::to_string(e.value) + " (it starts the leg at " + std::to_string(from) + ")");
+        throw RunError(where_ + ": axis " + std::string(shear ? kShearAxisNames[e.axis] : kAxisNames[e.axis]) +
+                       " moves away from its end strain " + std::to_string(e.value) + " (it starts the leg at " +
+                       std::to_string(from) + ")");
       steps_ = leg_steps(leg, model.dt, from);
     } else if (e.kind == LegEndKind::Steps) {
       steps_ = leg_steps(leg, model.dt, 0.0);  // as planned: max_steps, when given, caps it
@@ -149,6 +151,7 @@ class LegEndWatch {
     const LegEnd& e = leg_.end;
     switch (e.kind) {
       case LegEndKind::Strain: return axis_strains(state)[e.axis];
+      case LegEndKind::ShearStrain: return shear_strains(state)[e.axis];
       case LegEndKind::Ratio: return state.normal_stress[0] / state.normal_stress[2];
       case LegEndKind::Stress: return state.normal_stress[e.axis];
       case LegEndKind::SolidFraction: return model.solid_volume / state.cell.volume();

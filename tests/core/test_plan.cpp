@@ -234,5 +234,44 @@ TEST(Plan, PreparationLegsListedAsATestsAreFromWhereTheyStart) {
   EXPECT_EQ(known.rows, sum);
 }
 
+// A leg that ends on the shear strain of a shear axis it drives by its strain is known ahead like a normal strain
+// leg: g = g(leg start) + n d, each leg from where the previous one left the axis (a leg between that does not
+// name it keeps its tilt); after a leg that holds the axis at a shear stress only running tells.
+TEST(Plan, ShearStrainEndsAreKnownAheadFromWhereTheLegStarts) {
+  Deck d = testing::model_deck(1e6, 1e6, 2e-6, 2650.0);
+  Leg forward, hold, back, at_stress;
+  const std::array<AxisControl, 3> axes = {AxisControl{AxisMode::StrainIncrement, 0.0}, AxisControl{AxisMode::Stress, 1e5},
+                                           AxisControl{AxisMode::StrainIncrement, 0.0}};
+  forward.axes = hold.axes = back.axes = at_stress.axes = axes;
+  forward.shear[0] = AxisControl{AxisMode::StrainIncrement, 2e-6};
+  forward.end = {.kind = LegEndKind::ShearStrain, .axis = 0, .value = 0.01};
+  hold.end = {.kind = LegEndKind::Steps, .steps = 300};
+  back.shear[0] = AxisControl{AxisMode::StrainRate, -0.5};  // -1e-6 per step at dt = 2e-6
+  back.end = {.kind = LegEndKind::ShearStrain, .axis = 0, .value = 0.004};
+  at_stress.shear[0] = AxisControl{AxisMode::Stress, 0.0};
+  at_stress.end = {.kind = LegEndKind::Steps, .steps = 100};
+  std::vector<double> from;
+  const std::vector<std::int64_t> steps = program_leg_steps({forward, hold, back}, 2e-6, &from);
+  EXPECT_EQ(steps, (std::vector<std::int64_t>{5000, 300, 6000}));
+  EXPECT_EQ(from[2], 0.01);
+  EXPECT_EQ(leg_steps(back, 2e-6, 0.01), 6000);
+  // Capped by max_steps like a normal strain end.
+  Leg capped = forward;
+  capped.end.max_steps = 1234;
+  EXPECT_EQ(leg_steps(capped, 2e-6, 0.0), 1234);
+  // After a leg at a shear stress the axis's strain is unknown; other legs' lengths are still known.
+  const std::vector<std::int64_t> after = program_leg_steps({forward, at_stress, back}, 2e-6, &from);
+  EXPECT_EQ(after, (std::vector<std::int64_t>{5000, 100, -1}));
+  EXPECT_TRUE(std::isnan(from[2]));
+  // The test's plan lists them with their rows.
+  TestDef t;
+  t.name = "shear";
+  t.output_interval = 1000;
+  t.legs = {forward, hold, back};
+  const TestPlan p = plan_test(d, t);
+  EXPECT_EQ(p.steps, 5000 + 300 + 6000);
+  EXPECT_EQ(p.strain_per_step, 2e-6);  // the first leg's end axis, the shear axis
+}
+
 }  // namespace
 }  // namespace celldem

@@ -178,7 +178,7 @@ TEST(Translate, LammpsScriptCarriesTheDeck) {
   EXPECT_TRUE(contains(s, "\npair_style      gran/hooke/history 1e+06 5e+05 0.0 0.0 0.5 0\n"));
   EXPECT_TRUE(contains(s, "\ntimestep        1e-06\n"));
   EXPECT_TRUE(contains(s, "\nfix             dfm all deform 1 x erate -0.2 remap x\n"));
-  const TranslatedServo servo = translated_servo(deck);
+  const TranslatedServo servo = translated_servo(deck, deck.time_step);
   EXPECT_DOUBLE_EQ(servo.pdamp, 1e-6 / (3.0 * 0.05));
   {  // fix srv all press/berendsen y T T PDAMP z T T PDAMP couple none modulus M dilate all
     const auto at = s.find("\nfix             srv all press/berendsen");
@@ -619,6 +619,39 @@ TEST(TranslateProgram, ShearAxesAreFixDeformTiltsOrNamedUntranslatable) {
   EXPECT_EQ(translate_test(held, held.tests[0], TargetCode::Lammps), translate_test(plain, plain.tests[0], TargetCode::Lammps));
 }
 
+// Shear legs that end on their shear strain: run N with celldem's leg_steps from where the leg starts g12 (known
+// here: the first leg's end), the same steps in both codes; after a leg that leaves g12 where only running tells
+// (a ratio end), N is counted at run time from the tilt.
+TEST(TranslateProgram, ShearStrainEndsRunCelldemsSteps) {
+  const std::string axes = R"("x1": {"strain_increment": 0}, "x2": {"stress": 1e5}, "x3": {"strain_increment": 0})";
+  const Deck deck = program_deck(R"({"name": "ss", "friction": 0.5, "legs": [
+      {"axes": {)" + axes + R"(, "x12": {"strain_increment": 2e-6}}, "end": {"axis": "x12", "strain": 0.01}},
+      {"axes": {)" + axes + R"(, "x12": {"strain_rate": -1.0}}, "end": {"axis": "x12", "strain": 0.004}}]})");
+  const std::vector<std::int64_t> planned = program_leg_steps(deck.tests[0].legs, deck.time_step);
+  ASSERT_EQ(planned, (std::vector<std::int64_t>{5000, 6000}));
+  const std::string lmp = translate_test(deck, deck.tests[0], TargetCode::Lammps);
+  const std::vector<std::string> blocks = leg_blocks(lmp);
+  ASSERT_EQ(blocks.size(), 3u);
+  EXPECT_EQ(command_lines(blocks[1], "run"), std::vector<std::string>{"run             5000"});
+  EXPECT_EQ(command_lines(blocks[2], "run"), std::vector<std::string>{"run             6000"});
+  EXPECT_TRUE(contains(blocks[1], "until g12 = 0.01 (5000 steps)")) << blocks[1];
+  // A one-leg simple shear to g12 = 0.01: run ${steps} with the steps, in LIGGGHTS too.
+  const Deck one = program_deck(R"({"name": "dss", "friction": 0.5,
+      "simple_shear": {"gamma_increment": 2e-6, "normal_stress": 1e5}, "end": {"axis": "x12", "strain": 0.01}})");
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts})
+    EXPECT_TRUE(contains(translate_test(one, one.tests[0], code), "\nvariable        steps index 5000\n"));
+  // After a ratio end the leg's start is known at run time only: N from the tilt, celldem's leg_steps.
+  const Deck late = program_deck(R"({"name": "late", "friction": 0.5, "legs": [
+      {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+       "end": {"ratio": 1.5, "max_steps": 10000}},
+      {"axes": {)" + axes + R"(, "x12": {"strain_increment": 2e-6}}, "end": {"axis": "x12", "strain": 0.01}}]})");
+  const std::string run_time = translate_test(late, late.tests[0], TargetCode::Lammps);
+  const std::vector<std::string> late_blocks = leg_blocks(run_time);
+  ASSERT_EQ(late_blocks.size(), 3u);
+  EXPECT_EQ(formula(late_blocks[2], "n2"), "round((0.01-(-(xy-v_T0xy)/v_L02))/2e-06)");
+  EXPECT_EQ(command_lines(late_blocks[2], "run"), std::vector<std::string>{"run             ${n2}"});
+}
+
 // b and mean_stress: the translated targets, evaluated for a known stress state, are celldem's stress_targets().
 TEST(TranslateProgram, BAndMeanStressTargetsAreCelldems) {
   const Deck deck = program_deck(R"({"name": "bp", "friction": 0.5, "legs": [
@@ -768,6 +801,74 @@ TEST(TranslateProgram, PreparationScript) {
   EXPECT_EQ(command_lines(lig, "run").size(), 4u);  // leg 1 and leg 2 in chunks after a run of 0 steps
 }
 
+// A deck whose stages run at their own time steps (prepare.time_step, tests[].time_step, as --tolerance resolves
+// them): each script sets its stage's timestep before its first run, and makes from it what celldem makes per step.
+TEST(TranslateTimeSteps, EachScriptRunsItsStageAtItsOwnTimeStep) {
+  const Deck deck = parse_deck(R"({"format": 1,
+    "sample": {"count": 8, "diameters": {"list": [0.003, 0.004]}, "density": 2500, "grid_spacing": 0.005},
+    "contact": {"kn": 1e6, "kt": 1e6}, "damping": {"translational": 0.05, "rotational": 0.05},
+    "time_step": 1e-6,
+    "prepare": {"target_pressure": 1e5, "fast_solid_fraction": 0.5, "time_step": 2e-6,
+                "equilibrium": {"unbalanced_force_ratio": 0.01, "min_steps": 2000, "check_interval": 500}},
+    "tests": [{"name": "own", "friction": 0.5, "time_step": 2.5e-6,
+               "axes": {"x1": {"strain_increment": 5e-7}, "x2": {"stress": 1e5}, "x3": {"strain_rate": -0.1}},
+               "end": {"axis": "x1", "strain": 0.002}, "output_interval": 100},
+              {"name": "deck", "friction": 0.5,
+               "axes": {"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+               "end": {"axis": "x1", "strain": 0.002}, "output_interval": 100}]})",
+                               "dir/stages.json");
+  ASSERT_EQ(deck.stage_time_step(deck.tests[0]), 2.5e-6);
+  // The timestep line of each script comes before its first run and is the stage's.
+  const auto timestep_before_run = [](const std::string& script) {
+    const std::vector<std::string> lines = command_lines(script, "timestep");
+    EXPECT_EQ(lines.size(), 1u);
+    EXPECT_LT(script.find("\ntimestep "), script.find("\nrun "));
+    return lines.empty() ? std::nan("") : numbers(lines[0].substr(8)).at(0);
+  };
+  for (TargetCode code : {TargetCode::Lammps, TargetCode::Liggghts}) {
+    SCOPED_TRACE(target_code_name(code));
+    const std::string prep = translate_preparation(deck, code);
+    EXPECT_EQ(timestep_before_run(prep), 2e-6);
+    EXPECT_TRUE(contains(prep, "\nvariable        time equal step*2e-06\n"));
+    const std::string own = translate_test(deck, deck.tests[0], code);
+    EXPECT_EQ(timestep_before_run(own), 2.5e-6);
+    EXPECT_TRUE(contains(own, "\nvariable        time equal step*2.5e-06\n"));
+    // x1's increment per step over the stage's step is fix deform's rate; the strain rate of x3 stays a rate; the
+    // run's length is celldem's leg_steps at the stage's step (0.002 / 5e-7 = 4000).
+    const std::int64_t n = leg_steps(deck.tests[0].legs[0], deck.stage_time_step(deck.tests[0]), 0.0);
+    EXPECT_EQ(n, 4000);
+    EXPECT_TRUE(contains(own, "\nvariable        steps index " + std::to_string(n) + "\n"));
+    std::smatch rate;
+    ASSERT_TRUE(std::regex_search(own, rate, std::regex(" x erate (\\S+) ")));
+    EXPECT_DOUBLE_EQ(std::stod(rate[1]), -0.2);  // (at the deck's step it would be -0.5)
+    EXPECT_TRUE(contains(own, " z erate 0.1 "));
+    const std::string at_deck = translate_test(deck, deck.tests[1], code);
+    EXPECT_EQ(timestep_before_run(at_deck), 1e-6);
+    EXPECT_TRUE(contains(at_deck, "\nvariable        steps index 10000\n"));
+  }
+  // The servo: pdamp = dt / (3 gain) at the stage's step, so dt / pdamp, celldem's proportional gain, is the same.
+  const std::string own = translate_test(deck, deck.tests[0], TargetCode::Lammps);
+  const TranslatedServo servo = translated_servo(deck, 2.5e-6);
+  EXPECT_DOUBLE_EQ(servo.pdamp, 2.5e-6 / (3.0 * deck.servo.gain));
+  std::smatch m;
+  const std::string srv = command_lines(own, "fix             srv").at(0);
+  ASSERT_TRUE(std::regex_search(srv, m, std::regex(" y 1e\\+05 1e\\+05 (\\S+) ")));
+  EXPECT_EQ(std::stod(m[1]), servo.pdamp);
+  const std::string lig = translate_test(deck, deck.tests[0], TargetCode::Liggghts);
+  const std::string dy = formula(lig, "dy");
+  ASSERT_TRUE(std::regex_search(dy, m, std::regex("\\(1\\.0-(\\S+?)/(\\S+?)\\*")));
+  EXPECT_EQ(std::stod(m[1]), 2.5e-6);
+  EXPECT_EQ(std::stod(m[2]), servo.pdamp);
+  // The notes name the per-stage steps; a deck whose stages share its step has no such note.
+  const auto noted = [](const std::vector<std::string>& notes) {
+    return std::any_of(notes.begin(), notes.end(), [](const std::string& n) { return n.rfind("per-stage time steps", 0) == 0; });
+  };
+  EXPECT_TRUE(noted(model_notes(deck, TargetCode::Lammps)));
+  EXPECT_TRUE(noted(preparation_notes(deck, TargetCode::Liggghts)));
+  EXPECT_TRUE(contains(own, "#   - per-stage time steps"));
+  EXPECT_FALSE(noted(model_notes(deck_with(), TargetCode::Lammps)));
+}
+
 // ---- contact laws other than the plain linear one ----
 
 Deck law_deck(const std::string& contact, const std::string& second_test_extra = "") {
@@ -831,7 +932,7 @@ TEST(TranslateLaws, LammpsPairGranularPerLaw) {
               "pair_coeff      * * hertz/material 7e+10 0.0 0.25 damping viscoelastic tangential mindlin NULL 0.0 0.3");
     // Rotational damping from mindlin's reference stiffness (contact.kt is not given), a finite servo.
     EXPECT_EQ(scales(s, "fix             bdr").size(), 2u);
-    const TranslatedServo servo = translated_servo(d);
+    const TranslatedServo servo = translated_servo(d, d.time_step);
     EXPECT_GT(servo.modulus, 0.0);
     EXPECT_TRUE(std::isfinite(servo.modulus));
   }

@@ -755,6 +755,52 @@ TEST(Deck, SimpleShearIsItsAxes) {
   expect_error(j, "tests[0].simple_shear", "not both");
 }
 
+// A strain end on a shear axis (x12, x13, x23) ends the leg on its engineering shear strain g_ij, of an axis the
+// leg drives by its strain; anything else is refused naming the key.
+TEST(Deck, ShearLegsEndOnTheirShearStrain) {
+  Json j = minimal_deck();
+  j["tests"][0].erase("axes");
+  j["tests"][0]["simple_shear"] = {{"gamma_increment", 1e-6}, {"normal_stress", 1e5}};
+  j["tests"][0]["end"] = {{"axis", "x12"}, {"strain", 0.02}};
+  const LegEnd e = parse_deck(j.dump()).tests[0].legs[0].end;
+  EXPECT_EQ(e.kind, LegEndKind::ShearStrain);
+  EXPECT_EQ(e.axis, 0);
+  EXPECT_EQ(e.value, 0.02);
+  // A shear axis the leg does not drive, or holds at a shear stress.
+  j["tests"][0]["end"] = {{"axis", "x13"}, {"strain", 0.02}};
+  expect_error(j, "tests[0].end.axis", "x13");
+  j["tests"][0]["end"] = {{"axis", "x12"}, {"stress", 1e5}, {"max_steps", 10}};
+  expect_error(j, "tests[0].end.axis", "only on its strain");
+  j["tests"][0]["end"] = {{"axis", "x12"}, {"strain", -0.02}};
+  expect_error(j, "tests[0].end.strain", "not sheared towards");
+  j["tests"][0]["end"] = {{"axis", "x12"}, {"strain", 5e-7}};
+  expect_error(j, "tests[0].end.strain", "shorter than one step");
+  j["tests"][0]["end"] = {{"axis", "x21"}, {"strain", 0.02}};
+  expect_error(j, "tests[0].end.axis", "unknown value");
+  Json held = minimal_deck();
+  held["tests"][0]["axes"]["x12"] = {{"stress", 0.0}};
+  held["tests"][0]["end"] = {{"axis", "x12"}, {"strain", 0.02}};
+  expect_error(held, "tests[0].end.axis", "holds a shear stress");
+  // In a program: the second leg shears back from where the first left g12, its path named.
+  Json program = minimal_deck();
+  program["tests"][0].erase("axes");
+  program["tests"][0].erase("end");
+  const Json axes = {{"x1", {{"strain_increment", 0.0}}}, {"x2", {{"stress", 1e5}}}, {"x3", {{"strain_increment", 0.0}}}};
+  Json forward = {{"axes", axes}, {"end", {{"axis", "x12"}, {"strain", 0.01}}}};
+  forward["axes"]["x12"] = {{"strain_increment", 2e-6}};
+  Json back = {{"axes", axes}, {"end", {{"axis", "x12"}, {"strain", 0.004}}}};
+  back["axes"]["x12"] = {{"strain_rate", -1.0}};
+  program["tests"][0]["legs"] = Json::array({forward, back});
+  const Deck d = parse_deck(program.dump());
+  EXPECT_EQ(d.tests[0].legs[1].end.kind, LegEndKind::ShearStrain);
+  program["tests"][0]["legs"][1]["axes"].erase("x12");
+  expect_error(program, "tests[0].legs[1].end.axis", "the leg holds its tilt");
+  // The preparation has no shear axes to end on.
+  Json prep = minimal_deck();
+  prep["prepare"]["legs"] = Json::array({{{"axes", axes}, {"end", {{"axis", "x12"}, {"strain", 0.01}}}}});
+  expect_error(prep, "prepare.legs[0].end.axis");
+}
+
 // rotate_principal_axes: the plane's two axes and its shear axis become stress axes whose targets rotate.
 TEST(Deck, PrincipalAxisRotationParsesAndItsMixesAreChecked) {
   Json j = minimal_deck();

@@ -80,17 +80,64 @@ TEST(StageTimeStep, BoundsOfTheDeckKeyApplyPerStage) {
   }
 }
 
-// The translated scripts run every stage at the deck's time step: a stage with its own is refused, by name.
-TEST(StageTimeStep, TranslationRefusesStagesWithTheirOwn) {
+// The translated scripts run each stage at its own time step: a deck with stages of their own translates, each
+// script with its stage's timestep.
+TEST(StageTimeStep, TranslationRunsEachStageAtItsOwn) {
   Json j = deck_json();
-  EXPECT_NO_THROW(translate_preparation(parse_deck(j.dump()), TargetCode::Lammps));
+  j["prepare"]["time_step"] = 1.5e-6;
   j["tests"][1]["time_step"] = 2.0e-6;
-  try {
-    translate_preparation(parse_deck(j.dump()), TargetCode::Lammps);
-    ADD_FAILURE() << "a deck whose test has its own time step was translated";
-  } catch (const DeckError& e) {
-    EXPECT_EQ(std::string(e.what()).rfind("tests[1].time_step:", 0), 0u) << e.what();
-  }
+  const Deck d = parse_deck(j.dump());
+  const auto timestep_of = [](const std::string& script) {
+    const auto at = script.find("\ntimestep ");
+    return at == std::string::npos ? -1.0 : std::stod(script.substr(at + 10, script.find('\n', at + 1) - at - 10));
+  };
+  EXPECT_EQ(timestep_of(translate_preparation(d, TargetCode::Lammps)), 1.5e-6);
+  EXPECT_EQ(timestep_of(translate_test(d, d.tests[0], TargetCode::Lammps)), 1.0e-6);
+  EXPECT_EQ(timestep_of(translate_test(d, d.tests[1], TargetCode::Liggghts)), 2.0e-6);
+}
+
+// A simple_shear leg is driven by its g12: --tolerance gives it the inertial number's rate as it gives the same
+// leg written with axes (x12 strain_increment, x2 stress, x1 and x3 held), and a strain end on x12 follows it.
+TEST(Tolerance, SimpleShearLegIsResolvedAsItsAxes) {
+  Json by_shear = deck_json();
+  by_shear["tests"] = Json::array({Json::parse(R"({"name": "dss", "friction": 0.5, "output_interval": 1000,
+      "simple_shear": {"gamma_increment": 2.0e-7, "normal_stress": 1.0e5}, "end": {"axis": "x12", "strain": 0.01}})")});
+  Json by_axes = by_shear;
+  by_axes["tests"][0].erase("simple_shear");
+  by_axes["tests"][0]["axes"] = Json::parse(R"({"x1": {"strain_increment": 0.0}, "x2": {"stress": 1.0e5},
+      "x3": {"strain_increment": 0.0}, "x12": {"strain_increment": 2.0e-7}})");
+  const Deck shear = resolve_tolerance(parse_deck(by_shear.dump()), by_shear.dump(), 1.0);
+  const Deck axes = resolve_tolerance(parse_deck(by_axes.dump()), by_axes.dump(), 1.0);
+  const Leg& s = shear.tests[0].legs[0];
+  const Leg& a = axes.tests[0].legs[0];
+  ASSERT_TRUE(s.shear[0] && a.shear[0]);
+  EXPECT_NE(a.shear[0]->value, 2.0e-7);  // (the rules do change it)
+  EXPECT_EQ(s.shear[0]->value, a.shear[0]->value);
+  EXPECT_EQ(shear.stage_time_step(shear.tests[0]), axes.stage_time_step(axes.tests[0]));
+  EXPECT_EQ(plan_test(shear, shear.tests[0]).steps, plan_test(axes, axes.tests[0]).steps);
+  EXPECT_EQ(plan_test(shear, shear.tests[0]).steps, std::llround(0.01 / s.shear[0]->value));
+}
+
+// A principal-axis rotation keeps its angular rate: an angle_increment per step scales with the time step as its
+// steps end keeps its time, so the rotation turns through the same angle in the same time.
+TEST(Tolerance, RotationByAnglePerStepKeepsItsRate) {
+  Json j = deck_json();
+  j["tests"] = Json::array({Json::parse(R"({"name": "rot", "friction": 0.5, "output_interval": 1000,
+      "axes": {"x2": {"stress": 1.0e5}},
+      "rotate_principal_axes": {"plane": "x1x3", "sigma1": 1.5e5, "sigma3": 1.0e5, "angle_increment": 0.0009},
+      "end": {"steps": 100000}})")});
+  const Deck written = parse_deck(j.dump());
+  const Deck resolved = resolve_tolerance(written, j.dump(), 1.0);
+  const double dt_written = written.stage_time_step(written.tests[0]), dt = resolved.stage_time_step(resolved.tests[0]);
+  ASSERT_NE(dt, dt_written);
+  const Leg& w = written.tests[0].legs[0];
+  const Leg& r = resolved.tests[0].legs[0];
+  ASSERT_TRUE(w.rotation && r.rotation);
+  EXPECT_DOUBLE_EQ(r.rotation->rate / dt, w.rotation->rate / dt_written);  // [rad/s]
+  const double turned_written = static_cast<double>(w.end.steps) * w.rotation->rate;
+  const double turned = static_cast<double>(r.end.steps) * r.rotation->rate;
+  EXPECT_NEAR(turned, turned_written, std::abs(r.rotation->rate));  // 90 degrees, within one step's angle
+  EXPECT_NEAR(turned_written, M_PI / 2.0, 1e-12);
 }
 
 TEST(ToleranceRules, EmbeddedTableParsesAndInterpolatesLogLinearly) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -76,6 +77,18 @@ const std::string kTests = R"([
       "end": {"equilibrium": true}},
      {"axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1.2e5}, "x3": {"stress": 1.2e5}},
       "end": {"axis": "x1", "strain": 0.002}}]},
+  {"name": "shear_end", "friction": 0.5, "output_interval": 400,
+   "legs": [
+     {"simple_shear": {"gamma_increment": 1e-6, "normal_stress": 1e5}, "end": {"axis": "x12", "strain": 0.003}},
+     {"simple_shear": {"gamma_rate": -1.0, "normal_stress": 1e5}, "end": {"axis": "x12", "strain": 0.001}}]},
+  {"name": "rotation", "friction": 0.5, "output_interval": 200,
+   "legs": [
+     {"axes": {"x1": {"stress_ramp": {"from": 1e5, "rate": 5e6}}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+      "end": {"axis": "x1", "stress": 1.5e5, "max_steps": 20000}},
+     {"axes": {"x2": {"stress": 1e5}},
+      "rotate_principal_axes": {"plane": "x1x3", "sigma1": 1.5e5, "sigma3": 1e5, "from": 0,
+                                "angle_increment": 0.0075},
+      "end": {"steps": 12000}}]},
   {"name": "ramp_path", "friction": 0.5, "output_interval": 200,
    "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress_ramp": {"from": 1e5, "rate": -5e6}},
             "x3": {"stress_ramp": {"from": 1e5, "rate": -5e6}}},
@@ -231,6 +244,67 @@ TEST(LoadProgram, LegsEndOnStrainInEitherDirectionAndRepeat) {
     if (r.step == 4000) unloaded = r.s11;
   }
   EXPECT_LT(unloaded, 0.9 * at_turn);
+}
+
+// Shear legs that end on their shear strain: simple shear to g12 = 0.3 %, then back to 0.1 % (1e-6 per step
+// both ways: an increment, then a rate of -1 /s at dt = 1e-6), each leg's end row at the planned step with g12 at
+// its end strain, e1 = e3 = 0 throughout.
+TEST(LoadProgram, ShearLegsEndOnTheirShearStrain) {
+  const ProgramRun& run = program_run();
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "shear_end" / "series.csv");
+  const double turns[] = {0.003, 0.001};
+  const std::int64_t ends[] = {3000, 5000};
+  for (int leg = 0; leg < 2; ++leg) {
+    bool found = false;
+    for (const SeriesRow& r : rows)
+      if (r.step == static_cast<double>(ends[leg])) {
+        EXPECT_NEAR(r.g12, turns[leg], 1e-12) << "leg " << leg;
+        EXPECT_EQ(r.leg, static_cast<double>(leg));
+        found = true;
+      }
+    EXPECT_TRUE(found) << "no row at the end of leg " << leg << " (step " << ends[leg] << ")";
+    EXPECT_EQ(run.summary["tests"]["shear_end"]["legs"][leg]["end"]["step"].get<double>(), static_cast<double>(ends[leg]));
+  }
+  EXPECT_EQ(rows.back().step, 5000.0);
+  for (const SeriesRow& r : rows) {
+    EXPECT_EQ(r.e1, 0.0) << r.step;
+    EXPECT_EQ(r.e3, 0.0) << r.step;
+  }
+}
+
+// A principal-axis rotation on the packing: s11 ramped to sigma1 = 150 kPa, then sigma1 and sigma3 = 100 kPa turned
+// from x1 to x3 (90 degrees in 12000 steps, s22 held at 100 kPa). From the series (the measured stress tensor, not
+// the control's own record): after a 2000-step start the principal values of the x1-x3 stress stay within 0.5 %
+// of sigma1 and sigma3, the major principal direction within 2 degrees of the angle, and at the end sigma1 lies
+// on x3.
+TEST(LoadProgram, PrincipalAxesRotateAtFixedPrincipalValues) {
+  const ProgramRun& run = program_run();
+  const Json& test = run.summary["tests"]["rotation"];
+  ASSERT_EQ(test["legs"].size(), 2u);
+  const double start = test["legs"][0]["end"]["step"].get<double>();  // where the ramp reached 150 kPa
+  const double sigma1 = 1.5e5, sigma3 = 1e5, per_step = 0.0075 * M_PI / 180.0;
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "rotation" / "series.csv");
+  double worst_value = 0.0, worst_angle = 0.0;
+  int checked = 0;
+  for (const SeriesRow& r : rows) {
+    if (r.step < start + 2000) continue;
+    const double m = 0.5 * (r.s11 + r.s33), half = std::hypot(0.5 * (r.s11 - r.s33), r.s13);
+    worst_value = std::max({worst_value, std::abs((m + half) / sigma1 - 1.0), std::abs((m - half) / sigma3 - 1.0)});
+    const double angle = 0.5 * std::atan2(2.0 * r.s13, r.s11 - r.s33);  // of sigma1 from x1 towards x3
+    const double off = angle - (r.step - start) * per_step;
+    worst_angle = std::max(worst_angle, std::abs(off - M_PI * std::round(off / M_PI)));  // directions mod 180
+    EXPECT_NEAR(r.s22, 1e5, 0.005 * 1e5) << r.step;
+    ++checked;
+  }
+  EXPECT_GE(checked, 40);
+  EXPECT_LT(worst_value, 0.005);
+  EXPECT_LT(worst_angle * 180.0 / M_PI, 2.0);
+  RecordProperty("worst_principal_value_error", std::to_string(worst_value));
+  RecordProperty("worst_angle_error_deg", std::to_string(worst_angle * 180.0 / M_PI));
+  EXPECT_EQ(rows.back().step, start + 12000);
+  EXPECT_NEAR(rows.back().s33, sigma1, 0.005 * sigma1);  // at 90 degrees sigma1 is on x3
+  EXPECT_NEAR(rows.back().s11, sigma3, 0.005 * sigma1);
+  EXPECT_EQ(test["controlled"], true);
 }
 
 TEST(LoadProgram, RatioAndStepEnds) {

@@ -61,11 +61,18 @@ def quick_preparation(deck, paper):
     return prep
 
 
-def reduce_leg_end(end, leg_axes, strain):
+def reduce_leg_end(leg, strain):
+    """A strain end of a leg's strain-driven axis (a normal or a shear axis; simple_shear drives x12) cut at
+    the reduced strain."""
+    end = leg["end"]
     if "strain" in end:
         axis = end.get("axis", "x1")
-        driven = leg_axes[axis]
-        step = driven.get("strain_increment", driven.get("strain_rate"))
+        if "simple_shear" in leg and axis == "x12":
+            driven = {"strain_increment": leg["simple_shear"].get("gamma_increment"),
+                      "strain_rate": leg["simple_shear"].get("gamma_rate")}
+        else:
+            driven = leg.get("axes", {}).get(axis, {})
+        step = driven.get("strain_increment") or driven.get("strain_rate")
         if step:
             end["strain"] = strain if end["strain"] > 0 else -strain
 
@@ -76,12 +83,12 @@ def reduced(deck, paper, strain=REDUCED_STRAIN):
     d.pop("initial_state", None)
     d["prepare"] = quick_preparation(deck, paper)
     for t in d.get("tests", []):
-        if "legs" in t:  # a program: each strain leg kept, cut at the reduced strain (none is shipped today)
+        if "legs" in t:  # a program: each strain leg kept, cut at the reduced strain
             for leg in t["legs"]:
-                if "axes" in leg:
-                    reduce_leg_end(leg["end"], leg["axes"], strain)
+                if "end" in leg:
+                    reduce_leg_end(leg, strain)
         else:
-            reduce_leg_end(t["end"], t["axes"], strain)
+            reduce_leg_end(t, strain)
         t["output_interval"] = min(t.get("output_interval", 1000), 500)
     return d
 
