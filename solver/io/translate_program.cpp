@@ -105,9 +105,11 @@ std::string pad(const std::string& command) {
 }  // namespace
 
 bool program_shears(const ScriptProgram& p) {
+  // A shear axis named by its strain, even held at 0: the box is triclinic and the series has the shear columns
+  // (a probe's program holds its tilts by name, and its shear stresses are compared).
   for (const Leg& leg : p.legs)
-    for (int a = 0; a < 3; ++a)
-      if (leg.shear_strain_per_step(a, 1.0) != 0.0) return true;
+    for (const auto& shear : leg.shear)
+      if (shear && shear->strain_driven()) return true;
   return false;
 }
 
@@ -118,7 +120,7 @@ ScriptProgram test_program(const Deck& deck, const TestDef& test) {
 
 // Each leg's length, following the strains of the strain-driven axes from the program's start (exactly as
 // celldem's legs start: e = e(leg start) + n d) for as long as every leg's length is known.
-std::vector<LegRun> plan_runs(const Deck& deck, const ScriptProgram& p) {
+std::vector<LegRun> plan_runs(const Deck& /*deck*/, const ScriptProgram& p) {
   std::vector<LegRun> runs;
   std::array<bool, 3> known = {true, true, true}, shear_known = {true, true, true};
   std::array<double, 3> strain = {0.0, 0.0, 0.0}, shear = {0.0, 0.0, 0.0};
@@ -420,7 +422,8 @@ void ProgramWriter::from_strain(int j) {
   const LegEnd& e = leg.end;
   const std::string t = tag(j), now = std::string("(") + num(e.value) + "-(" + end_watch(deck_, e).value + "))";
   const bool shear = e.kind == LegEndKind::ShearStrain;
-  const std::string name = shear ? "g" + std::string(kShearAxisNames[e.axis]).substr(1) : "e" + std::to_string(e.axis + 1);
+  std::string name = shear ? "g" : "e";
+  name.append(shear ? std::string(kShearAxisNames[e.axis]).substr(1) : std::to_string(e.axis + 1));
   const double per_step = leg.end_strain_per_step(p_.time_step);
   o_ << "# the steps to " << name << " = " << num(e.value) << " from the strain at the leg start (celldem's leg_steps)\n";
   var("n" + t, "round(" + now + "/" + lit(per_step) + ")");
