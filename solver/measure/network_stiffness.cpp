@@ -1,6 +1,5 @@
 #include "measure/network_stiffness.hpp"
 
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <array>
@@ -162,6 +161,78 @@ Mat3 stress_change(const std::vector<NetworkContact>& contacts, const Unknowns& 
   return 0.5 * (sum + sum.transpose()) / volume + stress * eps.trace();
 }
 
+// Preconditioned conjugate gradients for K q = rhs, the six load cases at once (each column its own iteration),
+// preconditioned by the inverses of K's 3x3 diagonal blocks (each particle's translation and spin, numbered in
+// threes). K is symmetric; a stable network makes it positive definite but for modes that no strain loads (a
+// sphere spinning about the line of its only two contacts): the iteration never enters them. A direction of
+// non-positive curvature, or no convergence (a mechanism the strain drives), means the network has no relaxed
+// stiffness: an error.
+struct Relaxation {
+  Eigen::MatrixXd displacement;  // (unknowns x 6)
+  double residual = 0.0;         // largest |K q - rhs| / |rhs| of the columns
+};
+
+Relaxation relax(const Eigen::SparseMatrix<double>& hessian, const Eigen::MatrixXd& rhs, int rattlers) {
+  const Eigen::Index n = hessian.rows(), blocks = n / 3;
+  // The preconditioner: the diagonal blocks' inverses (a block singular by a free spin: regularised by 1e-12 of
+  // its trace, which only scales the search there).
+  std::vector<Mat3> block(static_cast<std::size_t>(blocks), Mat3::Zero());
+  for (Eigen::Index c = 0; c < n; ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(hessian, c); it; ++it)
+      if (it.row() / 3 == c / 3) block[static_cast<std::size_t>(c / 3)](it.row() % 3, c % 3) = it.value();
+  for (Mat3& b : block) {
+    const double trace = b.trace();
+    Eigen::LLT<Mat3> llt(b);
+    if (llt.info() != Eigen::Success) llt.compute(b + 1e-12 * std::abs(trace) * Mat3::Identity());
+    if (llt.info() == Eigen::Success) b = llt.solve(Mat3::Identity());
+    else b = Mat3::Identity() / std::max(std::abs(trace), 1e-300);
+  }
+  const auto precondition = [&](const Eigen::MatrixXd& r) {
+    Eigen::MatrixXd z(r.rows(), r.cols());
+    for (Eigen::Index b = 0; b < blocks; ++b) z.middleRows<3>(3 * b) = block[static_cast<std::size_t>(b)] * r.middleRows<3>(3 * b);
+    return z;
+  };
+  constexpr double kTolerance = 1e-10;
+  const Eigen::Index max_iterations = std::max<Eigen::Index>(1000, 4 * n);
+  Relaxation out;
+  out.displacement = Eigen::MatrixXd::Zero(n, rhs.cols());
+  Eigen::MatrixXd r = rhs, z = precondition(r), p = z;
+  Eigen::ArrayXd rz = (r.cwiseProduct(z)).colwise().sum().transpose().array();
+  const Eigen::ArrayXd target = kTolerance * rhs.colwise().norm().transpose().array();
+  Eigen::Array<bool, Eigen::Dynamic, 1> active = r.colwise().norm().transpose().array() > target;
+  Eigen::Index iteration = 0;
+  for (; active.any() && iteration < max_iterations; ++iteration) {
+    const Eigen::MatrixXd kp = hessian * p;
+    for (Eigen::Index c = 0; c < rhs.cols(); ++c) {
+      if (!active[c]) continue;
+      const double curvature = p.col(c).dot(kp.col(c));
+      if (!(curvature > 0.0))
+        throw std::runtime_error("network_stiffness: the contact network is not stable once its " +
+                                 std::to_string(rattlers) + " rattlers are removed (a direction of non-positive "
+                                 "stiffness: a buckling mode or a mechanism the strain drives)");
+      const double alpha = rz[c] / curvature;
+      out.displacement.col(c) += alpha * p.col(c);
+      r.col(c) -= alpha * kp.col(c);
+      if (r.col(c).norm() <= target[c]) active[c] = false;
+    }
+    z = precondition(r);
+    for (Eigen::Index c = 0; c < rhs.cols(); ++c) {
+      if (!active[c]) continue;
+      const double rz_next = r.col(c).dot(z.col(c));
+      p.col(c) = z.col(c) + (rz_next / rz[c]) * p.col(c);
+      rz[c] = rz_next;
+    }
+  }
+  const Eigen::MatrixXd residual = hessian * out.displacement - rhs;
+  for (Eigen::Index c = 0; c < rhs.cols(); ++c)
+    if (rhs.col(c).norm() > 0.0) out.residual = std::max(out.residual, residual.col(c).norm() / rhs.col(c).norm());
+  if (active.any())
+    throw std::runtime_error("network_stiffness: the relaxation did not converge in " + std::to_string(iteration) +
+                             " iterations (relative residual " + std::to_string(out.residual) +
+                             "): the contact network has a mechanism the strain drives, or is close to one");
+  return out;
+}
+
 }  // namespace
 
 Mat3 strain_of_voigt(const Voigt6& voigt) {
@@ -221,7 +292,7 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
   std::vector<Mat3> unit_strain(6);
   for (int k = 0; k < 6; ++k) unit_strain[k] = strain_of_voigt(Voigt6::Unit(k));
   std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(contacts.size() * (tangential ? 78 : 21));
+  triplets.reserve(contacts.size() * (tangential ? 144 : 36));
   Eigen::MatrixXd load = Eigen::MatrixXd::Zero(unknowns.count, 6);
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     if (!kept(k)) continue;
@@ -233,7 +304,7 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
     for (int a = 0; a < 12; ++a) {
       if (index[a] < 0) continue;
       for (int b = 0; b < 12; ++b)
-        if (index[b] >= 0 && index[b] <= index[a]) triplets.emplace_back(index[a], index[b], local(a, b));
+        if (index[b] >= 0) triplets.emplace_back(index[a], index[b], local(a, b));
     }
     for (int s = 0; s < 6; ++s) {  // dE/dz at z = 0: -(Jl^T K_n + Jc^T kt P (affine part)) eps l
       const Vec3 affine = unit_strain[s] * c.branch;
@@ -250,20 +321,9 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
     Eigen::SparseMatrix<double> hessian(unknowns.count, unknowns.count);
     hessian.setFromTriplets(triplets.begin(), triplets.end());
     triplets = {};
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver(hessian);
-    if (solver.info() != Eigen::Success)
-      throw std::runtime_error("network_stiffness: the factorisation of the contact network's stiffness failed");
-    const Eigen::VectorXd pivots = solver.vectorD();
-    const auto unstable = (pivots.array() <= 0.0).count();
-    if (unstable > 0)
-      throw std::runtime_error("network_stiffness: the contact network is not stable once its " +
-                               std::to_string(out.rattlers) + " rattlers are removed (" + std::to_string(unstable) +
-                               " non-positive pivots of its stiffness: a mechanism or a buckling mode)");
-    displacement = solver.solve(-load);
-    const Eigen::MatrixXd residual = hessian.selfadjointView<Eigen::Lower>() * displacement + load;
-    for (int s = 0; s < 6; ++s)
-      if (load.col(s).norm() > 0.0)
-        out.solver_residual = std::max(out.solver_residual, residual.col(s).norm() / load.col(s).norm());
+    const Relaxation relaxation = relax(hessian, -load, out.rattlers);
+    displacement = relaxation.displacement;
+    out.solver_residual = relaxation.residual;
   }
 
   for (int s = 0; s < 6; ++s) {

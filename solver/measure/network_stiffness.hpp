@@ -25,7 +25,7 @@
 // whose derivatives are the linear law's force and moments (the -(f_n/d)(I - nn) term: the normal force
 // turning with the normal). Summed: E = 1/2 q^T K q + q^T B eps + (terms in eps alone), q the displacements.
 // The relaxed displacements minimise E at fixed eps: K q = -B eps (K assembled sparse, rattlers dropped, one
-// particle's translation pinned against the rigid motion, SimplicialLDLT). The stress change is then the
+// particle's translation pinned against the rigid motion, conjugate gradients). The stress change is then the
 // linearised definition of the stress itself, d sigma = (1/V) sum_c sym(df_c (x) l_c + f_c (x) dl_c)
 // + sigma tr(eps) (the volume V shrinks by tr eps), df_c = -(K_n dl + kt P du_c) the change of the force on j:
 // D_affine from q = 0, D_relaxed from the relaxed q, column by column. In equilibrium
