@@ -43,11 +43,12 @@ struct ContactMatrices {
   Jacobian contact_jacobian;  // Jc
 };
 
-ContactMatrices matrices_of(const NetworkContact& c, double kn, double kt) {
+// prestress: with the geometric term -(f_n / d)(I - n n^T) (normal springs only: the header says why).
+ContactMatrices matrices_of(const NetworkContact& c, double kn, double kt, bool prestress) {
   const Mat3 nn = c.normal * c.normal.transpose();
   const Mat3 projector = Mat3::Identity() - nn;
   ContactMatrices m;
-  m.normal_stiffness = kn * nn - (c.normal_force / c.distance) * projector;
+  m.normal_stiffness = kn * nn - (prestress ? c.normal_force / c.distance : 0.0) * projector;
   m.tangential_projector = kt * projector;
   m.branch_jacobian.setZero();
   m.branch_jacobian.block<3, 3>(0, 0) = -Mat3::Identity();
@@ -139,13 +140,13 @@ std::array<int, 12> local_unknowns(const Unknowns& u, const NetworkContact& c) {
 // every particle affine) over the contacts for which `use` holds, plus the volume term sigma tr(eps).
 template <class Use>
 Mat3 stress_change(const std::vector<NetworkContact>& contacts, const Unknowns& unknowns, const Eigen::VectorXd& q,
-                   const Mat3& eps, const Mat3& stress, double kn, double kt, bool affine_tangential, double volume,
-                   Use use) {
+                   const Mat3& eps, const Mat3& stress, double kn, double kt, bool prestress, bool affine_tangential,
+                   double volume, Use use) {
   Mat3 sum = Mat3::Zero();  // [N m] sum of df (x) l + f (x) dl
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     const NetworkContact& c = contacts[k];
     if (!use(k)) continue;
-    const ContactMatrices m = matrices_of(c, kn, kt);
+    const ContactMatrices m = matrices_of(c, kn, kt, prestress);
     Eigen::Matrix<double, 12, 1> z = Eigen::Matrix<double, 12, 1>::Zero();
     if (q.size() > 0) {
       const std::array<int, 12> index = local_unknowns(unknowns, c);
@@ -162,34 +163,47 @@ Mat3 stress_change(const std::vector<NetworkContact>& contacts, const Unknowns& 
 }
 
 // Preconditioned conjugate gradients for K q = rhs, the six load cases at once (each column its own iteration),
-// preconditioned by the inverses of K's 3x3 diagonal blocks (each particle's translation and spin, numbered in
-// threes). K is symmetric; a stable network makes it positive definite but for modes that no strain loads (a
-// sphere spinning about the line of its only two contacts): the iteration never enters them. A direction of
-// non-positive curvature, or no convergence (a mechanism the strain drives), means the network has no relaxed
-// stiffness: an error.
+// preconditioned by the inverses of K's diagonal blocks of each particle (its translation and spin, 3 or 6
+// unknowns numbered together: first[b] to first[b + 1]). K is symmetric; a stable network makes it positive
+// definite but for modes that no strain loads (a sphere's spin about the line of its only two contacts): the
+// preconditioner leaves them out and the iteration never enters them. A direction of non-positive curvature,
+// or no convergence (a mechanism the strain drives), means the network has no relaxed stiffness: an error.
+// Row-major: Eigen shares a row-major sparse matrix's product with a dense one among the OpenMP threads.
+using Hessian = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 6>;
+
 struct Relaxation {
   Eigen::MatrixXd displacement;  // (unknowns x 6)
   double residual = 0.0;         // largest |K q - rhs| / |rhs| of the columns
 };
 
-Relaxation relax(const Eigen::SparseMatrix<double>& hessian, const Eigen::MatrixXd& rhs, int rattlers) {
-  const Eigen::Index n = hessian.rows(), blocks = n / 3;
-  // The preconditioner: the diagonal blocks' inverses (a block singular by a free spin: regularised by 1e-12 of
-  // its trace, which only scales the search there).
-  std::vector<Mat3> block(static_cast<std::size_t>(blocks), Mat3::Zero());
-  for (Eigen::Index c = 0; c < n; ++c)
-    for (Eigen::SparseMatrix<double>::InnerIterator it(hessian, c); it; ++it)
-      if (it.row() / 3 == c / 3) block[static_cast<std::size_t>(c / 3)](it.row() % 3, c % 3) = it.value();
-  for (Mat3& b : block) {
-    const double trace = b.trace();
-    Eigen::LLT<Mat3> llt(b);
-    if (llt.info() != Eigen::Success) llt.compute(b + 1e-12 * std::abs(trace) * Mat3::Identity());
-    if (llt.info() == Eigen::Success) b = llt.solve(Mat3::Identity());
-    else b = Mat3::Identity() / std::max(std::abs(trace), 1e-300);
+Relaxation relax(const Hessian& hessian, const Eigen::MatrixXd& rhs, const std::vector<Eigen::Index>& first,
+                 int rattlers) {
+  const Eigen::Index n = hessian.rows();
+  const std::size_t blocks = first.size() - 1;
+  std::vector<Block> block(blocks);
+  std::vector<std::size_t> block_of(static_cast<std::size_t>(n));
+  for (std::size_t b = 0; b < blocks; ++b) {
+    block[b] = Block::Zero(first[b + 1] - first[b], first[b + 1] - first[b]);
+    for (Eigen::Index k = first[b]; k < first[b + 1]; ++k) block_of[static_cast<std::size_t>(k)] = b;
+  }
+  for (Eigen::Index outer = 0; outer < hessian.outerSize(); ++outer)
+    for (Hessian::InnerIterator it(hessian, outer); it; ++it) {
+      const std::size_t b = block_of[static_cast<std::size_t>(it.row())];
+      if (b == block_of[static_cast<std::size_t>(it.col())]) block[b](it.row() - first[b], it.col() - first[b]) = it.value();
+    }
+  for (Block& b : block) {  // the pseudo-inverse: directions without stiffness left out
+    const Eigen::SelfAdjointEigenSolver<Block> eigen(b);
+    const Eigen::VectorXd values = eigen.eigenvalues();
+    Eigen::VectorXd inverse = Eigen::VectorXd::Zero(values.size());
+    for (Eigen::Index k = 0; k < values.size(); ++k)
+      if (values[k] > 1e-10 * values.cwiseAbs().maxCoeff()) inverse[k] = 1.0 / values[k];
+    b = eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
   }
   const auto precondition = [&](const Eigen::MatrixXd& r) {
     Eigen::MatrixXd z(r.rows(), r.cols());
-    for (Eigen::Index b = 0; b < blocks; ++b) z.middleRows<3>(3 * b) = block[static_cast<std::size_t>(b)] * r.middleRows<3>(3 * b);
+    for (std::size_t b = 0; b < blocks; ++b)
+      z.middleRows(first[b], first[b + 1] - first[b]) = block[b] * r.middleRows(first[b], first[b + 1] - first[b]);
     return z;
   };
   constexpr double kTolerance = 1e-10;
@@ -269,6 +283,7 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
     throw std::logic_error("network_stiffness: the pair list is not built (rebuild_pairs first)");
   const double kn = model.contact.kn, kt = tangential ? model.contact.kt : 0.0;
   const bool affine_tangential = model.kinematics == Kinematics::Affine;  // what the law's tangential slip sees
+  const bool prestress = !tangential;
   const double volume = state.cell.volume();
 
   const std::vector<NetworkContact> contacts = network_contacts(model, state, tangential);
@@ -297,7 +312,7 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
   for (std::size_t k = 0; k < contacts.size(); ++k) {
     if (!kept(k)) continue;
     const NetworkContact& c = contacts[k];
-    const ContactMatrices m = matrices_of(c, kn, kt);
+    const ContactMatrices m = matrices_of(c, kn, kt, prestress);
     const Local local = m.branch_jacobian.transpose() * m.normal_stiffness * m.branch_jacobian +
                         m.contact_jacobian.transpose() * m.tangential_projector * m.contact_jacobian;
     const std::array<int, 12> index = local_unknowns(unknowns, c);
@@ -318,10 +333,16 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
 
   Eigen::MatrixXd displacement = Eigen::MatrixXd::Zero(unknowns.count, 6);
   if (unknowns.count > 0) {
-    Eigen::SparseMatrix<double> hessian(unknowns.count, unknowns.count);
+    Hessian hessian(unknowns.count, unknowns.count);
     hessian.setFromTriplets(triplets.begin(), triplets.end());
     triplets = {};
-    const Relaxation relaxation = relax(hessian, -load, out.rattlers);
+    std::vector<Eigen::Index> first;  // each particle's unknowns, numbered together
+    for (const auto& index : unknowns.index) {
+      const int begin = index[0] >= 0 ? index[0] : index[3];
+      if (begin >= 0) first.push_back(begin);
+    }
+    first.push_back(unknowns.count);
+    const Relaxation relaxation = relax(hessian, -load, first, out.rattlers);
     displacement = relaxation.displacement;
     out.solver_residual = relaxation.residual;
   }
@@ -329,10 +350,10 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
   for (int s = 0; s < 6; ++s) {
     const Mat3& eps = unit_strain[s];
     out.affine.col(s) = voigt_of_stress(stress_change(contacts, unknowns, Eigen::VectorXd(), eps, stress, kn, kt,
-                                                      affine_tangential, volume, every));
+                                                      prestress, affine_tangential, volume, every));
     const Eigen::VectorXd q = displacement.col(s);
     out.relaxed.col(s) = voigt_of_stress(stress_change(contacts, unknowns, q, eps, stress, kn, kt,
-                                                       affine_tangential, volume, kept));
+                                                       prestress, affine_tangential, volume, kept));
   }
   return out;
 }

@@ -22,20 +22,26 @@
 //   du_c = dl + n x (a_i theta_i + a_j theta_j)  (the contact point's relative displacement, a_i, a_j the
 //                                                 law's lever arms; without the affine part -eps l when the
 //                                                 model's kinematics is lammps, as the law sees it),
-// whose derivatives are the linear law's force and moments (the -(f_n/d)(I - nn) term: the normal force
-// turning with the normal). Summed: E = 1/2 q^T K q + q^T B eps + (terms in eps alone), q the displacements.
-// The relaxed displacements minimise E at fixed eps: K q = -B eps (K assembled sparse, rattlers dropped, one
-// particle's translation pinned against the rigid motion, conjugate gradients). The stress change is then the
-// linearised definition of the stress itself, d sigma = (1/V) sum_c sym(df_c (x) l_c + f_c (x) dl_c)
-// + sigma tr(eps) (the volume V shrinks by tr eps), df_c = -(K_n dl + kt P du_c) the change of the force on j:
-// D_affine from q = 0, D_relaxed from the relaxed q, column by column. In equilibrium
-// D_relaxed = D_affine - (1/V) B^T K^-1 B: relaxation only softens, and D_relaxed - D_affine is symmetric.
-// D_affine itself is symmetric but for sigma_ij delta_kl (the volume term), whose antisymmetric part
-// sigma (x) 1 - 1 (x) sigma vanishes only under an isotropic stress; the residual forces of a packing not
-// exactly in equilibrium add terms of order (net force) x (displacement), negligible in a quasi-static state.
-// Left out: the tangential force's own geometric terms (f_t turning with the normal, the lever arms changing
-// with the overlap), of the order of f_t/d against kt, which would make K unsymmetric; with tangential =
-// false the tangential forces and springs are left out altogether (a frictionless packing).
+// whose derivatives are the linear law's force and moments (the geometric term -(f_n/d)(I - nn): the normal
+// force turning with the normal). Summed: E = 1/2 q^T K q + q^T B eps + (terms in eps alone), q the
+// displacements. The relaxed displacements minimise E at fixed eps: K q = -B eps (K assembled sparse, rattlers
+// dropped, one particle's translation pinned against the rigid motion; block-preconditioned conjugate
+// gradients). The stress change is then the linearised definition of the stress itself,
+//   d sigma = (1/V) sum_c sym(df_c (x) l_c + f_c (x) dl_c) + sigma tr(eps)   (V shrinks by tr eps),
+// df_c = -(K_n dl + kt P du_c) the change of the force on j: D_affine from q = 0, D_relaxed from the relaxed q,
+// column by column. In equilibrium D_relaxed = D_affine - (1/V) B^T K^-1 B: relaxation only softens, and
+// D_relaxed - D_affine is symmetric. D_affine itself is symmetric but for sigma_ij delta_kl (the volume term),
+// whose antisymmetric part sigma (x) 1 - 1 (x) sigma vanishes only under an isotropic stress; the residual
+// forces of a packing not exactly in equilibrium add terms of order (net force) x (displacement).
+//
+// With normal springs only (tangential = false: a frictionless packing; tangential forces and springs left
+// out) this is the whole linearisation of the law, checked against celldem's own quasi-static strain probes.
+// With tangential springs the geometric term is left out (K_n = kn n n^T): it is of relative order f_n/(kn d)
+// = overlap/d against kn and kt, the same order as the tangential force's own geometric terms (f_t turning with
+// the normal, the lever arms changing with the overlap), which no energy gives (K would be unsymmetric); kept
+// alone, it makes the rolling modes of chains of two-contact spheres, which no spring resists, unstable, so that
+// a settled frictional packing of 8000 spheres has no minimum. Without it K is positive semidefinite, its zero
+// modes (a free spin) are loaded by no strain, and the solve always exists.
 #pragma once
 #include <array>
 
