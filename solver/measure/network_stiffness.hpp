@@ -71,7 +71,7 @@ struct NetworkStiffness {
   Stiffness6 affine = Stiffness6::Zero();   // [Pa] every particle follows the affine field (the Voigt bound)
   Stiffness6 relaxed = Stiffness6::Zero();  // [Pa] the particles (and spins, with tangential springs) relaxed
   int contacts = 0;   // contacts with positive overlap in the state
-  int rattlers = 0;   // particles left out of the solve (too few contacts, iteratively; rattler_rule below)
+  int rattlers = 0;   // particles left out of the solve (too few contacts, iteratively: network_rattler_rule)
   double solver_residual = 0.0;  // largest |K q + B eps| / |B eps| of the six solves
 };
 
@@ -84,8 +84,11 @@ int network_rattler_rule(bool tangential);
 // the normal force from the overlap and, with `tangential`, the tangential force and sticking spring kt of the
 // stored spring (state.pairs.tangential). Throws std::invalid_argument naming the law unless the contact law
 // is the linear one (normal linear, tangential linear_history, no rolling or twisting resistance), and
-// std::runtime_error when the relaxed network is not stable (a non-positive pivot of K: a mechanism or a
-// buckling mode left after the rattlers are removed).
+// std::runtime_error when the relaxed network is not stable once the rattlers are removed (a direction of
+// non-positive stiffness, or no convergence: a buckling mode, or a mechanism the strain drives, as in a
+// frictionless packing below isostaticity). The rattlers' contacts count in D_affine (every particle follows
+// the strain) and not in D_relaxed (a rattler, free to move, carries nothing). The state's pair list must be
+// built (rebuild_pairs); its forces need not be evaluated.
 NetworkStiffness network_stiffness(const Model& model, const State& state, bool tangential);
 
 }  // namespace celldem
