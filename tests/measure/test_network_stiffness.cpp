@@ -110,6 +110,27 @@ TEST(NetworkStiffness, RefusesAnotherContactLawNamingIt) {
 }
 
 
+// A simple cubic lattice under compression: with normal springs only, a sphere moved across its six contacts
+// meets only the prestress's negative stiffness -f/d (the lattice buckles), so the network has no relaxed
+// stiffness and says so; sticking tangential springs hold it. One sphere is moved off its site (by 1e-4 of the
+// spacing, all its contacts kept) so that a strain loads the lattice's sites, not only round-off.
+TEST(NetworkStiffness, AnUnstableNetworkIsAnError) {
+  const double radius = 0.5 * (1.0 + 1e-3);
+  State state = testing::lattice_state(3, radius, Vec3(1.0, 1.0, 1.0), 0.05);
+  state.particles.scaled[13] += state.cell.h.inverse() * Vec3(1e-4, 2e-4, 0.0);
+  const Model model = make_model(model_deck(1e4, 1e4, 1e-4), std::vector<double>(state.particles.size(), radius));
+  rebuild_pairs(model, state);
+  try {
+    network_stiffness(model, state, false);
+    ADD_FAILURE() << "no error for a buckling lattice";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not stable"), std::string::npos) << e.what();
+  }
+  const NetworkStiffness held = network_stiffness(model, state, true);
+  EXPECT_EQ(held.rattlers, 0);
+  EXPECT_GT(held.relaxed(3, 3), 0.0);
+}
+
 // ---- a random frictionless packing against a quasi-static strain probe ----
 
 // A ~300-sphere frictionless packing at 100 kPa: prepared by the runner (tests/support's small deck, whose loose
