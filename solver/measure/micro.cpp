@@ -8,19 +8,14 @@
 #include "contact/contact_law.hpp"
 
 namespace celldem {
-namespace {
 
-// The scaled separation s_j - s_i + image of pair q, owned by i.
-Vec3 scaled_separation(const State& state, Index i, Index q) {
+Vec3 pair_scaled_separation(const State& state, Index i, Index q) {
   const PairList& pl = state.pairs;
   const auto& img = pl.image[q];
   return state.particles.scaled[pl.neighbor[q]] - state.particles.scaled[i] + Vec3(img[0], img[1], img[2]);
 }
 
-// The branch vector of pair q, owned by i.
-Vec3 branch_of(const State& state, Index i, Index q) { return state.cell.h * scaled_separation(state, i, q); }
-
-}  // namespace
+Vec3 pair_branch(const State& state, Index i, Index q) { return state.cell.h * pair_scaled_separation(state, i, q); }
 
 Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& normal_forces) {
   Fabric f;
@@ -49,10 +44,7 @@ Fabric fabric_of(const std::vector<Vec3>& normals, const std::vector<double>& no
   return f;
 }
 
-Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts, int min_contacts) {
-  Coordination c;
-  if (n == 0) return c;
-  c.z = 2.0 * static_cast<double>(contacts.size()) / static_cast<double>(n);
+std::vector<char> rattlers_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts, int min_contacts) {
   // Adjacency in CSR form; removing a rattler lowers its neighbours' degrees, which may make them
   // rattlers in turn: a work queue reaches the fixpoint in O(n + contacts).
   std::vector<int> degree(n, 0);
@@ -76,6 +68,14 @@ Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, I
       if (!rattler[m] && --degree[m] < min_contacts) rattler[m] = 1, queue.push_back(m);
     }
   }
+  return rattler;
+}
+
+Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts, int min_contacts) {
+  Coordination c;
+  if (n == 0) return c;
+  c.z = 2.0 * static_cast<double>(contacts.size()) / static_cast<double>(n);
+  const std::vector<char> rattler = rattlers_of(n, contacts, min_contacts);
   std::int64_t kept_contacts = 0, kept_particles = 0;
   for (const auto& [i, j] : contacts) kept_contacts += (!rattler[i] && !rattler[j]);
   for (std::size_t i = 0; i < n; ++i) kept_particles += !rattler[i];
@@ -98,7 +98,7 @@ ContactMeasures measure_contacts(const Model& model, const State& state) {
   normals.reserve(state.touching);
   normal_forces.reserve(state.touching);
   for_each_pair(pl, [&](Index i, Index q) {
-    const Vec3 ds = scaled_separation(state, i, q);
+    const Vec3 ds = pair_scaled_separation(state, i, q);
     stress.add(i, pl.force[q], ds);  // every listed pair (those apart hold zero force)
     if (!(pl.flags[q] & kTouching)) return;
     const Vec3 branch = state.cell.h * ds;
@@ -168,7 +168,7 @@ std::vector<Mat3> particle_stresses(const State& state) {
   std::vector<Mat3> sigma(p.size(), Mat3::Zero());
   for_each_pair(state.pairs, [&](Index i, Index q) {
     const Index j = state.pairs.neighbor[q];
-    const Mat3 fl = state.pairs.force[q] * branch_of(state, i, q).transpose();  // f (x) branch
+    const Mat3 fl = state.pairs.force[q] * pair_branch(state, i, q).transpose();  // f (x) branch
     const Mat3 sym = 0.5 * (fl + fl.transpose()) / (p.radius[i] + p.radius[j]);
     sigma[i] += p.radius[i] * sym;
     sigma[j] += p.radius[j] * sym;
@@ -191,7 +191,7 @@ Overlaps overlaps(const State& state, double deep) {
   const std::vector<double>& r = state.particles.radius;
   for_each_pair(state.pairs, [&](Index i, Index q) {
     const Index j = state.pairs.neighbor[q];
-    const double distance = branch_of(state, i, q).norm();
+    const double distance = pair_branch(state, i, q).norm();
     const double overlap = r[i] + r[j] - distance;
     if (distance / (r[i] + r[j]) < o.closest) o.closest = distance / (r[i] + r[j]), o.closest_i = i, o.closest_j = j;
     if (overlap <= 0.0) return;
@@ -208,7 +208,7 @@ double overlap_dilation(const State& state, double max_overlap) {
   for_each_pair(state.pairs, [&](Index i, Index q) {
     const Index j = state.pairs.neighbor[q];
     const double reach = r[i] + r[j] - max_overlap * std::min(r[i], r[j]);
-    const double distance = branch_of(state, i, q).norm();
+    const double distance = pair_branch(state, i, q).norm();
     if (distance < reach) factor = std::max(factor, reach / distance);
   });
   return factor;

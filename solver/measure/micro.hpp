@@ -28,8 +28,12 @@ struct Coordination {
 // two), d + 1 = 4 for frictionless ones.
 inline constexpr int kFrictionalRattler = 2, kFrictionlessRattler = 4;
 
+// Which of n particles are rattlers of an explicit contact list: fewer than min_contacts contacts, removed
+// iteratively (a rattler's contacts no longer count for its neighbours) until none is left below. (n)
+std::vector<char> rattlers_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts, int min_contacts);
+
 // Mechanical coordination of an explicit contact list over n particles: the definition (measure_contacts
-// applies it to the touching pairs of the list, under both rules).
+// applies it to the touching pairs of the list, under both rules; its rattlers are rattlers_of's).
 Coordination coordination_of(std::size_t n, const std::vector<std::pair<Index, Index>>& contacts,
                              int min_contacts = kFrictionalRattler);
 
@@ -55,6 +59,11 @@ struct ContactMeasures {
 ContactMeasures measure_contacts(const Model& model, const State& state);
 
 double void_ratio(const Model& model, const State& state);
+
+// The scaled separation s_j - s_i + image of listed pair q, owned by i, and its branch vector h (that) [m]:
+// x_j - x_i across the pair's periodic image.
+Vec3 pair_scaled_separation(const State& state, Index i, Index q);
+Vec3 pair_branch(const State& state, Index i, Index q);
 
 // Each particle's share of the contact stress [Pa], compression positive: (1/V_p) sum over its contacts of
 // sym(f (x) l_p), f the pair's force on j by i and l_p the part of the branch on p's side, branch r_p/(r_i + r_j)

@@ -1,0 +1,361 @@
+#include "measure/network_stiffness.hpp"
+
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <array>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "measure/micro.hpp"
+
+namespace celldem {
+namespace {
+
+// One contact of the network, as the linear law sees it in the state's geometry.
+struct NetworkContact {
+  Index i = 0, j = 0;
+  Vec3 branch = Vec3::Zero();  // l [m], x_j - x_i across the pair's image
+  Vec3 normal = Vec3::Zero();  // n, from i to j
+  double distance = 0.0;       // |l| [m]
+  double normal_force = 0.0;   // f_n [N], kn overlap
+  Vec3 force = Vec3::Zero();   // [N] on j by i: f_n n + f_t
+  double arm_i = 0.0, arm_j = 0.0;  // [m] lever arms from the centres to the contact point
+};
+
+// The law's local matrices of a contact over z = (u_i, u_j, theta_i, theta_j): dl = Jl z - eps l and
+// du_c = Jc z - (affine part) eps l.
+using Jacobian = Eigen::Matrix<double, 3, 12>;
+using Local = Eigen::Matrix<double, 12, 12>;
+
+Mat3 cross_matrix(const Vec3& n) {  // [n]x: [n]x t = n x t
+  Mat3 m;
+  m << 0.0, -n[2], n[1], n[2], 0.0, -n[0], -n[1], n[0], 0.0;
+  return m;
+}
+
+struct ContactMatrices {
+  Mat3 normal_stiffness;      // K_n = kn n n^T - (f_n / d)(I - n n^T) [N/m]
+  Mat3 tangential_projector;  // kt (I - n n^T) [N/m] (zero without tangential springs)
+  Jacobian branch_jacobian;   // Jl
+  Jacobian contact_jacobian;  // Jc
+};
+
+// prestress: with the geometric term -(f_n / d)(I - n n^T) (normal springs only: the header says why).
+ContactMatrices matrices_of(const NetworkContact& c, double kn, double kt, bool prestress) {
+  const Mat3 nn = c.normal * c.normal.transpose();
+  const Mat3 projector = Mat3::Identity() - nn;
+  ContactMatrices m;
+  m.normal_stiffness = kn * nn - (prestress ? c.normal_force / c.distance : 0.0) * projector;
+  m.tangential_projector = kt * projector;
+  m.branch_jacobian.setZero();
+  m.branch_jacobian.block<3, 3>(0, 0) = -Mat3::Identity();
+  m.branch_jacobian.block<3, 3>(0, 3) = Mat3::Identity();
+  m.contact_jacobian = m.branch_jacobian;
+  const Mat3 nx = cross_matrix(c.normal);
+  m.contact_jacobian.block<3, 3>(0, 6) = c.arm_i * nx;
+  m.contact_jacobian.block<3, 3>(0, 9) = c.arm_j * nx;
+  return m;
+}
+
+void check_law(const ContactDef& contact) {
+  const auto refuse = [](const std::string& key, std::string_view name) {
+    throw std::invalid_argument("network_stiffness: contact." + key + " \"" + std::string(name) +
+                                "\" is not supported (the linear law only: contact.normal linear, contact.tangential "
+                                "linear_history, contact.rolling none, contact.twisting none)");
+  };
+  if (contact.normal != NormalModel::Linear) refuse("normal", name_of(contact.normal, kNormalModelNames));
+  if (contact.tangential != TangentialModel::LinearHistory)
+    refuse("tangential", name_of(contact.tangential, kTangentialModelNames));
+  if (contact.rolling != RollingModel::None) refuse("rolling", name_of(contact.rolling, kRollingModelNames));
+  if (contact.twisting != TwistingModel::None) refuse("twisting", name_of(contact.twisting, kTwistingModelNames));
+}
+
+// The pairs of the list that overlap in the state's geometry, in list order.
+std::vector<NetworkContact> network_contacts(const Model& model, const State& state, bool tangential) {
+  const Particles& p = state.particles;
+  const PairList& pl = state.pairs;
+  const double kt = tangential ? model.contact.kt : 0.0;
+  const double arm_shift = model.contact.moment_arm == MomentArm::ContactPoint ? 0.5 : 0.0;  // as the law's
+  std::vector<NetworkContact> contacts;
+  for_each_pair(pl, [&](Index i, Index q) {
+    const Index j = pl.neighbor[q];
+    const Vec3 branch = pair_branch(state, i, q);
+    const double distance = branch.norm();
+    const double overlap = p.radius[i] + p.radius[j] - distance;
+    if (!(overlap > 0.0)) return;
+    NetworkContact c;
+    c.i = i;
+    c.j = j;
+    c.branch = branch;
+    c.distance = distance;
+    c.normal = branch / distance;
+    c.normal_force = model.contact.kn * overlap;
+    const Vec3 spring = pl.tangential[q] - pl.tangential[q].dot(c.normal) * c.normal;  // in this tangent plane
+    c.force = c.normal_force * c.normal - kt * spring;
+    c.arm_i = p.radius[i] - arm_shift * overlap;
+    c.arm_j = p.radius[j] - arm_shift * overlap;
+    contacts.push_back(c);
+  });
+  return contacts;
+}
+
+// The displacements of the particles in the solve: 3 translations and (with tangential springs) 3 spins each,
+// -1 for what is not solved for (rattlers, the pinned particle's translation, spins without tangential springs).
+struct Unknowns {
+  std::vector<std::array<int, 6>> index;  // (N) per particle: u_x, u_y, u_z, theta_x, theta_y, theta_z
+  int count = 0;
+};
+
+Unknowns number_unknowns(const std::vector<char>& rattler, bool tangential) {
+  Unknowns u;
+  u.index.assign(rattler.size(), {-1, -1, -1, -1, -1, -1});
+  bool pinned = false;
+  for (std::size_t p = 0; p < rattler.size(); ++p) {
+    if (rattler[p]) continue;
+    if (pinned)
+      for (int a = 0; a < 3; ++a) u.index[p][a] = u.count++;
+    pinned = true;  // the first particle kept: its translation fixes the rigid motion
+    if (tangential)
+      for (int a = 3; a < 6; ++a) u.index[p][a] = u.count++;
+  }
+  return u;
+}
+
+// The local unknowns z = (u_i, u_j, theta_i, theta_j) of a contact as indices of the solve (-1: held).
+std::array<int, 12> local_unknowns(const Unknowns& u, const NetworkContact& c) {
+  std::array<int, 12> z;
+  for (int a = 0; a < 3; ++a) {
+    z[a] = u.index[c.i][a];
+    z[3 + a] = u.index[c.j][a];
+    z[6 + a] = u.index[c.i][3 + a];
+    z[9 + a] = u.index[c.j][3 + a];
+  }
+  return z;
+}
+
+// The stress change d sigma [Pa] for the strain eps and the displacements q (of the solve's unknowns; empty:
+// every particle affine) over the contacts for which `use` holds, plus the volume term sigma tr(eps).
+template <class Use>
+Mat3 stress_change(const std::vector<NetworkContact>& contacts, const Unknowns& unknowns, const Eigen::VectorXd& q,
+                   const Mat3& eps, const Mat3& stress, double kn, double kt, bool prestress, bool affine_tangential,
+                   double volume, Use use) {
+  Mat3 sum = Mat3::Zero();  // [N m] sum of df (x) l + f (x) dl
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    const NetworkContact& c = contacts[k];
+    if (!use(k)) continue;
+    const ContactMatrices m = matrices_of(c, kn, kt, prestress);
+    Eigen::Matrix<double, 12, 1> z = Eigen::Matrix<double, 12, 1>::Zero();
+    if (q.size() > 0) {
+      const std::array<int, 12> index = local_unknowns(unknowns, c);
+      for (int a = 0; a < 12; ++a)
+        if (index[a] >= 0) z[a] = q[index[a]];
+    }
+    const Vec3 affine = eps * c.branch;
+    const Vec3 dl = m.branch_jacobian * z - affine;
+    const Vec3 du_c = m.contact_jacobian * z - (affine_tangential ? affine : Vec3::Zero());
+    const Vec3 df = -(m.normal_stiffness * dl + m.tangential_projector * du_c);
+    sum += df * c.branch.transpose() + c.force * dl.transpose();
+  }
+  return 0.5 * (sum + sum.transpose()) / volume + stress * eps.trace();
+}
+
+// Preconditioned conjugate gradients for K q = rhs, the six load cases at once (each column its own iteration),
+// preconditioned by the inverses of K's diagonal blocks of each particle (its translation and spin, 3 or 6
+// unknowns numbered together: first[b] to first[b + 1]). K is symmetric; a stable network makes it positive
+// definite but for modes that no strain loads (a sphere's spin about the line of its only two contacts): the
+// preconditioner leaves them out and the iteration never enters them. A direction of non-positive curvature,
+// or no convergence (a mechanism the strain drives), means the network has no relaxed stiffness: an error.
+// Row-major: Eigen shares a row-major sparse matrix's product with a dense one among the OpenMP threads.
+using Hessian = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 6>;
+
+struct Relaxation {
+  Eigen::MatrixXd displacement;  // (unknowns x 6)
+  double residual = 0.0;         // largest |K q - rhs| / |rhs| of the columns
+};
+
+Relaxation relax(const Hessian& hessian, const Eigen::MatrixXd& rhs, const std::vector<Eigen::Index>& first,
+                 int rattlers) {
+  const Eigen::Index n = hessian.rows();
+  const std::size_t blocks = first.size() - 1;
+  std::vector<Block> block(blocks);
+  std::vector<std::size_t> block_of(static_cast<std::size_t>(n));
+  for (std::size_t b = 0; b < blocks; ++b) {
+    block[b] = Block::Zero(first[b + 1] - first[b], first[b + 1] - first[b]);
+    for (Eigen::Index k = first[b]; k < first[b + 1]; ++k) block_of[static_cast<std::size_t>(k)] = b;
+  }
+  for (Eigen::Index outer = 0; outer < hessian.outerSize(); ++outer)
+    for (Hessian::InnerIterator it(hessian, outer); it; ++it) {
+      const std::size_t b = block_of[static_cast<std::size_t>(it.row())];
+      if (b == block_of[static_cast<std::size_t>(it.col())]) block[b](it.row() - first[b], it.col() - first[b]) = it.value();
+    }
+  for (Block& b : block) {  // the pseudo-inverse: directions without stiffness left out
+    const Eigen::SelfAdjointEigenSolver<Block> eigen(b);
+    const Eigen::VectorXd values = eigen.eigenvalues();
+    Eigen::VectorXd inverse = Eigen::VectorXd::Zero(values.size());
+    for (Eigen::Index k = 0; k < values.size(); ++k)
+      if (values[k] > 1e-10 * values.cwiseAbs().maxCoeff()) inverse[k] = 1.0 / values[k];
+    b = eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
+  }
+  const auto precondition = [&](const Eigen::MatrixXd& r) {
+    Eigen::MatrixXd z(r.rows(), r.cols());
+    for (std::size_t b = 0; b < blocks; ++b)
+      z.middleRows(first[b], first[b + 1] - first[b]) = block[b] * r.middleRows(first[b], first[b + 1] - first[b]);
+    return z;
+  };
+  constexpr double kTolerance = 1e-10;
+  const Eigen::Index max_iterations = std::max<Eigen::Index>(1000, 4 * n);
+  Relaxation out;
+  out.displacement = Eigen::MatrixXd::Zero(n, rhs.cols());
+  Eigen::MatrixXd r = rhs, z = precondition(r), p = z;
+  Eigen::ArrayXd rz = (r.cwiseProduct(z)).colwise().sum().transpose().array();
+  const Eigen::ArrayXd target = kTolerance * rhs.colwise().norm().transpose().array();
+  Eigen::Array<bool, Eigen::Dynamic, 1> active = r.colwise().norm().transpose().array() > target;
+  Eigen::Index iteration = 0;
+  for (; active.any() && iteration < max_iterations; ++iteration) {
+    const Eigen::MatrixXd kp = hessian * p;
+    for (Eigen::Index c = 0; c < rhs.cols(); ++c) {
+      if (!active[c]) continue;
+      const double curvature = p.col(c).dot(kp.col(c));
+      if (!(curvature > 0.0))
+        throw std::runtime_error("network_stiffness: the contact network is not stable once its " +
+                                 std::to_string(rattlers) + " rattlers are removed (a direction of non-positive "
+                                 "stiffness: a buckling mode or a mechanism the strain drives)");
+      const double alpha = rz[c] / curvature;
+      out.displacement.col(c) += alpha * p.col(c);
+      r.col(c) -= alpha * kp.col(c);
+      if (r.col(c).norm() <= target[c]) active[c] = false;
+    }
+    z = precondition(r);
+    for (Eigen::Index c = 0; c < rhs.cols(); ++c) {
+      if (!active[c]) continue;
+      const double rz_next = r.col(c).dot(z.col(c));
+      p.col(c) = z.col(c) + (rz_next / rz[c]) * p.col(c);
+      rz[c] = rz_next;
+    }
+  }
+  const Eigen::MatrixXd residual = hessian * out.displacement - rhs;
+  for (Eigen::Index c = 0; c < rhs.cols(); ++c)
+    if (rhs.col(c).norm() > 0.0) out.residual = std::max(out.residual, residual.col(c).norm() / rhs.col(c).norm());
+  if (active.any())
+    throw std::runtime_error("network_stiffness: the relaxation did not converge in " + std::to_string(iteration) +
+                             " iterations (relative residual " + std::to_string(out.residual) +
+                             "): the contact network has a mechanism the strain drives, or is close to one");
+  return out;
+}
+
+}  // namespace
+
+Mat3 strain_of_voigt(const Voigt6& voigt) {
+  Mat3 eps = Mat3::Zero();
+  for (int k = 0; k < 6; ++k) {
+    const auto [i, j] = kVoigtEntries[k];
+    const double value = k < 3 ? voigt[k] : 0.5 * voigt[k];
+    eps(i, j) = value;
+    eps(j, i) = value;
+  }
+  return eps;
+}
+
+Voigt6 voigt_of_stress(const Mat3& stress) {
+  const Mat3 sym = 0.5 * (stress + stress.transpose());
+  Voigt6 v;
+  for (int k = 0; k < 6; ++k) v[k] = sym(kVoigtEntries[k][0], kVoigtEntries[k][1]);
+  return v;
+}
+
+Mat3 simple_shear_rotation(const Mat3& stress, const Vec3& shear) {
+  Mat3 e = Mat3::Zero();
+  for (int a = 0; a < 3; ++a) e(kShearAxisEntries[a][0], kShearAxisEntries[a][1]) = shear[a];
+  const Mat3 omega = 0.5 * (e - e.transpose());
+  return stress * omega - omega * stress;
+}
+
+int network_rattler_rule(bool tangential) { return tangential ? kFrictionalRattler : kFrictionlessRattler; }
+
+NetworkStiffness network_stiffness(const Model& model, const State& state, bool tangential) {
+  check_law(model.contact);
+  const std::size_t n = state.particles.size();
+  if (state.pairs.first.size() != n + 1 || state.pairs.tangential.size() != state.pairs.size())
+    throw std::logic_error("network_stiffness: the pair list is not built (rebuild_pairs first)");
+  const double kn = model.contact.kn, kt = tangential ? model.contact.kt : 0.0;
+  const bool affine_tangential = model.kinematics == Kinematics::Affine;  // what the law's tangential slip sees
+  const bool prestress = !tangential;
+  const double volume = state.cell.volume();
+
+  const std::vector<NetworkContact> contacts = network_contacts(model, state, tangential);
+  std::vector<std::pair<Index, Index>> pairs;
+  pairs.reserve(contacts.size());
+  for (const NetworkContact& c : contacts) pairs.emplace_back(c.i, c.j);
+  const std::vector<char> rattler = rattlers_of(n, pairs, network_rattler_rule(tangential));
+  const auto kept = [&](std::size_t k) { return !rattler[contacts[k].i] && !rattler[contacts[k].j]; };
+  const auto every = [](std::size_t) { return true; };
+
+  Mat3 stress_sum = Mat3::Zero();
+  for (const NetworkContact& c : contacts) stress_sum += c.force * c.branch.transpose();
+  const Mat3 stress = 0.5 * (stress_sum + stress_sum.transpose()) / volume;
+
+  NetworkStiffness out;
+  out.contacts = static_cast<int>(contacts.size());
+  for (char r : rattler) out.rattlers += r != 0;
+
+  // The Hessian K (its lower triangle) and the load vectors B eps of the six unit strains.
+  const Unknowns unknowns = number_unknowns(rattler, tangential);
+  std::vector<Mat3> unit_strain(6);
+  for (int k = 0; k < 6; ++k) unit_strain[k] = strain_of_voigt(Voigt6::Unit(k));
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(contacts.size() * (tangential ? 144 : 36));
+  Eigen::MatrixXd load = Eigen::MatrixXd::Zero(unknowns.count, 6);
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    if (!kept(k)) continue;
+    const NetworkContact& c = contacts[k];
+    const ContactMatrices m = matrices_of(c, kn, kt, prestress);
+    const Local local = m.branch_jacobian.transpose() * m.normal_stiffness * m.branch_jacobian +
+                        m.contact_jacobian.transpose() * m.tangential_projector * m.contact_jacobian;
+    const std::array<int, 12> index = local_unknowns(unknowns, c);
+    for (int a = 0; a < 12; ++a) {
+      if (index[a] < 0) continue;
+      for (int b = 0; b < 12; ++b)
+        if (index[b] >= 0) triplets.emplace_back(index[a], index[b], local(a, b));
+    }
+    for (int s = 0; s < 6; ++s) {  // dE/dz at z = 0: -(Jl^T K_n + Jc^T kt P (affine part)) eps l
+      const Vec3 affine = unit_strain[s] * c.branch;
+      const Eigen::Matrix<double, 12, 1> b =
+          -(m.branch_jacobian.transpose() * (m.normal_stiffness * affine) +
+            m.contact_jacobian.transpose() * (m.tangential_projector * (affine_tangential ? affine : Vec3::Zero())));
+      for (int a = 0; a < 12; ++a)
+        if (index[a] >= 0) load(index[a], s) += b[a];
+    }
+  }
+
+  Eigen::MatrixXd displacement = Eigen::MatrixXd::Zero(unknowns.count, 6);
+  if (unknowns.count > 0) {
+    Hessian hessian(unknowns.count, unknowns.count);
+    hessian.setFromTriplets(triplets.begin(), triplets.end());
+    triplets = {};
+    std::vector<Eigen::Index> first;  // each particle's unknowns, numbered together
+    for (const auto& index : unknowns.index) {
+      const int begin = index[0] >= 0 ? index[0] : index[3];
+      if (begin >= 0) first.push_back(begin);
+    }
+    first.push_back(unknowns.count);
+    const Relaxation relaxation = relax(hessian, -load, first, out.rattlers);
+    displacement = relaxation.displacement;
+    out.solver_residual = relaxation.residual;
+  }
+
+  for (int s = 0; s < 6; ++s) {
+    const Mat3& eps = unit_strain[s];
+    out.affine.col(s) = voigt_of_stress(stress_change(contacts, unknowns, Eigen::VectorXd(), eps, stress, kn, kt,
+                                                      prestress, affine_tangential, volume, every));
+    const Eigen::VectorXd q = displacement.col(s);
+    out.relaxed.col(s) = voigt_of_stress(stress_change(contacts, unknowns, q, eps, stress, kn, kt,
+                                                       prestress, affine_tangential, volume, kept));
+  }
+  return out;
+}
+
+}  // namespace celldem

@@ -1,0 +1,94 @@
+// The elastic stiffness of a packing assembled from its contact network: the tangent of the contact stress
+// that celldem reports (measure/micro.hpp, sigma = (1/V) sum_c sym(f_c (x) l_c), compression positive) under a
+// small homogeneous strain, with every particle following the affine field (affine) or relaxed to its new
+// equilibrium (relaxed). No time stepping: one sparse linear solve. The linear contact law only.
+//
+// Conventions. Strain compression positive like the series' e1..e3 and g12..g23: a strain eps (symmetric)
+// maps every branch l -> (I - eps) l and the cell h -> (I - eps) h. Voigt order (11, 22, 33, 12, 13, 23) for
+// both stress and strain, engineering shear strains (gamma_ij = 2 eps_ij). celldem's shear axis g_ij is the
+// simple shear h -> (I - E) h, E_ij = g_ij in the upper triangle: the symmetric strain gamma_ij = g_ij plus
+// the spin omega = (E - E^T)/2, which turns the stress already carried by d sigma = sigma omega - omega sigma
+// (of order sigma g, zero under an isotropic stress; simple_shear_rotation below), so a probe of g_ij
+// measures D gamma plus that term.
+//
+// Derivation (docs/physics.md, "Stiffness of the contact network"; after Agnolin & Roux 2007, "Internal
+// states of model isotropic granular packings. III. Elastic properties", PRE 76, 061304). Each contact c
+// between i and j (branch l = x_j - x_i across its periodic image, |l| = d, normal n = l/d, overlap
+// r_i + r_j - d > 0, normal force f_n = kn overlap, tangential force f_t = -kt xi from its stored spring)
+// stores the quadratic energy of small displacements u (translations) and theta (spins, with tangential
+// springs: 6 degrees of freedom per particle)
+//   E_c = 1/2 dl^T K_n dl + 1/2 kt |P du_c|^2,   K_n = kn n n^T - (f_n / d)(I - n n^T),   P = I - n n^T,
+//   dl   = u_j - u_i - eps l                     (the branch's change: fluctuation plus affine field),
+//   du_c = dl + n x (a_i theta_i + a_j theta_j)  (the contact point's relative displacement, a_i, a_j the
+//                                                 law's lever arms; without the affine part -eps l when the
+//                                                 model's kinematics is lammps, as the law sees it),
+// whose derivatives are the linear law's force and moments (the geometric term -(f_n/d)(I - nn): the normal
+// force turning with the normal). Summed: E = 1/2 q^T K q + q^T B eps + (terms in eps alone), q the
+// displacements. The relaxed displacements minimise E at fixed eps: K q = -B eps (K assembled sparse, rattlers
+// dropped, one particle's translation pinned against the rigid motion; block-preconditioned conjugate
+// gradients). The stress change is then the linearised definition of the stress itself,
+//   d sigma = (1/V) sum_c sym(df_c (x) l_c + f_c (x) dl_c) + sigma tr(eps)   (V shrinks by tr eps),
+// df_c = -(K_n dl + kt P du_c) the change of the force on j: D_affine from q = 0, D_relaxed from the relaxed q,
+// column by column. In equilibrium D_relaxed = D_affine - (1/V) B^T K^-1 B: relaxation only softens, and
+// D_relaxed - D_affine is symmetric. D_affine itself is symmetric but for sigma_ij delta_kl (the volume term),
+// whose antisymmetric part sigma (x) 1 - 1 (x) sigma vanishes only under an isotropic stress; the residual
+// forces of a packing not exactly in equilibrium add terms of order (net force) x (displacement).
+//
+// With normal springs only (tangential = false: a frictionless packing; tangential forces and springs left
+// out) this is the whole linearisation of the law, checked against celldem's own quasi-static strain probes.
+// With tangential springs the geometric term is left out (K_n = kn n n^T): it is of relative order f_n/(kn d)
+// = overlap/d against kn and kt, the same order as the tangential force's own geometric terms (f_t turning with
+// the normal, the lever arms changing with the overlap), which no energy gives (K would be unsymmetric); kept
+// alone, it makes the rolling modes of chains of two-contact spheres, which no spring resists, unstable, so that
+// a settled frictional packing of 8000 spheres has no minimum. Without it K is positive semidefinite, its zero
+// modes (a free spin) are loaded by no strain, and the solve always exists.
+#pragma once
+#include <array>
+
+#include <Eigen/Dense>
+
+#include "core/model.hpp"
+#include "core/state.hpp"
+
+namespace celldem {
+
+using Voigt6 = Eigen::Matrix<double, 6, 1>;
+using Stiffness6 = Eigen::Matrix<double, 6, 6>;
+
+// The tensor entries (i, j) of the Voigt components, in order 11, 22, 33, 12, 13, 23.
+inline constexpr std::array<std::array<int, 2>, 6> kVoigtEntries = {{{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
+
+// The symmetric strain tensor of a Voigt strain vector (engineering shear: eps_ij = eps_ji = gamma_ij / 2).
+Mat3 strain_of_voigt(const Voigt6& voigt);
+// The Voigt vector (s11, s22, s33, s12, s13, s23) of a stress tensor's symmetric part.
+Voigt6 voigt_of_stress(const Mat3& stress);
+// The stress change [Pa] that celldem's simple shear g_ij (h -> (I - E) h, E_ij = g_ij in the upper triangle)
+// adds to D gamma by turning the stress already carried: sigma omega - omega sigma, omega = (E - E^T)/2.
+// shear: (g12, g13, g23).
+Mat3 simple_shear_rotation(const Mat3& stress, const Vec3& shear);
+
+struct NetworkStiffness {
+  Stiffness6 affine = Stiffness6::Zero();   // [Pa] every particle follows the affine field (the Voigt bound)
+  Stiffness6 relaxed = Stiffness6::Zero();  // [Pa] the particles (and spins, with tangential springs) relaxed
+  int contacts = 0;   // contacts with positive overlap in the state
+  int rattlers = 0;   // particles left out of the solve (too few contacts, iteratively: network_rattler_rule)
+  double solver_residual = 0.0;  // largest |K q + B eps| / |B eps| of the six solves
+};
+
+// The minimum number of contacts of a particle kept in the solve: 2 with tangential springs (a sphere with
+// friction is held by two), d + 1 = 4 with normal springs only (fewer leave a direction whose only stiffness
+// is the prestress's negative -f_n/d). Rattlers are removed iteratively (measure/micro.hpp's rules).
+int network_rattler_rule(bool tangential);
+
+// The stiffnesses of the state's contact network: the pairs of its list that overlap in the state's geometry,
+// the normal force from the overlap and, with `tangential`, the tangential force and sticking spring kt of the
+// stored spring (state.pairs.tangential). Throws std::invalid_argument naming the law unless the contact law
+// is the linear one (normal linear, tangential linear_history, no rolling or twisting resistance), and
+// std::runtime_error when the relaxed network is not stable once the rattlers are removed (a direction of
+// non-positive stiffness, or no convergence: a buckling mode, or a mechanism the strain drives, as in a
+// frictionless packing below isostaticity). The rattlers' contacts count in D_affine (every particle follows
+// the strain) and not in D_relaxed (a rattler, free to move, carries nothing). The state's pair list must be
+// built (rebuild_pairs); its forces need not be evaluated.
+NetworkStiffness network_stiffness(const Model& model, const State& state, bool tangential);
+
+}  // namespace celldem
