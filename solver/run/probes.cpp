@@ -16,6 +16,7 @@
 #include "core/model.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
+#include "measure/network_stiffness.hpp"
 #include "io/state_file.hpp"
 #include "run/preflight.hpp"
 #include "run/program.hpp"
@@ -339,6 +340,41 @@ Json plastic_response(const std::vector<PlanePoint>& points, double magnitude) {
                       "fits), and the angle between flow and normal (0: associated flow)"}};
 }
 
+// The stiffness of the point's contact network (measure/network_stiffness.hpp: sticking tangential springs
+// when the test has friction, normal springs only without), as a strain probe measures it: celldem's shear axes
+// g_ij also turn the stress the sample carries (simple_shear_rotation), which the probes' g columns include.
+// With the probes' elastic stiffness: ||C_elastic - C_network|| / ||C_network|| (Frobenius). An estimate the law
+// or the network cannot give is recorded with its reason.
+Json network_estimate(const Deck& deck, const TestDef& test, const State& point, const Eigen::Matrix<double, 6, 6>& elastic) {
+  const bool tangential = test.friction > 0.0;
+  Json out = {{"tangential_springs", tangential}};
+  try {
+    State state = point;
+    const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
+    const NetworkStiffness n = network_stiffness(model, state, tangential);
+    Mat3 stress;
+    stress << state.normal_stress[0], state.shear_stress[0], state.shear_stress[1],
+              state.shear_stress[0], state.normal_stress[1], state.shear_stress[2],
+              state.shear_stress[1], state.shear_stress[2], state.normal_stress[2];
+    Stiffness6 probed = n.relaxed;
+    for (int a = 0; a < 3; ++a) {
+      Vec3 g = Vec3::Zero();
+      g[a] = 1.0;
+      probed.col(3 + a) += voigt_of_stress(simple_shear_rotation(stress, g));
+    }
+    out["affine"] = matrix_json(n.affine);
+    out["relaxed"] = matrix_json(n.relaxed);
+    out["relaxed_as_probed"] = matrix_json(probed);
+    out["contacts"] = n.contacts;
+    out["rattlers"] = n.rattlers;
+    out["solver_residual"] = n.solver_residual;
+    out["elastic_vs_network"] = (elastic - probed).norm() / probed.norm();
+  } catch (const std::exception& e) {  // another law, or a network with no stable relaxed state
+    out["error"] = e.what();
+  }
+  return out;
+}
+
 // ||A - A^T|| / ||A|| (Frobenius): 0 for a symmetric matrix.
 double asymmetry(const Eigen::Matrix<double, 6, 6>& a) {
   const double n = a.norm();
@@ -491,6 +527,9 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
                                  {"tangent_asymmetry", asymmetry(tangent[m])}});
       stiffness["points"][point.name] = {{"step", point.row.step}, {"e1", point.row.e1}, {"magnitudes", per_magnitude}};
       entry["elastic_asymmetry"] = per_magnitude[0]["elastic_asymmetry"];
+      const Json network = network_estimate(deck, test, *point.state, elastic.front());
+      stiffness["points"][point.name]["network"] = network;
+      if (network.contains("elastic_vs_network")) entry["elastic_vs_network"] = network["elastic_vs_network"];
     }
     if (def.kind == ProbeKind::Stress && def.magnitudes.size() > 1 && failed == 0) {
       // Linear response scales with the magnitude: the median over directions of
