@@ -158,11 +158,16 @@ double first_leg_stress(const TestDef& test) {
 
 double loading_rate(const Deck& deck, const TestDef& test) {
   double rate = 0.0;
-  for (const Leg& leg : test.legs)
+  const double dt = deck.stage_time_step(test);
+  for (const Leg& leg : test.legs) {
     for (const AxisControl& a : leg.axes) {
-      if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / deck.stage_time_step(test));
+      if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / dt);
       if (a.mode == AxisMode::StrainRate) rate = std::max(rate, std::abs(a.value));
     }
+    // A shear axis driven by its strain: the engineering shear rate, the rate of the inertial number of simple
+    // shear (I = gamma-dot d sqrt(rho / p)).
+    for (int a = 0; a < 3; ++a) rate = std::max(rate, std::abs(leg.shear_strain_per_step(a, dt)) / dt);
+  }
   return rate;
 }
 

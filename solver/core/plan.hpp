@@ -101,7 +101,8 @@ struct ProbePlan {
 };
 ProbePlan plan_probes(const TestDef& test);
 
-// The fastest strain rate [1/s] of the test's strain-driven axes over its legs (the inertial number's rate).
+// The fastest strain rate [1/s] of the test's strain-driven axes over its legs, shear axes included (their engineering
+// shear rate): the inertial number's rate.
 double loading_rate(const Deck& deck, const TestDef& test);
 // [Pa] the mean stress target of a test's first leg over its stress, mean_stress and stress_ramp axes (a ramp at
 // its start): the stress of its planned inertial number. NaN when no axis holds a stress.

@@ -275,3 +275,47 @@ TEST(Plan, ShearStrainEndsAreKnownAheadFromWhereTheLegStarts) {
 
 }  // namespace
 }  // namespace celldem
+
+namespace celldem {
+namespace {
+
+// The inertial number's rate: the largest strain rate of a driven axis, a shear axis's engineering shear rate
+// included (a simple shear has no driven normal axis), and the probes' steps.
+TEST(Plan, LoadingRateCountsShearAxesAndProbesCountTheirSteps) {
+  Deck d = testing::model_deck(1e6, 1e6, 2e-6, 2650.0);
+  TestDef t;
+  t.name = "dss";
+  Leg leg;
+  leg.axes = {AxisControl{AxisMode::StrainIncrement, 0.0}, AxisControl{AxisMode::Stress, 1e5},
+              AxisControl{AxisMode::StrainIncrement, 0.0}};
+  leg.shear[0] = AxisControl{AxisMode::StrainIncrement, 4e-6};
+  leg.end = {.kind = LegEndKind::Steps, .steps = 100};
+  Leg faster = leg;
+  faster.shear[0].reset();
+  faster.shear[2] = AxisControl{AxisMode::StrainRate, -3.0};
+  t.legs = {leg};
+  EXPECT_DOUBLE_EQ(loading_rate(d, t), 4e-6 / 2e-6);
+  t.legs = {leg, faster};
+  EXPECT_DOUBLE_EQ(loading_rate(d, t), 3.0);
+  t.legs[1].axes[0] = AxisControl{AxisMode::StrainRate, 5.0};  // a faster normal axis still counts
+  EXPECT_DOUBLE_EQ(loading_rate(d, t), 5.0);
+
+  EXPECT_EQ(plan_probes(t).steps(), 0);
+  ProbeDef probes;
+  probes.at = {"peak"};
+  probes.at_e1 = {0.01, 0.02};
+  probes.directions = 8;
+  probes.magnitudes = {1e3, 2e3};
+  probes.steps = 100;
+  probes.hold_steps = 50;
+  t.probes = probes;
+  const ProbePlan p = plan_probes(t);
+  EXPECT_EQ(p.points, 3);
+  EXPECT_EQ(p.probes_per_point, 1 + 8 * 2);
+  EXPECT_EQ(p.steps(), 3 * 17 * 300);
+  t.probes->kind = ProbeKind::Strain;
+  EXPECT_EQ(plan_probes(t).probes_per_point, 1 + 6 * 2);
+}
+
+}  // namespace
+}  // namespace celldem
