@@ -105,11 +105,9 @@ std::string pad(const std::string& command) {
 }  // namespace
 
 bool program_shears(const ScriptProgram& p) {
-  // A shear axis named by its strain, even held at 0: the box is triclinic and the series has the shear columns
-  // (a probe's program holds its tilts by name, and its shear stresses are compared).
   for (const Leg& leg : p.legs)
-    for (const auto& shear : leg.shear)
-      if (shear && shear->strain_driven()) return true;
+    for (int a = 0; a < 3; ++a)
+      if (leg.shear_strain_per_step(a, 1.0) != 0.0) return true;
   return false;
 }
 
