@@ -578,22 +578,26 @@ void read_program(const Json& list, const std::string& path, bool preparation, s
   }
 }
 
+// A list of a test's named points (verify_rate.at, probes.at): each one of the key's choices ("peak", "end"),
+// none twice.
+std::vector<std::string> read_point_names(ObjectReader& r, const KeySpec& key, bool may_be_empty) {
+  const Json& list = r.raw(key);
+  const std::string path = r.at(key);
+  if (!list.is_array() || (list.empty() && !may_be_empty)) fail(path, "expected a non-empty array of \"peak\" and \"end\"");
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string item = path + "[" + std::to_string(i) + "]";
+    if (!list[i].is_string() || std::find(key.choices.begin(), key.choices.end(), list[i].get<std::string>()) == key.choices.end())
+      fail(item, "expected \"peak\" or \"end\"");
+    if (std::find(names.begin(), names.end(), list[i].get<std::string>()) != names.end()) fail(item, "given twice");
+    names.push_back(list[i].get<std::string>());
+  }
+  return names;
+}
+
 VerifyRateDef read_verify_rate(ObjectReader r) {
   VerifyRateDef v;
-  if (r.has(keys::verify_rate_at)) {
-    const Json& list = r.raw(keys::verify_rate_at);
-    const std::string path = r.at(keys::verify_rate_at);
-    if (!list.is_array() || list.empty()) fail(path, "expected a non-empty array of \"peak\" and \"end\"");
-    v.at.clear();
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      const std::string item = path + "[" + std::to_string(i) + "]";
-      if (!list[i].is_string() || std::find(kVerifyPointNames.begin(), kVerifyPointNames.end(),
-                                            list[i].get<std::string>()) == kVerifyPointNames.end())
-        fail(item, "expected \"peak\" or \"end\"");
-      if (std::find(v.at.begin(), v.at.end(), list[i].get<std::string>()) != v.at.end()) fail(item, "given twice");
-      v.at.push_back(list[i].get<std::string>());
-    }
-  }
+  if (r.has(keys::verify_rate_at)) v.at = read_point_names(r, keys::verify_rate_at, /*may_be_empty=*/false);
   v.window_strain = r.number(keys::verify_rate_window_strain);
   v.rate_factor = r.number(keys::verify_rate_rate_factor);
   r.finish();
@@ -602,19 +606,7 @@ VerifyRateDef read_verify_rate(ObjectReader r) {
 
 ProbeDef read_probes(ObjectReader r) {
   ProbeDef p;
-  if (r.has(keys::probes_at)) {
-    const Json& list = r.raw(keys::probes_at);
-    const std::string path = r.at(keys::probes_at);
-    if (!list.is_array()) fail(path, "expected an array of \"peak\" and \"end\"");
-    for (std::size_t i = 0; i < list.size(); ++i) {
-      const std::string item = path + "[" + std::to_string(i) + "]";
-      if (!list[i].is_string() || std::find(kProbePointNames.begin(), kProbePointNames.end(),
-                                            list[i].get<std::string>()) == kProbePointNames.end())
-        fail(item, "expected \"peak\" or \"end\"");
-      if (std::find(p.at.begin(), p.at.end(), list[i].get<std::string>()) != p.at.end()) fail(item, "given twice");
-      p.at.push_back(list[i].get<std::string>());
-    }
-  }
+  if (r.has(keys::probes_at)) p.at = read_point_names(r, keys::probes_at, /*may_be_empty=*/true);
   if (r.has(keys::probes_at_e1)) {
     p.at_e1 = read_numbers(r, keys::probes_at_e1);
     for (std::size_t i = 0; i < p.at_e1.size(); ++i)
