@@ -40,7 +40,7 @@ std::string describe_estimate(const Deck& deck, double start_solid_fraction) {
 
 Command add_run_command(CLI::App& app) {
   struct Args {
-    std::string deck, seeds;
+    std::string deck, seeds, probes;
     RunOptions options;
     bool include_uncontrolled = false;
     std::optional<double> tolerance;
@@ -64,7 +64,7 @@ Command add_run_command(CLI::App& app) {
   cmd->add_option("--seeds", args->seeds,
                   "A seed ensemble: prepare one sample per seed (e.g. 1-8) into DIR/seed-<k>/ and write "
                   "DIR/ensemble.json (mean, std, 95 % intervals of the mean and of one more sample of every summary "
-                  "quantity)");
+                  "quantity); one seed (e.g. 3) is a job array's share, gathered by `celldem merge`");
   cmd->add_flag("--include-uncontrolled", args->include_uncontrolled,
                 "With --seeds: keep tests whose control failed in the ensemble statistics (left out by default)");
   VerifyRateOptions& verify = args->options.verify_rate;  // NOLINT: lives as long as args
@@ -89,6 +89,9 @@ Command add_run_command(CLI::App& app) {
                   "{\"ratio13\", \"ev\", \"Z\"} (optionally under tests.<name>); default: the reference ensemble's, "
                   "scaled to the deck's particle count (docs/outputs.md)")
       ->check(CLI::ExistingFile);
+  cmd->add_option("--probes", args->probes,
+                  "Run only the tests' probes numbered K-L (from 1, point by point in probes.csv's order) with their "
+                  "points' references: a share of a job array, gathered by `celldem merge` (docs/outputs.md#probes)");
   cmd->add_option("--progress-interval", args->options.progress_interval,
                   "Seconds between progress lines when stderr is not a terminal (a log file)")
       ->capture_default_str()
@@ -109,12 +112,21 @@ Command add_run_command(CLI::App& app) {
                                  "(or a test's verify_rate key)");
     for (const TestDef& test : deck.tests)  // a floors file that cannot serve is refused before any work
       if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
+    if (!args->probes.empty()) {
+      if (std::none_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.probes.has_value(); }))
+        throw CLI::ValidationError("--probes: the deck's tests have no probes (tests[].probes)");
+      try {
+        args->options.probes = parse_probe_selection(args->probes);
+      } catch (const std::invalid_argument& e) {
+        throw CLI::ValidationError(std::string("--probes: ") + e.what());
+      }
+    }
     args->options.progress = args->options.quiet     ? ProgressMode::Off
                              : stderr_is_terminal() ? ProgressMode::Terminal
                                                     : ProgressMode::Log;
     install_stop_handlers();
     if (args->seeds.empty()) run_deck(deck, args->options);
-    else run_ensemble(deck, args->options, parse_seed_list(args->seeds), args->include_uncontrolled);
+    else run_ensemble(deck, args->options, parse_seed_list(args->seeds, /*allow_one=*/true), args->include_uncontrolled);
     return 0;
   };
 }

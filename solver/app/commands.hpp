@@ -18,6 +18,7 @@ Command add_translate_command(CLI::App& app);  // celldem translate
 Command add_schema_command(CLI::App& app);     // celldem schema
 Command add_plan_command(CLI::App& app);       // celldem plan
 Command add_summarize_command(CLI::App& app);  // celldem summarize
+Command add_merge_command(CLI::App& app);      // celldem merge
 
 // One line on what a run of the deck costs: memory, steps and time (core/plan's estimate_run); a preparation
 // from initial_state starts at start_solid_fraction (run/sample preparation_start; negative: none).

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
       celldem::app::add_schema_command(app),
       celldem::app::add_plan_command(app),
       celldem::app::add_summarize_command(app),
+      celldem::app::add_merge_command(app),
   };
   try {
     app.parse(argc, argv);

@@ -56,7 +56,7 @@ Json describe_all(const Columns& columns) {
 
 }  // namespace
 
-std::vector<std::uint64_t> parse_seed_list(const std::string& text) {
+std::vector<std::uint64_t> parse_seed_list(const std::string& text, bool allow_one) {
   std::vector<std::uint64_t> seeds;
   std::stringstream ss(text);
   for (std::string item; std::getline(ss, item, ',');) {
@@ -77,7 +77,7 @@ std::vector<std::uint64_t> parse_seed_list(const std::string& text) {
       throw DeckError("--seeds: \"" + item + "\" is not a seed or a range like 1-8");
     }
   }
-  if (seeds.size() < 2) throw DeckError("--seeds: an ensemble needs at least two seeds");
+  if (seeds.size() < (allow_one ? 1u : 2u)) throw DeckError("--seeds: an ensemble needs at least two seeds");
   return seeds;
 }
 
@@ -183,6 +183,12 @@ void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector
     if (!options.quiet) std::printf("== seed %llu -> %s\n", static_cast<unsigned long long>(seed), o.out_dir.c_str());
     run_deck(d, o);
     summaries.push_back(Json::parse(read_file(fs::path(o.out_dir) / "summary.json")));
+  }
+  if (seeds.size() == 1) {  // one share of a job array: the statistics are the merge's, over every share
+    if (!options.quiet)
+      std::printf("one seed: a share of an ensemble; `celldem merge DIR SHARES...` writes ensemble.json over the "
+                  "shares\n");
+    return;
   }
   const Json statistics = ensemble_statistics(seeds, summaries, include_uncontrolled);
   write_file_atomic(dir / "ensemble.json", statistics.dump(1));

@@ -11,11 +11,12 @@
 
 namespace celldem {
 
-// "1-8", "1,3,5", "1-4,10": the seeds, in order, without repeats. Throws DeckError on a malformed list.
-std::vector<std::uint64_t> parse_seed_list(const std::string& text);
+// "1-8", "1,3,5", "1-4,10": the seeds, in order, without repeats. Throws DeckError on a malformed list, and on a
+// single seed unless allow_one (a share of a job array, gathered by `celldem merge`).
+std::vector<std::uint64_t> parse_seed_list(const std::string& text, bool allow_one = false);
 
 // Runs the deck once per seed into DIR/seed-<k>/ (each a run directory of its own: --resume continues each
-// where it stopped, a finished one is kept) and writes DIR/ensemble.json. Tests whose control failed are
+// where it stopped, a finished one is kept) and writes DIR/ensemble.json (not for a single seed: a share). Tests whose control failed are
 // left out of the statistics unless include_uncontrolled; what was left out is printed on stderr.
 void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds,
                   bool include_uncontrolled = false);

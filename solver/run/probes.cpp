@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <exception>
 #include <mutex>
+#include <optional>
+#include <stdexcept>
 #include <thread>
 
 #include <Eigen/Dense>
@@ -17,6 +19,8 @@
 #include "core/plan.hpp"
 #include "io/files.hpp"
 #include "measure/network_stiffness.hpp"
+#include "neighbor/neighbor_list.hpp"
+#include "io/series_file.hpp"
 #include "io/state_file.hpp"
 #include "run/preflight.hpp"
 #include "run/program.hpp"
@@ -58,11 +62,39 @@ double norm(const Vec6& a) {
 
 }  // namespace
 
+ProbeSelection parse_probe_selection(const std::string& text) {
+  ProbeSelection s;
+  const std::size_t dash = text.find('-');
+  try {
+    std::size_t used = 0;
+    s.first = std::stoll(text.substr(0, dash), &used);
+    if (used != (dash == std::string::npos ? text.size() : dash)) throw std::invalid_argument("");
+    s.last = s.first;
+    if (dash != std::string::npos) {
+      s.last = std::stoll(text.substr(dash + 1), &used);
+      if (used != text.size() - dash - 1) throw std::invalid_argument("");
+    }
+  } catch (const std::logic_error&) {
+    throw std::invalid_argument("expected K or K-L (probe numbers from 1), got \"" + text + "\"");
+  }
+  if (s.first < 1 || s.last < s.first)
+    throw std::invalid_argument("expected K or K-L with 1 <= K <= L, got \"" + text + "\"");
+  return s;
+}
+
+std::vector<std::string> probe_point_names(const ProbeDef& def) {
+  std::vector<std::string> names;
+  for (const double e1 : def.at_e1) names.push_back("e1_" + fmt(e1));
+  names.insert(names.end(), def.at.begin(), def.at.end());
+  return names;
+}
+
 ProbePoints::ProbePoints(const ProbeDef& def) : def_(def) {
-  for (const double e1 : def.at_e1) {
+  const std::vector<std::string> names = probe_point_names(def);
+  for (std::size_t k = 0; k < def.at_e1.size(); ++k) {
     Point p;
-    p.name = "e1_" + fmt(e1);
-    p.missing = "the test ended before e1 reached " + fmt(e1);
+    p.name = names[k];
+    p.missing = "the test ended before e1 reached " + fmt(def.at_e1[k]);
     e1_.push_back(p);
   }
   peak_.name = "peak";
@@ -126,7 +158,8 @@ std::vector<ProbeDirection> probe_directions(const ProbeDef& def) {
   std::vector<ProbeDirection> out;
   out.push_back({"reference", 0.0, 0.0, {}});
   for (std::size_t m = 0; m < def.magnitudes.size(); ++m) {
-    const std::string prefix = def.magnitudes.size() > 1 ? "m" + std::to_string(m + 1) + "-" : "";
+    std::string prefix;
+    if (def.magnitudes.size() > 1) prefix.append("m").append(std::to_string(m + 1)).append("-");
     if (def.kind == ProbeKind::Strain) {
       for (int k = 0; k < 6; ++k) {
         ProbeDirection p{prefix + kStrainProbeNames[k], def.magnitudes[m], 0.0, {}};
@@ -209,6 +242,9 @@ struct Job {
   ProbeDirection probe;
 };
 
+constexpr const char* kProbeResultName = "result.json";
+constexpr const char* kPointRecordName = "point.json";
+
 ProbeResult run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
                       const ProbePoints::Point& point, const ProbeDirection& probe) {
   ProbeResult result;
@@ -256,7 +292,34 @@ ProbeResult run_probe(RunDirectory& run, const Deck& deck, const RunOptions& opt
     result.ran = false;
     result.error = e.what();
   }
+  // What the table needs besides the series: whether the probe ran, held its controls, or failed and why.
+  const fs::path dir = run.stage_dir(stage);
+  fs::create_directories(dir);
+  write_file_atomic(dir / kProbeResultName, Json{{"ran", result.ran}, {"controlled", result.controlled},
+                                                 {"error", result.error}, {"steps", result.steps}}.dump(1));
   return result;
+}
+
+// A probe's record as its folder holds it (run_probe wrote it, in this run or in another job's: --probes);
+// nullopt when the folder has none.
+std::optional<ProbeResult> read_probe_result(const fs::path& dir) {
+  if (!fs::exists(dir / kProbeResultName)) return std::nullopt;
+  const Json j = Json::parse(read_file((dir / kProbeResultName).string()));
+  ProbeResult r;
+  r.ran = j.at("ran").get<bool>();
+  r.controlled = j.at("controlled").get<bool>();
+  r.error = j.at("error").get<std::string>();
+  r.steps = j.at("steps").get<std::int64_t>();
+  if (r.ran) {
+    const std::vector<SeriesRow> rows = read_series_file(dir / "series.csv");
+    for (auto it = rows.rbegin(); it != rows.rend(); ++it)
+      if (it->leg == 1.0) {
+        r.loaded = *it;
+        break;
+      }
+    r.unloaded = rows.back();
+  }
+  return r;
 }
 
 Json matrix_json(const Eigen::Matrix<double, 6, 6>& m) {
@@ -351,6 +414,8 @@ Json network_estimate(const Deck& deck, const TestDef& test, const State& point,
   try {
     State state = point;
     const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
+    state.pairs.skin = skin_length(deck);
+    rebuild_pairs(model, state);  // a state read back holds its contacts' history, not a built list
     const NetworkStiffness n = network_stiffness(model, state, tangential);
     Mat3 stress;
     stress << state.normal_stress[0], state.shear_stress[0], state.shear_stress[1],
@@ -388,14 +453,35 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
   const ProbeDef& def = *test.probes;
   const std::vector<ProbePoints::Point> points = probe_points.points(peak_reached);
   const std::vector<ProbeDirection> directions = probe_directions(def);
+  // Each point's record and state, for the table (here or after a merge) and for probes run again elsewhere.
+  for (const ProbePoints::Point& point : points) {
+    const fs::path dir = run.stage_dir(test.name) / "probes" / point.name;
+    fs::create_directories(dir);
+    if (point.state)
+      write_state((dir / "point.state").string(), *point.state, "probe point " + test.name + "/" + point.name,
+                  state_physics(deck));
+    write_file_atomic(dir / kPointRecordName,
+                      Json{{"step", point.row.step}, {"e1", point.row.e1}, {"reached", point.state != nullptr},
+                           {"reason", point.missing}}.dump(1));
+  }
+  // The probes this run runs: those of options.probes by their number (1-based over every point of the deck's
+  // set, reference excluded, in probes.csv's order), with the references of their points.
   std::vector<Job> jobs;
-  for (std::size_t p = 0; p < points.size(); ++p)
-    if (points[p].state)
-      for (const ProbeDirection& d : directions) jobs.push_back({p, d});
+  const std::int64_t per_point = static_cast<std::int64_t>(directions.size()) - 1;
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    if (!points[p].state) continue;
+    std::vector<Job> chosen;
+    for (std::size_t k = 1; k < directions.size(); ++k) {
+      const std::int64_t number = static_cast<std::int64_t>(p) * per_point + static_cast<std::int64_t>(k);
+      if (number >= options.probes.first && number <= options.probes.last) chosen.push_back({p, directions[k]});
+    }
+    if (chosen.empty()) continue;
+    jobs.push_back({p, directions[0]});
+    jobs.insert(jobs.end(), chosen.begin(), chosen.end());
+  }
 
   // Side by side over the test's threads, each probe on one (its result does not depend on the count).
   const int workers = std::max(1, std::min<int>(omp_get_max_threads(), static_cast<int>(jobs.size())));
-  std::vector<ProbeResult> results(jobs.size());
   std::atomic<std::size_t> next{0};
   std::atomic<std::int64_t> steps_done{0};
   std::mutex progress_mutex;
@@ -406,7 +492,7 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
     omp_set_num_threads(1);
     try {
       for (std::size_t j; (j = next.fetch_add(1)) < jobs.size();) {
-        results[j] = run_probe(run, deck, options, test, points[jobs[j].point], jobs[j].probe);
+        run_probe(run, deck, options, test, points[jobs[j].point], jobs[j].probe);
         const std::int64_t done = steps_done += steps_each;
         const std::lock_guard<std::mutex> lock(progress_mutex);
         progress.update(done, static_cast<double>(done) / static_cast<double>(steps_each * static_cast<std::int64_t>(jobs.size())));
@@ -423,7 +509,13 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
   progress.finish();
   for (const std::exception_ptr& e : errors)
     if (e) std::rethrow_exception(e);
+  return tabulate_probes(run.stage_dir(test.name).parent_path(), deck, test);
+}
 
+Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& test) {
+  const ProbeDef& def = *test.probes;
+  const std::vector<ProbeDirection> directions = probe_directions(def);
+  const fs::path probes_dir = run_dir / test.name / "probes";
   // probes.csv: each probe's response net of its point's reference, at the loaded and the unloaded ends.
   std::string csv = "point,point_step,point_e1,kind,probe,magnitude,angle_deg,d11,d22,d33,d12,d13,d23";
   const auto add_columns = [&](const std::array<const char*, 6>& names, const char* suffix) {
@@ -442,21 +534,34 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
   Json stiffness = {{"voigt_order", {"11", "22", "33", "12", "13", "23"}},
                     {"units", "Pa per unit strain; engineering shear strains g_ij; compression +"},
                     {"points", Json::object()}};
-  for (std::size_t p = 0; p < points.size(); ++p) {
-    const ProbePoints::Point& point = points[p];
+  for (const std::string& name : probe_point_names(def)) {
+    const fs::path point_dir = probes_dir / name;
+    if (!fs::exists(point_dir / kPointRecordName))
+      throw RunError(point_dir.string() + ": no " + kPointRecordName + " (not a probed run folder)");
+    const Json record = Json::parse(read_file((point_dir / kPointRecordName).string()));
+    struct {
+      std::string name;
+      SeriesRow row;
+    } point{name, {}};
+    point.row.step = record.at("step").get<double>();
+    point.row.e1 = record.at("e1").get<double>();
     Json entry = {{"step", point.row.step}, {"e1", point.row.e1}};
-    if (!point.state) {
+    if (!record.at("reached").get<bool>()) {
       entry["status"] = "not run";
-      entry["reason"] = point.missing;
+      entry["reason"] = record.at("reason");
       summary["points"][point.name] = entry;
       continue;
     }
-    // The point's state, for probes run again later or by another code (a deck's initial_state).
-    const fs::path point_state = run.stage_dir(test.name) / "probes" / point.name / "point.state";
-    write_state(point_state.string(), *point.state, "probe point " + test.name + "/" + point.name, state_physics(deck));
     entry["state"] = (fs::path(test.name) / "probes" / point.name / "point.state").string();
-    const auto first = std::find_if(jobs.begin(), jobs.end(), [&](const Job& j) { return j.point == p; });
-    const ProbeResult& reference = results[static_cast<std::size_t>(first - jobs.begin())];
+    const std::optional<ProbeResult> reference_record = read_probe_result(point_dir / "reference");
+    if (!reference_record) {
+      entry["status"] = "not run here";
+      entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
+      entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
+      summary["points"][point.name] = entry;
+      continue;
+    }
+    const ProbeResult& reference = *reference_record;
     if (!reference.ran) {
       entry["status"] = "failed";
       entry["reason"] = "the reference probe failed: " + reference.error;
@@ -470,10 +575,15 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
     // Stress probes: the strain response's length per direction and magnitude (linearity across magnitudes).
     std::vector<std::vector<double>> response(def.magnitudes.size());
     std::vector<std::vector<PlanePoint>> plastic(def.magnitudes.size());  // stress probes in a plane
-    for (std::size_t j = static_cast<std::size_t>(first - jobs.begin()); j < jobs.size() && jobs[j].point == p; ++j) {
-      const ProbeDirection& d = jobs[j].probe;
-      const ProbeResult& r = results[j];
-      if (d.magnitude == 0.0) continue;  // the reference itself
+    int missing = 0;
+    for (std::size_t k = 1; k < directions.size(); ++k) {
+      const ProbeDirection& d = directions[k];
+      const std::optional<ProbeResult> record = read_probe_result(point_dir / d.name);
+      if (!record) {  // another job's (--probes), not merged
+        ++missing;
+        continue;
+      }
+      const ProbeResult& r = *record;
       const std::size_t m = static_cast<std::size_t>(std::find(def.magnitudes.begin(), def.magnitudes.end(), d.magnitude) - def.magnitudes.begin());
       csv.append(point.name).append(",").append(fmt(point.row.step)).append(",").append(fmt(point.row.e1));
       csv.append(",").append(name_of(def.kind, kProbeKindNames)).append(",").append(d.name);
@@ -514,12 +624,16 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
         }
       }
     }
-    entry["status"] = failed == 0 ? "ran" : "ran with failures";
+    entry["status"] = missing > 0 ? "partly run" : failed == 0 ? "ran" : "ran with failures";
     entry["probes"] = ran + failed;
     entry["failed"] = failed;
+    if (missing > 0) {
+      entry["missing"] = missing;
+      entry["reason"] = std::to_string(missing) + " probes were left to other jobs (--probes); `celldem merge` gathers them";
+    }
     entry["controlled"] = controlled;
     entry["folder"] = (fs::path(test.name) / "probes" / point.name).string();
-    if (def.kind == ProbeKind::Strain && failed == 0) {
+    if (def.kind == ProbeKind::Strain && failed == 0 && missing == 0) {
       Json per_magnitude = Json::array();
       for (std::size_t m = 0; m < def.magnitudes.size(); ++m)
         per_magnitude.push_back({{"magnitude", def.magnitudes[m]}, {"tangent", matrix_json(tangent[m])},
@@ -527,11 +641,11 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
                                  {"tangent_asymmetry", asymmetry(tangent[m])}});
       stiffness["points"][point.name] = {{"step", point.row.step}, {"e1", point.row.e1}, {"magnitudes", per_magnitude}};
       entry["elastic_asymmetry"] = per_magnitude[0]["elastic_asymmetry"];
-      const Json network = network_estimate(deck, test, *point.state, elastic.front());
+      const Json network = network_estimate(deck, test, read_state((point_dir / "point.state").string()), elastic.front());
       stiffness["points"][point.name]["network"] = network;
       if (network.contains("elastic_vs_network")) entry["elastic_vs_network"] = network["elastic_vs_network"];
     }
-    if (def.kind == ProbeKind::Stress && def.magnitudes.size() > 1 && failed == 0) {
+    if (def.kind == ProbeKind::Stress && def.magnitudes.size() > 1 && failed == 0 && missing == 0) {
       // Linear response scales with the magnitude: the median over directions of
       // |de(M_last)| / |de(M_first)| / (M_last / M_first) is 1 in the linear range.
       std::vector<double> ratios;
@@ -544,15 +658,13 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
                               {"meaning", "median over directions of |de| at the largest magnitude over |de| at the "
                                           "smallest, divided by the magnitudes' ratio: 1 where the response is linear"}};
     }
-    if (def.kind == ProbeKind::Stress && def.plane != ProbePlane::List && failed == 0)
+    if (def.kind == ProbeKind::Stress && def.plane != ProbePlane::List && failed == 0 && missing == 0)
       entry["plastic"] = plastic_response(plastic.back(), def.magnitudes.back());
     summary["points"][point.name] = entry;
   }
-  const fs::path dir = run.stage_dir(test.name) / "probes";
-  fs::create_directories(dir);
-  write_file_atomic(dir / "probes.csv", csv);
+  write_file_atomic(probes_dir / "probes.csv", csv);
   if (def.kind == ProbeKind::Strain) {
-    write_file_atomic(dir / "stiffness.json", stiffness.dump(1));
+    write_file_atomic(probes_dir / "stiffness.json", stiffness.dump(1));
     summary["stiffness"] = (fs::path(test.name) / "probes" / "stiffness.json").string();
   }
   return summary;

@@ -17,6 +17,9 @@
 // series and summary are untouched. Outputs: <test>/probes/<point>/<probe>/series.csv, <test>/probes/probes.csv
 // and <test>/probes/stiffness.json (docs/outputs.md).
 #pragma once
+#include <cstdint>
+#include <filesystem>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -30,6 +33,21 @@ namespace celldem {
 
 class RunDirectory;
 struct RunOptions;
+
+// Which probes of each test's set a run runs (`celldem run --probes K-L`): those numbered first..last, 1-based over
+// every point the deck names and each point's probes in probes.csv's order (point by point; at each point the
+// directions at the first magnitude, then at the next), with the references of their points. By default all.
+// A job array on a cluster runs the deck once per share (the sample and the tests are the same bytes in every
+// job) and `celldem merge` gathers the probes into one folder.
+struct ProbeSelection {
+  std::int64_t first = 1;
+  std::int64_t last = std::numeric_limits<std::int64_t>::max();
+};
+// "K-L" or "K" (K >= 1, L >= K); throws std::invalid_argument with what is wrong.
+ProbeSelection parse_probe_selection(const std::string& text);
+
+// The points of a probe set by their folder names: "e1_<strain>" for each of at_e1, then at's names.
+std::vector<std::string> probe_point_names(const ProbeDef& def);
 
 // The states a test's probes start from, taken at its rows.
 class ProbePoints {
@@ -80,5 +98,10 @@ std::vector<Leg> probe_legs(const ProbeDef& def, const ProbeDirection& probe, co
 // error), not thrown; a stop request stops the run (probes are run again whole on --resume).
 nlohmann::json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
                                const ProbePoints& points, bool peak_reached);
+
+// probes.csv, stiffness.json and summary.json's "probes" of a test from its probe folders under `run_dir` (each
+// point's point.json and point.state, each probe's result.json and series.csv): those this run made and those a
+// merge brought from other jobs. A probe no folder holds is counted as `missing` at its point.
+nlohmann::json tabulate_probes(const std::filesystem::path& run_dir, const Deck& deck, const TestDef& test);
 
 }  // namespace celldem

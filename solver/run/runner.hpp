@@ -6,6 +6,7 @@
 
 #include "core/deck.hpp"
 #include "run/progress.hpp"
+#include "run/probes.hpp"
 #include "run/verify_rate.hpp"
 
 namespace celldem {
@@ -20,6 +21,7 @@ struct RunOptions {
   bool quiet = false;     // no stage messages on stdout
   bool fixed_threads = false;  // keep the thread count (no ThreadGovernor trials of one thread)
   VerifyRateOptions verify_rate;  // each test's own convergence check (run/verify_rate.hpp)
+  ProbeSelection probes;          // which of the tests' probes this run runs (run/probes.hpp; default all)
 };
 
 // Thrown after SIGINT/SIGTERM once a checkpoint has been written.

@@ -15,6 +15,9 @@ TEST(Ensemble, SeedLists) {
   EXPECT_EQ(parse_seed_list("1-3,5,3"), (std::vector<std::uint64_t>{1, 2, 3, 5}));
   EXPECT_EQ(parse_seed_list("7,2"), (std::vector<std::uint64_t>{7, 2}));
   for (const char* bad : {"", "1", "3-1", "a-b", "1-", "1,x", "2.5,3"}) EXPECT_THROW(parse_seed_list(bad), DeckError) << bad;
+  EXPECT_EQ(parse_seed_list("3", /*allow_one=*/true), (std::vector<std::uint64_t>{3}));  // a job array's share
+  EXPECT_EQ(parse_seed_list("3-3", /*allow_one=*/true), (std::vector<std::uint64_t>{3}));
+  EXPECT_THROW(parse_seed_list("", /*allow_one=*/true), DeckError);
 }
 
 TEST(Ensemble, StatisticsOfFourValues) {

@@ -11,8 +11,11 @@
   left after unloading, the elastic stiffness is nearly symmetric (it is the Hessian of the contacts' elastic
   energy: an asymmetry beyond a few percent would mean the response is not the elastic one) and matches the
   stiffness assembled from the point's contact network within 6 % (Frobenius);
+- a job array: the probes split over two runs (`--probes K-L`) and gathered by `celldem merge` give the whole
+  run's probes.csv and summary, a run of another deck is refused, and seed shares (`--seeds k`) merged give the
+  ensemble of `--seeds 1-2`;
 - bad probe keys are refused with exit 2 naming the key.
-About 40 s of CPU.
+About 60 s of CPU.
 
 Usage: test_probes.py CELLDEM
 """
@@ -157,6 +160,54 @@ with tempfile.TemporaryDirectory() as tmp:
     if "affine" in network:
         check(sum(network["affine"][i][i] for i in range(6)) > 1.2 * sum(m0["elastic"][i][i] for i in range(6)),
               "the affine bound is not stiffer than the probes")
+
+    # A job array: the probes split over two runs (--probes) and gathered by `celldem merge` give the whole run's
+    # tables, byte for byte.
+    run(probed, os.path.join(tmp, "share1"), "--threads", "2", "--probes", "1-9")
+    share = run(probed, os.path.join(tmp, "share2"), "--threads", "2", "--probes", "10-1000")
+    # (8 probes a point: the first share has the first point's and one of the second's)
+    check(share["tests"]["ttc"]["probes"]["points"]["e1_0.002"]["status"] == "not run here",
+          f"a share's point: {share['tests']['ttc']['probes']['points']['e1_0.002']}")
+    check(share["tests"]["ttc"]["probes"]["points"]["end"].get("missing") == 1,
+          f"a share's point: {share['tests']['ttc']['probes']['points']['end']}")
+    merged = subprocess.run([CELLDEM, "merge", os.path.join(tmp, "share1"), os.path.join(tmp, "share2")],
+                            capture_output=True, text=True)
+    check(merged.returncode == 0, f"merge: exit {merged.returncode}: {merged.stderr[-500:]}")
+    for test in ("ttc", "psc"):
+        check(read(os.path.join(tmp, "two", test, "probes", "probes.csv")) ==
+              read(os.path.join(tmp, "share1", test, "probes", "probes.csv")),
+              f"{test}: the merged shares' probes.csv differs from the whole run's")
+    with open(os.path.join(tmp, "share1", "summary.json")) as f:
+        gathered = json.load(f)
+    for test in ("ttc", "psc"):
+        check(gathered["tests"][test]["probes"] == summary["tests"][test]["probes"],
+              f"{test}: the merged summary's probes differ from the whole run's")
+    other = dict(deck, description="another deck")
+    result = subprocess.run([CELLDEM, "run", write(other, tmp, "other"), "--out", os.path.join(tmp, "other"),
+                             "--quiet", "--probes", "1-1"], capture_output=True, text=True)
+    result = subprocess.run([CELLDEM, "merge", os.path.join(tmp, "share1"), os.path.join(tmp, "other")],
+                            capture_output=True, text=True)
+    check(result.returncode == 2 and "another deck" in result.stderr,
+          f"merge of another deck's run: exit {result.returncode}, {result.stderr.strip()[-300:]}")
+
+    # Seed shares (--seeds k, one seed each) merged give the ensemble of --seeds 1-2 (timings aside).
+    small = os.path.join(ROOT, "tests", "run", "small_run.json")
+    subprocess.run([CELLDEM, "run", small, "--seeds", "1-2", "--out", os.path.join(tmp, "ens"), "--quiet"], check=True,
+                   capture_output=True)
+    for k in ("1", "2"):
+        subprocess.run([CELLDEM, "run", small, "--seeds", k, "--out", os.path.join(tmp, "ens-" + k), "--quiet"],
+                       check=True, capture_output=True)
+        check(not os.path.exists(os.path.join(tmp, "ens-" + k, "ensemble.json")), "a one-seed share wrote ensemble.json")
+    subprocess.run([CELLDEM, "merge", os.path.join(tmp, "ens-all"), os.path.join(tmp, "ens-1"), os.path.join(tmp, "ens-2")],
+                   check=True, capture_output=True)
+
+    def without_timings(x):
+        if isinstance(x, dict):
+            return {k: without_timings(v) for k, v in x.items() if k not in ("wall_s", "particle_steps_per_s")}
+        return x
+    with open(os.path.join(tmp, "ens", "ensemble.json")) as f, open(os.path.join(tmp, "ens-all", "ensemble.json")) as g:
+        check(without_timings(json.load(f)) == without_timings(json.load(g)),
+              "the merged seed shares' ensemble.json differs from --seeds 1-2's")
 
     # Bad keys: exit 2 naming the key.
     bad_cases = [
