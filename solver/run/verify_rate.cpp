@@ -178,13 +178,16 @@ BranchPoints::Start BranchPoints::end() const { return last_; }
 namespace {
 
 // The leg a branch drives: the test's leg at rate x factor (strain increments and rates of the strain-driven
-// axes, a stress ramp's rate from its target where the branch starts), ending at the point's strain.
+// axes, shear axes included, a stress ramp's rate from its target where the branch starts), ending at the point's
+// strain.
 Leg branch_leg(const Leg& parent, const BranchPoints::Start& start, double factor, double leg_time) {
   Leg leg = parent;
   for (AxisControl& a : leg.axes) {
     if (a.strain_driven()) a.value *= factor;
     if (a.mode == AxisMode::StressRamp) a.value = a.stress_target(leg_time), a.rate *= factor;
   }
+  for (std::optional<AxisControl>& a : leg.shear)  // a shear axis driven by its strain slows down alike
+    if (a && a->strain_driven()) a->value *= factor;
   leg.end = LegEnd{};
   leg.end.kind = LegEndKind::Strain;
   leg.end.axis = start.axis;
