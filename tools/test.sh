@@ -2,7 +2,7 @@
 # The test suite: install what is missing (LAMMPS and LIGGGHTS included, for the cross-checks), build, run
 # every test with ctest; then the unit tests again under AddressSanitizer + UndefinedBehaviorSanitizer with the
 # invariant checks compiled in (CELLDEM_CHECKS, core/check.hpp), and
-# the deck and state-file fuzzers for a bounded time (CELLDEM_FUZZ_SECONDS per target, default 30: about 350,000 inputs each; the suite stays well inside its CI budget).
+# the deck and state-file fuzzers for a bounded time (CELLDEM_FUZZ_SECONDS per target, default 20: about 230,000 inputs each; the suite stays inside its CI budget of 20 minutes).
 # CELLDEM_QUICK=1 skips the sanitizer build and the fuzzers.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,5 +19,5 @@ if [[ "${CELLDEM_QUICK:-0}" != 1 ]]; then
       -DCELLDEM_SANITIZE=ON -DCELLDEM_CHECKS=ON
   (cd build-asan && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j 2 -L unit)
   echo "== fuzzing =="
-  bash tools/fuzz.sh "${CELLDEM_FUZZ_SECONDS:-30}"
+  bash tools/fuzz.sh "${CELLDEM_FUZZ_SECONDS:-20}"
 fi
