@@ -115,14 +115,13 @@ void ProbePoints::on_row(const State& state, const SeriesRow& row) {
     if (reached && !e1_[k].state && e1_[k].missing.rfind("the test was resumed", 0) != 0) keep(e1_[k]);
   }
   const bool wants_peak = std::find(def_.at.begin(), def_.at.end(), "peak") != def_.at.end();
-  if (row.ratio13 > best_ratio_) {  // the summary's peak: the first row of the largest s11/s33
-    best_ratio_ = row.ratio13;
-    if (wants_peak && !resumed_) keep(peak_);
+  if (row.ratio13 > best_ratio_) {  // the summary's peak: the first row of the largest s11/s33 (after a resume,
+    best_ratio_ = row.ratio13;      // above every row read back too: the state is this run's own)
+    if (wants_peak) keep(peak_);
   }
 }
 
 void ProbePoints::resume(const std::vector<SeriesRow>& rows) {
-  resumed_ = true;
   const std::string lost = "the test was resumed after this point (the states kept before are lost with the run "
                            "that was stopped; --force runs it again whole)";
   for (const SeriesRow& row : rows) best_ratio_ = std::max(best_ratio_, row.ratio13);

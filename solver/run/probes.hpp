@@ -56,7 +56,8 @@ class ProbePoints {
   // After each row of the test: keeps a copy of the state at the first row reaching each e1 point, and at each new
   // largest s11/s33 (the peak so far).
   void on_row(const State& state, const SeriesRow& row);
-  // A resumed test: the rows read back count; a point among them has lost its state (it is reported, not run).
+  // A resumed test: the rows read back count; a point among them has lost its state (it is reported, not run), and
+  // the peak is taken again only by a row above all of them.
   void resume(const std::vector<SeriesRow>& rows);
   // The test's last row and state (the end point).
   void finish(const State& state, const SeriesRow& row);
@@ -75,7 +76,6 @@ class ProbePoints {
   std::vector<Point> e1_;
   Point peak_, end_;
   double best_ratio_ = -1.0;
-  bool resumed_ = false;
 };
 
 // One probe of a set: its name (the folder), and what it loads.
