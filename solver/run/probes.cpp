@@ -60,6 +60,16 @@ double norm(const Vec6& a) {
   return std::sqrt(s);
 }
 
+// The stress direction cos a u1 + sin a u2 of a probe plane, given cos a and sin a. Rendulic: u1 = (1, 0, 0),
+// u2 = (0, 1, 1)/sqrt 2; deviatoric: u1 = (2, -1, -1)/sqrt 6 (a = 0 is triaxial compression), u2 = (0, 1, -1)/sqrt 2.
+std::array<double, 3> plane_direction(ProbePlane plane, double c, double s) {
+  if (plane == ProbePlane::Rendulic) return {c, s / std::sqrt(2.0), s / std::sqrt(2.0)};
+  return {2.0 * c / std::sqrt(6.0), -c / std::sqrt(6.0) + s / std::sqrt(2.0), -c / std::sqrt(6.0) - s / std::sqrt(2.0)};
+}
+
+// Whether a row has reached an e1 point: past it in the direction of its sign.
+bool reaches(const SeriesRow& row, double target) { return target >= 0.0 ? row.e1 >= target : row.e1 <= target; }
+
 }  // namespace
 
 ProbeSelection parse_probe_selection(const std::string& text) {
@@ -111,8 +121,7 @@ void ProbePoints::on_row(const State& state, const SeriesRow& row) {
   };
   for (std::size_t k = 0; k < e1_.size(); ++k) {
     const double target = def_.at_e1[k];
-    const bool reached = target >= 0.0 ? row.e1 >= target : row.e1 <= target;
-    if (reached && !e1_[k].state && e1_[k].missing.rfind("the test was resumed", 0) != 0) keep(e1_[k]);
+    if (reaches(row, target) && !e1_[k].state && !e1_[k].lost) keep(e1_[k]);
   }
   const bool wants_peak = std::find(def_.at.begin(), def_.at.end(), "peak") != def_.at.end();
   if (row.ratio13 > best_ratio_) {  // the summary's peak: the first row of the largest s11/s33 (after a resume,
@@ -127,10 +136,8 @@ void ProbePoints::resume(const std::vector<SeriesRow>& rows) {
   for (const SeriesRow& row : rows) best_ratio_ = std::max(best_ratio_, row.ratio13);
   for (std::size_t k = 0; k < e1_.size(); ++k) {
     const double target = def_.at_e1[k];
-    const bool passed = std::any_of(rows.begin(), rows.end(), [&](const SeriesRow& r) {
-      return target >= 0.0 ? r.e1 >= target : r.e1 <= target;
-    });
-    if (passed) e1_[k].missing = lost;
+    if (std::any_of(rows.begin(), rows.end(), [&](const SeriesRow& r) { return reaches(r, target); }))
+      e1_[k].missing = lost, e1_[k].lost = true;
   }
   peak_.missing = lost;
 }
@@ -177,13 +184,8 @@ std::vector<ProbeDirection> probe_directions(const ProbeDef& def) {
       } else {
         const double a = 2.0 * kPi * i / n;
         p.angle_deg = 360.0 * i / n;
-        const double c = std::cos(a), s = std::sin(a);
-        if (def.plane == ProbePlane::Rendulic) {
-          p.direction = {c, s / std::sqrt(2.0), s / std::sqrt(2.0), 0, 0, 0};
-        } else {  // the deviatoric plane: a = 0 is triaxial compression (s11 up, s22 and s33 down alike)
-          p.direction = {2.0 * c / std::sqrt(6.0), -c / std::sqrt(6.0) + s / std::sqrt(2.0),
-                         -c / std::sqrt(6.0) - s / std::sqrt(2.0), 0, 0, 0};
-        }
+        const std::array<double, 3> d = plane_direction(def.plane, std::cos(a), std::sin(a));
+        p.direction = {d[0], d[1], d[2], 0, 0, 0};
       }
       out.push_back(p);
     }
@@ -233,7 +235,6 @@ struct ProbeResult {
   bool controlled = true;
   std::string error;   // the probe failed (a RunError), else empty
   SeriesRow loaded, unloaded;
-  std::int64_t steps = 0;
 };
 
 struct Job {
@@ -244,9 +245,12 @@ struct Job {
 constexpr const char* kProbeResultName = "result.json";
 constexpr const char* kPointRecordName = "point.json";
 
-ProbeResult run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                      const ProbePoints::Point& point, const ProbeDirection& probe) {
-  ProbeResult result;
+void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
+               const ProbePoints::Point& point, const ProbeDirection& probe) {
+  bool ran = false, controlled = true;
+  std::string error;
+  std::int64_t steps = 0;
+  Json control_errors = Json::array();
   const ProbeDef& def = *test.probes;
   State state = *point.state;
   Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
@@ -275,28 +279,21 @@ ProbeResult run_probe(RunDirectory& run, const Deck& deck, const RunOptions& opt
     std::vector<ControlErrors> errors;
     run_program(model, program, state, out, errors);
     out.finish(state);
-    result.ran = true;
-    for (const ControlErrors& e : errors)
-      result.controlled &= std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
-    const std::vector<SeriesRow>& rows = out.rows();
-    const auto last_of_leg = [&](double leg) {
-      for (auto it = rows.rbegin(); it != rows.rend(); ++it)
-        if (it->leg == leg) return *it;
-      throw RunError(stage + ": no row of leg " + fmt(leg));
-    };
-    result.loaded = last_of_leg(1.0);
-    result.unloaded = rows.back();
-    result.steps = state.control.stage_steps - from_step;
+    ran = true;
+    for (const ControlErrors& e : errors) {
+      controlled &= std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
+      control_errors.push_back(to_json(e));
+    }
+    steps = state.control.stage_steps - from_step;
   } catch (const RunError& e) {
-    result.ran = false;
-    result.error = e.what();
+    error = e.what();
   }
-  // What the table needs besides the series: whether the probe ran, held its controls, or failed and why.
+  // What the table needs besides the series: whether the probe ran, held its controls (each leg's errors, as a
+  // test's summary holds them), or failed and why.
   const fs::path dir = run.stage_dir(stage);
   fs::create_directories(dir);
-  write_file_atomic(dir / kProbeResultName, Json{{"ran", result.ran}, {"controlled", result.controlled},
-                                                 {"error", result.error}, {"steps", result.steps}}.dump(1));
-  return result;
+  write_file_atomic(dir / kProbeResultName, Json{{"ran", ran}, {"controlled", controlled}, {"error", error},
+                                                 {"steps", steps}, {"control_errors", control_errors}}.dump(1));
 }
 
 // A probe's record as its folder holds it (run_probe wrote it, in this run or in another job's: --probes);
@@ -308,14 +305,13 @@ std::optional<ProbeResult> read_probe_result(const fs::path& dir) {
   r.ran = j.at("ran").get<bool>();
   r.controlled = j.at("controlled").get<bool>();
   r.error = j.at("error").get<std::string>();
-  r.steps = j.at("steps").get<std::int64_t>();
   if (r.ran) {
     const std::vector<SeriesRow> rows = read_series_file(dir / "series.csv");
-    for (auto it = rows.rbegin(); it != rows.rend(); ++it)
-      if (it->leg == 1.0) {
-        r.loaded = *it;
-        break;
-      }
+    const auto loaded = std::find_if(rows.rbegin(), rows.rend(), [](const SeriesRow& row) { return row.leg == 1.0; });
+    if (loaded == rows.rend() || rows.back().leg != 3.0)
+      throw RunError((dir / "series.csv").string() + ": no row at the end of the loaded hold (leg 1) or of the "
+                     "unloaded hold (leg 3): not a finished probe's series");
+    r.loaded = *loaded;
     r.unloaded = rows.back();
   }
   return r;
@@ -331,11 +327,10 @@ Json matrix_json(const Eigen::Matrix<double, 6, 6>& m) {
   return rows;
 }
 
-// The unit basis of a probe plane: a stress direction is cos a u1 + sin a u2, and a strain increment's
-// coordinates in the plane are its projections on u1 and u2 (work-conjugate to the stress's).
+// The unit basis u1, u2 of a probe plane (plane_direction's): a strain increment's coordinates in the plane are its
+// projections on them (work-conjugate to the stress's).
 std::pair<std::array<double, 3>, std::array<double, 3>> plane_basis(ProbePlane plane) {
-  if (plane == ProbePlane::Rendulic) return {{1.0, 0.0, 0.0}, {0.0, 1.0 / std::sqrt(2.0), 1.0 / std::sqrt(2.0)}};
-  return {{2.0 / std::sqrt(6.0), -1.0 / std::sqrt(6.0), -1.0 / std::sqrt(6.0)}, {0.0, 1.0 / std::sqrt(2.0), -1.0 / std::sqrt(2.0)}};
+  return {plane_direction(plane, 1.0, 0.0), plane_direction(plane, 0.0, 1.0)};
 }
 
 struct PlanePoint {
@@ -538,33 +533,28 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     if (!fs::exists(point_dir / kPointRecordName))
       throw RunError(point_dir.string() + ": no " + kPointRecordName + " (not a probed run folder)");
     const Json record = Json::parse(read_file((point_dir / kPointRecordName).string()));
-    struct {
-      std::string name;
-      SeriesRow row;
-    } point{name, {}};
-    point.row.step = record.at("step").get<double>();
-    point.row.e1 = record.at("e1").get<double>();
-    Json entry = {{"step", point.row.step}, {"e1", point.row.e1}};
+    const double point_step = record.at("step").get<double>(), point_e1 = record.at("e1").get<double>();
+    Json entry = {{"step", point_step}, {"e1", point_e1}};
     if (!record.at("reached").get<bool>()) {
       entry["status"] = "not run";
       entry["reason"] = record.at("reason");
-      summary["points"][point.name] = entry;
+      summary["points"][name] = entry;
       continue;
     }
-    entry["state"] = (fs::path(test.name) / "probes" / point.name / "point.state").string();
+    entry["state"] = (fs::path(test.name) / "probes" / name / "point.state").string();
     const std::optional<ProbeResult> reference_record = read_probe_result(point_dir / "reference");
     if (!reference_record) {
       entry["status"] = "not run here";
       entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
       entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
-      summary["points"][point.name] = entry;
+      summary["points"][name] = entry;
       continue;
     }
     const ProbeResult& reference = *reference_record;
     if (!reference.ran) {
       entry["status"] = "failed";
       entry["reason"] = "the reference probe failed: " + reference.error;
-      summary["points"][point.name] = entry;
+      summary["points"][name] = entry;
       continue;
     }
     int ran = 0, controlled = 0, failed = 0;
@@ -584,7 +574,7 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       }
       const ProbeResult& r = *record;
       const std::size_t m = static_cast<std::size_t>(std::find(def.magnitudes.begin(), def.magnitudes.end(), d.magnitude) - def.magnitudes.begin());
-      csv.append(point.name).append(",").append(fmt(point.row.step)).append(",").append(fmt(point.row.e1));
+      csv.append(name).append(",").append(fmt(point_step)).append(",").append(fmt(point_e1));
       csv.append(",").append(name_of(def.kind, kProbeKindNames)).append(",").append(d.name);
       csv.append(",").append(fmt(d.magnitude)).append(",").append(fmt(d.angle_deg));
       for (double x : d.direction) csv.append(",").append(fmt(x));
@@ -623,7 +613,16 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
         }
       }
     }
-    entry["status"] = missing > 0 ? "partly run" : failed == 0 ? "ran" : "ran with failures";
+    // What the set says (stiffness, linearity, the plastic reading) only from a whole set that held its controls:
+    // a probe whose stress or strain left its target did not probe the direction it names.
+    const bool whole = failed == 0 && missing == 0 && controlled == ran;
+    entry["status"] = missing > 0          ? "partly run"
+                      : failed > 0         ? "ran with failures"
+                      : controlled < ran   ? "ran with uncontrolled probes"
+                                           : "ran";
+    if (missing == 0 && failed == 0 && controlled < ran)
+      entry["reason"] = std::to_string(ran - controlled) + " probes lost their control (result.json control_errors): "
+                        "the set's stiffness, linearity and plastic reading are not given";
     entry["probes"] = ran + failed;
     entry["failed"] = failed;
     if (missing > 0) {
@@ -631,20 +630,20 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       entry["reason"] = std::to_string(missing) + " probes were left to other jobs (--probes); `celldem merge` gathers them";
     }
     entry["controlled"] = controlled;
-    entry["folder"] = (fs::path(test.name) / "probes" / point.name).string();
-    if (def.kind == ProbeKind::Strain && failed == 0 && missing == 0) {
+    entry["folder"] = (fs::path(test.name) / "probes" / name).string();
+    if (def.kind == ProbeKind::Strain && whole) {
       Json per_magnitude = Json::array();
       for (std::size_t m = 0; m < def.magnitudes.size(); ++m)
         per_magnitude.push_back({{"magnitude", def.magnitudes[m]}, {"tangent", matrix_json(tangent[m])},
                                  {"elastic", matrix_json(elastic[m])}, {"elastic_asymmetry", asymmetry(elastic[m])},
                                  {"tangent_asymmetry", asymmetry(tangent[m])}});
-      stiffness["points"][point.name] = {{"step", point.row.step}, {"e1", point.row.e1}, {"magnitudes", per_magnitude}};
+      stiffness["points"][name] = {{"step", point_step}, {"e1", point_e1}, {"magnitudes", per_magnitude}};
       entry["elastic_asymmetry"] = per_magnitude[0]["elastic_asymmetry"];
       const Json network = network_estimate(deck, test, read_state((point_dir / "point.state").string()), elastic.front());
-      stiffness["points"][point.name]["network"] = network;
+      stiffness["points"][name]["network"] = network;
       if (network.contains("elastic_vs_network")) entry["elastic_vs_network"] = network["elastic_vs_network"];
     }
-    if (def.kind == ProbeKind::Stress && def.magnitudes.size() > 1 && failed == 0 && missing == 0) {
+    if (def.kind == ProbeKind::Stress && def.magnitudes.size() > 1 && whole) {
       // Linear response scales with the magnitude: the median over directions of
       // |de(M_last)| / |de(M_first)| / (M_last / M_first) is 1 in the linear range.
       std::vector<double> ratios;
@@ -657,9 +656,9 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
                               {"meaning", "median over directions of |de| at the largest magnitude over |de| at the "
                                           "smallest, divided by the magnitudes' ratio: 1 where the response is linear"}};
     }
-    if (def.kind == ProbeKind::Stress && def.plane != ProbePlane::List && failed == 0 && missing == 0)
+    if (def.kind == ProbeKind::Stress && def.plane != ProbePlane::List && whole)
       entry["plastic"] = plastic_response(plastic.back(), def.magnitudes.back());
-    summary["points"][point.name] = entry;
+    summary["points"][name] = entry;
   }
   write_file_atomic(probes_dir / "probes.csv", csv);
   if (def.kind == ProbeKind::Strain) {

@@ -67,6 +67,7 @@ class ProbePoints {
     std::shared_ptr<const State> state;  // null: not reached or lost (missing says which)
     SeriesRow row;                       // the test's row at the point
     std::string missing;
+    bool lost = false;                   // passed before a resume: its state went with the stopped run
   };
   // In order: the e1 points, then the named ones as the deck lists them.
   std::vector<Point> points(bool peak_reached) const;

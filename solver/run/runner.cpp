@@ -159,6 +159,11 @@ void print_test_done(const RunDirectory& run, const std::string& name) {
   if (!s.value("controlled", true))
     std::printf("%s: uncontrolled: a control failed (summary.json control_failures; control_failure \"warn\")\n",
                 name.c_str());
+  if (s.contains("probes"))  // a point whose probes did not all run and hold their controls is named with its reason
+    for (const auto& [point, p] : s["probes"]["points"].items())
+      if (p.value("status", "") != "ran")
+        std::printf("%s: probes at %s: %s%s%s\n", name.c_str(), point.c_str(), p.value("status", "").c_str(),
+                    p.contains("reason") ? ": " : "", p.value("reason", "").c_str());
 }
 
 }  // namespace
