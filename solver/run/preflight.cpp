@@ -190,30 +190,21 @@ void warn_capped_strain_legs(const Deck& deck, std::vector<std::string>& warning
   for (std::size_t t = 0; t < deck.tests.size(); ++t) {
     const TestDef& test = deck.tests[t];
     const double dt = deck.stage_time_step(test);
-    Vec3 strain = Vec3::Zero(), shear = Vec3::Zero();
+    std::vector<double> from;  // where each leg starts on its end's axis (core/plan's rule)
+    const std::vector<std::int64_t> steps = program_leg_steps(test.legs, dt, &from);
     for (std::size_t k = 0; k < test.legs.size(); ++k) {
       const Leg& leg = test.legs[k];
       const LegEnd& e = leg.end;
-      const bool on_shear = e.kind == LegEndKind::ShearStrain;
-      if (on_shear && std::any_of(test.legs.begin(), test.legs.begin() + static_cast<std::ptrdiff_t>(k), [&](const Leg& l) {
-            return l.shear[static_cast<std::size_t>(e.axis)] && l.shear[static_cast<std::size_t>(e.axis)]->stress_driven();
-          }))
-        break;  // a shear axis an earlier leg held at a stress starts where only running tells
-      const std::int64_t n = leg_steps(leg, dt, on_shear ? shear[e.axis] : strain[e.axis]);
+      const std::int64_t n = steps[k];
       if (n < 0) break;
-      const bool strain_end = e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven();
-      if (strain_end && e.max_steps > 0 && n == e.max_steps) {
-        const double reached = strain[e.axis] + static_cast<double>(n) * leg.strain_per_step(e.axis, dt);
-        if (std::abs(reached - e.value) > 0.5 * std::abs(leg.strain_per_step(e.axis, dt)))
-          warnings.push_back("tests[" + std::to_string(t) + "] (test '" + test.name + "', leg " + std::to_string(k) +
-                             "): end.max_steps " + std::to_string(e.max_steps) + " stops the leg at x" +
-                             std::to_string(e.axis + 1) + " strain " + fmt(reached) + ", short of its end strain " +
-                             fmt(e.value));
-      }
-      for (int a = 0; a < 3; ++a) strain[a] += static_cast<double>(n) * leg.strain_per_step(a, dt);
-      for (int a = 0; a < 3; ++a) shear[a] += static_cast<double>(n) * leg.shear_strain_per_step(a, dt);
-      if (strain_end && n != e.max_steps) strain[e.axis] = e.value;
-      if (on_shear && n != e.max_steps) shear[e.axis] = e.value;
+      if (e.kind != LegEndKind::Strain || !leg.axes[e.axis].strain_driven() || e.max_steps <= 0 || n != e.max_steps)
+        continue;
+      const double reached = from[k] + static_cast<double>(n) * leg.strain_per_step(e.axis, dt);
+      if (std::abs(reached - e.value) > 0.5 * std::abs(leg.strain_per_step(e.axis, dt)))
+        warnings.push_back("tests[" + std::to_string(t) + "] (test '" + test.name + "', leg " + std::to_string(k) +
+                           "): end.max_steps " + std::to_string(e.max_steps) + " stops the leg at x" +
+                           std::to_string(e.axis + 1) + " strain " + fmt(reached) + ", short of its end strain " +
+                           fmt(e.value));
     }
   }
 }
