@@ -160,6 +160,24 @@ Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vec
   return out;
 }
 
+void write_ensemble(const fs::path& dir, const std::vector<std::uint64_t>& seeds, const std::vector<Json>& summaries,
+                    bool include_uncontrolled, bool quiet) {
+  const Json statistics = ensemble_statistics(seeds, summaries, include_uncontrolled);
+  write_file_atomic(dir / "ensemble.json", statistics.dump(1));
+  // What was left out is printed whether or not the run is quiet: a mean over fewer seeds must be seen.
+  for (const auto& [name, ex] : statistics["excluded"]["tests"].items()) {
+    if (!ex["uncontrolled"].empty())
+      std::fprintf(stderr, "ensemble: %s: %zu of %zu seeds left out, their control failed (%s)\n", name.c_str(),
+                   ex["uncontrolled"].size(), seeds.size(),
+                   include_uncontrolled ? "kept: --include-uncontrolled" : "--include-uncontrolled keeps them");
+    if (!ex["no_peak"].empty())
+      std::fprintf(stderr, "ensemble: %s: %zu of %zu seeds reached no peak (largest s11/s33 at the test's end); "
+                           "their peak quantities left out\n",
+                   name.c_str(), ex["no_peak"].size(), seeds.size());
+  }
+  if (!quiet) std::printf("wrote %s\n", (dir / "ensemble.json").c_str());
+}
+
 void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds,
                   bool include_uncontrolled) {
   if (!deck.prepare) throw DeckError("--seeds: the deck has no \"prepare\": a seed ensemble prepares its samples");
@@ -190,20 +208,7 @@ void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector
                   "shares\n");
     return;
   }
-  const Json statistics = ensemble_statistics(seeds, summaries, include_uncontrolled);
-  write_file_atomic(dir / "ensemble.json", statistics.dump(1));
-  // What was left out is printed whether or not the run is quiet: a mean over fewer seeds must be seen.
-  for (const auto& [name, ex] : statistics["excluded"]["tests"].items()) {
-    if (!ex["uncontrolled"].empty())
-      std::fprintf(stderr, "ensemble: %s: %zu of %zu seeds left out, their control failed (%s)\n", name.c_str(),
-                   ex["uncontrolled"].size(), seeds.size(),
-                   include_uncontrolled ? "kept: --include-uncontrolled" : "--include-uncontrolled keeps them");
-    if (!ex["no_peak"].empty())
-      std::fprintf(stderr, "ensemble: %s: %zu of %zu seeds reached no peak (largest s11/s33 at the test's end); "
-                           "their peak quantities left out\n",
-                   name.c_str(), ex["no_peak"].size(), seeds.size());
-  }
-  if (!options.quiet) std::printf("wrote %s\n", (dir / "ensemble.json").c_str());
+  write_ensemble(dir, seeds, summaries, include_uncontrolled, options.quiet);
 }
 
 }  // namespace celldem

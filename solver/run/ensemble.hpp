@@ -2,6 +2,7 @@
 // each sample, and the statistics of every summary quantity over the seeds: how sure each number is.
 #pragma once
 #include <cstdint>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -20,6 +21,11 @@ std::vector<std::uint64_t> parse_seed_list(const std::string& text, bool allow_o
 // left out of the statistics unless include_uncontrolled; what was left out is printed on stderr.
 void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector<std::uint64_t>& seeds,
                   bool include_uncontrolled = false);
+
+// Writes DIR/ensemble.json (ensemble_statistics) from the seeds' summaries and prints, quiet or not, what it left
+// out (uncontrolled tests, peaks not reached): a mean over fewer seeds must be seen.
+void write_ensemble(const std::filesystem::path& dir, const std::vector<std::uint64_t>& seeds,
+                    const std::vector<nlohmann::json>& summaries, bool include_uncontrolled, bool quiet);
 
 // The p-quantile of Student's t with dof degrees of freedom (Boost.Math).
 double student_t_quantile(double p, double dof);

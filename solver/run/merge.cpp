@@ -117,7 +117,7 @@ std::vector<std::string> merge_runs(const fs::path& into, const std::vector<fs::
     summaries.push_back(Json::parse(read_file(dir / "summary.json")));
   }
   if (complete.empty()) throw UsageError(into.string() + ": no complete seed-<k> folder to make an ensemble of");
-  write_file_atomic(into / "ensemble.json", ensemble_statistics(complete, summaries, include_uncontrolled).dump(1));
+  write_ensemble(into, complete, summaries, include_uncontrolled, /*quiet=*/true);
   done.push_back(into.string() + ": ensemble.json over " + std::to_string(complete.size()) + " seeds");
   return done;
 }
