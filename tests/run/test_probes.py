@@ -2,8 +2,7 @@
 """Incremental response probes (tests[].probes) on small samples (300 spheres):
 
 - stress probes: every probe holds its controls, its net stress increment at the loaded end is the one asked
-  for (M d, within 2 % of M) and the unloading gives it back (residual normal stresses within 2 % of M); the
-  elastic and plastic strains add up to the total;
+  for (M d, within 2 % of M) and the unloading gives it back (residual normal stresses within 2 % of M);
 - each probe starts from the test's own state at its point (the probe's first row is the test's row of that
   step), the test's own series are the bytes of a run without probes, and probes.csv has the same bytes on one
   thread and on two;
@@ -116,9 +115,6 @@ with tempfile.TemporaryDirectory() as tmp:
             tol = 0.02 * m if r["point"] == "e1_0.002" else 2 * 0.005 * STRESS_SCALE
             check(close(float(r["ds" + name]), asked, tol), f"{where}: ds{name} {r['ds' + name]} != {asked}")
             check(close(float(r[f"ds{name}_residual"]), 0.0, tol), f"{where}: residual ds{name} {r[f'ds{name}_residual']}")
-        for e in ("de1", "de2", "de3"):
-            total, elastic, plastic = float(r[e]), float(r[e + "_elastic"]), float(r[e + "_plastic"])
-            check(close(total, elastic + plastic, 1e-9 + 1e-6 * abs(total)), f"{where}: {e} != elastic + plastic")
         # Axial compression (d = (1, 0, 0)) shortens axis 1.
         if r["probe"].endswith("d00"):
             check(float(r["de1"]) > 0.0, f"{where}: de1 {r['de1']} not compressive under ds11 > 0")
