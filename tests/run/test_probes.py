@@ -13,6 +13,8 @@
 - a job array: the probes split over two runs (`--probes K-L`) and gathered by `celldem merge` give the whole
   run's probes.csv and summary, a run of another deck is refused, and seed shares (`--seeds k`) merged give the
   ensemble of `--seeds 1-2`;
+- a probe that loses its control flags its point (no stiffness, linearity or plastic reading from it) and the
+  run names the point;
 - bad probe keys are refused with exit 2 naming the key.
 About 60 s of CPU.
 
@@ -204,6 +206,23 @@ with tempfile.TemporaryDirectory() as tmp:
     with open(os.path.join(tmp, "ens", "ensemble.json")) as f, open(os.path.join(tmp, "ens-all", "ensemble.json")) as g:
         check(without_timings(json.load(f)) == without_timings(json.load(g)),
               "the merged seed shares' ensemble.json differs from --seeds 1-2's")
+
+    # A probe asking more than the sample carries (s11 up by 200 kPa at e1 = 0.2 %, past the peak's stress ratio)
+    # loses its control: the point is flagged, the run names it, and the set's linearity is not given.
+    hard = base_deck()
+    hard["tests"] = [dict(hard["tests"][0], probes={"at_e1": [0.002], "kind": "stress", "plane": "list",
+                                                    "list": [[1, 0, 0], [0, 1, 1]], "magnitudes": [1000, 2e5],
+                                                    "steps": 3000, "hold_steps": 500})]
+    result = subprocess.run([CELLDEM, "run", write(hard, tmp, "hard"), "--out", os.path.join(tmp, "hard")],
+                            capture_output=True, text=True)
+    check(result.returncode == 0, f"a run with an uncontrolled probe: exit {result.returncode}: {result.stderr[-500:]}")
+    with open(os.path.join(tmp, "hard", "summary.json")) as f:
+        point = json.load(f)["tests"]["ttc"]["probes"]["points"]["e1_0.002"]
+    check(point["status"] == "ran with uncontrolled probes" and point["controlled"] < point["probes"],
+          f"an uncontrolled probe's point: {point}")
+    check("linearity" not in point, f"a linearity from a set with an uncontrolled probe: {point}")
+    check("probes at e1_0.002: ran with uncontrolled probes" in result.stdout,
+          f"the run does not name the flagged point: {result.stdout[-500:]}")
 
     # Bad keys: exit 2 naming the key.
     bad_cases = [
