@@ -31,6 +31,8 @@ void begin_leg(State& state, int leg) {
   c.servo_integral = Vec3::Zero();
   c.leg_start_shear = shear_strains(state);
   c.shear_servo_integral = Vec3::Zero();
+  c.rate_factor = 1.0;
+  c.leg_progress = 0.0;
 }
 
 Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, double leg_time) {
@@ -86,7 +88,7 @@ double servo_increment(const ServoDef& servo, double cap, double target, int k, 
 // `target`: the shear stress axes' targets.
 void advance_shear(const Model& model, const Loading& loading, double cap, const Vec3& target, State& state) {
   ControlState& ctl = state.control;
-  const double next_step = static_cast<double>(ctl.leg_steps + 1);
+  const double next_step = ctl.leg_progress + ctl.rate_factor;  // (leg_steps + 1 at the deck's rate)
   state.shear_servo_saturated = {false, false, false};
   for (int a = 0; a < 3; ++a) {
     if (!loading.shear[a]) continue;
@@ -142,6 +144,9 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
   const double next_step = static_cast<double>(ctl.leg_steps + 1);
+  // The strain-driven axes' progress at the step's end: leg_steps + 1 exactly at the deck's rate (factor 1 and
+  // integer progress), the sum of the factors with an adaptive rate.
+  const double next_progress = ctl.leg_progress + ctl.rate_factor;
   Vec3 target = stress_targets(loading.axes, state.normal_stress, next_step * model.dt);
   Vec3 shear_target;
   for (int a = 0; a < 3; ++a) shear_target[a] = loading.shear[a] ? loading.shear[a]->value : 0.0;
@@ -157,10 +162,10 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
     const double e0 = ctl.leg_start_strains[k];
     switch (a.mode) {
       case AxisMode::StrainIncrement:  // exact engineering strain: no drift from summing increments
-        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_step * a.value));
+        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_progress * a.value));
         break;
       case AxisMode::StrainRate:
-        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_step * a.value * model.dt));
+        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_progress * a.value * model.dt));
         break;
       case AxisMode::Stress:
       case AxisMode::StressRamp:
@@ -176,6 +181,7 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   hold_volume(loading.axes, ctl.leg_start_volume, cell.h);
   cell.velocity_gradient = (cell.h - h_before) / model.dt * (0.5 * (cell.h + h_before)).inverse();
   ++ctl.leg_steps;
+  ctl.leg_progress = next_progress;
 }
 
 Vec3 axis_strains(const State& state) {

@@ -142,6 +142,18 @@ struct PrincipalRotation {
   std::array<double, 3> targets(double leg_time, double dt) const;
 };
 
+// A leg's adaptive loading rate (tests[].adaptive_rate): every `check_interval` steps the leg's strain-driven
+// axes run at `factor` times their deck rate, the factor raised while the measured quasi-static indicators sit
+// well under their targets and lowered when one exceeds its target (run/program.cpp's adapt_rate has the rule).
+struct AdaptiveRate {
+  double min_factor = keys::adaptive_min_factor.fallback;  // the slowest, times the deck's rate (<= 1)
+  double max_factor = keys::adaptive_max_factor.fallback;  // the fastest (>= 1)
+  double unbalanced_force_ratio = keys::adaptive_unbalanced_force_ratio.fallback;  // target
+  double kinetic_to_elastic = keys::adaptive_kinetic_to_elastic.fallback;          // target
+  double inertial_number = keys::adaptive_inertial_number.fallback;  // ceiling: rate d_mean sqrt(rho / p)
+  std::int64_t check_interval = static_cast<std::int64_t>(keys::adaptive_check_interval.fallback);  // [steps]
+};
+
 struct LegEnd {
   LegEndKind kind = LegEndKind::Strain;
   int axis = 0;                // Strain, Stress: the axis (0-based); ShearStrain: the shear axis (kShearAxisNames)
@@ -162,6 +174,8 @@ struct Leg {
   // A principal-axis rotation (rotate_principal_axes): its plane's axes are Stress and its shear axis Stress,
   // their values the targets at the leg start; the targets move as PrincipalRotation says.
   std::optional<PrincipalRotation> rotation;
+  // The adaptive loading rate; none: the strain-driven axes keep the deck's rate.
+  std::optional<AdaptiveRate> adaptive;
   // The strain-driven axes' strain per step (0 for other axes): increments, or rates times the time step.
   double strain_per_step(int axis, double time_step) const {
     const AxisControl& a = axes[axis];

@@ -356,6 +356,35 @@ inline constexpr KeySpec test_zero_shear_stress{.path = "tests[].zero_shear_stre
     .required = false, .default_text = "false",
     .meaning = "`true`: the leg (beside `axes`; in `legs`, per leg) servo-holds s12, s13 and s23 at 0, so the "
                "principal stresses stay on the axes (e.g. with `b` and `mean_stress` axes); not beside shear axes"};
+inline constexpr KeySpec test_adaptive_rate{.path = "tests[].adaptive_rate", .kind = KeyKind::Object,
+    .required = false, .default_text = "none (the deck's rate)",
+    .meaning = "an adaptive loading rate (beside `axes` or `simple_shear`; in `legs`, per leg): the leg's strain-driven "
+               "axes run at a factor times their rate, 1 at the leg start and over its first 0.2 % of driving strain "
+               "(the start's transient), then checked every `check_interval` steps: "
+               "x 1.25 while the unbalanced force ratio and the kinetic-to-elastic energy ratio both sit under half "
+               "their targets, x max(1/2, 1/u) when one exceeds its target (u its value over the target), within "
+               "`min_factor`..`max_factor` and under the `inertial_number` ceiling; the series records it "
+               "(`rate_factor`, `strain_rate`, `inertial_number`, `kinetic_to_elastic`). Not with stress ramps, "
+               "rotations or a `steps` end; LAMMPS decks keep the deck's rate"};
+inline constexpr KeySpec adaptive_min_factor{.path = "tests[].adaptive_rate.min_factor", .kind = KeyKind::Number,
+    .min = 1e-3, .max = 1.0, .required = false, .fallback = 0.25,
+    .meaning = "the slowest rate, times the deck's"};
+inline constexpr KeySpec adaptive_max_factor{.path = "tests[].adaptive_rate.max_factor", .kind = KeyKind::Number,
+    .min = 1.0, .max = 1000.0, .required = false, .fallback = 8.0,
+    .meaning = "the fastest rate, times the deck's"};
+inline constexpr KeySpec adaptive_unbalanced_force_ratio{.path = "tests[].adaptive_rate.unbalanced_force_ratio",
+    .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 0.003,
+    .meaning = "target of the unbalanced force ratio (series `unbalanced_force`; the paper's TTC and PSC at their "
+               "rate: 0.0008-0.0019)"};
+inline constexpr KeySpec adaptive_kinetic_to_elastic{.path = "tests[].adaptive_rate.kinetic_to_elastic",
+    .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 3e-4,
+    .meaning = "target of the kinetic over the elastic energy of the contacts (series `kinetic_to_elastic`)"};
+inline constexpr KeySpec adaptive_inertial_number{.path = "tests[].adaptive_rate.inertial_number",
+    .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 1e-3,
+    .meaning = "ceiling on the inertial number rate d_mean sqrt(rho / p) (rate the fastest axis's, p the mean stress)"};
+inline constexpr KeySpec adaptive_check_interval{.path = "tests[].adaptive_rate.check_interval",
+    .kind = KeyKind::Integer, .min = 1, .max = kMaxCount, .required = false, .fallback = 200,
+    .meaning = "steps between the rate's checks"};
 inline constexpr KeySpec test_simple_shear{.path = "tests[].simple_shear", .kind = KeyKind::Object,
     .required = false, .default_text = "-",
     .meaning = "instead of `axes` (beside `end`; in `legs`, per leg): direct simple shear in the x1-x2 plane, g12 "
@@ -514,7 +543,9 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
     &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
     &axis_stress_ramp_rate, &shear_axis_strain_increment, &shear_axis_strain_rate, &shear_axis_stress,
-    &test_zero_shear_stress, &test_simple_shear, &simple_shear_gamma_increment, &simple_shear_gamma_rate,
+    &test_zero_shear_stress, &test_adaptive_rate, &adaptive_min_factor, &adaptive_max_factor,
+    &adaptive_unbalanced_force_ratio, &adaptive_kinetic_to_elastic, &adaptive_inertial_number,
+    &adaptive_check_interval, &test_simple_shear, &simple_shear_gamma_increment, &simple_shear_gamma_rate,
     &simple_shear_normal_stress, &test_rotate_principal_axes, &rotation_plane, &rotation_sigma1, &rotation_sigma3,
     &rotation_from, &rotation_rate, &rotation_angle_increment, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,

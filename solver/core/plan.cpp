@@ -57,9 +57,9 @@ bool leg_has_servo(const Leg& leg) {
          std::any_of(leg.shear.begin(), leg.shear.end(), [](const auto& a) { return a && a->stress_driven(); });
 }
 
-double servo_cap(const ServoDef& servo, const Leg& leg, double time_step) {
+double servo_cap(const ServoDef& servo, const Leg& leg, double time_step, double rate_factor) {
   if (servo.max_strain_increment_given) return servo.max_strain_increment;
-  return std::max(kDefaultServoCap, kServoCapFactor * leg_driving_increment(leg, time_step));
+  return std::max(kDefaultServoCap, kServoCapFactor * leg_driving_increment(leg, time_step) * rate_factor);
 }
 
 std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
@@ -133,8 +133,16 @@ TestPlan plan_test(const Deck& deck, const TestDef& test) {
   p.strain_per_step = first.end_strain_per_step(dt);
   p.strain_rate = p.strain_per_step / dt;
   std::vector<StepRange> steps;
-  for (const std::int64_t n : program_leg_steps(test.legs, dt))
-    steps.push_back(n >= 0 ? StepRange{n, n} : StepRange{0, -1});
+  const std::vector<std::int64_t> at_deck_rate = program_leg_steps(test.legs, dt);
+  for (std::size_t k = 0; k < test.legs.size(); ++k) {
+    const std::int64_t n = at_deck_rate[k];
+    const std::optional<AdaptiveRate>& adaptive = test.legs[k].adaptive;
+    if (n < 0) steps.push_back(StepRange{0, -1});
+    else if (!adaptive) steps.push_back(StepRange{n, n});
+    else  // between its fastest and its slowest rate (run/program.hpp adapted_rate_factor)
+      steps.push_back(StepRange{static_cast<std::int64_t>(std::ceil(static_cast<double>(n) / adaptive->max_factor)),
+                                static_cast<std::int64_t>(std::ceil(static_cast<double>(n) / adaptive->min_factor))});
+  }
   p.legs = plan_legs(deck.stage_servo(test), test.legs, steps, test.output_interval, dt);
   for (const LegPlan& leg : p.legs) {
     if (leg.rows < 0) {

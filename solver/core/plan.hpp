@@ -49,7 +49,8 @@ bool leg_has_servo(const Leg& leg);
 // a faster test does not saturate its servo. A leg with no driver (the preparation's servo) keeps 1e-6.
 inline constexpr double kDefaultServoCap = 1e-6;
 inline constexpr double kServoCapFactor = 10.0;
-double servo_cap(const ServoDef& servo, const Leg& leg, double time_step);
+// rate_factor: an adaptive leg's factor on its deck rate (the cap follows the rate it runs at).
+double servo_cap(const ServoDef& servo, const Leg& leg, double time_step, double rate_factor = 1.0);
 // Below this multiple of the driving increment a leg's servo cannot follow (check and run refuse it).
 inline constexpr double kMinServoCapRatio = 3.0;
 

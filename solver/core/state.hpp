@@ -139,6 +139,11 @@ struct ControlState {
   Vec3 reference_tilts = Vec3::Zero();   // [m]
   Vec3 leg_start_shear = Vec3::Zero();   // [-] shear strains (against the stage start) where the leg began
   Vec3 shear_servo_integral = Vec3::Zero();  // [Pa] accumulated shear stress error per shear axis
+  // The adaptive loading rate (Leg::adaptive): the factor on the deck's rate of the strain-driven axes, and the
+  // leg's progress in steps at the deck's rate (the sum of the factors of its steps: a strain-driven axis is at
+  // leg_start + progress x increment). A leg at the deck's rate has factor 1 and progress = leg_steps, exactly.
+  double rate_factor = 1.0;
+  double leg_progress = 0.0;
 };
 
 struct State {
@@ -159,6 +164,10 @@ struct State {
   // sets it before anything reads it).
   std::array<bool, 3> servo_saturated = {false, false, false};
   std::array<bool, 3> shear_servo_saturated = {false, false, false};  // the same for x12, x13, x23
+  // [1/s] the fastest strain-driven axis's rate in the steps being run, the adaptive factor included (series
+  // `strain_rate`; not saved: run_program sets it before each run of steps; 0 outside a load program).
+  double driving_rate = 0.0;
+  double driving_factor = 1.0;  // the adaptive factor in those steps (series `rate_factor`; 1 at the deck's rate)
 };
 
 }  // namespace celldem

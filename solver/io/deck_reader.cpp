@@ -504,6 +504,18 @@ PrincipalRotation read_rotation(ObjectReader r) {
   return rot;
 }
 
+AdaptiveRate read_adaptive_rate(ObjectReader r) {
+  AdaptiveRate a;
+  a.min_factor = r.number(keys::adaptive_min_factor);
+  a.max_factor = r.number(keys::adaptive_max_factor);
+  a.unbalanced_force_ratio = r.number(keys::adaptive_unbalanced_force_ratio);
+  a.kinetic_to_elastic = r.number(keys::adaptive_kinetic_to_elastic);
+  a.inertial_number = r.number(keys::adaptive_inertial_number);
+  a.check_interval = r.integer(keys::adaptive_check_interval);
+  r.finish();
+  return a;
+}
+
 Leg read_leg(ObjectReader& r, bool preparation) {
   Leg leg;
   if (r.has(keys::test_rotate_principal_axes)) leg.rotation = read_rotation(r.object(keys::test_rotate_principal_axes));
@@ -552,6 +564,23 @@ Leg read_leg(ObjectReader& r, bool preparation) {
     for (auto& shear : leg.shear) shear = AxisControl{AxisMode::Stress, 0.0};
   }
   leg.end = read_end(r.object(keys::test_end), preparation);
+  if (r.has(keys::test_adaptive_rate)) {
+    const std::string at = r.at(keys::test_adaptive_rate);
+    if (preparation) fail(at, "tests only (the preparation's legs keep their rates)");
+    leg.adaptive = read_adaptive_rate(r.object(keys::test_adaptive_rate));
+    // What the factor scales: strain increments and rates. A stress ramp's or a rotation's target moves with the
+    // leg's time, and a `steps` end would change its strain with the factor: neither has one meaning when the
+    // rate varies.
+    if (leg.rotation) fail(at, "not with rotate_principal_axes (its angle moves with time, not with the rate)");
+    for (int k = 0; k < 3; ++k)
+      if (leg.axes[k].mode == AxisMode::StressRamp)
+        fail(at, "not with the stress_ramp of axis " + std::string(kAxisNames[k]) + " (its target moves with time)");
+    if (leg.end.kind == LegEndKind::Steps)
+      fail(at, "not with a `steps` end (the factor would change the leg's strain): end the leg on a strain, ratio or stress");
+    bool drives = false;
+    for (int k = 0; k < 3; ++k) drives |= leg.strain_per_step(k, 1.0) != 0.0 || leg.shear_strain_per_step(k, 1.0) != 0.0;
+    if (!drives) fail(at, "the leg drives no axis by a non-zero strain increment or rate: nothing to adapt");
+  }
   return leg;
 }
 

@@ -95,7 +95,10 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   const bool radius = !s.pairs.contact_radius.empty();
   // Format 5 is format 4 with the shear record (the shear stresses in the stress tensor's slot, the shear
   // stiffnesses and the shear axes' control memory); every state with a physics record has it.
-  const std::uint32_t version = radius || !physics.empty() ? 5 : rotational ? 3 : 2;
+  // Format 6 adds the adaptive rate's record (ControlState::rate_factor, leg_progress), written only by a
+  // state inside an adaptive leg (elsewhere the factor is 1 and the progress the leg's steps).
+  const bool adaptive = s.control.rate_factor != 1.0 || s.control.leg_progress != static_cast<double>(s.control.leg_steps);
+  const std::uint32_t version = adaptive ? 6 : radius || !physics.empty() ? 5 : rotational ? 3 : 2;
   w.put_string(label);
   if (version >= 4) w.put_string(physics);
   w.put(static_cast<std::uint64_t>(s.particles.size()));
@@ -125,6 +128,10 @@ std::string serialize_state(const State& s, const std::string& label, const std:
     w.put(s.control.reference_tilts);
     w.put(s.control.leg_start_shear);
     w.put(s.control.shear_servo_integral);
+  }
+  if (version >= 6) {
+    w.put(s.control.rate_factor);
+    w.put(s.control.leg_progress);
   }
   w.put(s.touching);
   w.put(s.pairs.skin);
@@ -214,6 +221,14 @@ State parse_state(const std::string& bytes, std::string* label, std::string* phy
     s.control.shear_servo_integral = r.vec();
   } else {  // the tilts as they stand are the stage's reference
     for (int a = 0; a < 3; ++a) s.control.reference_tilts[a] = s.cell.h(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
+  }
+  if (version >= 6) {
+    s.control.rate_factor = r.finite();
+    s.control.leg_progress = r.finite();
+    if (!(s.control.rate_factor > 0.0) || s.control.leg_progress < 0.0)
+      throw StateFileError("state file holds a non-positive rate factor or a negative leg progress");
+  } else {
+    s.control.leg_progress = static_cast<double>(s.control.leg_steps);
   }
   s.touching = r.get<std::int64_t>();
   s.pairs.skin = r.finite();

@@ -22,7 +22,10 @@ struct StateFileError : std::runtime_error {
 // the leg's start shear strains and the shear servo's integral (cell/control.hpp), so a leg with shear axes
 // resumes bit for bit. Written for states with a physics record (every state a run writes) or contact radii;
 // without either, format 2 or 3 as before. Formats 1 to 4 are still read (their tilts are the reference).
-inline constexpr std::uint32_t kStateFormatVersion = 5;
+// 6: format 5 with the adaptive rate's record after the shear record (ControlState::rate_factor, leg_progress),
+// written only for a state inside an adaptive leg; older files read as the deck's rate (factor 1, progress =
+// the leg's steps).
+inline constexpr std::uint32_t kStateFormatVersion = 6;
 inline constexpr std::uint8_t kStateRotationalFields = 1, kStateRadiusField = 2;
 
 // label says what the state is (e.g. "prepared", "checkpoint:ttc"); physics, when not empty, the physics it

@@ -256,6 +256,11 @@ std::vector<std::string> model_differences(const Deck& deck, TargetCode code) {
     out.push_back("rate check (tests[].verify_rate): not translated; the scripts run each test once, at its rate");
   if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.probes.has_value(); }))
     out.push_back("probes (tests[].probes): not translated; the scripts run each test's own program only");
+  if (std::any_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) {
+        return std::any_of(t.legs.begin(), t.legs.end(), [](const Leg& leg) { return leg.adaptive.has_value(); });
+      }))
+    out.push_back("adaptive loading rate (tests[].adaptive_rate): not translated; the scripts run those legs at the "
+                  "deck's fixed rate (factor 1)");
   return out;
 }
 

@@ -10,6 +10,7 @@
 
 #include "cell/control.hpp"
 #include "measure/micro.hpp"
+#include "measure/quasi_static.hpp"
 
 namespace celldem {
 namespace {
@@ -81,6 +82,15 @@ const std::array kColumns = std::to_array<SeriesColumn>({
      "engineering shear strain -(h12 - h12(start))/h22(start): the tilt xy over axis 2's length, sign as s12", false},
     {"g13", &R::g13, kReal, "-", "engineering shear strain -(h13 - h13(start))/h33(start)", false},
     {"g23", &R::g23, kReal, "-", "engineering shear strain -(h23 - h23(start))/h33(start)", false},
+    {"rate_factor", &R::rate_factor, kReal, "-",
+     "the loading rate over the deck's in the steps up to the row: an adaptive leg's factor (tests[].adaptive_rate), "
+     "else 1", false},
+    {"strain_rate", &R::strain_rate, kReal, "1/s",
+     "the fastest strain-driven axis's strain rate in the steps up to the row (0 before the first step)", false},
+    {"inertial_number", &R::inertial_number, kReal, "-",
+     "strain_rate d_mean sqrt(rho / p), d_mean the particles' mean diameter (quasi-static below about 1e-3)", false},
+    {"kinetic_to_elastic", &R::kinetic_to_elastic, kReal, "-",
+     "kinetic_energy over the elastic energy stored in the contact springs (nan without contacts)", false},
 });
 // clang-format on
 
@@ -176,6 +186,15 @@ SeriesRow series_row(const Model& model, const State& state, const ContactMeasur
   const Vec3 g = shear_strains(state);
   r.g12 = g[0], r.g13 = g[1], r.g23 = g[2];
   r.ratio_principal = ratio(r.sigma1, r.sigma3);
+  r.rate_factor = state.driving_factor;
+  r.strain_rate = state.driving_rate;
+  double mean_diameter = 0.0;
+  for (const double radius : state.particles.radius) mean_diameter += 2.0 * radius;
+  mean_diameter /= static_cast<double>(std::max<std::size_t>(1, state.particles.size()));
+  r.inertial_number = state.driving_rate == 0.0 ? 0.0
+                      : inv.p > 0.0 ? inertial_number(state.driving_rate, mean_diameter, model.density, inv.p)
+                                    : std::numeric_limits<double>::quiet_NaN();
+  r.kinetic_to_elastic = ratio(m.kinetic_energy, m.elastic_energy);
   r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /
                                                   (std::sqrt(3.0) * (r.sigma1 - r.sigma3))) * 180.0 / M_PI
                                       : std::numeric_limits<double>::quiet_NaN();

@@ -29,6 +29,8 @@ struct SeriesRow {
   double b_principal = 0, ratio_principal = 0, lode_angle = 0;
   double Zm_frictionless = 0;                       // Zm with the frictionless rattler rule (< 4 contacts)
   double g12 = 0, g13 = 0, g23 = 0;                 // engineering shear strains (cell/control.hpp's convention)
+  double rate_factor = 0, strain_rate = 0;          // the loading rate (an adaptive leg's factor) in the last steps
+  double inertial_number = 0, kinetic_to_elastic = 0;  // quasi-static indicators
 
   // Engineering strain of axis k (0-based), compression positive.
   double strain(int k) const { return k == 0 ? e1 : k == 1 ? e2 : e3; }

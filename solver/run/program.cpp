@@ -91,6 +91,15 @@ double control_tolerance(AxisMode mode) {
   }
 }
 
+double adapted_rate_factor(const AdaptiveRate& rule, double factor, const RateIndicators& now) {
+  const double u = std::max(now.unbalanced_force / rule.unbalanced_force_ratio, now.kinetic_to_elastic / rule.kinetic_to_elastic);
+  if (!(u <= 1.0)) factor *= std::max(kRateLowerMost, 1.0 / u);
+  else if (u < kRateCalm) factor *= kRateRaise;
+  double ceiling = rule.max_factor;
+  if (now.inertial_at_deck_rate > 0.0) ceiling = std::min(ceiling, rule.inertial_number / now.inertial_at_deck_rate);
+  return std::clamp(factor, rule.min_factor, std::max(rule.min_factor, ceiling));
+}
+
 std::string control_kind(AxisMode mode) {
   switch (mode) {
     case AxisMode::Stress:
@@ -126,7 +135,8 @@ class LegEndWatch {
         throw RunError(where_ + ": axis " + std::string(shear ? kShearAxisNames[e.axis] : kAxisNames[e.axis]) +
                        " moves away from its end strain " + std::to_string(e.value) + " (it starts the leg at " +
                        std::to_string(from) + ")");
-      steps_ = leg_steps(leg, model.dt, from);
+      if (leg.adaptive) end_progress_ = (e.value - from) / per_step;  // the axis is at from + progress x per_step
+      else steps_ = leg_steps(leg, model.dt, from);
     } else if (e.kind == LegEndKind::Steps) {
       steps_ = leg_steps(leg, model.dt, 0.0);  // as planned: max_steps, when given, caps it
     }
@@ -137,6 +147,8 @@ class LegEndWatch {
     const LegEnd& e = leg_.end;
     const std::int64_t n = state.control.leg_steps;
     if (steps_ >= 0) return n >= steps_;
+    if (end_progress_ >= 0.0)  // (the last step's factor lands on it: remaining_progress)
+      return state.control.leg_progress >= end_progress_ * (1.0 - 1e-12) || (e.max_steps > 0 && n >= e.max_steps);
     if (e.kind == LegEndKind::Equilibrium) return false;  // checked after a step
     if (e.kind == LegEndKind::SolidFraction) return value(model, state) >= e.value;
     const bool reached = side_ * (value(model, state) - e.value) >= 0.0;
@@ -146,7 +158,6 @@ class LegEndWatch {
     return reached;
   }
 
- private:
   double value(const Model& model, const State& state) const {
     const LegEnd& e = leg_.end;
     switch (e.kind) {
@@ -159,9 +170,23 @@ class LegEndWatch {
     }
   }
 
+  // The share of the leg done, where only its progress tells (an adaptive leg that ends on its driven strain);
+  // NaN for the other legs.
+  double done_share(const State& state) const {
+    return end_progress_ > 0.0 ? std::min(1.0, state.control.leg_progress / end_progress_)
+                               : std::numeric_limits<double>::quiet_NaN();
+  }
+  // An adaptive leg that ends on the strain of an axis it drives: the progress (ControlState::leg_progress)
+  // left to its end, which the last step's factor must not pass; infinite for the other legs.
+  double remaining_progress(const State& state) const {
+    return end_progress_ >= 0.0 ? end_progress_ - state.control.leg_progress : std::numeric_limits<double>::infinity();
+  }
+
+ private:
   const Leg& leg_;
   std::string where_;
-  std::int64_t steps_ = -1;  // known length
+  std::int64_t steps_ = -1;     // known length
+  double end_progress_ = -1.0;  // an adaptive leg's end on its driven strain, in progress (steps at the deck's rate)
   int side_ = 1;
 };
 
@@ -332,12 +357,33 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   // those tests' legs cut short by max_steps.
   std::vector<double> planned_from;
   program_leg_steps(program.legs, model.dt, &planned_from);
+  // The adaptive rate's inertial number: the sample's mean diameter and density (measure/quasi_static.hpp).
+  double mean_diameter = 0.0;
+  for (const double r : state.particles.radius) mean_diameter += 2.0 * r;
+  mean_diameter /= static_cast<double>(std::max<std::size_t>(1, state.particles.size()));
   for (;;) {
     const Leg& leg = program.legs[c.leg];
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
     const LegChecks checks(leg, model);
-    const Loading loading{leg.axes, program.friction, checks.cap, leg.shear, leg.rotation};
+    const double deck_rate = leg_driving_increment(leg, model.dt) / model.dt;  // [1/s] at factor 1
     const bool ramps = has_stress_ramp(leg);
+    // An adaptive leg's next factor, every check_interval steps; the last step is cut to land on the end strain.
+    const auto adapt = [&](const std::optional<ContactMeasures>& measured) {
+      const AdaptiveRate& rule = *leg.adaptive;
+      double factor = c.rate_factor;
+      // Not over the leg's settle window (LegChecks): there the start's transient (the state's own unbalanced
+      // force, the servo settling on its targets) is not the loading's; the factor starts at 1.
+      if (c.leg_steps >= checks.settle && c.leg_steps % rule.check_interval == 0) {
+        const ContactMeasures m = measured ? *measured : measure_contacts(model, state);
+        const double p = state.normal_stress.sum() / 3.0;
+        factor = adapted_rate_factor(rule, factor, {m.unbalanced_force, m.kinetic_energy / m.elastic_energy,
+                                                    p > 0.0 ? inertial_number(deck_rate, mean_diameter, model.density, p) : 0.0});
+      }
+      factor = std::min(factor, watch.remaining_progress(state));
+      const bool changed = factor != c.rate_factor;
+      c.rate_factor = factor;
+      return changed;
+    };
     bool leg_over = watch.ended(model, state);  // on the state as it stands
     bool leg_done = leg_over;                   // (or an equilibrium leg that is not the last reached it)
     // After each step, on one thread; false to leave the steps' parallel region (the leg is over, or the
@@ -383,15 +429,26 @@ void run_program(const Model& model, const Program& program, State& state, Stage
                                   : "raise " + program.equilibrium_key + ".max_steps or relax its tolerances"));
         }
       }
+      // (a row due now reads the same measures as the rate check)
+      if (leg.adaptive && !contacts && c.leg_steps % leg.adaptive->check_interval == 0 && out.row_due(state))
+        contacts = measure_contacts(model, state);
+      const bool rate_changed = leg.adaptive && !leg_done && adapt(contacts);
+      // (an adaptive leg's steps are known only by running it: its share of the strain to go stands in)
+      const double share = watch.done_share(state);
       const double fraction = program.planned_steps > 0
                                   ? static_cast<double>(c.stage_steps) / static_cast<double>(program.planned_steps)
-                                  : -1.0;
+                              : std::isfinite(share) ? (c.leg + share) / static_cast<double>(program.legs.size())
+                                                     : -1.0;
       rebuild = out.after_step(state, fraction, status, contacts ? &*contacts : nullptr);
       leg_over = leg_done = watch.ended(model, state);  // for the next step
-      return !leg_over && !threads_changed;
+      return !leg_over && !threads_changed && !rate_changed;  // (a new rate: a new servo cap, below)
     };
-    while (!leg_done)
+    while (!leg_done) {
+      const Loading loading{leg.axes, program.friction, servo_cap(model.servo, leg, model.dt, c.rate_factor), leg.shear,
+                            leg.rotation};
+      state.driving_rate = deck_rate * c.rate_factor, state.driving_factor = c.rate_factor;
       advance_steps(model, loading, state, rebuild, after_step, program.adaptive_threads ? governor.current() : threads);
+    }
     if (c.leg_steps == 0)
       throw RunError(stage_name(program) + " " + leg_name(state) + " ended after 0 steps (its end condition "
                      "held when it started): give it an end it has to reach");

@@ -69,6 +69,23 @@ std::string control_kind(AxisMode mode);
 // (a strain control).
 AxisMode control_mode(const Leg& leg, int k);
 
+// The adaptive loading rate's rule (Leg::adaptive, checked every check_interval steps of the leg): u, the
+// largest of the unbalanced force ratio and the kinetic-to-elastic energy ratio over their targets, raises the
+// factor by kRateRaise while u < kRateCalm (well inside both targets: the packing keeps up with the loading),
+// lowers it by max(kRateLowerMost, 1/u) when u > 1 (or not finite), and holds it between. Then it is kept within
+// [min_factor, max_factor] and under the inertial-number ceiling (inertial_number / the inertial number at the
+// deck's rate). Raising by a quarter and lowering by at most a half: the stress-controlled axes' servo sees a
+// step in the driving rate at each change, and follows a quarter's step within a few hundred steps.
+inline constexpr double kRateRaise = 1.25;
+inline constexpr double kRateCalm = 0.5;
+inline constexpr double kRateLowerMost = 0.5;
+struct RateIndicators {
+  double unbalanced_force = 0.0;       // ratio (measure/micro.hpp ContactMeasures)
+  double kinetic_to_elastic = 0.0;     // kinetic over elastic energy
+  double inertial_at_deck_rate = 0.0;  // the inertial number of the leg at factor 1 (0: no ceiling)
+};
+double adapted_rate_factor(const AdaptiveRate& rule, double factor, const RateIndicators& now);
+
 struct Program {
   const std::vector<Leg>& legs;
   Friction friction;  // sliding and rolling

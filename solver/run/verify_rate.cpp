@@ -305,8 +305,12 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     // The test's legs up to the point's, which goes on from where the branch starts at its new rate (the servo
     // keeps its memory; the series' leg column stays the test's).
     std::vector<Leg> legs(test.legs.begin(), test.legs.begin() + start.leg + 1);
-    legs.back() = branch_leg(legs.back(), start, o.rate_factor, static_cast<double>(state.control.leg_steps) * model.dt);
+    // An adaptive leg's branch runs at a fixed rate: rate_factor times the rate the test had where the branch starts.
+    legs.back() = branch_leg(legs.back(), start, o.rate_factor * state.control.rate_factor,
+                             static_cast<double>(state.control.leg_steps) * model.dt);
+    legs.back().adaptive.reset();
     state.control.leg_steps = 0;
+    state.control.rate_factor = 1.0, state.control.leg_progress = 0.0;
     state.control.leg_start_strains = axis_strains(state);
     const std::int64_t from_step = state.control.stage_steps;
     const std::int64_t interval =

@@ -271,6 +271,16 @@ TEST(Plan, ShearStrainEndsAreKnownAheadFromWhereTheLegStarts) {
   const TestPlan p = plan_test(d, t);
   EXPECT_EQ(p.steps, 5000 + 300 + 6000);
   EXPECT_EQ(p.strain_per_step, 2e-6);  // the first leg's end axis, the shear axis
+  // An adaptive leg's steps lie between its fastest and its slowest rate; the next leg starts where it ends (its
+  // end strain), so its length is still known; the test's total and rows are known only by running.
+  t.legs[0].adaptive = AdaptiveRate{.min_factor = 0.5, .max_factor = 3.0};
+  const TestPlan adaptive = plan_test(d, t);
+  EXPECT_EQ(adaptive.legs[0].steps.low, 1667);  // ceil(5000 / 3)
+  EXPECT_EQ(adaptive.legs[0].steps.high, 10000);
+  EXPECT_TRUE(adaptive.legs[2].steps.exact());
+  EXPECT_EQ(adaptive.legs[2].steps.low, 6000);
+  EXPECT_EQ(adaptive.steps, -1);
+  EXPECT_EQ(adaptive.rows, -1);
 }
 
 }  // namespace

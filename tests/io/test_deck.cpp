@@ -888,6 +888,64 @@ TEST(DeckErrors, ShearAxesNameTheKey) {
 }
 
 // A stress_ramp axis: its target moves from `from` at `rate` (tests[].axes.xK.stress_ramp).
+Json ramp_deck();
+
+// tests[].adaptive_rate: beside axes (and in a program's leg), its defaults from the key table; refused where the
+// factor has no one meaning (stress ramps, rotations, a steps end), with nothing to drive, in the preparation,
+// with min_factor above max_factor, or with an unknown key, each naming the key.
+TEST(Deck, AdaptiveRateParsesAndIsRefusedWhereItMeansNothing) {
+  Json j = minimal_deck();
+  j["tests"][0]["adaptive_rate"] = {{"max_factor", 4}, {"unbalanced_force_ratio", 0.01}};
+  Deck d = parse_deck(j.dump());
+  ASSERT_TRUE(d.tests[0].legs[0].adaptive);
+  const AdaptiveRate& a = *d.tests[0].legs[0].adaptive;
+  EXPECT_EQ(a.max_factor, 4.0);
+  EXPECT_EQ(a.unbalanced_force_ratio, 0.01);
+  EXPECT_EQ(a.min_factor, keys::adaptive_min_factor.fallback);
+  EXPECT_EQ(a.kinetic_to_elastic, keys::adaptive_kinetic_to_elastic.fallback);
+  EXPECT_EQ(a.inertial_number, keys::adaptive_inertial_number.fallback);
+  EXPECT_EQ(a.check_interval, static_cast<std::int64_t>(keys::adaptive_check_interval.fallback));
+  EXPECT_FALSE(d.tests[1].legs[0].adaptive);
+  // In a program's leg.
+  Json legs = minimal_deck();
+  Json leg0 = {{"axes", legs["tests"][0]["axes"]}, {"end", legs["tests"][0]["end"]}, {"adaptive_rate", Json::object()}};
+  legs["tests"][0].erase("axes");
+  legs["tests"][0].erase("end");
+  legs["tests"][0]["legs"] = Json::array({leg0});
+  EXPECT_TRUE(parse_deck(legs.dump()).tests[0].legs[0].adaptive.has_value());
+  // Refusals.
+  Json e = j;
+  e["tests"][0]["adaptive_rate"] = {{"max_factor", 0.95}};  // (min_factor <= 1 <= max_factor: the key ranges)
+  expect_error(e, "tests[0].adaptive_rate.max_factor");
+  e["tests"][0]["adaptive_rate"] = {{"min_factor", 1.5}};
+  expect_error(e, "tests[0].adaptive_rate.min_factor");
+  e["tests"][0]["adaptive_rate"] = {{"min_factor", 1.0}, {"max_factor", 1.0}};
+  EXPECT_NO_THROW(parse_deck(e.dump()));  // a fixed rate, written the long way
+  e["tests"][0]["adaptive_rate"] = {{"speed", 2}};
+  expect_error(e, "tests[0].adaptive_rate.speed");
+  e["tests"][0]["adaptive_rate"] = {{"check_interval", 0}};
+  expect_error(e, "tests[0].adaptive_rate.check_interval");
+  e["tests"][0]["adaptive_rate"] = {{"unbalanced_force_ratio", 0}};
+  expect_error(e, "tests[0].adaptive_rate.unbalanced_force_ratio");
+  e = j;
+  e["tests"][0]["end"] = {{"steps", 1000}};
+  expect_error(e, "tests[0].adaptive_rate", "steps");
+  e = ramp_deck();
+  e["tests"][0]["adaptive_rate"] = Json::object();
+  expect_error(e, "tests[0].adaptive_rate", "stress_ramp");
+  e = minimal_deck();  // psc drives x3 at a rate: fine; with every axis on a stress: nothing to adapt
+  e["tests"][1]["adaptive_rate"] = Json::object();
+  EXPECT_NO_THROW(parse_deck(e.dump()));
+  e["tests"][1]["axes"] = {{"x1", {{"stress", 1e5}}}, {"x2", {{"strain_increment", 0.0}}}, {"x3", {{"stress", 1e5}}}};
+  e["tests"][1]["end"] = {{"ratio", 2.0}};
+  expect_error(e, "tests[1].adaptive_rate", "nothing to adapt");
+  e = minimal_deck();
+  e["prepare"] = Json::parse(R"({"target_pressure": 1e5, "legs": [
+      {"axes": {"x1": {"strain_increment": 1e-5}, "x2": {"strain_increment": 1e-5}, "x3": {"strain_increment": 1e-5}},
+       "end": {"solid_fraction": 0.5}, "adaptive_rate": {}}]})");
+  expect_error(e, "prepare.legs[0].adaptive_rate", "tests only");
+}
+
 Json ramp_deck() {
   Json j = minimal_deck();
   j["tests"][0]["axes"] = Json::parse(R"({"x1": {"stress_ramp": {"from": 1e5, "rate": 5e6}},

@@ -36,6 +36,7 @@ State sample_state() {
   s.time = 0.123;
   s.steps_since_creation = 1234567;
   s.control.leg_steps = 42;
+  s.control.leg_progress = 42.0;  // at the deck's rate (factor 1)
   s.control.leg = 1;
   s.control.stage_steps = 4242;
   s.control.leg_start_strains = Vec3(0.01, -0.002, 0.003);
@@ -139,6 +140,35 @@ TEST(StateFile, PhysicsRecordRoundTripsAndSetsFormatFive) {
   EXPECT_EQ(version, 2u);
   (void)parse_state(serialize_state(a, "prepared"), nullptr, &physics);
   EXPECT_EQ(physics, "");
+}
+
+// Format 6: a state inside an adaptive leg (a factor other than 1, or a progress other than its steps) keeps
+// the factor and the progress, so the leg resumes bit for bit; any other state is written as before.
+TEST(StateFile, AdaptiveRateRecordRoundTripsAsFormatSix) {
+  const std::string record = R"({"contact.kn":1000000.0})";
+  State a = sample_state();
+  a.control.rate_factor = 1.953125;
+  a.control.leg_progress = 57.3125;
+  const std::string bytes = serialize_state(a, "checkpoint:ttc", record);
+  std::uint32_t version = 0;
+  std::memcpy(&version, bytes.data() + 8, sizeof version);
+  EXPECT_EQ(version, 6u);
+  const State b = parse_state(bytes);
+  EXPECT_EQ(b.control.rate_factor, a.control.rate_factor);
+  EXPECT_EQ(b.control.leg_progress, a.control.leg_progress);
+  EXPECT_EQ(serialize_state(b, "checkpoint:ttc", record), bytes);
+  // At factor 1 a progress off its step count is still the adaptive record's (an adaptive leg back at 1).
+  a.control.rate_factor = 1.0;
+  std::memcpy(&version, serialize_state(a, "x", record).data() + 8, sizeof version);
+  EXPECT_EQ(version, 6u);
+  // Older formats read as the deck's rate: factor 1, progress = the leg's steps.
+  const State c = parse_state(serialize_state(sample_state(), "x", record));
+  EXPECT_EQ(c.control.rate_factor, 1.0);
+  EXPECT_EQ(c.control.leg_progress, 42.0);
+  // A factor that is not positive is refused (under a valid checksum: written by something else).
+  State bad = sample_state();
+  bad.control.rate_factor = -1.0;
+  EXPECT_THROW(parse_state(serialize_state(bad, "x", record)), StateFileError);
 }
 
 TEST(StateFile, WriteAndReadThroughAFile) {

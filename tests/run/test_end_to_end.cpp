@@ -198,8 +198,11 @@ TEST(EndToEnd, GradedSamplePreparesAndReportsItsCurve) {
 // Interrupted by SIGINT part-way (during the preparation or the test, whichever it happens to be), then
 // resumed: the series and states are byte-identical to an uninterrupted run's.
 // Runs the deck, then the same run stopped at about 40 % of its wall time and resumed: the same bytes.
-void expect_resume_to_same_bytes(const std::string& name, const std::string& text) {
-  const fs::path dir = test_dir(name);
+void expect_resume_to_same_bytes(const std::string& name, const std::string& text,
+                                 const std::vector<std::string>& files = {"prepared.state", "prepare/series.csv",
+                                                                          "ttc/series.csv", "ttc/final.state"},
+                                 const fs::path& in = {}) {
+  const fs::path dir = in.empty() ? test_dir(name) : in;
   const fs::path deck = dir / "deck.json";
   testing::write_bytes(deck, text);
 
@@ -230,8 +233,7 @@ void expect_resume_to_same_bytes(const std::string& name, const std::string& tex
   } else {
     GTEST_LOG_(INFO) << "the run finished before the signal: resume not exercised";
   }
-  for (const char* f : {"prepared.state", "prepare/series.csv", "ttc/series.csv", "ttc/final.state"})
-    EXPECT_EQ(read_bytes(out / f), read_bytes(dir / "ref" / f)) << f;
+  for (const std::string& f : files) EXPECT_EQ(read_bytes(out / f), read_bytes(dir / "ref" / f)) << f;
   for (const char* stage : {"prepare", "ttc"}) EXPECT_FALSE(fs::exists(out / stage / "checkpoint.state")) << stage;
 }
 
@@ -249,6 +251,27 @@ TEST(EndToEnd, InterruptedRunWithStageTimeStepsResumesToSameBytes) {
   text.replace(text.find("\"target_pressure\""), 0, "\"time_step\": 2.0e-6, ");
   text.replace(text.find("\"friction\": 0.5"), 0, "\"time_step\": 2.5e-6, ");
   expect_resume_to_same_bytes("resume_stage_time_steps", text);
+}
+
+// An adaptive leg (tests[].adaptive_rate) resumes exactly too: its factor and progress are in the checkpoint
+// (state format 6). The test starts from a prepared state, so that the signal falls in the adaptive leg.
+TEST(EndToEnd, InterruptedAdaptiveLegResumesToSameBytes) {
+  const fs::path dir = test_dir("resume_adaptive");
+  testing::write_bytes(dir / "prep.json", testing::small_deck_json(200, "[]"));
+  ASSERT_EQ(celldem(dir, run_args(dir / "prep.json", dir / "prep")).code, 0);
+  std::string text = testing::small_deck_json(200, R"([{"name": "ttc", "friction": 0.5,
+    "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+    "adaptive_rate": {"max_factor": 3, "unbalanced_force_ratio": 0.004, "check_interval": 50},
+    "end": {"axis": "x1", "strain": 0.02}, "output_interval": 100}])");
+  text.replace(text.find("\"time_step\""), 0, "\"checkpoint_interval\": 700,\n  ");
+  const auto at = text.find("\"prepare\"");
+  text.replace(at, text.find("}},", at) + 3 - at, "\"initial_state\": \"prep/prepared.state\",");
+  expect_resume_to_same_bytes("resume_adaptive", text, {"ttc/series.csv", "ttc/final.state"}, dir);
+  // The factor moved (else this is a fixed-rate resume).
+  double low = 1.0, high = 1.0;
+  for (const SeriesRow& r : testing::read_series(dir / "ref" / "ttc" / "series.csv"))
+    low = std::min(low, r.rate_factor), high = std::max(high, r.rate_factor);
+  EXPECT_LT(low, high);
 }
 
 // --tolerance: the run records the tolerance and each stage's resolved settings, writes the deck it ran,

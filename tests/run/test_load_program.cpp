@@ -89,6 +89,20 @@ const std::string kTests = R"([
       "rotate_principal_axes": {"plane": "x1x3", "sigma1": 1.5e5, "sigma3": 1e5, "from": 0,
                                 "angle_increment": 0.0075},
       "end": {"steps": 12000}}]},
+  {"name": "adaptive_fast", "friction": 0.5, "output_interval": 100,
+   "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+   "adaptive_rate": {"max_factor": 4, "unbalanced_force_ratio": 1, "kinetic_to_elastic": 1, "inertial_number": 1,
+                     "check_interval": 100},
+   "end": {"axis": "x1", "strain": 0.008}},
+  {"name": "adaptive_slow", "friction": 0.5, "output_interval": 100,
+   "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+   "adaptive_rate": {"min_factor": 0.5, "unbalanced_force_ratio": 1e-9, "check_interval": 100},
+   "end": {"axis": "x1", "strain": 0.004}},
+  {"name": "adaptive_ceiling", "friction": 0.5, "output_interval": 100,
+   "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}},
+   "adaptive_rate": {"max_factor": 100, "unbalanced_force_ratio": 1, "kinetic_to_elastic": 1, "inertial_number": 1.2e-3,
+                     "check_interval": 100},
+   "end": {"axis": "x1", "strain": 0.008}},
   {"name": "ramp_path", "friction": 0.5, "output_interval": 200,
    "axes": {"x1": {"strain_increment": 1e-6}, "x2": {"stress_ramp": {"from": 1e5, "rate": -5e6}},
             "x3": {"stress_ramp": {"from": 1e5, "rate": -5e6}}},
@@ -477,6 +491,95 @@ TEST(LoadProgram, StressRampFailuresAndPlan) {
       EXPECT_FALSE(t["legs"][0].contains("ramp_target_steps"));
     }
   }
+}
+
+// The adaptive rule (run/program.hpp adapted_rate_factor) on its own: raised by a quarter while both indicators
+// sit under half their targets, held between, lowered by 1/u (at most halved) above, kept in its bounds and
+// under the inertial-number ceiling; an indicator that is not a number (no contacts) lowers it.
+TEST(AdaptiveRate, RuleRaisesHoldsLowersAndClamps) {
+  AdaptiveRate rule;
+  rule.min_factor = 0.25, rule.max_factor = 8.0, rule.unbalanced_force_ratio = 0.01, rule.kinetic_to_elastic = 1e-3;
+  rule.inertial_number = 1e-3;
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.004, 1e-4, 0.0}), 2.5);       // u = 0.4: calm
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.007, 1e-4, 0.0}), 2.0);       // u = 0.7: held
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.004, 8e-4, 0.0}), 2.0);       // the energy's u = 0.8
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.0125, 1e-4, 0.0}), 1.6);      // u = 1.25: x 1/1.25
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.05, 1e-4, 0.0}), 1.0);        // u = 5: at most halved
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {NAN, 1e-4, 0.0}), 1.0);         // no measure: halved
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 7.5, {0.001, 1e-5, 0.0}), 8.0);       // max_factor
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 0.3, {0.05, 1e-4, 0.0}), 0.25);       // min_factor
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 4.0, {0.001, 1e-5, 4e-4}), 2.5);      // the ceiling 1e-3 / 4e-4
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 4.0, {0.001, 1e-5, 1e-2}), 0.25);     // a ceiling below min_factor
+}
+
+// An adaptive leg on a real packing, with targets it always meets (calm): the factor stays 1 over the settle
+// window (0.2 % of driving strain), then rises by a quarter per check to max_factor; each row's strain
+// increments are its factor times the deck's, the last step is cut to land on the end strain, and the step count
+// is the rule's, computed here independently. The stress controls hold at every rate.
+TEST(AdaptiveRate, CalmLegSpeedsUpToItsMaxAndLandsOnItsEndStrain) {
+  const ProgramRun& run = program_run();
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "adaptive_fast" / "series.csv");
+  ASSERT_GT(rows.size(), 10u);
+  // The rule's steps: 2000 at factor 1, then x 1.25 every 100 steps up to 4, the last step cut.
+  double progress = 0.0, factor = 1.0;
+  std::int64_t steps = 0;
+  while (progress < 8000.0 * (1.0 - 1e-12)) {
+    if (steps >= 2000 && steps % 100 == 0) factor = std::min(4.0, factor * 1.25);
+    progress += std::min(factor, 8000.0 - progress);
+    ++steps;
+  }
+  EXPECT_EQ(rows.back().step, static_cast<double>(steps));
+  EXPECT_LT(steps, 3000 + 5000 / 3);  // well under the 8000 steps at the deck's rate
+  EXPECT_NEAR(rows.back().e1, 0.008, 1e-12);
+  int at_max = 0;
+  for (std::size_t k = 1; k < rows.size(); ++k) {
+    const SeriesRow& r = rows[k];
+    if (r.step <= 2000) {
+      EXPECT_EQ(r.rate_factor, 1.0) << r.step;
+    }
+    EXPECT_NEAR(r.strain_rate, r.rate_factor * 1.0, 1e-9) << r.step;  // 1e-6 per step at dt 1e-6: 1 /s
+    if (k + 1 < rows.size()) {  // each row's 100 steps ran at its factor (the last row's include the cut step)
+      EXPECT_NEAR(r.e1 - rows[k - 1].e1, r.rate_factor * 1e-6 * (r.step - rows[k - 1].step), 1e-12) << r.step;
+    }
+    at_max += r.rate_factor == 4.0;
+    if (r.e1 > 0.003) {  // past the first changes of rate: the servo holds its axes at every rate
+      EXPECT_NEAR(r.s22, 1e5, 1000.0) << r.step;
+      EXPECT_NEAR(r.s33, 1e5, 1000.0) << r.step;
+    }
+  }
+  EXPECT_GT(at_max, 5);
+  const Json& test = run.summary["tests"]["adaptive_fast"];
+  // (At factor 4, 4e-6 per step on 300 spheres, I = 2.4e-3, single steps pass 0.5 %: the control does not fail.)
+  EXPECT_TRUE(test["controlled"].get<bool>()) << test["control_failures"].dump();
+  EXPECT_LT(test["servo_max_error"].get<double>(), 0.01);
+}
+
+// Targets it never meets: after the settle window the factor falls to min_factor and stays there; 2000 steps at
+// 1e-6, then 2000e-6 of strain at 0.5e-6 per step.
+TEST(AdaptiveRate, UnmetTargetsSlowTheLegToItsMin) {
+  const ProgramRun& run = program_run();
+  const std::vector<SeriesRow> rows = read_series(run.dir / "run" / "adaptive_slow" / "series.csv");
+  EXPECT_EQ(rows.back().step, 6000.0);
+  EXPECT_NEAR(rows.back().e1, 0.004, 1e-12);
+  for (const SeriesRow& r : rows)
+    if (r.step > 2000) {
+      EXPECT_EQ(r.rate_factor, 0.5) << r.step;
+    }
+}
+
+// The inertial-number ceiling binds: after the settle window the rate sits at the ceiling (each row's inertial
+// number, measured from its own mean stress, within 3 % of it, never above), though the targets would let it
+// climb to max_factor.
+TEST(AdaptiveRate, InertialNumberCeilingBinds) {
+  const ProgramRun& run = program_run();
+  double highest = 0.0;
+  for (const SeriesRow& r : read_series(run.dir / "run" / "adaptive_ceiling" / "series.csv")) {
+    if (r.step <= 3000) continue;  // the settle window and the climb
+    EXPECT_LT(r.inertial_number, 1.2e-3 * 1.03) << r.step;
+    highest = std::max(highest, r.inertial_number);
+    EXPECT_LT(r.rate_factor, 100.0) << r.step;
+  }
+  EXPECT_GT(highest, 1.2e-3 * 0.97);
 }
 
 }  // namespace
