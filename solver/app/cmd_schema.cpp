@@ -107,6 +107,11 @@ Json legs_json(const std::vector<Leg>& legs, const std::vector<LegPlan>& plans) 
                    {"steps", {{"low", p.steps.low}, {"high", known(p.steps.high)}}}, {"rows", known(p.rows)},
                    {"driving_increment", d}, {"driving_rate", p.driving_rate}, {"servo_cap", cap}, {"servo", p.servo},
                    {"cap_ratio", d > 0.0 ? Json(cap / d) : Json(nullptr)}});
+    if (const std::optional<AdaptiveRate>& a = legs[k].adaptive)
+      out.back()["adaptive_rate"] = {{"min_factor", a->min_factor}, {"max_factor", a->max_factor},
+                                     {"unbalanced_force_ratio", a->unbalanced_force_ratio},
+                                     {"kinetic_to_elastic", a->kinetic_to_elastic},
+                                     {"inertial_number", a->inertial_number}, {"check_interval", a->check_interval}};
   }
   return out;
 }
@@ -446,6 +451,12 @@ Command add_plan_command(CLI::App& app) {
         std::printf("    leg %zu: %s, %s steps, %s rows", j, describe_end(leg["end"]).c_str(), range(leg["steps"]).c_str(),
                     count(leg["rows"]).c_str());
         if (d > 0.0) std::printf("; driving %.3g per step (%.3g /s)", d, leg["driving_rate"].get<double>());
+        if (const Json& a = leg.value("adaptive_rate", Json()); a.is_object())
+          std::printf(" x an adaptive factor %.3g to %.3g (targets: unbalanced force %.3g, kinetic/elastic %.3g, "
+                      "inertial number <= %.3g; checked every %lld steps)",
+                      a["min_factor"].get<double>(), a["max_factor"].get<double>(),
+                      a["unbalanced_force_ratio"].get<double>(), a["kinetic_to_elastic"].get<double>(),
+                      a["inertial_number"].get<double>(), static_cast<long long>(a["check_interval"].get<std::int64_t>()));
         if (leg["servo"].get<bool>()) {
           std::printf("; servo cap %.3g", cap);
           if (d > 0.0)

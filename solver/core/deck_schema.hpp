@@ -380,8 +380,9 @@ inline constexpr KeySpec adaptive_kinetic_to_elastic{.path = "tests[].adaptive_r
     .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 3e-4,
     .meaning = "target of the kinetic over the elastic energy of the contacts (series `kinetic_to_elastic`)"};
 inline constexpr KeySpec adaptive_inertial_number{.path = "tests[].adaptive_rate.inertial_number",
-    .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 1e-3,
-    .meaning = "ceiling on the inertial number rate d_mean sqrt(rho / p) (rate the fastest axis's, p the mean stress)"};
+    .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 5e-4,
+    .meaning = "ceiling on the inertial number rate d_mean sqrt(rho / p) (rate the fastest axis's, p the mean stress; "
+               "the default is half the quasi-static limit 1e-3)"};
 inline constexpr KeySpec adaptive_check_interval{.path = "tests[].adaptive_rate.check_interval",
     .kind = KeyKind::Integer, .min = 1, .max = kMaxCount, .required = false, .fallback = 200,
     .meaning = "steps between the rate's checks"};

@@ -144,8 +144,24 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
   const ControlErrorMaxima worst = control_error_maxima(errors);
-  const double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density,
-                                         mean_p);
+  double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density, mean_p);
+  // An adaptive rate: the rates it ran at, from the series (the rows' factors and inertial numbers), against the
+  // steps the deck's rate would take.
+  const bool adaptive = std::any_of(test.legs.begin(), test.legs.end(), [](const Leg& leg) { return leg.adaptive.has_value(); });
+  Json adaptive_record;
+  if (adaptive && rows.size() > 1) {
+    double low = INFINITY, high = 0.0, fastest = 0.0;
+    for (std::size_t k = 1; k < rows.size(); ++k)
+      low = std::min(low, rows[k].rate_factor), high = std::max(high, rows[k].rate_factor),
+      fastest = std::max(fastest, rows[k].inertial_number);
+    inertia = fastest;
+    std::int64_t at_deck_rate = 0;
+    for (const std::int64_t n : program_leg_steps(test.legs, deck.stage_time_step(test)))
+      at_deck_rate = n < 0 || at_deck_rate < 0 ? -1 : at_deck_rate + n;
+    adaptive_record = {{"factor_min", low}, {"factor_max", high}, {"inertial_number_max", fastest},
+                       {"steps_at_deck_rate", at_deck_rate >= 0 ? Json(at_deck_rate) : Json(nullptr)},
+                       {"step_ratio", at_deck_rate > 0 && steps > 0 ? Json(static_cast<double>(at_deck_rate) / steps) : Json(nullptr)}};
+  }
   for (const std::string& w : test_warnings(test, inertia)) warnings.push_back(w);
   for (const std::string& w : control_warnings(test, errors)) warnings.push_back(w);
   Json failures = Json::array();
@@ -165,6 +181,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
               {"steps", steps},
               {"wall_s", wall},
               {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}});
+  if (!adaptive_record.is_null()) out["adaptive_rate"] = adaptive_record;
   return out;
 }
 
