@@ -234,6 +234,10 @@ TEST_PANELS = (
     Panel("fabric ratio (–)", (("H11_H33", 1.0, "-", r"$H_{11}/H_{33}$"), ("Hs11_Hs33", 1.0, "--", "strong"),
                                ("Hw11_Hw33", 1.0, ":", "weak"))),
     Panel(r"dilatancy index $-d\varepsilon_v/d\varepsilon_1$ (–)", (("DI", 1.0, "-", None),)),
+    # The rate it ran at (an adaptive leg's varies: tests[].adaptive_rate) and the quasi-static indicators.
+    Panel("loading rate and quasi-static indicators (–)",
+          (("inertial_number", 1.0, "-", "inertial number"), ("unbalanced_force", 1.0, "--", "unbalanced force ratio"),
+           ("kinetic_to_elastic", 1.0, ":", "kinetic / elastic energy")), log=True),
 )
 
 PREPARE_PANELS = (
