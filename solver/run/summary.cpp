@@ -151,9 +151,12 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   Json adaptive_record;
   if (adaptive && rows.size() > 1) {
     double low = INFINITY, high = 0.0, fastest = 0.0;
-    for (std::size_t k = 1; k < rows.size(); ++k)
-      low = std::min(low, rows[k].rate_factor), high = std::max(high, rows[k].rate_factor),
+    for (std::size_t k = 1; k < rows.size(); ++k) {
       fastest = std::max(fastest, rows[k].inertial_number);
+      // (a leg's end row ran the step cut to land on its end strain: not a factor the rule chose)
+      if (k + 1 < rows.size() && rows[k + 1].leg == rows[k].leg)
+        low = std::min(low, rows[k].rate_factor), high = std::max(high, rows[k].rate_factor);
+    }
     inertia = fastest;
     std::int64_t at_deck_rate = 0;
     for (const std::int64_t n : program_leg_steps(test.legs, deck.stage_time_step(test)))

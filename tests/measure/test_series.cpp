@@ -60,7 +60,8 @@ TEST(SeriesRow, HeaderIsTheDocumentedColumnList) {
             "step,time,e1,e2,e3,ev,s11,s22,s33,s12,s13,s23,p,q,ratio13,b,sin_phi,DI,void_ratio,Z,Zm,"
             "sliding_fraction,n_contacts,n_strong,H11,H22,H33,H12,H13,H23,Hs11,Hs22,Hs33,Hw11,Hw22,Hw33,H11_H33,"
             "Hs11_Hs33,Hw11_Hw33,kinetic_energy,unbalanced_force,leg,sigma1,sigma2,sigma3,b_principal,"
-            "ratio_principal,lode_angle,Zm_frictionless,g12,g13,g23\n");
+            "ratio_principal,lode_angle,Zm_frictionless,g12,g13,g23,rate_factor,strain_rate,inertial_number,"
+            "kinetic_to_elastic\n");
   for (const SeriesColumn& c : series_columns()) {
     EXPECT_FALSE(c.unit.empty()) << c.name;
     EXPECT_FALSE(c.meaning.empty()) << c.name;
