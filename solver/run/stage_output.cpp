@@ -85,21 +85,33 @@ void StageOutput::snapshot_if_due(const State& state, bool force) {
   if (due) snapshots_->write(state, s, static_cast<double>(s) * model_.dt);
 }
 
-void StageOutput::write_peak_contacts(const State& state, const SeriesRow& row) {
-  std::string text = "x_i,y_i,z_i,x_j,y_j,z_j,normal_force,sliding\n";
-  char buf[256];
+void StageOutput::keep_peak_contacts(const State& state, const SeriesRow& row) {
+  PeakContacts peak;
   for (const ContactSnapshot& c : touching_contacts(state)) {
     const Vec3 a = wrapped_position(state.cell, state.particles.scaled[c.i]), b = a + c.branch;
-    std::snprintf(buf, sizeof buf, "%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%d\n", a[0], a[1], a[2], b[0], b[1],
-                  b[2], c.normal_force, c.sliding ? 1 : 0);
+    peak.rows.push_back({a[0], a[1], a[2], b[0], b[1], b[2], c.normal_force});
+    peak.sliding.push_back(c.sliding ? 1 : 0);
+  }
+  const Mat3& h = state.cell.h;
+  peak.meta = {{"step", state.control.stage_steps}, {"e1", row.e1}, {"ratio13", row.ratio13},
+               {"cell", {{h(0, 0), h(0, 1), h(0, 2)}, {h(1, 0), h(1, 1), h(1, 2)}, {h(2, 0), h(2, 1), h(2, 2)}}},
+               {"columns", "contact from the wrapped centre of i to the image of j; normal force [N]"}};
+  unwritten_peak_ = std::move(peak);
+}
+
+void StageOutput::write_peak_contacts() {
+  if (!unwritten_peak_) return;
+  std::string text = "x_i,y_i,z_i,x_j,y_j,z_j,normal_force,sliding\n";
+  char buf[256];
+  for (std::size_t k = 0; k < unwritten_peak_->rows.size(); ++k) {
+    const std::array<double, 7>& r = unwritten_peak_->rows[k];
+    std::snprintf(buf, sizeof buf, "%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%d\n", r[0], r[1], r[2], r[3], r[4], r[5],
+                  r[6], unwritten_peak_->sliding[k]);
     text += buf;
   }
   write_file_atomic(dir_ / "peak_contacts.csv", text);
-  const Mat3& h = state.cell.h;
-  const nlohmann::json meta = {{"step", state.control.stage_steps}, {"e1", row.e1}, {"ratio13", row.ratio13},
-                               {"cell", {{h(0, 0), h(0, 1), h(0, 2)}, {h(1, 0), h(1, 1), h(1, 2)}, {h(2, 0), h(2, 1), h(2, 2)}}},
-                               {"columns", "contact from the wrapped centre of i to the image of j; normal force [N]"}};
-  write_file_atomic(dir_ / "peak_contacts.json", meta.dump(1));
+  write_file_atomic(dir_ / "peak_contacts.json", unwritten_peak_->meta.dump(1));
+  unwritten_peak_.reset();
 }
 
 bool StageOutput::after_step(const State& state, double fraction, const std::string& status,
@@ -137,6 +149,7 @@ void StageOutput::end_leg(const State& state) {
 
 void StageOutput::finish(const State& state) {
   end_leg(state);
+  write_peak_contacts();
   if (snapshots_) snapshots_->write(state, state.control.stage_steps, state.control.stage_steps * model_.dt);
   // The centred dilatancy index needs every row: now the series is rewritten whole with it (atomically:
   // the file holds the rows with or without DI, never a mix).
@@ -165,12 +178,13 @@ void StageOutput::write_row(const State& state, const ContactMeasures* measured)
   rows_.push_back(as_printed(row));
   if (loading_test_ && !branch_ && rows_.back().ratio13 > best_ratio_) {
     best_ratio_ = rows_.back().ratio13;
-    write_peak_contacts(state, rows_.back());
+    keep_peak_contacts(state, rows_.back());
   }
   if (row_observer_) row_observer_(state, rows_.back());
 }
 
 void StageOutput::checkpoint(const State& state) {
+  write_peak_contacts();  // (before the state: a resumed run's peak file is never older than its checkpoint)
   write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_));
   nlohmann::json errors = nlohmann::json::array();
   for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));

@@ -3,10 +3,12 @@
 // them, and for a loading test the contact network of its peak row (peak_contacts.csv, rewritten at each
 // new largest s11/s33, for the report's force-chain picture).
 #pragma once
+#include <array>
 #include <chrono>
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -70,7 +72,11 @@ class StageOutput {
   void write_row(const State& state, const ContactMeasures* contacts = nullptr);
   void checkpoint(const State& state);
   void snapshot_if_due(const State& state, bool force);
-  void write_peak_contacts(const State& state, const SeriesRow& row);
+  // The contacts of the row with the largest s11/s33 so far are kept in memory and written (peak_contacts.csv
+  // and .json) at the next checkpoint or when the stage ends: a test's rising part makes a new peak at every
+  // row, and formatting each one's contacts cost about a tenth of a short run's time.
+  void keep_peak_contacts(const State& state, const SeriesRow& row);
+  void write_peak_contacts();
 
   RunDirectory& run_;
   const Deck& deck_;
@@ -92,6 +98,12 @@ class StageOutput {
   std::unique_ptr<SnapshotWriter> snapshots_;
   std::size_t next_e1_snapshot_ = 0;
   double best_ratio_ = -1.0;  // the largest s11/s33 of a row so far (its contacts: peak_contacts.csv)
+  struct PeakContacts {
+    std::vector<std::array<double, 7>> rows;  // x_i, y_i, z_i, x_j, y_j, z_j, normal force
+    std::vector<char> sliding;
+    nlohmann::json meta;
+  };
+  std::optional<PeakContacts> unwritten_peak_;  // kept since the last write
   std::function<void(const State&, const SeriesRow&)> row_observer_;
   bool branch_ = false;
 };
