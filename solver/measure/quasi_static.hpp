@@ -35,5 +35,12 @@ inline double inertial_number(double strain_rate, double diameter, double densit
   return mean_stress > 0.0 ? strain_rate * diameter * std::sqrt(density / mean_stress) : INFINITY;
 }
 inline constexpr double kQuasiStaticInertia = 1e-3;
+// [m] the particles' mean diameter, the d of a running stage's inertial number (series `inertial_number`, the
+// adaptive rate's ceiling); 0 without particles.
+inline double mean_particle_diameter(const Particles& p) {
+  double sum = 0.0;
+  for (const double r : p.radius) sum += 2.0 * r;
+  return p.size() ? sum / static_cast<double>(p.size()) : 0.0;
+}
 
 }  // namespace celldem

@@ -188,11 +188,9 @@ SeriesRow series_row(const Model& model, const State& state, const ContactMeasur
   r.ratio_principal = ratio(r.sigma1, r.sigma3);
   r.rate_factor = state.driving_factor;
   r.strain_rate = state.driving_rate;
-  double mean_diameter = 0.0;
-  for (const double radius : state.particles.radius) mean_diameter += 2.0 * radius;
-  mean_diameter /= static_cast<double>(std::max<std::size_t>(1, state.particles.size()));
   r.inertial_number = state.driving_rate == 0.0 ? 0.0
-                      : inv.p > 0.0 ? inertial_number(state.driving_rate, mean_diameter, model.density, inv.p)
+                      : inv.p > 0.0 ? inertial_number(state.driving_rate, mean_particle_diameter(state.particles),
+                                                      model.density, inv.p)
                                     : std::numeric_limits<double>::quiet_NaN();
   r.kinetic_to_elastic = ratio(m.kinetic_energy, m.elastic_energy);
   r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /

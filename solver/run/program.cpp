@@ -358,9 +358,7 @@ void run_program(const Model& model, const Program& program, State& state, Stage
   std::vector<double> planned_from;
   program_leg_steps(program.legs, model.dt, &planned_from);
   // The adaptive rate's inertial number: the sample's mean diameter and density (measure/quasi_static.hpp).
-  double mean_diameter = 0.0;
-  for (const double r : state.particles.radius) mean_diameter += 2.0 * r;
-  mean_diameter /= static_cast<double>(std::max<std::size_t>(1, state.particles.size()));
+  const double mean_diameter = mean_particle_diameter(state.particles);
   for (;;) {
     const Leg& leg = program.legs[c.leg];
     const LegEndWatch watch(leg, model, state, stage_name(program) + " " + leg_name(state));
