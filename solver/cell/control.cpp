@@ -22,17 +22,22 @@ void begin_stage(State& state) {
     state.control.reference_tilts[a] = state.cell.h(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
 }
 
+void restart_leg(State& state) {
+  ControlState& c = state.control;
+  c.leg_steps = 0;
+  c.leg_progress = 0.0;
+  c.rate_factor = 1.0;
+  c.leg_start_strains = axis_strains(state);
+  c.leg_start_shear = shear_strains(state);
+}
+
 void begin_leg(State& state, int leg) {
   ControlState& c = state.control;
   c.leg = leg;
-  c.leg_steps = 0;
-  c.leg_start_strains = axis_strains(state);
+  restart_leg(state);
   c.leg_start_volume = state.cell.volume();
   c.servo_integral = Vec3::Zero();
-  c.leg_start_shear = shear_strains(state);
   c.shear_servo_integral = Vec3::Zero();
-  c.rate_factor = 1.0;
-  c.leg_progress = 0.0;
 }
 
 Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, double leg_time) {

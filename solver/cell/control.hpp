@@ -65,6 +65,10 @@ void begin_stage(State& state);
 // Starts leg `leg` of the stage's program where the previous one ended: its steps count afresh, its
 // strain-driven axes start from their present strains, the servo's memory is cleared.
 void begin_leg(State& state, int leg);
+// The current leg goes on from the state as it stands at another rate (a rate check's branch): its steps and
+// progress count afresh at factor 1 and its strain-driven axes, normal and shear, start from their present
+// strains; the servo keeps its memory and a constant-volume axis the leg's volume.
+void restart_leg(State& state);
 
 // The target stresses of the stress-driven axes for the stresses s at `leg_time` [s] after the leg start (it
 // moves stress_ramp targets only; NaN for axes that are not stress-driven).

@@ -309,9 +309,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     legs.back() = branch_leg(legs.back(), start, o.rate_factor * state.control.rate_factor,
                              static_cast<double>(state.control.leg_steps) * model.dt);
     legs.back().adaptive.reset();
-    state.control.leg_steps = 0;
-    state.control.rate_factor = 1.0, state.control.leg_progress = 0.0;
-    state.control.leg_start_strains = axis_strains(state);
+    restart_leg(state);
     const std::int64_t from_step = state.control.stage_steps;
     const std::int64_t interval =
         std::max<std::int64_t>(1, std::llround(static_cast<double>(test.output_interval) / o.rate_factor));

@@ -250,6 +250,18 @@ TEST(Control, ShearStrainFollowsItsIncrementsExactlyAndUnnamedTiltsAreHeld) {
   for (int k = 0; k < 500; ++k) advance_cell(model, back, s);
   EXPECT_NEAR(shear_strains(s)[0], 0.2 - 0.05, 1e-14);
   EXPECT_EQ(s.cell.h(0, 2), tilt13);
+  // The same leg restarted where it stands (a rate check's branch, at half the rate): its normal and shear axes go
+  // on from their present strains by the new increments, the servo's memory kept.
+  s.control.servo_integral = Vec3(1.0, 2.0, 3.0);
+  restart_leg(s);
+  EXPECT_EQ(s.control.leg_steps, 0);
+  Loading half = back;
+  half.axes[0].value = 0.5e-4;
+  half.shear[0]->value = -0.5e-4;
+  for (int k = 0; k < 200; ++k) advance_cell(model, half, s);
+  EXPECT_NEAR(shear_strains(s)[0], 0.15 - 0.01, 1e-14);
+  EXPECT_NEAR(axis_strains(s)[0], 0.1 + 0.05 + 0.01, 1e-14);
+  EXPECT_EQ(s.control.servo_integral, Vec3(1.0, 2.0, 3.0));
 }
 
 // One shear servo step by hand: err = target - s_ij, dg = (gain err + integral_gain (I + err)) / K_ij,
