@@ -577,9 +577,8 @@ Leg read_leg(ObjectReader& r, bool preparation) {
         fail(at, "not with the stress_ramp of axis " + std::string(kAxisNames[k]) + " (its target moves with time)");
     if (leg.end.kind == LegEndKind::Steps)
       fail(at, "not with a `steps` end (the factor would change the leg's strain): end the leg on a strain, ratio or stress");
-    bool drives = false;
-    for (int k = 0; k < 3; ++k) drives |= leg.strain_per_step(k, 1.0) != 0.0 || leg.shear_strain_per_step(k, 1.0) != 0.0;
-    if (!drives) fail(at, "the leg drives no axis by a non-zero strain increment or rate: nothing to adapt");
+    if (leg_driving_increment(leg, 1.0) == 0.0)
+      fail(at, "the leg drives no axis by a non-zero strain increment or rate: nothing to adapt");
   }
   return leg;
 }

@@ -616,11 +616,8 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     // What the set says (stiffness, linearity, the plastic reading) only from a whole set that held its controls:
     // a probe whose stress or strain left its target did not probe the direction it names.
     const bool whole = failed == 0 && missing == 0 && controlled == ran;
-    entry["status"] = missing > 0          ? "partly run"
-                      : failed > 0         ? "ran with failures"
-                      : controlled < ran   ? "ran with uncontrolled probes"
-                                           : "ran";
-    if (missing == 0 && failed == 0 && controlled < ran)
+    entry["status"] = missing > 0 ? "partly run" : failed > 0 ? "ran with failures" : whole ? "ran" : "ran with uncontrolled probes";
+    if (entry["status"] == "ran with uncontrolled probes")
       entry["reason"] = std::to_string(ran - controlled) + " probes lost their control (result.json control_errors): "
                         "the set's stiffness, linearity and plastic reading are not given";
     entry["probes"] = ran + failed;

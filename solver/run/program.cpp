@@ -203,9 +203,8 @@ struct LegChecks {
   bool checked = false;          // whether the leg's errors are measured at all
   std::int64_t settle = 0;       // steps before the errors count
   std::int64_t persist = 0;      // consecutive steps above tolerance that fail a control
-  double cap = 0.0;              // the servo's cap of this leg
   LegChecks(const Leg& leg, const Model& model)
-      : driving(leg_driving_increment(leg, model.dt)), cap(servo_cap(model.servo, leg, model.dt)) {
+      : driving(leg_driving_increment(leg, model.dt)) {
     if (driving == 0.0 && has_stress_ramp(leg)) {
       checked = true;
       settle = kRampSettleSteps;
@@ -303,9 +302,10 @@ int spent_ramp(const Leg& leg, double dt, const State& state) {
 }
 
 // What the failed control of axis k says: where, how far, and what to change (the servo sat at its cap for
-// most of the steps out of tolerance: the cap or the rate; else the gains or the rate).
-std::string control_failure_message(const Program& program, int leg_index, const LegChecks& checks,
-                                    const ControlErrors& e, int k, const ServoDef& servo) {
+// most of the steps out of tolerance: the cap or the rate; else the gains or the rate). `cap`: the cap the steps
+// ran with (an adaptive leg's follows its rate).
+std::string control_failure_message(const Program& program, int leg_index, double cap, const ControlErrors& e, int k,
+                                    const ServoDef& servo) {
   const Leg& leg = program.legs[static_cast<std::size_t>(leg_index)];
   const AxisMode mode = control_mode(leg, k);
   const bool relative = mode != AxisMode::B;
@@ -319,9 +319,9 @@ std::string control_failure_message(const Program& program, int leg_index, const
   if (mode == AxisMode::ConstantVolume) return m + " (the volume hold is exact: report this as a bug)";
   if (2 * e.over_saturated[k] > e.over_steps[k])
     return m + "; the servo's increment sat at its cap in " + std::to_string(e.over_saturated[k]) +
-           " of these steps: raise servo.max_strain_increment (now " + fmt(checks.cap) +
+           " of these steps: raise servo.max_strain_increment (now " + fmt(cap) +
            (servo.max_strain_increment_given ? "" : ", the default for this leg") + ") or lower the strain rate";
-  return m + "; the servo was not at its cap (" + fmt(checks.cap) +
+  return m + "; the servo was not at its cap (" + fmt(cap) +
          "): raise servo.gain/integral_gain (now " + fmt(servo.gain) + "/" + fmt(servo.integral_gain) +
          ") or lower the rate";
 }
@@ -366,15 +366,16 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     const double deck_rate = leg_driving_increment(leg, model.dt) / model.dt;  // [1/s] at factor 1
     const bool ramps = has_stress_ramp(leg);
     // An adaptive leg's next factor, every check_interval steps; the last step is cut to land on the end strain.
-    const auto adapt = [&](const std::optional<ContactMeasures>& measured) {
+    // The contacts it measures are the step's (a row due now reads them too).
+    const auto adapt = [&](std::optional<ContactMeasures>& contacts) {
       const AdaptiveRate& rule = *leg.adaptive;
       double factor = c.rate_factor;
       // Not over the leg's settle window (LegChecks): there the start's transient (the state's own unbalanced
       // force, the servo settling on its targets) is not the loading's; the factor starts at 1.
       if (c.leg_steps >= checks.settle && c.leg_steps % rule.check_interval == 0) {
-        const ContactMeasures m = measured ? *measured : measure_contacts(model, state);
+        if (!contacts) contacts = measure_contacts(model, state);
         const double p = state.normal_stress.sum() / 3.0;
-        factor = adapted_rate_factor(rule, factor, {m.unbalanced_force, m.kinetic_energy / m.elastic_energy,
+        factor = adapted_rate_factor(rule, factor, {contacts->unbalanced_force, contacts->kinetic_energy / contacts->elastic_energy,
                                                     p > 0.0 ? inertial_number(deck_rate, mean_diameter, model.density, p) : 0.0});
       }
       factor = std::min(factor, watch.remaining_progress(state));
@@ -394,7 +395,8 @@ void run_program(const Model& model, const Program& program, State& state, Stage
                        " steps of the leg: end the leg before (end.stress or end.steps)");
       ControlErrors& e = errors[c.leg];
       if (const int k = track_errors(leg, checks, model.dt, state, e); k >= 0) {
-        const std::string message = control_failure_message(program, c.leg, checks, e, k, model.servo);
+        const std::string message = control_failure_message(
+            program, c.leg, servo_cap(model.servo, leg, model.dt, state.driving_factor), e, k, model.servo);
         if (program.control_failure == ControlFailure::Stop)
           throw RunError(message + ". The last checkpoint is kept; with \"control_failure\": \"warn\" the run goes on "
                          "and marks the test uncontrolled");
@@ -427,9 +429,6 @@ void run_program(const Model& model, const Program& program, State& state, Stage
                                   : "raise " + program.equilibrium_key + ".max_steps or relax its tolerances"));
         }
       }
-      // (a row due now reads the same measures as the rate check)
-      if (leg.adaptive && !contacts && c.leg_steps % leg.adaptive->check_interval == 0 && out.row_due(state))
-        contacts = measure_contacts(model, state);
       const bool rate_changed = leg.adaptive && !leg_done && adapt(contacts);
       // (an adaptive leg's steps are known only by running it: its share of the strain to go stands in)
       const double share = watch.done_share(state);

@@ -150,18 +150,18 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   const bool adaptive = std::any_of(test.legs.begin(), test.legs.end(), [](const Leg& leg) { return leg.adaptive.has_value(); });
   Json adaptive_record;
   if (adaptive && rows.size() > 1) {
-    double low = INFINITY, high = 0.0, fastest = 0.0;
+    double low = std::numeric_limits<double>::quiet_NaN(), high = low, fastest = 0.0;  // (NaN: null, no row chose one)
     for (std::size_t k = 1; k < rows.size(); ++k) {
       fastest = std::max(fastest, rows[k].inertial_number);
       // (a leg's end row ran the step cut to land on its end strain: not a factor the rule chose)
       if (k + 1 < rows.size() && rows[k + 1].leg == rows[k].leg)
-        low = std::min(low, rows[k].rate_factor), high = std::max(high, rows[k].rate_factor);
+        low = std::fmin(low, rows[k].rate_factor), high = std::fmax(high, rows[k].rate_factor);
     }
     inertia = fastest;
     std::int64_t at_deck_rate = 0;
     for (const std::int64_t n : program_leg_steps(test.legs, deck.stage_time_step(test)))
       at_deck_rate = n < 0 || at_deck_rate < 0 ? -1 : at_deck_rate + n;
-    adaptive_record = {{"factor_min", low}, {"factor_max", high}, {"inertial_number_max", fastest},
+    adaptive_record = {{"factor_min", number_or_null(low)}, {"factor_max", number_or_null(high)}, {"inertial_number_max", fastest},
                        {"steps_at_deck_rate", at_deck_rate >= 0 ? Json(at_deck_rate) : Json(nullptr)},
                        {"step_ratio", at_deck_rate > 0 && steps > 0 ? Json(static_cast<double>(at_deck_rate) / steps) : Json(nullptr)}};
   }

@@ -69,11 +69,6 @@ Stiffness6 volume_term(const Mat3& stress) {
   return v;
 }
 
-// The properties of the derivation: relaxation only softens (affine - relaxed positive semidefinite), the
-// relaxed stiffness is positive definite, and both are symmetric but for the volume term sigma_ij tr(eps),
-// whose antisymmetric part sigma (x) 1 - 1 (x) sigma is exactly known (the packing's stress is isotropic only
-// to the servo's tolerance and its shear stresses are free). The residual forces of the packing (ratio ~1e-8)
-// add asymmetric terms of order (net force) x (displacement), far below the 1e-9 of the largest entry allowed.
 // The largest relative difference of a probe's stiffness column from the network's, each expected below
 // `tolerance`.
 double worst_column_error(const Stiffness6& probe, const Stiffness6& relaxed, double tolerance) {
@@ -86,6 +81,11 @@ double worst_column_error(const Stiffness6& probe, const Stiffness6& relaxed, do
   return worst;
 }
 
+// The properties of the derivation: relaxation only softens (affine - relaxed positive semidefinite), the
+// relaxed stiffness is positive definite, and both are symmetric but for the volume term sigma_ij tr(eps),
+// whose antisymmetric part sigma (x) 1 - 1 (x) sigma is exactly known (the packing's stress is isotropic only
+// to the servo's tolerance and its shear stresses are free). The residual forces of the packing (ratio ~1e-8)
+// add asymmetric terms of order (net force) x (displacement), far below the 1e-9 of the largest entry allowed.
 TEST_F(NetworkStiffnessOfPacking, IsSymmetricPositiveDefiniteAndSofterThanAffine) {
   const Model model = probe_model();
   const State& packing = *packing_;
