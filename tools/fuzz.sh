@@ -27,11 +27,24 @@ PY
 common=(solver/io/deck_reader.cpp solver/io/deck_prescan.cpp solver/io/tolerance.cpp "$out/time_to_answer_rules.cpp"
         solver/core/plan.cpp solver/io/files.cpp solver/io/state_file.cpp solver/neighbor/neighbor_list.cpp
         solver/core/state.cpp solver/core/grading.cpp)
+# Each source compiles to its own object, all of them side by side (one clang per core), then both targets link.
+stale=0
 for target in deck state; do
   if [[ ! -x "$out/fuzz_$target" || -n "$(find solver tests/fuzz -newer "$out/fuzz_$target" -name '*.[ch]pp' | head -1)" ]]; then
-    clang++ "${flags[@]}" "tests/fuzz/fuzz_$target.cpp" "${common[@]}" -o "$out/fuzz_$target"
+    stale=1
   fi
 done
+if [[ $stale == 1 ]]; then
+  mkdir -p "$out/obj"
+  printf '%s\n' tests/fuzz/fuzz_deck.cpp tests/fuzz/fuzz_state.cpp "${common[@]}" |
+    xargs -P "$(nproc)" -I{} sh -c 'clang++ "$@" -c "$0" -o "'"$out"'/obj/$(basename "$0" .cpp).o"' {} \
+      "${flags[@]/-fsanitize=fuzzer,/-fsanitize=fuzzer-no-link,}"
+  objects=()
+  for source in "${common[@]}"; do objects+=("$out/obj/$(basename "$source" .cpp).o"); done
+  for target in deck state; do
+    clang++ "${flags[@]}" "$out/obj/fuzz_$target.o" "${objects[@]}" -o "$out/fuzz_$target"
+  done
+fi
 mkdir -p "$out/corpus_deck" "$out/corpus_state"
 cp inputs/*.json "$out/corpus_deck/" 2>/dev/null || true
 if [[ -x build/celldem && ! -f "$out/corpus_state/seed.state" ]]; then
