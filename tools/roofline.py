@@ -31,6 +31,8 @@ def main(argv=None):
                         help="prepared sample to start from")
     parser.add_argument("--callgrind-steps", type=int, default=roofline.CALLGRIND_STEPS,
                         help=f"steps under callgrind (default {roofline.CALLGRIND_STEPS})")
+    parser.add_argument("--callgrind-warmup", type=int, default=roofline.CALLGRIND_WARMUP,
+                        help=f"uninstrumented steps before them (default {roofline.CALLGRIND_WARMUP}): the skin adapts")
     parser.add_argument("--bench-steps", type=int, default=roofline.BENCH_STEPS,
                         help=f"steps of the native bench (default {roofline.BENCH_STEPS})")
     parser.add_argument("--bench-warmup", type=int, default=roofline.BENCH_WARMUP,
@@ -56,8 +58,10 @@ def main(argv=None):
     for what, path in (("deck", args.deck), ("state", args.state)):
         if not os.path.isfile(path):
             return fail(f"no {what} at {path}")
-    if min(args.callgrind_steps, args.bench_steps, args.bench_repeats) < 1 or args.bench_warmup < 0:
-        return fail("--callgrind-steps, --bench-steps and --bench-repeats must be at least 1, --bench-warmup >= 0")
+    if min(args.callgrind_steps, args.bench_steps, args.bench_repeats) < 1 or min(args.bench_warmup,
+                                                                                  args.callgrind_warmup) < 0:
+        return fail("--callgrind-steps, --bench-steps and --bench-repeats must be at least 1, --bench-warmup and "
+                    "--callgrind-warmup >= 0")
     try:
         roofline.require(("valgrind", "objdump", "g++"))
         os.makedirs(out, exist_ok=True)
@@ -65,7 +69,7 @@ def main(argv=None):
         paths = roofline.measure_into(out, celldem, os.path.abspath(args.deck), os.path.abspath(args.state),
                                       callgrind_steps=args.callgrind_steps, bench_steps=args.bench_steps,
                                       bench_warmup=args.bench_warmup, bench_repeats=args.bench_repeats,
-                                      copies=args.copies)
+                                      copies=args.copies, callgrind_warmup=args.callgrind_warmup)
     except roofline.RooflineError as err:
         return fail(str(err))
     print(f"wrote {', '.join(map(str, paths))} in {time.monotonic() - start:.0f} s")
