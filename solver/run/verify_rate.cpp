@@ -217,14 +217,18 @@ struct EndMeans {
 };
 EndMeans end_means(const std::vector<SeriesRow>& rows, const BranchPoints::Start& start, double span) {
   const double direction = start.point_strain >= start.from_strain ? 1.0 : -1.0;
-  const double slack = 1e-9 * span;  // a row at the point or at the span's edge, up to round-off
+  // A row at the point or at the span's edge, up to round-off: the rows hold the strains as written, to 10
+  // significant digits (a row at the point was missed when the slack scaled with the span alone).
+  const double slack = 1e-9 * (span + std::abs(start.point_strain));
   EndMeans m;
   for (const SeriesRow& r : rows) {
     const double before = direction * (start.point_strain - r.strain(start.axis));  // strain before the point
     if (r.leg == static_cast<double>(start.leg) && before >= -slack && before <= span + slack)
       m.ratio13 += r.ratio13, m.ev += r.ev, m.Z += r.Z, ++m.rows;
   }
-  if (m.rows) m.ratio13 /= m.rows, m.ev /= m.rows, m.Z /= m.rows;
+  // No row in the span: no mean (NaN), so the comparison is not made, never a comparison of two zeros.
+  const double count = m.rows ? m.rows : NAN;
+  m.ratio13 /= count, m.ev /= count, m.Z /= count;
   return m;
 }
 
@@ -235,30 +239,41 @@ std::string fmt(double x) {
 }
 
 // The verdict of one point from its comparisons: converged when every difference is within the tolerance;
-// not converged when one is beyond what chaos alone makes of one pair of runs; otherwise unresolved.
-void add_verdict(Json& point, double tolerance) {
+// not converged when one is beyond what chaos alone makes of one pair of runs; otherwise unresolved. A
+// quantity that could not be compared (`not_compared`: no difference in floors) leaves the point unresolved
+// unless another is already beyond the margin: a check that was not made never counts as passed.
+void add_verdict(Json& point, double tolerance, const std::string& not_compared_why) {
   const double margin = chaos_margin();
   double largest = -1.0;
-  std::string which;
+  std::string which, not_compared;
   for (const auto& [quantity, c] : point["comparisons"].items()) {
-    const double d = c["floors"].is_number() ? std::abs(c["floors"].get<double>()) : INFINITY;
+    if (!c["floors"].is_number()) {
+      not_compared += (not_compared.empty() ? "" : ", ") + quantity;
+      continue;
+    }
+    const double d = std::abs(c["floors"].get<double>());
     if (d > largest) largest = d, which = quantity;
   }
-  point["largest"] = {{"quantity", which}, {"floors", number_or_null(largest)}};
+  point["largest"] = {{"quantity", which}, {"floors", largest >= 0.0 ? Json(largest) : Json(nullptr)}};
   point["tolerance_floors"] = tolerance;
   point["chaos_margin_floors"] = margin;
   const std::string at = which + " differs by " + fmt(largest) + " floors";
-  if (largest <= tolerance) {
-    point["verdict"] = "converged";
-    point["reason"] = "every difference within " + fmt(tolerance) + " floor(s); the largest: " + at + " (margin " +
-                      fmt(tolerance - largest) + " floors; one branch is one sample of chaotic runs)";
-  } else if (largest > tolerance + margin) {
+  if (!not_compared.empty()) point["not_compared"] = not_compared + ": " + not_compared_why;
+  if (largest > tolerance + margin) {
     point["verdict"] = "not converged";
     point["reason"] = at + ", beyond the tolerance " + fmt(tolerance) + " plus the " + fmt(margin) +
                       " floors by which chaos alone can part one pair of runs (95 %): the rate moves the answer";
+  } else if (!not_compared.empty()) {
+    point["verdict"] = "unresolved";
+    point["reason"] = not_compared + " not compared (" + not_compared_why + ")" +
+                      (which.empty() ? std::string() : "; the largest compared: " + at);
+  } else if (largest <= tolerance) {
+    point["verdict"] = "converged";
+    point["reason"] = "every difference within " + fmt(tolerance) + " floor(s); the largest: " + at + " (margin " +
+                      fmt(tolerance - largest) + " floors; one branch is one sample of chaotic runs)";
   } else {
     point["verdict"] = "unresolved";
-    point["reason"] = at + ": over the tolerance " + fmt(tolerance) + " but within the " + fmt(margin) +
+    point["reason"] = at + ": over the tolerance " + fmt(tolerance) + " but within it plus the " + fmt(margin) +
                       " floors by which chaos alone can part one pair of runs (95 %); one branch cannot tell (an ensemble "
                       "of seeds at both rates can)";
   }
@@ -351,7 +366,10 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
       comparisons["Z"] = compare(p.Z, b.Z, floors.Z, o.tolerance);
       point["comparisons"] = comparisons;
       point["series"] = (fs::path(test.name) / "verify" / name / "series.csv").string();
-      add_verdict(point, o.tolerance);
+      add_verdict(point, o.tolerance,
+                  "no row of the " + std::string(p.rows ? "branch" : "test") + " in the window's last " + fmt(span) +
+                      " of strain; rows every " + std::to_string(p.rows ? interval : test.output_interval) +
+                      " steps: a longer --verify-window or a shorter output_interval gives it rows");
     } catch (const RunError& e) {
       point["verdict"] = "branch failed";
       point["reason"] = e.what();
