@@ -238,6 +238,17 @@ std::string fmt(double x) {
   return buf;
 }
 
+// Why a comparison of the end means could not be made: the side without a row in the span, or a row's value
+// that is not a number (an s11/s33 at zero stress).
+std::string end_means_gap(const EndMeans& test, const EndMeans& branch, double span, std::int64_t test_interval,
+                          std::int64_t branch_interval) {
+  if (test.rows == 0 || branch.rows == 0)
+    return "no row of the " + std::string(test.rows == 0 ? "test" : "branch") + " in the window's last " + fmt(span) +
+           " of strain; rows every " + std::to_string(test.rows == 0 ? test_interval : branch_interval) +
+           " steps: a longer --verify-window or a shorter output_interval gives it rows";
+  return "a row's value in the window's last " + fmt(span) + " of strain is not a number";
+}
+
 // The verdict of one point from its comparisons: converged when every difference is within the tolerance;
 // not converged when one is beyond what chaos alone makes of one pair of runs; otherwise unresolved. A
 // quantity that could not be compared (`not_compared`: no difference in floors) leaves the point unresolved
@@ -366,10 +377,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
       comparisons["Z"] = compare(p.Z, b.Z, floors.Z, o.tolerance);
       point["comparisons"] = comparisons;
       point["series"] = (fs::path(test.name) / "verify" / name / "series.csv").string();
-      add_verdict(point, o.tolerance,
-                  "no row of the " + std::string(p.rows ? "branch" : "test") + " in the window's last " + fmt(span) +
-                      " of strain; rows every " + std::to_string(p.rows ? interval : test.output_interval) +
-                      " steps: a longer --verify-window or a shorter output_interval gives it rows");
+      add_verdict(point, o.tolerance, end_means_gap(p, b, span, test.output_interval, interval));
     } catch (const RunError& e) {
       point["verdict"] = "branch failed";
       point["reason"] = e.what();
