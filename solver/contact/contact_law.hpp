@@ -189,6 +189,15 @@ inline TwistSpring twisting_marshall(double k, double limit, double theta) {
   return {capped, sliding ? -capped / k : theta};
 }
 
+// Lever arms from each centre to the contact point: the middle of the overlap (ContactPoint), or the radii.
+struct LeverArms {
+  double i, j;  // [m]
+};
+inline LeverArms lever_arms(MomentArm arm, double ri, double rj, double overlap) {
+  const double shift = arm == MomentArm::ContactPoint ? 0.5 : 0.0;
+  return {ri - shift * overlap, rj - shift * overlap};
+}
+
 // ---- the composed law ----
 
 // branch: x_j - x_i [m] (j's periodic image), dv: velocity of j's centre minus i's (affine part included
@@ -206,9 +215,8 @@ template <class L>
   const double r_eff = ri * rj / reach;
   double a = 0.0;  // contact radius
   if constexpr (L::contact_radius) a = std::sqrt(r_eff * std::max(overlap, 0.0));
-  // Lever arms from each centre to the contact point (middle of the overlap), or the plain radii.
-  const double arm_shift = p.moment_arm == MomentArm::ContactPoint ? 0.5 : 0.0;
-  const double ai = ri - arm_shift * overlap, aj = rj - arm_shift * overlap;
+  const LeverArms arms = lever_arms(p.moment_arm, ri, rj, overlap);
+  const double ai = arms.i, aj = arms.j;
 
   // Velocity of j's surface point relative to i's at the contact: dv + wj x (-aj n) - wi x (ai n).
   const Real3 vc = dv - cross(ai * wi + aj * wj, n);

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "contact/contact_law.hpp"
 #include "measure/micro.hpp"
 
 namespace celldem {
@@ -78,7 +79,6 @@ std::vector<NetworkContact> network_contacts(const Model& model, const State& st
   const Particles& p = state.particles;
   const PairList& pl = state.pairs;
   const double kt = tangential ? model.contact.kt : 0.0;
-  const double arm_shift = model.contact.moment_arm == MomentArm::ContactPoint ? 0.5 : 0.0;  // as the law's
   std::vector<NetworkContact> contacts;
   for_each_pair(pl, [&](Index i, Index q) {
     const Index j = pl.neighbor[q];
@@ -95,8 +95,9 @@ std::vector<NetworkContact> network_contacts(const Model& model, const State& st
     c.normal_force = model.contact.kn * overlap;
     const Vec3 spring = pl.tangential[q] - pl.tangential[q].dot(c.normal) * c.normal;  // in this tangent plane
     c.force = c.normal_force * c.normal - kt * spring;
-    c.arm_i = p.radius[i] - arm_shift * overlap;
-    c.arm_j = p.radius[j] - arm_shift * overlap;
+    const LeverArms arms = lever_arms(model.contact.moment_arm, p.radius[i], p.radius[j], overlap);  // the law's
+    c.arm_i = arms.i;
+    c.arm_j = arms.j;
     contacts.push_back(c);
   });
   return contacts;
