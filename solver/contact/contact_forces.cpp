@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/check.hpp"
+#include "core/isa_clones.hpp"
 #include "core/parallel.hpp"
 
 #if defined(__x86_64__)
@@ -149,15 +150,6 @@ const bool cpu_has_avx2 = false;
 #endif
 
 std::atomic<bool> portable_gather{false};
-
-// The pair law is compiled for AVX-512, AVX2 and the baseline, chosen at load time. Under the sanitizers
-// only the baseline: the clones are the same source, and three instrumented copies of every law made the
-// sanitizer build's slowest file take minutes.
-#if defined(__SANITIZE_ADDRESS__)
-#define CELLDEM_ISA_CLONES
-#else
-#define CELLDEM_ISA_CLONES [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
-#endif
 
 // The law for every pair of the chunk, one SIMD lane each. tangential and force are the chunk's slices of
 // the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler

@@ -1,0 +1,10 @@
+#pragma once
+// CELLDEM_ISA_CLONES before a hot function compiles it for AVX-512, AVX2 and the baseline, chosen at load
+// time. Every clone is the same source built with no contraction or reassociation (CMakeLists.txt), so all
+// give the same bits. Under the sanitizers, and off x86-64, only the baseline: the clones are the same
+// source, and three instrumented copies of every law made the sanitizer build's slowest file take minutes.
+#if defined(__SANITIZE_ADDRESS__) || !defined(__x86_64__)
+#define CELLDEM_ISA_CLONES
+#else
+#define CELLDEM_ISA_CLONES [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
+#endif
