@@ -61,7 +61,7 @@ class StepThread {
     return team_.serial([&] {
       shared_.h_before = state_.cell.h, advance_cell(model_, loading_, state_);
       // Not the determinant: a strain-driven leg the deck ends by its steps may drive an axis through zero.
-      CELLDEM_ASSERT(!shared_.h_before.allFinite() || !state_.normal_stress.allFinite() || state_.cell.h.allFinite(),
+      CELLDEM_ASSERT(!shared_.h_before.allFinite() || !state_.stress.allFinite() || state_.cell.h.allFinite(),
                      "the control step keeps a finite cell finite while the stresses it follows are finite");
     });
   }

@@ -50,6 +50,7 @@ Json axis_json(const AxisControl& a) {
     case AxisMode::MeanStress: return {{"mean_stress", a.value}};
     case AxisMode::ConstantVolume: return {{"constant_volume", true}};
     case AxisMode::StressRamp: return {{"stress_ramp", {{"from", a.value}, {"rate", a.rate}}}};
+    case AxisMode::Held: return "held";
   }
   return nullptr;
 }
@@ -57,8 +58,7 @@ Json axis_json(const AxisControl& a) {
 Json end_json(const LegEnd& e) {
   Json j;
   switch (e.kind) {
-    case LegEndKind::Strain: j = {{"axis", kAxisNames[e.axis]}, {"strain", e.value}}; break;
-    case LegEndKind::ShearStrain: j = {{"axis", kShearAxisNames[e.axis]}, {"strain", e.value}}; break;
+    case LegEndKind::Strain: j = {{"axis", kComponentNames[static_cast<std::size_t>(e.axis)]}, {"strain", e.value}}; break;
     case LegEndKind::Ratio: j = {{"ratio", e.value}}; break;
     case LegEndKind::Stress: j = {{"axis", kAxisNames[e.axis]}, {"stress", e.value}}; break;
     case LegEndKind::Steps: j = {{"steps", e.steps}}; break;
@@ -89,7 +89,8 @@ std::string describe_end(const Json& end) {
 
 Json axes_json(const Leg& leg) {
   Json axes;
-  for (int k = 0; k < 3; ++k) axes[std::string(kAxisNames[k])] = axis_json(leg.axes[k]);
+  for (int k = 0; k < kComponents; ++k)  // (a shear axis the leg does not name is held: left out)
+    if (leg.axes[k].mode != AxisMode::Held) axes[std::string(kComponentNames[k])] = axis_json(leg.axes[k]);
   return axes;
 }
 

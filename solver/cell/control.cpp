@@ -6,20 +6,23 @@
 
 namespace celldem {
 
+Vec6 cell_components(const Mat3& h) {
+  Vec6 c;
+  for (int k = 0; k < kComponents; ++k) c[k] = h(kComponentEntries[k][0], kComponentEntries[k][1]);
+  return c;
+}
+
 bool needs_shear_sums(const Loading& loading) {
-  if (loading.rotation) return true;
-  for (const std::optional<AxisControl>& a : loading.shear)
-    if (a && a->stress_driven()) return true;
+  for (int k = 3; k < kComponents; ++k)
+    if (loading.axes[k].stress_driven()) return true;
   return false;
 }
 
 void begin_stage(State& state) {
   state.control = ControlState{};
-  state.control.reference_lengths = state.cell.h.diagonal();
+  state.control.reference = cell_components(state.cell.h);
   state.control.reference_volume = state.cell.volume();
   state.control.leg_start_volume = state.control.reference_volume;
-  for (int a = 0; a < 3; ++a)
-    state.control.reference_tilts[a] = state.cell.h(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
 }
 
 void restart_leg(State& state) {
@@ -27,8 +30,7 @@ void restart_leg(State& state) {
   c.leg_steps = 0;
   c.leg_progress = 0.0;
   c.rate_factor = 1.0;
-  c.leg_start_strains = axis_strains(state);
-  c.leg_start_shear = shear_strains(state);
+  c.leg_start_strains = component_strains(state);
 }
 
 void begin_leg(State& state, int leg) {
@@ -36,11 +38,10 @@ void begin_leg(State& state, int leg) {
   c.leg = leg;
   restart_leg(state);
   c.leg_start_volume = state.cell.volume();
-  c.servo_integral = Vec3::Zero();
-  c.shear_servo_integral = Vec3::Zero();
+  c.servo_integral = Vec6::Zero();
 }
 
-Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, double leg_time) {
+Vec3 stress_targets(const std::array<AxisControl, kComponents>& axes, const Vec3& s, double leg_time) {
   Vec3 target = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   int major = -1, b_axis = -1, minor = -1;
   double known = 0.0;  // stress of the axes that are not mean_stress
@@ -66,10 +67,24 @@ Vec3 stress_targets(const std::array<AxisControl, 3>& axes, const Vec3& s, doubl
   return target;
 }
 
+Vec6 control_targets(const std::array<AxisControl, kComponents>& axes, const std::optional<PrincipalRotation>& rotation,
+                     const Vec6& s, double leg_time, double dt) {
+  Vec6 target;
+  target.head<3>() = stress_targets(axes, s.head<3>(), leg_time);
+  for (int k = 3; k < kComponents; ++k)
+    target[k] = axes[k].stress_driven() ? axes[k].value : std::numeric_limits<double>::quiet_NaN();
+  if (rotation) {
+    const std::array<double, 3> t = rotation->targets(leg_time, dt);
+    const auto [i, j] = kShearAxisEntries[rotation->plane];
+    target[i] = t[0], target[j] = t[1], target[3 + rotation->plane] = t[2];
+  }
+  return target;
+}
+
 namespace {
 
-// The servo's strain increment of an axis towards `target` from its stress and stiffness (and its integral,
-// anti-windup), at most `cap`; `saturated` says whether it sat at the cap.
+// The servo's strain increment of a component towards `target` from its stress and stiffness (and its
+// integral, anti-windup), at most `cap`; `saturated` says whether it sat at the cap.
 double servo_increment(const ServoDef& servo, double cap, double target, double stress, double stiffness,
                        double& integral, bool& saturated) {
   const double err = target - stress;
@@ -84,41 +99,23 @@ double servo_increment(const ServoDef& servo, double cap, double target, double 
   return std::clamp(de, -cap, cap);
 }
 
-double servo_increment(const ServoDef& servo, double cap, double target, int k, State& state) {
-  return servo_increment(servo, cap, target, state.normal_stress[k], state.axis_stiffness[k],
-                         state.control.servo_integral[k], state.servo_saturated[k]);
+// Sets component k's cell entry to the strain e against the stage start (the geometry in control.hpp).
+void set_strain(int k, double e, const ControlState& ctl, Mat3& h) {
+  const auto [i, j] = kComponentEntries[k];
+  if (i == j) h(k, k) = ctl.reference[k] * (1.0 - e);
+  else h(i, j) = ctl.reference[k] - ctl.reference_length(j) * e;
 }
 
-// The shear axes' tilts for the end of this step (the convention in control.hpp); unnamed axes untouched.
-// `target`: the shear stress axes' targets.
-void advance_shear(const Model& model, const Loading& loading, double cap, const Vec3& target, State& state) {
-  ControlState& ctl = state.control;
-  const double next_step = ctl.leg_progress + ctl.rate_factor;  // (leg_steps + 1 at the deck's rate)
-  state.shear_servo_saturated = {false, false, false};
-  for (int a = 0; a < 3; ++a) {
-    if (!loading.shear[a]) continue;
-    const AxisControl& axis = *loading.shear[a];
-    const int i = kShearAxisEntries[a][0], j = kShearAxisEntries[a][1];
-    const double length = ctl.reference_lengths[j], g0 = ctl.leg_start_shear[a];
-    switch (axis.mode) {
-      case AxisMode::StrainIncrement:  // exact: no drift from summing increments
-        state.cell.h(i, j) = ctl.reference_tilts[a] - length * (g0 + next_step * axis.value);
-        break;
-      case AxisMode::StrainRate:
-        state.cell.h(i, j) = ctl.reference_tilts[a] - length * (g0 + next_step * axis.value * model.dt);
-        break;
-      default: {  // stress (the deck reader allows no other)
-        const double dg = servo_increment(model.servo, cap, target[a], state.shear_stress[a], state.shear_stiffness[a],
-                                          ctl.shear_servo_integral[a], state.shear_servo_saturated[a]);
-        state.cell.h(i, j) -= length * dg;
-      }
-    }
-  }
+// Strains component k's cell entry by de (a servo's increment).
+void add_strain(int k, double de, const ControlState& ctl, Mat3& h) {
+  const auto [i, j] = kComponentEntries[k];
+  if (i == j) h(k, k) *= 1.0 - de;
+  else h(i, j) -= ctl.reference_length(j) * de;
 }
 
 // Scales the constant-volume axes by one common factor x so that det h = volume. det h is a polynomial of
 // degree (number of such axes) in x, found exactly from its values at a few points.
-void hold_volume(const std::array<AxisControl, 3>& axes, double volume, Mat3& h) {
+void hold_volume(const std::array<AxisControl, kComponents>& axes, double volume, Mat3& h) {
   int cv[2], n = 0;
   for (int k = 0; k < 3; ++k)
     if (axes[k].mode == AxisMode::ConstantVolume) cv[n++] = k;
@@ -148,60 +145,50 @@ void advance_cell(const Model& model, const Loading& loading, State& state) {
   Cell& cell = state.cell;
   ControlState& ctl = state.control;
   const Mat3 h_before = cell.h;
-  const double next_step = static_cast<double>(ctl.leg_steps + 1);
-  // The strain-driven axes' progress at the step's end: leg_steps + 1 exactly at the deck's rate (factor 1 and
-  // integer progress), the sum of the factors with an adaptive rate.
-  const double next_progress = ctl.leg_progress + ctl.rate_factor;
-  Vec3 target = stress_targets(loading.axes, state.normal_stress, next_step * model.dt);
-  Vec3 shear_target;
-  for (int a = 0; a < 3; ++a) shear_target[a] = loading.shear[a] ? loading.shear[a]->value : 0.0;
-  if (loading.rotation) {
-    const std::array<double, 3> t = loading.rotation->targets(next_step * model.dt, model.dt);
-    const auto [i, j] = kShearAxisEntries[loading.rotation->plane];
-    target[i] = t[0], target[j] = t[1], shear_target[loading.rotation->plane] = t[2];
-  }
+  // The step's end: in time since the leg start (the servo's moving targets), and in progress (the strain-driven
+  // components: leg_steps + 1 exactly at the deck's rate, the sum of the factors with an adaptive rate).
+  const double end_time = static_cast<double>(ctl.leg_steps + 1) * model.dt;
+  const double end_progress = ctl.leg_progress + ctl.rate_factor;
+  const Vec6 target = control_targets(loading.axes, loading.rotation, state.stress, end_time, model.dt);
   const double cap = loading.servo_cap > 0.0 ? loading.servo_cap : model.servo.max_strain_increment;
-  state.servo_saturated = {false, false, false};
-  for (int k = 0; k < 3; ++k) {
+  state.servo_saturated = {};
+  for (int k = 0; k < kComponents; ++k) {
     const AxisControl& a = loading.axes[k];
     const double e0 = ctl.leg_start_strains[k];
     switch (a.mode) {
-      case AxisMode::StrainIncrement:  // exact engineering strain: no drift from summing increments
-        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_progress * a.value));
+      case AxisMode::StrainIncrement:  // exact strain: no drift from summing increments
+        set_strain(k, e0 + end_progress * a.value, ctl, cell.h);
         break;
       case AxisMode::StrainRate:
-        cell.h(k, k) = ctl.reference_lengths[k] * (1.0 - (e0 + next_progress * a.value * model.dt));
+        set_strain(k, e0 + end_progress * a.value * model.dt, ctl, cell.h);
         break;
       case AxisMode::Stress:
       case AxisMode::StressRamp:
       case AxisMode::MeanStress:
       case AxisMode::B:
-        cell.h(k, k) *= 1.0 - servo_increment(model.servo, cap, target[k], k, state);
+        add_strain(k, servo_increment(model.servo, cap, target[k], state.stress[k], state.stiffness[k],
+                                      ctl.servo_integral[k], state.servo_saturated[k]), ctl, cell.h);
         break;
-      case AxisMode::ConstantVolume:  // below, once the other axes are set
+      case AxisMode::ConstantVolume:  // below, once the other components are set (tilts included)
+      case AxisMode::Held:
         break;
     }
   }
-  advance_shear(model, loading, cap, shear_target, state);  // before hold_volume, which reads the cell with its new tilts
   hold_volume(loading.axes, ctl.leg_start_volume, cell.h);
   cell.velocity_gradient = (cell.h - h_before) / model.dt * (0.5 * (cell.h + h_before)).inverse();
   ++ctl.leg_steps;
-  ctl.leg_progress = next_progress;
+  ctl.leg_progress = end_progress;
 }
 
-Vec3 axis_strains(const State& state) {
-  Vec3 e;
-  for (int k = 0; k < 3; ++k) e[k] = 1.0 - state.cell.h(k, k) / state.control.reference_lengths[k];
-  return e;
-}
-
-Vec3 shear_strains(const State& state) {
-  Vec3 g;
-  for (int a = 0; a < 3; ++a) {
-    const int i = kShearAxisEntries[a][0], j = kShearAxisEntries[a][1];
-    g[a] = (state.control.reference_tilts[a] - state.cell.h(i, j)) / state.control.reference_lengths[j];  // (+0 unsheared)
+Vec6 component_strains(const State& state) {
+  const ControlState& ctl = state.control;
+  Vec6 e;
+  for (int k = 0; k < kComponents; ++k) {
+    const auto [i, j] = kComponentEntries[k];
+    e[k] = i == j ? 1.0 - state.cell.h(k, k) / ctl.reference[k]
+                  : (ctl.reference[k] - state.cell.h(i, j)) / ctl.reference_length(j);  // (+0 unsheared)
   }
-  return g;
+  return e;
 }
 
 }  // namespace celldem

@@ -399,10 +399,8 @@ void ContactForceEvaluation::finish() {
     total.touching += part.touching;
   }
   const double volume = state_.cell.volume();
-  state_.normal_stress = total.normal_sum / volume;
-  state_.axis_stiffness = total.stiffness_sum / volume;
-  state_.shear_stress = total.shear_sum / volume;  // (zero when not summed)
-  state_.shear_stiffness = total.shear_stiffness_sum / volume;
+  state_.stress << total.normal_sum / volume, total.shear_sum / volume;  // (shear: zero when not summed)
+  state_.stiffness << total.stiffness_sum / volume, total.shear_stiffness_sum / volume;
   state_.touching = total.touching;
 }
 

@@ -38,7 +38,7 @@ namespace celldem {
 
 // Evaluates all pairs at the current positions with the half-step velocities, stores per-pair forces and
 // moments and the new history, and sets state.normal_stress, state.axis_stiffness, state.shear_stress,
-// state.shear_stiffness and state.touching.
+// state.stress, state.stiffness and state.touching.
 // With advance_slip = false no slip is added (the forces of the state as it stands, e.g. at a stage start).
 void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
 
@@ -64,7 +64,7 @@ struct ReductionSums {                // one reduction block's sums over its own
 };
 class ContactForceEvaluation {
  public:
-  // shear_sums: also sum state.shear_stress and shear_stiffness (else they are set to zero); a loading with a
+  // shear_sums: also sum the shear components of state.stress and state.stiffness (else they are set to zero); a loading with a
   // shear servo needs them (cell/control.hpp needs_shear_sums), and a stage's first evaluation makes them.
   ContactForceEvaluation(const Model& model, const Friction& friction, State& state, bool advance_slip = true,
                          bool shear_sums = true);

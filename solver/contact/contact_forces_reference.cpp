@@ -49,10 +49,8 @@ void evaluate_pairs(const ContactParams& params, Kinematics kinematics, const St
     out.touching += c.touching;
   });
   const double volume = state.cell.volume();
-  out.normal_stress = normal_sum / volume;
-  out.axis_stiffness = stiffness_sum / volume;
-  out.shear_stress = shear_sum / volume;
-  out.shear_stiffness = shear_stiffness_sum / volume;
+  out.stress << normal_sum / volume, shear_sum / volume;
+  out.stiffness << stiffness_sum / volume, shear_stiffness_sum / volume;
 }
 
 }  // namespace

@@ -25,10 +25,10 @@ struct ReferenceContactForces {
   std::vector<Vec3> net_force;   // (N) [N]
   std::vector<Vec3> net_torque;  // (N) [N m]
   // Per cell: sums over the pairs in list order, divided by the cell volume.
-  Vec3 normal_stress = Vec3::Zero();   // [Pa] sum of force_k branch_k / V (component by component)
-  Vec3 axis_stiffness = Vec3::Zero();  // [Pa] sum of kn (n_k l_k)^2 / V
-  Vec3 shear_stress = Vec3::Zero();     // [Pa] sum of (force_i l_j + force_j l_i) / 2V, ij = 12, 13, 23
-  Vec3 shear_stiffness = Vec3::Zero();  // [Pa] sum of kn (n_i l_j)^2 / V, ij = 12, 13, 23
+  // [Pa] per component (x1 x2 x3 x12 x13 x23): sum of force_k branch_k / V (component by component), then of
+  // (force_i l_j + force_j l_i) / 2V; the stiffnesses sum of kn (n_i l_j)^2 / V.
+  Vec6 stress = Vec6::Zero();
+  Vec6 stiffness = Vec6::Zero();
   std::int64_t touching = 0;           // pairs in contact
 };
 

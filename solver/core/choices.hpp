@@ -2,6 +2,7 @@
 #pragma once
 #include <array>
 #include <cstddef>
+#include <string>
 #include <string_view>
 
 namespace celldem {
@@ -16,11 +17,11 @@ enum class NormalModel { Linear, Hertz };              // kn overlap, or 4/3 E* 
 enum class TangentialModel { LinearHistory, Mindlin, MindlinRescale };
 enum class RollingModel { None, Sds };                 // no rolling resistance, or spring-dashpot-slider
 enum class TwistingModel { None, Marshall };           // no twisting resistance, or Marshall's (from the tangential law)
-// How an axis of the cell is driven during a leg (cell/control.hpp has the laws).
-enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume, StressRamp };
-// What ends a leg.
-// ShearStrain: the engineering shear strain g_ij of a shear axis the leg drives by its strain.
-enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium, ShearStrain };
+// How a component of the cell is driven during a leg (cell/control.hpp has the laws). Held: a shear component
+// the leg does not name keeps its cell entry as it stands (normal components are always named).
+enum class AxisMode { StrainIncrement, StrainRate, Stress, B, MeanStress, ConstantVolume, StressRamp, Held };
+// What ends a leg. Strain: the engineering strain of any of the six components (kComponentNames).
+enum class LegEndKind { Strain, Ratio, Stress, Steps, SolidFraction, Equilibrium };
 // What a control that stays outside its tolerance does: stop the stage (exit 1), or warn and mark the test.
 enum class ControlFailure { Stop, Warn };
 // How a snapshot's VTK arrays are stored: raw bytes appended after the XML, those bytes zlib-compressed, or text.
@@ -53,8 +54,16 @@ inline constexpr std::array<std::string_view, 2> kProbePointNames = {"peak", "en
 // against the reference length of its column's axis (cell/control.hpp has the convention).
 inline constexpr std::array<std::string_view, 3> kShearAxisNames = {"x12", "x13", "x23"};
 inline constexpr std::array<std::array<int, 2>, 3> kShearAxisEntries = {{{0, 1}, {0, 2}, {1, 2}}};
-// The axes a leg's end may name: the normal axes (kAxisNames), then the shear axes (kShearAxisNames).
-inline constexpr std::array<std::string_view, 6> kEndAxisNames = {"x1", "x2", "x3", "x12", "x13", "x23"};
+// The six controlled components of the cell in Voigt order: the normal axes (kAxisNames), then the shear axes
+// (kShearAxisNames); component k is the cell entry h(i, j) of kComponentEntries[k]. Every per-component record
+// of the control (targets, stresses, stiffnesses, servo memory, saturation, strains, errors) is in this order.
+inline constexpr int kComponents = 6;
+inline constexpr std::array<std::string_view, 6> kComponentNames = {"x1", "x2", "x3", "x12", "x13", "x23"};
+inline constexpr std::array<std::array<int, 2>, 6> kComponentEntries = {{{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
+constexpr bool is_shear_component(int k) { return k >= 3; }
+inline std::string component_name(int k) { return std::string(kComponentNames[static_cast<std::size_t>(k)]); }
+// The axes a leg's end may name: every component.
+inline constexpr const std::array<std::string_view, 6>& kEndAxisNames = kComponentNames;
 // The planes of a principal-axis rotation, in the order of the shear axes (x1x2 is x12's plane).
 inline constexpr std::array<std::string_view, 3> kPlaneNames = {"x1x2", "x1x3", "x2x3"};
 

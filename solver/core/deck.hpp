@@ -112,7 +112,7 @@ struct ServoDef {
 };
 
 struct AxisControl {
-  AxisMode mode = AxisMode::StrainIncrement;
+  AxisMode mode = AxisMode::Held;  // (a leg names every normal axis: Held is a shear axis it does not name)
   // StrainIncrement: per step [-]; StrainRate [1/s]; Stress, MeanStress [Pa]; B [-] (compression +);
   // StressRamp: the target at the leg start [Pa]; ConstantVolume: unused.
   double value = 0.0;
@@ -156,8 +156,8 @@ struct AdaptiveRate {
 
 struct LegEnd {
   LegEndKind kind = LegEndKind::Strain;
-  int axis = 0;                // Strain, Stress: the axis (0-based); ShearStrain: the shear axis (kShearAxisNames)
-  double value = 0.0;          // Strain, ShearStrain [-] relative to the test start; Ratio s11/s33; Stress [Pa];
+  int axis = 0;                // Strain: the component (kComponentNames, 0-based); Stress: the normal axis
+  double value = 0.0;          // Strain [-] relative to the test start; Ratio s11/s33; Stress [Pa];
                                // SolidFraction
   std::int64_t steps = 0;      // Steps: the leg's length
   std::int64_t max_steps = 0;  // a Strain leg ends here at the latest; any other leg that has not ended by
@@ -166,37 +166,32 @@ struct LegEnd {
 
 // One leg of a load program: the axis controls, held until the end condition.
 struct Leg {
-  std::array<AxisControl, 3> axes;
+  // The six components x1, x2, x3, x12, x13, x23 (kComponentNames). The normal axes are always named; a shear
+  // axis is strain_increment, strain_rate or stress (a shear stress of either sign), or Held when the leg does
+  // not name it (its tilt kept as it stands).
+  std::array<AxisControl, kComponents> axes = {AxisControl{AxisMode::StrainIncrement}, AxisControl{AxisMode::StrainIncrement}, AxisControl{AxisMode::StrainIncrement},
+                                               AxisControl{AxisMode::Held}, AxisControl{AxisMode::Held},
+                                               AxisControl{AxisMode::Held}};
   LegEnd end;
-  // The shear axes x12, x13, x23: strain_increment, strain_rate or stress (a shear stress of either sign);
-  // none: the cell's tilt is held as it stands.
-  std::array<std::optional<AxisControl>, 3> shear = {};
-  // A principal-axis rotation (rotate_principal_axes): its plane's axes are Stress and its shear axis Stress,
-  // their values the targets at the leg start; the targets move as PrincipalRotation says.
+  // A principal-axis rotation (rotate_principal_axes): its plane's two normal axes and its shear axis are Stress,
+  // their values the targets at the leg start, and the targets move as PrincipalRotation says; the other two
+  // shear axes are Stress at 0 (the principal axes stay in the plane).
   std::optional<PrincipalRotation> rotation;
   // The adaptive loading rate; none: the strain-driven axes keep the deck's rate.
   std::optional<AdaptiveRate> adaptive;
-  // The strain-driven axes' strain per step (0 for other axes): increments, or rates times the time step.
-  double strain_per_step(int axis, double time_step) const {
-    const AxisControl& a = axes[axis];
+  // The strain per step of component k when the leg drives it by its strain (increments, or rates times the
+  // time step), else 0.
+  double strain_per_step(int k, double time_step) const {
+    const AxisControl& a = axes[static_cast<std::size_t>(k)];
     return a.mode == AxisMode::StrainIncrement ? a.value : a.mode == AxisMode::StrainRate ? a.value * time_step : 0.0;
   }
-  // The strain per step of the end's axis when the leg drives it by its strain (a normal axis for a Strain end, a
-  // shear axis for a ShearStrain end), else 0.
+  // The strain per step of the end's component when the leg ends on the strain of a component it drives, else 0.
   double end_strain_per_step(double time_step) const {
-    return end.kind == LegEndKind::ShearStrain ? shear_strain_per_step(end.axis, time_step)
-                                               : strain_per_step(end.axis, time_step);
+    return end.kind == LegEndKind::Strain ? strain_per_step(end.axis, time_step) : 0.0;
   }
-  // Whether the leg ends on the strain of an axis it drives by its strain: its steps are known from where it starts.
+  // Whether the leg ends on the strain of a component it drives by its strain: its steps are known from where it starts.
   bool ends_on_driven_strain() const {
-    if (end.kind == LegEndKind::ShearStrain) return shear_strain_per_step(end.axis, 1.0) != 0.0;
-    return end.kind == LegEndKind::Strain && axes[end.axis].strain_driven();
-  }
-  // The same for shear axis `shear_axis` (x12, x13, x23): 0 unless the leg drives it by its strain.
-  double shear_strain_per_step(int shear_axis, double time_step) const {
-    const std::optional<AxisControl>& a = shear[static_cast<std::size_t>(shear_axis)];
-    if (!a) return 0.0;
-    return a->mode == AxisMode::StrainIncrement ? a->value : a->mode == AxisMode::StrainRate ? a->value * time_step : 0.0;
+    return end.kind == LegEndKind::Strain && axes[static_cast<std::size_t>(end.axis)].strain_driven();
   }
 };
 

@@ -11,9 +11,9 @@ bool is_reserved_stage_name(const std::string& name) { return name == "prepare" 
 
 std::vector<Leg> preparation_legs(const PrepareDef& prep) {
   Leg fast, servo;
-  fast.axes.fill({AxisMode::StrainIncrement, prep.fast_strain_increment});
+  std::fill_n(fast.axes.begin(), 3, AxisControl{AxisMode::StrainIncrement, prep.fast_strain_increment});  // (tilts held)
   fast.end = {.kind = LegEndKind::SolidFraction, .value = prep.fast_solid_fraction};
-  servo.axes.fill({AxisMode::Stress, prep.target_pressure});
+  std::fill_n(servo.axes.begin(), 3, AxisControl{AxisMode::Stress, prep.target_pressure});
   servo.end = {.kind = LegEndKind::Equilibrium, .max_steps = prep.equilibrium.max_steps};
   return {fast, servo};
 }
@@ -39,8 +39,7 @@ std::int64_t leg_steps(const Leg& leg, double time_step, double from) {
 
 double leg_driving_increment(const Leg& leg, double time_step) {
   double d = 0.0;
-  for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(leg.strain_per_step(k, time_step)));
-  for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(leg.shear_strain_per_step(k, time_step)));  // shear drives too
+  for (int k = 0; k < kComponents; ++k) d = std::max(d, std::abs(leg.strain_per_step(k, time_step)));  // shear drives too
   return d;
 }
 
@@ -53,8 +52,7 @@ std::int64_t ramp_target_steps(const Leg& leg, double time_step) {
 }
 
 bool leg_has_servo(const Leg& leg) {
-  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.stress_driven(); }) ||
-         std::any_of(leg.shear.begin(), leg.shear.end(), [](const auto& a) { return a && a->stress_driven(); });
+  return std::any_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.stress_driven(); });
 }
 
 double servo_cap(const ServoDef& servo, const Leg& leg, double time_step, double rate_factor) {
@@ -65,17 +63,17 @@ double servo_cap(const ServoDef& servo, const Leg& leg, double time_step, double
 std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double time_step,
                                             std::vector<double>* from) {
   std::vector<std::int64_t> steps;
-  // A leg starts where the previous one ended: its end axis from the previous strain end of that axis. The
-  // shear axes likewise; one that a leg holds by a stress goes where only running tells.
-  Vec3 strain = Vec3::Zero(), shear = Vec3::Zero();
-  std::array<bool, 3> shear_known = {true, true, true};
+  // A leg starts where the previous one ended: its end component from the previous strain end of that
+  // component. A component a leg holds by a servo (or a constant volume) goes where only running tells.
+  Vec6 strain = Vec6::Zero();
+  std::array<bool, kComponents> strain_known = {true, true, true, true, true, true};
   bool known = true;
   if (from) from->clear();
   for (const Leg& leg : legs) {
     const LegEnd& e = leg.end;
-    const bool on_shear = e.kind == LegEndKind::ShearStrain;
-    const bool start_known = known && (!on_shear || shear_known[static_cast<std::size_t>(e.axis)]);
-    const double start = on_shear ? shear[e.axis] : strain[e.axis];
+    const bool on_strain = e.kind == LegEndKind::Strain;
+    const bool start_known = known && (!on_strain || strain_known[static_cast<std::size_t>(e.axis)]);
+    const double start = on_strain ? strain[e.axis] : 0.0;
     if (from) from->push_back(start_known ? start : std::numeric_limits<double>::quiet_NaN());
     const std::int64_t n = start_known || (known && !leg.ends_on_driven_strain()) ? leg_steps(leg, time_step, start) : -1;
     steps.push_back(n);
@@ -83,14 +81,12 @@ std::vector<std::int64_t> program_leg_steps(const std::vector<Leg>& legs, double
       known = false;
       continue;
     }
-    for (int k = 0; k < 3; ++k) strain[k] += n * leg.strain_per_step(k, time_step);
-    for (int k = 0; k < 3; ++k) {
-      shear[k] += n * leg.shear_strain_per_step(k, time_step);
-      if (leg.shear[static_cast<std::size_t>(k)] && leg.shear[static_cast<std::size_t>(k)]->stress_driven())
-        shear_known[static_cast<std::size_t>(k)] = false;
+    for (int k = 0; k < kComponents; ++k) {
+      strain[k] += n * leg.strain_per_step(k, time_step);
+      const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
+      if (!a.strain_driven() && a.mode != AxisMode::Held) strain_known[static_cast<std::size_t>(k)] = false;
     }
-    if (e.kind == LegEndKind::Strain && n != e.max_steps) strain[e.axis] = e.value;
-    if (on_shear && n != e.max_steps) shear[e.axis] = e.value;
+    if (on_strain && n != e.max_steps) strain[e.axis] = e.value, strain_known[static_cast<std::size_t>(e.axis)] = true;
   }
   return steps;
 }
@@ -158,9 +154,11 @@ TestPlan plan_test(const Deck& deck, const TestDef& test) {
 double first_leg_stress(const TestDef& test) {
   double sum = 0.0;
   int n = 0;
-  for (const AxisControl& a : test.legs.front().axes)
+  for (int k = 0; k < 3; ++k) {  // the normal axes (a shear target is no confining stress)
+    const AxisControl& a = test.legs.front().axes[static_cast<std::size_t>(k)];
     if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
       sum += a.value, ++n;  // a ramp's value is its start
+  }
   return n ? sum / n : std::numeric_limits<double>::quiet_NaN();
 }
 
@@ -168,13 +166,10 @@ double loading_rate(const Deck& deck, const TestDef& test) {
   double rate = 0.0;
   const double dt = deck.stage_time_step(test);
   for (const Leg& leg : test.legs) {
-    for (const AxisControl& a : leg.axes) {
+    for (const AxisControl& a : leg.axes) {  // a shear axis: its engineering shear rate (simple shear's gamma-dot)
       if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / dt);
       if (a.mode == AxisMode::StrainRate) rate = std::max(rate, std::abs(a.value));
     }
-    // A shear axis driven by its strain: the engineering shear rate, the rate of the inertial number of simple
-    // shear (I = gamma-dot d sqrt(rho / p)).
-    for (int a = 0; a < 3; ++a) rate = std::max(rate, std::abs(leg.shear_strain_per_step(a, dt)) / dt);
   }
   return rate;
 }
@@ -199,9 +194,11 @@ double largest_deck_stress(const Deck& deck) {
   double p = 0.0;
   const auto scan = [&p](const std::vector<Leg>& legs) {
     for (const Leg& leg : legs) {
-      for (const AxisControl& a : leg.axes)
+      for (int k = 0; k < 3; ++k) {  // the normal axes
+        const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
         if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress || a.mode == AxisMode::StressRamp)
           p = std::max(p, std::abs(a.value));  // a ramp's start (its end, when a stress, is the leg's end below)
+      }
       if (leg.end.kind == LegEndKind::Stress) p = std::max(p, std::abs(leg.end.value));
     }
   };
@@ -373,7 +370,8 @@ PreparationPlan plan_preparation(const Deck& deck, double start_solid_fraction) 
     const LegEnd& e = leg.end;
     std::int64_t n = e.kind == LegEndKind::Steps || strain_known ? leg_steps(leg, dt, strain[e.axis]) : -1;
     const double d = leg.strain_per_step(0, dt);
-    const bool isotropic = std::all_of(leg.axes.begin(), leg.axes.end(), [](const AxisControl& a) { return a.strain_driven(); }) &&
+    const bool isotropic = std::all_of(leg.axes.begin(), leg.axes.begin() + 3, [](const AxisControl& a) { return a.strain_driven(); }) &&
+                           std::all_of(leg.axes.begin() + 3, leg.axes.end(), [](const AxisControl& a) { return a.mode == AxisMode::Held; }) &&
                            leg.strain_per_step(1, dt) == d && leg.strain_per_step(2, dt) == d;
     if (n < 0 && e.kind == LegEndKind::SolidFraction && isotropic && d > 0.0 && strain_known &&
         strain[1] == strain[0] && strain[2] == strain[0]) {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/choices.hpp"
 #include "core/types.hpp"
 
 namespace celldem {
@@ -122,28 +123,28 @@ struct StoredContact {
   double contact_radius = 0.0;  // [m] (mindlin_rescale)
 };
 
-// Mixed control memory: what the loading stage needs to continue exactly. A stage starts from
-// begin_stage() (cell/control.hpp), the one place that resets it.
+// Mixed control memory: what the loading stage needs to continue exactly, one record of the six components
+// (core/choices.hpp kComponentNames). A stage starts from begin_stage() (cell/control.hpp), the one place that
+// resets it.
 struct ControlState {
   std::int64_t leg_steps = 0;            // steps done in the current leg of the stage's load program
   std::int32_t leg = 0;                  // the current leg (its index in the program)
   std::int64_t stage_steps = 0;          // steps done in the current stage (the series' `step`)
-  Vec3 reference_lengths = Vec3::Ones(); // [m] diagonal of h at the start of the stage
+  // [m] each component's cell entry h(i, j) at the stage start (kComponentEntries): the axes' lengths, then the
+  // tilts. A component's strain is measured against it (cell/control.hpp component_strains).
+  Vec6 reference = (Vec6() << 1.0, 1.0, 1.0, 0.0, 0.0, 0.0).finished();
   double reference_volume = 1.0;         // [m^3]
-  Vec3 servo_integral = Vec3::Zero();    // [Pa] accumulated stress error per axis
-  Vec3 leg_start_strains = Vec3::Zero(); // [-] axis strains (against the stage start) where the leg began: a
-                                         // strain-driven axis is at leg_start + (leg_steps) increment
+  Vec6 servo_integral = Vec6::Zero();    // [Pa] accumulated stress error per component
+  Vec6 leg_start_strains = Vec6::Zero(); // [-] strains (against the stage start) where the leg began: a
+                                         // strain-driven component is at leg_start + progress x increment
   double leg_start_volume = 1.0;         // [m^3] cell volume where the leg began (constant-volume axes)
-  // The shear axes x12, x13, x23 (cell/control.hpp): the tilts h(0,1), h(0,2), h(1,2) at the stage start,
-  // the engineering shear strains where the leg began, and the shear servo's memory.
-  Vec3 reference_tilts = Vec3::Zero();   // [m]
-  Vec3 leg_start_shear = Vec3::Zero();   // [-] shear strains (against the stage start) where the leg began
-  Vec3 shear_servo_integral = Vec3::Zero();  // [Pa] accumulated shear stress error per shear axis
-  // The adaptive loading rate (Leg::adaptive): the factor on the deck's rate of the strain-driven axes, and the
-  // leg's progress in steps at the deck's rate (the sum of the factors of its steps: a strain-driven axis is at
-  // leg_start + progress x increment). A leg at the deck's rate has factor 1 and progress = leg_steps, exactly.
+  // The loading rate's factor on the deck's rate of the strain-driven components (an adaptive leg's,
+  // Leg::adaptive; 1 otherwise), and the leg's progress in steps at the deck's rate (the sum of the factors of
+  // its steps). A leg at the deck's rate has factor 1 and progress = leg_steps, exactly.
   double rate_factor = 1.0;
   double leg_progress = 0.0;
+  // The stage-start length of axis k (the reference of the normal component k).
+  double reference_length(int k) const { return reference[k]; }
 };
 
 struct State {
@@ -154,16 +155,18 @@ struct State {
   double time = 0.0;            // [s]
   std::int64_t steps_since_creation = 0;  // over every stage since the sample was made
   // Measured in the last force evaluation; the servo reads them on the next step.
-  Vec3 normal_stress = Vec3::Zero();  // [Pa] sigma_kk from the contacts, compression positive (the full
-                                      // tensor, when a row needs it: measure_contacts)
-  Vec3 axis_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ii)/d(e_ii) from the normal springs
-  Vec3 shear_stress = Vec3::Zero();     // [Pa] s12, s13, s23 from the contacts (symmetric part, compression sign)
-  Vec3 shear_stiffness = Vec3::Zero();  // [Pa] affine stiffness d(s_ij)/d(g_ij) from the normal springs
+  // [Pa] the contact stress of the six components, s11 s22 s33 s12 s13 s23 (symmetric part, compression
+  // positive; the shear components only where the loading reads them, else 0: contact_forces.hpp shear_sums)
+  // and their affine stiffnesses d(s_k)/d(e_k) from the normal springs (cell/control.hpp).
+  Vec6 stress = Vec6::Zero();
+  Vec6 stiffness = Vec6::Zero();
   std::int64_t touching = 0;    // contacts in the last force evaluation
-  // Set by the last step's advance_cell: the servo axes whose increment sat at its cap (not saved: every step
-  // sets it before anything reads it).
-  std::array<bool, 3> servo_saturated = {false, false, false};
-  std::array<bool, 3> shear_servo_saturated = {false, false, false};  // the same for x12, x13, x23
+  // Set by the last step's advance_cell: the servo components whose increment sat at its cap (not saved: every
+  // step sets it before anything reads it).
+  std::array<bool, kComponents> servo_saturated = {};
+  // The normal stresses s11, s22, s33.
+  Vec3 normal_stress() const { return stress.head<3>(); }
+  double mean_stress() const { return stress.head<3>().sum() / 3.0; }
   // [1/s] the fastest strain-driven axis's rate in the steps being run, the adaptive factor included (series
   // `strain_rate`; not saved: run_program sets it before each run of steps; 0 outside a load program).
   double driving_rate = 0.0;

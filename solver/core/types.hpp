@@ -6,6 +6,7 @@
 namespace celldem {
 
 using Vec3 = Eigen::Vector3d;
+using Vec6 = Eigen::Matrix<double, 6, 1>;  // the six components in Voigt order (core/choices.hpp)
 using Vec3f = Eigen::Vector3f;  // 12 bytes: for what needs no double precision
 using Mat3 = Eigen::Matrix3d;
 using Index = std::int32_t;  // particle and contact indices (ids, not pointers)

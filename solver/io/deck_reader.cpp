@@ -384,11 +384,8 @@ LegEnd read_end(ObjectReader end, bool preparation) {
                                    "\"solid_fraction\", \"equilibrium\""
                                  : "give exactly one of \"strain\", \"ratio\", \"stress\", \"steps\", \"equilibrium\"");
   e.axis = static_cast<int>(end.choice(keys::test_end_axis));
-  if (e.axis >= 3) {  // a shear axis (kEndAxisNames): its engineering shear strain
-    if (e.kind != LegEndKind::Strain)
-      fail(end.at(keys::test_end_axis), "a shear axis ends a leg only on its strain (\"strain\": g_ij)");
-    e.kind = LegEndKind::ShearStrain, e.axis -= 3;
-  }
+  if (is_shear_component(e.axis) && e.kind != LegEndKind::Strain)  // (kEndAxisNames): its engineering shear strain
+    fail(end.at(keys::test_end_axis), "a shear axis ends a leg only on its strain (\"strain\": g_ij)");
   e.max_steps = end.integer(keys::test_end_max_steps);
   end.finish();
   return e;
@@ -427,15 +424,10 @@ void check_leg(const Leg& leg, const std::string& at) {
     fail(at + ".axes", "mean_stress axes need a strain-driven or b axis beside them, or all three on mean_stress");
   const LegEnd& e = leg.end;
   const std::string end = at + ".end";
-  if (e.kind == LegEndKind::ShearStrain) {  // on a shear axis the leg drives by its strain, so its steps are known
-    const std::optional<AxisControl>& a = leg.shear[static_cast<std::size_t>(e.axis)];
-    const std::string name(kShearAxisNames[e.axis]);
-    if (!a || !a->strain_driven())
-      fail(end + ".axis", "a strain end on shear axis " + name + " needs the leg to drive " + name + " by its strain (axes." +
-                              name + ".strain_increment or strain_rate, or simple_shear for x12)" +
-                              (a ? "; it holds a shear stress" : "; the leg holds its tilt"));
-    if (leg.shear_strain_per_step(e.axis, 1.0) == 0.0)
-      fail(end + ".axis", "the end axis is held at zero strain increment: it never moves");
+  if (e.kind == LegEndKind::Strain && leg.axes[static_cast<std::size_t>(e.axis)].mode == AxisMode::Held) {
+    const std::string name(kComponentNames[static_cast<std::size_t>(e.axis)]);
+    fail(end + ".axis", "a strain end on shear axis " + name + " needs the leg to drive " + name + " (axes." + name +
+                            ".strain_increment or strain_rate, or simple_shear for x12): the leg holds its tilt");
   }
   if (e.kind == LegEndKind::Strain) {
     const bool driven_end = leg.axes[e.axis].strain_driven();
@@ -459,7 +451,7 @@ void check_leg(const Leg& leg, const std::string& at) {
       if (leg.axes[k].mode != AxisMode::Stress && leg.axes[k].mode != AxisMode::MeanStress)
         fail(end + ".equilibrium", "a leg that ends in equilibrium needs every axis on stress or mean_stress");
     for (int a = 0; a < 3; ++a)
-      if (leg.shear_strain_per_step(a, 1.0) != 0.0)
+      if (leg.strain_per_step(3 + a, 1.0) != 0.0)
         fail(at + ".axes." + std::string(kShearAxisNames[a]),
              "a leg that ends in equilibrium cannot strain a shear axis (hold it: stress or a zero strain)");
   }
@@ -481,7 +473,7 @@ void read_simple_shear(ObjectReader r, Leg& leg) {
                                "must be non-zero (a simple shear that does not shear)");
   const AxisControl held{AxisMode::StrainIncrement, 0.0};
   leg.axes = {held, AxisControl{AxisMode::Stress, r.number(keys::simple_shear_normal_stress)}, held};
-  leg.shear = {shear, std::nullopt, std::nullopt};
+  leg.axes[3] = shear;
   r.finish();
 }
 
@@ -541,27 +533,30 @@ Leg read_leg(ObjectReader& r, bool preparation) {
       if (a == plane && axes.has(kShearAxisNames[a]))
         fail(axes.at(kShearAxisNames[a]), "set by rotate_principal_axes (plane " + std::string(kPlaneNames[plane]) +
                                               "): leave it out");
-      if (axes.has(kShearAxisNames[a])) leg.shear[a] = read_shear_axis(axes.object(kShearAxisNames[a]));
+      if (axes.has(kShearAxisNames[a])) leg.axes[3 + a] = read_shear_axis(axes.object(kShearAxisNames[a]));
     }
     axes.finish();
     if (leg.rotation) {  // the plane's controls: stress axes at the leg start's targets (moved by the control)
       const std::array<double, 3> t = leg.rotation->targets(0.0, 1.0);
       leg.axes[kShearAxisEntries[plane][0]] = {AxisMode::Stress, t[0]};
       leg.axes[kShearAxisEntries[plane][1]] = {AxisMode::Stress, t[1]};
-      leg.shear[plane] = AxisControl{AxisMode::Stress, t[2]};
+      leg.axes[3 + plane] = AxisControl{AxisMode::Stress, t[2]};
+      // The principal axes stay in the plane: the other shear stresses are held at 0 unless the leg names them.
+      for (int a = 0; a < 3; ++a)
+        if (leg.axes[3 + a].mode == AxisMode::Held) leg.axes[3 + a] = AxisControl{AxisMode::Stress, 0.0};
     }
   }
   if (r.has(keys::test_zero_shear_stress)) {
     if (!r.boolean(keys::test_zero_shear_stress))
       fail(r.at(keys::test_zero_shear_stress), "only true is meaningful (leave the key out otherwise)");
     for (int a = 0; a < 3; ++a)
-      if (leg.shear[a])
+      if (leg.axes[3 + a].mode != AxisMode::Held)
         fail(r.at(keys::test_zero_shear_stress),
              simple_shear ? std::string("contradicts simple_shear (which drives x12)")
              : leg.rotation ? std::string("contradicts rotate_principal_axes (which sets its plane's shear stress)")
                           : "contradicts the shear axis axes." + std::string(kShearAxisNames[a]) +
                                 " (zero_shear_stress sets all three): give one or the other");
-    for (auto& shear : leg.shear) shear = AxisControl{AxisMode::Stress, 0.0};
+    for (int a = 0; a < 3; ++a) leg.axes[3 + a] = AxisControl{AxisMode::Stress, 0.0};
   }
   leg.end = read_end(r.object(keys::test_end), preparation);
   if (r.has(keys::test_adaptive_rate)) {
@@ -711,8 +706,7 @@ void check_leg_lengths(const TestDef& t, double time_step, const std::string& le
   const std::vector<std::int64_t> steps = program_leg_steps(t.legs, time_step, &from);
   for (std::size_t j = 0; j < t.legs.size(); ++j) {
     const Leg& leg = t.legs[j];
-    const bool shear = leg.end.kind == LegEndKind::ShearStrain;
-    if (steps[j] < 0 || (leg.end.kind != LegEndKind::Strain && !shear) || std::isnan(from[j])) continue;
+    if (steps[j] < 0 || leg.end.kind != LegEndKind::Strain || std::isnan(from[j])) continue;
     const int k = leg.end.axis;
     const double per_step = leg.end_strain_per_step(time_step), distance = leg.end.value - from[j];
     // A leg that moves away from its end strain is another error, named when the leg starts (LegEndWatch).
@@ -721,8 +715,8 @@ void check_leg_lengths(const TestDef& t, double time_step, const std::string& le
     if (std::abs(distance) >= std::abs(per_step) * (1.0 - 1e-9)) continue;
     const std::string at = one_leg ? legs_path + ".end.strain" : legs_path + " (leg " + std::to_string(j) +
                                                                       " of the program, repeats unrolled): end.strain";
-    const AxisControl& a = shear ? *leg.shear[static_cast<std::size_t>(k)] : leg.axes[k];
-    fail(at, "the leg is shorter than one step: axis " + std::string(shear ? kShearAxisNames[k] : kAxisNames[k]) +
+    const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
+    fail(at, "the leg is shorter than one step: axis " + std::string(kComponentNames[static_cast<std::size_t>(k)]) +
                  " moves " + fmt(per_step) +
                  " per step (" + (a.mode == AxisMode::StrainRate ? "strain_rate " + fmt(a.value) + " 1/s x time_step " +
                                                                        fmt(time_step) + " s"
@@ -783,17 +777,15 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
     const Leg leg = read_leg(r, false);
     // The one-leg form: the axis that ends the test must be strained towards the end strain.
     if (leg.end.kind == LegEndKind::Strain) {
-      const AxisControl& driver = leg.axes[leg.end.axis];
-      if (!driver.strain_driven()) fail(r.at("end.axis"), "the axis that ends the test must be strain-controlled");
+      const AxisControl& driver = leg.axes[static_cast<std::size_t>(leg.end.axis)];
+      const std::string name = component_name(leg.end.axis);
+      if (!driver.strain_driven())
+        fail(r.at("end.axis"), "the axis that ends the test (" + name + ") must be strain-controlled" +
+                                   (driver.mode == AxisMode::Held ? std::string(": the test holds its tilt") : std::string(": the test holds a stress on it")));
       if (leg.end.value == 0.0) fail(r.at("end.strain"), "must be non-zero");
       if (driver.value == 0.0 || (driver.value > 0) != (leg.end.value > 0))
-        fail(r.at("end.strain"), "the end axis is not strained towards this value");
-    }
-    if (leg.end.kind == LegEndKind::ShearStrain) {  // (check_leg: the leg drives the shear axis by its strain)
-      const std::optional<AxisControl>& driver = leg.shear[static_cast<std::size_t>(leg.end.axis)];
-      if (leg.end.value == 0.0) fail(r.at("end.strain"), "must be non-zero");
-      if (driver && driver->strain_driven() && driver->value != 0.0 && (driver->value > 0) != (leg.end.value > 0))
-        fail(r.at("end.strain"), "the end axis is not sheared towards this value");
+        fail(r.at("end.strain"), std::string("the end axis is not ") + (is_shear_component(leg.end.axis) ? "sheared" : "strained") +
+                                     " towards this value");
     }
     check_leg(leg, r.path());
     t.legs.push_back(leg);

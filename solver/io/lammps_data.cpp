@@ -283,7 +283,7 @@ LammpsData parse_lammps_data(const std::string& text, const std::string& source)
   }
 
   // A new sample's control memory: the cell as it is is the reference.
-  s.control.reference_lengths = length;
+  s.control.reference.head<3>() = length;
   s.control.reference_volume = s.cell.volume();
   return out;
 }

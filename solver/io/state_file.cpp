@@ -29,6 +29,7 @@ class Writer {
     out_.append(reinterpret_cast<const char*>(&v), sizeof(T));
   }
   void put(const Vec3& v) { for (int k = 0; k < 3; ++k) put(v[k]); }
+  void put(const Vec6& v) { for (int k = 0; k < 6; ++k) put(v[k]); }
   void put(const Mat3& m) { for (int k = 0; k < 9; ++k) put(m.data()[k]); }
   void put_string(const std::string& s) {
     put(static_cast<std::uint32_t>(s.size()));
@@ -62,6 +63,11 @@ class Reader {
     for (int k = 0; k < 3; ++k) v[k] = finite();
     return v;
   }
+  Vec6 vec6() {
+    Vec6 v;
+    for (int k = 0; k < 6; ++k) v[k] = finite();
+    return v;
+  }
   Mat3 mat() {
     Mat3 m;
     for (int k = 0; k < 9; ++k) m.data()[k] = finite();
@@ -93,12 +99,10 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   const std::vector<StoredContact> contacts = stored_contacts(s);
   const bool rotational = !s.pairs.rolling.empty();
   const bool radius = !s.pairs.contact_radius.empty();
-  // Format 5 is format 4 with the shear record (the shear stresses in the stress tensor's slot, the shear
-  // stiffnesses and the shear axes' control memory); every state with a physics record has it.
-  // Format 6 adds the adaptive rate's record (ControlState::rate_factor, leg_progress), written only by a
-  // state inside an adaptive leg (elsewhere the factor is 1 and the progress the leg's steps).
-  const bool adaptive = s.control.rate_factor != 1.0 || s.control.leg_progress != static_cast<double>(s.control.leg_steps);
-  const std::uint32_t version = adaptive ? 6 : radius || !physics.empty() ? 5 : rotational ? 3 : 2;
+  // Format 7 (every state with a physics record or contact radii) holds the control as one record of the six
+  // components; without either, format 2 or 3 as before (their cells were never sheared by the control and their
+  // legs ran at the deck's rate).
+  const std::uint32_t version = radius || !physics.empty() ? 7 : rotational ? 3 : 2;
   w.put_string(label);
   if (version >= 4) w.put_string(physics);
   w.put(static_cast<std::uint64_t>(s.particles.size()));
@@ -110,28 +114,24 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   w.put(s.control.leg_steps);
   w.put(s.control.leg);
   w.put(s.control.stage_steps);
-  w.put(s.control.reference_lengths);
-  w.put(s.control.reference_volume);
-  w.put(s.control.servo_integral);
-  w.put(s.control.leg_start_strains);  // format 2
-  w.put(s.control.leg_start_volume);
-  Mat3 stress = s.normal_stress.asDiagonal();  // a full tensor's slot: earlier files held the whole tensor
-  if (version >= 5)
-    for (int a = 0; a < 3; ++a) {
-      const auto [i, j] = kShearAxisEntries[a];
-      stress(i, j) = stress(j, i) = s.shear_stress[a];
-    }
-  w.put(stress);
-  w.put(s.axis_stiffness);
-  if (version >= 5) {
-    w.put(s.shear_stiffness);
-    w.put(s.control.reference_tilts);
-    w.put(s.control.leg_start_shear);
-    w.put(s.control.shear_servo_integral);
-  }
-  if (version >= 6) {
+  if (version >= 7) {  // the control record: ControlState and the last evaluation's stresses, per component
+    w.put(s.control.reference);
+    w.put(s.control.reference_volume);
+    w.put(s.control.leg_start_volume);
+    w.put(s.control.servo_integral);
+    w.put(s.control.leg_start_strains);
     w.put(s.control.rate_factor);
     w.put(s.control.leg_progress);
+    w.put(s.stress);
+    w.put(s.stiffness);
+  } else {  // formats 2 and 3: the normal axes' record (a full tensor's slot for the stress, as format 1 held)
+    w.put(Vec3(s.control.reference.head<3>()));
+    w.put(s.control.reference_volume);
+    w.put(Vec3(s.control.servo_integral.head<3>()));
+    w.put(Vec3(s.control.leg_start_strains.head<3>()));
+    w.put(s.control.leg_start_volume);
+    w.put(Mat3(s.normal_stress().asDiagonal()));
+    w.put(Vec3(s.stiffness.head<3>()));
   }
   w.put(s.touching);
   w.put(s.pairs.skin);
@@ -164,6 +164,43 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   file.put(fnv1a(payload.data(), payload.size()));
   return std::move(file.bytes());
 }
+
+namespace {
+// Formats 1 to 6: the normal axes' record, then from format 5 the shear axes' (the shear stresses in the stress
+// tensor's slot, the shear stiffnesses, the stage's reference tilts, the leg's start shear strains and the
+// shear servo's integral), then from format 6 the adaptive rate's; older files' tilts as they stand are the
+// stage's reference, and their legs ran at the deck's rate.
+void read_control_up_to_6(Reader& r, std::uint32_t version, State& s) {
+  ControlState& c = s.control;
+  c.reference.head<3>() = r.vec();
+  c.reference_volume = r.finite();
+  c.servo_integral.head<3>() = r.vec();
+  if (version >= 2) {  // format 1 had no legs: its stage was one leg from the stage start
+    c.leg_start_strains.head<3>() = r.vec();
+    c.leg_start_volume = r.finite();
+  } else {
+    c.leg_start_volume = c.reference_volume;
+  }
+  const Mat3 stress = r.mat();
+  s.stress.head<3>() = stress.diagonal();
+  s.stiffness.head<3>() = r.vec();
+  if (version >= 5) {
+    for (int a = 0; a < 3; ++a) s.stress[3 + a] = stress(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
+    s.stiffness.tail<3>() = r.vec();
+    c.reference.tail<3>() = r.vec();
+    c.leg_start_strains.tail<3>() = r.vec();
+    c.servo_integral.tail<3>() = r.vec();
+  } else {
+    for (int a = 0; a < 3; ++a) c.reference[3 + a] = s.cell.h(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
+  }
+  if (version >= 6) {
+    c.rate_factor = r.finite();
+    c.leg_progress = r.finite();
+  } else {
+    c.leg_progress = static_cast<double>(c.leg_steps);
+  }
+}
+}  // namespace
 
 State parse_state(const std::string& bytes, std::string* label, std::string* physics) {
   Reader head(bytes.data(), bytes.size());
@@ -201,35 +238,21 @@ State parse_state(const std::string& bytes, std::string* label, std::string* phy
   s.control.leg_steps = r.get<std::int64_t>();
   s.control.leg = r.get<std::int32_t>();
   s.control.stage_steps = r.get<std::int64_t>();
-  s.control.reference_lengths = r.vec();
-  s.control.reference_volume = r.finite();
-  s.control.servo_integral = r.vec();
-  if (version >= 2) {  // format 1 had no legs: its stage was one leg from the stage start
-    s.control.leg_start_strains = r.vec();
+  if (version >= 7) {
+    s.control.reference = r.vec6();
+    s.control.reference_volume = r.finite();
     s.control.leg_start_volume = r.finite();
-  } else {
-    s.control.leg_start_volume = s.control.reference_volume;
-  }
-  const Mat3 stress = r.mat();
-  s.normal_stress = stress.diagonal();
-  s.axis_stiffness = r.vec();
-  if (version >= 5) {  // the shear record; older files had none: their cells were never sheared by the control
-    for (int a = 0; a < 3; ++a) s.shear_stress[a] = stress(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
-    s.shear_stiffness = r.vec();
-    s.control.reference_tilts = r.vec();
-    s.control.leg_start_shear = r.vec();
-    s.control.shear_servo_integral = r.vec();
-  } else {  // the tilts as they stand are the stage's reference
-    for (int a = 0; a < 3; ++a) s.control.reference_tilts[a] = s.cell.h(kShearAxisEntries[a][0], kShearAxisEntries[a][1]);
-  }
-  if (version >= 6) {
+    s.control.servo_integral = r.vec6();
+    s.control.leg_start_strains = r.vec6();
     s.control.rate_factor = r.finite();
     s.control.leg_progress = r.finite();
-    if (!(s.control.rate_factor > 0.0) || s.control.leg_progress < 0.0)
-      throw StateFileError("state file holds a non-positive rate factor or a negative leg progress");
+    s.stress = r.vec6();
+    s.stiffness = r.vec6();
   } else {
-    s.control.leg_progress = static_cast<double>(s.control.leg_steps);
+    read_control_up_to_6(r, version, s);
   }
+  if (!(s.control.rate_factor > 0.0) || s.control.leg_progress < 0.0)
+    throw StateFileError("state file holds a non-positive rate factor or a negative leg progress");
   s.touching = r.get<std::int64_t>();
   s.pairs.skin = r.finite();
   // The optional fields of each contact: the rotational springs from format 3 on, as format 4 says.

@@ -25,7 +25,10 @@ struct StateFileError : std::runtime_error {
 // 6: format 5 with the adaptive rate's record after the shear record (ControlState::rate_factor, leg_progress),
 // written only for a state inside an adaptive leg; older files read as the deck's rate (factor 1, progress =
 // the leg's steps).
-inline constexpr std::uint32_t kStateFormatVersion = 6;
+// 7: the control as one record of the six components (ControlState's reference entries, servo integrals and
+// leg start strains, its rate factor and leg progress; the state's stresses and stiffnesses), written for every
+// state with a physics record or contact radii (formats 2 and 3 otherwise). Formats 1 to 6 are still read.
+inline constexpr std::uint32_t kStateFormatVersion = 7;
 inline constexpr std::uint8_t kStateRotationalFields = 1, kStateRadiusField = 2;
 
 // label says what the state is (e.g. "prepared", "checkpoint:ttc"); physics, when not empty, the physics it

@@ -28,6 +28,7 @@ std::string axis_text(const AxisControl& a) {
     case AxisMode::MeanStress: return "mean stress " + num(a.value) + " Pa";
     case AxisMode::ConstantVolume: return "constant volume";
     case AxisMode::StressRamp: return "stress ramp from " + num(a.value) + " Pa at " + num(a.rate) + " Pa/s";
+    case AxisMode::Held: return "held";
   }
   return "";
 }

@@ -30,13 +30,14 @@ struct EndWatch {
 EndWatch end_watch(const Deck& deck, const LegEnd& e) {
   const std::string i = std::to_string(e.axis + 1);
   switch (e.kind) {
-    case LegEndKind::Strain: return {"1.0-l" + std::string(kAxisName[e.axis]) + "/v_L0" + i, true};
-    case LegEndKind::ShearStrain: {  // g_ij = -(tilt - tilt(test start)) / L_j(test start), as the series' g_ij
-      static constexpr const char* kTilt[3] = {"xy", "xz", "yz"};
-      return {"-(" + std::string(kTilt[e.axis]) + "-v_T0" + kTilt[e.axis] + ")/v_L0" +
-                  std::to_string(kShearAxisEntries[e.axis][1] + 1),
-              true};
-    }
+    case LegEndKind::Strain:
+      if (is_shear_component(e.axis)) {  // g_ij = -(tilt - tilt(test start)) / L_j(test start), as the series' g_ij
+        static constexpr const char* kTilt[3] = {"xy", "xz", "yz"};
+        const int a = e.axis - 3;
+        return {"-(" + std::string(kTilt[a]) + "-v_T0" + kTilt[a] + ")/v_L0" + std::to_string(kShearAxisEntries[a][1] + 1),
+                true};
+      }
+      return {"1.0-l" + std::string(kAxisName[e.axis]) + "/v_L0" + i, true};
     case LegEndKind::Ratio: return {"f_obs[4]/f_obs[6]", true};
     case LegEndKind::Stress: return {"f_obs[" + std::to_string(4 + e.axis) + "]", true};
     case LegEndKind::SolidFraction: return {"mass(all)/(" + num(deck.sample.density) + "*vol)", false};
@@ -107,7 +108,7 @@ std::string pad(const std::string& command) {
 bool program_shears(const ScriptProgram& p) {
   for (const Leg& leg : p.legs)
     for (int a = 0; a < 3; ++a)
-      if (leg.shear_strain_per_step(a, 1.0) != 0.0) return true;
+      if (leg.strain_per_step(3 + a, 1.0) != 0.0) return true;
   return false;
 }
 
@@ -120,15 +121,15 @@ ScriptProgram test_program(const Deck& deck, const TestDef& test) {
 // celldem's legs start: e = e(leg start) + n d) for as long as every leg's length is known.
 std::vector<LegRun> plan_runs(const Deck& /*deck*/, const ScriptProgram& p) {
   std::vector<LegRun> runs;
-  std::array<bool, 3> known = {true, true, true}, shear_known = {true, true, true};
-  std::array<double, 3> strain = {0.0, 0.0, 0.0}, shear = {0.0, 0.0, 0.0};
+  std::array<bool, kComponents> known = {true, true, true, true, true, true};
+  std::array<double, kComponents> strain = {};
   for (std::size_t j = 0; j < p.legs.size(); ++j) {
     const Leg& leg = p.legs[j];
     const LegEnd& e = leg.end;
     // A shear stress axis has no counterpart in the scripts (fix deform drives a tilt, no barostat holds one
     // at a shear stress here); a strain-driven one is fix deform's tilt (controls()).
     for (int a = 0; a < 3; ++a)
-      if (leg.shear[a] && leg.shear[a]->stress_driven())
+      if (leg.axes[3 + a].stress_driven())
         throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
                         std::to_string(j + 1) + ": axes." + std::string(kShearAxisNames[a]) +
                         " (a stress-controlled shear axis: zero_shear_stress, rotate_principal_axes too) is not translated: the scripts "
@@ -136,28 +137,15 @@ std::vector<LegRun> plan_runs(const Deck& /*deck*/, const ScriptProgram& p) {
     LegRun r;
     if (e.kind == LegEndKind::Steps) {
       r.steps = e.steps;
-    } else if (e.kind == LegEndKind::Strain && leg.axes[e.axis].strain_driven()) {
+    } else if (e.kind == LegEndKind::Strain && leg.axes[static_cast<std::size_t>(e.axis)].strain_driven()) {
       if (known[e.axis]) {
         const double per_step = leg.strain_per_step(e.axis, p.time_step);
         if ((e.value - strain[e.axis]) * per_step < 0.0)
           throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
-                          std::to_string(j + 1) + ": axis " + std::string(kAxisNames[e.axis]) +
+                          std::to_string(j + 1) + ": axis " + std::string(kComponentNames[e.axis]) +
                           " moves away from its end strain " + num(e.value) + " (it starts the leg at " +
                           num(strain[e.axis]) + ")");
         r.steps = leg_steps(leg, p.time_step, strain[e.axis]);
-      } else {
-        r.length = LegLength::FromStrain;
-        r.limit = e.max_steps;
-      }
-    } else if (e.kind == LegEndKind::ShearStrain) {  // (the deck reader: the leg drives the axis by its strain)
-      const std::size_t a = static_cast<std::size_t>(e.axis);
-      if (shear_known[a]) {
-        if ((e.value - shear[a]) * leg.shear_strain_per_step(e.axis, p.time_step) < 0.0)
-          throw DeckError((p.preparation() ? std::string("prepare") : "test \"" + p.name + "\"") + ", leg " +
-                          std::to_string(j + 1) + ": axis " + std::string(kShearAxisNames[a]) +
-                          " moves away from its end strain " + num(e.value) + " (it starts the leg at " +
-                          num(shear[a]) + ")");
-        r.steps = leg_steps(leg, p.time_step, shear[a]);
       } else {
         r.length = LegLength::FromStrain;
         r.limit = e.max_steps;
@@ -173,13 +161,11 @@ std::vector<LegRun> plan_runs(const Deck& /*deck*/, const ScriptProgram& p) {
       r.length = LegLength::Halt;
       r.limit = e.max_steps;
     }
-    for (int k = 0; k < 3; ++k) {
-      known[k] = known[k] && r.length == LegLength::Known && leg.axes[k].strain_driven();
+    for (int k = 0; k < kComponents; ++k) {
+      // A component the leg drives moves n d; a shear axis the leg does not name keeps its tilt; the rest: unknown.
+      const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
+      known[k] = known[k] && r.length == LegLength::Known && (a.strain_driven() || a.mode == AxisMode::Held);
       if (known[k]) strain[k] += static_cast<double>(r.steps) * leg.strain_per_step(k, p.time_step);
-      // A shear axis the leg does not name keeps its tilt; one it drives moves n d; one at a stress: unknown.
-      const std::optional<AxisControl>& a = leg.shear[static_cast<std::size_t>(k)];
-      shear_known[k] = shear_known[k] && r.length == LegLength::Known && !(a && a->stress_driven());
-      if (shear_known[k]) shear[k] += static_cast<double>(r.steps) * leg.shear_strain_per_step(k, p.time_step);
     }
     runs.push_back(r);
   }
@@ -191,8 +177,10 @@ std::string end_text(const Leg& leg, const LegRun& run) {
   const std::string i = std::to_string(e.axis + 1);
   std::string s;
   switch (e.kind) {
-    case LegEndKind::Strain: s = "until e" + i + " = " + num(e.value); break;
-    case LegEndKind::ShearStrain: s = "until g" + std::string(kShearAxisNames[e.axis]).substr(1) + " = " + num(e.value); break;
+    case LegEndKind::Strain:
+      s = is_shear_component(e.axis) ? "until g" + std::string(kComponentNames[e.axis]).substr(1) + " = " + num(e.value)
+                                     : "until e" + i + " = " + num(e.value);
+      break;
     case LegEndKind::Ratio: s = "until s11/s33 = " + num(e.value); break;
     case LegEndKind::Stress: s = "until s" + i + i + " = " + num(e.value) + " Pa"; break;
     case LegEndKind::Steps: s = "for " + std::to_string(e.steps) + " steps"; break;
@@ -355,6 +343,8 @@ void ProgramWriter::controls(int j) {
       case AxisMode::ConstantVolume:
         deform += " " + ax + " volume";
         break;
+      case AxisMode::Held:  // (a shear axis's mode: the normal axes are always named)
+        break;
     }
   }
   // Strain-driven shear axes: fix deform's tilt (the box made triclinic after read_data). celldem's tilt is
@@ -362,7 +352,7 @@ void ProgramWriter::controls(int j) {
   // length at the run's start: erate = -dg/dt in a first leg of known length (its run starts at the test start),
   // else vel V = -L_j(test start) dg/dt, which adds the same per step from the tilt at the leg start.
   for (int a = 0; a < 3; ++a) {
-    const double per_step = leg.shear_strain_per_step(a, p_.time_step);
+    const double per_step = leg.strain_per_step(3 + a, p_.time_step);
     if (per_step == 0.0) continue;
     static constexpr const char* kTilt[3] = {"xy", "xz", "yz"};
     const double rate = -per_step / p_.time_step;  // [1/s] d(tilt)/dt over L_j
@@ -419,15 +409,15 @@ void ProgramWriter::from_strain(int j) {
   const Leg& leg = p_.legs[j];
   const LegEnd& e = leg.end;
   const std::string t = tag(j), now = std::string("(") + num(e.value) + "-(" + end_watch(deck_, e).value + "))";
-  const bool shear = e.kind == LegEndKind::ShearStrain;
+  const bool shear = is_shear_component(e.axis);
   std::string name = shear ? "g" : "e";
-  name.append(shear ? std::string(kShearAxisNames[e.axis]).substr(1) : std::to_string(e.axis + 1));
+  name.append(shear ? std::string(kComponentNames[e.axis]).substr(1) : std::to_string(e.axis + 1));
   const double per_step = leg.end_strain_per_step(p_.time_step);
   o_ << "# the steps to " << name << " = " << num(e.value) << " from the strain at the leg start (celldem's leg_steps)\n";
   var("n" + t, "round(" + now + "/" + lit(per_step) + ")");
   var("away" + t, now + "*" + lit(per_step) + "<0.0");
   fail("${away" + t + "}", leg_name(j) + ": axis " +
-                               std::string(shear ? kShearAxisNames[e.axis] : kAxisNames[e.axis]) +
+                               std::string(kComponentNames[e.axis]) +
                                " moves away from its end strain " + num(e.value));
   std::string steps = "n" + t;
   if (runs_[j].limit > 0) {

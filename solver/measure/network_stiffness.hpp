@@ -52,7 +52,7 @@
 
 namespace celldem {
 
-using Voigt6 = Eigen::Matrix<double, 6, 1>;
+using Voigt6 = Vec6;
 using Stiffness6 = Eigen::Matrix<double, 6, 6>;
 
 // The tensor entries (i, j) of the Voigt components, in order 11, 22, 33, 12, 13, 23.

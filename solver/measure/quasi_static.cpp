@@ -22,11 +22,11 @@ EquilibriumCheck equilibrium(const State& state, UnbalancedForce unbalanced_forc
   EquilibriumCheck c;
   // An isotropic target is used as given, not as a mean of three equal numbers (which may round).
   const double target = targets[0] == targets[1] && targets[1] == targets[2] ? targets[0] : targets.mean();
-  c.p = state.normal_stress.sum() / 3.0;
+  c.p = state.mean_stress();
   c.pressure_error = std::abs(c.p - target) / target;
   for (int k = 0; k < 3; ++k)
     c.max_stress_error =
-        std::max(c.max_stress_error, std::abs(state.normal_stress[k] - targets[k]) / targets[k]);
+        std::max(c.max_stress_error, std::abs(state.stress[k] - targets[k]) / targets[k]);
   c.unbalanced = state.touching ? unbalanced_force() : 1.0;
   c.reached = state.touching > 0 && c.pressure_error <= criterion.pressure_tolerance &&
               c.max_stress_error <= criterion.stress_tolerance && c.unbalanced <= criterion.unbalanced_force_ratio;

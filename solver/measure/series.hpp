@@ -32,9 +32,17 @@ struct SeriesRow {
   double rate_factor = 0, strain_rate = 0;          // the loading rate (an adaptive leg's factor) in the last steps
   double inertial_number = 0, kinetic_to_elastic = 0;  // quasi-static indicators
 
-  // Engineering strain of axis k (0-based), compression positive.
-  double strain(int k) const { return k == 0 ? e1 : k == 1 ? e2 : e3; }
-  double normal_stress(int k) const { return k == 0 ? s11 : k == 1 ? s22 : s33; }
+  // Strain of component k (0-based, kComponentNames: e1 e2 e3 g12 g13 g23), compression positive.
+  double strain(int k) const {
+    const double e[6] = {e1, e2, e3, g12, g13, g23};
+    return e[k];
+  }
+  // Stress of component k (s11 s22 s33 s12 s13 s23).
+  double stress(int k) const {
+    const double s[6] = {s11, s22, s33, s12, s13, s23};
+    return s[k];
+  }
+  double normal_stress(int k) const { return stress(k); }
 };
 
 // b (axis and principal) is written only where the stress difference s1 - s3 exceeds this fraction of p.

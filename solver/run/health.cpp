@@ -68,59 +68,11 @@ void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64
                      "; unstable time step or loading?); the last checkpoint holds the last good state");
 }
 
-ControlErrorMaxima control_error_maxima(const std::vector<ControlErrors>& errors) {
-  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-  ControlErrorMaxima m{nan, nan, nan, nan};
-  const auto worst = [](double& to, double x) {
-    if (std::isfinite(x)) to = std::isfinite(to) ? std::max(to, x) : x;
-  };
-  for (const ControlErrors& e : errors) {
-    worst(m.servo, e.stress);
-    worst(m.servo, e.mean_stress);
-    worst(m.b, e.b);
-    worst(m.volume, e.volume);
-    worst(m.servo, e.shear_stress);
-    worst(m.over_tolerance, e.shear_stress / kServoTolerance);
-    worst(m.over_tolerance, e.stress / kServoTolerance);
-    worst(m.over_tolerance, e.mean_stress / kMeanStressTolerance);
-    worst(m.over_tolerance, e.b / kBTolerance);
-    worst(m.over_tolerance, e.volume / kVolumeTolerance);
-  }
-  return m;
-}
-
-std::vector<ControlFailureRecord> control_failures(const TestDef& test, const std::vector<ControlErrors>& errors) {
-  std::vector<ControlFailureRecord> out;
-  for (std::size_t leg = 0; leg < errors.size() && leg < test.legs.size(); ++leg)
-    for (int k = 0; k < kControlAxes; ++k)
-      if (errors[leg].failed[k]) {
-        const AxisMode mode = control_mode(test.legs[leg], k);
-        out.push_back({leg, k, k < 3 ? control_kind(mode) : "shear_stress", errors[leg].axis_error[k],
-                       control_tolerance(mode)});
-      }
-  return out;
-}
-
 std::vector<std::string> test_warnings(const TestDef& test, double inertia) {
   std::vector<std::string> out;
   if (inertia > kQuasiStaticInertia)
     out.push_back("test '" + test.name + "': inertial number " + std::to_string(inertia) +
                   " exceeds the quasi-static limit 1e-3: results depend on the loading rate");
-  return out;
-}
-
-std::vector<std::string> control_warnings(const TestDef& test, const std::vector<ControlErrors>& errors) {
-  std::vector<std::string> out;
-  for (const ControlFailureRecord& f : control_failures(test, errors)) {
-    const double scale = f.kind == "b" ? 1.0 : 100.0;
-    const char* unit = f.kind == "b" ? "" : " %";
-    char buf[240];
-    std::snprintf(buf, sizeof buf,
-                  "test '%s' leg %zu: the %s control of axis %s failed (error up to %.3g%s, tolerance %.3g%s); "
-                  "the test is marked uncontrolled (control_failure \"warn\")",
-                  test.name.c_str(), f.leg, f.kind.c_str(), control_axis_name(f.axis).c_str(), scale * f.error, unit, scale * f.tolerance, unit);
-    out.push_back(buf);
-  }
   return out;
 }
 

@@ -8,7 +8,6 @@
 #include "core/model.hpp"
 #include "core/state.hpp"
 #include "measure/series.hpp"
-#include "run/program.hpp"
 
 namespace celldem {
 
@@ -68,31 +67,8 @@ class RunawayMonitor {
 // Stops the run when a row holds non-finite values in a column that must be finite.
 void check_row_finite(const SeriesRow& row, const std::string& stage, std::int64_t step);
 
-// The largest control errors of a test over its legs, measured every step after each leg's settle window
-// (ControlErrors), one per unit so that no number mixes a fraction with an absolute b: NaN where nothing of
-// that kind was measured.
-struct ControlErrorMaxima {
-  double servo;            // stress and mean-stress axes: max |s - target| / target (summary.json servo_max_error)
-  double b;                // b axes: max |b - target|, absolute (b_max_error)
-  double volume;           // constant-volume axes: max |V/V(leg start) - 1| (volume_max_error)
-  double over_tolerance;   // the largest of every kind's error over its tolerance: above 1 is out of tolerance
-};
-ControlErrorMaxima control_error_maxima(const std::vector<ControlErrors>& errors);
-
-// One control of a test that failed (stayed outside its tolerance, program.hpp kPersistStrain).
-struct ControlFailureRecord {
-  std::size_t leg = 0;
-  int axis = 0;          // 0-based
-  std::string kind;      // stress, mean_stress, b, volume
-  double error = 0.0;    // the worst error of the control in the leg
-  double tolerance = 0.0;
-};
-std::vector<ControlFailureRecord> control_failures(const TestDef& test, const std::vector<ControlErrors>& errors);
-
 // Warnings about a finished test (inertial number), and about a deck before it runs.
 std::vector<std::string> test_warnings(const TestDef& test, double inertial_number);
 std::vector<std::string> deck_warnings(const Deck& deck);
-// The test's failed controls (with control_failure "warn"; "stop" ends the stage instead).
-std::vector<std::string> control_warnings(const TestDef& test, const std::vector<ControlErrors>& errors);
 
 }  // namespace celldem

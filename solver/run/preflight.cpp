@@ -250,6 +250,45 @@ void check_servo_caps(const Deck& deck) {
           "test '" + t.name + "'");
 }
 
+// A moving target (a stress ramp, a principal-axis rotation) faster than the servo follows. The servo's
+// proportional term removes `gain` of an error per step, so a target that moves by v per step lags it by about
+// v / gain; the integral term removes a steady lag only over about 1/integral_gain steps (500 at the default),
+// longer than a fast target's swing. A lag above kMovingTargetRefusal times the control's tolerance is not one the
+// servo can make up: the control would fail (run/control_verdict.hpp), so check refuses the deck first.
+constexpr double kMovingTargetRefusal = 10.0;
+void check_moving_targets(const Deck& deck) {
+  for (std::size_t i = 0; i < deck.tests.size(); ++i) {
+    const TestDef& t = deck.tests[i];
+    const double dt = deck.stage_time_step(t), gain = deck.stage_servo(t).gain;
+    for (std::size_t j = 0; j < t.legs.size(); ++j) {
+      const Leg& leg = t.legs[j];
+      const std::string at = "tests[" + std::to_string(i) + "]" + (t.legs.size() > 1 ? " (leg " + std::to_string(j) + ")" : "");
+      if (leg.rotation) {
+        const PrincipalRotation& r = *leg.rotation;
+        const double per_step = std::abs(r.per_step ? r.rate : r.rate * dt);  // [rad]
+        const double lag = (r.sigma1 - r.sigma3) * per_step / gain;  // s_ii moves by up to 2 (r) d(theta) per step
+        const double limit = kMovingTargetRefusal * kServoTolerance * r.sigma3;
+        if (lag > limit)
+          throw DeckError(at + ".rotate_principal_axes: the targets turn " + fmt(per_step * 180.0 / M_PI) +
+                          " degrees per step: the servo (gain " + fmt(gain) + ") lags them by about " + fmt(lag) +
+                          " Pa, " + fmt(lag / (kServoTolerance * r.sigma3)) + " x the stress tolerance of sigma3 (" +
+                          fmt(kServoTolerance * r.sigma3) + " Pa); turn at most " +
+                          fmt(limit / ((r.sigma1 - r.sigma3) / gain) * 180.0 / M_PI / dt) + " degrees/s");
+      }
+      for (int k = 0; k < 3; ++k) {
+        const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
+        if (a.mode != AxisMode::StressRamp) continue;
+        const double lag = std::abs(a.rate) * dt / gain, limit = kMovingTargetRefusal * kServoTolerance * a.value;
+        if (lag > limit)
+          throw DeckError(at + ".axes." + std::string(kAxisNames[static_cast<std::size_t>(k)]) + ".stress_ramp.rate: " +
+                          fmt(a.rate) + " Pa/s moves the target faster than the servo (gain " + fmt(gain) +
+                          ") follows: it lags by about " + fmt(lag) + " Pa, " + fmt(lag / (kServoTolerance * a.value)) +
+                          " x the tolerance at the ramp's start; ramp at most " + fmt(limit * gain / dt) + " Pa/s");
+      }
+    }
+  }
+}
+
 }  // namespace
 
 State load_initial_state(const Deck& deck) { return load_initial_sample(deck).state; }
@@ -372,6 +411,7 @@ std::string initial_state_path(const Deck& deck) {
 
 std::vector<std::string> preflight(const Deck& deck) {
   check_servo_caps(deck);
+  check_moving_targets(deck);
   if (deck.prepare) check_prepared_cell(deck);
   if (deck.initial_state) {
     const std::string path = initial_state_path(deck);

@@ -36,7 +36,7 @@ using Json = nlohmann::json;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-using Vec6 = std::array<double, 6>;
+using Row6 = std::array<double, 6>;
 constexpr std::array<const char*, 6> kStressNames = {"s11", "s22", "s33", "s12", "s13", "s23"};
 constexpr std::array<const char*, 6> kStrainNames = {"e1", "e2", "e3", "g12", "g13", "g23"};
 constexpr std::array<const char*, 6> kStrainProbeNames = {"e11", "e22", "e33", "g12", "g13", "g23"};
@@ -47,14 +47,14 @@ std::string fmt(double x) {
   return buf;
 }
 
-Vec6 stresses(const SeriesRow& r) { return {r.s11, r.s22, r.s33, r.s12, r.s13, r.s23}; }
-Vec6 strains(const SeriesRow& r) { return {r.e1, r.e2, r.e3, r.g12, r.g13, r.g23}; }
-Vec6 minus(const Vec6& a, const Vec6& b) {
-  Vec6 d;
+Row6 stresses(const SeriesRow& r) { return {r.s11, r.s22, r.s33, r.s12, r.s13, r.s23}; }
+Row6 strains(const SeriesRow& r) { return {r.e1, r.e2, r.e3, r.g12, r.g13, r.g23}; }
+Row6 minus(const Row6& a, const Row6& b) {
+  Row6 d;
   for (int k = 0; k < 6; ++k) d[k] = a[k] - b[k];
   return d;
 }
-double norm(const Vec6& a) {
+double norm(const Row6& a) {
   double s = 0.0;
   for (double x : a) s += x * x;
   return std::sqrt(s);
@@ -222,7 +222,7 @@ std::vector<Leg> probe_legs(const ProbeDef& def, const ProbeDirection& probe, co
       leg.axes[static_cast<std::size_t>(k)] = {AxisMode::StrainIncrement, per_step * probe.direction[static_cast<std::size_t>(k)]};
     for (int a = 0; a < 3; ++a)
       if (probe.direction[static_cast<std::size_t>(3 + a)] != 0.0)
-        leg.shear[static_cast<std::size_t>(a)] = AxisControl{AxisMode::StrainIncrement, per_step};
+        leg.axes[static_cast<std::size_t>(3 + a)] = AxisControl{AxisMode::StrainIncrement, per_step};
   }
   return legs;
 }
@@ -259,7 +259,7 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
   model.servo.max_strain_increment =
       servo_cap(deck.stage_servo(test), test.legs[static_cast<std::size_t>(state.control.leg)], model.dt);
   model.servo.max_strain_increment_given = true;
-  const std::vector<Leg> legs = probe_legs(def, probe, state.normal_stress, model.dt);
+  const std::vector<Leg> legs = probe_legs(def, probe, state.normal_stress(), model.dt);
   begin_leg(state, 0);
   const std::int64_t from_step = state.control.stage_steps;
   const std::int64_t total = 2 * (def.steps + def.hold_steps);
@@ -273,6 +273,7 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
     out.open(state, /*resumed=*/false);
     Program program{legs, test.stage_friction(), &test.equilibrium, from_step + total};
     program.adaptive_threads = false;
+    program.kind = StageKind::Test;
     program.stage = stage;
     program.control_failure = ControlFailure::Warn;  // recorded with the probe, not a stop of the run
     program.print_control_warnings = false;
@@ -412,9 +413,8 @@ Json network_estimate(const Deck& deck, const TestDef& test, const State& point,
     rebuild_pairs(model, state);  // a state read back holds its contacts' history, not a built list
     const NetworkStiffness n = network_stiffness(model, state, tangential);
     Mat3 stress;
-    stress << state.normal_stress[0], state.shear_stress[0], state.shear_stress[1],
-              state.shear_stress[0], state.normal_stress[1], state.shear_stress[2],
-              state.shear_stress[1], state.shear_stress[2], state.normal_stress[2];
+    const auto& s = state.stress;
+    stress << s[0], s[3], s[4], s[3], s[1], s[5], s[4], s[5], s[2];
     Stiffness6 probed = n.relaxed;
     for (int a = 0; a < 3; ++a) {
       Vec3 g = Vec3::Zero();
@@ -589,12 +589,12 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       }
       ++ran;
       controlled += r.controlled;
-      const Vec6 ds = minus(stresses(r.loaded), stresses(reference.loaded));
-      const Vec6 de = minus(strains(r.loaded), strains(reference.loaded));
-      const Vec6 de_plastic = minus(strains(r.unloaded), strains(reference.unloaded));
-      const Vec6 ds_residual = minus(stresses(r.unloaded), stresses(reference.unloaded));
-      const Vec6 de_elastic = minus(de, de_plastic);
-      for (const Vec6* v : {&ds, &de, &de_plastic, &de_elastic, &ds_residual})
+      const Row6 ds = minus(stresses(r.loaded), stresses(reference.loaded));
+      const Row6 de = minus(strains(r.loaded), strains(reference.loaded));
+      const Row6 de_plastic = minus(strains(r.unloaded), strains(reference.unloaded));
+      const Row6 ds_residual = minus(stresses(r.unloaded), stresses(reference.unloaded));
+      const Row6 de_elastic = minus(de, de_plastic);
+      for (const Row6* v : {&ds, &de, &de_plastic, &de_elastic, &ds_residual})
         for (double x : *v) csv.append(",").append(fmt(x));
       csv.append(r.controlled ? ",true,ok\n" : ",false,ok\n");
       if (def.kind == ProbeKind::Strain) {

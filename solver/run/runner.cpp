@@ -126,6 +126,7 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   Program program{test.legs, test.stage_friction(), &test.equilibrium, plan_test(deck, test).steps};
   program.equilibrium_key = "tests[].equilibrium";
   program.adaptive_threads = !options.fixed_threads;
+  program.kind = StageKind::Test;
   program.stage = test.name;
   program.control_failure = deck.control_failure;
   run_program(model, program, state, out, out.control_errors());
@@ -154,8 +155,13 @@ void print_test_done(const RunDirectory& run, const std::string& name) {
   std::printf("%s: done in %.1f s (%.3g particle-steps/s): peak s1/s3 %.4f at e1 %.4f\n", name.c_str(),
               value("wall_s"), value("particle_steps_per_s"), value("peak_ratio13"), value("e1_at_peak"));
   if (!s.value("peak_reached", true))
-    std::printf("%s: no peak reached: s11/s33 is largest at the end of the test (its peak quantities are left "
-                "out of ensemble statistics and fits)\n", name.c_str());
+    std::printf("%s: no peak reached: %s is largest at the end of the test (its peak quantities are left "
+                "out of ensemble statistics and fits)\n", name.c_str(), s.value("driven_measure", std::string("s11/s33")).c_str());
+  if (s.contains("shear"))
+    std::printf("%s: peak %s %.4f at %s %.4f\n", name.c_str(), s["shear"]["measure"].get<std::string>().c_str(),
+                s["shear"]["peak_tau_over_sigma_n"].is_null() ? NAN : s["shear"]["peak_tau_over_sigma_n"].get<double>(),
+                ("g" + s["shear"]["component"].get<std::string>().substr(1)).c_str(),
+                s["shear"]["g_at_peak"].is_null() ? NAN : s["shear"]["g_at_peak"].get<double>());
   if (!s.value("controlled", true))
     std::printf("%s: uncontrolled: a control failed (summary.json control_failures; control_failure \"warn\")\n",
                 name.c_str());

@@ -36,7 +36,7 @@ State make_grid_sample(const SampleDef& sample, double skin) {
       s.particles.scaled[i][k] = x / length;
     }
   }
-  s.control.reference_lengths = s.cell.h.diagonal();
+  s.control.reference.head<3>() = s.cell.h.diagonal();
   s.control.reference_volume = s.cell.volume();
   return s;
 }

@@ -79,7 +79,7 @@ void StageOutput::snapshot_if_due(const State& state, bool force) {
   if (!snapshots_) return;
   const std::int64_t s = state.control.stage_steps;
   bool due = force || (snapshot_plan_.interval > 0 && s % snapshot_plan_.interval == 0);
-  const double e1 = 1.0 - state.cell.h(0, 0) / state.control.reference_lengths[0];
+  const double e1 = 1.0 - state.cell.h(0, 0) / state.control.reference[0];
   while (next_e1_snapshot_ < snapshot_plan_.e1.size() && e1 >= snapshot_plan_.e1[next_e1_snapshot_])
     ++next_e1_snapshot_, due = true;
   if (due) snapshots_->write(state, s, static_cast<double>(s) * model_.dt);
@@ -117,7 +117,7 @@ void StageOutput::write_peak_contacts() {
 bool StageOutput::after_step(const State& state, double fraction, const std::string& status,
                              const ContactMeasures* contacts) {
   const std::int64_t s = state.control.stage_steps;
-  if (!std::isfinite(state.normal_stress.sum()) || !std::isfinite(state.cell.h.sum()))  // cheap, every step
+  if (!std::isfinite(state.stress.sum()) || !std::isfinite(state.cell.h.sum()))  // cheap, every step
     throw RunError("non-finite stress or cell in stage '" + stage_ + "' at step " + std::to_string(s) +
                    " (time step too large or loading too fast?); the last checkpoint holds the last good state");
   if (row_due(state)) write_row(state, contacts);

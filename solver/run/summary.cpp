@@ -7,6 +7,7 @@
 #include "core/plan.hpp"
 #include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
+#include "cell/control.hpp"
 #include "run/health.hpp"
 #include "run/preflight.hpp"
 #include "run/sample.hpp"
@@ -138,6 +139,104 @@ Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
                           {"Z", number_or_null(z_end / in_window)}}}};
 }
 
+namespace {
+
+// The measure a test drives (its last leg's): a shear component's tau/sigma_n (the component's shear stress
+// over the normal stress of its plane, s_ij / s_jj), a principal-axis rotation's tracking, or s11/s33.
+TestMeasure driven_measure(const TestDef& test) {
+  const Leg& last = test.legs.back();
+  if (last.rotation) return {TestMeasure::Kind::Rotation, -1};
+  if (leg_driving_increment(last, 1.0) == 0.0) return {TestMeasure::Kind::Stress, -1};
+  if (last.end.kind == LegEndKind::Strain && is_shear_component(last.end.axis)) return {TestMeasure::Kind::Shear, last.end.axis};
+  for (int k = 3; k < kComponents; ++k)
+    if (last.axes[static_cast<std::size_t>(k)].strain_driven() && last.axes[static_cast<std::size_t>(k)].value != 0.0)
+      return {TestMeasure::Kind::Shear, k};
+  return {TestMeasure::Kind::Axial, 0};
+}
+
+// A shear test's peak of |s_ij| / s_jj (its first row), g_ij there, whether a peak was reached (not the last
+// row, and the ratio falls by more than kPeakPlateau after it), the residual ratio over the end window of g_ij,
+// and the volumetric strain (dilation, compression +) at the peak and at the end.
+Json summarize_shear(const std::vector<SeriesRow>& rows, int k) {
+  const int j = kComponentEntries[static_cast<std::size_t>(k)][1];
+  const auto ratio = [&](const SeriesRow& r) { return std::abs(r.stress(k)) / r.stress(j); };
+  std::size_t peak = 0;
+  for (std::size_t r = 0; r < rows.size(); ++r)
+    if (ratio(rows[r]) > ratio(rows[peak]) || !std::isfinite(ratio(rows[peak]))) peak = r;
+  bool falls = false;
+  for (std::size_t r = peak + 1; r < rows.size(); ++r) falls |= ratio(rows[r]) < (1.0 - kPeakPlateau) * ratio(rows[peak]);
+  const double g_end = rows.back().strain(k);
+  double residual = 0.0;
+  int in_window = 0;
+  for (const SeriesRow& r : rows)
+    if (std::abs(r.strain(k) - g_end) <= kEndWindowStrain) residual += ratio(r), ++in_window;
+  const std::string n = component_name(k).substr(1);
+  return {{"component", component_name(k)},
+          {"measure", "|s" + n + "|/s" + std::to_string(j + 1) + std::to_string(j + 1)},
+          {"peak_tau_over_sigma_n", number_or_null(ratio(rows[peak]))},
+          {"g_at_peak", number_or_null(rows[peak].strain(k))},
+          {"peak_reached", peak + 1 < rows.size() && falls},
+          {"residual_tau_over_sigma_n", number_or_null(in_window ? residual / in_window : NAN)},
+          {"ev_at_peak", number_or_null(rows[peak].ev)},
+          {"ev_final", number_or_null(rows.back().ev)},
+          {"g_final", number_or_null(g_end)}};
+}
+
+// A principal-axis rotation leg's tracking over its rows: the in-plane principal values m +- r of s_ii, s_jj,
+// s_ij against sigma1 and sigma3, and their direction (theta = atan2(2 s_ij, s_ii - s_jj) / 2) against the
+// leg's angle at each row's time.
+Json summarize_rotation(const TestDef& test, const std::vector<SeriesRow>& rows, double dt) {
+  const std::size_t leg = test.legs.size() - 1;
+  const PrincipalRotation& rot = *test.legs[leg].rotation;
+  const auto [i, j] = kShearAxisEntries[static_cast<std::size_t>(rot.plane)];
+  double start = 0.0;  // the leg's start time: the previous leg's end row
+  for (const SeriesRow& r : rows)
+    if (r.leg < static_cast<double>(leg)) start = std::max(start, r.time);
+  double s1_err = NAN, s3_err = NAN, angle_err = NAN, turned = 0.0, out_of_plane = NAN;
+  const auto worst = [](double& to, double x) { to = std::isfinite(to) ? std::max(to, x) : x; };
+  for (const SeriesRow& r : rows) {
+    if (r.leg != static_cast<double>(leg) || r.time <= start) continue;
+    const double t = r.time - start;
+    const double sii = r.stress(i), sjj = r.stress(j), sij = r.stress(3 + rot.plane);
+    const double m = 0.5 * (sii + sjj), rad = std::hypot(0.5 * (sii - sjj), sij);
+    worst(s1_err, std::abs(m + rad - rot.sigma1) / rot.sigma1);
+    worst(s3_err, std::abs(m - rad - rot.sigma3) / rot.sigma3);
+    if (rot.sigma1 > rot.sigma3) {  // (equal principal values have no direction)
+      double d = 0.5 * std::atan2(2.0 * sij, sii - sjj) - rot.angle(t, dt);
+      d = std::remainder(d, M_PI);  // a direction: defined modulo 180 degrees
+      worst(angle_err, std::abs(d) * 180.0 / M_PI);
+    }
+    double shear_out = 0.0;  // the other two shear stresses, over the mean stress
+    for (int a = 0; a < 3; ++a)
+      if (a != rot.plane) shear_out = std::max(shear_out, std::abs(r.stress(3 + a)) / r.p);
+    worst(out_of_plane, shear_out);
+    turned = (rot.angle(t, dt) - rot.from) * 180.0 / M_PI;
+  }
+  return {{"plane", std::string(kPlaneNames[static_cast<std::size_t>(rot.plane)])},
+          {"sigma1_error_max", number_or_null(s1_err)},
+          {"sigma3_error_max", number_or_null(s3_err)},
+          {"angle_error_max_deg", number_or_null(angle_err)},
+          {"angle_turned_deg", turned},
+          {"out_of_plane_shear_max", number_or_null(out_of_plane)}};
+}
+
+}  // namespace
+
+Json summarize_driven_measure(const TestDef& test, const std::vector<SeriesRow>& rows, double dt) {
+  const TestMeasure m = driven_measure(test);
+  switch (m.kind) {
+    case TestMeasure::Kind::Shear: {
+      Json shear = summarize_shear(rows, m.component);
+      return {{"driven_measure", shear["measure"]}, {"peak_reached", shear["peak_reached"]}, {"shear", shear}};
+    }
+    case TestMeasure::Kind::Rotation: {  // no peak to reach: the tracking of the rotation is the result
+      return {{"driven_measure", "principal-axis rotation"}, {"rotation", summarize_rotation(test, rows, dt)}};
+    }
+    case TestMeasure::Kind::Stress: return {{"driven_measure", "none (stress-controlled)"}};
+    default: return {{"driven_measure", "s11/s33"}};
+  }
+}
+
 Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
                     const std::vector<ControlErrors>& errors, double wall, std::int64_t steps, std::size_t particles,
                     std::vector<std::string>& warnings) {
@@ -166,13 +265,19 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
                        {"step_ratio", at_deck_rate > 0 && steps > 0 ? Json(static_cast<double>(at_deck_rate) / steps) : Json(nullptr)}};
   }
   for (const std::string& w : test_warnings(test, inertia)) warnings.push_back(w);
-  for (const std::string& w : control_warnings(test, errors)) warnings.push_back(w);
+  for (const std::string& w : control_warnings(test.name, errors)) warnings.push_back(w);
   Json failures = Json::array();
-  for (const ControlFailureRecord& f : control_failures(test, errors))
-    failures.push_back({{"leg", f.leg}, {"axis", control_axis_name(f.axis)}, {"kind", f.kind},
-                        {"error", number_or_null(f.error)}, {"tolerance", f.tolerance}});
+  for (const ControlFailureRecord& f : control_failures(errors))
+    failures.push_back({{"leg", f.leg}, {"axis", component_name(f.component)}, {"kind", f.kind},
+                        {"error", number_or_null(f.error)}, {"tolerance", f.tolerance},
+                        {"target", number_or_null(f.target)}, {"reached", number_or_null(f.reached)}});
 
-  Json out = summarize_series(rows, test.legs.back().end.axis);
+  const int end_axis = test.legs.back().end.kind == LegEndKind::Strain ? test.legs.back().end.axis : 0;
+  Json out = summarize_series(rows, end_axis);
+  out.update(summarize_driven_measure(test, rows, deck.stage_time_step(test)));
+  // A rotation or a stress-controlled test drives no measure to a peak: not "no peak reached".
+  if (driven_measure(test).kind == TestMeasure::Kind::Rotation || driven_measure(test).kind == TestMeasure::Kind::Stress)
+    out.erase("peak_reached");
   out.update({{"controlled", failures.empty()},
               {"control_failures", failures},
               {"servo_max_error", number_or_null(worst.servo)},
@@ -197,10 +302,10 @@ Json summarize_preparation(const Model& model, const State& state, const Prepare
           {"Z", z.z},
           {"Zm", z.z_mechanical},
           {"rattlers", z.rattlers},
-          {"p", state.normal_stress.sum() / 3.0},
-          {"s11", state.normal_stress[0]},
-          {"s22", state.normal_stress[1]},
-          {"s33", state.normal_stress[2]},
+          {"p", state.mean_stress()},
+          {"s11", state.stress[0]},
+          {"s22", state.stress[1]},
+          {"s33", state.stress[2]},
           {"unbalanced_force", contacts.unbalanced_force},
           {"steps", steps},
           {"wall_s", wall},

@@ -29,6 +29,17 @@ inline constexpr double kPeakSmoothing = 0.005;
 // kEndWindowStrain of `end_axis` (0-based). Non-finite values are null.
 nlohmann::json summarize_series(const std::vector<SeriesRow>& rows, int end_axis);
 
+// The measure a test drives, from its last leg: axial (s11/s33), a shear component's tau/sigma_n (the last leg
+// ends on its strain or drives it), or a principal-axis rotation.
+struct TestMeasure {
+  // Stress: a last leg that no strain drives (stresses held or ramped): it drives no measure to a peak.
+  enum class Kind { Axial, Shear, Rotation, Stress } kind = Kind::Axial;
+  int component = 0;  // (Shear) the driven shear component, kComponentNames
+};
+// What the test's kind adds to its summary: "driven_measure"; for a shear test "shear" (the peak of tau/sigma_n,
+// g at the peak, the residual ratio, dilation) and "peak_reached" of that ratio; for a rotation "rotation" (how
+// its principal values and angle tracked their targets; summarize_test leaves peak_reached out: no peak to reach).
+nlohmann::json summarize_driven_measure(const TestDef& test, const std::vector<SeriesRow>& rows, double dt);
 // A test's scalars from its rows as series.csv holds them (as_printed), so that a resumed run reports the
 // same bytes. `warnings` receives what the health checks say about the finished test.
 // Per leg ("legs"): its rows' peak of s11/s33, e1 and the controlled quantities there (b, p, volumetric

@@ -182,12 +182,10 @@ namespace {
 // strain.
 Leg branch_leg(const Leg& parent, const BranchPoints::Start& start, double factor, double leg_time) {
   Leg leg = parent;
-  for (AxisControl& a : leg.axes) {
+  for (AxisControl& a : leg.axes) {  // (a shear axis driven by its strain slows down alike)
     if (a.strain_driven()) a.value *= factor;
     if (a.mode == AxisMode::StressRamp) a.value = a.stress_target(leg_time), a.rate *= factor;
   }
-  for (std::optional<AxisControl>& a : leg.shear)  // a shear axis driven by its strain slows down alike
-    if (a && a->strain_driven()) a->value *= factor;
   leg.end = LegEnd{};
   leg.end.kind = LegEndKind::Strain;
   leg.end.axis = start.axis;
@@ -351,6 +349,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
       Program program{legs, test.stage_friction(), &test.equilibrium,
                       from_step + leg_steps(legs.back(), model.dt, start.from_strain)};
       program.adaptive_threads = !options.fixed_threads;
+      program.kind = StageKind::Test;
       program.stage = stage;
       program.control_failure = ControlFailure::Warn;  // recorded with the branch, not a stop of the run
       std::vector<ControlErrors> errors;

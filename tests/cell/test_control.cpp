@@ -20,11 +20,12 @@ namespace celldem {
 namespace {
 
 using testing::model_deck;
+using testing::set_shear;
 
 State cell_state(const Mat3& h) {
   State s;
   s.cell.h = h;
-  s.control.reference_lengths = h.diagonal();
+  s.control.reference.head<3>() = h.diagonal();
   s.control.reference_volume = h.determinant();
   return s;
 }
@@ -130,8 +131,8 @@ TEST(Control, ServoStepFollowsItsLaw) {
                          AxisControl{AxisMode::StrainIncrement, 0.0}},
                         0.0};
   State s = cell_state(Mat3::Identity() * 1.0);
-  s.normal_stress = Vec3(0.8e5, 1.3e5, 0.0);  // x below target (compress), y above (extend)
-  s.axis_stiffness = Vec3(K, K, K);
+  s.stress.head<3>() = Vec3(0.8e5, 1.3e5, 0.0);  // x below target (compress), y above (extend)
+  s.stiffness.head<3>() = Vec3(K, K, K);
   double integral_x = 0.0, integral_y = 0.0, hx = 1.0, hy = 1.0;
   for (int k = 0; k < 3; ++k) {
     advance_cell(model, loading, s);
@@ -161,12 +162,12 @@ TEST(Control, StressRampServoAimsAtTheTargetOfTheStepsEnd) {
   const AxisControl ramp{AxisMode::StressRamp, from, rate};
   const Loading loading{{ramp, AxisControl{AxisMode::Stress, from}, AxisControl{AxisMode::StrainIncrement, 0.0}}, 0.0};
   State s = cell_state(Mat3::Identity() * 1.0);
-  s.normal_stress = Vec3(s_x, from, 0.0);
-  s.axis_stiffness = Vec3(K, K, K);
+  s.stress.head<3>() = Vec3(s_x, from, 0.0);
+  s.stiffness.head<3>() = Vec3(K, K, K);
   double integral = 0.0, hx = 1.0;
   for (int n = 0; n < 4; ++n) {
     const double target = from + rate * (n + 1) * model.dt;
-    const Vec3 t = stress_targets(loading.axes, s.normal_stress, (n + 1) * model.dt);
+    const Vec3 t = stress_targets(loading.axes, s.stress.head<3>(), (n + 1) * model.dt);
     EXPECT_DOUBLE_EQ(t[0], target);
     EXPECT_DOUBLE_EQ(t[1], from);  // a constant stress stays
     EXPECT_TRUE(std::isnan(t[2]));
@@ -193,26 +194,26 @@ TEST(Control, ServoSaturatesWithoutWindupAndWithoutContacts) {
                         0.0};
   State s = cell_state(Mat3::Identity());
   // No contacts (K = 0): the largest increment, towards the target.
-  s.normal_stress = Vec3(0.0, 2e5, 0.0);
-  s.axis_stiffness = Vec3(0.0, 0.0, 1e3);  // z: a huge step asked for, capped
+  s.stress.head<3>() = Vec3(0.0, 2e5, 0.0);
+  s.stiffness.head<3>() = Vec3(0.0, 0.0, 1e3);  // z: a huge step asked for, capped
   advance_cell(model, loading, s);
   EXPECT_DOUBLE_EQ(s.cell.h(0, 0), 1.0 - 1e-6);
   EXPECT_DOUBLE_EQ(s.cell.h(1, 1), 1.0 + 1e-6);
   EXPECT_DOUBLE_EQ(s.cell.h(2, 2), 1.0 - 1e-6);
-  EXPECT_EQ(s.control.servo_integral, Vec3::Zero());  // saturated: nothing accumulated
+  EXPECT_EQ(s.control.servo_integral, Vec6::Zero());  // saturated: nothing accumulated
   EXPECT_TRUE(s.servo_saturated[0] && s.servo_saturated[1] && s.servo_saturated[2]);
   // A leg's own cap (core/plan servo_cap) replaces the model's.
   Loading leg_cap = loading;
   leg_cap.servo_cap = 4e-6;
   State t = cell_state(Mat3::Identity());
-  t.normal_stress = Vec3(0.0, 2e5, 0.0);
-  t.axis_stiffness = Vec3(0.0, 0.0, 1e3);
+  t.stress.head<3>() = Vec3(0.0, 2e5, 0.0);
+  t.stiffness.head<3>() = Vec3(0.0, 0.0, 1e3);
   advance_cell(model, leg_cap, t);
   EXPECT_DOUBLE_EQ(t.cell.h(0, 0), 1.0 - 4e-6);
   EXPECT_DOUBLE_EQ(t.cell.h(1, 1), 1.0 + 4e-6);
   // Within the cap: not saturated.
-  t.normal_stress = Vec3(1e5 - 1.0, 1e5, 1e5);
-  t.axis_stiffness = Vec3(1e9, 1e9, 1e9);
+  t.stress.head<3>() = Vec3(1e5 - 1.0, 1e5, 1e5);
+  t.stiffness.head<3>() = Vec3(1e9, 1e9, 1e9);
   advance_cell(model, leg_cap, t);
   EXPECT_FALSE(t.servo_saturated[0] || t.servo_saturated[1] || t.servo_saturated[2]);
 }
@@ -227,7 +228,7 @@ TEST(Control, ShearStrainFollowsItsIncrementsExactlyAndUnnamedTiltsAreHeld) {
   begin_stage(s);
   const AxisControl held{AxisMode::StrainIncrement, 0.0};
   Loading loading{{AxisControl{AxisMode::StrainIncrement, 1e-4}, held, held}, 0.0};
-  loading.shear = {AxisControl{AxisMode::StrainIncrement, 2e-4}, AxisControl{AxisMode::StrainRate, -0.5}, std::nullopt};
+  set_shear(loading.axes, {AxisControl{AxisMode::StrainIncrement, 2e-4}, AxisControl{AxisMode::StrainRate, -0.5}, std::nullopt});
   const int steps = 1000;
   advance_checking_velocity_gradient(model, loading, s, steps);
   EXPECT_DOUBLE_EQ(s.cell.h(0, 1), 0.3 - 3.0 * (steps * 2e-4));        // g12 = 0.2 over L2 = 3
@@ -243,25 +244,25 @@ TEST(Control, ShearStrainFollowsItsIncrementsExactlyAndUnnamedTiltsAreHeld) {
   EXPECT_NEAR(axis_strains(s)[0], 0.1, 1e-14);  // the normal axes as before
   // A later leg continues from the present shear strains; x13, no longer named, stays where it is.
   begin_leg(s, 1);
-  EXPECT_NEAR(s.control.leg_start_shear[0], 0.2, 1e-14);
+  EXPECT_NEAR(s.control.leg_start_strains[3 + 0], 0.2, 1e-14);
   Loading back = loading;
-  back.shear = {AxisControl{AxisMode::StrainIncrement, -1e-4}, std::nullopt, std::nullopt};
+  set_shear(back.axes, {AxisControl{AxisMode::StrainIncrement, -1e-4}, std::nullopt, std::nullopt});
   const double tilt13 = s.cell.h(0, 2);
   for (int k = 0; k < 500; ++k) advance_cell(model, back, s);
   EXPECT_NEAR(shear_strains(s)[0], 0.2 - 0.05, 1e-14);
   EXPECT_EQ(s.cell.h(0, 2), tilt13);
   // The same leg restarted where it stands (a rate check's branch, at half the rate): its normal and shear axes go
   // on from their present strains by the new increments, the servo's memory kept.
-  s.control.servo_integral = Vec3(1.0, 2.0, 3.0);
+  s.control.servo_integral << 1.0, 2.0, 3.0, 4.0, 5.0, 6.0;
   restart_leg(s);
   EXPECT_EQ(s.control.leg_steps, 0);
   Loading half = back;
   half.axes[0].value = 0.5e-4;
-  half.shear[0]->value = -0.5e-4;
+  half.axes[3 + 0].value = -0.5e-4;
   for (int k = 0; k < 200; ++k) advance_cell(model, half, s);
   EXPECT_NEAR(shear_strains(s)[0], 0.15 - 0.01, 1e-14);
   EXPECT_NEAR(axis_strains(s)[0], 0.1 + 0.05 + 0.01, 1e-14);
-  EXPECT_EQ(s.control.servo_integral, Vec3(1.0, 2.0, 3.0));
+  EXPECT_EQ(s.control.servo_integral, (Vec6() << 1.0, 2.0, 3.0, 4.0, 5.0, 6.0).finished());
 }
 
 // One shear servo step by hand: err = target - s_ij, dg = (gain err + integral_gain (I + err)) / K_ij,
@@ -273,11 +274,11 @@ TEST(Control, ShearServoStepFollowsItsLaw) {
   const double target = -2.0e4, K = 5.0e7, s12 = 1.0e4, L2 = 1.5;
   const AxisControl held{AxisMode::StrainIncrement, 0.0};
   Loading loading{{held, held, held}, 0.0};
-  loading.shear = {AxisControl{AxisMode::Stress, target}, AxisControl{AxisMode::Stress, 0.0}, std::nullopt};
+  set_shear(loading.axes, {AxisControl{AxisMode::Stress, target}, AxisControl{AxisMode::Stress, 0.0}, std::nullopt});
   State s = cell_state(Vec3(1.0, L2, 2.0).asDiagonal());
   begin_stage(s);
-  s.shear_stress = Vec3(s12, 0.0, 3.0e3);
-  s.shear_stiffness = Vec3(K, K, K);
+  s.stress.tail<3>() = Vec3(s12, 0.0, 3.0e3);
+  s.stiffness.tail<3>() = Vec3(K, K, K);
   double integral = 0.0, tilt = 0.0;
   for (int k = 0; k < 3; ++k) {
     advance_cell(model, loading, s);
@@ -286,21 +287,21 @@ TEST(Control, ShearServoStepFollowsItsLaw) {
     integral += err;
     tilt -= L2 * dg;
     EXPECT_NEAR(s.cell.h(0, 1), tilt, 1e-15);
-    EXPECT_NEAR(s.control.shear_servo_integral[0], integral, 1e-9);
+    EXPECT_NEAR(s.control.servo_integral[3 + 0], integral, 1e-9);
   }
   EXPECT_LT(shear_strains(s)[0], 0.0);  // too much shear stress: shear back
   EXPECT_EQ(s.cell.h(0, 2), 0.0);       // x13 at its zero target
   EXPECT_EQ(s.cell.h(1, 2), 0.0);       // x23 not named: its stress does not matter
   EXPECT_EQ(s.cell.h.diagonal(), Vec3(1.0, L2, 2.0));
-  EXPECT_FALSE(s.shear_servo_saturated[0]);
+  EXPECT_FALSE(s.servo_saturated[3 + 0]);
   // Nothing touching (K = 0): the cap, towards the target, and no integral.
   State t = cell_state(Mat3::Identity());
   begin_stage(t);
-  t.shear_stress = Vec3(s12, 0.0, 0.0);
+  t.stress.tail<3>() = Vec3(s12, 0.0, 0.0);
   advance_cell(model, loading, t);
   EXPECT_DOUBLE_EQ(t.cell.h(0, 1), 1e-3);  // dg = -cap: the tilt grows by L2 cap
-  EXPECT_TRUE(t.shear_servo_saturated[0]);
-  EXPECT_EQ(t.control.shear_servo_integral[0], 0.0);
+  EXPECT_TRUE(t.servo_saturated[3 + 0]);
+  EXPECT_EQ(t.control.servo_integral[3 + 0], 0.0);
 }
 
 // ---- shear on an FCC lattice: an elastic network with an analytic shear modulus ----
@@ -327,7 +328,7 @@ TEST(Control, SimpleShearOfAnFccLatticeFollowsItsShearModulus) {
   State& s = lattice.state;
   const AxisControl held{AxisMode::StrainIncrement, 0.0};
   Loading loading{{held, held, held}, 0.0};
-  loading.shear = {AxisControl{AxisMode::StrainIncrement, 1e-8}, held, held};
+  set_shear(loading.axes, {AxisControl{AxisMode::StrainIncrement, 1e-8}, held, held});
   const int steps = 1000;
   for (int k = 0; k < steps; ++k) testing::advance_one_step(lattice.model, loading, s, k == 0);
   const double g = shear_strains(s)[0], modulus = FccLattice::kKn / FccLattice::kA;
@@ -336,9 +337,9 @@ TEST(Control, SimpleShearOfAnFccLatticeFollowsItsShearModulus) {
   EXPECT_NEAR(stress(0, 1), modulus * g, 5e-3 * modulus * g);  // O(overlap/d + g) from the prestress
   // A strain-driven shear needs no shear sums in the pair loop; a stage's first evaluation makes them.
   EXPECT_FALSE(needs_shear_sums(loading));
-  EXPECT_EQ(s.shear_stress[0], 0.0);
+  EXPECT_EQ(s.stress[3 + 0], 0.0);
   compute_contact_forces(lattice.model, 0.0, s, /*advance_slip=*/false);
-  EXPECT_NEAR(s.shear_stress[0], stress(0, 1), 1e-9 * stress(0, 0));
+  EXPECT_NEAR(s.stress[3 + 0], stress(0, 1), 1e-9 * stress(0, 0));
   EXPECT_NEAR(stress(0, 2), 0.0, 1e-6 * modulus * g);
   EXPECT_NEAR(stress(1, 2), 0.0, 1e-6 * modulus * g);
 }
@@ -349,11 +350,11 @@ TEST(Control, ShearServoHoldsATargetOnAnFccLattice) {
   const double modulus = FccLattice::kKn / FccLattice::kA, target = 0.1;  // [Pa]: g12 = 1e-5
   const AxisControl held{AxisMode::StrainIncrement, 0.0};
   Loading loading{{held, held, held}, 0.0};
-  loading.shear = {AxisControl{AxisMode::Stress, target}, AxisControl{AxisMode::Stress, 0.0}, std::nullopt};
+  set_shear(loading.axes, {AxisControl{AxisMode::Stress, target}, AxisControl{AxisMode::Stress, 0.0}, std::nullopt});
   for (int k = 0; k < 3000; ++k) testing::advance_one_step(lattice.model, loading, s, k == 0);
-  EXPECT_NEAR(s.shear_stress[0], target, 1e-3 * target);
+  EXPECT_NEAR(s.stress[3 + 0], target, 1e-3 * target);
   EXPECT_NEAR(shear_strains(s)[0], target / modulus, 5e-3 * target / modulus);
-  EXPECT_NEAR(s.shear_stress[1], 0.0, 1e-6 * target);
+  EXPECT_NEAR(s.stress[3 + 1], 0.0, 1e-6 * target);
   EXPECT_NEAR(shear_strains(s)[1], 0.0, 1e-9);
 }
 
@@ -388,7 +389,7 @@ Deck* ServoOnPacking::deck_ = nullptr;
 TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
   State s = read_state((dir_->path() / "run" / "prepared.state").string());
   s.control = ControlState{};
-  s.control.reference_lengths = s.cell.h.diagonal();
+  s.control.reference.head<3>() = s.cell.h.diagonal();
   s.control.reference_volume = s.cell.volume();
   const Model model = make_model(*deck_, s.particles.radius);
   const double target = 1.0e5, increment = 1e-6;
@@ -397,7 +398,7 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
                         0.5};
   rebuild_pairs(model, s);
   compute_contact_forces(model, loading.friction, s, false);
-  const double s11_start = s.normal_stress[0];
+  const double s11_start = s.stress[0];
   EXPECT_NEAR(s11_start, target, 0.03 * target);  // the preparation did reach the target
 
   const int steps = 4000, transient = 300;
@@ -406,7 +407,7 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
     testing::advance_one_step(model, loading, s, k == 0);
     if (k < transient) continue;
     for (int a : {1, 2}) {
-      const double err = (s.normal_stress[a] - target) / target;
+      const double err = (s.stress[a] - target) / target;
       worst = std::max(worst, std::abs(err));
       mean_error += err / (2.0 * (steps - transient));
     }
@@ -416,7 +417,7 @@ TEST_F(ServoOnPacking, HoldsTargetStressWhileAnotherAxisIsCompressed) {
   EXPECT_LT(worst, 0.005);
   EXPECT_LT(std::abs(mean_error), 0.001);  // no steady lag: the integral term removes it
   EXPECT_NEAR(axis_strains(s)[0], steps * increment, 1e-12);
-  EXPECT_GT(s.normal_stress[0], 1.5 * target);
+  EXPECT_GT(s.stress[0], 1.5 * target);
   // The servo moved the lateral walls (the sample changed volume), not just held them.
   EXPECT_GT(std::abs(axis_strains(s)[1]), 1e-5);
 }
@@ -431,8 +432,8 @@ TEST_F(ServoOnPacking, SimpleShearHoldsItsStressesAndResumesBitForBit) {
   const double target = 1.0e5, increment = 1e-6;
   const AxisControl held{AxisMode::StrainIncrement, 0.0};
   Loading loading{{held, AxisControl{AxisMode::Stress, target}, held}, 0.5};
-  loading.shear = {AxisControl{AxisMode::StrainIncrement, increment}, AxisControl{AxisMode::Stress, 0.0},
-                   AxisControl{AxisMode::Stress, 0.0}};
+  set_shear(loading.axes, {AxisControl{AxisMode::StrainIncrement, increment}, AxisControl{AxisMode::Stress, 0.0},
+                   AxisControl{AxisMode::Stress, 0.0}});
   rebuild_pairs(model, s);
   compute_contact_forces(model, loading.friction, s, false);
   const int steps = 2000, transient = 300, cut = 1200;
@@ -441,16 +442,16 @@ TEST_F(ServoOnPacking, SimpleShearHoldsItsStressesAndResumesBitForBit) {
   for (int k = 0; k < cut; ++k) {
     testing::advance_one_step(model, loading, s, k == 0);
     if (k < transient) continue;
-    const double p = s.normal_stress.sum() / 3.0;
-    worst_normal = std::max(worst_normal, std::abs(s.normal_stress[1] / target - 1.0));
-    worst_shear = std::max({worst_shear, std::abs(s.shear_stress[1]) / p, std::abs(s.shear_stress[2]) / p});
+    const double p = s.stress.head<3>().sum() / 3.0;
+    worst_normal = std::max(worst_normal, std::abs(s.stress[1] / target - 1.0));
+    worst_shear = std::max({worst_shear, std::abs(s.stress[3 + 1]) / p, std::abs(s.stress[3 + 2]) / p});
   }
   State resumed = parse_state(serialize_state(s, "checkpoint", R"({"contact.kn":1})"));
   for (int k = cut; k < steps; ++k) testing::advance_one_step(model, loading, s);
   for (int k = cut; k < steps; ++k) testing::advance_one_step(model, loading, resumed, k == cut);
   EXPECT_EQ(serialize_state(resumed, "end"), serialize_state(s, "end"));
   EXPECT_NEAR(shear_strains(s)[0], steps * increment, 1e-15);
-  EXPECT_GT(s.shear_stress[0], 0.02 * target);  // the packing carries the shear it is given
+  EXPECT_GT(s.stress[3 + 0], 0.02 * target);  // the packing carries the shear it is given
   EXPECT_LT(worst_normal, 0.005);
   EXPECT_LT(worst_shear, 0.005);  // relative to p, as the control check measures a zero target
   EXPECT_EQ(axis_strains(s)[0], 0.0);
@@ -474,7 +475,7 @@ TEST_F(ServoOnPacking, PrincipalAxesRotateAtFixedPrincipalValues) {
   Loading loading{{AxisControl{AxisMode::Stress, t0[0]}, AxisControl{AxisMode::Stress, t0[1]},
                    AxisControl{AxisMode::Stress, 1.0e5}},
                   0.5};
-  loading.shear = {AxisControl{AxisMode::Stress, t0[2]}, std::nullopt, std::nullopt};
+  set_shear(loading.axes, {AxisControl{AxisMode::Stress, t0[2]}, std::nullopt, std::nullopt});
   loading.rotation = rotation;
   rebuild_pairs(model, s);
   compute_contact_forces(model, loading.friction, s, false);
@@ -482,7 +483,7 @@ TEST_F(ServoOnPacking, PrincipalAxesRotateAtFixedPrincipalValues) {
   for (int k = 0; k < steps; ++k) {
     testing::advance_one_step(model, loading, s, k == 0);
     if (k < transient) continue;
-    const double s11 = s.normal_stress[0], s22 = s.normal_stress[1], s12 = s.shear_stress[0];
+    const double s11 = s.stress[0], s22 = s.stress[1], s12 = s.stress[3 + 0];
     const double m = 0.5 * (s11 + s22), r = std::hypot(0.5 * (s11 - s22), s12);
     worst_value = std::max({worst_value, std::abs((m + r) / sigma1 - 1.0), std::abs((m - r) / sigma3 - 1.0)});
     const double angle = 0.5 * std::atan2(2.0 * s12, s11 - s22);  // of the major principal stress from x1
@@ -493,9 +494,9 @@ TEST_F(ServoOnPacking, PrincipalAxesRotateAtFixedPrincipalValues) {
   RecordProperty("worst_angle_error_deg", std::to_string(worst_angle * 180.0 / M_PI));
   EXPECT_LT(worst_value, 0.005);
   EXPECT_LT(worst_angle * 180.0 / M_PI, 2.0);
-  EXPECT_NEAR(s.normal_stress[1], sigma1, 0.005 * sigma1);  // at 90 degrees sigma1 is on x2
-  EXPECT_NEAR(s.normal_stress[0], sigma3, 0.005 * sigma1);
-  EXPECT_NEAR(s.normal_stress[2], 1.0e5, 0.005 * 1.0e5);
+  EXPECT_NEAR(s.stress[1], sigma1, 0.005 * sigma1);  // at 90 degrees sigma1 is on x2
+  EXPECT_NEAR(s.stress[0], sigma3, 0.005 * sigma1);
+  EXPECT_NEAR(s.stress[2], 1.0e5, 0.005 * 1.0e5);
 }
 
 }  // namespace

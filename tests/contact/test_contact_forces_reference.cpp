@@ -85,16 +85,16 @@ void expect_agreement(const Model& model, const Friction& friction, State s, int
 
   // Per cell: bit for bit within one reduction block.
   if (s.particles.size() <= kReductionBlock) {
-    EXPECT_TRUE(same_bits(s.normal_stress, ref.normal_stress));
-    EXPECT_TRUE(same_bits(s.axis_stiffness, ref.axis_stiffness));
-    EXPECT_TRUE(same_bits(s.shear_stiffness, ref.shear_stiffness));
-    EXPECT_TRUE(same_bits(s.shear_stress, ref.shear_stress));
+    EXPECT_TRUE(same_bits(s.stress.head<3>(), ref.stress.head<3>()));
+    EXPECT_TRUE(same_bits(s.stiffness.head<3>(), ref.stiffness.head<3>()));
+    EXPECT_TRUE(same_bits(s.stiffness.tail<3>(), ref.stiffness.tail<3>()));
+    EXPECT_TRUE(same_bits(s.stress.tail<3>(), ref.stress.tail<3>()));
   } else {
     for (int a = 0; a < 3; ++a) {
-      EXPECT_NEAR(s.normal_stress[a], ref.normal_stress[a], 1e-12 * ref.normal_stress.cwiseAbs().maxCoeff());
-      EXPECT_NEAR(s.axis_stiffness[a], ref.axis_stiffness[a], 1e-12 * ref.axis_stiffness.cwiseAbs().maxCoeff());
-      EXPECT_NEAR(s.shear_stress[a], ref.shear_stress[a], 1e-12 * ref.normal_stress.cwiseAbs().maxCoeff());
-      EXPECT_NEAR(s.shear_stiffness[a], ref.shear_stiffness[a], 1e-12 * ref.shear_stiffness.cwiseAbs().maxCoeff());
+      EXPECT_NEAR(s.stress[a], ref.stress[a], 1e-12 * ref.stress.head<3>().cwiseAbs().maxCoeff());
+      EXPECT_NEAR(s.stiffness[a], ref.stiffness[a], 1e-12 * ref.stiffness.head<3>().cwiseAbs().maxCoeff());
+      EXPECT_NEAR(s.stress[3 + a], ref.stress[3 + a], 1e-12 * ref.stress.head<3>().cwiseAbs().maxCoeff());
+      EXPECT_NEAR(s.stiffness[3 + a], ref.stiffness[3 + a], 1e-12 * ref.stiffness.tail<3>().cwiseAbs().maxCoeff());
     }
   }
 }

@@ -63,7 +63,7 @@ TEST(Plan, RunEstimateCountsThePreparationsCompressionStepByStep) {
   begin_stage(cell);
   const Model model = make_model(deck, {});
   Loading fast_leg;
-  fast_leg.axes.fill({AxisMode::StrainIncrement, 1e-4});
+  std::fill_n(fast_leg.axes.begin(), 3, AxisControl{AxisMode::StrainIncrement, 1e-4});
   std::int64_t fast = 0;
   for (; 1000 * solid / cell.cell.volume() < 0.55; ++fast) advance_cell(model, fast_leg, cell);
   const RunEstimate e = estimate_run(deck);

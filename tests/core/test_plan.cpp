@@ -1,5 +1,6 @@
 // What a deck implies (solver/core/plan.hpp): the mean contact under the confining stress, its Hertz overlap and
 // the linear stiffnesses equivalent there, and the material's moduli, against hand calculations.
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -170,14 +171,14 @@ TEST(Plan, PreparationLegsListedAsATestsAreFromWhereTheyStart) {
   d.servo.max_strain_increment = 4e-5;
   d.servo.max_strain_increment_given = true;
   Leg fast, shear, hold, servo;
-  fast.axes.fill({AxisMode::StrainIncrement, 1e-4});
+  std::fill_n(fast.axes.begin(), 3, AxisControl{AxisMode::StrainIncrement, 1e-4});
   fast.end = {.kind = LegEndKind::SolidFraction, .value = 0.6};
   shear.axes = {AxisControl{AxisMode::StrainRate, 5.0}, AxisControl{AxisMode::StrainIncrement, 0.0},
                 AxisControl{AxisMode::Stress, 1e5}};
   shear.end = {.kind = LegEndKind::Strain, .axis = 0, .value = 0.25};
-  hold.axes.fill({AxisMode::Stress, 1e5});
+  std::fill_n(hold.axes.begin(), 3, AxisControl{AxisMode::Stress, 1e5});
   hold.end = {.kind = LegEndKind::Steps, .steps = 450};
-  servo.axes.fill({AxisMode::Stress, 1e5});
+  std::fill_n(servo.axes.begin(), 3, AxisControl{AxisMode::Stress, 1e5});
   servo.end = {.kind = LegEndKind::Equilibrium, .max_steps = 7000};
   d.prepare->legs = {fast, shear, hold, servo};
   d.prepare->default_legs = false;
@@ -227,11 +228,15 @@ TEST(Plan, PreparationLegsListedAsATestsAreFromWhereTheyStart) {
   EXPECT_EQ(tp.legs[2].rows, -1);
   EXPECT_EQ(tp.legs[2].steps.high, -1);  // program_leg_steps: every leg after an unknown one
   EXPECT_EQ(tp.rows, -1);
-  t.legs = {hold, shear, hold};  // every length known: the test's rows are the legs', leg ends included
+  t.legs = {shear, hold};  // every length known: the test's rows are the legs', leg ends included
   const TestPlan known = plan_test(d, t);
   std::int64_t sum = 0;
-  for (const std::int64_t r : rows_by_stepping({450, std::llround(0.25 / 1e-5), 450}, 300)) sum += r;
+  for (const std::int64_t r : rows_by_stepping({std::llround(0.25 / 1e-5), 450}, 300)) sum += r;
   EXPECT_EQ(known.rows, sum);
+  // A leg that ends on the strain of an axis an earlier leg held by its servo starts where only running tells
+  // (the servo moved the axis): its length is not known ahead.
+  t.legs = {hold, shear, hold};
+  EXPECT_EQ(plan_test(d, t).legs[1].steps.high, -1);
 }
 
 // A leg that ends on the shear strain of a shear axis it drives by its strain is known ahead like a normal strain
@@ -242,13 +247,13 @@ TEST(Plan, ShearStrainEndsAreKnownAheadFromWhereTheLegStarts) {
   Leg forward, hold, back, at_stress;
   const std::array<AxisControl, 3> axes = {AxisControl{AxisMode::StrainIncrement, 0.0}, AxisControl{AxisMode::Stress, 1e5},
                                            AxisControl{AxisMode::StrainIncrement, 0.0}};
-  forward.axes = hold.axes = back.axes = at_stress.axes = axes;
-  forward.shear[0] = AxisControl{AxisMode::StrainIncrement, 2e-6};
-  forward.end = {.kind = LegEndKind::ShearStrain, .axis = 0, .value = 0.01};
+  for (Leg* leg : {&forward, &hold, &back, &at_stress}) std::copy(axes.begin(), axes.end(), leg->axes.begin());
+  forward.axes[3 + 0] = AxisControl{AxisMode::StrainIncrement, 2e-6};
+  forward.end = {.kind = LegEndKind::Strain, .axis = 3, .value = 0.01};
   hold.end = {.kind = LegEndKind::Steps, .steps = 300};
-  back.shear[0] = AxisControl{AxisMode::StrainRate, -0.5};  // -1e-6 per step at dt = 2e-6
-  back.end = {.kind = LegEndKind::ShearStrain, .axis = 0, .value = 0.004};
-  at_stress.shear[0] = AxisControl{AxisMode::Stress, 0.0};
+  back.axes[3 + 0] = AxisControl{AxisMode::StrainRate, -0.5};  // -1e-6 per step at dt = 2e-6
+  back.end = {.kind = LegEndKind::Strain, .axis = 3, .value = 0.004};
+  at_stress.axes[3 + 0] = AxisControl{AxisMode::Stress, 0.0};
   at_stress.end = {.kind = LegEndKind::Steps, .steps = 100};
   std::vector<double> from;
   const std::vector<std::int64_t> steps = program_leg_steps({forward, hold, back}, 2e-6, &from);
@@ -298,11 +303,11 @@ TEST(Plan, LoadingRateCountsShearAxesAndProbesCountTheirSteps) {
   Leg leg;
   leg.axes = {AxisControl{AxisMode::StrainIncrement, 0.0}, AxisControl{AxisMode::Stress, 1e5},
               AxisControl{AxisMode::StrainIncrement, 0.0}};
-  leg.shear[0] = AxisControl{AxisMode::StrainIncrement, 4e-6};
+  leg.axes[3 + 0] = AxisControl{AxisMode::StrainIncrement, 4e-6};
   leg.end = {.kind = LegEndKind::Steps, .steps = 100};
   Leg faster = leg;
-  faster.shear[0].reset();
-  faster.shear[2] = AxisControl{AxisMode::StrainRate, -3.0};
+  faster.axes[3 + 0] = AxisControl{AxisMode::Held};
+  faster.axes[3 + 2] = AxisControl{AxisMode::StrainRate, -3.0};
   t.legs = {leg};
   EXPECT_DOUBLE_EQ(loading_rate(d, t), 4e-6 / 2e-6);
   t.legs = {leg, faster};

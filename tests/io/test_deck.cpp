@@ -652,7 +652,7 @@ TEST(Deck, ServoCapFollowsTheLegAndControlFailureChoice) {
   EXPECT_DOUBLE_EQ(servo_cap(d.servo, d.tests[0].legs[0], d.time_step), 2e-6);  // 10 x 2e-7
   EXPECT_DOUBLE_EQ(leg_driving_increment(d.tests[1].legs[0], d.time_step), 2e-7);  // 0.2 /s x 1e-6 s
   Leg hold;  // nothing drives it (the preparation's servo): today's 1e-6
-  hold.axes.fill({AxisMode::Stress, 1e5});
+  std::fill_n(hold.axes.begin(), 3, AxisControl{AxisMode::Stress, 1e5});
   EXPECT_DOUBLE_EQ(servo_cap(d.servo, hold, d.time_step), 1e-6);
   j["servo"] = {{"max_strain_increment", 5e-7}};
   j["control_failure"] = "warn";
@@ -691,19 +691,20 @@ TEST(Deck, ShearAxesParse) {
   j["tests"][0]["axes"]["x23"] = {{"strain_rate", 0.3}};
   Deck d = parse_deck(j.dump());
   const Leg& leg = d.tests[0].legs[0];
-  ASSERT_TRUE(leg.shear[0] && leg.shear[1] && leg.shear[2]);
-  EXPECT_EQ(leg.shear[0]->mode, AxisMode::StrainIncrement);
-  EXPECT_EQ(leg.shear[0]->value, 1e-6);
-  EXPECT_EQ(leg.shear[1]->mode, AxisMode::Stress);
-  EXPECT_EQ(leg.shear[1]->value, -2.5e3);
-  EXPECT_EQ(leg.shear[2]->mode, AxisMode::StrainRate);
-  EXPECT_DOUBLE_EQ(leg.shear_strain_per_step(2, 1e-6), 0.3e-6);
-  EXPECT_FALSE(d.tests[1].legs[0].shear[0]);  // left out: the tilt is held
+  ASSERT_TRUE(leg.axes[3].mode != AxisMode::Held && leg.axes[4].mode != AxisMode::Held && leg.axes[5].mode != AxisMode::Held);
+  EXPECT_EQ(leg.axes[3 + 0].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.axes[3 + 0].value, 1e-6);
+  EXPECT_EQ(leg.axes[3 + 1].mode, AxisMode::Stress);
+  EXPECT_EQ(leg.axes[3 + 1].value, -2.5e3);
+  EXPECT_EQ(leg.axes[3 + 2].mode, AxisMode::StrainRate);
+  EXPECT_DOUBLE_EQ(leg.strain_per_step(3 + 2, 1e-6), 0.3e-6);
+  EXPECT_EQ(d.tests[1].legs[0].axes[3].mode, AxisMode::Held);  // left out: the tilt is held
   // zero_shear_stress: the three shear stresses servo-held at 0, in a program's leg too.
   j = minimal_deck();
   j["tests"][0]["zero_shear_stress"] = true;
   d = parse_deck(j.dump());
-  for (const auto& a : d.tests[0].legs[0].shear) {
+  for (int k = 3; k < kComponents; ++k) {
+    const AxisControl* a = &d.tests[0].legs[0].axes[static_cast<std::size_t>(k)];
     ASSERT_TRUE(a);
     EXPECT_EQ(a->mode, AxisMode::Stress);
     EXPECT_EQ(a->value, 0.0);
@@ -713,7 +714,7 @@ TEST(Deck, ShearAxesParse) {
   j["tests"][0].erase("axes");
   j["tests"][0].erase("end");
   j["tests"][0]["legs"] = Json::array({leg0});
-  EXPECT_TRUE(parse_deck(j.dump()).tests[0].legs[0].shear[2].has_value());
+  EXPECT_NE(parse_deck(j.dump()).tests[0].legs[0].axes[5].mode, AxisMode::Held);
 }
 
 // simple_shear: g12 driven, s22 held by the servo, e1 = e3 = 0, the other tilts held.
@@ -730,14 +731,14 @@ TEST(Deck, SimpleShearIsItsAxes) {
   EXPECT_EQ(leg.axes[1].value, 1e5);
   EXPECT_EQ(leg.axes[2].mode, AxisMode::StrainIncrement);
   EXPECT_EQ(leg.axes[2].value, 0.0);
-  ASSERT_TRUE(leg.shear[0]);
-  EXPECT_EQ(leg.shear[0]->mode, AxisMode::StrainIncrement);
-  EXPECT_EQ(leg.shear[0]->value, 1e-6);
-  EXPECT_FALSE(leg.shear[1] || leg.shear[2]);
+  ASSERT_NE(leg.axes[3].mode, AxisMode::Held);
+  EXPECT_EQ(leg.axes[3 + 0].mode, AxisMode::StrainIncrement);
+  EXPECT_EQ(leg.axes[3 + 0].value, 1e-6);
+  EXPECT_TRUE(leg.axes[4].mode == AxisMode::Held && leg.axes[5].mode == AxisMode::Held);
   j["tests"][0]["simple_shear"] = {{"gamma_rate", -2.0}, {"normal_stress", 5e4}};
   d = parse_deck(j.dump());
-  EXPECT_EQ(d.tests[0].legs[0].shear[0]->mode, AxisMode::StrainRate);
-  EXPECT_EQ(d.tests[0].legs[0].shear[0]->value, -2.0);
+  EXPECT_EQ(d.tests[0].legs[0].axes[3 + 0].mode, AxisMode::StrainRate);
+  EXPECT_EQ(d.tests[0].legs[0].axes[3 + 0].value, -2.0);
   // Errors name the key.
   j["tests"][0]["simple_shear"] = {{"gamma_rate", 1.0}, {"gamma_increment", 1e-6}, {"normal_stress", 5e4}};
   expect_error(j, "tests[0].simple_shear", "exactly one");
@@ -763,8 +764,8 @@ TEST(Deck, ShearLegsEndOnTheirShearStrain) {
   j["tests"][0]["simple_shear"] = {{"gamma_increment", 1e-6}, {"normal_stress", 1e5}};
   j["tests"][0]["end"] = {{"axis", "x12"}, {"strain", 0.02}};
   const LegEnd e = parse_deck(j.dump()).tests[0].legs[0].end;
-  EXPECT_EQ(e.kind, LegEndKind::ShearStrain);
-  EXPECT_EQ(e.axis, 0);
+  EXPECT_EQ(e.kind, LegEndKind::Strain);
+  EXPECT_EQ(e.axis, 3);  // x12, the fourth component
   EXPECT_EQ(e.value, 0.02);
   // A shear axis the leg does not drive, or holds at a shear stress.
   j["tests"][0]["end"] = {{"axis", "x13"}, {"strain", 0.02}};
@@ -780,7 +781,7 @@ TEST(Deck, ShearLegsEndOnTheirShearStrain) {
   Json held = minimal_deck();
   held["tests"][0]["axes"]["x12"] = {{"stress", 0.0}};
   held["tests"][0]["end"] = {{"axis", "x12"}, {"strain", 0.02}};
-  expect_error(held, "tests[0].end.axis", "holds a shear stress");
+  expect_error(held, "tests[0].end.axis", "holds a stress on it");
   // In a program: the second leg shears back from where the first left g12, its path named.
   Json program = minimal_deck();
   program["tests"][0].erase("axes");
@@ -792,7 +793,7 @@ TEST(Deck, ShearLegsEndOnTheirShearStrain) {
   back["axes"]["x12"] = {{"strain_rate", -1.0}};
   program["tests"][0]["legs"] = Json::array({forward, back});
   const Deck d = parse_deck(program.dump());
-  EXPECT_EQ(d.tests[0].legs[1].end.kind, LegEndKind::ShearStrain);
+  EXPECT_EQ(d.tests[0].legs[1].end.kind, LegEndKind::Strain);
   program["tests"][0]["legs"][1]["axes"].erase("x12");
   expect_error(program, "tests[0].legs[1].end.axis", "the leg holds its tilt");
   // The preparation has no shear axes to end on.
@@ -819,8 +820,8 @@ TEST(Deck, PrincipalAxisRotationParsesAndItsMixesAreChecked) {
   EXPECT_EQ(leg.axes[0].mode, AxisMode::Stress);
   EXPECT_NEAR(leg.axes[0].value, 1.375e5, 1e-9);
   EXPECT_NEAR(leg.axes[1].value, 1.125e5, 1e-9);
-  ASSERT_TRUE(leg.shear[0]);
-  EXPECT_NEAR(leg.shear[0]->value, 2.5e4 * std::sqrt(3.0) / 2.0, 1e-9);
+  ASSERT_NE(leg.axes[3].mode, AxisMode::Held);
+  EXPECT_NEAR(leg.axes[3 + 0].value, 2.5e4 * std::sqrt(3.0) / 2.0, 1e-9);
   EXPECT_EQ(leg.axes[2].value, 1e5);
   // 60000 steps later the angle is 90 degrees: sigma1 on x2.
   const std::array<double, 3> t = leg.rotation->targets(60000 * 1e-6, 1e-6);

@@ -81,7 +81,7 @@ void expect_round_trip(TargetCode code) {
   // A new sample: no contacts, nothing in the control memory but the cell.
   EXPECT_EQ(b.pairs.size(), 0u);
   EXPECT_EQ(b.time, 0.0);
-  EXPECT_EQ(b.control.reference_lengths, a.cell.h.diagonal());
+  EXPECT_EQ(b.control.reference.head<3>(), a.cell.h.diagonal());
   EXPECT_DOUBLE_EQ(b.control.reference_volume, a.cell.volume());
 }
 

@@ -39,11 +39,11 @@ State sample_state() {
   s.control.leg_progress = 42.0;  // at the deck's rate (factor 1)
   s.control.leg = 1;
   s.control.stage_steps = 4242;
-  s.control.leg_start_strains = Vec3(0.01, -0.002, 0.003);
+  s.control.leg_start_strains.head<3>() = Vec3(0.01, -0.002, 0.003);
   s.control.leg_start_volume = 26.5;
-  s.control.reference_lengths = Vec3(2.9, 2.95, 3.0);
+  s.control.reference.head<3>() = Vec3(2.9, 2.95, 3.0);
   s.control.reference_volume = 25.6;
-  s.control.servo_integral = Vec3(1e3, -2e3, 3.5);
+  s.control.servo_integral.head<3>() = Vec3(1e3, -2e3, 3.5);
   return s;
 }
 
@@ -65,13 +65,13 @@ TEST(StateFile, RoundTripIsExact) {
   EXPECT_EQ(b.control.leg_steps, a.control.leg_steps);
   EXPECT_EQ(b.control.leg, a.control.leg);
   EXPECT_EQ(b.control.stage_steps, a.control.stage_steps);
-  EXPECT_EQ(b.control.reference_lengths, a.control.reference_lengths);
+  EXPECT_EQ(b.control.reference.head<3>(), a.control.reference.head<3>());
   EXPECT_EQ(b.control.reference_volume, a.control.reference_volume);
   EXPECT_EQ(b.control.servo_integral, a.control.servo_integral);
   EXPECT_EQ(b.control.leg_start_strains, a.control.leg_start_strains);
   EXPECT_EQ(b.control.leg_start_volume, a.control.leg_start_volume);
-  EXPECT_EQ(b.normal_stress, a.normal_stress);
-  EXPECT_EQ(b.axis_stiffness, a.axis_stiffness);
+  EXPECT_EQ(b.stress.head<3>(), a.stress.head<3>());
+  EXPECT_EQ(b.stiffness.head<3>(), a.stiffness.head<3>());
   EXPECT_EQ(b.touching, a.touching);
   EXPECT_EQ(b.pairs.skin, a.pairs.skin);
   const auto ca = stored_contacts(a), cb = stored_contacts(b);
@@ -98,73 +98,62 @@ TEST(StateFile, ResumedStateComputesSameForces) {
   rebuild_pairs(model, b);
   compute_contact_forces(model, 0.1, a2);
   compute_contact_forces(model, 0.1, b);
-  EXPECT_EQ(a2.normal_stress, b.normal_stress);
+  EXPECT_EQ(a2.stress.head<3>(), b.stress.head<3>());
   EXPECT_EQ(a2.pairs.force, b.pairs.force);
   EXPECT_EQ(a2.pairs.tangential, b.pairs.tangential);
 }
 
-// A state keeps the physics it was made with (format 4, and 5 with the shear record); without a record it is written as before (format 2
+// A state keeps the physics it was made with (format 4 on; 7 with the six-component control record); without a record it is written as before (format 2
 // for the linear law), so older readers' files and the record-less ones stay the same bytes.
-TEST(StateFile, PhysicsRecordRoundTripsAndSetsFormatFive) {
+TEST(StateFile, PhysicsRecordRoundTripsAndSetsFormatSeven) {
   const State a = sample_state();
   const std::string record = R"({"contact.kn":1000000.0,"contact.normal":"linear","sample.density":2650.0})";
   const std::string bytes = serialize_state(a, "prepared", record);
   std::uint32_t version = 0;
   std::memcpy(&version, bytes.data() + 8, sizeof version);
-  EXPECT_EQ(version, 5u);
+  EXPECT_EQ(version, 7u);
   std::string label, physics;
   const State b = parse_state(bytes, &label, &physics);
   EXPECT_EQ(label, "prepared");
   EXPECT_EQ(physics, record);
   EXPECT_EQ(b.particles.scaled, a.particles.scaled);
   EXPECT_EQ(serialize_state(b, "prepared", record), bytes);
-  // The shear record (format 5): what a leg with shear axes needs to resume bit for bit.
-  ASSERT_GT(a.shear_stiffness.minCoeff(), 0.0);
-  ASSERT_NE(a.shear_stress, Vec3::Zero());
-  EXPECT_EQ(b.shear_stress, a.shear_stress);
-  EXPECT_EQ(b.shear_stiffness, a.shear_stiffness);
-  EXPECT_EQ(b.normal_stress, a.normal_stress);
+  // The shear components' record: what a leg with shear axes needs to resume bit for bit.
+  ASSERT_GT(a.stiffness.tail<3>().minCoeff(), 0.0);
+  ASSERT_NE(a.stress.tail<3>(), Vec3::Zero());
+  EXPECT_EQ(b.stress.tail<3>(), a.stress.tail<3>());
+  EXPECT_EQ(b.stiffness.tail<3>(), a.stiffness.tail<3>());
+  EXPECT_EQ(b.stress.head<3>(), a.stress.head<3>());
   State c = a;
-  c.control.reference_tilts = Vec3(0.01, -0.02, 0.03);
-  c.control.leg_start_shear = Vec3(1e-3, 0.0, -2e-3);
-  c.control.shear_servo_integral = Vec3(-5.0, 6.0, 7.0);
+  c.control.reference.tail<3>() = Vec3(0.01, -0.02, 0.03);
+  c.control.leg_start_strains.tail<3>() = Vec3(1e-3, 0.0, -2e-3);
+  c.control.servo_integral.tail<3>() = Vec3(-5.0, 6.0, 7.0);
   const State d = parse_state(serialize_state(c, "prepared", record));
-  EXPECT_EQ(d.control.reference_tilts, c.control.reference_tilts);
-  EXPECT_EQ(d.control.leg_start_shear, c.control.leg_start_shear);
-  EXPECT_EQ(d.control.shear_servo_integral, c.control.shear_servo_integral);
+  EXPECT_EQ(d.control.reference.tail<3>(), c.control.reference.tail<3>());
+  EXPECT_EQ(d.control.leg_start_strains.tail<3>(), c.control.leg_start_strains.tail<3>());
+  EXPECT_EQ(d.control.servo_integral.tail<3>(), c.control.servo_integral.tail<3>());
   // Without a record (format 2): no shear record; the tilts as they stand are the stage's reference.
   const State e = parse_state(serialize_state(c, "prepared"));
-  EXPECT_EQ(e.shear_stress, Vec3::Zero());
-  EXPECT_EQ(e.control.reference_tilts, Vec3(c.cell.h(0, 1), c.cell.h(0, 2), c.cell.h(1, 2)));
+  EXPECT_EQ(e.stress.tail<3>(), Vec3::Zero());
+  EXPECT_EQ(e.control.reference.tail<3>(), Vec3(c.cell.h(0, 1), c.cell.h(0, 2), c.cell.h(1, 2)));
   std::memcpy(&version, serialize_state(a, "prepared").data() + 8, sizeof version);
   EXPECT_EQ(version, 2u);
   (void)parse_state(serialize_state(a, "prepared"), nullptr, &physics);
   EXPECT_EQ(physics, "");
 }
 
-// Format 6: a state inside an adaptive leg (a factor other than 1, or a progress other than its steps) keeps
-// the factor and the progress, so the leg resumes bit for bit; any other state is written as before.
-TEST(StateFile, AdaptiveRateRecordRoundTripsAsFormatSix) {
+// The adaptive rate's record (the factor and the leg's progress) is part of the control record: a leg resumes
+// bit for bit; a factor that is not positive is refused.
+TEST(StateFile, AdaptiveRateRecordRoundTrips) {
   const std::string record = R"({"contact.kn":1000000.0})";
   State a = sample_state();
   a.control.rate_factor = 1.953125;
   a.control.leg_progress = 57.3125;
   const std::string bytes = serialize_state(a, "checkpoint:ttc", record);
-  std::uint32_t version = 0;
-  std::memcpy(&version, bytes.data() + 8, sizeof version);
-  EXPECT_EQ(version, 6u);
   const State b = parse_state(bytes);
   EXPECT_EQ(b.control.rate_factor, a.control.rate_factor);
   EXPECT_EQ(b.control.leg_progress, a.control.leg_progress);
   EXPECT_EQ(serialize_state(b, "checkpoint:ttc", record), bytes);
-  // At factor 1 a progress off its step count is still the adaptive record's (an adaptive leg back at 1).
-  a.control.rate_factor = 1.0;
-  std::memcpy(&version, serialize_state(a, "x", record).data() + 8, sizeof version);
-  EXPECT_EQ(version, 6u);
-  // Older formats read as the deck's rate: factor 1, progress = the leg's steps.
-  const State c = parse_state(serialize_state(sample_state(), "x", record));
-  EXPECT_EQ(c.control.rate_factor, 1.0);
-  EXPECT_EQ(c.control.leg_progress, 42.0);
   // A factor that is not positive is refused (under a valid checksum: written by something else).
   State bad = sample_state();
   bad.control.rate_factor = -1.0;
@@ -254,7 +243,7 @@ TEST(StateFile, LayoutIsAsDocumented) {
 // began at the stage start.
 TEST(StateFile, FormatOneFilesStillRead) {
   State s = sample_state();
-  s.control.leg_start_strains = Vec3::Zero();
+  s.control.leg_start_strains = Vec6::Zero();
   s.control.leg_start_volume = s.control.reference_volume;
   const std::string label = "v1";
   std::string payload = payload_of(serialize_state(s, label));
@@ -267,9 +256,9 @@ TEST(StateFile, FormatOneFilesStillRead) {
   EXPECT_EQ(b.cell.h, s.cell.h);
   EXPECT_EQ(b.particles.scaled, s.particles.scaled);
   EXPECT_EQ(b.control.servo_integral, s.control.servo_integral);
-  EXPECT_EQ(b.control.leg_start_strains, Vec3::Zero());
+  EXPECT_EQ(b.control.leg_start_strains, Vec6::Zero());
   EXPECT_EQ(b.control.leg_start_volume, s.control.reference_volume);
-  EXPECT_EQ(b.normal_stress, s.normal_stress);
+  EXPECT_EQ(b.stress.head<3>(), s.stress.head<3>());
   EXPECT_EQ(serialize_state(b, label), serialize_state(s, label));
 }
 
@@ -358,6 +347,58 @@ TEST(StateFile, PayloadSizeNearTwoToThe64ThrowsInsteadOfCrashing) {
         ::testing::ExitedWithCode(0), "")
         << "a " << bytes.size() << "-byte file claiming a payload of 2^64 - " << (8 + extra) << " bytes";
   }
+}
+
+
+// Formats 5 and 6 (the normal axes' record, then the shear axes', then the adaptive rate's) still read: a file
+// written in that layout by hand, from the same state, reads back to it, and writes again as format 7.
+std::string append_doubles(std::initializer_list<double> xs) {
+  std::string out;
+  for (const double x : xs) out.append(reinterpret_cast<const char*>(&x), sizeof x);
+  return out;
+}
+std::string with_version(const std::string& payload, std::uint32_t v) {
+  std::string out = wrap(payload);
+  std::memcpy(out.data() + 8, &v, sizeof v);
+  return out;
+}
+
+TEST(StateFile, FormatFiveAndSixFilesStillRead) {
+  const std::string record = R"({"contact.kn":1000000.0})", label = "old";
+  State a = sample_state();
+  a.control.reference.tail<3>() = Vec3(0.01, -0.02, 0.03);
+  a.control.leg_start_strains.tail<3>() = Vec3(1e-3, 0.0, -2e-3);
+  a.control.servo_integral.tail<3>() = Vec3(-5.0, 6.0, 7.0);
+  a.control.rate_factor = 1.5, a.control.leg_progress = 61.5;
+  const std::string seven = serialize_state(a, label, record);
+  const std::string payload = payload_of(seven);
+  // The control record starts after the counters (label, record, counts, time, steps, h, L, leg steps, leg,
+  // stage steps) and is 34 doubles long in format 7.
+  const std::size_t at = 4 + label.size() + 4 + record.size() + 8 + 8 + 8 + 8 + 9 * 8 * 2 + 8 + 4 + 8;
+  const std::size_t length = 34 * 8;
+  const ControlState& c = a.control;
+  const Vec6& s = a.stress;
+  const Vec6& k = a.stiffness;
+  const std::string five =
+      append_doubles({c.reference[0], c.reference[1], c.reference[2], c.reference_volume, c.servo_integral[0],
+                      c.servo_integral[1], c.servo_integral[2], c.leg_start_strains[0], c.leg_start_strains[1],
+                      c.leg_start_strains[2], c.leg_start_volume,
+                      // the stress tensor, column-major, the shear stresses off the diagonal
+                      s[0], s[3], s[4], s[3], s[1], s[5], s[4], s[5], s[2], k[0], k[1], k[2], k[3], k[4], k[5],
+                      c.reference[3], c.reference[4], c.reference[5], c.leg_start_strains[3], c.leg_start_strains[4],
+                      c.leg_start_strains[5], c.servo_integral[3], c.servo_integral[4], c.servo_integral[5]});
+  const std::string six = five + append_doubles({c.rate_factor, c.leg_progress});
+  std::string p6 = payload;
+  p6.replace(at, length, six);
+  const State b = parse_state(with_version(p6, 6));
+  EXPECT_EQ(serialize_state(b, label, record), seven);  // every field as it was
+  std::string p5 = payload;
+  p5.replace(at, length, five);
+  const State d = parse_state(with_version(p5, 5));
+  EXPECT_EQ(d.control.rate_factor, 1.0);  // format 5: the deck's rate
+  EXPECT_EQ(d.control.leg_progress, static_cast<double>(a.control.leg_steps));
+  EXPECT_EQ(d.control.servo_integral, a.control.servo_integral);
+  EXPECT_EQ(d.stress, a.stress);
 }
 
 }  // namespace

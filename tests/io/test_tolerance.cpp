@@ -110,12 +110,12 @@ TEST(Tolerance, SimpleShearLegIsResolvedAsItsAxes) {
   const Deck axes = resolve_tolerance(parse_deck(by_axes.dump()), by_axes.dump(), 1.0);
   const Leg& s = shear.tests[0].legs[0];
   const Leg& a = axes.tests[0].legs[0];
-  ASSERT_TRUE(s.shear[0] && a.shear[0]);
-  EXPECT_NE(a.shear[0]->value, 2.0e-7);  // (the rules do change it)
-  EXPECT_EQ(s.shear[0]->value, a.shear[0]->value);
+  ASSERT_TRUE(s.axes[3].strain_driven() && a.axes[3].strain_driven());
+  EXPECT_NE(a.axes[3 + 0].value, 2.0e-7);  // (the rules do change it)
+  EXPECT_EQ(s.axes[3 + 0].value, a.axes[3 + 0].value);
   EXPECT_EQ(shear.stage_time_step(shear.tests[0]), axes.stage_time_step(axes.tests[0]));
   EXPECT_EQ(plan_test(shear, shear.tests[0]).steps, plan_test(axes, axes.tests[0]).steps);
-  EXPECT_EQ(plan_test(shear, shear.tests[0]).steps, std::llround(0.01 / s.shear[0]->value));
+  EXPECT_EQ(plan_test(shear, shear.tests[0]).steps, std::llround(0.01 / s.axes[3 + 0].value));
 }
 
 // A principal-axis rotation keeps its angular rate: an angle_increment per step scales with the time step as its

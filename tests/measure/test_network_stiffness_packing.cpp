@@ -197,7 +197,7 @@ TEST_F(NetworkStiffnessOfPacking, WithTangentialSpringsMatchesAStickingStrainPro
       if (c < 3) {
         ramp.axes[c] = driven;
       } else {
-        ramp.shear[c - 3] = driven;
+        ramp.axes[3 + c - 3] = driven;
         shear[c - 3] = strain;
       }
       begin_stage(s);

@@ -16,6 +16,7 @@
 #include "helpers.hpp"
 #include "measure/series.hpp"
 #include "run/health.hpp"
+#include "run/adaptive_rate.hpp"
 #include "run/program.hpp"
 
 namespace celldem {
@@ -493,23 +494,28 @@ TEST(LoadProgram, StressRampFailuresAndPlan) {
   }
 }
 
-// The adaptive rule (run/program.hpp adapted_rate_factor) on its own: raised by a quarter while both indicators
+// The adaptive rule (run/adaptive_rate.hpp adapted_rate_factor) on its own: raised by a quarter while both indicators
 // sit under half their targets, held between, lowered by 1/u (at most halved) above, kept in its bounds and
 // under the inertial-number ceiling; an indicator that is not a number (no contacts) lowers it.
 TEST(AdaptiveRate, RuleRaisesHoldsLowersAndClamps) {
   AdaptiveRate rule;
   rule.min_factor = 0.25, rule.max_factor = 8.0, rule.unbalanced_force_ratio = 0.01, rule.kinetic_to_elastic = 1e-3;
   rule.inertial_number = 1e-3;
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.004, 1e-4, 0.0}), 2.5);       // u = 0.4: calm
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.007, 1e-4, 0.0}), 2.0);       // u = 0.7: held
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.004, 8e-4, 0.0}), 2.0);       // the energy's u = 0.8
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.0125, 1e-4, 0.0}), 1.6);      // u = 1.25: x 1/1.25
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {0.05, 1e-4, 0.0}), 1.0);        // u = 5: at most halved
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {NAN, 1e-4, 0.0}), 1.0);         // no measure: halved
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 7.5, {0.001, 1e-5, 0.0}), 8.0);       // max_factor
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 0.3, {0.05, 1e-4, 0.0}), 0.25);       // min_factor
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 4.0, {0.001, 1e-5, 4e-4}), 2.5);      // the ceiling 1e-3 / 4e-4
-  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 4.0, {0.001, 1e-5, 1e-2}), 0.25);     // a ceiling below min_factor
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = 0.004, .kinetic_to_elastic = 1e-4, .inertial_at_deck_rate = 0.0}), 2.5);       // u = 0.4: calm
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = 0.007, .kinetic_to_elastic = 1e-4, .inertial_at_deck_rate = 0.0}), 2.0);       // u = 0.7: held
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = 0.004, .kinetic_to_elastic = 8e-4, .inertial_at_deck_rate = 0.0}), 2.0);       // the energy's u = 0.8
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = 0.0125, .kinetic_to_elastic = 1e-4, .inertial_at_deck_rate = 0.0}), 1.6);      // u = 1.25: x 1/1.25
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = 0.05, .kinetic_to_elastic = 1e-4, .inertial_at_deck_rate = 0.0}), 1.0);        // u = 5: at most halved
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = NAN, .kinetic_to_elastic = 1e-4, .inertial_at_deck_rate = 0.0}), 1.0);         // no measure: halved
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 7.5, {.unbalanced_force = 0.001, .kinetic_to_elastic = 1e-5, .inertial_at_deck_rate = 0.0}), 8.0);       // max_factor
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 0.3, {.unbalanced_force = 0.05, .kinetic_to_elastic = 1e-4, .inertial_at_deck_rate = 0.0}), 0.25);       // min_factor
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 4.0, {.unbalanced_force = 0.001, .kinetic_to_elastic = 1e-5, .inertial_at_deck_rate = 4e-4}), 2.5);      // the ceiling 1e-3 / 4e-4
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 4.0, {.unbalanced_force = 0.001, .kinetic_to_elastic = 1e-5, .inertial_at_deck_rate = 1e-2}), 0.25);     // a ceiling below min_factor
+  // The controls' indicator: held while the servo's error is past half its share, lowered beyond it; the servo's
+  // ceiling (a fixed cap) bounds the factor.
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = 0.004, .kinetic_to_elastic = 1e-4, .control_over_tolerance = 0.7}), 2.0);
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 2.0, {.unbalanced_force = 0.004, .kinetic_to_elastic = 1e-4, .control_over_tolerance = 1.6}), 1.25);
+  EXPECT_DOUBLE_EQ(adapted_rate_factor(rule, 4.0, {.unbalanced_force = 0.001, .kinetic_to_elastic = 1e-5, .servo_ceiling = 3.0}), 3.0);
 }
 
 // An adaptive leg on a real packing, with targets it always meets (calm): the factor stays 1 over the settle

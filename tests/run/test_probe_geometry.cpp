@@ -90,7 +90,7 @@ TEST(ProbeLegs, StressProbeRampsToItsTargetAndBack) {
   }
   for (const Leg& leg : legs) {
     EXPECT_EQ(leg.end.kind, LegEndKind::Steps);
-    for (const auto& shear : leg.shear) EXPECT_FALSE(shear.has_value());  // tilts held
+    for (int a = 3; a < kComponents; ++a) EXPECT_EQ(leg.axes[a].mode, AxisMode::Held);  // tilts held
   }
   EXPECT_EQ(legs[0].end.steps, def.steps);
   EXPECT_EQ(legs[1].end.steps, def.hold_steps);
@@ -111,7 +111,7 @@ TEST(ProbeLegs, StrainProbeMovesOneStrainByM) {
         EXPECT_DOUBLE_EQ(legs[phase].strain_per_step(j, 1e-6), j == k ? sign * 2e-5 / 400 : 0.0);
       }
       for (int a = 0; a < 3; ++a)
-        EXPECT_DOUBLE_EQ(legs[phase].shear_strain_per_step(a, 1e-6), 3 + a == k ? sign * 2e-5 / 400 : 0.0);
+        EXPECT_DOUBLE_EQ(legs[phase].strain_per_step(3 + a, 1e-6), 3 + a == k ? sign * 2e-5 / 400 : 0.0);
     }
   }
 }

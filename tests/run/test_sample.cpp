@@ -28,7 +28,7 @@ TEST(Sample, GridOfRequestedSpheresWithoutOverlap) {
   ASSERT_EQ(s.particles.size(), 100u);
   EXPECT_EQ(s.cell.h, Mat3::Identity() * 5 * 5e-3);
   EXPECT_EQ(s.pairs.skin, 4.5e-4);
-  EXPECT_EQ(s.control.reference_lengths, s.cell.h.diagonal());
+  EXPECT_EQ(s.control.reference.head<3>(), s.cell.h.diagonal());
   EXPECT_NEAR(s.control.reference_volume, std::pow(25e-3, 3), 1e-18);
   std::set<double> sizes;
   for (std::size_t i = 0; i < s.particles.size(); ++i) {

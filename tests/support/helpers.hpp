@@ -1,6 +1,7 @@
 // Shared helpers for the unit and physics tests: small models, states and temporary folders.
 // Nothing here computes a physical answer: the expected values live in the tests, derived by hand.
 #pragma once
+#include <optional>
 #include <omp.h>
 #include <stdlib.h>
 
@@ -24,6 +25,11 @@
 #include "stepping.hpp"
 
 namespace celldem::testing {
+
+// The shear axes x12, x13, x23 of a loading's or leg's six components: as given, or held where none is given.
+inline void set_shear(std::array<AxisControl, kComponents>& axes, const std::array<std::optional<AxisControl>, 3>& shear) {
+  for (int a = 0; a < 3; ++a) axes[3 + a] = shear[a] ? *shear[a] : AxisControl{AxisMode::Held};
+}
 
 // Density that gives a sphere of diameter 1 m a mass of 1 kg.
 inline constexpr double kUnitMassDensity = 6.0 / M_PI;
@@ -57,7 +63,7 @@ inline State make_state(const Mat3& h, const std::vector<double>& radius, const 
     s.particles.scaled[i] = hinv * position[i];
   }
   s.pairs.skin = skin;
-  s.control.reference_lengths = h.diagonal();
+  s.control.reference.head<3>() = h.diagonal();
   s.control.reference_volume = h.determinant();
   return s;
 }
