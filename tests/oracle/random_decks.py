@@ -189,7 +189,7 @@ def draw_deck(rng, state_path):
     law = rng.choices(["linear", "hertz", "rolling"], [6, 1, 1])[0]
     if law == "hertz":
         deck["contact"] = {"normal": "hertz", "tangential": rng.choice(["mindlin", "mindlin_rescale"]),
-                           "youngs_modulus": 3e8, "poisson_ratio": 0.3}
+                           "youngs_modulus": 4e7, "poisson_ratio": 0.3}
         deck["override_state_physics"] = True
     elif law == "rolling":
         deck["contact"] = {"kn": 1e6, "kt": 1e6, "rolling": "sds", "rolling_stiffness": 2e5, "rolling_friction": 0.1}
