@@ -9,7 +9,7 @@ import pytest
 
 import random_decks
 
-SEED = 38
+SEED = 331  # its first 16 draws hold the cases issue 38 lists (x12 1e12, rotation 1e9 deg/s, adaptive x1000, simple shear)
 DRAWS = 16
 
 
