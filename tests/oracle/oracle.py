@@ -305,7 +305,7 @@ def check_test(name, test, deck, summary_test, rows, problems):
                 say(f"{what}: \"controlled\": true while the rows stay beyond the tolerance {tol:g} for "
                     f"{longest:.0f} steps (persistence window {persist}, rows every {interval:.0f}; worst {worst:.4g})")
         # -- the leg's end
-        check_end(k, leg, leg_rows, end_row, leg_start, rows, claimed, say)
+        check_end(k, leg, leg_rows, end_row, leg_start, rows, claimed, say, equilibrium_of(deck, test))
         prev_end = end_row
     # -- the test's maxima
     # (control_error_over_tolerance is not compared: it may judge an error sustained over the persistence window,
@@ -326,7 +326,16 @@ def check_test(name, test, deck, summary_test, rows, problems):
     check_peak(legs, rows, summary_test, say)
 
 
-def check_end(k, leg, leg_rows, end_row, leg_start, rows, claimed, say):
+def equilibrium_of(deck, test):
+    """A test's equilibrium criterion: tests[].equilibrium, each key defaulting to prepare.equilibrium's, then to the
+    deck's defaults (docs/deck.md)."""
+    out = {"stress_tolerance": 0.005, "pressure_tolerance": 0.005, "min_steps": 20000, "check_interval": 1000}
+    out.update((deck.get("prepare") or {}).get("equilibrium", {}))
+    out.update(test.get("equilibrium", {}))
+    return out
+
+
+def check_end(k, leg, leg_rows, end_row, leg_start, rows, claimed, say, equilibrium):
     e = leg.end
     n_end = end_row["step"] - leg_start
     max_steps = e.get("max_steps", 0)
@@ -349,8 +358,17 @@ def check_end(k, leg, leg_rows, end_row, leg_start, rows, claimed, say):
         crossing = ("ratio13", e["ratio"])
     elif "stress" in e:
         crossing = ("s" + 2 * e.get("axis", "x1")[1], e["stress"])
-    elif e.get("equilibrium"):
-        pass  # the unbalanced force is checked on the step, not the row: its rows do not decide it
+    elif e.get("equilibrium"):  # at a check, past min_steps, each stress axis within the stress tolerance (the
+        # unbalanced force is measured on the step, not written exactly enough to decide it)
+        if not (max_steps and n_end >= max_steps):
+            if n_end < equilibrium["min_steps"] or n_end % equilibrium["check_interval"]:
+                say(f"{where}: equilibrium reached {n_end:.0f} steps in, not at a check past min_steps "
+                    f"{equilibrium['min_steps']} (every {equilibrium['check_interval']})")
+            for i, name in enumerate(NORMAL):
+                c = leg.controls[name]
+                if c.kind == "stress" and abs(end_row[f"s{i + 1}{i + 1}"] / c.value - 1) > equilibrium["stress_tolerance"] + ROUND_OFF:
+                    say(f"{where}: equilibrium claimed with {name} at {end_row[f's{i + 1}{i + 1}']:.6g} Pa against "
+                        f"{c.value:g} (stress_tolerance {equilibrium['stress_tolerance']:g})")
     if crossing:
         col, target = crossing
         start = ([r for r in rows if r["step"] == leg_start] or leg_rows)[0][col]
