@@ -141,17 +141,32 @@ Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
 
 namespace {
 
-// The measure a test drives (its last leg's): a shear component's tau/sigma_n (the component's shear stress
-// over the normal stress of its plane, s_ij / s_jj), a principal-axis rotation's tracking, or s11/s33.
+// The measure a test drives: that of its first leg that drives something, by its fastest strain-driven component
+// (a shear component: its tau/sigma_n = |s_ij| / s_jj; a normal axis: s11/s33, or s33/s11 when it extends), a
+// principal-axis rotation's tracking, or none (stresses held or ramped).
 TestMeasure driven_measure(const TestDef& test) {
-  const Leg& last = test.legs.back();
-  if (last.rotation) return {TestMeasure::Kind::Rotation, -1};
-  if (leg_driving_increment(last, 1.0) == 0.0) return {TestMeasure::Kind::Stress, -1};
-  if (last.end.kind == LegEndKind::Strain && is_shear_component(last.end.axis)) return {TestMeasure::Kind::Shear, last.end.axis};
-  for (int k = 3; k < kComponents; ++k)
-    if (last.axes[static_cast<std::size_t>(k)].strain_driven() && last.axes[static_cast<std::size_t>(k)].value != 0.0)
-      return {TestMeasure::Kind::Shear, k};
-  return {TestMeasure::Kind::Axial, 0};
+  for (const Leg& leg : test.legs) {
+    if (leg.rotation) return {TestMeasure::Kind::Rotation, -1};
+    int fastest = -1;
+    for (int k = 0; k < kComponents; ++k)
+      if (std::abs(leg.strain_per_step(k, 1.0)) > (fastest < 0 ? 0.0 : std::abs(leg.strain_per_step(fastest, 1.0)))) fastest = k;
+    if (fastest < 0) continue;
+    if (is_shear_component(fastest)) return {TestMeasure::Kind::Shear, fastest};
+    return {leg.strain_per_step(fastest, 1.0) < 0.0 ? TestMeasure::Kind::Extension : TestMeasure::Kind::Axial, fastest};
+  }
+  return {TestMeasure::Kind::Stress, -1};
+}
+
+// An extension test's peak of s33/s11: whether it was reached (not the last row, and the ratio falls by more than
+// kPeakPlateau after it).
+bool extension_peak_reached(const std::vector<SeriesRow>& rows) {
+  std::size_t peak = 0;
+  const auto ratio = [](const SeriesRow& r) { return r.s33 / r.s11; };
+  for (std::size_t r = 0; r < rows.size(); ++r)
+    if (ratio(rows[r]) > ratio(rows[peak])) peak = r;
+  bool falls = false;
+  for (std::size_t r = peak + 1; r < rows.size(); ++r) falls |= ratio(rows[r]) < (1.0 - kPeakPlateau) * ratio(rows[peak]);
+  return peak + 1 < rows.size() && falls;
 }
 
 // A shear test's peak of |s_ij| / s_jj (its first row), g_ij there, whether a peak was reached (not the last
@@ -233,6 +248,7 @@ Json summarize_driven_measure(const TestDef& test, const std::vector<SeriesRow>&
       return {{"driven_measure", "principal-axis rotation"}, {"rotation", summarize_rotation(test, rows, dt)}};
     }
     case TestMeasure::Kind::Stress: return {{"driven_measure", "none (stress-controlled)"}};
+    case TestMeasure::Kind::Extension: return {{"driven_measure", "s33/s11"}, {"peak_reached", extension_peak_reached(rows)}};
     default: return {{"driven_measure", "s11/s33"}};
   }
 }

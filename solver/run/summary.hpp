@@ -29,12 +29,12 @@ inline constexpr double kPeakSmoothing = 0.005;
 // kEndWindowStrain of `end_axis` (0-based). Non-finite values are null.
 nlohmann::json summarize_series(const std::vector<SeriesRow>& rows, int end_axis);
 
-// The measure a test drives, from its last leg: axial (s11/s33), a shear component's tau/sigma_n (the last leg
-// ends on its strain or drives it), or a principal-axis rotation.
+// The measure a test drives, from its first leg that drives something (run/summary.cpp driven_measure).
 struct TestMeasure {
   // Stress: a last leg that no strain drives (stresses held or ramped): it drives no measure to a peak.
-  enum class Kind { Axial, Shear, Rotation, Stress } kind = Kind::Axial;
-  int component = 0;  // (Shear) the driven shear component, kComponentNames
+  // Extension: a normal axis driven in extension, whose peak is of s33/s11.
+  enum class Kind { Axial, Extension, Shear, Rotation, Stress } kind = Kind::Axial;
+  int component = 0;  // the fastest driven component, kComponentNames
 };
 // What the test's kind adds to its summary: "driven_measure"; for a shear test "shear" (the peak of tau/sigma_n,
 // g at the peak, the residual ratio, dilation) and "peak_reached" of that ratio; for a rotation "rotation" (how
