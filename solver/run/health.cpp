@@ -12,9 +12,25 @@
 
 namespace celldem {
 
+namespace {
+// The servo components that moved the cell by their cap in the last step: a runaway then names them first (a
+// target the packing cannot carry, chased at the cap, shakes it as a too-large time step would).
+std::string saturated_servos(const State& state, double cap) {
+  std::string names;
+  for (int k = 0; k < kComponents; ++k)
+    if (state.servo_saturated[k]) names += (names.empty() ? "" : ", ") + component_name(k);
+  if (names.empty()) return "";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.3g", cap);
+  return "the servo of " + names + " moved the cell by its cap (servo.max_strain_increment " + buf +
+         " per step) chasing a target the packing does not reach: lower the cap or the target; ";
+}
+}  // namespace
+
 void RunawayMonitor::check(const Model& model, const State& state, const ContactMeasures& contacts) {
   const Particles& p = state.particles;
   const std::string where = "in stage '" + stage_ + "' at step " + std::to_string(state.control.stage_steps);
+  const std::string servo_cause = saturated_servos(state, model.servo.max_strain_increment);
   // An explicit scheme has left its stable range when a particle moves a sizeable part of its radius in a
   // single step (quasi-static motion is orders of magnitude below this).
   double worst = 0.0;
@@ -47,7 +63,7 @@ void RunawayMonitor::check(const Model& model, const State& state, const Contact
       char buf[128];
       std::snprintf(buf, sizeof buf, "kinetic energy %.3g J exceeds %.3g x the elastic energy %.3g J", ke,
                     kMaxKineticToElastic, ee);
-      throw RunError("runaway kinetic energy " + where + ": " + buf + " - " + start_cause_ +
+      throw RunError("runaway kinetic energy " + where + ": " + buf + " - " + start_cause_ + servo_cause +
                      "time step too large (`celldem plan` gives the stability limit per mode), damping too low "
                      "or loading too fast; the last checkpoint holds the last good state");
     }
@@ -55,7 +71,7 @@ void RunawayMonitor::check(const Model& model, const State& state, const Contact
   if (!(worst <= kMaxStepMotion)) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "a particle moves %.3g of its radius per step (limit %.3g)", worst, kMaxStepMotion);
-    throw RunError("runaway motion " + where + ": " + buf + " - " + start_cause_ + "time step too large, damping too low or loading "
+    throw RunError("runaway motion " + where + ": " + buf + " - " + start_cause_ + servo_cause + "time step too large, damping too low or loading "
                    "too fast; the last checkpoint holds the last good state");
   }
 }
