@@ -12,7 +12,7 @@
 namespace celldem {
 
 // What one evaluation of the pairs gives, as the fast path leaves it in the state (its pair arrays, the
-// particles' force and torque after gather_forces, normal_stress, axis_stiffness and touching).
+// particles' force and torque after gather_forces, stress, stiffness and touching).
 struct ReferenceContactForces {
   // Per listed pair, in list order (the history arrays sized as the pair list's).
   std::vector<Vec3> force;             // (P) [N] on j by i
