@@ -137,7 +137,8 @@ Json plan_json(const Deck& deck) {
   Json bounds = Json::array();
   for (const TimeStepBound& b : kTimeStepBounds)
     bounds.push_back({{"name", b.name}, {"action", b.refuse ? "refuse" : "warn"}, {"when", b.above ? "above" : "below"},
-                      {"fraction", b.fraction}, {"time_step", b.fraction * dt_crit}, {"why", b.why}});
+                      {"fraction", b.fraction}, {"of", b.of_normal_mode ? "normal_time_step" : "critical_time_step"},
+                      {"time_step", b.fraction * bound_base(b, limits)}, {"why", b.why}});
   Json out = {{"deck", deck.source},
               {"time_step", deck.time_step},
               {"critical_time_step", dt_crit},
@@ -401,8 +402,9 @@ Command add_plan_command(CLI::App& app) {
     }
     std::printf("  time step bounds:\n");
     for (const Json& b : plan["time_step_bounds"])
-      std::printf("    %-6s %-5s %5g t_c = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
-                  b["when"].get<std::string>().c_str(), b["fraction"].get<double>(), b["time_step"].get<double>(),
+      std::printf("    %-6s %-5s %5g %s = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
+                  b["when"].get<std::string>().c_str(), b["fraction"].get<double>(),
+                  b["of"] == "normal_time_step" ? "t_c(normal)" : "t_c", b["time_step"].get<double>(),
                   b["name"].get<std::string>().c_str());
     if (const Json& g = plan["sample"]["grading"]; !g.is_null()) {
       const bool realised = !g["realised_percent"].is_null();

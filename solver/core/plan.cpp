@@ -309,17 +309,28 @@ double critical_time_step(const SampleDef& sample, const ContactDef& contact) {
   return critical_time_steps(sample, contact).value();
 }
 
+double bound_base(const TimeStepBound& bound, const CriticalTimeStep& limit) {
+  return bound.of_normal_mode ? limit.modes[0].time_step : limit.value();
+}
+
+double suggested_time_step(const CriticalTimeStep& limit) {
+  // a little under the normal mode's bound, since the message rounds the value it prints
+  return std::min(kStableTimeStepFraction * limit.value(), 0.99 * kNormalModeFraction * limit.modes[0].time_step);
+}
+
 std::vector<TimeStepFinding> time_step_findings(double time_step, const CriticalTimeStep& limit) {
   std::vector<TimeStepFinding> out;
-  const double tc = limit.value();
-  const double fraction = time_step / tc;
   for (const TimeStepBound& b : kTimeStepBounds) {
+    const double base = bound_base(b, limit);
+    if (!std::isfinite(base)) continue;  // no normal spring
+    const double fraction = time_step / base;
     if (b.above ? !(fraction > b.fraction) : !(fraction < b.fraction)) continue;
-    std::string msg = fmt(time_step) + " s is " + fmt(fraction) + " of the stability limit " +
-                      fmt(tc) + " s (" + limit.limiting().describe() + "), " + (b.above ? "above " : "below ") +
-                      fmt(b.fraction) + " of it: " + b.why;
-    if (b.refuse && b.above) msg += "; use at most " + fmt(kStableTimeStepFraction * tc) + " s";
-    else if (!b.refuse && b.above) msg += "; use at most " + fmt(b.fraction * tc) + " s";
+    const ModeLimit& mode = b.of_normal_mode ? limit.modes[0] : limit.limiting();
+    std::string msg = fmt(time_step) + " s is " + fmt(fraction) + " of " +
+                      (b.of_normal_mode ? "the normal mode's limit " : "the stability limit ") + fmt(base) + " s (" +
+                      mode.describe() + "), " + (b.above ? "above " : "below ") + fmt(b.fraction) + " of it: " + b.why;
+    if (b.refuse && b.above) msg += "; use at most " + fmt(suggested_time_step(limit)) + " s";
+    else if (!b.refuse && b.above) msg += "; use at most " + fmt(std::min(b.fraction * base, suggested_time_step(limit))) + " s";
     out.push_back({&b, std::move(msg)});
   }
   return out;

@@ -214,6 +214,10 @@ inline constexpr double kMaxTimeStepFraction = 1.0;
 // 0.55 sqrt(m/kn) and the packing boiling from 0.65 sqrt(m/kn); kt = kn limits at the tangential-rotational
 // mode's sqrt(2m/(7kt)) = 0.5345 sqrt(m/kn), so the former warning at 0.5 sqrt(m/kn) is 0.935 of it.
 inline constexpr double kStableTimeStepFraction = 0.93;
+// Refused above this fraction of the normal mode's own limit sqrt(m/kn), whichever mode sets t_c: a pair is
+// stable up to it, but a sphere pressed by several neighbours oscillates faster, and a packing boils from about
+// 0.9 of it (measured with kt = kn/10, where the normal mode limits: docs/physics.md, the time-step sweep).
+inline constexpr double kNormalModeFraction = 0.9;
 // Warned below: the run takes many times the steps it needs.
 inline constexpr double kSlowTimeStepFraction = 0.02;
 // Refused below: a thousand times the steps it needs (a typo such as 1e-300 would otherwise spin for ever).
@@ -223,13 +227,18 @@ struct TimeStepBound {
   const char* name;  // "stability_limit", "stable_fraction", "slow", "minimum"
   bool refuse;       // refuse the deck (else warn)
   bool above;        // crossed when dt > fraction t_c (else when dt < fraction t_c)
-  double fraction;   // of critical_time_step
+  double fraction;   // of critical_time_step (of the normal mode's own limit with of_normal_mode)
   const char* why;
+  bool of_normal_mode = false;
 };
-inline constexpr std::array<TimeStepBound, 4> kTimeStepBounds{{
+inline constexpr std::array<TimeStepBound, 5> kTimeStepBounds{{
     {"stability_limit", true, true, kMaxTimeStepFraction,
      "the leapfrog step is unstable for that mode of a sticking contact (2/omega = 1.41 t_c) and a packing's "
      "stiffer clusters fail earlier"},
+    {"normal_mode", true, true, kNormalModeFraction,
+     "a packing boils there although a pair is stable (measured on 300 spheres with kt = kn/10, where the normal "
+     "mode limits: unbalanced force and kinetic energy jump from 0.9 of it; docs/physics.md)",
+     true},
     {"stable_fraction", false, true, kStableTimeStepFraction,
      "results drift and the packing boils close to the limit (measured: with kt = kn, where the "
      "tangential-rotational mode limits, drift from 1.03 t_c and boiling from 1.2 t_c; with kt = kn/10, where "
@@ -243,6 +252,10 @@ struct TimeStepFinding {
   std::string message;  // "3e-06 s is 2.9 of the stability limit 1.03e-06 s (tangential-rotational mode: ...)"
 };
 std::vector<TimeStepFinding> time_step_findings(double time_step, const CriticalTimeStep& limit);
+// The time step a bound is a fraction of: t_c, or the normal mode's own limit (+inf without a normal spring).
+double bound_base(const TimeStepBound& bound, const CriticalTimeStep& limit);
+// The largest time step the refusals suggest: under the warning close to t_c and under the normal mode's bound.
+double suggested_time_step(const CriticalTimeStep& limit);
 
 // The neighbour-list skin in metres: neighbor_skin times the largest diameter.
 double skin_length(const Deck& deck);

@@ -150,6 +150,9 @@ Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vec
     for (auto b = std::next(a); b != by_seed.end(); ++b) {
       Columns diff;
       for (const auto& [q, values_a] : a->second) {
+        // verify_rate.* are the rate check's own settings and verdict counts (floors, steps, margins), not results
+        // of the test: their difference between two tests means nothing.
+        if (q.rfind("verify_rate.", 0) == 0) continue;
         const auto it = b->second.find(q);
         if (it == b->second.end()) continue;
         for (const auto& [seed, va] : values_a)

@@ -210,5 +210,36 @@ TEST(TimeStepModes, BoundsNameTheLimitingModeAndTheFraction) {
   EXPECT_TRUE(time_step_findings(1e-4 * limit, tc)[1].bound->refuse);
 }
 
+// kt = kn/10: the normal mode limits, and a packing boils from about 0.9 of its limit (docs/physics.md's sweep):
+// refused there, where before only the warning above 0.93 t_c came. kt = kn: the tangential-rotational mode
+// limits at 0.53 of the normal mode's limit, so the normal mode's bound lies beyond t_c and changes nothing.
+TEST(TimeStepModes, NormalModeBoundRefusesWherePackingsBoil) {
+  SampleDef s = sample();
+  ContactDef c;
+  c.kn = 1e4;
+  c.kt = 1e3;
+  const CriticalTimeStep tc = critical_time_steps(s, c);
+  ASSERT_EQ(tc.limiting().mode, ContactMode::Normal);
+  const double normal = tc.modes[0].time_step;
+  for (const double f : {0.92, 0.99}) {
+    const auto findings = time_step_findings(f * normal, tc);
+    ASSERT_FALSE(findings.empty()) << f;
+    EXPECT_TRUE(findings[0].bound->refuse) << f;
+    EXPECT_STREQ(findings[0].bound->name, "normal_mode");
+    EXPECT_NE(findings[0].message.find("of the normal mode's limit"), std::string::npos) << findings[0].message;
+    EXPECT_NE(findings[0].message.find("above 0.9 of it"), std::string::npos) << findings[0].message;
+  }
+  EXPECT_TRUE(time_step_findings(0.89 * normal, tc).empty());
+  EXPECT_TRUE(time_step_findings(suggested_time_step(tc), tc).empty());
+  c.kt = 1e4;
+  const CriticalTimeStep tr = critical_time_steps(s, c);
+  ASSERT_EQ(tr.limiting().mode, ContactMode::TangentialRotational);
+  for (const double f : {0.5, 0.95, 1.5})
+    for (const TimeStepFinding& finding : time_step_findings(f * tr.value(), tr))
+      EXPECT_STRNE(finding.bound->name, "normal_mode") << f;
+  EXPECT_TRUE(time_step_findings(suggested_time_step(tr), tr).empty() ||
+              !time_step_findings(suggested_time_step(tr), tr)[0].bound->refuse);
+}
+
 }  // namespace
 }  // namespace celldem

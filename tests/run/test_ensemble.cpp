@@ -67,9 +67,11 @@ TEST(Ensemble, UncontrolledTestsAndMissingPeaksLeftOut) {
 TEST(Ensemble, QuantitiesAndPairedDifferences) {
   const std::vector<Json> summaries = {
       {{"prepared", {{"void_ratio", 0.56}}},
-       {"tests", {{"psc", {{"peak_ratio13", 3.8}, {"peak_state", {{"sigma1", 2.0}}}}}, {"ttc", {{"peak_ratio13", 2.9}}}}}},
+       {"tests", {{"psc", {{"peak_ratio13", 3.8}, {"peak_state", {{"sigma1", 2.0}}}}},
+                  {"ttc", {{"peak_ratio13", 2.9}, {"verify_rate", {{"tolerance_floors", 1.0}}}}}}}},
       {{"prepared", {{"void_ratio", 0.58}}},
-       {"tests", {{"psc", {{"peak_ratio13", 3.6}, {"peak_state", {{"sigma1", 4.0}}}}}, {"ttc", {{"peak_ratio13", 2.9}}}}}}};
+       {"tests", {{"psc", {{"peak_ratio13", 3.6}, {"peak_state", {{"sigma1", 4.0}}}, {"verify_rate", {{"tolerance_floors", 2.0}}}}},
+                  {"ttc", {{"peak_ratio13", 2.9}, {"verify_rate", {{"tolerance_floors", 1.0}}}}}}}}};
   const Json e = ensemble_statistics({1, 2}, summaries);
   EXPECT_NEAR(e["prepared"]["void_ratio"]["mean"].get<double>(), 0.57, 1e-15);
   EXPECT_NEAR(e["tests"]["psc"]["peak_ratio13"]["mean"].get<double>(), 3.7, 1e-15);
@@ -79,6 +81,9 @@ TEST(Ensemble, QuantitiesAndPairedDifferences) {
   EXPECT_EQ(paired["n"], 2);
   EXPECT_NEAR(paired["mean"].get<double>(), -0.8, 1e-12);
   EXPECT_FALSE(e["paired"]["ttc-psc"].contains("peak_state.sigma1"));  // only quantities both tests have
+  // the rate check's settings are described per test but not differenced (seed 2 has both tests' check)
+  EXPECT_EQ(e["tests"]["ttc"]["verify_rate.tolerance_floors"]["n"], 2);
+  EXPECT_FALSE(e["paired"]["ttc-psc"].contains("verify_rate.tolerance_floors"));
 }
 
 }  // namespace

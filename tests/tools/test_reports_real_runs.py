@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from celldem import probes, results
-from celldem.reports import figures, force_chains, plotting
+from celldem.reports import ensemble_report, figures, force_chains, plotting
 from checking import ROOT, check, is_png, read_text, tool
 
 SMALL_RUN = os.path.join(ROOT, "tests", "run", "small_run.json")
@@ -178,9 +178,11 @@ def test_ensemble_report_statistics(ensemble):
     assert row is not None and f"{diff['mean']:.3f} ± {diff['std']:.3f}" in row, \
         f"paired difference is not ensemble.json's: {row}"
     lo, hi = diff["ci95"]
-    # A difference called after Holm's adjustment is called without it too: its 95 % interval excludes 0.
-    allowed = ["not distinguishable at 3 seeds"] + (["ttc lower than psc"] if hi < 0 else []) + \
-        (["ttc higher than psc"] if lo > 0 else [])
+    # A difference called after Holm's adjustment is called without it too: its 95 % interval excludes 0; one whose
+    # printed (unadjusted) interval excludes 0 without a call says so.
+    outside = "not distinguishable at 3 seeds" + ensemble_report.ADJUSTED_NOTE.format("0", "95 % interval")
+    allowed = (["ttc lower than psc", outside] if hi < 0 else ["ttc higher than psc", outside] if lo > 0 else
+               ["not distinguishable at 3 seeds"])
     assert any(row.rstrip(" |").endswith(w) for w in allowed), f"paired verdict: want one of {allowed} in {row}"
     assert "Holm" in row, f"the paired verdict does not give its Holm-adjusted p: {row}"
     assert "family-wise error rate of 5 %" in text, "the report does not state its family-wise error rate"
@@ -190,8 +192,8 @@ def test_ensemble_report_statistics(ensemble):
     assert len(rows) >= 10, f"{len(rows)} findings judged"
     assert any("paired t" in line for line in rows) and any("one-sample t" in line for line in rows), \
         "the findings do not name their tests"
-    verdict = (r"\| (yes|no[^|]*|not distinguishable at 3 seeds[^|]*|consistent[^|]*|equivalent|different|"
-               r"undecided at 3 seeds) \|$")
+    verdict = (r"\| (yes|no[^|]*|\*\*no\*\*[^|]*|not distinguishable at 3 seeds[^|]*|consistent[^|]*|equivalent|"
+               r"different[^|]*|undecided at 3 seeds[^|]*|by construction[^|]*) \|$")
     without = [line for line in rows if not re.search(verdict, line)]
     assert not without, "a finding without a verdict: " + (without[0] if without else "")
     assert any("prediction interval" in line for line in rows) and any("TOST, margin" in line for line in rows), \

@@ -102,3 +102,21 @@ def test_smallest_detectable_effect_has_80_percent_power():
     x = delta + sd * rng.standard_normal((20000, n))
     p = st.ttest_1samp(x, 0.0, axis=1).pvalue
     assert np.mean(p < 0.05) == pytest.approx(0.8, abs=0.015)
+
+
+def test_fisher_z_is_scipys_transform():
+    # scipy's Pearson confidence interval is tanh(artanh(r) -+ z(0.975) / sqrt(n - 3)): the same transform.
+    rng = np.random.default_rng(11)
+    x = rng.standard_normal(40)
+    y = 0.7 * x + 0.5 * rng.standard_normal(40)
+    res = st.pearsonr(x, y)
+    half = st.norm.ppf(0.975) / np.sqrt(40 - 3)
+    ci = res.confidence_interval(0.95)
+    z = stats.fisher_z(res.statistic)
+    assert (np.tanh(z - half), np.tanh(z + half)) == pytest.approx((ci.low, ci.high), rel=1e-12)
+    assert stats.fisher_z(1.0) == pytest.approx(np.arctanh(1 - 1e-12)) and stats.fisher_z(None) is None
+
+
+def test_lost_to_adjustment():
+    assert stats.lost_to_adjustment(0.01, 0.08) and not stats.lost_to_adjustment(0.01, 0.04)
+    assert not stats.lost_to_adjustment(0.2, 0.6) and not stats.lost_to_adjustment(None, None)

@@ -13,6 +13,7 @@ import shutil
 import subprocess
 
 import pytest
+import scipy.stats
 
 from celldem import binary, decks
 from celldem.study import sufficiency as su
@@ -114,7 +115,7 @@ def test_change_measure_and_verdicts():
     c = su.change([2.0, 2.1, 1.9, 2.05], floor)
     check("delta", c["delta"], 2.0125, 1e-12)
     check("noise units", c["noise_units"], 2.0125, 1e-12)
-    check("margin", c["margin"], 1.0)
+    check("margin: the floor's lower 97.5 % limit", c["margin"], math.sqrt(3 / scipy.stats.chi2.ppf(0.975, 3)), 1e-12)
     check("verdict needed", su.judge_switch({"a": c}), "needed")
     check("quantity changes", c["verdict"], "changes")
     check("verdict not needed", su.judge_switch({"a": su.change([0.01, -0.02, 0.0, 0.01], floor)}), "not needed")
@@ -179,7 +180,7 @@ def test_tiny_scene_results(tiny):
         assert c is not None and c["n"] == len(peaked) and row["changes"]["ttc.ev_end"]["n"] == 2, \
             f"{k}: TTC changes over the paired seeds missing: {c}"
         if c["p_holm"] is not None:
-            equivalent = c["p_tost"] is not None and c["p_tost"] <= r["alpha"]
+            equivalent = c["p_tost"] is not None and c["p_tost"] <= r["tost_alpha"]
             want = "within margin" if equivalent else "changes" if c["p_holm"] <= r["alpha"] else "undecided"
             check(f"{k} TTC peak verdict follows its tests", c["verdict"], want)
         needed = [q for q, c in row["changes"].items() if c and c["verdict"] == "changes"]

@@ -49,3 +49,68 @@ def test_failure_surface_refuses_bad_tests():
     assert [p[0] for p in points] == ["b1"]
     with pytest.raises(ValueError, match="needs at least 2"):
         failure_surface.analyse("/nowhere", points)
+
+
+# ---- the paper comparison: a verdict that matches what its row prints -------------------------------------------
+
+def curve_run(seed, rng):
+    """A run with TTC and PSC series over ε1 to 12 %: σ1/σ3 rising to a peak, Hs11/Hs33 and b tracking it, ε2
+    and TTC's b near 0 (as the tests prescribe), seed-to-seed scatter."""
+    import numpy as np
+    e1 = np.linspace(0.0, 0.12, 241)
+    series = {}
+    for test, peak in (("ttc", 3.0), ("psc", 3.8)):
+        ratio = 1.0 + (peak - 1.0 + 0.1 * rng.standard_normal()) * (1.0 - np.exp(-e1 / 0.01))
+        series[test] = {"e1": e1, "ratio13": ratio, "Hs11_Hs33": 1.0 + 0.3 * (ratio - 1.0) + 0.02 * rng.standard_normal(e1.size),
+                        "b": (0.003 * rng.standard_normal(e1.size) if test == "ttc" else 0.3 + 0.05 * ratio),
+                        "e2": (2e-6 * rng.standard_normal(e1.size) if test == "psc" else -e1 / 2)}
+    summary = {"tests": {t: {"peak_reached": True} for t in series}}
+    return Run(f"/nowhere/seed-{seed}", summary, series)
+
+
+def test_by_construction_rows_leave_the_holm_family_and_correlations_use_fisher_z():
+    import math
+    import numpy as np
+    from scipy import stats as sps
+    from celldem import stats
+    rng = np.random.default_rng(3)
+    ens = Ensemble("/nowhere", {"seeds": [1, 2, 3, 4], "paired": {}}, [curve_run(s, rng) for s in (1, 2, 3, 4)])
+    claims = {c.label: c for c in ensemble_report.paper_claims(ens)}
+    for label in ("PSC ε2 stays 0 (max |ε2|, %)", "TTC b stays 0 (max |b| for ε1 ≥ 0.1 %)"):
+        c = claims[label]
+        assert c.kind == "construction" and c.p == [] and c.verdict().startswith("by construction"), label
+        assert "outside the Holm family" in c.test_text()
+    # the family is every other claim's hypotheses: Holm over them alone
+    flat = [p for c in claims.values() for p in c.p]
+    adjusted, _ = stats.holm(flat)
+    assert [a for c in claims.values() for a in c.adjusted] == adjusted
+    text = ensemble_report.paper_section(ens)
+    assert f"all {sum(p is not None for p in flat)} hypotheses" in text and "by construction" in text
+    # Pearson r tracked through Fisher's z: the one-sample t of artanh(r) over the seeds against artanh(0.8)
+    c = claims["psc: Hs11/Hs33 tracks σ1/σ3 (Pearson r)"]
+    r = [sps.pearsonr(run.column("psc", "ratio13")[run.column("psc", "e1") >= 1e-3],
+                      run.column("psc", "Hs11_Hs33")[run.column("psc", "e1") >= 1e-3])[0] for run in ens.runs]
+    z = np.arctanh(np.clip(r, -1 + 1e-12, 1 - 1e-12))
+    assert c.p[0] == pytest.approx(sps.ttest_1samp(z, math.atanh(0.8)).pvalue)
+    assert c.verdict() == "yes" and c.interval_text().startswith("r = 0.99")
+
+
+def test_a_value_outside_its_unadjusted_interval_says_so():
+    from celldem import stats
+    stat = stats.describe([1.0, 1.1, 0.9, 1.05, 0.95])
+    lo, hi = stat["pi95"]
+    paper = hi + 0.01  # outside the printed PI95
+    c = ensemble_report.Claim("x", "paper", stat, 1.0, 3, "value", ensemble_report.PREDICTION, against=paper)
+    assert c.p[0] < 0.05
+    c.adjusted = [min(1.0, 3 * c.p[0])]  # in a family of three, the adjusted p passes 0.05
+    assert c.adjusted[0] > 0.05
+    v = c.verdict()
+    assert v.startswith("consistent") and "outside the unadjusted PI95" in v and "not rejected after Holm" in v
+    c.adjusted = [c.p[0]]  # rejected after adjustment too: a plain "no"
+    assert c.verdict() == "no: below the paper"  # the ensemble lies below the paper's value
+    inside = ensemble_report.Claim("x", "paper", stat, 1.0, 3, "value", ensemble_report.PREDICTION, against=1.0)
+    inside.adjusted = list(inside.p)
+    assert inside.verdict() == "consistent (the paper's value is a plausible seed)"
+    # a paired difference whose 95 % interval excludes 0 without a Holm call says so too
+    s = stats.describe([0.5, 0.6, 0.55])
+    assert stats.lost_to_adjustment(stats.one_sample_p(s), 0.2) and s["ci95"][0] > 0

@@ -14,6 +14,9 @@ The tests, each two-sided at level alpha unless said otherwise:
 - tost: equivalence within +-margin by two one-sided t-tests (Schuirmann); its p is the larger of the two.
 - holm: Holm's step-down adjustment of a family of p-values, which keeps the family-wise error rate (the chance
   of any false verdict in the family) at alpha.
+- fisher_z: a correlation r as Fisher's z = artanh(r), nearly normal with a scale that does not depend on r: a
+  correlation over the seeds is tested as the one-sample t of the seeds' z (never r itself, bounded and skewed
+  near 1) against artanh(r0).
 """
 
 import math
@@ -100,6 +103,24 @@ def tost(stat, margin):
     p_upper = float(_st.t.cdf((mean - margin) / sem, n - 1))  # H0: mean >= +margin
     half = t_quantile(0.95, n - 1) * sem
     return {"p": max(p_lower, p_upper), "p_lower": p_lower, "p_upper": p_upper, "interval": [mean - half, mean + half]}
+
+
+# |r| is held below 1 by this much so that a perfect correlation has a finite z (artanh(1 - 1e-12) = 14.2)
+FISHER_R_CLIP = 1e-12
+
+
+def fisher_z(r):
+    """Fisher's z = artanh(r) of a correlation (None for None); |r| = 1 is clipped to 1 - FISHER_R_CLIP."""
+    if r is None or not math.isfinite(r):
+        return None
+    return float(_np.arctanh(_np.clip(r, -1.0 + FISHER_R_CLIP, 1.0 - FISHER_R_CLIP)))
+
+
+def lost_to_adjustment(p, adjusted, alpha=0.05):
+    """True when a hypothesis is rejected unadjusted (p <= alpha, the compared value outside its unadjusted
+    interval) but not after the family's adjustment: its row must say so, since the interval it prints is the
+    unadjusted one."""
+    return p is not None and adjusted is not None and p <= alpha < adjusted
 
 
 def holm(pvalues, alpha=0.05):

@@ -6,8 +6,11 @@ Every summary.json quantity and every paired difference comes from celldem's ens
 95 % interval over the seeds); what the paper's findings measure on curves is measured on each seed's series
 (report.py's functions) and described by stats.describe, the same statistics. A difference is called only when
 the 95 % interval excludes the compared value (Student t; stats.py), else it is "not distinguishable at N seeds".
+The intervals printed are unadjusted while the verdicts are Holm-adjusted over their table: a row whose value lies
+outside its unadjusted interval but is not rejected after the adjustment says so.
 """
 
+import math
 import os
 
 from .. import metrics, stats
@@ -131,12 +134,14 @@ def paired_section(ens):
         elif rej:
             verdict = f"{b} {'higher' if stat['mean'] > 0 else 'lower'} than {a}"
         else:
-            verdict = stats.not_distinguishable(stat)
+            verdict = stats.not_distinguishable(stat) + (ADJUSTED_NOTE.format("0", "95 % interval")
+                                                         if stats.lost_to_adjustment(p, adj, ALPHA) else "")
         table.append((label, pair, sp, f"{t}; {stats.p_text(p, adj)}", verdict))
     return ("Per seed, the difference B − A of the two tests on the same sample (ensemble.json `paired`; tests whose "
             "control failed are left out by celldem). Test: paired t over the seeds, two-sided; the "
             f"{sum(p is not None for p in pvals)} tests of the table are one family, Holm-adjusted to a family-wise "
-            f"error rate of {ALPHA * 100:g} %: a difference is called when its Holm-adjusted p ≤ {ALPHA:g}.\n\n"
+            f"error rate of {ALPHA * 100:g} %: a difference is called when its Holm-adjusted p ≤ {ALPHA:g}. The 95 % "
+            "interval shown is the unadjusted one: a row whose interval excludes 0 without a call says so.\n\n"
             + md_table(("Quantity", "Pair", "Difference: mean ± std [95 % interval]", "Paired t", "Verdict"), table))
 
 
@@ -168,6 +173,10 @@ ALIKE_MARGINS = {
 }
 
 ONE_SAMPLE = "one-sample t vs {}"
+FISHER = "one-sample t of the seeds' Fisher z = artanh(r) vs artanh({})"
+# Appended to a verdict not called after Holm's adjustment whose compared value lies outside the printed
+# (unadjusted) interval: ({compared value}, {interval name}).
+ADJUSTED_NOTE = " ({} lies outside the unadjusted {}, but is not rejected after Holm's adjustment)"
 PREDICTION = "prediction interval of one more seed vs the paper's single sample"
 PAIRED = "paired t (both tests on each seed's sample)"
 
@@ -178,10 +187,18 @@ class Claim:
 
     def __init__(self, label, paper_text, stat, scale, digits, kind, test, against=0.0, expected=None, below=None,
                  margin=None):
+        """kind: "value" (the paper's single value vs one more seed), "alike" (TOST and paired t), "sign", "threshold"
+        (one-sample t vs `against`), "correlation" (a threshold on Pearson r, `stat` over the seeds' Fisher z and
+        `against` an r) or "construction" (true by the test's prescription: shown, `against` the tolerance the
+        seeds' values must stay below, not tested and outside the Holm family)."""
         self.label, self.paper_text, self.stat, self.scale, self.digits = label, paper_text, stat, scale, digits
         self.kind, self.test, self.against, self.expected, self.below, self.margin = \
             kind, test, against, expected, below, margin
-        if kind == "value":
+        if kind == "construction":
+            self.p = []
+        elif kind == "correlation":
+            self.p = [stats.one_sample_p(stat, stats.fisher_z(against))]
+        elif kind == "value":
             self.p = [stats.prediction_p(stat, against)]
         elif kind == "alike":
             self.tost = stats.tost(stat, margin[0])
@@ -192,6 +209,12 @@ class Claim:
 
     def interval_text(self):
         s, f, d = self.stat, self.scale, self.digits
+        if self.kind == "construction":
+            return f"{fmt(s['mean'] * f, d)} ± {fmt(s['std'] * f, d)}; largest seed {fmt(max(s['values']) * f, d)}"
+        if self.kind == "correlation":  # back from z to r: tanh of the mean z and of its interval's ends
+            lo, hi = s["ci95"]
+            return (f"r = {fmt(math.tanh(s['mean']), d)} (tanh of the mean z {fmt(s['mean'], d)} ± "
+                    f"{fmt(s['std'], d)}); CI95 [{fmt(math.tanh(lo), d)}, {fmt(math.tanh(hi), d)}]")
         if self.kind == "value":
             lo, hi = s["pi95"] if "pi95" in s else stats.prediction_interval(s)
             return f"{fmt(s['mean'] * f, d)} ± {fmt(s['std'] * f, d)}; PI95 [{fmt(lo * f, d)}, {fmt(hi * f, d)}]"
@@ -204,20 +227,37 @@ class Claim:
 
     def verdict(self):
         n = self.stat["n"]
+        if self.kind == "construction":
+            worst = max(self.stat["values"])
+            return (f"by construction (every seed ≤ {fmt(self.against * self.scale, 4)})" if worst <= self.against
+                    else f"**no**: a seed reaches {fmt(worst * self.scale, 4)} > {fmt(self.against * self.scale, 4)}")
+        lost = [stats.lost_to_adjustment(p, a, ALPHA) for p, a in zip(self.p, self.adjusted)]
         sig = [a is not None and a <= ALPHA for a in self.adjusted]
-        side = 1 if self.stat["mean"] > self.against else -1
+        against = stats.fisher_z(self.against) if self.kind == "correlation" else self.against
+        side = 1 if self.stat["mean"] > against else -1
         if self.kind == "value":
             return f"no: {'above' if side > 0 else 'below'} the paper" if sig[0] else \
-                "consistent (the paper's value is a plausible seed)"
+                "consistent (the paper's value is a plausible seed)" + \
+                (ADJUSTED_NOTE.format("the paper's value", "PI95") if lost[0] else "")
         if self.kind == "alike":
-            return stats.equivalence_verdict(self.adjusted[0], self.adjusted[1], n, ALPHA)
+            v = stats.equivalence_verdict(self.adjusted[0], self.adjusted[1], n, ALPHA)
+            if v != "equivalent" and lost[1]:
+                v += " (the 90 % CI lies inside the margin, but TOST is not rejected after Holm's adjustment)"
+            elif v.startswith("undecided") and lost[0]:
+                v += ADJUSTED_NOTE.format("0", "95 % interval")
+            return v
         if not sig[0]:
-            return f"not distinguishable at {n} seeds" + (f" from {self.against:g}" if self.kind == "threshold" else "")
+            return (f"not distinguishable at {n} seeds" +
+                    (f" from {self.against:g}" if self.kind in ("threshold", "correlation") else "") +
+                    (ADJUSTED_NOTE.format(f"{self.against:g}" if self.kind != "sign" else "0", "CI95")
+                     if lost[0] else ""))
         if self.kind == "sign":
             return "yes" if side == self.expected else "no: the opposite"
         return "yes" if (side < 0) == self.below else "no"
 
     def test_text(self):
+        if self.kind == "construction":
+            return f"{self.test}: not tested, outside the Holm family"
         p = "; ".join(stats.p_text(p, a) for p, a in zip(self.p, self.adjusted))
         if self.kind == "alike":
             return (f"TOST, margin ±{self.margin[0]:g} {self.margin[1]}, and paired t; p (difference), p (TOST): {p}")
@@ -248,11 +288,10 @@ def paper_claims(ens):
         add("PSC b falls after the peak (b at 10 % − b at peak)", "yes", per_seed(ens, b_fall, ("psc",)), 1.0, 3,
             "sign", ONE_SAMPLE.format(0), expected=-1)
         add("PSC ε2 stays 0 (max |ε2|, %)", "yes", per_seed(ens, report.psc_max_e2, ("psc",)), PERCENT, 4,
-            "threshold", ONE_SAMPLE.format(f"{report.ZERO_STRAIN_TOL * PERCENT:g} %"),
-            against=report.ZERO_STRAIN_TOL, below=True)
+            "construction", "by construction (plane strain prescribes ε2 = 0)", against=report.ZERO_STRAIN_TOL)
     if ens.test("ttc") is not None:
         add("TTC b stays 0 (max |b| for ε1 ≥ 0.1 %)", "yes", per_seed(ens, report.ttc_max_b, ("ttc",)), 1.0, 3,
-            "threshold", ONE_SAMPLE.format(report.ZERO_B_TOL), against=report.ZERO_B_TOL, below=True)
+            "construction", "by construction (the triaxial test holds σ2 = σ3)", against=report.ZERO_B_TOL)
     if both(ens):
         # ensemble.json's pairs are named B-A with B after A alphabetically: "ttc-psc" is ttc − psc.
         add("PSC peak σ1/σ3 exceeds TTC's (ttc − psc)", "yes", ens.statistic("paired", "ttc-psc", "peak_ratio13"),
@@ -286,8 +325,8 @@ def paper_claims(ens):
             if name == "b" and test != "psc":
                 continue
             add(f"{test}: {label} tracks σ1/σ3 (Pearson r)", "yes",
-                per_seed(ens, lambda run, t=test, c=name: report.tracks_r(run, t, c), (test,)), 1.0, 2, "threshold",
-                ONE_SAMPLE.format(f"r = {report.TRACKS_MIN_R}"), against=report.TRACKS_MIN_R, below=False)
+                per_seed(ens, lambda run, t=test, c=name: stats.fisher_z(report.tracks_r(run, t, c)), (test,)), 1.0,
+                2, "correlation", FISHER.format(report.TRACKS_MIN_R), against=report.TRACKS_MIN_R, below=False)
     flat = [p for c in claims for p in c.p]
     adjusted, _ = stats.holm(flat, ALPHA)
     k = 0
@@ -317,7 +356,11 @@ def paper_section(ens):
         "rejects a difference as large as the margin: the 90 % interval lies inside it), \"different\" (not "
         "equivalent, and the paired t-test rejects no difference) or \"undecided at N seeds\". Margins: "
         + "; ".join(margins) + ". Other differences (from 0, from a threshold) are one-sample or paired t-tests "
-        "with their 95 % interval of the mean (CI95). "
+        "with their 95 % interval of the mean (CI95); a correlation r is tested on the seeds' Fisher z = artanh(r) "
+        "and shown back as r. The intervals printed are unadjusted: a row whose compared value lies outside its "
+        "interval but is not rejected after Holm's adjustment says so in its verdict. Rows true by construction "
+        "(the test prescribes them) are shown as \"by construction\", checked against their tolerance but not "
+        "tested, and take no place in the Holm family. "
         + (f"Runs whose control failed are left out of every verdict ({bad_text}). " if bad_text else "")
         + "Summary quantities and paired differences are celldem's (ensemble.json); the rest is measured on each "
         "seed's series as in a single run's report.", "",
