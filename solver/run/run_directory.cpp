@@ -58,7 +58,8 @@ std::string deck_fingerprint(const std::string& canonical_deck) {
 void create_run_folder(const fs::path& dir) {
   std::error_code error;
   if (fs::exists(dir, error) && !fs::is_directory(dir, error))
-    throw UsageError(dir.string() + ": is a file, not a folder: give --out a folder for the run's results");
+    throw UsageError(dir.string() + ": is not a folder (a file or a device): give --out a folder for the run's "
+                     "results");
   fs::create_directories(dir, error);
   if (error) {
     const std::string why = error == std::errc::not_a_directory

@@ -102,10 +102,10 @@ trial_two_processes() {  # a second process on a live folder: refused with exit 
   start "$work/long.json" --out "$d"
   for ((k = 0; k < 500; ++k)); do [[ -f $d/prepare/series.csv ]] && break; sleep 0.02; done
   case $((RANDOM % 4)) in
-    0) what="--resume"; "$celldem" run "$work/long.json" --out "$d" --resume --quiet 2>"$work/err" ;;
-    1) what="--force"; "$celldem" run "$work/long.json" --out "$d" --force --quiet 2>"$work/err" ;;
-    2) what="a fresh run"; "$celldem" run "$work/long.json" --out "$d" --quiet 2>"$work/err" ;;
-    3) what="merge"; "$celldem" merge "$d" 2>"$work/err" ;;
+    0) what="--resume"; timeout 30 "$celldem" run "$work/long.json" --out "$d" --resume --quiet 2>"$work/err" ;;
+    1) what="--force"; timeout 30 "$celldem" run "$work/long.json" --out "$d" --force --quiet 2>"$work/err" ;;
+    2) what="a fresh run"; timeout 30 "$celldem" run "$work/long.json" --out "$d" --quiet 2>"$work/err" ;;
+    3) what="merge"; timeout 30 "$celldem" merge "$d" 2>"$work/err" ;;
   esac
   rc=$?
   kill -0 $pid 2>/dev/null || { wait $pid; why="skipped: the first run ended first"; return 2; }
@@ -195,7 +195,7 @@ expect_refusal() {  # $1: what; $2: a word the message must hold; the rest: the 
 check_messages() {
   touch "$work/a_file"
   expect_refusal "--out naming a file" "not a folder" "$celldem" run "$work/deck.json" --out "$work/a_file" --quiet
-  expect_refusal "--out under a file" "is a file" "$celldem" run "$work/deck.json" --out "$work/a_file/run" --quiet
+  expect_refusal "--out under a file" "is a file, not a folder" "$celldem" run "$work/deck.json" --out "$work/a_file/run" --quiet
   expect_refusal "--out /dev/full" "not a folder" "$celldem" run "$work/deck.json" --out /dev/full --quiet
   expect_refusal "--seeds 3-1" "K <= L" "$celldem" run "$work/deck.json" --seeds 3-1 --out "$work/m" --quiet
   expect_refusal "--seeds 1-100000" "at most" "$celldem" run "$work/deck.json" --seeds 1-100000 --out "$work/m" --quiet
