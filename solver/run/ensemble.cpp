@@ -188,9 +188,10 @@ void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector
     throw DeckError("initial_state: --seeds draws a new grid sample per seed; a preparation from initial_state is "
                     "the same for every seed");
   const fs::path dir(options.out_dir);
-  const FolderLock lock(dir);  // the ensemble folder's own (each seed-<k>/ has its run's)
+  FolderLock lock(dir);  // the ensemble folder's own (each seed-<k>/ has its run's)
   if (!options.resume && !options.force && fs::exists(dir / "ensemble.json"))
     throw UsageError(dir.string() + " already holds an ensemble; use --force to overwrite it or --resume");
+  lock.claim();
   std::vector<Json> summaries;
   for (const std::uint64_t seed : seeds) {
     Deck d = deck;

@@ -126,10 +126,12 @@ std::vector<std::string> merge_runs(const fs::path& into, const std::vector<fs::
   if (!ensemble) run_deck_text(into);  // a probes merge gathers into a run folder: not created here
   std::vector<FolderLock> locks;
   locks.emplace_back(into);
+  locks.back().claim();
   std::vector<fs::path> locked = {into};
   for (const fs::path& other : from)
     if (std::none_of(locked.begin(), locked.end(), [&](const fs::path& p) { return fs::equivalent(p, other); })) {
       locks.emplace_back(other);
+      locks.back().claim();
       locked.push_back(other);
     }
   // What each folder is, checked before anything is copied: one deck (its fingerprint), and shares of one kind of

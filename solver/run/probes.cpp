@@ -28,6 +28,7 @@
 #include "run/run_directory.hpp"
 #include "run/runner.hpp"
 #include "run/stage_output.hpp"
+#include "step.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -173,7 +174,7 @@ void ProbePoints::save(const State&) {
   peak_unsaved_ = false;
 }
 
-void ProbePoints::resume(const std::vector<SeriesRow>& rows, const std::function<void(State&)>& with_forces) {
+void ProbePoints::resume(const std::vector<SeriesRow>& rows) {
   const std::string lost = "the test was resumed after this point (the states kept before are lost with the run "
                            "that was stopped; --force runs it again whole)";
   // The state a stopped run kept of a point, if it is that of one of these rows (a later one is taken again).
@@ -185,7 +186,6 @@ void ProbePoints::resume(const std::vector<SeriesRow>& rows, const std::function
       return r.step == static_cast<double>(state.control.stage_steps);
     });
     if (row == rows.end()) return false;
-    with_forces(state);
     p.state = std::make_shared<const State>(std::move(state));
     p.row = *row;
     p.missing.clear();
@@ -315,13 +315,16 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
   std::int64_t steps = 0;
   Json control_errors = Json::array();
   const ProbeDef& def = *test.probes;
-  State state = *point.state;
+  // From the point's state as its file holds it, forces computed: the same start whether the point was taken in this
+  // process or read back by a resumed run (a state file holds no forces or neighbour list).
+  State state = read_state((run.stage_dir(test.name) / "probes" / point.name / "point.state").string());
   Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
   // The servo keeps the cap of the test's leg at the point: a probe's stress axes follow a sample that moves at
   // the test's rate when the probe starts (the probe's own legs, driven by nothing, would get the smallest cap).
   model.servo.max_strain_increment =
       servo_cap(deck.stage_servo(test), test.legs[static_cast<std::size_t>(state.control.leg)], model.dt);
   model.servo.max_strain_increment_given = true;
+  evaluate_forces(model, test.stage_friction(), state);
   const std::vector<Leg> legs = probe_legs(def, probe, state.normal_stress, model.dt);
   begin_leg(state, 0);
   const std::int64_t from_step = state.control.stage_steps;

@@ -19,7 +19,6 @@
 #pragma once
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -70,8 +69,7 @@ class ProbePoints {
   // A resumed test: the rows read back count; a point among them continues from the state kept in its folder when
   // that state is one of these rows', else it has lost its state (it is reported, not run). The peak is taken
   // again by a row above all of them.
-  // `with_forces` computes a state's forces (a state file holds none; a point's first row needs them).
-  void resume(const std::vector<SeriesRow>& rows, const std::function<void(State&)>& with_forces);
+  void resume(const std::vector<SeriesRow>& rows);
   // The test's last row and state (the end point).
   void finish(const State& state, const SeriesRow& row);
 

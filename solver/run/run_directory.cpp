@@ -88,8 +88,11 @@ FolderLock::FolderLock(const fs::path& dir) {
                      (holder.empty() ? std::string("unknown") : holder) + ", holding " + path.string() +
                      "): wait for it to end, or stop it (a stopped run continues with --resume)");
   }
+}
+
+void FolderLock::claim() {
   const std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) != static_cast<ssize_t>(pid.size())) {
+  if (fd_ < 0 || ::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) != static_cast<ssize_t>(pid.size())) {
     // The pid is only for the message of a process refused: the lock holds without it.
   }
 }
@@ -133,6 +136,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
     if (progress_.value("deck", std::string()) != deck.canonical)
       throw UsageError("--resume: the deck differs from the one this run was started with");
     summary_ = fs::exists(dir_ / kSummaryName) ? read_json(dir_ / kSummaryName) : Json::object();
+    lock_.claim();
     return;
   }
   if (fs::exists(dir_)) {
@@ -146,6 +150,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
       for (const fs::path& p : outputs) fs::remove_all(p);  // only the new run's outputs will be there
     }
   }
+  lock_.claim();
   fs::create_directories(dir_);
   const bool share = options.probes.first != ProbeSelection{}.first || options.probes.last != ProbeSelection{}.last;
   const std::string kind = !options.kind.empty() ? options.kind : share ? "probe share" : "single";

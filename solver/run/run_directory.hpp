@@ -28,7 +28,7 @@ inline constexpr const char* kLockName = "run.lock";
 
 // One owner per run folder at a time: run, --resume, --force and merge hold an exclusive flock on DIR/run.lock for
 // as long as they write there. A second process is refused (UsageError naming the holder's pid); the kernel drops
-// the lock of a process that dies, so the file a killed run leaves behind is taken over as it stands. Creates DIR.
+// the lock of a process that dies, so the file a killed run leaves behind is taken over. Creates DIR.
 class FolderLock {
  public:
   FolderLock() = default;
@@ -38,6 +38,9 @@ class FolderLock {
   FolderLock& operator=(FolderLock&& other) noexcept;
   FolderLock(const FolderLock&) = delete;
   FolderLock& operator=(const FolderLock&) = delete;
+  // Writes this process's pid into the lock file (for the message of a process refused): once the holder goes on to
+  // write in the folder (a command refused for another reason leaves the folder's files as they were).
+  void claim();
 
  private:
   int fd_ = -1;

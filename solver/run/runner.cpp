@@ -124,8 +124,7 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   }
   if (test.probes) {
     probe_points.keep_in(out.dir() / "probes", test.name, state_physics(deck));
-    if (resumed)
-      probe_points.resume(out.rows(), [&](State& s) { evaluate_forces(model, test.stage_friction(), s); });
+    if (resumed) probe_points.resume(out.rows());
     else probe_points.on_row(state, out.rows().front());
     out.set_checkpoint_observer([&](const State& s) { probe_points.save(s); });
   }

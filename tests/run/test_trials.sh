@@ -16,7 +16,7 @@ trap 'jobs -p | xargs -r kill -9 2>/dev/null; rm -rf "$work"' EXIT
 here="$(dirname "$0")"
 cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
-declare -A passed failed
+declare -A passed failed skipped
 kinds=(kill_resume series_extra series_tampered two_processes branch_resumed probe_stop probe_shares foreign_share)
 why=""
 run_quiet() { "$celldem" run "$@" --quiet --threads 1; }
@@ -237,12 +237,13 @@ while :; do
   "trial_$kind"; rc=$?
   if ((rc == 0)); then passed[$kind]=$((${passed[$kind]:-0} + 1))
   elif ((rc == 1)); then failed[$kind]=$((${failed[$kind]:-0} + 1)); echo "failed: $kind: $why"
+  else skipped[$kind]=$((${skipped[$kind]:-0} + 1))  # the moment drawn did not set the trial up (said in $why)
   fi
 done
-printf '%-16s %6s %6s\n' kind passed failed
+printf '%-16s %6s %6s %7s\n' kind passed failed skipped
 total_failed=0
 for kind in "${kinds[@]}" messages; do
-  printf '%-16s %6d %6d\n' "$kind" "${passed[$kind]:-0}" "${failed[$kind]:-0}"
+  printf '%-16s %6d %6d %7d\n' "$kind" "${passed[$kind]:-0}" "${failed[$kind]:-0}" "${skipped[$kind]:-0}"
   total_failed=$((total_failed + ${failed[$kind]:-0}))
 done
 ((total_failed == 0)) || { echo "FAIL: $total_failed trials failed"; exit 1; }
