@@ -28,8 +28,14 @@ Command add_merge_command(CLI::App& app) {
   return [cmd, args]() -> int {
     if (!cmd->parsed()) return -1;
     std::vector<std::filesystem::path> from(args->from.begin(), args->from.end());
-    for (const std::string& line : merge_runs(args->into, from, args->include_uncontrolled))
+    bool incomplete = false;
+    for (const std::string& line : merge_runs(args->into, from, args->include_uncontrolled, &incomplete))
       std::printf("%s\n", line.c_str());
+    if (incomplete) {  // gathered what was whole; the job array is not done
+      std::fprintf(stderr, "celldem: merge: a share is not complete (above): its results are left out; resume it "
+                   "(celldem run ... --resume) and merge again\n");
+      return 1;
+    }
     return 0;
   };
 }

@@ -110,8 +110,11 @@ Command add_run_command(CLI::App& app) {
     if ((verify.at_given || verify.window_given || verify.factor_given || !verify.floors_path.empty()) && !checked)
       throw CLI::ValidationError("--verify-at, --verify-window, --verify-rate-factor and --floors need --verify-rate "
                                  "(or a test's verify_rate key)");
-    for (const TestDef& test : deck.tests)  // a floors file that cannot serve is refused before any work
-      if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
+    for (const TestDef& test : deck.tests)  // a floors file or a window that cannot serve is refused before any work
+      if (const std::optional<VerifyRateOptions> o = verify_rate_for(verify, test)) {
+        noise_floors(verify.floors_path, test.name, deck.sample.count);
+        check_verify_window(*o, test);
+      }
     if (!args->probes.empty()) {
       if (std::none_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.probes.has_value(); }))
         throw CLI::ValidationError("--probes: the deck's tests have no probes (tests[].probes)");
@@ -120,6 +123,10 @@ Command add_run_command(CLI::App& app) {
       } catch (const std::invalid_argument& e) {
         throw CLI::ValidationError(std::string("--probes: ") + e.what());
       }
+      if (const std::int64_t n = probe_count(deck); args->options.probes.first > n)
+        throw CLI::ValidationError("--probes " + args->probes + ": the deck has " + std::to_string(n) +
+                                   " probes, numbered 1-" + std::to_string(n) + " over its tests (`celldem plan` "
+                                   "gives each test's numbers): this range holds none");
     }
     args->options.progress = args->options.quiet     ? ProgressMode::Off
                              : stderr_is_terminal() ? ProgressMode::Terminal

@@ -12,6 +12,7 @@
 #include "io/schema_print.hpp"
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
+#include "run/probes.hpp"
 #include "run/sample.hpp"
 #include "run/summary.hpp"
 
@@ -256,8 +257,10 @@ Json plan_json(const Deck& deck) {
                             {"time_step_ratio", deck.stage_time_step(t) / dt_crit}});
     if (t.probes) {
       const ProbePlan probes = plan_probes(t);
+      const std::int64_t first = probe_number_offset(deck, t) + 1;  // --probes numbers, one numbering over the deck
       out["tests"].back()["probes"] = {{"points", probes.points}, {"probes_per_point", probes.probes_per_point},
-                                       {"steps_per_probe", probes.steps_per_probe}, {"steps", probes.steps()}};
+                                       {"steps_per_probe", probes.steps_per_probe}, {"steps", probes.steps()},
+                                       {"numbers", {first, first + probes.points * (probes.probes_per_point - 1) - 1}}};
     }
     if (holds) {
       const EquilibriumDef& e = t.equilibrium;
@@ -484,6 +487,11 @@ Command add_plan_command(CLI::App& app) {
                     static_cast<long long>(p["probes_per_point"].get<std::int64_t>()),
                     static_cast<long long>(p["steps_per_probe"].get<std::int64_t>()),
                     static_cast<long long>(p["steps"].get<std::int64_t>()));
+      if (const Json& p = t.value("probes", Json()); p.is_object())
+        std::printf("    probes: numbers %lld-%lld for `run --probes K-L` (one numbering over the deck's tests, point by "
+                    "point in probes.csv's order; references not counted)\n",
+                    static_cast<long long>(p["numbers"][0].get<std::int64_t>()),
+                    static_cast<long long>(p["numbers"][1].get<std::int64_t>()));
     }
     const Json& start = plan["prepare"].is_object() ? plan["prepare"].value("start", Json()) : Json();
     std::printf("%s\n", describe_estimate(deck, start.is_null() ? -1.0 : start["solid_fraction"].get<double>()).c_str());

@@ -10,6 +10,7 @@
 #include <boost/math/distributions/students_t.hpp>
 
 #include "io/files.hpp"
+#include "run/run_directory.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -74,7 +75,9 @@ std::vector<std::uint64_t> parse_seed_list(const std::string& text, bool allow_o
       for (std::uint64_t k = a; k <= b; ++k)
         if (std::find(seeds.begin(), seeds.end(), k) == seeds.end()) seeds.push_back(k);
     } catch (const std::logic_error&) {
-      throw DeckError("--seeds: \"" + item + "\" is not a seed or a range like 1-8");
+      throw DeckError("--seeds: \"" + item + "\" is not a seed or a range: give seeds (whole numbers from 0) "
+                      "as K, K-L with K <= L, or a comma-separated list of them (e.g. 1-8 or 1,3,5), at most "
+                      "10001 seeds per range");
     }
   }
   if (seeds.size() < (allow_one ? 1u : 2u)) throw DeckError("--seeds: an ensemble needs at least two seeds");
@@ -188,9 +191,10 @@ void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector
     throw DeckError("initial_state: --seeds draws a new grid sample per seed; a preparation from initial_state is "
                     "the same for every seed");
   const fs::path dir(options.out_dir);
+  FolderLock lock(dir);  // the ensemble folder's own (each seed-<k>/ has its run's)
   if (!options.resume && !options.force && fs::exists(dir / "ensemble.json"))
     throw UsageError(dir.string() + " already holds an ensemble; use --force to overwrite it or --resume");
-  fs::create_directories(dir);
+  lock.claim();
   std::vector<Json> summaries;
   for (const std::uint64_t seed : seeds) {
     Deck d = deck;
@@ -200,6 +204,7 @@ void run_ensemble(const Deck& deck, const RunOptions& options, const std::vector
     d.canonical = canonical.dump();
     RunOptions o = options;
     o.out_dir = (dir / ("seed-" + std::to_string(seed))).string();
+    o.kind = seeds.size() == 1 ? "seed share" : "ensemble";
     o.resume = options.resume && fs::exists(fs::path(o.out_dir) / "progress.json");
     if (!options.quiet) std::printf("== seed %llu -> %s\n", static_cast<unsigned long long>(seed), o.out_dir.c_str());
     run_deck(d, o);

@@ -7,6 +7,7 @@
 #include "io/files.hpp"
 #include "run/ensemble.hpp"
 #include "run/probes.hpp"
+#include "run/run_directory.hpp"
 #include "run/runner.hpp"
 
 namespace celldem {
@@ -36,6 +37,44 @@ std::vector<std::uint64_t> seeds_in(const fs::path& dir) {
 }
 
 bool same_bytes(const fs::path& a, const fs::path& b) { return read_file(a) == read_file(b); }
+
+// What a run folder says it is (progress.json): its deck's fingerprint (computed from its deck when an older run did
+// not record it) and its kind ("unknown" when not recorded).
+struct Origin {
+  std::string fingerprint, kind;
+};
+Origin origin_of(const fs::path& dir) {
+  const Json progress = Json::parse(read_file(dir / "progress.json"));
+  return {progress.contains("fingerprint") ? progress["fingerprint"].get<std::string>()
+                                           : deck_fingerprint(progress.at("deck").get<std::string>()),
+          progress.value("kind", std::string("unknown"))};
+}
+bool seed_kind(const std::string& kind) { return kind == "seed share" || kind == "ensemble" || kind == "unknown"; }
+bool run_kind(const std::string& kind) { return kind == "single" || kind == "probe share" || kind == "unknown"; }
+std::string describe(const fs::path& dir, const Origin& o) {
+  return dir.string() + " (deck fingerprint " + o.fingerprint + ", kind " + o.kind + ")";
+}
+// Every folder of `dirs` is of the deck of the first, and of a kind `fits` accepts: else UsageError naming both.
+void check_origins(const std::vector<fs::path>& dirs, bool (*fits)(const std::string&), const char* wanted) {
+  if (dirs.empty()) return;
+  const Origin first = origin_of(dirs.front());
+  for (const fs::path& dir : dirs) {
+    const Origin o = origin_of(dir);
+    if (o.fingerprint != first.fingerprint)
+      throw UsageError(describe(dir, o) + " is a run of another deck than " + describe(dirs.front(), first) +
+                       ": merge gathers only the shares of one deck; nothing was copied");
+    if (!fits(o.kind))
+      throw UsageError(describe(dir, o) + " is not " + wanted + " like " + describe(dirs.front(), first) +
+                       ": nothing was copied");
+  }
+}
+
+// Whether a run folder's every stage is complete (progress.json's list against its deck's stages).
+bool run_complete(const fs::path& dir) {
+  const Json progress = Json::parse(read_file(dir / "progress.json"));
+  const Deck deck = parse_deck(progress.at("deck").get<std::string>(), (dir / "progress.json").string());
+  return progress.at("completed").size() >= deck.tests.size() + (deck.prepare ? 1 : 0);
+}
 
 // The probes of one run folder gathered from the others of the same deck, and its tables recomputed.
 void merge_probes(const fs::path& into, const std::vector<fs::path>& from, std::vector<std::string>& done) {
@@ -77,16 +116,59 @@ void merge_probes(const fs::path& into, const std::vector<fs::path>& from, std::
 
 }  // namespace
 
-std::vector<std::string> merge_runs(const fs::path& into, const std::vector<fs::path>& from, bool include_uncontrolled) {
+std::vector<std::string> merge_runs(const fs::path& into, const std::vector<fs::path>& from, bool include_uncontrolled,
+                                    bool* incomplete) {
   std::vector<std::string> done;
   std::vector<std::uint64_t> seeds = seeds_in(into);
   bool ensemble = !seeds.empty();
   for (const fs::path& other : from) ensemble = ensemble || !seeds_in(other).empty();
+  // The folder gathered into, and every share, has no other owner while the merge reads and writes them.
+  if (!ensemble) run_deck_text(into);  // a probes merge gathers into a run folder: not created here
+  std::vector<FolderLock> locks;
+  locks.emplace_back(into);
+  locks.back().claim();
+  std::vector<fs::path> locked = {into};
+  for (const fs::path& other : from)
+    if (std::none_of(locked.begin(), locked.end(), [&](const fs::path& p) { return fs::equivalent(p, other); })) {
+      locks.emplace_back(other);
+      locks.back().claim();
+      locked.push_back(other);
+    }
+  // What each folder is, checked before anything is copied: one deck (its fingerprint), and shares of one kind of
+  // split (seed shares into an ensemble folder, probe shares into a run folder).
+  if (ensemble) {
+    if (fs::exists(into / "progress.json"))
+      throw UsageError(describe(into, origin_of(into)) + " is a run folder, and the shares hold seeds (seed-<k>/): "
+                       "gather seed shares into an ensemble folder (one holding seed-<k>/ folders, or a new one); "
+                       "nothing was copied");
+    std::vector<fs::path> seeds_all;
+    for (const std::uint64_t seed : seeds) seeds_all.push_back(into / ("seed-" + std::to_string(seed)));
+    for (const fs::path& other : from) {
+      const std::vector<std::uint64_t> theirs = seeds_in(other);
+      if (theirs.empty())
+        throw UsageError(other.string() + " holds no seed-<k>/ folder (" +
+                         (fs::exists(other / "progress.json") ? "it is a " + origin_of(other).kind + " run folder"
+                                                              : std::string("not a share")) +
+                         "): merge seed shares only with seed shares; nothing was copied");
+      for (const std::uint64_t seed : theirs) seeds_all.push_back(other / ("seed-" + std::to_string(seed)));
+    }
+    for (const fs::path& dir : seeds_all) run_deck_text(dir);  // each a run folder
+    check_origins(seeds_all, seed_kind, "a seed of an ensemble");
+  } else {
+    std::vector<fs::path> runs = {into};
+    runs.insert(runs.end(), from.begin(), from.end());
+    for (const fs::path& dir : runs) run_deck_text(dir);
+    check_origins(runs, run_kind, "a run or a probe share");
+  }
   if (!ensemble) {
     merge_probes(into, from, done);
+    for (const fs::path& other : from)
+      if (!run_complete(other)) {
+        done.push_back(other.string() + ": not complete (progress.json): its probes are not all there");
+        if (incomplete) *incomplete = true;
+      }
     return done;
   }
-  fs::create_directories(into);
   for (const fs::path& other : from)
     for (const std::uint64_t seed : seeds_in(other)) {
       const std::string name = "seed-" + std::to_string(seed);
@@ -111,6 +193,7 @@ std::vector<std::string> merge_runs(const fs::path& into, const std::vector<fs::
     std::size_t stages = deck.tests.size() + (deck.prepare ? 1 : 0);
     if (progress.at("completed").size() < stages) {
       done.push_back(dir.string() + ": not complete; left out of ensemble.json");
+      if (incomplete) *incomplete = true;
       continue;
     }
     complete.push_back(seed);

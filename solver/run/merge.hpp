@@ -13,9 +13,11 @@ namespace celldem {
 // folders in either): the seeds `into` lacks are copied, the probes of a seed both hold are gathered as below, and
 // ensemble.json is written over every complete seed. A run: the probe folders of each test's points that `into`
 // lacks are copied from the runs of the same deck (the deck recorded in progress.json) whose point states are the
-// same bytes. Throws UsageError naming the folder for a folder of another deck, a point whose states differ, or a
-// folder that is not a run.
+// same bytes. Throws UsageError naming both folders, before anything is copied, for a folder of another deck (the
+// deck's fingerprint, progress.json) or of another kind (seed shares into a run folder, a run among seed shares), a
+// point whose states differ, or a folder that is not a run. `incomplete` (if given) is set when a share or seed is
+// not complete (left out).
 std::vector<std::string> merge_runs(const std::filesystem::path& into, const std::vector<std::filesystem::path>& from,
-                                    bool include_uncontrolled = false);
+                                    bool include_uncontrolled = false, bool* incomplete = nullptr);
 
 }  // namespace celldem

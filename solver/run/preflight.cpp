@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,7 @@
 #include "io/lammps_data.hpp"
 #include "io/state_file.hpp"
 #include "measure/micro.hpp"
+#include "measure/quasi_static.hpp"
 #include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
 #include "run/sample.hpp"
@@ -409,6 +411,52 @@ std::string initial_state_path(const Deck& deck) {
   return (std::filesystem::path(deck.source).parent_path() / deck.initial_state.value()).string();
 }
 
+std::string fast_loading(const Deck& deck, const TestDef& test) {
+  constexpr double kLargeStrainPerStep = 1e-4;  // the shipped decks drive 1e-6 to 1e-5 per step
+  const double rate = loading_rate(deck, test), per_step = rate * deck.stage_time_step(test);
+  const double p = first_leg_stress(test);
+  const double inertia =
+      std::isnan(p) ? 0.0 : inertial_number(rate, mean_diameter(deck.sample), deck.sample.density, p);
+  if (!(per_step > kLargeStrainPerStep) && !(inertia > 10.0 * kQuasiStaticInertia)) return "";
+  char buf[360];
+  std::snprintf(buf, sizeof buf, "the loading of test '%s', a strain of %.3g per step (%.3g /s, inertial number %.3g; "
+                "quasi-static below %.3g, `celldem plan` gives both), is faster than the packing can follow: lower "
+                "its strain increment or rate", test.name.c_str(), per_step, rate, inertia, kQuasiStaticInertia);
+  return buf;
+}
+
+std::string fast_loading_cause(const Deck& deck, const TestDef& test) {
+  const std::string what = fast_loading(deck, test);
+  return what.empty() ? what : "likely cause: " + what + "; otherwise ";
+}
+
+// Probe points a test never reaches, and stress probes far beyond the stresses they start from (a probe is a small
+// step: one as large as the confining stress tells nothing of the point's stiffness, and may not hold its control).
+void warn_probe_reach(const Deck& deck, std::vector<std::string>& warnings) {
+  for (const TestDef& t : deck.tests) {
+    if (!t.probes) continue;
+    double e1_end = 0.0, confining = 0.0;
+    for (const Leg& leg : t.legs) {
+      if (leg.end.kind == LegEndKind::Strain && leg.end.axis == 0) e1_end = std::max(e1_end, std::abs(leg.end.value));
+      for (const AxisControl& a : leg.axes)
+        if (a.mode == AxisMode::Stress || a.mode == AxisMode::MeanStress) confining = std::max(confining, std::abs(a.value));
+    }
+    for (const double e1 : t.probes->at_e1)
+      if (e1_end > 0.0 && std::abs(e1) > e1_end * (1.0 + 1e-9))
+        warnings.push_back("tests[" + t.name + "].probes.at_e1: " + fmt(e1) + " is beyond the test's end (e1 " +
+                           fmt(e1_end) + "): the point is never reached and its probes are not run");
+    if (t.probes->kind == ProbeKind::Stress && confining > 0.0)
+      for (const double m : t.probes->magnitudes) {
+        const std::string what = "tests[" + t.name + "].probes.magnitudes: " + fmt(m) + " Pa is " +
+                                 fmt(m / confining) + " times the test's confining stress (" + fmt(confining) +
+                                 " Pa): a probe is a small stress step, a few per cent of it (e.g. " +
+                                 fmt(0.02 * confining) + " Pa)";
+        if (m > 10.0 * confining) throw DeckError(what);  // no sample carries it: every probe would fail
+        if (m > 0.25 * confining) warnings.push_back(what + "; probes this large may lose their control");
+      }
+  }
+}
+
 std::vector<std::string> preflight(const Deck& deck) {
   check_servo_caps(deck);
   check_moving_targets(deck);
@@ -416,11 +464,17 @@ std::vector<std::string> preflight(const Deck& deck) {
   if (deck.initial_state) {
     const std::string path = initial_state_path(deck);
     if (!std::filesystem::exists(path)) throw DeckError("initial_state: no such file " + path);
+    if (std::filesystem::is_directory(path))
+      throw DeckError("initial_state: " + path + " is a folder, not a state file (a celldem .state or a LAMMPS data "
+                      "file)");
   }
   std::vector<std::string> warnings = deck_warnings(deck);
   if (deck.initial_state) check_state(deck, initial_state_path(deck), warnings);
   warn_unreached_snapshots(deck, warnings);
   warn_capped_strain_legs(deck, warnings);
+  warn_probe_reach(deck, warnings);
+  for (const TestDef& t : deck.tests)
+    if (const std::string fast = fast_loading(deck, t); !fast.empty()) warnings.push_back(fast);
   return warnings;
 }
 

@@ -44,6 +44,11 @@ struct InitialSample {
 InitialSample load_initial_sample(const Deck& deck);
 State load_initial_state(const Deck& deck);  // load_initial_sample(deck).state
 
+// A test loaded faster than a packing can follow (more than 1e-4 strain per step, or an inertial number ten times
+// the quasi-static limit): "likely cause: <the loading>; otherwise ", which a runaway names before the time step
+// (check and run warn of it too); empty otherwise.
+std::string fast_loading_cause(const Deck& deck, const TestDef& test);
+
 // What a state file records of the physics it was made with: the density and the contact law with its
 // parameters, as JSON text keyed by deck key path. A deck that starts from the state must agree with it.
 std::string state_physics(const Deck& deck);

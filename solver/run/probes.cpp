@@ -28,6 +28,7 @@
 #include "run/run_directory.hpp"
 #include "run/runner.hpp"
 #include "run/stage_output.hpp"
+#include "step.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -92,6 +93,28 @@ ProbeSelection parse_probe_selection(const std::string& text) {
   return s;
 }
 
+namespace {
+std::int64_t probes_of(const TestDef& test) {  // references not counted
+  const ProbePlan p = plan_probes(test);
+  return p.points * std::max<std::int64_t>(0, p.probes_per_point - 1);
+}
+}  // namespace
+
+std::int64_t probe_number_offset(const Deck& deck, const TestDef& test) {
+  std::int64_t offset = 0;
+  for (const TestDef& t : deck.tests) {
+    if (t.name == test.name) break;
+    offset += probes_of(t);
+  }
+  return offset;
+}
+
+std::int64_t probe_count(const Deck& deck) {
+  std::int64_t n = 0;
+  for (const TestDef& t : deck.tests) n += probes_of(t);
+  return n;
+}
+
 std::vector<std::string> probe_point_names(const ProbeDef& def) {
   std::vector<std::string> names;
   for (const double e1 : def.at_e1) names.push_back("e1_" + fmt(e1));
@@ -121,25 +144,65 @@ void ProbePoints::on_row(const State& state, const SeriesRow& row) {
   };
   for (std::size_t k = 0; k < e1_.size(); ++k) {
     const double target = def_.at_e1[k];
-    if (reaches(row, target) && !e1_[k].state && !e1_[k].lost) keep(e1_[k]);
+    if (reaches(row, target) && !e1_[k].state && !e1_[k].lost) {
+      keep(e1_[k]);
+      write_point(e1_[k]);
+    }
   }
   const bool wants_peak = std::find(def_.at.begin(), def_.at.end(), "peak") != def_.at.end();
   if (row.ratio13 > best_ratio_) {  // the summary's peak: the first row of the largest s11/s33 (after a resume,
     best_ratio_ = row.ratio13;      // above every row read back too: the state is this run's own)
-    if (wants_peak) keep(peak_);
+    if (wants_peak) keep(peak_), peak_unsaved_ = true;
   }
+}
+
+void ProbePoints::keep_in(const fs::path& dir, const std::string& label, const std::string& physics) {
+  dir_ = dir;
+  label_ = label;
+  physics_ = physics;
+}
+
+void ProbePoints::write_point(const Point& p) const {
+  if (dir_.empty() || !p.state) return;
+  fs::create_directories(dir_ / p.name);
+  write_state((dir_ / p.name / "point.state").string(), *p.state, "probe point " + label_ + "/" + p.name, physics_);
+}
+
+void ProbePoints::save(const State&) {
+  if (!peak_unsaved_) return;
+  write_point(peak_);  // (a new peak at every row of the rising part: written once per checkpoint, not per row)
+  peak_unsaved_ = false;
 }
 
 void ProbePoints::resume(const std::vector<SeriesRow>& rows) {
   const std::string lost = "the test was resumed after this point (the states kept before are lost with the run "
                            "that was stopped; --force runs it again whole)";
+  // The state a stopped run kept of a point, if it is that of one of these rows (a later one is taken again).
+  const auto kept = [&](Point& p) {
+    const fs::path file = dir_ / p.name / "point.state";
+    if (dir_.empty() || !fs::exists(file)) return false;
+    State state = read_state(file.string());
+    const auto row = std::find_if(rows.begin(), rows.end(), [&](const SeriesRow& r) {
+      return r.step == static_cast<double>(state.control.stage_steps);
+    });
+    if (row == rows.end()) return false;
+    p.state = std::make_shared<const State>(std::move(state));
+    p.row = *row;
+    p.missing.clear();
+    return true;
+  };
   for (const SeriesRow& row : rows) best_ratio_ = std::max(best_ratio_, row.ratio13);
   for (std::size_t k = 0; k < e1_.size(); ++k) {
     const double target = def_.at_e1[k];
-    if (std::any_of(rows.begin(), rows.end(), [&](const SeriesRow& r) { return reaches(r, target); }))
-      e1_[k].missing = lost, e1_[k].lost = true;
+    const auto first = std::find_if(rows.begin(), rows.end(), [&](const SeriesRow& r) { return reaches(r, target); });
+    if (first == rows.end()) continue;
+    if (!kept(e1_[k]) || e1_[k].row.step != first->step) e1_[k] = Point{e1_[k].name, nullptr, {}, lost, true};
   }
-  peak_.missing = lost;
+  // The peak: the first row of the largest s11/s33 among those read back.
+  const auto peak = std::find_if(rows.begin(), rows.end(), [&](const SeriesRow& r) { return r.ratio13 == best_ratio_; });
+  const bool wants_peak = std::find(def_.at.begin(), def_.at.end(), "peak") != def_.at.end();
+  if (!wants_peak || peak == rows.end() || !kept(peak_) || peak_.row.step != peak->step)
+    peak_ = Point{"peak", nullptr, {}, lost, false};
 }
 
 void ProbePoints::finish(const State& state, const SeriesRow& row) {
@@ -252,13 +315,16 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
   std::int64_t steps = 0;
   Json control_errors = Json::array();
   const ProbeDef& def = *test.probes;
-  State state = *point.state;
+  // From the point's state as its file holds it, forces computed: the same start whether the point was taken in this
+  // process or read back by a resumed run (a state file holds no forces or neighbour list).
+  State state = read_state((run.stage_dir(test.name) / "probes" / point.name / "point.state").string());
   Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
   // The servo keeps the cap of the test's leg at the point: a probe's stress axes follow a sample that moves at
   // the test's rate when the probe starts (the probe's own legs, driven by nothing, would get the smallest cap).
   model.servo.max_strain_increment =
       servo_cap(deck.stage_servo(test), test.legs[static_cast<std::size_t>(state.control.leg)], model.dt);
   model.servo.max_strain_increment_given = true;
+  evaluate_forces(model, test.stage_friction(), state);
   const std::vector<Leg> legs = probe_legs(def, probe, state.normal_stress(), model.dt);
   begin_leg(state, 0);
   const std::int64_t from_step = state.control.stage_steps;
@@ -267,6 +333,9 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
   const std::string stage = test.name + "/probes/" + point.name + "/" + probe.name;
   RunOptions quiet = options;
   quiet.progress = ProgressMode::Off;  // one line for the whole set (run_test_probes)
+  // A folder a stopped run left (half-written, or whole) is run again: its old result goes first, so that a stop
+  // now never leaves it beside a new, partial series.
+  fs::remove(run.stage_dir(stage) / kProbeResultName);
   try {
     StageOutput out(run, deck, quiet, model, stage, interval, /*loading_test=*/true);
     out.set_branch();
@@ -458,15 +527,16 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
                       Json{{"step", point.row.step}, {"e1", point.row.e1}, {"reached", point.state != nullptr},
                            {"reason", point.missing}}.dump(1));
   }
-  // The probes this run runs: those of options.probes by their number (1-based over every point of the deck's
-  // set, reference excluded, in probes.csv's order), with the references of their points.
+  // The probes this run runs: those of options.probes by their number (1-based over the deck's tests, then every
+  // point of the set, reference excluded, in probes.csv's order: probe_number_offset), with their points' references.
   std::vector<Job> jobs;
   const std::int64_t per_point = static_cast<std::int64_t>(directions.size()) - 1;
+  const std::int64_t offset = probe_number_offset(deck, test);  // one numbering over the deck's tests
   for (std::size_t p = 0; p < points.size(); ++p) {
     if (!points[p].state) continue;
     std::vector<Job> chosen;
     for (std::size_t k = 1; k < directions.size(); ++k) {
-      const std::int64_t number = static_cast<std::int64_t>(p) * per_point + static_cast<std::int64_t>(k);
+      const std::int64_t number = offset + static_cast<std::int64_t>(p) * per_point + static_cast<std::int64_t>(k);
       if (number >= options.probes.first && number <= options.probes.last) chosen.push_back({p, directions[k]});
     }
     if (chosen.empty()) continue;

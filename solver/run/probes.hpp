@@ -46,6 +46,11 @@ struct ProbeSelection {
 // "K-L" or "K" (K >= 1, L >= K); throws std::invalid_argument with what is wrong.
 ProbeSelection parse_probe_selection(const std::string& text);
 
+// --probes numbers run over the whole deck: test by test in the deck's order, then point by point and direction by
+// direction (probes.csv's order), references not counted. The number before `test`'s first, and the deck's count.
+std::int64_t probe_number_offset(const Deck& deck, const TestDef& test);
+std::int64_t probe_count(const Deck& deck);
+
 // The points of a probe set by their folder names: "e1_<strain>" for each of at_e1, then at's names.
 std::vector<std::string> probe_point_names(const ProbeDef& def);
 
@@ -56,8 +61,14 @@ class ProbePoints {
   // After each row of the test: keeps a copy of the state at the first row reaching each e1 point, and at each new
   // largest s11/s33 (the peak so far).
   void on_row(const State& state, const SeriesRow& row);
-  // A resumed test: the rows read back count; a point among them has lost its state (it is reported, not run), and
-  // the peak is taken again only by a row above all of them.
+  // Keeps each point's state in `dir`/<point>/point.state (the test's probes folder), so that a stopped run's points
+  // survive: an e1 point's when it is taken, the peak so far's with each checkpoint (save). `physics`: state_physics.
+  void keep_in(const std::filesystem::path& dir, const std::string& label, const std::string& physics);
+  // Before a checkpoint of the test: the peak so far, if it changed since the last one.
+  void save(const State& state);
+  // A resumed test: the rows read back count; a point among them continues from the state kept in its folder when
+  // that state is one of these rows', else it has lost its state (it is reported, not run). The peak is taken
+  // again by a row above all of them.
   void resume(const std::vector<SeriesRow>& rows);
   // The test's last row and state (the end point).
   void finish(const State& state, const SeriesRow& row);
@@ -73,10 +84,15 @@ class ProbePoints {
   std::vector<Point> points(bool peak_reached) const;
 
  private:
+  void write_point(const Point& p) const;
+
   const ProbeDef& def_;
   std::vector<Point> e1_;
   Point peak_, end_;
   double best_ratio_ = -1.0;
+  std::filesystem::path dir_;  // empty: in memory only
+  std::string label_, physics_;
+  bool peak_unsaved_ = false;
 };
 
 // One probe of a set: its name (the folder), and what it loads.

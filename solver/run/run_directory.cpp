@@ -1,6 +1,12 @@
 #include "run/run_directory.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <sstream>
 
 #include "io/files.hpp"
@@ -38,8 +44,78 @@ bool is_run_output(const fs::directory_entry& entry) {
 
 }  // namespace
 
+std::string deck_fingerprint(const std::string& canonical_deck) {
+  Json deck = Json::parse(canonical_deck);
+  if (deck.contains("sample") && deck["sample"].is_object()) deck["sample"].erase("seed");
+  const std::string text = deck.dump();
+  std::uint64_t hash = 14695981039346656037ull;
+  for (const char c : text) hash = (hash ^ static_cast<unsigned char>(c)) * 1099511628211ull;
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash));
+  return buf;
+}
+
+void create_run_folder(const fs::path& dir) {
+  std::error_code error;
+  if (fs::exists(dir, error) && !fs::is_directory(dir, error))
+    throw UsageError(dir.string() + ": is not a folder (a file or a device): give --out a folder for the run's "
+                     "results");
+  fs::create_directories(dir, error);
+  if (error) {
+    const std::string why = error == std::errc::not_a_directory
+                                ? "a part of the path is a file, not a folder"
+                                : error.message();
+    throw UsageError(dir.string() + ": cannot create the run folder (" + why + ")");
+  }
+}
+
+FolderLock::FolderLock(const fs::path& dir) {
+  create_run_folder(dir);
+  const fs::path path = dir / kLockName;
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0)
+    throw UsageError(dir.string() + ": cannot write in the run folder (" + std::strerror(errno) + ")");
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int error = errno;
+    char pid[32] = {};
+    const ssize_t n = ::pread(fd_, pid, sizeof pid - 1, 0);
+    std::string holder = n > 0 ? std::string(pid, static_cast<std::size_t>(n)) : std::string();
+    while (!holder.empty() && (holder.back() == '\n' || holder.back() == ' ')) holder.pop_back();
+    ::close(fd_);
+    fd_ = -1;
+    if (error != EWOULDBLOCK) throw UsageError(path.string() + ": cannot lock (" + std::strerror(error) + ")");
+    throw UsageError(dir.string() + " is in use by another celldem process (pid " +
+                     (holder.empty() ? std::string("unknown") : holder) + ", holding " + path.string() +
+                     "): wait for it to end, or stop it (a stopped run continues with --resume)");
+  }
+}
+
+void FolderLock::claim() {
+  const std::string pid = std::to_string(::getpid()) + "\n";
+  if (fd_ < 0 || ::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) != static_cast<ssize_t>(pid.size())) {
+    // The pid is only for the message of a process refused: the lock holds without it.
+  }
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the lock
+}
+
+FolderLock& FolderLock::operator=(FolderLock&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = other.fd_;
+    other.fd_ = -1;
+  }
+  return *this;
+}
+
 RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
     : dir_(options.out_dir), resume_(options.resume) {
+  // --resume of a folder that is not there is refused without creating it.
+  if (options.resume && !fs::exists(dir_ / kProgressName))
+    throw UsageError(dir_.string() + " holds no interrupted run to resume (no " + kProgressName + ")");
+  lock_ = FolderLock(dir_);
   if (options.resume) {
     if (!fs::exists(dir_ / kProgressName))
       throw UsageError(dir_.string() + " holds no interrupted run to resume (no " + kProgressName + ")");
@@ -60,6 +136,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
     if (progress_.value("deck", std::string()) != deck.canonical)
       throw UsageError("--resume: the deck differs from the one this run was started with");
     summary_ = fs::exists(dir_ / kSummaryName) ? read_json(dir_ / kSummaryName) : Json::object();
+    lock_.claim();
     return;
   }
   if (fs::exists(dir_)) {
@@ -73,8 +150,12 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
       for (const fs::path& p : outputs) fs::remove_all(p);  // only the new run's outputs will be there
     }
   }
+  lock_.claim();
   fs::create_directories(dir_);
-  progress_ = {{"deck", deck.canonical}, {"completed", Json::array()}, {"elapsed", Json::object()}};
+  const bool share = options.probes.first != ProbeSelection{}.first || options.probes.last != ProbeSelection{}.last;
+  const std::string kind = !options.kind.empty() ? options.kind : share ? "probe share" : "single";
+  progress_ = {{"deck", deck.canonical}, {"fingerprint", deck_fingerprint(deck.canonical)}, {"kind", kind},
+               {"completed", Json::array()}, {"elapsed", Json::object()}};
   if (deck.tolerance) {
     progress_["tolerance"] = *deck.tolerance;
     write_file_atomic(dir_ / kResolvedDeckName, resolved_deck_json(deck));
@@ -115,6 +196,7 @@ void RunDirectory::mark_done(const std::string& stage) {
   progress_["completed"].push_back(stage);
   write_progress();
   fs::remove(checkpoint(stage));
+  fs::remove(stage_dir(stage) / kCheckpointSeriesName);
 }
 
 void RunDirectory::add_warning(const std::string& warning) {

@@ -20,6 +20,39 @@ inline constexpr const char* kPreparedName = "prepared.state";
 inline constexpr const char* kResolvedDeckName = "resolved_deck.json";
 inline constexpr const char* kProgressName = "progress.json";
 inline constexpr const char* kSummaryName = "summary.json";
+// What a stage's series held at its checkpoint (rows, last step, checksum of the bytes): written just before the
+// checkpoint, so that --resume continues only a series it can prove (StageOutput::open).
+inline constexpr const char* kCheckpointSeriesName = "checkpoint.series.json";
+// The run folder's owner: an advisory lock (flock) on this file, with the holder's pid in it for the message.
+inline constexpr const char* kLockName = "run.lock";
+
+// One owner per run folder at a time: run, --resume, --force and merge hold an exclusive flock on DIR/run.lock for
+// as long as they write there. A second process is refused (UsageError naming the holder's pid); the kernel drops
+// the lock of a process that dies, so the file a killed run leaves behind is taken over. Creates DIR.
+class FolderLock {
+ public:
+  FolderLock() = default;
+  explicit FolderLock(const std::filesystem::path& dir);
+  ~FolderLock();
+  FolderLock(FolderLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+  FolderLock& operator=(FolderLock&& other) noexcept;
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+  // Writes this process's pid into the lock file (for the message of a process refused): once the holder goes on to
+  // write in the folder (a command refused for another reason leaves the folder's files as they were).
+  void claim();
+
+ private:
+  int fd_ = -1;
+};
+
+// The deck's fingerprint: a hash (FNV-1a 64, hex) of its canonical text (progress.json's "deck") without the sample's
+// seed, so that the seeds of one ensemble share it and runs of decks that differ in anything else do not.
+std::string deck_fingerprint(const std::string& canonical_deck);
+
+// Creates `dir` (a run folder given as --out), or UsageError in plain words when it cannot be one (a file, a path
+// under a file, a folder that cannot be written).
+void create_run_folder(const std::filesystem::path& dir);
 
 class RunDirectory {
  public:
@@ -54,6 +87,7 @@ class RunDirectory {
   void write_progress();
 
   std::filesystem::path dir_;
+  FolderLock lock_;  // before anything in the folder is read or removed
   mutable std::mutex mutex_;
   nlohmann::json progress_;
   nlohmann::json summary_;

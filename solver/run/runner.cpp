@@ -104,19 +104,29 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   if (!resumed) evaluate_forces(model, test.stage_friction(), state);  // the first row: the state as loaded
   StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
-  if (!resumed && deck.initial_state && !deck.prepare) out.set_start_cause(loaded_overlap_cause(deck, state));
+  if (!resumed && deck.initial_state && !deck.prepare)
+    out.set_start_cause(loaded_overlap_cause(deck, state) + fast_loading_cause(deck, test));
+  else
+    out.set_start_cause(fast_loading_cause(deck, test));
   out.open(state, resumed);
   const std::optional<VerifyRateOptions> check = verify_rate_for(options.verify_rate, test);
   BranchPoints branch_points(test, deck, check.value_or(VerifyRateOptions{}));
   const ProbeDef no_probes;
   ProbePoints probe_points(test.probes ? *test.probes : no_probes);
   if (check) {
-    if (resumed) branch_points.resume(state, out.rows());  // the rows read back, and the state resumed from
-    else branch_points.on_row(state, out.rows().front());  // the first row, written by open
+    if (resumed) {  // the rows read back, and the state resumed from, with its forces (a checkpoint has none)
+      State start = state;
+      evaluate_forces(model, test.stage_friction(), start);
+      branch_points.resume(start, out.rows());
+    } else {
+      branch_points.on_row(state, out.rows().front());  // the first row, written by open
+    }
   }
   if (test.probes) {
+    probe_points.keep_in(out.dir() / "probes", test.name, state_physics(deck));
     if (resumed) probe_points.resume(out.rows());
     else probe_points.on_row(state, out.rows().front());
+    out.set_checkpoint_observer([&](const State& s) { probe_points.save(s); });
   }
   if (check || test.probes)
     out.set_row_observer([&](const State& s, const SeriesRow& row) {
@@ -141,6 +151,9 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
     probe_points.finish(state, out.rows().back());
     const Json probes = run_test_probes(run, deck, options, test, probe_points, result.value("peak_reached", true));
     run.update_summary([&](Json& s) { s["tests"][test.name]["probes"] = probes; });
+    for (const auto& [point, p] : probes["points"].items())  // a point that could not be probed is a warning
+      if (p.value("status", "") == "not run")
+        run.add_warning(test.name + ": the probes at " + point + " were not run: " + p.value("reason", ""));
   }
   if (check) {
     const Json verified = verify_test_rate(run, deck, options, test, *check, branch_points, out.rows(),

@@ -22,6 +22,9 @@ struct RunOptions {
   bool fixed_threads = false;  // keep the thread count (no ThreadGovernor trials of one thread)
   VerifyRateOptions verify_rate;  // each test's own convergence check (run/verify_rate.hpp)
   ProbeSelection probes;          // which of the tests' probes this run runs (run/probes.hpp; default all)
+  // What the run folder is, as progress.json records it for `merge`: "single", "probe share" (--probes), "seed
+  // share" (--seeds k) or "ensemble" (a seed of --seeds k-l); empty: single or probe share, from `probes`.
+  std::string kind;
 };
 
 // Thrown after SIGINT/SIGTERM once a checkpoint has been written.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <csignal>
 #include <sstream>
+#include <string_view>
 
 #include "io/state_file.hpp"
 #include "run/preflight.hpp"
@@ -12,6 +13,27 @@ namespace celldem {
 namespace fs = std::filesystem;
 
 namespace {
+constexpr std::uint64_t kFnvOffset = 14695981039346656037ull;
+std::uint64_t fnv1a(std::string_view bytes, std::uint64_t hash = kFnvOffset) {
+  for (const char c : bytes) hash = (hash ^ static_cast<unsigned char>(c)) * 1099511628211ull;
+  return hash;
+}
+std::string hex(std::uint64_t v) {
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+// What a series' first `rows` rows (and header) are: their bytes' count and checksum, the last row's step.
+nlohmann::json series_proof(std::string_view text, std::size_t rows, double last_step, std::int64_t step) {
+  std::size_t end = 0;
+  for (std::size_t k = 0; k <= rows && end != std::string_view::npos; ++k) {
+    end = text.find('\n', end);
+    if (end != std::string_view::npos) ++end;
+  }
+  if (end == std::string_view::npos) end = text.size();
+  return {{"step", step}, {"rows", rows}, {"last_step", last_step}, {"bytes", end}, {"fnv1a64", hex(fnv1a(text.substr(0, end)))}};
+}
+
 // The likely cause a loading test that must stay quasi-static is stopped with; empty: not checked.
 std::string quasi_static_cause(const Deck& deck, const std::string& stage, bool loading_test) {
   if (!loading_test) return "";
@@ -41,8 +63,8 @@ void StageOutput::open(const State& state, bool resumed) {
       control_errors_.push_back(control_errors_from_json(e));
     for (const auto& w : run_.memory_of(stage_).value("warnings", nlohmann::json::array())) warn(w.get<std::string>());
   }
-  if (resumed && fs::exists(path)) {
-    std::istringstream in(read_file(path));
+  if (resumed) {
+    std::istringstream in(proven_series(state));
     std::string line;
     std::vector<std::string> header;
     if (!std::getline(in, line) || in.eof()) throw RunError(path.string() + ": no header");
@@ -58,11 +80,18 @@ void StageOutput::open(const State& state, bool resumed) {
       rows_.push_back(*row);
       kept += line + "\n";
     }
+    // The record first: killed before the series is cut, the series still begins with what it proves.
+    last_proof_ = series_proof(kept, rows_.size(), rows_.empty() ? 0.0 : rows_.back().step, state.control.stage_steps);
+    write_series_record(nlohmann::json::array({last_proof_}));
     write_file_atomic(path, kept);
     series_ = AppendFile(path, /*truncate=*/false);
+    series_bytes_ = kept.size();
+    series_hash_ = fnv1a(kept);
   } else {
     series_ = AppendFile(path, /*truncate=*/true);
-    series_.append(series_header());
+    series_bytes_ = 0;
+    series_hash_ = kFnvOffset;
+    append_series(series_header());
   }
   for (const SeriesRow& row : rows_) best_ratio_ = std::max(best_ratio_, row.ratio13);
   // Strain snapshots already passed before a resume are not repeated.
@@ -160,6 +189,13 @@ void StageOutput::finish(const State& state) {
     text += format_series_row(row);
   }
   series_ = AppendFile();
+  // Killed from here until the stage is marked done, a resume goes on from the last checkpoint in this series:
+  // its record proves the prefix as written before and as rewritten now.
+  if (!last_proof_.is_null() && fs::exists(run_.checkpoint(stage_))) {
+    const nlohmann::json& p = last_proof_;
+    write_series_record(nlohmann::json::array(
+        {p, series_proof(text, p["rows"].get<std::size_t>(), p["last_step"].get<double>(), p["step"].get<std::int64_t>())}));
+  }
   write_file_atomic(dir_ / "series.csv", text);
   progress_.finish();
 }
@@ -174,7 +210,7 @@ void StageOutput::write_row(const State& state, const ContactMeasures* measured)
   monitor_.check(model_, state, contacts);
   const SeriesRow row = series_row(model_, state, contacts);
   check_row_finite(row, stage_, state.control.stage_steps);
-  series_.append(format_series_row(row));
+  append_series(format_series_row(row));
   rows_.push_back(as_printed(row));
   if (loading_test_ && !branch_ && rows_.back().ratio13 > best_ratio_) {
     best_ratio_ = rows_.back().ratio13;
@@ -183,8 +219,61 @@ void StageOutput::write_row(const State& state, const ContactMeasures* measured)
   if (row_observer_) row_observer_(state, rows_.back());
 }
 
+void StageOutput::write_series_record(const nlohmann::json& proofs) {
+  write_file_atomic(dir_ / kCheckpointSeriesName, nlohmann::json{{"proofs", proofs}}.dump(1));
+}
+
+void StageOutput::append_series(const std::string& text) {
+  series_.append(text);
+  series_bytes_ += text.size();
+  series_hash_ = fnv1a(text, series_hash_);
+}
+
+std::string StageOutput::proven_series(const State& state) const {
+  const fs::path path = dir_ / "series.csv", record = dir_ / kCheckpointSeriesName;
+  const std::int64_t step = state.control.stage_steps;
+  const auto refuse = [&](const std::string& what) {
+    throw UsageError(path.string() + ": " + what + ": --resume continues only the rows its checkpoint (step " +
+                     std::to_string(step) + ") recorded in " + record.string() +
+                     "; start the run again with --force");
+  };
+  if (!fs::exists(record)) refuse("no record of what the series held at the checkpoint");
+  nlohmann::json proofs;
+  try {
+    proofs = nlohmann::json::parse(read_file(record)).at("proofs");
+  } catch (const nlohmann::json::exception& e) {
+    refuse(std::string("the checkpoint's record is not readable (") + e.what() + ")");
+  }
+  if (!fs::exists(path)) refuse("the file is missing");
+  const std::string text = read_file(path);
+  std::string what = "holds other bytes than the checkpoint recorded (an edited, deleted, repeated or renamed row or "
+                     "header)";
+  for (const nlohmann::json& p : proofs) {
+    const std::size_t bytes = p.at("bytes").get<std::size_t>();
+    // The record is written just before the state: one newer than the checkpoint proves a longer prefix.
+    if (p.at("step").get<std::int64_t>() < step) refuse("the checkpoint's record is older than the checkpoint");
+    if (text.size() < bytes) {
+      what = "holds " + std::to_string(text.size()) + " bytes, fewer than the " + std::to_string(bytes) +
+             " (header and " + std::to_string(p.at("rows").get<std::size_t>()) + " rows to step " +
+             std::to_string(p.at("last_step").get<double>()) + ") the checkpoint recorded: rows were deleted";
+      continue;
+    }
+    if (hex(fnv1a(std::string_view(text).substr(0, bytes))) == p.at("fnv1a64").get<std::string>())
+      return text.substr(0, bytes);  // rows after it (written after the checkpoint) are cut
+  }
+  refuse(what);
+  return "";
+}
+
 void StageOutput::checkpoint(const State& state) {
   write_peak_contacts();  // (before the state: a resumed run's peak file is never older than its checkpoint)
+  if (checkpoint_observer_) checkpoint_observer_(state);
+  // What the series holds, just before the state: a kill in between leaves a record newer than the checkpoint,
+  // which still proves the checkpoint's rows (a prefix of its own).
+  last_proof_ = {{"step", state.control.stage_steps}, {"rows", rows_.size()},
+                 {"last_step", rows_.empty() ? 0.0 : rows_.back().step}, {"bytes", series_bytes_},
+                 {"fnv1a64", hex(series_hash_)}};
+  write_series_record(nlohmann::json::array({last_proof_}));
   write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_));
   nlohmann::json errors = nlohmann::json::array();
   for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));

@@ -60,6 +60,8 @@ class StageOutput {
   std::vector<ControlErrors>& control_errors() { return control_errors_; }
   // What the stage started from that a runaway would most likely come from (RunawayMonitor::set_start_cause).
   void set_start_cause(std::string cause) { monitor_.set_start_cause(std::move(cause)); }
+  // Called with the state just before each checkpoint is written (probe points keep their states with it).
+  void set_checkpoint_observer(std::function<void(const State&)> observer) { checkpoint_observer_ = std::move(observer); }
   // Called with the state and the row (as printed) after each row is written (--verify-rate keeps states).
   void set_row_observer(std::function<void(const State&, const SeriesRow&)> observer) {
     row_observer_ = std::move(observer);
@@ -71,6 +73,11 @@ class StageOutput {
  private:
   void write_row(const State& state, const ContactMeasures* contacts = nullptr);
   void checkpoint(const State& state);
+  // The series as a stage resumed from `state` may continue it: the prefix its checkpoint's record proves, up to
+  // the checkpoint's step; UsageError naming the file when the series no longer holds that prefix.
+  std::string proven_series(const State& state) const;
+  void append_series(const std::string& text);
+  void write_series_record(const nlohmann::json& proofs);  // kCheckpointSeriesName
   void snapshot_if_due(const State& state, bool force);
   // The contacts of the row with the largest s11/s33 so far are kept in memory and written (peak_contacts.csv
   // and .json) at the next checkpoint or when the stage ends: a test's rising part makes a new peak at every
@@ -90,6 +97,8 @@ class StageOutput {
   double elapsed_before_ = 0.0;
   std::chrono::steady_clock::time_point start_;
   AppendFile series_;
+  std::uint64_t series_bytes_ = 0, series_hash_ = 0;  // of what series.csv holds (FNV-1a 64, running)
+  nlohmann::json last_proof_;  // the last checkpoint's record of the series (null: none yet)
   std::vector<SeriesRow> rows_;
   std::vector<ControlErrors> control_errors_;
   std::vector<std::string> warnings_;  // this stage's own (warn), for the checkpoints
@@ -105,6 +114,7 @@ class StageOutput {
   };
   std::optional<PeakContacts> unwritten_peak_;  // kept since the last write
   std::function<void(const State&, const SeriesRow&)> row_observer_;
+  std::function<void(const State&)> checkpoint_observer_;
   bool branch_ = false;
 };
 

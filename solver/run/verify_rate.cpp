@@ -108,6 +108,19 @@ NoiseFloors noise_floors(const std::string& path, const std::string& test, int p
   return f;
 }
 
+void check_verify_window(const VerifyRateOptions& check, const TestDef& test) {
+  double longest = 0.0;
+  for (const Leg& leg : test.legs)
+    if (leg.end.kind == LegEndKind::Strain) longest = std::max(longest, std::abs(leg.end.value));
+  if (longest > 0.0 && check.window_strain > longest) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf, "--verify-window %g: longer than test '%s', whose driving strain ends at %g: give "
+                  "a window shorter than the test (the default is %g)", check.window_strain, test.name.c_str(),
+                  longest, keys::verify_rate_window_strain.fallback);
+    throw UsageError(buf);
+  }
+}
+
 BranchPoints::BranchPoints(const TestDef& test, const Deck& deck, const VerifyRateOptions& options)
     : test_(test), dt_(deck.stage_time_step(test)), options_(options) {}
 

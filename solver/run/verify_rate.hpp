@@ -45,6 +45,10 @@ inline const std::vector<std::string> kVerifyPoints(kVerifyPointNames.begin(), k
 // command line's alone (--verify-rate); nullopt when neither asks for one.
 std::optional<VerifyRateOptions> verify_rate_for(const VerifyRateOptions& command_line, const TestDef& test);
 
+// UsageError when the check's window is longer than the test's driving strain (the largest strain a leg of the test
+// ends at): a branch would start before the test and compare less than it asks for.
+void check_verify_window(const VerifyRateOptions& check, const TestDef& test);
+
 // The seed-to-seed standard deviations that make one noise floor of each compared quantity, and where they
 // came from (words, for summary.json).
 struct NoiseFloors {
