@@ -15,8 +15,8 @@ from .. import binary
 from ..metrics import all_finite, curve_difference
 from ..results import RunError, load_series, number, read_json
 from .scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, P_REF, PAPER_DAMPING,
-                          PAPER_DT, PRESET_RULES, QUANTITIES, SCENE_COUNT, SERVO_TOLERANCE, STRESS_QUANTITIES,
-                          SUMMARY_KEYS)
+                          PAPER_DT, PRESET_RULES, QUANTITIES, SCENE_COUNT, SERVO_STD_LIMIT, STRESS_QUANTITIES,
+                          SUMMARY_KEYS, servo_tolerance)
 
 # ---- analysis: pure functions of run metrics (tested by tests/tools/test_study_analysis.py) ---------------------------
 
@@ -489,8 +489,9 @@ def thresholds(rows, cap_rows, stability):
     # Servo: the cap on the strain per step, and the gains.
     capped = [(r["strain_increment"] / r["servo_max_strain_increment"], r["servo_max_error"]) for r in cap_rows
               if r.get("servo_max_error") is not None and r["servo_max_strain_increment"]]
-    out["cap_ratio_ok_max"] = max((x for x, e in capped if e <= SERVO_TOLERANCE), default=None)
-    out["cap_ratio_bad_min"] = min((x for x, e in capped if e > SERVO_TOLERANCE), default=None)
+    tolerance = servo_tolerance()  # the solver's bound on servo_max_error
+    out["cap_ratio_ok_max"] = max((x for x, e in capped if e <= tolerance), default=None)
+    out["cap_ratio_bad_min"] = min((x for x, e in capped if e > tolerance), default=None)
     out["servo_max_error_reference"] = max((r["servo_max_error"] for r in rows if r["group"] == "reference"
                                             and r.get("servo_max_error") is not None), default=None)
     servo = [r for r in stability["servo"] if r.get("std") is not None]
@@ -568,6 +569,6 @@ def analyse_stability(results, floor):
         if e["outcome"].get("rc") == 0 and series is not None:
             row["std"], row["bias"], row["max"] = servo_error_stats(series, stress_targets(e, "ttc"))
             row["peak_ratio"] = e["metrics"]["ttc"]["peak_ratio"]
-            row["holds"] = row["std"] is not None and row["std"] <= SERVO_TOLERANCE and row["bias"] <= SERVO_TOLERANCE
+            row["holds"] = row["std"] is not None and row["std"] <= SERVO_STD_LIMIT and row["bias"] <= SERVO_STD_LIMIT
         out["servo"].append(row)
     return out
