@@ -310,31 +310,9 @@ def setting_rows(results, roles, refs, ref_mean, floor):
     return rows
 
 
-def analyse(root):
-    """The study of the run folders under `root`: noise floor, settings' errors and costs, Pareto front, presets,
-    modelling choices, stability; a dict that study_report draws and writes (and study.json keeps)."""
-    results = load_results(root)
-    ok = {n: e for n, e in results.items() if e["outcome"].get("rc") == 0}
-
-    refs = {e["spec"]["seed"]: e for n, e in ok.items() if e["spec"].get("role") == "reference"}
-    ref_metrics = [refs[s]["metrics"] for s in sorted(refs)]
-    mean, floor = noise_floor(ref_metrics)
-    ref_mean = {}
-    for (test, name), v in mean.items():
-        ref_mean.setdefault(test, {})[name] = v
-
-    rows = setting_rows(results, ("accuracy", "reference"), refs, ref_mean, floor)
-    cap_rows = setting_rows({n: e for n, e in results.items() if e["spec"].get("group") == "servo_cap"},
-                            ("stability",), refs, ref_mean, floor)
-    group_order = ["reference", "null", "strain_increment", "time_step", "density", "combined", "damping",
-                   "output_interval", "count", "prepare_dt"]
-    rows.sort(key=lambda r: (group_order.index(r["group"]) if r["group"] in group_order else 99,
-                             r["cost"] if r["cost"] is not None else 0))
-    points = [(r["cost"], max(r["score"], 1e-3) if r["score"] is not None else None) for r in rows]
-    front = pareto_front(points)
-    for i, r in enumerate(rows):
-        r["pareto"] = i in front
-
+def choose_presets(rows):
+    """The presets (PRESET_RULES): for each, the cheapest setting of the table that meets its rule, with its
+    speed-up over the reference."""
     # Presets: only settings a full deck can carry unchanged otherwise (same count, density, damping, sample prep
     # at the paper's dt unless checked).
     ref_row = next((r for r in rows if r["key"] == "reference"), None)
@@ -366,7 +344,11 @@ def analyse(root):
                              "test_steps_speedup": speedup,
                              "measured_speedup": (ref_row["cost"] / best["cost"]) if best["cost"] else None}
 
-    # Modelling choices.
+    return presets
+
+
+def modelling_choices(ok, refs, floor):
+    """The modelling choices' signed mean errors over the reference seeds, each quantity in floors too."""
     modelling = []
     for key in ("project", "radius", "rotdamp0", "lammps"):
         per_seed, label = [], None
@@ -385,6 +367,36 @@ def analyse(root):
                     entry[f"{q[0]}.{q[1]}"] = [m, abs(m) / floor[q] if floor.get(q) else None]
             modelling.append(entry)
 
+    return modelling
+
+
+def analyse(root):
+    """The study of the run folders under `root`: noise floor, settings' errors and costs, Pareto front, presets,
+    modelling choices, stability; a dict that study_report draws and writes (and study.json keeps)."""
+    results = load_results(root)
+    ok = {n: e for n, e in results.items() if e["outcome"].get("rc") == 0}
+
+    refs = {e["spec"]["seed"]: e for n, e in ok.items() if e["spec"].get("role") == "reference"}
+    ref_metrics = [refs[s]["metrics"] for s in sorted(refs)]
+    mean, floor = noise_floor(ref_metrics)
+    ref_mean = {}
+    for (test, name), v in mean.items():
+        ref_mean.setdefault(test, {})[name] = v
+
+    rows = setting_rows(results, ("accuracy", "reference"), refs, ref_mean, floor)
+    cap_rows = setting_rows({n: e for n, e in results.items() if e["spec"].get("group") == "servo_cap"},
+                            ("stability",), refs, ref_mean, floor)
+    group_order = ["reference", "null", "strain_increment", "time_step", "density", "combined", "damping",
+                   "output_interval", "count", "prepare_dt"]
+    rows.sort(key=lambda r: (group_order.index(r["group"]) if r["group"] in group_order else 99,
+                             r["cost"] if r["cost"] is not None else 0))
+    points = [(r["cost"], max(r["score"], 1e-3) if r["score"] is not None else None) for r in rows]
+    front = pareto_front(points)
+    for i, r in enumerate(rows):
+        r["pareto"] = i in front
+
+    presets = choose_presets(rows)
+    modelling = modelling_choices(ok, refs, floor)
     stability = analyse_stability(results, floor)
     limits = thresholds(rows, cap_rows, stability)
     samples = {n: {"spec": e["spec"], "prepared": e["summary"].get("prepared"), "outcome_rc": e["outcome"].get("rc"),
