@@ -51,15 +51,14 @@ def build_deck(count: int) -> celldem.Deck:
 
 
 def plot_stress_path(run: celldem.Run, path: str) -> None:
-    """σ1/σ3 and εv against ε1, from the test's series (a pandas DataFrame; units in attrs)."""
+    """σ1/σ3 and εv against ε1, from the test's series (a pandas DataFrame; df.attrs["units"] has the units)."""
     df = run.tests["ttc"].series
-    units = df.attrs["units"]
     fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(5, 6))
     top.plot(df["e1"] * 100, df["s11"] / df["s33"])
     top.set_ylabel("σ1/σ3 (–)")
     bottom.plot(df["e1"] * 100, df["ev"] * 100)
     bottom.set_ylabel("εv (%)")
-    bottom.set_xlabel(f"ε1 (%; series in {units.get('e1', '-')})")
+    bottom.set_xlabel("ε1 (%)")
     peak = run.tests["ttc"].summary.get("peak_ratio13")
     top.set_title(f"triaxial compression at {CONFINING / 1e3:g} kPa" + (f", peak σ1/σ3 {peak:.3f}" if peak else ""))
     fig.tight_layout()

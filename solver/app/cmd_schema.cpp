@@ -46,7 +46,8 @@ Command add_schema_command(CLI::App& app) {
   cmd->add_flag("--series", a->series, "The series.csv columns instead of the deck keys");
   cmd->add_flag("--markdown", a->markdown, "A Markdown table (default)");
   cmd->add_flag("--json", a->json, "JSON");
-  cmd->add_flag("--constants", a->constants, "The physical limits the solver checks runs against, as JSON (for tools)");
+  cmd->add_flag("--constants", a->constants,
+                "The physical limits the solver checks runs against, as JSON (for tools)");
   return [cmd, a]() -> int {
     if (!cmd->parsed()) return -1;
     if (a->markdown && a->json) throw CLI::ValidationError("--markdown and --json exclude each other");
