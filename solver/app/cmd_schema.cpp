@@ -25,7 +25,8 @@ namespace {
 Json constants_json() {
   return {{"quasi_static_inertial_number",
            {{"value", kQuasiStaticInertia},
-            {"meaning", "a loading stage is quasi-static while its inertial number stays below this (a warning above)"}}},
+            {"meaning",
+             "a loading stage is quasi-static while its inertial number stays below this (a warning above)"}}},
           {"servo_tolerance",
            {{"value", kServoTolerance},
             {"meaning", "the largest relative error |s - target| / target a stress-controlled axis may keep "
