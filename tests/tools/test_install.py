@@ -90,7 +90,7 @@ def test_installed_package_finds_the_binary_on_path_or_says_where_it_looked(cell
     assert out == [str(bin_dir / "celldem"), "False"], out
     env = clean_env(PATH=os.path.dirname(sys.executable))
     r = subprocess.run([python, "-c", "import celldem; celldem.check_deck({'format': 1})"], capture_output=True,
-                       text=True, env=env)
+                       text=True, env=env, cwd=tmp_path)
     assert r.returncode != 0 and "no celldem binary found; tried: $CELLDEM (not set), celldem on PATH" in r.stderr, \
         r.stderr[-1000:]
 
