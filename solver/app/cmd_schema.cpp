@@ -12,6 +12,7 @@
 #include "io/schema_print.hpp"
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
+#include "run/health.hpp"
 #include "run/probes.hpp"
 #include "run/sample.hpp"
 #include "run/summary.hpp"
@@ -20,9 +21,26 @@ namespace celldem::app {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
+namespace {
+// The solver's limits that the Python tools also judge runs by: read from here, never typed again there.
+Json constants_json() {
+  return {{"quasi_static_inertial_number",
+           {{"value", kQuasiStaticInertia},
+            {"meaning",
+             "a loading stage is quasi-static while its inertial number stays below this (a warning above)"}}},
+          {"servo_tolerance",
+           {{"value", kServoTolerance},
+            {"meaning", "the largest relative error |s - target| / target a stress-controlled axis may keep "
+                        "(summary.json servo_max_error; a maximum, not a standard deviation)"}}},
+          {"b_tolerance", {{"value", kBTolerance}, {"meaning", "the largest error of a b-controlled axis's b"}}},
+          {"mean_stress_tolerance",
+           {{"value", kMeanStressTolerance}, {"meaning", "the largest relative error of a controlled mean stress"}}}};
+}
+}  // namespace
+
 Command add_schema_command(CLI::App& app) {
   struct Args {
-    bool markdown = false, json = false, series = false;
+    bool markdown = false, json = false, series = false, constants = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("schema", "Print the deck keys (type, unit, default, range, meaning) or the "
@@ -30,9 +48,16 @@ Command add_schema_command(CLI::App& app) {
   cmd->add_flag("--series", a->series, "The series.csv columns instead of the deck keys");
   cmd->add_flag("--markdown", a->markdown, "A Markdown table (default)");
   cmd->add_flag("--json", a->json, "JSON");
+  cmd->add_flag("--constants", a->constants,
+                "The physical limits the solver checks runs against, as JSON (for tools)");
   return [cmd, a]() -> int {
     if (!cmd->parsed()) return -1;
     if (a->markdown && a->json) throw CLI::ValidationError("--markdown and --json exclude each other");
+    if (a->constants) {
+      if (a->series || a->markdown) throw CLI::ValidationError("--constants excludes --series and --markdown");
+      std::fputs((constants_json().dump(1) + "\n").c_str(), stdout);
+      return 0;
+    }
     const std::string text = a->series ? (a->json ? series_columns_json() : series_columns_markdown())
                                        : (a->json ? deck_schema_json() : deck_schema_markdown());
     std::fputs(text.c_str(), stdout);

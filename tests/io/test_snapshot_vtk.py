@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Snapshots read by VTK itself (Debian's python3-vtk9): a small run (a preparation and a triaxial test, about
 150 spheres) writes its snapshots once in each encoding (`snapshots.format`: binary, zlib, ascii), and
 vtkXMLUnstructuredGridReader / vtkXMLPolyDataReader read every file without an error or a warning. Then:
@@ -15,40 +14,32 @@ vtkXMLUnstructuredGridReader / vtkXMLPolyDataReader read every file without an e
   forces, and their stresses V_p sigma_p add up to the contacts' sum of sym(f (x) branch).
 A missing `import vtk` fails the test (CI installs python3-vtk9): it never skips.
 
-Usage: test_snapshot_vtk.py CELLDEM
+Usage: CELLDEM=build/celldem /usr/bin/python3 -m pytest tests/io/test_snapshot_vtk.py (ctest: io_snapshot_vtk)
 """
 import json
 import math
 import os
 import re
 import subprocess
-import sys
-import tempfile
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import pytest
 
 try:
     import vtk
     from vtk.util.numpy_support import vtk_to_numpy
-except ImportError as e:
-    print(f"FAIL: cannot import VTK's Python bindings ({e}): install python3-vtk9 (tools/install-deps.sh) and run "
-          "this test with /usr/bin/python3", file=sys.stderr)
-    sys.exit(1)
+    VTK_MISSING = None
+except ImportError as e:  # the fixture below fails the test with this
+    VTK_MISSING = str(e)
 
-CELLDEM = os.path.abspath(sys.argv[1])
 FORMATS = ("binary", "zlib", "ascii")
-failures = []
-
-
-def fail(message):
-    print("FAIL:", message, file=sys.stderr)
-    failures.append(message)
+failures = []  # the checks' failures, all of them reported at the end of the test (cleared at its start)
 
 
 def check(what, ok):
     if not ok:
-        fail(what)
+        failures.append(what)
 
 
 def deck(fmt):
@@ -135,20 +126,27 @@ def dump(path):
     return box, atoms
 
 
-def main(tmp):
-    runs = {}
+@pytest.fixture(scope="module")
+def runs(celldem, tmp_path_factory):
+    """The small run once in each encoding: {format: its folder}."""
+    if VTK_MISSING:
+        pytest.fail(f"cannot import VTK's Python bindings ({VTK_MISSING}): install python3-vtk9 "
+                    "(tools/install-deps.sh) and run this test with /usr/bin/python3")
+    tmp = str(tmp_path_factory.mktemp("vtk"))
+    out = {}
     for fmt in FORMATS:
         path = os.path.join(tmp, f"{fmt}.json")
         with open(path, "w") as f:
             json.dump(deck(fmt), f)
-        out = os.path.join(tmp, fmt)
-        r = subprocess.run([CELLDEM, "run", path, "--out", out, "--threads", "1", "--quiet"], capture_output=True,
-                           text=True)
-        if r.returncode != 0:
-            fail(f"celldem run ({fmt}) exit {r.returncode}: {r.stderr.strip()}")
-            return
-        runs[fmt] = out
+        out[fmt] = os.path.join(tmp, fmt)
+        r = subprocess.run([celldem, "run", path, "--out", out[fmt], "--threads", "1", "--quiet"],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, f"celldem run ({fmt}) exit {r.returncode}: {r.stderr.strip()}"
+    return out
 
+
+def test_vtk_reads_every_snapshot_and_the_encodings_agree(runs):
+    failures.clear()
     checked_contacts = checked_sliding = snapshots = 0
     for stage in ("prepare", "ttc"):
         folders = {fmt: os.path.join(runs[fmt], stage, "snapshots") for fmt in FORMATS}
@@ -252,16 +250,12 @@ def main(tmp):
           checked_contacts > 100 and checked_sliding > 0)
     print(f"{snapshots} snapshots, {checked_contacts} contacts ({checked_sliding} sliding), each in {len(FORMATS)} encodings")
 
-    # The binary files are smaller than the text ones.
+    assert not failures, "\n".join(failures)
+
+
+def test_binary_files_are_smaller_than_text(runs):
     last = collection(os.path.join(runs["binary"], "ttc", "snapshots", "ttc_contacts.pvd"))[-1][1]
     sizes = {fmt: os.path.getsize(os.path.join(runs[fmt], "ttc", "snapshots", last)) for fmt in FORMATS}
     print(f"{last}: " + ", ".join(f"{fmt} {size} bytes" for fmt, size in sizes.items()))
-    check(f"binary and zlib files smaller than ascii: {sizes}", sizes["zlib"] < sizes["binary"] < sizes["ascii"])
+    assert sizes["zlib"] < sizes["binary"] < sizes["ascii"], f"binary and zlib files smaller than ascii: {sizes}"
 
-
-with tempfile.TemporaryDirectory(prefix="celldem-vtk-") as folder:
-    main(folder)
-if failures:
-    print(f"{len(failures)} failure(s)", file=sys.stderr)
-    sys.exit(1)
-print("ok")

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Incremental response probes (tests[].probes) on small samples (300 spheres):
 
 - stress probes: every probe holds its controls, its net stress increment at the loaded end is the one asked
@@ -16,26 +15,24 @@
 - a probe that loses its control flags its point (no stiffness, linearity or plastic reading from it) and the
   run names the point;
 - bad probe keys are refused with exit 2 naming the key.
-About 60 s of CPU.
+About 60 s of CPU: the runs are module fixtures, made once and shared by the tests that read them.
 
-Usage: test_probes.py CELLDEM
+Usage: CELLDEM=build/celldem /usr/bin/python3 -m pytest tests/run/test_probes.py (ctest: run_probes)
 """
 import csv
 import json
 import os
 import subprocess
-import sys
-import tempfile
+
+import pytest
+
+pytestmark = pytest.mark.slow
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-CELLDEM = os.path.abspath(sys.argv[1])
-failures = []
-
-
-def check(condition, message):
-    if not condition:
-        failures.append(message)
-        print("FAIL:", message)
+STRESS = {"at_e1": [0.002], "at": ["end"], "kind": "stress", "plane": "rendulic", "directions": 4,
+          "magnitudes": [4000, 8000], "steps": 1500, "hold_steps": 500}
+STRESS_SCALE = 3e5  # [Pa] above the largest stress of the small TTC
+STRAIN = {"at_e1": [0.002], "kind": "strain", "magnitudes": [1e-5], "steps": 1500, "hold_steps": 500}
 
 
 def base_deck():
@@ -54,9 +51,10 @@ def write(deck, folder, name):
     return path
 
 
-def run(deck_path, out, *extra):
-    result = subprocess.run([CELLDEM, "run", deck_path, "--out", out, "--quiet", *extra], capture_output=True, text=True)
-    check(result.returncode == 0, f"{deck_path} {extra}: exit {result.returncode}: {result.stderr[-2000:]}")
+def run(celldem, deck_path, out, *extra):
+    result = subprocess.run([celldem, "run", deck_path, "--out", out, "--quiet", *extra], capture_output=True,
+                            text=True)
+    assert result.returncode == 0, f"{deck_path} {extra}: exit {result.returncode}: {result.stderr[-2000:]}"
     with open(os.path.join(out, "summary.json")) as f:
         return json.load(f)
 
@@ -75,174 +73,193 @@ def close(a, b, tol):
     return abs(a - b) <= tol
 
 
-STRESS = {"at_e1": [0.002], "at": ["end"], "kind": "stress", "plane": "rendulic", "directions": 4,
-          "magnitudes": [4000, 8000], "steps": 1500, "hold_steps": 500}
-STRESS_SCALE = 3e5  # [Pa] above the largest stress of the small TTC
-STRAIN = {"at_e1": [0.002], "kind": "strain", "magnitudes": [1e-5], "steps": 1500, "hold_steps": 500}
-
-with tempfile.TemporaryDirectory() as tmp:
+def probed_deck():
     deck = base_deck()
-    plain = write(deck, tmp, "plain")
     deck["tests"][0]["probes"] = STRESS
     deck["tests"][1]["probes"] = STRAIN
-    probed = write(deck, tmp, "probed")
-    run(plain, os.path.join(tmp, "plain"), "--threads", "2")
-    summary = run(probed, os.path.join(tmp, "two"), "--threads", "2")
-    run(probed, os.path.join(tmp, "one"), "--threads", "1")
+    return deck
 
-    for test in ("ttc", "psc"):
-        check(read(os.path.join(tmp, "plain", test, "series.csv")) == read(os.path.join(tmp, "two", test, "series.csv")),
-              f"{test}: the probes changed the test's own series")
-        check(read(os.path.join(tmp, "one", test, "probes", "probes.csv")) ==
-              read(os.path.join(tmp, "two", test, "probes", "probes.csv")),
-              f"{test}: probes.csv differs between one thread and two")
 
-    # Stress probes.
+@pytest.fixture(scope="module")
+def runs(celldem, tmp_path_factory):
+    """The small deck without probes (plain) and with them on two threads (two) and one (one); their folder and
+    the probed run's summary."""
+    tmp = str(tmp_path_factory.mktemp("probes"))
+    plain = write(base_deck(), tmp, "plain")
+    probed = write(probed_deck(), tmp, "probed")
+    run(celldem, plain, os.path.join(tmp, "plain"), "--threads", "2")
+    summary = run(celldem, probed, os.path.join(tmp, "two"), "--threads", "2")
+    run(celldem, probed, os.path.join(tmp, "one"), "--threads", "1")
+    return tmp, probed, summary
+
+
+@pytest.mark.parametrize("test", ["ttc", "psc"])
+def test_probes_leave_the_series_alone_and_match_across_threads(runs, test):
+    tmp, _, _ = runs
+    assert read(os.path.join(tmp, "plain", test, "series.csv")) == read(os.path.join(tmp, "two", test, "series.csv")), \
+        f"{test}: the probes changed the test's own series"
+    assert read(os.path.join(tmp, "one", test, "probes", "probes.csv")) == \
+        read(os.path.join(tmp, "two", test, "probes", "probes.csv")), f"{test}: probes.csv differs between one thread and two"
+
+
+def test_stress_probes_reach_and_give_back_their_increments(runs):
+    tmp, _, summary = runs
     ttc = summary["tests"]["ttc"]["probes"]
-    check(set(ttc["points"]) == {"e1_0.002", "end"}, f"ttc probe points: {sorted(ttc['points'])}")
+    assert set(ttc["points"]) == {"e1_0.002", "end"}, f"ttc probe points: {sorted(ttc['points'])}"
     table = rows(os.path.join(tmp, "two", "ttc", "probes", "probes.csv"))
-    check(len(table) == 2 * 2 * 4, f"ttc probes.csv has {len(table)} rows, expected 16")
+    assert len(table) == 2 * 2 * 4, f"ttc probes.csv has {len(table)} rows, expected 16"
     for point, p in ttc["points"].items():
-        check(p["status"] == "ran" and p["failed"] == 0 and p["controlled"] == 8, f"ttc {point}: {p}")
-        check("linearity" in p, f"ttc {point}: no linearity")
+        assert p["status"] == "ran" and p["failed"] == 0 and p["controlled"] == 8, f"ttc {point}: {p}"
+        assert "linearity" in p, f"ttc {point}: no linearity"
     for r in table:
         where = f"ttc {r['point']} {r['probe']}"
-        check(r["status"] == "ok" and r["controlled"] == "true", f"{where}: {r['status']} controlled {r['controlled']}")
+        assert r["status"] == "ok" and r["controlled"] == "true", f"{where}: {r['status']} controlled {r['controlled']}"
         m = float(r["magnitude"])
-        for k, name in enumerate(("11", "22", "33")):
+        for name in ("11", "22", "33"):
             asked = m * float(r["d" + name])
             # Before the peak the servo settles on its targets within the hold: 2 % of M. At the end (the peak
             # region) a probe that raises the stress ratio meets the failure surface and the servo only promises
             # its tolerance, 0.5 % of the stress, for the probe and for its reference.
             tol = 0.02 * m if r["point"] == "e1_0.002" else 2 * 0.005 * STRESS_SCALE
-            check(close(float(r["ds" + name]), asked, tol), f"{where}: ds{name} {r['ds' + name]} != {asked}")
-            check(close(float(r[f"ds{name}_residual"]), 0.0, tol), f"{where}: residual ds{name} {r[f'ds{name}_residual']}")
+            assert close(float(r["ds" + name]), asked, tol), f"{where}: ds{name} {r['ds' + name]} != {asked}"
+            assert close(float(r[f"ds{name}_residual"]), 0.0, tol), \
+                f"{where}: residual ds{name} {r[f'ds{name}_residual']}"
         # Axial compression (d = (1, 0, 0)) shortens axis 1.
         if r["probe"].endswith("d00"):
-            check(float(r["de1"]) > 0.0, f"{where}: de1 {r['de1']} not compressive under ds11 > 0")
+            assert float(r["de1"]) > 0.0, f"{where}: de1 {r['de1']} not compressive under ds11 > 0"
 
-    # Each probe starts at the test's own state: its first row is the test's row of that step.
+
+def test_a_probe_starts_from_the_tests_own_state(runs):
+    tmp, _, _ = runs
     test_rows = {r["step"]: r for r in rows(os.path.join(tmp, "two", "ttc", "series.csv"))}
     first = rows(os.path.join(tmp, "two", "ttc", "probes", "e1_0.002", "m1-d01", "series.csv"))[0]
     parent = test_rows.get(first["step"])
-    check(parent is not None, f"the probe's first step {first['step']} is not a row of the test")
-    if parent:
-        differ = [c for c in ("e1", "e2", "e3", "s11", "s22", "s33", "s12", "Z", "void_ratio") if first[c] != parent[c]]
-        check(not differ, f"the probe's first row differs from the test's in {differ}")
+    assert parent is not None, f"the probe's first step {first['step']} is not a row of the test"
+    differ = [c for c in ("e1", "e2", "e3", "s11", "s22", "s33", "s12", "Z", "void_ratio") if first[c] != parent[c]]
+    assert not differ, f"the probe's first row differs from the test's in {differ}"
 
-    # Strain probes.
-    psc = summary["tests"]["psc"]["probes"]
-    point = psc["points"]["e1_0.002"]
-    check(point["status"] == "ran" and point["controlled"] == 6, f"psc e1_0.002: {point}")
+
+def test_strain_probes_impose_their_increments_and_give_the_elastic_stiffness(runs):
+    tmp, _, summary = runs
+    point = summary["tests"]["psc"]["probes"]["points"]["e1_0.002"]
+    assert point["status"] == "ran" and point["controlled"] == 6, f"psc e1_0.002: {point}"
     table = rows(os.path.join(tmp, "two", "psc", "probes", "probes.csv"))
     strains = ("de1", "de2", "de3", "dg12", "dg13", "dg23")
     probed_component = {"e11": "de1", "e22": "de2", "e33": "de3", "g12": "dg12", "g13": "dg13", "g23": "dg23"}
-    check(sorted(r["probe"] for r in table) == sorted(probed_component), f"psc probes: {[r['probe'] for r in table]}")
+    assert sorted(r["probe"] for r in table) == sorted(probed_component), f"psc probes: {[r['probe'] for r in table]}"
     for r in table:
         m = float(r["magnitude"])
         for e in strains:
             asked = m if probed_component[r["probe"]] == e else 0.0
-            check(close(float(r[e]), asked, 1e-6 * m), f"psc {r['probe']}: {e} {r[e]} != {asked}")
-            check(close(float(r[e + "_plastic"]), 0.0, 1e-6 * m), f"psc {r['probe']}: {e}_plastic {r[e + '_plastic']}")
+            assert close(float(r[e]), asked, 1e-6 * m), f"psc {r['probe']}: {e} {r[e]} != {asked}"
+            assert close(float(r[e + "_plastic"]), 0.0, 1e-6 * m), \
+                f"psc {r['probe']}: {e}_plastic {r[e + '_plastic']}"
     with open(os.path.join(tmp, "two", "psc", "probes", "stiffness.json")) as f:
         stiffness = json.load(f)
     m0 = stiffness["points"]["e1_0.002"]["magnitudes"][0]
-    check(m0["elastic_asymmetry"] < 0.1, f"elastic stiffness asymmetry {m0['elastic_asymmetry']}")
-    check(all(m0["elastic"][i][i] > 0 for i in range(6)), f"elastic stiffness diagonal {m0['elastic']}")
+    assert m0["elastic_asymmetry"] < 0.1, f"elastic stiffness asymmetry {m0['elastic_asymmetry']}"
+    assert all(m0["elastic"][i][i] > 0 for i in range(6)), f"elastic stiffness diagonal {m0['elastic']}"
     # The independent estimate: the stiffness assembled from the point's contact network (sticking springs, the
     # particles relaxed; measure/network_stiffness.hpp). Measured 2.6 % apart on 400 spheres; the affine bound
     # (no relaxation) is far stiffer.
     network = stiffness["points"]["e1_0.002"]["network"]
-    check("error" not in network and network.get("elastic_vs_network", 1.0) < 0.06,
-          f"probe elastic stiffness vs the contact network's: {network.get('elastic_vs_network')} {network.get('error')}")
+    assert "error" not in network and network.get("elastic_vs_network", 1.0) < 0.06, \
+        f"probe elastic stiffness vs the contact network's: {network.get('elastic_vs_network')} {network.get('error')}"
     if "affine" in network:
-        check(sum(network["affine"][i][i] for i in range(6)) > 1.2 * sum(m0["elastic"][i][i] for i in range(6)),
-              "the affine bound is not stiffer than the probes")
+        assert sum(network["affine"][i][i] for i in range(6)) > 1.2 * sum(m0["elastic"][i][i] for i in range(6)), \
+            "the affine bound is not stiffer than the probes"
 
-    # A job array: the probes split over two runs (--probes) and gathered by `celldem merge` give the whole run's
-    # tables, byte for byte.
-    run(probed, os.path.join(tmp, "share1"), "--threads", "2", "--probes", "1-9")
-    share = run(probed, os.path.join(tmp, "share2"), "--threads", "2", "--probes", "10-1000")
+
+def test_probe_shares_merged_give_the_whole_run(celldem, runs):
+    """A job array: the probes split over two runs (--probes) and gathered by `celldem merge` give the whole
+    run's tables, byte for byte; a run of another deck is refused."""
+    tmp, probed, summary = runs
+    run(celldem, probed, os.path.join(tmp, "share1"), "--threads", "2", "--probes", "1-9")
+    share = run(celldem, probed, os.path.join(tmp, "share2"), "--threads", "2", "--probes", "10-1000")
     # (8 probes a point: the first share has the first point's and one of the second's)
-    check(share["tests"]["ttc"]["probes"]["points"]["e1_0.002"]["status"] == "not run here",
-          f"a share's point: {share['tests']['ttc']['probes']['points']['e1_0.002']}")
-    check(share["tests"]["ttc"]["probes"]["points"]["end"].get("missing") == 1,
-          f"a share's point: {share['tests']['ttc']['probes']['points']['end']}")
-    merged = subprocess.run([CELLDEM, "merge", os.path.join(tmp, "share1"), os.path.join(tmp, "share2")],
+    points = share["tests"]["ttc"]["probes"]["points"]
+    assert points["e1_0.002"]["status"] == "not run here", f"a share's point: {points['e1_0.002']}"
+    assert points["end"].get("missing") == 1, f"a share's point: {points['end']}"
+    merged = subprocess.run([celldem, "merge", os.path.join(tmp, "share1"), os.path.join(tmp, "share2")],
                             capture_output=True, text=True)
-    check(merged.returncode == 0, f"merge: exit {merged.returncode}: {merged.stderr[-500:]}")
+    assert merged.returncode == 0, f"merge: exit {merged.returncode}: {merged.stderr[-500:]}"
     for test in ("ttc", "psc"):
-        check(read(os.path.join(tmp, "two", test, "probes", "probes.csv")) ==
-              read(os.path.join(tmp, "share1", test, "probes", "probes.csv")),
-              f"{test}: the merged shares' probes.csv differs from the whole run's")
+        assert read(os.path.join(tmp, "two", test, "probes", "probes.csv")) == \
+            read(os.path.join(tmp, "share1", test, "probes", "probes.csv")), \
+            f"{test}: the merged shares' probes.csv differs from the whole run's"
     with open(os.path.join(tmp, "share1", "summary.json")) as f:
         gathered = json.load(f)
     for test in ("ttc", "psc"):
-        check(gathered["tests"][test]["probes"] == summary["tests"][test]["probes"],
-              f"{test}: the merged summary's probes differ from the whole run's")
-    other = dict(deck, description="another deck")
-    result = subprocess.run([CELLDEM, "run", write(other, tmp, "other"), "--out", os.path.join(tmp, "other"),
-                             "--quiet", "--probes", "1-1"], capture_output=True, text=True)
-    result = subprocess.run([CELLDEM, "merge", os.path.join(tmp, "share1"), os.path.join(tmp, "other")],
+        assert gathered["tests"][test]["probes"] == summary["tests"][test]["probes"], \
+            f"{test}: the merged summary's probes differ from the whole run's"
+    other = dict(probed_deck(), description="another deck")
+    subprocess.run([celldem, "run", write(other, tmp, "other"), "--out", os.path.join(tmp, "other"), "--quiet",
+                    "--probes", "1-1"], capture_output=True, text=True)
+    result = subprocess.run([celldem, "merge", os.path.join(tmp, "share1"), os.path.join(tmp, "other")],
                             capture_output=True, text=True)
-    check(result.returncode == 2 and "another deck" in result.stderr,
-          f"merge of another deck's run: exit {result.returncode}, {result.stderr.strip()[-300:]}")
+    assert result.returncode == 2 and "another deck" in result.stderr, \
+        f"merge of another deck's run: exit {result.returncode}, {result.stderr.strip()[-300:]}"
 
-    # Seed shares (--seeds k, one seed each) merged give the ensemble of --seeds 1-2 (timings aside).
+
+def without_timings(x):
+    if isinstance(x, dict):
+        return {k: without_timings(v) for k, v in x.items() if k not in ("wall_s", "particle_steps_per_s")}
+    return x
+
+
+def test_seed_shares_merged_give_the_ensemble(celldem, tmp_path):
+    """Seed shares (--seeds k, one seed each) merged give the ensemble of --seeds 1-2 (timings aside)."""
+    tmp = str(tmp_path)
     small = os.path.join(ROOT, "tests", "run", "small_run.json")
-    subprocess.run([CELLDEM, "run", small, "--seeds", "1-2", "--out", os.path.join(tmp, "ens"), "--quiet"], check=True,
-                   capture_output=True)
-    for k in ("1", "2"):
-        subprocess.run([CELLDEM, "run", small, "--seeds", k, "--out", os.path.join(tmp, "ens-" + k), "--quiet"],
-                       check=True, capture_output=True)
-        check(not os.path.exists(os.path.join(tmp, "ens-" + k, "ensemble.json")), "a one-seed share wrote ensemble.json")
-    subprocess.run([CELLDEM, "merge", os.path.join(tmp, "ens-all"), os.path.join(tmp, "ens-1"), os.path.join(tmp, "ens-2")],
+    subprocess.run([celldem, "run", small, "--seeds", "1-2", "--out", os.path.join(tmp, "ens"), "--quiet"],
                    check=True, capture_output=True)
-
-    def without_timings(x):
-        if isinstance(x, dict):
-            return {k: without_timings(v) for k, v in x.items() if k not in ("wall_s", "particle_steps_per_s")}
-        return x
+    for k in ("1", "2"):
+        subprocess.run([celldem, "run", small, "--seeds", k, "--out", os.path.join(tmp, "ens-" + k), "--quiet"],
+                       check=True, capture_output=True)
+        assert not os.path.exists(os.path.join(tmp, "ens-" + k, "ensemble.json")), "a one-seed share wrote ensemble.json"
+    subprocess.run([celldem, "merge", os.path.join(tmp, "ens-all"), os.path.join(tmp, "ens-1"),
+                    os.path.join(tmp, "ens-2")], check=True, capture_output=True)
     with open(os.path.join(tmp, "ens", "ensemble.json")) as f, open(os.path.join(tmp, "ens-all", "ensemble.json")) as g:
-        check(without_timings(json.load(f)) == without_timings(json.load(g)),
-              "the merged seed shares' ensemble.json differs from --seeds 1-2's")
+        assert without_timings(json.load(f)) == without_timings(json.load(g)), \
+            "the merged seed shares' ensemble.json differs from --seeds 1-2's"
 
-    # A probe asking more than the sample carries (s11 up by 200 kPa at e1 = 0.2 %, past the peak's stress ratio)
-    # loses its control: the point is flagged, the run names it, and the set's linearity is not given.
+
+def test_an_uncontrolled_probe_flags_its_point(celldem, tmp_path):
+    """A probe asking more than the sample carries (s11 up by 200 kPa at e1 = 0.2 %, past the peak's stress
+    ratio) loses its control: the point is flagged, the run names it, and the set's linearity is not given."""
+    tmp = str(tmp_path)
     hard = base_deck()
     hard["tests"] = [dict(hard["tests"][0], probes={"at_e1": [0.002], "kind": "stress", "plane": "list",
                                                     "list": [[1, 0, 0], [0, 1, 1]], "magnitudes": [1000, 2e5],
                                                     "steps": 3000, "hold_steps": 500})]
-    result = subprocess.run([CELLDEM, "run", write(hard, tmp, "hard"), "--out", os.path.join(tmp, "hard")],
+    result = subprocess.run([celldem, "run", write(hard, tmp, "hard"), "--out", os.path.join(tmp, "hard")],
                             capture_output=True, text=True)
-    check(result.returncode == 0, f"a run with an uncontrolled probe: exit {result.returncode}: {result.stderr[-500:]}")
+    assert result.returncode == 0, f"a run with an uncontrolled probe: exit {result.returncode}: {result.stderr[-500:]}"
     with open(os.path.join(tmp, "hard", "summary.json")) as f:
         point = json.load(f)["tests"]["ttc"]["probes"]["points"]["e1_0.002"]
-    check(point["status"] == "ran with uncontrolled probes" and point["controlled"] < point["probes"],
-          f"an uncontrolled probe's point: {point}")
-    check("linearity" not in point, f"a linearity from a set with an uncontrolled probe: {point}")
-    check("probes at e1_0.002: ran with uncontrolled probes" in result.stdout,
-          f"the run does not name the flagged point: {result.stdout[-500:]}")
+    assert point["status"] == "ran with uncontrolled probes" and point["controlled"] < point["probes"], \
+        f"an uncontrolled probe's point: {point}"
+    assert "linearity" not in point, f"a linearity from a set with an uncontrolled probe: {point}"
+    assert "probes at e1_0.002: ran with uncontrolled probes" in result.stdout, \
+        f"the run does not name the flagged point: {result.stdout[-500:]}"
 
-    # Bad keys: exit 2 naming the key.
-    bad_cases = [
-        ({**STRAIN, "plane": "pi"}, "tests[1].probes.plane"),
-        ({k: v for k, v in STRESS.items() if k != "magnitudes"}, "tests[1].probes.magnitudes"),
-        ({**STRESS, "at": ["middle"]}, "tests[1].probes.at[0]"),
-        ({**STRAIN, "magnitudes": [0.1]}, "tests[1].probes.magnitudes[0]"),
-        ({**{k: v for k, v in STRESS.items() if k != "directions"}, "plane": "list"}, "tests[1].probes.list"),
-        ({**STRESS, "plane": "list", "directions": 3, "list": [[1, 0, 0]]}, "tests[1].probes.directions"),
-        ({"kind": "stress", "magnitudes": [1000]}, "tests[1].probes"),
-        ({**STRESS, "speed": 1}, "tests[1].probes.speed"),
-    ]
-    for probes, key in bad_cases:
-        deck["tests"][1]["probes"] = probes
-        path = write(deck, tmp, "bad")
-        result = subprocess.run([CELLDEM, "check", path], capture_output=True, text=True)
-        check(result.returncode == 2 and key + ":" in result.stderr,
-              f"{key}: exit {result.returncode}, stderr {result.stderr.strip()[-300:]}")
 
-if failures:
-    print(f"{len(failures)} failure(s)")
-    sys.exit(1)
-print("ok")
+BAD_CASES = [
+    ({**STRAIN, "plane": "pi"}, "tests[1].probes.plane"),
+    ({k: v for k, v in STRESS.items() if k != "magnitudes"}, "tests[1].probes.magnitudes"),
+    ({**STRESS, "at": ["middle"]}, "tests[1].probes.at[0]"),
+    ({**STRAIN, "magnitudes": [0.1]}, "tests[1].probes.magnitudes[0]"),
+    ({**{k: v for k, v in STRESS.items() if k != "directions"}, "plane": "list"}, "tests[1].probes.list"),
+    ({**STRESS, "plane": "list", "directions": 3, "list": [[1, 0, 0]]}, "tests[1].probes.directions"),
+    ({"kind": "stress", "magnitudes": [1000]}, "tests[1].probes"),
+    ({**STRESS, "speed": 1}, "tests[1].probes.speed"),
+]
+
+
+@pytest.mark.parametrize("probes,key", BAD_CASES, ids=[key for _, key in BAD_CASES])
+def test_bad_probe_keys_are_refused_naming_the_key(celldem, tmp_path, probes, key):
+    deck = probed_deck()
+    deck["tests"][1]["probes"] = probes
+    result = subprocess.run([celldem, "check", write(deck, str(tmp_path), "bad")], capture_output=True, text=True)
+    assert result.returncode == 2 and key + ":" in result.stderr, \
+        f"{key}: exit {result.returncode}, stderr {result.stderr.strip()[-300:]}"

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Every shipped deck holds its controls: each deck under inputs/ and tests/ runs reduced (300 spheres, a quick
 preparation, every test to 0.5 % of driving strain: past the 0.2 % settle window and the 0.1 % persistence run
 of the control check) with its own rates, time step and servo. A control that fails stops the run with exit 1,
@@ -13,26 +12,21 @@ cap's saturation before) holds its stress within 0.5 %; a cap below 3 x the driv
 leg are refused by `check` and `run` with exit 2 and the key named; a leg over before its first step at run time
 stops the run with exit 1.
 
-Usage: test_shipped_decks.py CELLDEM
+Usage: CELLDEM=build/celldem /usr/bin/python3 -m pytest tests/run/test_shipped_decks.py (ctest: run_shipped_decks)
 """
 import copy
 import glob
 import json
 import os
 import subprocess
-import sys
-import tempfile
+
+import pytest
+
+pytestmark = pytest.mark.slow
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-CELLDEM = os.path.abspath(sys.argv[1])
 REDUCED_STRAIN = 0.005
 PAST_PEAK_STRAIN = {"inputs/balanced.json": 0.06, "inputs/failure_surface.json": 0.025}
-failures = []
-
-
-def fail(message):
-    print("FAIL:", message)
-    failures.append(message)
 
 
 def shipped_decks():
@@ -93,97 +87,109 @@ def reduced(deck, paper, strain=REDUCED_STRAIN):
     return d
 
 
-def run(args, cwd):
-    return subprocess.run([CELLDEM] + args, cwd=cwd, capture_output=True, text=True)
+def run(celldem, args, cwd):
+    return subprocess.run([celldem] + args, cwd=cwd, capture_output=True, text=True)
 
 
-def check_summary(name, out_dir, strict_tolerance=False, past_peak=False):
+def summary_problems(name, out_dir, strict_tolerance=False, past_peak=False):
+    """What summary.json says against the deck's controls (empty when every test held them)."""
     with open(os.path.join(out_dir, "summary.json")) as f:
         summary = json.load(f)
+    problems = []
     for test, s in summary.get("tests", {}).items():
         if s.get("controlled") is not True:
-            fail(f"{name} {test}: controlled is {s.get('controlled')}: {s.get('control_failures')}")
+            problems.append(f"{name} {test}: controlled is {s.get('controlled')}: {s.get('control_failures')}")
         if past_peak and s.get("peak_reached") is not True:
-            fail(f"{name} {test}: run to {PAST_PEAK_STRAIN[name]} to pass its peak, but peak_reached is "
-                 f"{s.get('peak_reached')}")
+            problems.append(f"{name} {test}: run to {PAST_PEAK_STRAIN[name]} to pass its peak, but peak_reached is "
+                            f"{s.get('peak_reached')}")
         if s.get("control_error_over_tolerance") is None:
-            fail(f"{name} {test}: no control error measured (control_error_over_tolerance null)")
+            problems.append(f"{name} {test}: no control error measured (control_error_over_tolerance null)")
         elif strict_tolerance and s["servo_max_error"] > 0.005:
-            fail(f"{name} {test}: servo_max_error {s['servo_max_error']:.4g} above 0.5 %")
-        print(f"  {name} {test}: servo_max_error {s.get('servo_max_error')}, b_max_error {s.get('b_max_error')}, "
-              f"error/tolerance {s.get('control_error_over_tolerance')}, controlled {s.get('controlled')}, "
-              f"peak_reached {s.get('peak_reached')}")
+            problems.append(f"{name} {test}: servo_max_error {s['servo_max_error']:.4g} above 0.5 %")
+    return problems
 
 
-def main():
+def paper_deck():
     with open(os.path.join(ROOT, "inputs", "paper.json")) as f:
-        paper = json.load(f)
-    with tempfile.TemporaryDirectory() as work:
-        decks = shipped_decks()
-        if len(decks) < 5:
-            fail(f"only {len(decks)} shipped decks found")
-        for rel, deck in decks:
-            if not deck.get("tests"):
-                continue
-            name = rel.replace("/", "_").removesuffix(".json")
-            path = os.path.join(work, name + ".json")
-            past_peak = rel in PAST_PEAK_STRAIN
-            with open(path, "w") as f:
-                json.dump(reduced(deck, paper, PAST_PEAK_STRAIN.get(rel, REDUCED_STRAIN)), f, indent=1)
-            r = run(["run", path, "--out", os.path.join(work, name), "--quiet"], work)
-            if r.returncode != 0:
-                fail(f"{rel} (reduced): exit {r.returncode}: {r.stderr.strip()[-600:]}")
-                continue
-            check_summary(rel, os.path.join(work, name), past_peak=past_peak)
-        missing = set(PAST_PEAK_STRAIN) - {rel for rel, _ in decks}
-        if missing:
-            fail(f"decks meant to run past their peaks are missing: {sorted(missing)}")
-
-        # small_run.json as shipped: its PSC at 1e-6 per step missed by 57-60 % under the old cap.
-        small = os.path.join(ROOT, "tests", "run", "small_run.json")
-        r = run(["run", small, "--out", os.path.join(work, "small_as_shipped"), "--quiet"], work)
-        if r.returncode != 0:
-            fail(f"small_run.json: exit {r.returncode}: {r.stderr.strip()[-600:]}")
-        else:
-            check_summary("small_run.json (as shipped)", os.path.join(work, "small_as_shipped"), strict_tolerance=True)
-
-        with open(small) as f:
-            base = json.load(f)
-        # An explicit cap equal to the driving increment: refused before running.
-        capped = copy.deepcopy(base)
-        capped["servo"] = {"max_strain_increment": 1e-6}
-        refusals = [("cap", capped, "servo.max_strain_increment")]
-        # A leg that would run 0 steps: refused as an input error.
-        zero = copy.deepcopy(base)
-        zero["tests"][0]["axes"]["x1"] = {"strain_rate": 1e6}
-        refusals.append(("zero-step leg", zero, "tests[0].end.strain"))
-        for what, d, key in refusals:
-            path = os.path.join(work, what.replace(" ", "_") + ".json")
-            with open(path, "w") as f:
-                json.dump(d, f)
-            for command in ("check", "run"):
-                args = [command, path] + (["--out", os.path.join(work, "refused")] if command == "run" else [])
-                r = run(args, work)
-                if r.returncode != 2 or key not in r.stderr:
-                    fail(f"{what}: `celldem {command}` gave exit {r.returncode} ({r.stderr.strip()}), expected 2 naming {key}")
-        # A leg that ends before its first step at run time (a preparation leg whose solid fraction the sample
-        # already has) stops the run with exit 1.
-        instant = copy.deepcopy(base)
-        axes = {"x1": {"strain_increment": 5e-5}, "x2": {"strain_increment": 5e-5}, "x3": {"strain_increment": 5e-5}}
-        instant["prepare"] = {"legs": [{"axes": axes, "end": {"solid_fraction": 0.01}}], "output_interval": 500}
-        instant["tests"] = []
-        path = os.path.join(work, "instant.json")
-        with open(path, "w") as f:
-            json.dump(instant, f)
-        r = run(["run", path, "--out", os.path.join(work, "instant"), "--quiet"], work)
-        if r.returncode != 1 or "ended after 0 steps" not in r.stderr:
-            fail(f"a leg over before its first step: exit {r.returncode} ({r.stderr.strip()}), expected 1")
-    if failures:
-        print(f"{len(failures)} failure(s)")
-        return 1
-    print("every shipped deck holds its controls")
-    return 0
+        return json.load(f)
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+DECKS = [(rel, deck) for rel, deck in shipped_decks() if deck.get("tests")]
+
+
+def test_the_decks_are_found():
+    assert len(shipped_decks()) >= 5, f"only {len(shipped_decks())} shipped decks found"
+    missing = set(PAST_PEAK_STRAIN) - {rel for rel, _ in DECKS}
+    assert not missing, f"decks meant to run past their peaks are missing: {sorted(missing)}"
+
+
+@pytest.mark.parametrize("rel,deck", DECKS, ids=[rel for rel, _ in DECKS])
+def test_a_shipped_deck_reduced_holds_its_controls(celldem, tmp_path, rel, deck):
+    work = str(tmp_path)
+    name = rel.replace("/", "_").removesuffix(".json")
+    path = os.path.join(work, name + ".json")
+    with open(path, "w") as f:
+        json.dump(reduced(deck, paper_deck(), PAST_PEAK_STRAIN.get(rel, REDUCED_STRAIN)), f, indent=1)
+    r = run(celldem, ["run", path, "--out", os.path.join(work, name), "--quiet"], work)
+    assert r.returncode == 0, f"{rel} (reduced): exit {r.returncode}: {r.stderr.strip()[-600:]}"
+    problems = summary_problems(rel, os.path.join(work, name), past_peak=rel in PAST_PEAK_STRAIN)
+    assert not problems, "\n".join(problems)
+
+
+def test_small_run_as_shipped_holds_its_stress(celldem, tmp_path):
+    """small_run.json as shipped: its PSC at 1e-6 per step missed by 57-60 % under the old cap."""
+    small = os.path.join(ROOT, "tests", "run", "small_run.json")
+    out = os.path.join(str(tmp_path), "small_as_shipped")
+    r = run(celldem, ["run", small, "--out", out, "--quiet"], str(tmp_path))
+    assert r.returncode == 0, f"small_run.json: exit {r.returncode}: {r.stderr.strip()[-600:]}"
+    problems = summary_problems("small_run.json (as shipped)", out, strict_tolerance=True)
+    assert not problems, "\n".join(problems)
+
+
+def small_run():
+    with open(os.path.join(ROOT, "tests", "run", "small_run.json")) as f:
+        return json.load(f)
+
+
+def capped_deck():
+    """An explicit cap equal to the driving increment."""
+    d = small_run()
+    d["servo"] = {"max_strain_increment": 1e-6}
+    return d
+
+
+def zero_step_deck():
+    """A leg that would run 0 steps."""
+    d = small_run()
+    d["tests"][0]["axes"]["x1"] = {"strain_rate": 1e6}
+    return d
+
+
+@pytest.mark.parametrize("command", ["check", "run"])
+@pytest.mark.parametrize("make,key", [(capped_deck, "servo.max_strain_increment"),
+                                      (zero_step_deck, "tests[0].end.strain")], ids=["cap", "zero-step leg"])
+def test_bad_controls_are_refused_before_running(celldem, tmp_path, command, make, key):
+    work = str(tmp_path)
+    path = os.path.join(work, "deck.json")
+    with open(path, "w") as f:
+        json.dump(make(), f)
+    args = [command, path] + (["--out", os.path.join(work, "refused")] if command == "run" else [])
+    r = run(celldem, args, work)
+    assert r.returncode == 2 and key in r.stderr, \
+        f"`celldem {command}` gave exit {r.returncode} ({r.stderr.strip()}), expected 2 naming {key}"
+
+
+def test_a_leg_over_before_its_first_step_stops_the_run(celldem, tmp_path):
+    """A leg that ends before its first step at run time (a preparation leg whose solid fraction the sample
+    already has) stops the run with exit 1."""
+    work = str(tmp_path)
+    instant = small_run()
+    axes = {"x1": {"strain_increment": 5e-5}, "x2": {"strain_increment": 5e-5}, "x3": {"strain_increment": 5e-5}}
+    instant["prepare"] = {"legs": [{"axes": axes, "end": {"solid_fraction": 0.01}}], "output_interval": 500}
+    instant["tests"] = []
+    path = os.path.join(work, "instant.json")
+    with open(path, "w") as f:
+        json.dump(instant, f)
+    r = run(celldem, ["run", path, "--out", os.path.join(work, "instant"), "--quiet"], work)
+    assert r.returncode == 1 and "ended after 0 steps" in r.stderr, \
+        f"a leg over before its first step: exit {r.returncode} ({r.stderr.strip()}), expected 1"

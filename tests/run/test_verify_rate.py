@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """`celldem run --verify-rate` on a small deck (tests/run/small_run.json, 150 spheres, tests to 3 % of axial
 strain: past their peaks) at two driving rates, the paper's strain increment (inputs/paper.json's tests) and a
 hundred times it:
@@ -18,26 +17,20 @@ Ten times the paper's rate is not enough on 150 spheres: its branches differ fro
 paper-rate run's (chaos, not the rate, sets the difference at this size), so the verdict there is honest about it
 rather than flagged. About 30 s of CPU.
 
-Usage: test_verify_rate.py CELLDEM
+Usage: CELLDEM=build/celldem /usr/bin/python3 -m pytest tests/run/test_verify_rate.py (ctest: run_verify_rate)
 """
 import csv
 import json
 import os
 import subprocess
-import sys
-import tempfile
+
+import pytest
+
+pytestmark = pytest.mark.slow
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-CELLDEM = os.path.abspath(sys.argv[1])
 END_STRAIN = 0.03
 STRAIN_PER_ROW = 2.5e-4  # the same rows per strain at every rate (a peak's row sampling does not change)
-failures = []
-
-
-def check(condition, message):
-    if not condition:
-        failures.append(message)
-        print("FAIL:", message)
 
 
 def paper_increment():
@@ -63,9 +56,9 @@ def deck_at(increment, folder, name):
     return path
 
 
-def run(deck, out, *extra):
-    result = subprocess.run([CELLDEM, "run", deck, "--out", out, "--quiet", *extra], capture_output=True, text=True)
-    check(result.returncode == 0, f"{deck} {extra}: exit {result.returncode}: {result.stderr[-2000:]}")
+def run(celldem, deck, out, *extra):
+    result = subprocess.run([celldem, "run", deck, "--out", out, "--quiet", *extra], capture_output=True, text=True)
+    assert result.returncode == 0, f"{deck} {extra}: exit {result.returncode}: {result.stderr[-2000:]}"
     with open(os.path.join(out, "summary.json")) as f:
         return json.load(f)
 
@@ -80,101 +73,121 @@ def read(path):
         return f.read()
 
 
-with tempfile.TemporaryDirectory() as work:
-    paper = paper_increment()
-    slow = run(deck_at(paper, work, "paper_rate"), os.path.join(work, "paper"), "--verify-rate", "--threads", "1")
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    return str(tmp_path_factory.mktemp("verify_rate"))
+
+
+@pytest.fixture(scope="module")
+def fast(celldem, work):
+    """The deck a hundred times the paper's rate, and its run with --verify-rate on one thread."""
+    deck = deck_at(100 * paper_increment(), work, "too_fast")
+    return deck, run(celldem, deck, os.path.join(work, "fast"), "--verify-rate", "--threads", "1")
+
+
+def test_at_the_papers_rate_every_point_converges(celldem, work):
+    slow = run(celldem, deck_at(paper_increment(), work, "paper_rate"), os.path.join(work, "paper"), "--verify-rate",
+               "--threads", "1")
     v = verdicts(slow)
-    print("paper rate:", v)
-    check(len(v) == 4, f"two points of two tests checked, got {v}")
+    assert len(v) == 4, f"two points of two tests checked, got {v}"
     # A test whose s11/s33 is largest at its last row has no peak to check (summary.json peak_reached).
     for (test, point), x in v.items():
         no_peak = point == "peak" and not slow["tests"][test]["peak_reached"]
-        check(x == ("not checked" if no_peak else "converged"),
-              f"at the paper's rate every point converges, a peak that is the last row is not checked: {v}")
-    check(list(v.values()).count("converged") >= 3, f"at least three points checked and converged: {v}")
+        assert x == ("not checked" if no_peak else "converged"), \
+            f"at the paper's rate every point converges, a peak that is the last row is not checked: {v}"
+    assert list(v.values()).count("converged") >= 3, f"at least three points checked and converged: {v}"
 
-    fast_deck = deck_at(100 * paper, work, "too_fast")
-    fast = run(fast_deck, os.path.join(work, "fast"), "--verify-rate", "--threads", "1")
-    v = verdicts(fast)
-    print("100 x the paper's rate:", v)
-    check("not converged" in v.values(), f"a run 100 x too fast has a point not converged: {v}")
-    check(not all(t["controlled"] for t in fast["tests"].values()), "a run 100 x too fast: its servo cannot hold x2, x3")
-    for test, t in fast["tests"].items():
+
+def test_a_run_too_fast_is_flagged_and_its_branches_start_from_the_test(work, fast):
+    _, summary = fast
+    v = verdicts(summary)
+    assert "not converged" in v.values(), f"a run 100 x too fast has a point not converged: {v}"
+    assert not all(t["controlled"] for t in summary["tests"].values()), "a run 100 x too fast: its servo cannot hold x2, x3"
+    for test, t in summary["tests"].items():
         for point, p in t["verify_rate"]["points"].items():
             if p["verdict"] == "not checked":
-                check(point == "peak" and not t["peak_reached"], f"{test} {point}: not checked: {p.get('reason')}")
+                assert point == "peak" and not t["peak_reached"], f"{test} {point}: not checked: {p.get('reason')}"
                 continue
             branch_path = os.path.join(work, "fast", p["series"])
-            check(os.path.isfile(branch_path), f"{test} {point}: {p['series']} missing")
+            assert os.path.isfile(branch_path), f"{test} {point}: {p['series']} missing"
             with open(branch_path) as f:
                 first = next(csv.DictReader(f))
             with open(os.path.join(work, "fast", test, "series.csv")) as f:
                 parent = {row["step"]: row for row in csv.DictReader(f)}
             same = parent.get(first["step"])
-            check(same is not None and all(same[k] == v for k, v in first.items() if k != "DI"),
-                  f"{test} {point}: the branch's first row (step {first['step']}) is not the test's row there")
+            assert same is not None and all(same[k] == x for k, x in first.items() if k != "DI"), \
+                f"{test} {point}: the branch's first row (step {first['step']}) is not the test's row there"
             window = p["window"]
-            check(abs(window["to_strain"] - window["from_strain"]) >= t["verify_rate"]["window_strain"] - 1e-12,
-                  f"{test} {point}: the branch spans a whole window: {window}")
+            assert abs(window["to_strain"] - window["from_strain"]) >= t["verify_rate"]["window_strain"] - 1e-12, \
+                f"{test} {point}: the branch spans a whole window: {window}"
 
-    # Rows farther apart than the compared span (a quarter of the window): the span holds only the point's own
-    # row, whose strain the rows keep to 10 digits; it must still count (it was once missed by round-off, and the
-    # check then compared two empty means, zeros, and called the point converged). A quantity that cannot be
-    # compared never makes a point converged.
+
+def test_rows_coarser_than_the_compared_span_still_count(celldem, work, fast):
+    """Rows farther apart than the compared span (a quarter of the window): the span holds only the point's own
+    row, whose strain the rows keep to 10 digits; it must still count (it was once missed by round-off, and the
+    check then compared two empty means, zeros, and called the point converged). A quantity that cannot be
+    compared never makes a point converged."""
+    fast_deck, _ = fast
     with open(fast_deck) as f:
         coarse = json.load(f)
     for test in coarse["tests"]:  # (strains with more than 10 digits: 100/7 x the paper's increment, rows every 701 steps)
-        test["axes"]["x1"]["strain_increment"] = 100 * paper / 7
+        test["axes"]["x1"]["strain_increment"] = 100 * paper_increment() / 7
         test["output_interval"] = 701
     coarse_deck = os.path.join(work, "coarse.json")
     with open(coarse_deck, "w") as f:
         json.dump(coarse, f)
-    sparse = run(coarse_deck, os.path.join(work, "coarse"), "--verify-rate", "--threads", "1")
+    sparse = run(celldem, coarse_deck, os.path.join(work, "coarse"), "--verify-rate", "--threads", "1")
     compared = [(test, point, p) for test, t in sparse["tests"].items() for point, p in t["verify_rate"]["points"].items()
                 if "end_means" in p.get("window", {})]
-    check(len(compared) >= 3, f"coarse rows: at least three points branched, got {len(compared)}")
+    assert len(compared) >= 3, f"coarse rows: at least three points branched, got {len(compared)}"
     for test, point, p in compared:
         means = p["window"]["end_means"]
-        check(means["parent_rows"] >= 1 and means["branch_rows"] >= 1,
-              f"coarse rows, {test} {point}: the point's own row is in the compared span: {means}")
-        check("not_compared" not in p or p["verdict"] != "converged",
-              f"coarse rows, {test} {point}: converged without comparing {p.get('not_compared')}")
+        assert means["parent_rows"] >= 1 and means["branch_rows"] >= 1, \
+            f"coarse rows, {test} {point}: the point's own row is in the compared span: {means}"
+        assert "not_compared" not in p or p["verdict"] != "converged", \
+            f"coarse rows, {test} {point}: converged without comparing {p.get('not_compared')}"
 
-    plain = run(fast_deck, os.path.join(work, "plain"), "--threads", "1")
-    for test in fast["tests"]:
-        check(read(os.path.join(work, "fast", test, "series.csv")) == read(os.path.join(work, "plain", test, "series.csv")),
-              f"{test}: --verify-rate changed the test's own series")
-        check("verify_rate" not in plain["tests"][test], f"{test}: verify_rate without --verify-rate")
 
-    two = run(fast_deck, os.path.join(work, "two"), "--verify-rate", "--threads", "2", "--fixed-threads")
-    for test, t in fast["tests"].items():
+def test_the_branches_leave_the_series_alone(celldem, work, fast):
+    fast_deck, summary = fast
+    plain = run(celldem, fast_deck, os.path.join(work, "plain"), "--threads", "1")
+    for test in summary["tests"]:
+        assert read(os.path.join(work, "fast", test, "series.csv")) == \
+            read(os.path.join(work, "plain", test, "series.csv")), f"{test}: --verify-rate changed the test's own series"
+        assert "verify_rate" not in plain["tests"][test], f"{test}: verify_rate without --verify-rate"
+
+
+def test_a_branch_gives_the_same_bytes_on_two_threads(celldem, work, fast):
+    fast_deck, summary = fast
+    run(celldem, fast_deck, os.path.join(work, "two"), "--verify-rate", "--threads", "2", "--fixed-threads")
+    for test, t in summary["tests"].items():
         for point, p in t["verify_rate"]["points"].items():
             if "series" not in p:  # (not checked: no branch)
                 continue
-            check(read(os.path.join(work, "fast", p["series"])) == read(os.path.join(work, "two", p["series"])),
-                  f"{test} {point}: the branch's series differs between 1 and 2 threads")
+            assert read(os.path.join(work, "fast", p["series"])) == read(os.path.join(work, "two", p["series"])), \
+                f"{test} {point}: the branch's series differs between 1 and 2 threads"
 
+
+def test_the_deck_key_asks_for_one_test_and_bad_values_are_refused(celldem, work, fast):
+    fast_deck, _ = fast
     with open(fast_deck) as f:
         keyed = json.load(f)
     keyed["tests"][1]["verify_rate"] = {"at": ["end"], "window_strain": 0.004}
     keyed_deck = os.path.join(work, "keyed.json")
     with open(keyed_deck, "w") as f:
         json.dump(keyed, f)
-    by_key = run(keyed_deck, os.path.join(work, "keyed"), "--threads", "1")
+    by_key = run(celldem, keyed_deck, os.path.join(work, "keyed"), "--threads", "1")
     name0, name1 = keyed["tests"][0]["name"], keyed["tests"][1]["name"]
-    check("verify_rate" not in by_key["tests"][name0], f"{name0}: checked without being asked")
-    check(list(by_key["tests"][name1]["verify_rate"]["points"]) == ["end"] and
-          by_key["tests"][name1]["verify_rate"]["window_strain"] == 0.004, f"{name1}: the key's points and window")
+    assert "verify_rate" not in by_key["tests"][name0], f"{name0}: checked without being asked"
+    assert list(by_key["tests"][name1]["verify_rate"]["points"]) == ["end"] and \
+        by_key["tests"][name1]["verify_rate"]["window_strain"] == 0.004, f"{name1}: the key's points and window"
     keyed["tests"][1]["verify_rate"] = {"at": ["middle"]}
     with open(keyed_deck, "w") as f:
         json.dump(keyed, f)
-    bad = subprocess.run([CELLDEM, "check", keyed_deck], capture_output=True, text=True)
-    check(bad.returncode == 2 and "tests[1].verify_rate.at[0]" in bad.stderr,
-          f"an unknown point: exit 2 naming the key, got {bad.returncode}: {bad.stderr}")
-
-    bad = subprocess.run([CELLDEM, "run", fast_deck, "--out", os.path.join(work, "bad"), "--verify-rate", "--floors",
+    bad = subprocess.run([celldem, "check", keyed_deck], capture_output=True, text=True)
+    assert bad.returncode == 2 and "tests[1].verify_rate.at[0]" in bad.stderr, \
+        f"an unknown point: exit 2 naming the key, got {bad.returncode}: {bad.stderr}"
+    bad = subprocess.run([celldem, "run", fast_deck, "--out", os.path.join(work, "bad"), "--verify-rate", "--floors",
                           os.path.join(ROOT, "tests", "run", "small_run.json")], capture_output=True, text=True)
-    check(bad.returncode == 2 and "ratio13" in bad.stderr, f"a floors file without floors: exit 2 naming the key, got "
-          f"{bad.returncode}: {bad.stderr}")
-
-sys.exit(1 if failures else 0)
+    assert bad.returncode == 2 and "ratio13" in bad.stderr, \
+        f"a floors file without floors: exit 2 naming the key, got {bad.returncode}: {bad.stderr}"

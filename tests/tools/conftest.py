@@ -1,7 +1,7 @@
 """Shared set-up of the tools' tests (pytest; ctest runs each file as a test, tests/CMakeLists.txt).
 
-The package is found through PYTHONPATH (tools/ and this folder; ctest sets it, and tools/pyproject.toml does for
-`cd tools && /usr/bin/python3 -m pytest`). The celldem binary is $CELLDEM, else build/celldem: the fake runs'
+The package is found through PYTHONPATH (tools/ and this folder; ctest sets it, and the root pyproject.toml does
+for `/usr/bin/python3 -m pytest`). The binary's fixture `celldem` is tests/conftest.py's: the fake runs'
 summaries come from its `summarize`, and some tests run it.
 """
 
@@ -9,21 +9,7 @@ import os
 
 import pytest
 
-from checking import HERE, ROOT, run_script
-
-
-def celldem_path():
-    return os.environ.get("CELLDEM") or os.path.join(ROOT, "build", "celldem")
-
-
-@pytest.fixture(scope="session")
-def celldem():
-    """The celldem binary; a test that needs it fails (never skips) without it."""
-    path = celldem_path()
-    if not os.access(path, os.X_OK):
-        pytest.fail(f"no celldem binary at {path} (tools/build.sh builds it; $CELLDEM names another)")
-    os.environ["CELLDEM"] = path  # the fakes and the tools' binary.find() read it
-    return path
+from checking import HERE, run_script
 
 
 @pytest.fixture(scope="session")

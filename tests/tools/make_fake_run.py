@@ -110,7 +110,7 @@ def make_test(name, variant, rng):
     }
 
 
-def test_summary(columns):
+def fake_test_summary(columns):
     """summary.json["tests"][name] of a series as celldem writes it: `celldem summarize` of the series (every
     column; --drop-columns changes only what the written series shows), and the control and cost entries."""
     fd, path = tempfile.mkstemp(suffix=".csv")
@@ -159,7 +159,7 @@ def main():
     for name in names:
         columns = make_test(name, args.variant, rng)
         # celldem's summary is of every column; --drop-columns changes only what the series shows.
-        tests[name] = dict(test_summary(columns), steps=240000, wall_s=120.5, particle_steps_per_s=1.6e7)
+        tests[name] = dict(fake_test_summary(columns), steps=240000, wall_s=120.5, particle_steps_per_s=1.6e7)
         columns = {k: v for k, v in columns.items() if k not in drop}
         if args.reverse_columns:
             columns = dict(reversed(list(columns.items())))

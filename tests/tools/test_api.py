@@ -149,3 +149,71 @@ def test_open_ensemble(tmp_path, celldem):
     assert api.open_ensemble(tmp_path / "ens").seeds == [1, 2]
     with pytest.raises(FileNotFoundError, match="ensemble.json not found"):
         api.open_ensemble(tmp_path / "ens" / "seed-1")
+
+
+def test_every_option_of_celldem_run_is_a_keyword_of_run_deck(celldem):
+    """`celldem run --help`'s options (but --out, given as `out`, and --help) are run_deck's keywords, each
+    keyword-only, and run_command turns each into its flag."""
+    import inspect
+    import re
+    import subprocess
+
+    text = subprocess.run([celldem, "run", "--help"], capture_output=True, text=True, check=True).stdout
+    flags = set(re.findall(r"^\s+(?:-\w,)?--([a-z][a-z-]*)", text, flags=re.M)) - {"help", "out"}
+    assert len(flags) >= 10, f"parsed too few options from `celldem run --help`: {sorted(flags)}"
+    parameters = inspect.signature(api.run_deck).parameters
+    keywords = {name.replace("_", "-") for name, p in parameters.items() if p.kind is p.KEYWORD_ONLY}
+    assert flags <= keywords, f"options of `celldem run` that run_deck cannot pass: {sorted(flags - keywords)}"
+    values = {"threads": 2, "seeds": "1-2", "tolerance": 1.5, "verify_at": ["end"], "verify_window": 0.004,
+              "verify_rate_factor": 0.25, "floors": "f.json", "probes": "1-9", "progress_interval": 5.0}
+    options = {name.replace("-", "_"): values.get(name.replace("-", "_"), True) for name in flags}
+    options.pop("resume")  # (excludes force)
+    cmd = binary.run_command("d.json", "out", binary=celldem, **{k: v for k, v in options.items()
+                                                                 if k not in ("threads", "seeds", "force", "quiet")},
+                             threads=2, seeds="1-2", force=True, quiet=True)
+    for name in flags - {"resume"}:
+        assert "--" + name in cmd, f"--{name} missing from {cmd}"
+    assert cmd[cmd.index("--verify-at") + 1] == "end" and cmd[cmd.index("--tolerance") + 1] == "1.5"
+
+
+def test_run_deck_options_are_keyword_only_and_checked(celldem, tmp_path):
+    with pytest.raises(TypeError):
+        api.run_deck(tiny_deck(), tmp_path / "x", 2)  # threads positionally
+    with pytest.raises(ValueError, match="verify_window need verify_rate"):
+        api.run_deck(tiny_deck(), tmp_path / "x", verify_window=0.004, celldem=celldem)
+    with pytest.raises(ValueError, match="exclude each other"):
+        api.run_deck(tiny_deck(), tmp_path / "x", force=True, resume=True, celldem=celldem)
+
+
+def test_the_binary_is_found_through_celldem_then_path(tmp_path, monkeypatch):
+    """$CELLDEM first, then celldem on PATH, then the checkout's build; with none, the error lists each."""
+    fake = tmp_path / "bin" / "celldem"
+    fake.parent.mkdir()
+    fake.write_text("#!/bin/sh\necho '{\"fake\": true}'\n")
+    fake.chmod(0o755)
+    monkeypatch.delenv("CELLDEM", raising=False)
+    monkeypatch.setenv("PATH", str(fake.parent))
+    assert binary.find() == str(fake)
+    other = tmp_path / "other"
+    other.write_text("#!/bin/sh\n")
+    other.chmod(0o755)
+    monkeypatch.setenv("CELLDEM", str(other))
+    assert binary.find() == str(other)
+    monkeypatch.setenv("CELLDEM", str(tmp_path / "missing"))
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))
+    monkeypatch.setattr(binary, "BUILT", str(tmp_path / "no-build" / "celldem"))
+    with pytest.raises(binary.BinaryError) as err:
+        binary.require()
+    message = str(err.value)
+    assert str(tmp_path / "missing") in message and "celldem on PATH" in message
+    assert str(tmp_path / "no-build" / "celldem") in message or not binary.CHECKOUT
+
+
+def test_constants_come_from_the_solver(celldem):
+    """`celldem schema --constants`: the limits the tools judge runs by, with what each bounds."""
+    known = binary.constants(celldem)
+    assert 0 < binary.constant("quasi_static_inertial_number", celldem) < 1
+    assert 0 < binary.constant("servo_tolerance", celldem) < 1
+    assert "not a standard deviation" in known["servo_tolerance"]["meaning"]
+    with pytest.raises(KeyError, match="servo_tolerance"):
+        binary.constant("no_such_limit", celldem)

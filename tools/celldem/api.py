@@ -13,16 +13,23 @@
 
 Everything here reads what celldem wrote or asks the binary; nothing is computed again (the peak of a test is
 summary.json's, what a deck implies is `celldem plan`'s). The binary is found as the tools find it: the
-`celldem` argument, else $CELLDEM, else build/celldem, else celldem on PATH.
+`celldem` argument, else $CELLDEM, else celldem on PATH, else the checkout's build/celldem (binary.find).
 """
+
+from __future__ import annotations
 
 import copy
 import json
 import os
 import subprocess
 import tempfile
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Union
 
 from . import binary, decks, results
+from .binary import PathLike
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["Stage", "Run", "Ensemble", "open_run", "open_ensemble", "Deck", "DeckError", "RunFailed",
            "check_deck", "run_deck"]
@@ -41,12 +48,13 @@ class Stage:
     path     the stage's folder
     """
 
-    def __init__(self, name, path, summary):
+    def __init__(self, name: str, path: str, summary: Dict[str, Any]) -> None:
         self.name, self.path, self.summary = name, path, summary
-        self._series = None
+        self._series: Optional[pd.DataFrame] = None
 
     @property
-    def series(self):
+    def series(self) -> pd.DataFrame:
+        """<stage>/series.csv as a pandas DataFrame (units and meanings in attrs), read on first use."""
         if self._series is None:
             import pandas as pd  # here, so that the tools, which do not use it, import the package without it
 
@@ -58,7 +66,7 @@ class Stage:
             self._series = frame
         return self._series
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Stage({self.name!r}, {self.path!r})"
 
 
@@ -72,14 +80,14 @@ class Run:
     tests      {name: Stage}: the tests only, in the deck's order (then any other <name>/series.csv)
     """
 
-    def __init__(self, directory):
+    def __init__(self, directory: PathLike) -> None:
         self.directory = os.path.abspath(directory)
         try:
             self.summary = results.load_summary(self.directory)
         except results.RunError as err:
             raise FileNotFoundError(str(err)) from err
-        self.deck = results.load_deck(self.directory)
-        self.tests = {}
+        self.deck: Optional[Dict[str, Any]] = results.load_deck(self.directory)
+        self.tests: Dict[str, Stage] = {}
         names = results.discover_tests(self.directory, self.summary)
         if self.deck:  # the deck's order (summary.json's keys are sorted)
             order = [t.get("name") for t in self.deck.get("tests") or [] if isinstance(t, dict)]
@@ -88,13 +96,13 @@ class Run:
             path = os.path.join(self.directory, name)
             if os.path.isfile(os.path.join(path, "series.csv")):
                 self.tests[name] = Stage(name, path, (self.summary.get("tests") or {}).get(name) or {})
-        self.stages = {}
+        self.stages: Dict[str, Stage] = {}
         prepare = os.path.join(self.directory, PREPARE)
         if os.path.isfile(os.path.join(prepare, "series.csv")):
             self.stages[PREPARE] = Stage(PREPARE, prepare, self.summary.get("prepared") or {})
         self.stages.update(self.tests)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Run({self.directory!r}, stages={list(self.stages)})"
 
 
@@ -108,28 +116,60 @@ class Ensemble:
     runs        {seed: Run} for each seed-<k>/ that holds a summary.json
     """
 
-    def __init__(self, directory):
+    def __init__(self, directory: PathLike) -> None:
         self.directory = os.path.abspath(directory)
         path = os.path.join(self.directory, "ensemble.json")
         if not os.path.isfile(path):
             raise FileNotFoundError(f"ensemble.json not found in {self.directory} (not a --seeds run folder)")
         with open(path, encoding="utf-8") as f:
-            self.statistics = json.load(f)
-        self.seeds = list(self.statistics.get("seeds") or [])
+            self.statistics: Dict[str, Any] = json.load(f)
+        self.seeds: List[int] = list(self.statistics.get("seeds") or [])
         self.runs = {k: Run(os.path.join(self.directory, f"seed-{k}")) for k in self.seeds
                      if os.path.isfile(os.path.join(self.directory, f"seed-{k}", "summary.json"))}
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Ensemble({self.directory!r}, seeds={self.seeds})"
 
 
-def open_run(path):
-    """The run folder at `path` as a Run; FileNotFoundError when it or its summary.json is missing."""
+def open_run(path: PathLike) -> Run:
+    """Open a run folder.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The folder of `celldem run DECK --out DIR`.
+
+    Returns
+    -------
+    Run
+        Its summary, deck and stages (series as pandas DataFrames).
+
+    Raises
+    ------
+    FileNotFoundError
+        The folder or its summary.json is missing.
+    """
     return Run(path)
 
 
-def open_ensemble(path):
-    """The seed ensemble folder at `path` as an Ensemble (ensemble.json and each seed's Run)."""
+def open_ensemble(path: PathLike) -> Ensemble:
+    """Open a seed ensemble folder.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The folder of `celldem run DECK --seeds K-L --out DIR`.
+
+    Returns
+    -------
+    Ensemble
+        ensemble.json's statistics and each seed's Run.
+
+    Raises
+    ------
+    FileNotFoundError
+        The folder has no ensemble.json.
+    """
     return Ensemble(path)
 
 
@@ -140,7 +180,7 @@ class DeckError(ValueError):
 class RunFailed(RuntimeError):
     """`celldem run` failed while running (exit 1: a control that failed, a write that failed, ...)."""
 
-    def __init__(self, message, returncode):
+    def __init__(self, message: str, returncode: int) -> None:
         super().__init__(message)
         self.returncode = returncode
 
@@ -150,46 +190,50 @@ class Deck:
     paths (initial_state, say) resolve from, `directory`: the deck file's folder, or for a deck built from a dict
     the working folder when it was built, unless given."""
 
-    def __init__(self, data, directory=None):
+    def __init__(self, data: Dict[str, Any], directory: Optional[PathLike] = None) -> None:
         if not isinstance(data, dict):
             raise TypeError(f"a deck is a JSON object (a dict), not {type(data).__name__}")
         self.data = data
         self.directory = os.path.abspath(directory or os.getcwd())
 
     @classmethod
-    def from_dict(cls, data, directory=None):
+    def from_dict(cls, data: Mapping[str, Any], directory: Optional[PathLike] = None) -> Deck:
         """A deck from a dict (deep-copied: later changes to `data` do not reach the deck)."""
-        return cls(copy.deepcopy(data), directory)
+        return cls(copy.deepcopy(dict(data)), directory)
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: PathLike) -> Deck:
         """The deck in the JSON file at `path`."""
         with open(path, encoding="utf-8") as f:
             return cls(json.load(f), os.path.dirname(os.path.abspath(path)))
 
-    def save(self, path):
+    def save(self, path: PathLike) -> PathLike:
         """Writes the deck as JSON (the tools' layout) to `path`; returns the path. Relative paths in it keep
         resolving from `directory`, so save into that folder unless the deck has none."""
         decks.write(str(path), self.data)
         return path
 
-    def to_dict(self):
+    def to_dict(self) -> Dict[str, Any]:
+        """A deep copy of the deck's data."""
         return copy.deepcopy(self.data)
 
-    def __getitem__(self, key):
+    def __getitem__(self, key: str) -> Any:
         return self.data[key]
 
-    def __setitem__(self, key, value):
+    def __setitem__(self, key: str, value: Any) -> None:
         self.data[key] = value
 
-    def __contains__(self, key):
+    def __contains__(self, key: object) -> bool:
         return key in self.data
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"Deck({json.dumps(self.data)[:80]}...)"
 
 
-def _as_deck(deck):
+DeckLike = Union[Deck, Mapping[str, Any]]
+
+
+def _as_deck(deck: DeckLike) -> Deck:
     return deck if isinstance(deck, Deck) else Deck.from_dict(deck)
 
 
@@ -197,39 +241,116 @@ class _DeckFile:
     """The deck written to a temporary file in its own folder (so that its relative paths resolve as they
     would from a deck file there), removed on exit."""
 
-    def __init__(self, deck):
+    def __init__(self, deck: DeckLike) -> None:
         self.deck = _as_deck(deck)
+        self.path = ""
 
-    def __enter__(self):
+    def __enter__(self) -> str:
         fd, self.path = tempfile.mkstemp(prefix=".celldem-deck-", suffix=".json", dir=self.deck.directory)
         os.close(fd)
         self.deck.save(self.path)
         return self.path
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         os.remove(self.path)
 
 
-def check_deck(deck, celldem=None):
-    """`celldem check` on a Deck or a dict: returns what celldem prints for a valid deck (its particles, tests,
-    critical time step and cost estimate); raises DeckError with celldem's message when it refuses the deck. The
-    temporary file's name reads "<deck>" in both."""
+def check_deck(deck: DeckLike, *, celldem: Optional[PathLike] = None) -> str:
+    """`celldem check` on a deck.
+
+    Parameters
+    ----------
+    deck : Deck or dict
+        The deck; its relative paths resolve from its `directory`.
+    celldem : str or os.PathLike, optional
+        The binary; default as binary.find: $CELLDEM, PATH, the checkout's build.
+
+    Returns
+    -------
+    str
+        What celldem prints for a valid deck (particles, tests, critical time step, cost estimate); the
+        temporary file's name reads "<deck>".
+
+    Raises
+    ------
+    DeckError
+        celldem refused the deck; the message is celldem's, naming the key.
+    binary.BinaryError
+        No binary was found (the message lists the places tried).
+    """
     with _DeckFile(deck) as path:
         try:
             return binary.check(path, celldem).replace(path, "<deck>")
         except binary.BinaryError as err:
+            if not os.access(binary.find(celldem), os.X_OK):
+                raise
             raise DeckError(str(err).replace(path, "<deck>")) from err
 
 
-def run_deck(deck, out, threads=None, seeds=None, force=False, resume=False, quiet=True, celldem=None):
-    """`celldem run` of a Deck or a dict into the folder `out`; returns open_run(out), or open_ensemble(out) with
-    seeds ("1-8", "3": `--seeds`). threads None: celldem's default (all cores). force: replace an earlier run's
-    outputs there; resume: continue an interrupted run. quiet False lets celldem's progress lines through to
-    stderr. Raises DeckError when celldem refuses the deck (exit 2), RunFailed when the run fails (exit 1)."""
+def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, seeds: Optional[str] = None,
+             force: bool = False, resume: bool = False, quiet: bool = True, fixed_threads: bool = False,
+             tolerance: Optional[float] = None, include_uncontrolled: bool = False, verify_rate: bool = False,
+             verify_at: Optional[Sequence[str]] = None, verify_window: Optional[float] = None,
+             verify_rate_factor: Optional[float] = None, floors: Optional[PathLike] = None,
+             probes: Optional[str] = None, progress_interval: Optional[float] = None,
+             celldem: Optional[PathLike] = None) -> Union[Run, Ensemble]:
+    """`celldem run` of a deck into a folder; every option of `celldem run --help` is a keyword.
+
+    Parameters
+    ----------
+    deck : Deck or dict
+        The deck; its relative paths resolve from its `directory`.
+    out : str or os.PathLike
+        The run folder (`--out`).
+    threads : int, optional
+        `--threads`; None: celldem's default (all cores).
+    seeds : str, optional
+        `--seeds` ("1-8"; "3": one share of a job array): an ensemble.
+    force, resume : bool
+        `--force` (replace an earlier run's outputs), `--resume` (continue an interrupted run); not both.
+    quiet : bool
+        `--quiet`; False lets celldem's progress lines through to stderr.
+    fixed_threads : bool
+        `--fixed-threads`: no trials of one thread.
+    tolerance : float, optional
+        `--tolerance T`: answer within T noise floors in fewer steps.
+    include_uncontrolled : bool
+        `--include-uncontrolled` (with seeds): keep uncontrolled tests in the ensemble statistics.
+    verify_rate : bool
+        `--verify-rate`: each test checks its own convergence.
+    verify_at, verify_window, verify_rate_factor, floors : optional
+        `--verify-at`, `--verify-window`, `--verify-rate-factor`, `--floors` (with verify_rate).
+    probes : str, optional
+        `--probes K-L`: only these probes (a job array's share).
+    progress_interval : float, optional
+        `--progress-interval` [s].
+    celldem : str or os.PathLike, optional
+        The binary; default as binary.find: $CELLDEM, PATH, the checkout's build.
+
+    Returns
+    -------
+    Run or Ensemble
+        open_run(out), or open_ensemble(out) with seeds.
+
+    Raises
+    ------
+    DeckError
+        celldem refused the deck or the options (exit 2).
+    RunFailed
+        The run failed (exit 1: a control that failed, a write that failed, ...).
+    ValueError
+        Options that exclude each other (force and resume; verify options without verify_rate).
+    binary.BinaryError
+        No binary was found (the message lists the places tried).
+    """
+    exe = binary.require(celldem)
     with _DeckFile(deck) as path:
-        cmd = binary.run_command(path, os.path.abspath(out), threads, seeds, force, resume, quiet, celldem)
-        if not os.access(cmd[0], os.X_OK):
-            raise FileNotFoundError(f"no celldem binary at {cmd[0]} (build it with tools/build.sh)")
+        cmd = binary.run_command(path, os.path.abspath(out), threads, seeds, force, resume, quiet, exe,
+                                 fixed_threads=fixed_threads, tolerance=tolerance,
+                                 include_uncontrolled=include_uncontrolled, verify_rate=verify_rate,
+                                 verify_at=verify_at, verify_window=verify_window,
+                                 verify_rate_factor=verify_rate_factor, floors=floors, probes=probes,
+                                 progress_interval=progress_interval)
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE if quiet else None, text=True)
     message = (r.stderr or "").strip().replace(path, "<deck>")
     if r.returncode == 2:

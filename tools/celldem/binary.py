@@ -5,13 +5,22 @@ series implies: `celldem summarize SERIES` (summary.json's peak and end quantiti
 ask it instead of deriving these again. `celldem check` and the command line of `celldem run` are here too.
 """
 
+from __future__ import annotations
+
 import json
 import os
 import shutil
 import subprocess
 import tempfile
+from typing import Any, Dict, List, Optional, Sequence, Union
 
+PathLike = Union[str, "os.PathLike[str]"]
+
+# The checkout around the package when it is one (an editable install, or tools/ on PYTHONPATH): its build/celldem
+# is the last place the binary is looked for, and the study's inputs/ and results/ are there. An installed copy
+# of the package has no checkout: REPO is then where a checkout would be, and CHECKOUT False.
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+CHECKOUT = os.path.isdir(os.path.join(REPO, "solver")) and os.path.isfile(os.path.join(REPO, "CMakeLists.txt"))
 BUILT = os.path.join(REPO, "build", "celldem")
 
 
@@ -19,22 +28,43 @@ class BinaryError(RuntimeError):
     """The binary is missing or refused the deck; the message says which and why."""
 
 
-def find(path=None):
-    """The binary to use: `path` if given, else $CELLDEM, else build/celldem, else celldem on PATH."""
+def candidates(path: Optional[PathLike] = None) -> List[str]:
+    """Where the binary is looked for, in order: `path` if given, else $CELLDEM, then celldem on PATH, then the
+    checkout's build/celldem (when the package lies in a checkout)."""
     if path:
-        return os.path.abspath(path)
+        return [os.path.abspath(path)]
+    found = []
     if os.environ.get("CELLDEM"):
-        return os.path.abspath(os.environ["CELLDEM"])
-    if os.access(BUILT, os.X_OK):
-        return BUILT
-    return shutil.which("celldem") or BUILT
+        found.append(os.path.abspath(os.environ["CELLDEM"]))
+    on_path = shutil.which("celldem")
+    found.append(os.path.abspath(on_path) if on_path else "celldem on PATH")
+    if CHECKOUT:
+        found.append(BUILT)
+    return found
 
 
-def run_json(args, binary=None):
-    """Runs `celldem ARGS` and parses its JSON output."""
-    exe = find(binary)
+def find(path: Optional[PathLike] = None) -> str:
+    """The binary to use: the first executable of candidates(path); when none is, the first candidate (that
+    require() then refuses, naming every place tried)."""
+    places = [p for p in candidates(path) if os.path.isabs(p)] or [BUILT]
+    return next((p for p in places if os.access(p, os.X_OK)), places[0])
+
+
+def require(path: Optional[PathLike] = None) -> str:
+    """find(path), or BinaryError naming every place tried when none holds an executable binary."""
+    exe = find(path)
     if not os.access(exe, os.X_OK):
-        raise BinaryError(f"no celldem binary at {exe} (build it with tools/build.sh, or give --celldem)")
+        tried = candidates(path)
+        if not path and not os.environ.get("CELLDEM"):
+            tried.insert(0, "$CELLDEM (not set)")
+        raise BinaryError("no celldem binary found; tried: " + ", ".join(tried) +
+                          " (build it with tools/build.sh, set $CELLDEM, or give its path)")
+    return exe
+
+
+def run_json(args: Sequence[str], binary: Optional[PathLike] = None) -> Any:
+    """Runs `celldem ARGS` and parses its JSON output."""
+    exe = require(binary)
     r = subprocess.run([exe] + list(args), capture_output=True, text=True)
     if r.returncode != 0:
         raise BinaryError(f"celldem {' '.join(args)} failed (exit {r.returncode}): {r.stderr.strip()}")
@@ -44,56 +74,89 @@ def run_json(args, binary=None):
         raise BinaryError(f"celldem {' '.join(args)}: output is not JSON ({err})") from err
 
 
-_SCHEMAS = {}
+_SCHEMAS: Dict[str, Any] = {}
+_CONSTANTS: Dict[str, Dict[str, Any]] = {}
 
 
-def schema(binary=None):
+def constants(binary: Optional[PathLike] = None) -> Dict[str, Any]:
+    """`celldem schema --constants`: the limits the solver judges runs by, as {name: {"value", "meaning"}}
+    (quasi_static_inertial_number, servo_tolerance: the largest relative error of a stress-controlled axis,
+    b_tolerance, mean_stress_tolerance), read once per binary. The tools take them from here, never a copy."""
+    exe = require(binary)
+    if exe not in _CONSTANTS:
+        _CONSTANTS[exe] = run_json(["schema", "--constants"], exe)
+    return _CONSTANTS[exe]
+
+
+def constant(name: str, binary: Optional[PathLike] = None) -> float:
+    """The value of one of constants() (KeyError naming the known ones for another name)."""
+    known = constants(binary)
+    if name not in known:
+        raise KeyError(f"celldem schema --constants has no {name!r} (it has {sorted(known)})")
+    return float(known[name]["value"])
+
+
+def schema(binary: Optional[PathLike] = None) -> List[Dict[str, Any]]:
     """`celldem schema --json` as a list of key entries (key, type, unit, default, choices, min, max, ...; for the
     keys of contact sub-models "sub_models": [{"sub_model": "normal", "choices": ["hertz"]}, ...], the choices
     that use the key, which celldem refuses otherwise, and "required_when_used"), read once per binary."""
-    exe = find(binary)
+    exe = require(binary)
     if exe not in _SCHEMAS:
         _SCHEMAS[exe] = run_json(["schema", "--json"], exe)
     return _SCHEMAS[exe]
 
 
-def check(deck_path, binary=None):
+def check(deck_path: PathLike, binary: Optional[PathLike] = None) -> str:
     """`celldem check DECK`: returns what it prints for a valid deck (particles, tests, the critical time step,
     the estimated cost); raises BinaryError with celldem's own message (naming the key) when it refuses it."""
-    exe = find(binary)
-    if not os.access(exe, os.X_OK):
-        raise BinaryError(f"no celldem binary at {exe} (build it with tools/build.sh, or give --celldem)")
+    exe = require(binary)
     r = subprocess.run([exe, "check", str(deck_path)], capture_output=True, text=True)
     if r.returncode != 0:
         raise BinaryError(r.stderr.strip() or f"celldem check {deck_path} failed (exit {r.returncode})")
     return r.stdout
 
 
-def run_command(deck_path, out, threads=None, seeds=None, force=False, resume=False, quiet=True, binary=None):
-    """The command line of `celldem run DECK --out OUT` with the given options, the binary first (find(binary))."""
+def run_command(deck_path: PathLike, out: PathLike, threads: Optional[int] = None, seeds: Optional[str] = None,
+                force: bool = False, resume: bool = False, quiet: bool = True, binary: Optional[PathLike] = None,
+                *, fixed_threads: bool = False, tolerance: Optional[float] = None,
+                include_uncontrolled: bool = False, verify_rate: bool = False,
+                verify_at: Optional[Sequence[str]] = None, verify_window: Optional[float] = None,
+                verify_rate_factor: Optional[float] = None, floors: Optional[PathLike] = None,
+                probes: Optional[str] = None, progress_interval: Optional[float] = None) -> List[str]:
+    """The command line of `celldem run DECK --out OUT` with the given options, the binary first (find(binary)).
+    Each keyword is the option of the same name (`celldem run --help`); None or False leaves it out."""
     if force and resume:
         raise ValueError("force and resume exclude each other")
+    verify_options = {"verify_at": verify_at, "verify_window": verify_window,
+                      "verify_rate_factor": verify_rate_factor, "floors": floors}
+    if not verify_rate and any(v is not None for v in verify_options.values()):
+        raise ValueError(f"{', '.join(k for k, v in verify_options.items() if v is not None)} need verify_rate=True")
+    if include_uncontrolled and seeds is None:
+        raise ValueError("include_uncontrolled needs seeds")
     cmd = [find(binary), "run", str(deck_path), "--out", str(out)]
-    if threads is not None:
-        cmd += ["--threads", str(threads)]
-    if seeds is not None:
-        cmd += ["--seeds", str(seeds)]
-    if quiet:
-        cmd.append("--quiet")
-    if resume:
-        cmd.append("--resume")
-    if force:
-        cmd.append("--force")
+    valued = [("--threads", threads), ("--seeds", seeds), ("--tolerance", tolerance),
+              ("--verify-window", verify_window), ("--verify-rate-factor", verify_rate_factor),
+              ("--floors", floors), ("--probes", probes), ("--progress-interval", progress_interval)]
+    for flag, value in valued:
+        if value is not None:
+            cmd += [flag, str(value)]
+    if verify_at is not None:
+        cmd += ["--verify-at", *verify_at]
+    for flag, on in (("--fixed-threads", fixed_threads), ("--include-uncontrolled", include_uncontrolled),
+                     ("--verify-rate", verify_rate), ("--quiet", quiet), ("--resume", resume), ("--force", force)):
+        if on:
+            cmd.append(flag)
     return cmd
 
 
-def plan(deck_path, binary=None):
+def plan(deck_path: PathLike, binary: Optional[PathLike] = None) -> Dict[str, Any]:
     """`celldem plan DECK --json` as a dict (see README: tests[] with steps, strain_per_step, rows, end_axis,
     inertial_number; particle_types[] with mass; critical_time_step; time_step_ratio; sample.count)."""
     return run_json(["plan", str(deck_path), "--json"], binary)
 
 
-def plan_deck(deck, directory, binary=None):
+def plan_deck(deck: Dict[str, Any], directory: Optional[PathLike],
+              binary: Optional[PathLike] = None) -> Dict[str, Any]:
     """The plan of a deck given as a dict, as if it were a file in `directory` (relative paths in it, such as
     initial_state, resolve from there; the state file need not exist yet). directory None: the system's
     temporary folder, where only the resolved paths differ."""
@@ -108,7 +171,8 @@ def plan_deck(deck, directory, binary=None):
         os.remove(path)
 
 
-def summarize(series_path, end_axis="x1", binary=None):
+def summarize(series_path: PathLike, end_axis: str = "x1",
+              binary: Optional[PathLike] = None) -> Dict[str, Any]:
     """`celldem summarize SERIES --end-axis AXIS` as a dict: what summary.json says of a test that its series
     alone determines (peak_ratio13, e1_at_peak, e1_peak_range, peak_reached, peak_robust, b_at_peak, final_e1,
     ev_final, Z_final, b_final, end_window, ...), for any series CSV, another code's included (its ratio13 from
@@ -116,7 +180,7 @@ def summarize(series_path, end_axis="x1", binary=None):
     return run_json(["summarize", str(series_path), "--end-axis", end_axis], binary)
 
 
-def test_plan(deck_plan, name):
+def test_plan(deck_plan: Dict[str, Any], name: str) -> Dict[str, Any]:
     """The entry of test `name` in a plan (KeyError when the deck has no such test)."""
     for test in deck_plan["tests"]:
         if test["name"] == name:
@@ -124,7 +188,7 @@ def test_plan(deck_plan, name):
     raise KeyError(f"no test {name!r} in the plan of {deck_plan.get('deck')}")
 
 
-def solid_volume(deck_plan):
+def solid_volume(deck_plan: Dict[str, Any]) -> float:
     """[m^3] the spheres' volume: count × the plan's mean sphere volume (a grading's included), or for plans of
     earlier versions the mean over the equally likely sizes of mass / density."""
     sample = deck_plan["sample"]

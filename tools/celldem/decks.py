@@ -7,9 +7,13 @@ import copy
 import json
 import os
 
-from .binary import REPO
+from .binary import CHECKOUT, REPO
 
-PAPER_DECK = os.path.join(REPO, "inputs", "paper.json")
+# The paper's deck: the checkout's inputs/paper.json, or in an installed package its copy, data/paper.json (a
+# link to inputs/paper.json in the checkout, which pip copies when it installs the package). The reports need it
+# to tell the paper's scene from others.
+PAPER_DECK = os.path.join(REPO, "inputs", "paper.json") if CHECKOUT else \
+    os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "paper.json")
 LINE_WIDTH = 110
 
 

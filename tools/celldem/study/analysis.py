@@ -15,8 +15,8 @@ from .. import binary
 from ..metrics import all_finite, curve_difference
 from ..results import RunError, load_series, number, read_json
 from .scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, P_REF, PAPER_DAMPING,
-                          PAPER_DT, PRESET_RULES, QUANTITIES, SCENE_COUNT, SERVO_TOLERANCE, STRESS_QUANTITIES,
-                          SUMMARY_KEYS)
+                          PAPER_DT, PRESET_RULES, QUANTITIES, SCENE_COUNT, SERVO_STD_LIMIT, STRESS_QUANTITIES,
+                          SUMMARY_KEYS, servo_tolerance)
 
 # ---- analysis: pure functions of run metrics (tested by tests/tools/test_study_analysis.py) ---------------------------
 
@@ -310,31 +310,9 @@ def setting_rows(results, roles, refs, ref_mean, floor):
     return rows
 
 
-def analyse(root):
-    """The study of the run folders under `root`: noise floor, settings' errors and costs, Pareto front, presets,
-    modelling choices, stability; a dict that study_report draws and writes (and study.json keeps)."""
-    results = load_results(root)
-    ok = {n: e for n, e in results.items() if e["outcome"].get("rc") == 0}
-
-    refs = {e["spec"]["seed"]: e for n, e in ok.items() if e["spec"].get("role") == "reference"}
-    ref_metrics = [refs[s]["metrics"] for s in sorted(refs)]
-    mean, floor = noise_floor(ref_metrics)
-    ref_mean = {}
-    for (test, name), v in mean.items():
-        ref_mean.setdefault(test, {})[name] = v
-
-    rows = setting_rows(results, ("accuracy", "reference"), refs, ref_mean, floor)
-    cap_rows = setting_rows({n: e for n, e in results.items() if e["spec"].get("group") == "servo_cap"},
-                            ("stability",), refs, ref_mean, floor)
-    group_order = ["reference", "null", "strain_increment", "time_step", "density", "combined", "damping",
-                   "output_interval", "count", "prepare_dt"]
-    rows.sort(key=lambda r: (group_order.index(r["group"]) if r["group"] in group_order else 99,
-                             r["cost"] if r["cost"] is not None else 0))
-    points = [(r["cost"], max(r["score"], 1e-3) if r["score"] is not None else None) for r in rows]
-    front = pareto_front(points)
-    for i, r in enumerate(rows):
-        r["pareto"] = i in front
-
+def choose_presets(rows):
+    """The presets (PRESET_RULES): for each, the cheapest setting of the table that meets its rule, with its
+    speed-up over the reference."""
     # Presets: only settings a full deck can carry unchanged otherwise (same count, density, damping, sample prep
     # at the paper's dt unless checked).
     ref_row = next((r for r in rows if r["key"] == "reference"), None)
@@ -366,7 +344,11 @@ def analyse(root):
                              "test_steps_speedup": speedup,
                              "measured_speedup": (ref_row["cost"] / best["cost"]) if best["cost"] else None}
 
-    # Modelling choices.
+    return presets
+
+
+def modelling_choices(ok, refs, floor):
+    """The modelling choices' signed mean errors over the reference seeds, each quantity in floors too."""
     modelling = []
     for key in ("project", "radius", "rotdamp0", "lammps"):
         per_seed, label = [], None
@@ -385,6 +367,36 @@ def analyse(root):
                     entry[f"{q[0]}.{q[1]}"] = [m, abs(m) / floor[q] if floor.get(q) else None]
             modelling.append(entry)
 
+    return modelling
+
+
+def analyse(root):
+    """The study of the run folders under `root`: noise floor, settings' errors and costs, Pareto front, presets,
+    modelling choices, stability; a dict that study_report draws and writes (and study.json keeps)."""
+    results = load_results(root)
+    ok = {n: e for n, e in results.items() if e["outcome"].get("rc") == 0}
+
+    refs = {e["spec"]["seed"]: e for n, e in ok.items() if e["spec"].get("role") == "reference"}
+    ref_metrics = [refs[s]["metrics"] for s in sorted(refs)]
+    mean, floor = noise_floor(ref_metrics)
+    ref_mean = {}
+    for (test, name), v in mean.items():
+        ref_mean.setdefault(test, {})[name] = v
+
+    rows = setting_rows(results, ("accuracy", "reference"), refs, ref_mean, floor)
+    cap_rows = setting_rows({n: e for n, e in results.items() if e["spec"].get("group") == "servo_cap"},
+                            ("stability",), refs, ref_mean, floor)
+    group_order = ["reference", "null", "strain_increment", "time_step", "density", "combined", "damping",
+                   "output_interval", "count", "prepare_dt"]
+    rows.sort(key=lambda r: (group_order.index(r["group"]) if r["group"] in group_order else 99,
+                             r["cost"] if r["cost"] is not None else 0))
+    points = [(r["cost"], max(r["score"], 1e-3) if r["score"] is not None else None) for r in rows]
+    front = pareto_front(points)
+    for i, r in enumerate(rows):
+        r["pareto"] = i in front
+
+    presets = choose_presets(rows)
+    modelling = modelling_choices(ok, refs, floor)
     stability = analyse_stability(results, floor)
     limits = thresholds(rows, cap_rows, stability)
     samples = {n: {"spec": e["spec"], "prepared": e["summary"].get("prepared"), "outcome_rc": e["outcome"].get("rc"),
@@ -489,8 +501,9 @@ def thresholds(rows, cap_rows, stability):
     # Servo: the cap on the strain per step, and the gains.
     capped = [(r["strain_increment"] / r["servo_max_strain_increment"], r["servo_max_error"]) for r in cap_rows
               if r.get("servo_max_error") is not None and r["servo_max_strain_increment"]]
-    out["cap_ratio_ok_max"] = max((x for x, e in capped if e <= SERVO_TOLERANCE), default=None)
-    out["cap_ratio_bad_min"] = min((x for x, e in capped if e > SERVO_TOLERANCE), default=None)
+    tolerance = servo_tolerance()  # the solver's bound on servo_max_error
+    out["cap_ratio_ok_max"] = max((x for x, e in capped if e <= tolerance), default=None)
+    out["cap_ratio_bad_min"] = min((x for x, e in capped if e > tolerance), default=None)
     out["servo_max_error_reference"] = max((r["servo_max_error"] for r in rows if r["group"] == "reference"
                                             and r.get("servo_max_error") is not None), default=None)
     servo = [r for r in stability["servo"] if r.get("std") is not None]
@@ -568,6 +581,6 @@ def analyse_stability(results, floor):
         if e["outcome"].get("rc") == 0 and series is not None:
             row["std"], row["bias"], row["max"] = servo_error_stats(series, stress_targets(e, "ttc"))
             row["peak_ratio"] = e["metrics"]["ttc"]["peak_ratio"]
-            row["holds"] = row["std"] is not None and row["std"] <= SERVO_TOLERANCE and row["bias"] <= SERVO_TOLERANCE
+            row["holds"] = row["std"] is not None and row["std"] <= SERVO_STD_LIMIT and row["bias"] <= SERVO_STD_LIMIT
         out["servo"].append(row)
     return out

@@ -11,8 +11,8 @@ from ..reports import plotting
 from . import sufficiency
 from .analysis import pareto_front
 from .scene import (END_STRAIN, KE_UNSTABLE, DRIFT_FLOORS, MODELLING_QUANTITIES, PAPER_DT, QUANTITIES,
-                          QUANTITY_LABELS, QUASI_STATIC_I, SCENE_COUNT, SERVO_INC, SERVO_OUTPUT_INTERVAL,
-                          SERVO_STRAIN, SERVO_TOLERANCE, STABILITY_STRAIN)
+                          QUANTITY_LABELS, SCENE_COUNT, SERVO_INC, SERVO_OUTPUT_INTERVAL,
+                          SERVO_STRAIN, SERVO_STD_LIMIT, STABILITY_STRAIN, quasi_static_inertial_number)
 from ..reports.tables import fmt, fmt_spec, md_table, scaled
 
 GROUP_STYLE = {
@@ -110,8 +110,9 @@ def draw_charts(study, fig_dir):
         color, marker, _ = GROUP_STYLE.get(r["group"], ("0.5", "o", ""))
         ax.scatter(r["inertial_number"], min(max(r["score"], floor_y), 1e3), color=color, marker=marker)
     ax.axhline(1.0, color="r", linewidth=1)
-    ax.axvline(QUASI_STATIC_I, color="0.4", linestyle="--", linewidth=1)
-    ax.text(QUASI_STATIC_I, ax.get_ylim()[1] if ax.get_ylim()[1] < 1e3 else 1e2, " I = 1e-3", fontsize=8, va="top")
+    limit = quasi_static_inertial_number()
+    ax.axvline(limit, color="0.4", linestyle="--", linewidth=1)
+    ax.text(limit, ax.get_ylim()[1] if ax.get_ylim()[1] < 1e3 else 1e2, f" I = {limit:g}", fontsize=8, va="top")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("inertial number I = ε̇ d sqrt(ρ/p) (–)")
@@ -139,7 +140,7 @@ def draw_charts(study, fig_dir):
         fig.colorbar(im, ax=ax, label="log10(std of σ22, σ33 error, %)")
     ax.set_xlabel("servo gain (–)")
     ax.set_ylabel("servo integral_gain (–)")
-    ax.set_title(f"servo: std of (σ/100 kPa − 1) of x2, x3; ✗: std or bias above {SERVO_TOLERANCE:.1%}")
+    ax.set_title(f"servo: std of (σ/100 kPa − 1) of x2, x3; ✗: std or bias above {SERVO_STD_LIMIT:.1%}")
 
     ax = axes[1, 1]
     for alpha in sorted({r["damping"] for r in st["dt"]}):
