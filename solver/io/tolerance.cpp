@@ -293,7 +293,10 @@ ToleranceLevel interpolate_rules(const ToleranceRules& rules, double tolerance, 
 
 Deck resolve_tolerance(const Deck& written, const std::string& json_text, double tolerance, const std::string& key_path) {
   Resolver r{written, interpolate_rules(time_to_answer_rules(), tolerance, key_path)};
-  r.limit = critical_time_step(written.sample, written.contact);
+  // The rules' time step unit: the stability limit, or where the normal mode limits (kt well below kn) the bound
+  // check refuses above (core/plan.hpp kNormalModeFraction of the normal mode's own limit: packings boil there).
+  const CriticalTimeStep modes = critical_time_steps(written.sample, written.contact);
+  r.limit = std::min(modes.value(), kNormalModeFraction * modes.modes[0].time_step);
   r.largest_stress = largest_deck_stress(written);
   Json j = deck_json::parse_json(json_text);
   j.erase("tolerance");
