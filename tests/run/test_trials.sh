@@ -73,6 +73,8 @@ trial_kill_resume() {  # 1 to 3 SIGKILLs or SIGTERMs at random moments, each fol
 trial_series_extra() {  # rows after the checkpoint's (a killed run's, or appended): cut, and the run ends as the reference
   local d="$work/se"
   stop_when "$d" KILL "$d/ttc/checkpoint.state" "$work/deck.json" || { why="skipped: finished first"; return 2; }
+  # (only behind a checkpoint: a stage that finished before the kill keeps no proof of its series yet)
+  [[ -f $d/ttc/checkpoint.state ]] || { why="skipped: ttc finished first"; return 2; }
   [[ -f $d/ttc/series.csv ]] && tail -1 "$d/ttc/series.csv" | sed 's/^[0-9]*/99999999/' >> "$d/ttc/series.csv"
   resume_to_end "$work/deck.json" --out "$d" || { why="resume exited $?: $(tail -1 "$work/err")"; return 1; }
   same_as_ref "$d"
