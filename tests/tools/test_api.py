@@ -124,12 +124,19 @@ def test_deck_round_trip_and_relative_paths(run_folder, celldem, tmp_path):
 
 
 def test_run_deck_fails_with_celldems_exit(celldem, tmp_path):
-    """A run that fails while running (a write that fails: the run folder is a file) raises RunFailed."""
+    """A run that fails while running (a stress no packing carries: its control fails) raises RunFailed with exit
+    1; a run folder that is a file is refused before the run, exit 2 (DeckError)."""
+    deck = tiny_deck()
+    for test in deck["tests"]:
+        test["axes"]["x2"] = {"stress": 1.0e12}
+        test["end"]["strain"] = 0.006
+    with pytest.raises(api.RunFailed, match="x2") as caught:
+        api.run_deck(deck, tmp_path / "fails", threads=1, celldem=celldem)
+    assert caught.value.returncode == 1
     blocked = tmp_path / "blocked"
     blocked.write_text("not a folder\n")
-    with pytest.raises(api.RunFailed, match="Not a directory") as caught:
+    with pytest.raises(api.DeckError, match="not a folder") as refused:
         api.run_deck(tiny_deck(), blocked, threads=1, celldem=celldem)
-    assert caught.value.returncode == 1
 
 
 def test_open_ensemble(tmp_path, celldem):
