@@ -100,13 +100,13 @@ Reading reading(const Leg& leg, int k, const State& state, const Vec6& targets) 
 }
 }  // namespace
 
-double control_error(const Leg& leg, int k, const State& state, const Vec6& targets) {
-  const AxisMode mode = leg.axes[static_cast<std::size_t>(k)].mode;
-  const Reading r = reading(leg, k, state, targets);
+namespace {
+// A component's error in its kind's measure from its reading (control_error's rules); p the mean stress.
+double error_of(AxisMode mode, int k, const Reading& r, double p) {
   switch (mode) {
     case AxisMode::Stress:
     case AxisMode::StressRamp:
-      if (is_shear_component(k)) return std::abs(r.reached - r.target) / std::max(std::abs(r.target), state.mean_stress());
+      if (is_shear_component(k)) return std::abs(r.reached - r.target) / std::max(std::abs(r.target), p);
       return std::abs(r.reached / r.target - 1.0);
     case AxisMode::MeanStress:
     case AxisMode::ConstantVolume: return std::abs(r.reached / r.target - 1.0);
@@ -115,21 +115,21 @@ double control_error(const Leg& leg, int k, const State& state, const Vec6& targ
   }
 }
 
-namespace {
-// Judges component k on its sustained error (the bias-corrected average); true when its control fails now.
-bool judge(int k, const Leg* leg, const State& state, const Vec6& targets, ControlErrors& errors) {
-  const double tolerance = control_tolerance(errors.mode[k], k);
+// Judges component k on its sustained error (the bias-corrected average); true when its control fails now, its
+// target and reading at the failure those of its last checked step.
+bool judge(int k, ControlErrors& errors) {
   const double sustained = errors.average[k] / (1.0 - errors.decay);
   errors.sustained[k] = worst_of(errors.sustained[k], sustained);
-  if (!(sustained > tolerance) || errors.failed[k]) return false;
+  if (!(sustained > control_tolerance(errors.mode[k], k)) || errors.failed[k]) return false;
   errors.failed[k] = true;
-  if (leg) {
-    const Reading r = reading(*leg, k, state, targets);
-    errors.target_at_failure[k] = r.target, errors.reached_at_failure[k] = r.reached;
-  }
+  errors.target_at_failure[k] = errors.last_target[k], errors.reached_at_failure[k] = errors.last_reached[k];
   return true;
 }
 }  // namespace
+
+double control_error(const Leg& leg, int k, const State& state, const Vec6& targets) {
+  return error_of(leg.axes[static_cast<std::size_t>(k)].mode, k, reading(leg, k, state, targets), state.mean_stress());
+}
 
 int track_controls(const Leg& leg, const LegChecks& checks, double dt, const State& state, ControlErrors& errors) {
   const ControlState& c = state.control;
@@ -147,36 +147,31 @@ int track_controls(const Leg& leg, const LegChecks& checks, double dt, const Sta
   errors.decay *= 1.0 - alpha;
   errors.weight += weight;
   const bool judged = errors.weight >= static_cast<double>(checks.span);
+  const double p = state.mean_stress();
   int failed = -1;
   for (int k = 0; k < kComponents; ++k) {
     if (!controlled(errors.mode[k])) continue;
-    const double e = control_error(leg, k, state, targets);
+    const Reading r = reading(leg, k, state, targets);
+    const double e = error_of(errors.mode[k], k, r, p);
     if (!std::isfinite(e)) continue;  // a b that is not defined at this step (s_major = s_minor)
     errors.error[k] = worst_of(errors.error[k], e);
     errors.average[k] += alpha * (e - errors.average[k]);
-    const Reading r = reading(leg, k, state, targets);
     errors.last_target[k] = r.target, errors.last_reached[k] = r.reached;
     if (e > control_tolerance(errors.mode[k], k)) {
       ++errors.over_steps[k];
       errors.over_saturated[k] += state.servo_saturated[k];
     }
-    if (judged && judge(k, &leg, state, targets, errors) && failed < 0) failed = k;
+    if (judged && judge(k, errors) && failed < 0) failed = k;
   }
   ++errors.steps;
   return failed;
 }
 
-int judge_leg_end(const State& state, ControlErrors& errors) {
+int judge_leg_end(const State& /*state*/, ControlErrors& errors) {
   if (!(errors.weight > 0.0)) return -1;
   int failed = -1;
-  for (int k = 0; k < kComponents; ++k) {
-    if (!controlled(errors.mode[k])) continue;
-    const bool was = errors.failed[k];
-    if (judge(k, nullptr, state, Vec6::Zero(), errors) && !was) {
-      errors.target_at_failure[k] = errors.last_target[k], errors.reached_at_failure[k] = errors.last_reached[k];
-      if (failed < 0) failed = k;
-    }
-  }
+  for (int k = 0; k < kComponents; ++k)
+    if (controlled(errors.mode[k]) && judge(k, errors) && failed < 0) failed = k;
   return failed;
 }
 
