@@ -292,7 +292,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   Json out = summarize_series(rows, end_axis);
   out.update(summarize_driven_measure(test, rows, deck.stage_time_step(test)));
   // A rotation or a stress-controlled test drives no measure to a peak: not "no peak reached".
-  if (driven_measure(test).kind == TestMeasure::Kind::Rotation || driven_measure(test).kind == TestMeasure::Kind::Stress)
+  if (const TestMeasure::Kind kind = driven_measure(test).kind; kind == TestMeasure::Kind::Rotation || kind == TestMeasure::Kind::Stress)
     out.erase("peak_reached");
   out.update({{"controlled", failures.empty()},
               {"control_failures", failures},
