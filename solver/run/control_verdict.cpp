@@ -101,7 +101,10 @@ Reading reading(const Leg& leg, int k, const State& state, const Vec6& targets) 
 }  // namespace
 
 namespace {
-// A component's error in its kind's measure from its reading (control_error's rules); p the mean stress.
+// A component's error at this step in its kind's measure, from its reading against its target (control_targets
+// at the step's end): stress and shear_stress relative (a shear target to max(|target|, p): a shear target, 0 most
+// of all, has no scale of its own, and the mean stress is the one the packing carries), b absolute, mean stress
+// relative, volume relative to the leg's start; NaN where the component is not controlled.
 double error_of(AxisMode mode, int k, const Reading& r, double p) {
   switch (mode) {
     case AxisMode::Stress:
@@ -126,10 +129,6 @@ bool judge(int k, ControlErrors& errors) {
   return true;
 }
 }  // namespace
-
-double control_error(const Leg& leg, int k, const State& state, const Vec6& targets) {
-  return error_of(leg.axes[static_cast<std::size_t>(k)].mode, k, reading(leg, k, state, targets), state.mean_stress());
-}
 
 int track_controls(const Leg& leg, const LegChecks& checks, double dt, const State& state, ControlErrors& errors) {
   const ControlState& c = state.control;

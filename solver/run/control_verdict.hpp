@@ -90,11 +90,6 @@ struct LegChecks {
   LegChecks(const Leg& leg, const Model& model);
 };
 
-// The component's error at this step against its target (targets: control_targets at the step's end), in its
-// kind's measure: stress and shear_stress relative (a shear target to max(|target|, p): a shear target, 0 most
-// of all, has no scale of its own, and the mean stress is the one the packing carries), b absolute, mean stress
-// relative, volume relative to the leg's start. NaN where the component is not controlled.
-double control_error(const Leg& leg, int k, const State& state, const Vec6& targets);
 
 // One step's measurement of every controlled component, judged once a whole span has been checked. Returns the
 // component whose control has just failed, or -1.
