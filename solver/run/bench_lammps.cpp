@@ -111,14 +111,39 @@ std::string tune_lammps_script(const std::string& script, const TestDef& test, J
   return out;
 }
 
+std::string bare_lammps_script(const std::string& script) {
+  std::istringstream in(script);
+  std::string out;
+  bool timestep = false, integrator = false, run = false;
+  for (std::string line; std::getline(in, line);) {
+    const auto starts = [&line](const char* word) { return line.rfind(std::string(word) + " ", 0) == 0; };
+    if (!timestep) {  // the set-up: units, box, data, neighbour list, pair style, time step
+      out += line + "\n";
+      timestep = starts("timestep");
+    } else if (starts("fix") && line.find(" nve/sphere") != std::string::npos) {
+      out += line + "\n";
+      integrator = true;
+    } else if (starts("run")) {
+      out += "thermo          0\n" + line + "\n";
+      run = true;
+    }
+  }
+  if (!timestep || !integrator || !run)
+    throw std::runtime_error("bench: the translated LAMMPS script has no timestep, fix nve/sphere or run line");
+  return out;
+}
+
 LammpsScene prepare_lammps(const Deck& deck, const TestDef& test, const State& state, std::int64_t steps,
-                           const fs::path& dir, Json* tuned_settings) {
+                           const fs::path& dir, Json* tuned_settings, bool bare) {
+  if (bare && !tuned_settings) throw std::logic_error("prepare_lammps: the bare kernel starts from the tuned script");
   fs::create_directories(dir);
   const std::vector<std::string> diffs = state_differences(state, TargetCode::Lammps);
   std::ofstream(dir / kTranslatedDataName) << translate_data(deck, state, TargetCode::Lammps, "bench", diffs);
   const std::string script = script_file_name(test, TargetCode::Lammps);
   const std::string text = translate_test(deck, test, TargetCode::Lammps);
-  std::ofstream(dir / script) << (tuned_settings ? tune_lammps_script(text, test, *tuned_settings) : text);
+  Json discarded;
+  const std::string tuned = tuned_settings ? tune_lammps_script(text, test, bare ? discarded : *tuned_settings) : text;
+  std::ofstream(dir / script) << (bare ? bare_lammps_script(tuned) : tuned);
   return {dir, script, steps};
 }
 

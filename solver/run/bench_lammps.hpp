@@ -24,9 +24,15 @@ struct LammpsScene {
 // and why: bench_lammps.cpp); what it changed goes to `settings`. The physics is unchanged.
 std::string tune_lammps_script(const std::string& script, const TestDef& test, nlohmann::json& settings);
 
-// Writes the translated data file and test script into `dir` (tuned when tuned_settings is given).
+// LAMMPS's bare kernel on the same scene: the (tuned) script's set-up up to its time step, then only
+// `fix nve/sphere` and the run: no damping, no deformation, no servo, no measurements. What the pair style
+// itself costs, the yardstick for celldem's whole step (the physics is not the scene's: nothing loads it).
+std::string bare_lammps_script(const std::string& script);
+
+// Writes the translated data file and test script into `dir` (tuned when tuned_settings is given; the bare
+// kernel when bare is true, which needs tuned_settings).
 LammpsScene prepare_lammps(const Deck& deck, const TestDef& test, const State& state, std::int64_t steps,
-                           const std::filesystem::path& dir, nlohmann::json* tuned_settings);
+                           const std::filesystem::path& dir, nlohmann::json* tuned_settings, bool bare = false);
 
 // Runs the scene on `ranks` MPI ranks: particle-steps per second of LAMMPS's loop.
 double run_lammps(const LammpsScene& scene, int ranks);

@@ -45,10 +45,11 @@ Json time_threads(const Deck& deck, const TestDef& test, const State& state, con
                   std::FILE* progress) {
   std::map<std::string, std::vector<double>> samples;  // "celldem-t2", "lammps-np1", ...
   ShearTiming last{};
-  LammpsScene scene, as_translated;
+  LammpsScene scene, as_translated, bare;
   Json lammps_settings;
   if (o.vs_lammps) {
     scene = prepare_lammps(deck, test, state, o.warmup + o.steps, o.out / "lammps", &lammps_settings);
+    bare = prepare_lammps(deck, test, state, o.warmup + o.steps, o.out / "lammps-bare", &lammps_settings, true);
     if (o.lammps_as_translated)
       as_translated = prepare_lammps(deck, test, state, o.warmup + o.steps, o.out / "lammps-as-translated", nullptr);
   }
@@ -65,6 +66,10 @@ Json time_threads(const Deck& deck, const TestDef& test, const State& state, con
         const double pss = run_lammps(scene, k);
         samples["lammps-np" + std::to_string(k)].push_back(pss);
         std::fprintf(progress, "  repeat %d  LAMMPS %d rank%s: %.3g particle-steps/s\n", r + 1, k, plural(k), pss);
+        const double kernel = run_lammps(bare, k);
+        samples["lammps-bare-np" + std::to_string(k)].push_back(kernel);
+        std::fprintf(progress, "  repeat %d  LAMMPS %d rank%s, bare kernel (pair + nve/sphere): %.3g particle-steps/s\n",
+                     r + 1, k, plural(k), kernel);
         std::fflush(progress);
         if (o.lammps_as_translated) {
           const double plain = run_lammps(as_translated, k);
@@ -273,8 +278,17 @@ Json run_bench(const Deck& deck, const TestDef& test, const State& state, const 
   if (o.vs_lammps) {
     const std::string mine = "celldem-t" + std::to_string(o.threads.back());
     const std::string theirs = "lammps-np" + std::to_string(o.ranks.back());
-    report["ratio"] = report["median_particle_steps_per_s"][mine].get<double>() /
-                      report["median_particle_steps_per_s"][theirs].get<double>();
+    const Json& medians = report["median_particle_steps_per_s"];
+    report["ratio"] = medians[mine].get<double>() / medians[theirs].get<double>();
+    // celldem's whole step (damping, deformation, servo, measurements) against LAMMPS's pair style alone.
+    for (std::size_t q = 0; q < std::min(o.threads.size(), o.ranks.size()); ++q) {
+      const std::string c = "celldem-t" + std::to_string(o.threads[q]);
+      const std::string k = "lammps-bare-np" + std::to_string(o.ranks[q]);
+      const double ratio = medians[c].get<double>() / medians[k].get<double>();
+      report["ratio_vs_bare_kernel"][c + "/" + k] = ratio;
+      std::fprintf(progress, "celldem's full step on %d thread%s / LAMMPS's bare kernel on %d rank%s: %.2f\n",
+                   o.threads[q], plural(o.threads[q]), o.ranks[q], plural(o.ranks[q]), ratio);
+    }
   }
   return report;
 }
