@@ -802,7 +802,17 @@ def _f(value, spec=".3g"):
 
 def markdown(r):
     """roofline.md: the machine, the per-kernel table, the whole step against the roofs, and the caveats."""
-    m, a, level = r["machine"], r["achieved"], r["bandwidth_level"]
+    lines = machine_lines(r) + [kernel_table(r), ""] + [
+        "† Instructions under valgrind, where evaluate_chunk runs its AVX2 (x86-64-v3) clone; natively it runs the "
+        "AVX-512 clone (fewer instructions, the same flops). IPC divides these by the native cycles.", "",
+        "## The whole step", "", whole_step_table(r), ""]
+    lines += large_sample_lines(r) + note_lines(r)
+    return "\n".join(lines)
+
+
+def kernel_table(r):
+    """The per-kernel table (and the whole step's row) against the roofs."""
+    level = r["bandwidth_level"]
 
     def packed(k):  # (not for a handful of flops)
         return 100 * k["packed_flop_fraction"] if k["flops_per_particle_step"] >= 1 else None
@@ -814,13 +824,17 @@ def markdown(r):
              _f(k["percent_of_bandwidth_roof"], ".1f"), _f(k["percent_of_l2_roof"], ".1f"),
              _f(k["percent_divider_bound"], ".0f"))
             for k in r["kernels"] + [r["step"]]]
-    table = md_table(("kernel", "instructions / p-step †", "flops / p-step", "packed flops %", "div+sqrt / p-step",
-                      "time % (perf)", "compulsory B / p-step", "L1-miss B / p-step (sim.)", "AI [flop/B]", "IPC †",
-                      "GFlop/s", "% compute roof", f"% {level} roof (compulsory B)", "% L2 roof (L1-miss B)",
-                      "divider-bound % of time"),
-                     rows, align="lrrrrrrrrrrrrrr")
-    s = r["scene"]
-    lines = [
+    return md_table(("kernel", "instructions / p-step †", "flops / p-step", "packed flops %", "div+sqrt / p-step",
+                     "time % (perf)", "compulsory B / p-step", "L1-miss B / p-step (sim.)", "AI [flop/B]", "IPC †",
+                     "GFlop/s", "% compute roof", f"% {level} roof (compulsory B)", "% L2 roof (L1-miss B)",
+                     "divider-bound % of time"),
+                    rows, align="lrrrrrrrrrrrrrr")
+
+
+def machine_lines(r):
+    """The heading, the scene and the machine's roofs."""
+    m, s, level = r["machine"], r["scene"], r["bandwidth_level"]
+    return [
         "# Roofline of the time step (one core)", "",
         f"Scene: {s['deck']}, {s['particles']} spheres from {s['state']}; {s['pairs_per_particle']['value']:.3g} listed "
         f"pairs and {s['contacts_per_particle']['value']:.3g} contacts per particle; footprint "
@@ -830,41 +844,51 @@ def markdown(r):
         f"measured FMA rate {_f(m['measured_fma_flops']['value'], '.4g')} GFlop/s); divider "
         f"{_f(m['divider']['div']['value'])} G divisions/s, {_f(m['divider']['sqrt']['value'])} G square roots/s "
         "(lane-operations); triad bandwidth "
-        + ", ".join(f"{k} {v['value']:.3g} GB/s" for k, v in m["bandwidth"].items()) + ".", "",
-        table, "",
-        "† Instructions under valgrind, where evaluate_chunk runs its AVX2 (x86-64-v3) clone; natively it runs the "
-        "AVX-512 clone (fewer instructions, the same flops). IPC divides these by the native cycles.", "",
-        "## The whole step", "",
-        md_table(("quantity", "value"), [
-            ("particle-steps/s (native, median)", f"{a['particle_steps_per_second']['value']:.4g}"),
-            ("cycles / particle-step", f"{a['cycles_per_particle_step']['value']:.0f}"),
-            ("instructions / particle-step †", f"{r['per_particle_step']['instructions']['value']:.0f}"),
-            ("flops / particle-step", f"{r['per_particle_step']['flops']['value']:.0f}"),
-            ("flops / listed pair (pair law)", f"{r['pair_law']['flops_per_pair']['value']:.0f}"),
-            ("divisions + square roots / listed pair (pair law)", f"{r['pair_law']['div_sqrt_per_pair']['value']:.1f}"),
-            ("instructions / listed pair (pair law, AVX2 clone)", f"{r['pair_law']['instructions_per_pair']['value']:.0f}"),
-            ("cycles / listed pair (pair law, native; of which the divider's floor)",
-             f"{_f(r['pair_law']['cycles_per_pair']['value'], '.1f')} "
-             f"({_f(r['pair_law']['divider_cycles_per_pair']['value'], '.1f')})"),
-            ("compulsory bytes / particle-step", f"{r['per_particle_step']['compulsory_bytes']['value']:.0f}"),
-            ("touched bytes / particle-step (each array once)", f"{r['per_particle_step']['touched_bytes']['value']:.0f}"),
-            ("L1-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['d1_miss_bytes']['value']:.0f}"),
-            ("L2-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['ll_miss_bytes']['value']:.0f}"),
-            ("arithmetic intensity (compulsory)", f"{r['per_particle_step']['arithmetic_intensity']['value']:.2f} flop/B"),
-            ("achieved", f"{a['flops']['value']:.3g} GFlop/s, {a['compulsory_bandwidth']['value']:.3g} GB/s compulsory, "
-                         f"{a['l2_bandwidth']['value']:.3g} GB/s L1-L2, IPC {a['ipc']['value']:.2f} †"),
-            ("of the compute roof", f"{a['percent_of_compute_roof']['value']:.1f} %"),
-            (f"of the {level} bandwidth roof (compulsory bytes)", f"{a['percent_of_bandwidth_roof']['value']:.1f} %"),
-            ("of the L2 bandwidth roof (L1-miss bytes)", f"{a['percent_of_l2_roof']['value']:.1f} %"),
-        ], align="lr"), ""]
-    if r.get("large_sample"):
-        g = r["large_sample"]
-        lines += [f"Larger sample ({g['particles']} spheres, {g['steps']} steps under callgrind, footprint "
-                  f"{g['footprint_bytes'] / 2**20:.3g} MiB): {g['instructions_per_particle_step']:.0f} instructions, "
-                  f"{g['flops_per_particle_step']:.0f} flops, {g['compulsory_bytes_per_particle_step']:.0f} compulsory B, "
-                  f"{g['d1_miss_bytes_per_particle_step']:.0f} L1-miss B and {g['ll_miss_bytes_per_particle_step']:.0f} "
-                  "L2-miss B per particle-step (simulated).", ""]
-    lines += ["## Notes", ""] + [f"- {n}" for n in r["notes"]] + [
+        + ", ".join(f"{k} {v['value']:.3g} GB/s" for k, v in m["bandwidth"].items()) + ".", ""]
+
+
+def whole_step_table(r):
+    """The whole step's numbers: rates, counts per particle-step and per listed pair, and the share of each roof."""
+    a, level = r["achieved"], r["bandwidth_level"]
+    return md_table(("quantity", "value"), [
+        ("particle-steps/s (native, median)", f"{a['particle_steps_per_second']['value']:.4g}"),
+        ("cycles / particle-step", f"{a['cycles_per_particle_step']['value']:.0f}"),
+        ("instructions / particle-step †", f"{r['per_particle_step']['instructions']['value']:.0f}"),
+        ("flops / particle-step", f"{r['per_particle_step']['flops']['value']:.0f}"),
+        ("flops / listed pair (pair law)", f"{r['pair_law']['flops_per_pair']['value']:.0f}"),
+        ("divisions + square roots / listed pair (pair law)", f"{r['pair_law']['div_sqrt_per_pair']['value']:.1f}"),
+        ("instructions / listed pair (pair law, AVX2 clone)", f"{r['pair_law']['instructions_per_pair']['value']:.0f}"),
+        ("cycles / listed pair (pair law, native; of which the divider's floor)",
+         f"{_f(r['pair_law']['cycles_per_pair']['value'], '.1f')} "
+         f"({_f(r['pair_law']['divider_cycles_per_pair']['value'], '.1f')})"),
+        ("compulsory bytes / particle-step", f"{r['per_particle_step']['compulsory_bytes']['value']:.0f}"),
+        ("touched bytes / particle-step (each array once)", f"{r['per_particle_step']['touched_bytes']['value']:.0f}"),
+        ("L1-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['d1_miss_bytes']['value']:.0f}"),
+        ("L2-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['ll_miss_bytes']['value']:.0f}"),
+        ("arithmetic intensity (compulsory)", f"{r['per_particle_step']['arithmetic_intensity']['value']:.2f} flop/B"),
+        ("achieved", f"{a['flops']['value']:.3g} GFlop/s, {a['compulsory_bandwidth']['value']:.3g} GB/s compulsory, "
+                     f"{a['l2_bandwidth']['value']:.3g} GB/s L1-L2, IPC {a['ipc']['value']:.2f} †"),
+        ("of the compute roof", f"{a['percent_of_compute_roof']['value']:.1f} %"),
+        (f"of the {level} bandwidth roof (compulsory bytes)", f"{a['percent_of_bandwidth_roof']['value']:.1f} %"),
+        ("of the L2 bandwidth roof (L1-miss bytes)", f"{a['percent_of_l2_roof']['value']:.1f} %"),
+    ], align="lr")
+
+
+def large_sample_lines(r):
+    """The larger sample's counts, when it was measured."""
+    if not r.get("large_sample"):
+        return []
+    g = r["large_sample"]
+    return [f"Larger sample ({g['particles']} spheres, {g['steps']} steps under callgrind, footprint "
+            f"{g['footprint_bytes'] / 2**20:.3g} MiB): {g['instructions_per_particle_step']:.0f} instructions, "
+            f"{g['flops_per_particle_step']:.0f} flops, {g['compulsory_bytes_per_particle_step']:.0f} compulsory B, "
+            f"{g['d1_miss_bytes_per_particle_step']:.0f} L1-miss B and {g['ll_miss_bytes_per_particle_step']:.0f} "
+            "L2-miss B per particle-step (simulated).", ""]
+
+
+def note_lines(r):
+    """## Notes: the run's notes and the method's caveats."""
+    return ["## Notes", ""] + [f"- {n}" for n in r["notes"]] + [
         "- Under valgrind evaluate_chunk is the AVX2 clone (valgrind does not emulate AVX-512); the flop count "
         "(lane-operations) is the same for the AVX-512 clone that runs natively, the instruction count is not.",
         "- Compulsory bytes assume every array moves once per step; the L1-/L2-miss bytes come from valgrind's cache "
@@ -878,7 +902,6 @@ def markdown(r):
         "divider rates (they share one unit): a floor under the kernel's time that FMA throughput does not show.",
         "- The roofs are single-core triad, FMA and divider rates on a shared virtual machine; the compute roof "
         "assumes two AVX-512 FMA pipes (the measured FMA rate checks it).", ""]
-    return "\n".join(lines)
 
 
 def plot(r, path):
