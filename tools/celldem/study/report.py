@@ -369,7 +369,7 @@ def stability_section(study, root, fig_paths):
     return out
 
 
-def servo_cap_rows(study):
+def servo_cap_lines(study):
     """The servo cap's paragraph and table (part of the stability map)."""
     out = []
     out += ["Servo cap: the first pass of the strain-increment, time-step, density and combined settings, run with "
@@ -388,7 +388,7 @@ def servo_cap_rows(study):
     return out
 
 
-def servo_gain_rows(study):
+def servo_gain_lines(study):
     """The servo gains' paragraph and table (part of the stability map)."""
     sc = study["scene"]
     out = []
@@ -458,7 +458,7 @@ def write_markdown(study, root, fig_paths, ref_fig):
     """Writes root/study.md from the analysed study, section by section; returns its path."""
     out = scene_section(study) + noise_floor_section(study) + speed_section(study, root, fig_paths)
     out += presets_section(study) + samples_section(study)
-    out += stability_section(study, root, fig_paths) + servo_cap_rows(study) + servo_gain_rows(study)
+    out += stability_section(study, root, fig_paths) + servo_cap_lines(study) + servo_gain_lines(study)
     out += thresholds_section(study) + modelling_section(study)
     out += sufficiency.study_section(root)  # sufficiency*/sufficiency.md beside the study root, when present
     if ref_fig:
