@@ -80,7 +80,13 @@ def parse_args(argv=None):
 
 
 def main(argv=None):
-    return crosscheck.run(parse_args(argv))
+    """Runs the cross-check: 0 when every check passes; 1 when one fails or the check cannot go on (the
+    reason printed as 'run_crosscheck: ...' on stderr)."""
+    try:
+        return crosscheck.run(parse_args(argv))
+    except crosscheck.CrosscheckError as err:
+        print("run_crosscheck: %s" % err, file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -22,9 +22,24 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 namespace {
-// The solver's limits that the Python tools also judge runs by: read from here, never typed again there.
+// A stress probe plane's unit basis {"u1": [3], "u2": [3]} (run/probes.hpp plane_basis).
+Json plane_basis_json(ProbePlane plane) {
+  const auto [u1, u2] = plane_basis(plane);
+  return {{"u1", u1}, {"u2", u2}};
+}
+
+// The solver's limits and conventions that the Python tools also judge runs by or draw with: read from here, never
+// typed again there.
 Json constants_json() {
-  return {{"quasi_static_inertial_number",
+  return {{"probe_planes",
+           {{"value",
+             {{std::string(name_of(ProbePlane::Rendulic, kProbePlaneNames)), plane_basis_json(ProbePlane::Rendulic)},
+              {std::string(name_of(ProbePlane::Deviatoric, kProbePlaneNames)),
+               plane_basis_json(ProbePlane::Deviatoric)}}},
+            {"meaning",
+             "each stress probe plane's unit basis u1, u2 (normal stresses 11, 22, 33): a direction at angle a is "
+             "cos a u1 + sin a u2; a strain increment's coordinates in the plane are its projections on them"}}},
+          {"quasi_static_inertial_number",
            {{"value", kQuasiStaticInertia},
             {"meaning",
              "a loading stage is quasi-static while its inertial number stays below this (a warning above)"}}},
@@ -49,7 +64,7 @@ Command add_schema_command(CLI::App& app) {
   cmd->add_flag("--markdown", a->markdown, "A Markdown table (default)");
   cmd->add_flag("--json", a->json, "JSON");
   cmd->add_flag("--constants", a->constants,
-                "The physical limits the solver checks runs against, as JSON (for tools)");
+                "The physical limits the solver checks runs against and the probe planes' bases, as JSON (for tools)");
   return [cmd, a]() -> int {
     if (!cmd->parsed()) return -1;
     if (a->markdown && a->json) throw CLI::ValidationError("--markdown and --json exclude each other");

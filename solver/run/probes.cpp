@@ -73,6 +73,10 @@ bool reaches(const SeriesRow& row, double target) { return target >= 0.0 ? row.e
 
 }  // namespace
 
+std::pair<std::array<double, 3>, std::array<double, 3>> plane_basis(ProbePlane plane) {
+  return {plane_direction(plane, 1.0, 0.0), plane_direction(plane, 0.0, 1.0)};
+}
+
 ProbeSelection parse_probe_selection(const std::string& text) {
   ProbeSelection s;
   const std::size_t dash = text.find('-');
@@ -397,12 +401,6 @@ Json matrix_json(const Eigen::Matrix<double, 6, 6>& m) {
   return rows;
 }
 
-// The unit basis u1, u2 of a probe plane (plane_direction's): a strain increment's coordinates in the plane are its
-// projections on them (work-conjugate to the stress's).
-std::pair<std::array<double, 3>, std::array<double, 3>> plane_basis(ProbePlane plane) {
-  return {plane_direction(plane, 1.0, 0.0), plane_direction(plane, 0.0, 1.0)};
-}
-
 struct PlanePoint {
   double angle;  // [rad] the stress probe's direction in the plane
   double p1, p2; // its plastic strain increment's coordinates in the plane
@@ -467,6 +465,12 @@ Json plastic_response(const std::vector<PlanePoint>& points, double magnitude) {
                       "fits), and the angle between flow and normal (0: associated flow)"}};
 }
 
+// ||A - A^T|| / ||A|| (Frobenius): 0 for a symmetric matrix.
+double asymmetry(const Eigen::Matrix<double, 6, 6>& a) {
+  const double n = a.norm();
+  return n > 0.0 ? (a - a.transpose()).norm() / n : NAN;
+}
+
 // The stiffness of the point's contact network (measure/network_stiffness.hpp: sticking tangential springs
 // when the test has friction, normal springs only without), as a strain probe measures it: celldem's shear axes
 // g_ij also turn the stress the sample carries (simple_shear_rotation), which the probes' g columns include.
@@ -492,6 +496,8 @@ Json network_estimate(const Deck& deck, const TestDef& test, const State& point,
     }
     out["affine"] = matrix_json(n.affine);
     out["relaxed"] = matrix_json(n.relaxed);
+    out["affine_asymmetry"] = asymmetry(n.affine);
+    out["relaxed_asymmetry"] = asymmetry(n.relaxed);
     out["relaxed_as_probed"] = matrix_json(probed);
     out["contacts"] = n.contacts;
     out["rattlers"] = n.rattlers;
@@ -501,12 +507,6 @@ Json network_estimate(const Deck& deck, const TestDef& test, const State& point,
     out["error"] = e.what();
   }
   return out;
-}
-
-// ||A - A^T|| / ||A|| (Frobenius): 0 for a symmetric matrix.
-double asymmetry(const Eigen::Matrix<double, 6, 6>& a) {
-  const double n = a.norm();
-  return n > 0.0 ? (a - a.transpose()).norm() / n : NAN;
 }
 
 }  // namespace

@@ -17,12 +17,14 @@
 // series and summary are untouched. Outputs: <test>/probes/<point>/<probe>/series.csv, <test>/probes/probes.csv
 // and <test>/probes/stiffness.json (docs/outputs.md).
 #pragma once
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/deck.hpp"
@@ -45,6 +47,11 @@ struct ProbeSelection {
 };
 // "K-L" or "K" (K >= 1, L >= K); throws std::invalid_argument with what is wrong.
 ProbeSelection parse_probe_selection(const std::string& text);
+
+// The unit basis u1, u2 of a stress probe plane (Rendulic or pi): a direction at angle a is cos a u1 + sin a u2,
+// and a strain increment's coordinates in the plane are its projections on them (work-conjugate to the stress's).
+// `celldem schema --constants` writes them for the tools (probe_planes).
+std::pair<std::array<double, 3>, std::array<double, 3>> plane_basis(ProbePlane plane);
 
 // --probes numbers run over the whole deck: test by test in the deck's order, then point by point and direction by
 // direction (probes.csv's order), references not counted. The number before `test`'s first, and the deck's count.

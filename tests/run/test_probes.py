@@ -21,6 +21,7 @@ Usage: CELLDEM=build/celldem /usr/bin/python3 -m pytest tests/run/test_probes.py
 """
 import csv
 import json
+import math
 import os
 import subprocess
 
@@ -168,6 +169,13 @@ def test_strain_probes_impose_their_increments_and_give_the_elastic_stiffness(ru
     if "affine" in network:
         assert sum(network["affine"][i][i] for i in range(6)) > 1.2 * sum(m0["elastic"][i][i] for i in range(6)), \
             "the affine bound is not stiffer than the probes"
+    # each network stiffness carries its asymmetry ||A - A^T|| / ||A|| (Frobenius), the tools read it from here
+    for kind in ("affine", "relaxed"):
+        a = network[kind]
+        frobenius = math.sqrt(sum(a[i][j] ** 2 for i in range(6) for j in range(6)))
+        skew = math.sqrt(sum((a[i][j] - a[j][i]) ** 2 for i in range(6) for j in range(6)))
+        assert close(network[kind + "_asymmetry"], skew / frobenius, 1e-9 + 1e-9 * skew / frobenius), \
+            f"{kind}_asymmetry {network.get(kind + '_asymmetry')} against {skew / frobenius}"
 
 
 def test_probe_shares_merged_give_the_whole_run(celldem, runs):

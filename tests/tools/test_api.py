@@ -224,3 +224,13 @@ def test_constants_come_from_the_solver(celldem):
     assert "not a standard deviation" in known["servo_tolerance"]["meaning"]
     with pytest.raises(KeyError, match="servo_tolerance"):
         binary.constant("no_such_limit", celldem)
+    # the stress probe planes' unit bases (solver/run/probes.cpp plane_basis): orthonormal; Rendulic's u1 along
+    # axis 1 and u2 along 2 and 3 alike; the pi plane's both deviatoric, u1 triaxial compression
+    planes = known["probe_planes"]["value"]
+    assert sorted(planes) == ["pi", "rendulic"] and "cos a u1 + sin a u2" in known["probe_planes"]["meaning"]
+    for basis in planes.values():
+        u1, u2 = np.array(basis["u1"]), np.array(basis["u2"])
+        assert np.allclose([u1 @ u1, u2 @ u2, u1 @ u2], [1.0, 1.0, 0.0], atol=1e-15)
+    assert planes["rendulic"]["u1"] == [1.0, 0.0, 0.0] and planes["rendulic"]["u2"][1] == planes["rendulic"]["u2"][2]
+    assert abs(sum(planes["pi"]["u1"])) < 1e-15 and abs(sum(planes["pi"]["u2"])) < 1e-15
+    assert planes["pi"]["u1"][0] > 0 and planes["pi"]["u1"][1] == planes["pi"]["u1"][2]

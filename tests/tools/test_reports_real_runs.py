@@ -169,10 +169,11 @@ def test_ensemble_report_statistics(ensemble):
     text = read_text(os.path.join(ensemble, "report.md"))
     check("seed runs loaded", len(ens.runs), 3)
     assert "band ± 1 standard deviation" in text, "the report does not say what the band is"
-    # Per-test and paired numbers are ensemble.json's.
-    peak = stats["tests"]["psc"]["peak_ratio13"]
-    assert (f"| peak σ1/σ3 (–) | {peak['mean']:.3f} ± {peak['std']:.3f} [{peak['ci95'][0]:.3f}, "
-            f"{peak['ci95'][1]:.3f}]") in text, "per-test peak is not ensemble.json's"
+    # Per-test and paired numbers are ensemble.json's; the tests' columns in the deck's order (ttc, then psc).
+    check("tests in the deck's order", ens.test_names, ["ttc", "psc"])
+    cells = [f"{p['mean']:.3f} ± {p['std']:.3f} [{p['ci95'][0]:.3f}, {p['ci95'][1]:.3f}]"
+             for p in (stats["tests"][t]["peak_ratio13"] for t in ens.test_names)]
+    assert f"| peak σ1/σ3 (–) | {' | '.join(cells)} |" in text, "per-test peak is not ensemble.json's"
     diff = stats["paired"]["ttc-psc"]["peak_ratio13"]
     row = next((line for line in text.splitlines() if line.startswith("| peak σ1/σ3 (–) | ttc − psc |")), None)
     assert row is not None and f"{diff['mean']:.3f} ± {diff['std']:.3f}" in row, \

@@ -1,18 +1,44 @@
 """pytest: the reports refuse what they cannot judge (uncontrolled tests, tests without a peak) and the failure
 surface fits nothing it cannot fit."""
 
+import json
+import os
+
+import numpy as np
 import pytest
 
+from celldem import results
 from celldem.reports import ensemble_report, failure_surface, report
-from celldem.results import Ensemble, Run
 
 
-def run(seed, psc_controlled=True):
+def write_run(folder, summary, series):
+    """A run folder with `summary` as its summary.json and each test's series ({column: array}, or {} for a
+    header-only series) as <test>/series.csv, opened as the tools open one (a view of celldem.api's Run)."""
+    os.makedirs(folder, exist_ok=True)
+    with open(os.path.join(folder, "summary.json"), "w") as f:
+        json.dump(summary, f)
+    for test, columns in series.items():
+        os.makedirs(os.path.join(folder, test), exist_ok=True)
+        names = list(columns) or ["e1"]
+        rows = np.column_stack([columns[n] for n in names]) if columns else np.empty((0, 1))
+        np.savetxt(os.path.join(folder, test, "series.csv"), rows, delimiter=",", fmt="%.17g",
+                   header=",".join(names), comments="")
+    return results.load_run(folder)
+
+
+def write_ensemble(folder, stats):
+    """An ensemble folder: `stats` as ensemble.json beside the seed-<k>/ run folders already written there."""
+    with open(os.path.join(folder, "ensemble.json"), "w") as f:
+        json.dump(stats, f)
+    return results.load_ensemble(folder)
+
+
+def run(folder, seed, psc_controlled=True):
     tests = {"ttc": {"servo_max_error": 0.001, "legs": [{"leg": 0, "control_errors": {"stress": 0.001, "b": None}}]},
              "psc": {"servo_max_error": 1.38, "controlled": psc_controlled,
                      "control_failures": [] if psc_controlled else ["leg 0 x3 stress: 138 % > 0.5 %"],
                      "legs": [{"leg": 0, "control_errors": {"stress": 1.38}}]}}
-    return Run(f"/nowhere/seed-{seed}", {"tests": tests}, {"ttc": {}, "psc": {}})
+    return write_run(os.path.join(folder, f"seed-{seed}"), {"tests": tests}, {"ttc": {}, "psc": {}})
 
 
 def paired_stats(excluded):
@@ -23,18 +49,19 @@ def paired_stats(excluded):
     return out
 
 
-def test_no_ttc_lower_than_psc_on_uncontrolled_runs():
-    ens = Ensemble("/nowhere", paired_stats(excluded=False), [run(1), run(2, psc_controlled=False), run(3)])
+def test_no_ttc_lower_than_psc_on_uncontrolled_runs(tmp_path):
+    run(tmp_path, 1), run(tmp_path, 2, psc_controlled=False), run(tmp_path, 3)
+    ens = write_ensemble(tmp_path, paired_stats(excluded=False))
     text = ensemble_report.paired_section(ens)
     assert "ttc lower than psc" not in text
     assert "not judged: uncontrolled runs in the pair" in text
     # celldem left them out itself: the pair's statistics hold controlled runs only, and a verdict is given
-    ens = Ensemble("/nowhere", paired_stats(excluded=True), [run(1), run(2, psc_controlled=False), run(3)])
+    ens = write_ensemble(tmp_path, paired_stats(excluded=True))
     assert "ttc lower than psc" in ensemble_report.paired_section(ens)
 
 
-def test_controls_section_marks_uncontrolled_tests():
-    text = report.controls_section(run(1, psc_controlled=False))
+def test_controls_section_marks_uncontrolled_tests(tmp_path):
+    text = report.controls_section(run(tmp_path, 1, psc_controlled=False))
     assert "**UNCONTROLLED**: leg 0 x3 stress: 138 % > 0.5 %" in text
     assert "138 %" in text and "leg 0: stress 0.1 %" in text
 
@@ -53,10 +80,9 @@ def test_failure_surface_refuses_bad_tests():
 
 # ---- the paper comparison: a verdict that matches what its row prints -------------------------------------------
 
-def curve_run(seed, rng):
+def curve_run(folder, seed, rng):
     """A run with TTC and PSC series over ε1 to 12 %: σ1/σ3 rising to a peak, Hs11/Hs33 and b tracking it, ε2
     and TTC's b near 0 (as the tests prescribe), seed-to-seed scatter."""
-    import numpy as np
     e1 = np.linspace(0.0, 0.12, 241)
     series = {}
     for test, peak in (("ttc", 3.0), ("psc", 3.8)):
@@ -65,16 +91,17 @@ def curve_run(seed, rng):
                         "b": (0.003 * rng.standard_normal(e1.size) if test == "ttc" else 0.3 + 0.05 * ratio),
                         "e2": (2e-6 * rng.standard_normal(e1.size) if test == "psc" else -e1 / 2)}
     summary = {"tests": {t: {"peak_reached": True} for t in series}}
-    return Run(f"/nowhere/seed-{seed}", summary, series)
+    return write_run(os.path.join(folder, f"seed-{seed}"), summary, series)
 
 
-def test_by_construction_rows_leave_the_holm_family_and_correlations_use_fisher_z():
+def test_by_construction_rows_leave_the_holm_family_and_correlations_use_fisher_z(tmp_path):
     import math
-    import numpy as np
     from scipy import stats as sps
     from celldem import stats
     rng = np.random.default_rng(3)
-    ens = Ensemble("/nowhere", {"seeds": [1, 2, 3, 4], "paired": {}}, [curve_run(s, rng) for s in (1, 2, 3, 4)])
+    for seed in (1, 2, 3, 4):
+        curve_run(tmp_path, seed, rng)
+    ens = write_ensemble(tmp_path, {"seeds": [1, 2, 3, 4], "paired": {}})
     claims = {c.label: c for c in ensemble_report.paper_claims(ens)}
     for label in ("PSC ε2 stays 0 (max |ε2|, %)", "TTC b stays 0 (max |b| for ε1 ≥ 0.1 %)"):
         c = claims[label]

@@ -2,15 +2,18 @@
 for one's own scripts (api: open a run or an ensemble, build, check and run a deck; docs/python.md).
 
 Modules, from the bottom up:
-  results     run directories: summary.json, <stage>/series.csv (columns by its header), series.columns.json
-  metrics     curve helpers on series columns (interpolation, binned differences, maxima)
   binary      the celldem binary: `celldem plan DECK --json`, `celldem summarize SERIES` (summary.json's
               per-test quantities for a series without one, such as LAMMPS's or LIGGGHTS's), check, run
+  files       the files of a run directory: summary.json, <stage>/series.csv (columns by its header),
+              series.columns.json, progress.json's deck
+  api         the public API (re-exported here): open_run, open_ensemble, Deck, check_deck, run_deck; the one run type
+  results     the tools' view of an api.Run or api.Ensemble: its series as dicts of arrays (RunArrays, EnsembleArrays)
+  metrics     curve helpers on series columns (interpolation, binned differences, maxima)
   decks       decks as data: load, edit, write with a generic JSON layout
   stats       t-test verdicts over the seeds of an ensemble (the statistics of ensemble.json, for curve measures)
   scenes      what a run holds: the paper's deck, constant-b (failure-surface) tests
-  crosscheck  crosscheck/run_crosscheck.py
-  api         the public API (re-exported here): open_run, open_ensemble, Deck, check_deck, run_deck
+  probes      a test's probes as celldem writes them, their envelopes in the solver's probe planes
+  crosscheck  crosscheck/run_crosscheck.py (raises CrosscheckError; the script maps it to exit 1)
 Sub-packages:
   reports      tools/report.py, tools/figures.py, tools/failure_surface.py (and the tables and plotting they share)
   study        tools/study.py and tools/sufficiency.py

@@ -25,7 +25,7 @@ import subprocess
 import tempfile
 from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Union
 
-from . import binary, decks, results
+from . import binary, decks, files
 from .binary import PathLike
 
 if TYPE_CHECKING:
@@ -56,11 +56,11 @@ class Stage:
     def series(self) -> pd.DataFrame:
         """<stage>/series.csv as a pandas DataFrame (units and meanings in attrs), read on first use."""
         if self._series is None:
-            import pandas as pd  # here, so that the tools, which do not use it, import the package without it
+            import pandas as pd  # here, so that `import celldem` stays quick
 
             csv = os.path.join(self.path, "series.csv")
-            frame = pd.DataFrame(results.load_series(csv))
-            columns = results.load_columns(csv)
+            frame = pd.DataFrame(files.load_series(csv))
+            columns = files.load_columns(csv)
             frame.attrs["units"] = {n: c["unit"] for n, c in columns.items() if n in frame.columns}
             frame.attrs["meanings"] = {n: c["meaning"] for n, c in columns.items() if n in frame.columns}
             self._series = frame
@@ -83,12 +83,12 @@ class Run:
     def __init__(self, directory: PathLike) -> None:
         self.directory = os.path.abspath(directory)
         try:
-            self.summary = results.load_summary(self.directory)
-        except results.RunError as err:
+            self.summary = files.load_summary(self.directory)
+        except files.RunError as err:
             raise FileNotFoundError(str(err)) from err
-        self.deck: Optional[Dict[str, Any]] = results.load_deck(self.directory)
+        self.deck: Optional[Dict[str, Any]] = files.load_deck(self.directory)
         self.tests: Dict[str, Stage] = {}
-        names = results.discover_tests(self.directory, self.summary)
+        names = files.discover_tests(self.directory, self.summary)
         if self.deck:  # the deck's order (summary.json's keys are sorted)
             order = [t.get("name") for t in self.deck.get("tests") or [] if isinstance(t, dict)]
             names.sort(key=lambda n: order.index(n) if n in order else len(order))

@@ -12,7 +12,6 @@ import math
 import os
 import shutil
 import subprocess
-import sys
 import time
 
 import numpy as np
@@ -45,8 +44,14 @@ VARIANTS = {
 }
 
 
+class CrosscheckError(Exception):
+    """A cross-check that cannot go on (a missing state or code, a command that failed); the command line
+    (crosscheck/run_crosscheck.py) prints it and exits 1."""
+
+
 def fail(message):
-    sys.exit("run_crosscheck: " + message)
+    """Raises CrosscheckError(message): the library never exits, its command line does."""
+    raise CrosscheckError(message)
 
 
 def get(quantities, key):

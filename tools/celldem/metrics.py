@@ -1,37 +1,47 @@
 """Curve helpers on series columns (numpy arrays): what the tools measure on curves beyond summary.json.
 
 Nothing here redefines a quantity celldem puts in summary.json (the peak of s11/s33, its plateau, b at the
-peak, the end values): read those with results.Run.quantity.
+peak, the end values): read those with results.RunArrays.quantity.
 """
 
+from __future__ import annotations
+
 import math
+from typing import Iterable, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
+import numpy.typing as npt
+
+Array = npt.NDArray[np.float64]
+MaybeArray = Optional[Array]
+# A curve: (x, y) of one run, each a float array (or array-like) of its rows.
+Curve = Tuple[npt.ArrayLike, npt.ArrayLike]
 
 
-def finite_pair(x, y):
+def finite_pair(x: Array, y: Array) -> Tuple[Array, Array]:
+    """The rows where both x and y are finite."""
     keep = np.isfinite(x) & np.isfinite(y)
     return x[keep], y[keep]
 
 
-def max_of(values):
+def max_of(values: MaybeArray) -> Optional[float]:
     """The largest finite value, or None."""
     return None if values is None or not np.any(np.isfinite(values)) else float(np.nanmax(values))
 
 
-def first_last(values):
+def first_last(values: MaybeArray) -> Tuple[Optional[float], Optional[float]]:
     """(first, last) value of a column, or (None, None) when it is missing or empty."""
     return (None, None) if values is None or not values.size else (float(values[0]), float(values[-1]))
 
 
-def x_at_max(x, y):
+def x_at_max(x: MaybeArray, y: MaybeArray) -> Optional[float]:
     """x on the first row of the largest finite y, or None."""
     if x is None or y is None or not np.any(np.isfinite(y)):
         return None
     return float(x[int(np.nanargmax(y))])
 
 
-def value_at(x, y, x0):
+def value_at(x: MaybeArray, y: MaybeArray, x0: float) -> Optional[float]:
     """y linearly interpolated at x0, or None when x0 lies outside the finite data (no extrapolation)."""
     if x is None or y is None:
         return None
@@ -42,7 +52,7 @@ def value_at(x, y, x0):
     return float(np.interp(x0, x[order], y[order]))
 
 
-def on_grid(x_ref, x, y):
+def on_grid(x_ref: Array, x: Array, y: Array) -> Array:
     """y(x) interpolated at x_ref (NaN outside the range of x): one code's curve on another's rows."""
     order = np.argsort(x)
     out = np.interp(x_ref, x[order], y[order])
@@ -50,7 +60,7 @@ def on_grid(x_ref, x, y):
     return out
 
 
-def pearson(x, y):
+def pearson(x: MaybeArray, y: MaybeArray) -> Optional[float]:
     """Pearson correlation of the finite pairs, or None with fewer than 3 or a constant curve."""
     if x is None or y is None:
         return None
@@ -60,7 +70,7 @@ def pearson(x, y):
     return float(np.corrcoef(x, y)[0, 1])
 
 
-def binned_means(x, y, edges):
+def binned_means(x: Array, y: Array, edges: Array) -> Array:
     """Mean of y in each bin of x (NaN for empty bins). Binning averages out DEM noise before comparing curves."""
     x, y = finite_pair(x, y)
     inside = (x >= edges[0]) & (x <= edges[-1])
@@ -74,7 +84,8 @@ def binned_means(x, y, edges):
     return means
 
 
-def binned_pair(xa, ya, xb, yb, bins=100):
+def binned_pair(xa: MaybeArray, ya: MaybeArray, xb: MaybeArray, yb: MaybeArray,
+                bins: int = 100) -> Optional[Tuple[Array, Array]]:
     """Two noisy curves y(x) averaged in `bins` equal bins of the x range both cover: (means of a, means of b) over
     the bins both have data in, or None without overlap."""
     if xa is None or ya is None or xb is None or yb is None:
@@ -92,7 +103,8 @@ def binned_pair(xa, ya, xb, yb, bins=100):
     return (ma[both], mb[both]) if np.count_nonzero(both) >= 2 else None
 
 
-def curve_difference(xa, ya, xb, yb, bins=100, relative_to="range"):
+def curve_difference(xa: MaybeArray, ya: MaybeArray, xb: MaybeArray, yb: MaybeArray, bins: int = 100,
+                     relative_to: str = "range") -> Tuple[Optional[float], int]:
     """RMS difference of two noisy curves y(x) over the x range both cover.
 
     Both curves are averaged in `bins` equal bins of x. relative_to="range" divides the RMS difference by the
@@ -112,7 +124,8 @@ def curve_difference(xa, ya, xb, yb, bins=100, relative_to="range"):
     return float(math.sqrt(np.mean(((ma - mb) / mean) ** 2))), ma.size
 
 
-def mean_difference(xa, ya, xb, yb, bins=100, relative=False):
+def mean_difference(xa: MaybeArray, ya: MaybeArray, xb: MaybeArray, yb: MaybeArray, bins: int = 100,
+                    relative: bool = False) -> Optional[float]:
     """The signed mean of b - a over the binned curves (binned_pair), divided by the mean value when `relative`;
     None without overlap. Over seeds, its spread says whether two tests' curves differ."""
     pair = binned_pair(xa, ya, xb, yb, bins)
@@ -122,17 +135,17 @@ def mean_difference(xa, ya, xb, yb, bins=100, relative=False):
     return float(np.mean((mb - ma) / (0.5 * (ma + mb)) if relative else mb - ma))
 
 
-def all_finite(series, names=("e1", "s11", "s22", "s33")):
+def all_finite(series: Mapping[str, Array], names: Iterable[str] = ("e1", "s11", "s22", "s33")) -> bool:
     """Whether the named columns of a series (those it has) hold finite values only: a run that blew up has not."""
     return bool(all(np.all(np.isfinite(series[c])) for c in names if c in series))
 
 
-def seed_table(curves, edges):
+def seed_table(curves: Sequence[Curve], edges: Array) -> Array:
     """Binned means of y (rows: curves, columns: bins of x; NaN where a curve has no data in a bin)."""
     return np.array([binned_means(np.asarray(x, float), np.asarray(y, float), edges) for x, y in curves])
 
 
-def bin_edges(curves, bins=None):
+def bin_edges(curves: Sequence[Curve], bins: Optional[int] = None) -> Optional[Array]:
     """Equal bins over the x range the curves cover together; by default about two rows of a curve per bin
     (10 to 100 bins). None when no curve has finite x."""
     xs = [np.asarray(x, float)[np.isfinite(x)] for x, _ in curves]
@@ -147,7 +160,7 @@ def bin_edges(curves, bins=None):
     return np.linspace(lo, hi, bins + 1)
 
 
-def seed_band(curves, edges=None):
+def seed_band(curves: Sequence[Curve], edges: Optional[Array] = None) -> Tuple[Array, Array, Array, Array]:
     """The mean curve of several runs (one per seed) and its band: in each bin of x, the mean over the seeds of
     each seed's binned mean of y, and their sample standard deviation (n - 1). Bins where fewer than two seeds
     have data are left out. Returns (bin centres, mean, std, seeds per bin), empty arrays without data."""

@@ -19,28 +19,36 @@ The tests, each two-sided at level alpha unless said otherwise:
   near 1) against artanh(r0).
 """
 
+from __future__ import annotations
+
 import math
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as _np
 from scipy import optimize as _opt
 from scipy import stats as _st
 
+# describe()'s result: {"n": int, "mean", "std", "sem": float, "ci95", "pi95": [lo, hi], "values": [float]}, as
+# ensemble.json's entries.
+Stat = Dict[str, Any]
 
-def t_quantile(p, dof):
+
+def t_quantile(p: float, dof: float) -> float:
     """The p-quantile of Student's t with dof degrees of freedom."""
     return float(_st.t.ppf(p, dof))
 
 
-def t95(dof):
+def t95(dof: float) -> float:
     """t(0.975, dof): the two-sided 95 % quantile."""
     return t_quantile(0.975, dof)
 
 
-def finite(values):
+def finite(values: Iterable[Optional[float]]) -> List[float]:
+    """The finite values, as floats (None and NaN left out)."""
     return [float(v) for v in values if v is not None and math.isfinite(v)]
 
 
-def describe(values):
+def describe(values: Iterable[Optional[float]]) -> Optional[Stat]:
     """{"n", "mean", "std", "sem", "ci95", "pi95", "values"} of the finite values (as ensemble.json), None without
     any."""
     values = finite(values)
@@ -56,18 +64,18 @@ def describe(values):
             "pi95": [mean - half_one, mean + half_one], "values": values}
 
 
-def prediction_interval(stat, level=0.95):
+def prediction_interval(stat: Stat, level: float = 0.95) -> List[float]:
     """mean -+ t((1 + level)/2, n - 1) std sqrt(1 + 1/n): where one more sample falls with probability `level`."""
     n = stat["n"]
     half = t_quantile(0.5 + level / 2.0, n - 1) * stat["std"] * math.sqrt(1.0 + 1.0 / n)
     return [stat["mean"] - half, stat["mean"] + half]
 
 
-def _two_sided(t, dof):
+def _two_sided(t: float, dof: float) -> float:
     return float(2.0 * _st.t.sf(abs(t), dof))
 
 
-def one_sample_p(stat, value=0.0):
+def one_sample_p(stat: Optional[Stat], value: float = 0.0) -> Optional[float]:
     """Two-sided p of the one-sample t-test of the mean against `value` (the paired t-test when the values are
     per-seed differences); None with fewer than two values; 0 or 1 when the values do not scatter."""
     if stat is None or stat.get("n", 0) < 2:
@@ -77,7 +85,7 @@ def one_sample_p(stat, value=0.0):
     return _two_sided((stat["mean"] - value) / stat["sem"], stat["n"] - 1)
 
 
-def prediction_p(stat, value):
+def prediction_p(stat: Optional[Stat], value: float) -> Optional[float]:
     """Two-sided p of a single value against the ensemble as one more sample of it: t = (value - mean) /
     (std sqrt(1 + 1/n)), n - 1 dof. None with fewer than two values."""
     if stat is None or stat.get("n", 0) < 2:
@@ -88,7 +96,7 @@ def prediction_p(stat, value):
     return _two_sided((value - stat["mean"]) / scale, stat["n"] - 1)
 
 
-def tost(stat, margin):
+def tost(stat: Optional[Stat], margin: float) -> Optional[Dict[str, Any]]:
     """Two one-sided t-tests of |mean| < margin (the mean of paired differences): {"p": the larger one-sided p,
     "p_lower", "p_upper", "interval": the (1 - 2 alpha) interval at alpha = 0.05, i.e. the 90 % interval}. The
     difference is equivalent to 0 within the margin at level alpha when p < alpha (that interval inside
@@ -109,38 +117,38 @@ def tost(stat, margin):
 FISHER_R_CLIP = 1e-12
 
 
-def fisher_z(r):
+def fisher_z(r: Optional[float]) -> Optional[float]:
     """Fisher's z = artanh(r) of a correlation (None for None); |r| = 1 is clipped to 1 - FISHER_R_CLIP."""
     if r is None or not math.isfinite(r):
         return None
     return float(_np.arctanh(_np.clip(r, -1.0 + FISHER_R_CLIP, 1.0 - FISHER_R_CLIP)))
 
 
-def lost_to_adjustment(p, adjusted, alpha=0.05):
+def lost_to_adjustment(p: Optional[float], adjusted: Optional[float], alpha: float = 0.05) -> bool:
     """True when a hypothesis is rejected unadjusted (p <= alpha, the compared value outside its unadjusted
     interval) but not after the family's adjustment: its row must say so, since the interval it prints is the
     unadjusted one."""
     return p is not None and adjusted is not None and p <= alpha < adjusted
 
 
-def holm(pvalues, alpha=0.05):
+def holm(pvalues: Sequence[Optional[float]], alpha: float = 0.05) -> Tuple[List[Optional[float]], List[bool]]:
     """Holm's step-down procedure. pvalues: a list (None entries are not tested). Returns (adjusted p-values,
     rejected) lists in the same order: the k-th smallest of m p-values is compared with alpha / (m - k + 1), and
     testing stops at the first that is not rejected; the adjusted p is the running maximum of (m - k + 1) p_(k),
     capped at 1, so that rejected == (adjusted <= alpha)."""
-    idx = [i for i, p in enumerate(pvalues) if p is not None]
-    m = len(idx)
-    adjusted = [None] * len(pvalues)
+    tested = {i: p for i, p in enumerate(pvalues) if p is not None}
+    m = len(tested)
+    adjusted: List[Optional[float]] = [None] * len(pvalues)
     rejected = [False] * len(pvalues)
     running = 0.0
-    for k, i in enumerate(sorted(idx, key=lambda i: pvalues[i])):
-        running = max(running, min(1.0, (m - k) * pvalues[i]))
+    for k, i in enumerate(sorted(tested, key=lambda i: tested[i])):
+        running = max(running, min(1.0, (m - k) * tested[i]))
         adjusted[i] = running
         rejected[i] = running <= alpha
     return adjusted, rejected
 
 
-def equivalence_verdict(p_different, p_tost, n, alpha=0.05):
+def equivalence_verdict(p_different: Optional[float], p_tost: Optional[float], n: int, alpha: float = 0.05) -> str:
     """The verdict of a sameness claim from its (Holm-adjusted) p-values: "equivalent" when TOST rejects a
     difference as large as the margin, else "different" when the paired t-test rejects no difference, else
     "undecided at n seeds"."""
@@ -151,7 +159,7 @@ def equivalence_verdict(p_different, p_tost, n, alpha=0.05):
     return f"undecided at {n} seeds"
 
 
-def smallest_detectable(n, std, alpha=0.05, power=0.8):
+def smallest_detectable(n: int, std: Optional[float], alpha: float = 0.05, power: float = 0.8) -> Optional[float]:
     """The smallest true mean difference that a two-sided one-sample t-test at level alpha over n paired values of
     standard deviation `std` detects with probability `power`: solved exactly on the noncentral t distribution
     (scipy.stats.nct), not the normal approximation. None with fewer than two values."""
@@ -163,7 +171,7 @@ def smallest_detectable(n, std, alpha=0.05, power=0.8):
     crit = t_quantile(1.0 - alpha / 2.0, dof)
     sqn = math.sqrt(n)
 
-    def power_at(delta):  # delta in units of std
+    def power_at(delta: float) -> float:  # delta in units of std
         nc = delta * sqn
         with _np.errstate(divide="ignore", invalid="ignore"):  # scipy's nct warns on its far tail, harmlessly
             return float(_st.nct.sf(crit, dof, nc) + _st.nct.cdf(-crit, dof, nc))
@@ -176,7 +184,7 @@ def smallest_detectable(n, std, alpha=0.05, power=0.8):
 
 # ---- the report's verdict helpers ---------------------------------------------------------------------------
 
-def compare(stat, value=0.0, interval="ci95"):
+def compare(stat: Optional[Stat], value: float = 0.0, interval: str = "ci95") -> Optional[int]:
     """-1, 0 or +1: the mean is below, not distinguishable from, or above `value` by the 95 % interval named
     (ci95: the mean's; pi95: one more sample's); None without a statistic or with fewer than two seeds."""
     if stat is None or stat.get("n", 0) < 2:
@@ -185,7 +193,7 @@ def compare(stat, value=0.0, interval="ci95"):
     return 1 if lo > value else -1 if hi < value else 0
 
 
-def t_text(stat, value=0.0):
+def t_text(stat: Optional[Stat], value: float = 0.0) -> str:
     """'t = 3.21, 2 dof' of the mean against `value`."""
     if stat is None or stat.get("n", 0) < 2:
         return "n < 2"
@@ -194,12 +202,13 @@ def t_text(stat, value=0.0):
     return f"t = {(stat['mean'] - value) / stat['sem']:.2f}, {stat['n'] - 1} dof"
 
 
-def p_text(p, adjusted=None):
+def p_text(p: Optional[float], adjusted: Optional[float] = None) -> str:
     """'p = 0.012, Holm 0.048'."""
     if p is None:
         return "p n/a"
     return f"p = {p:.3g}" + ("" if adjusted is None else f", Holm {adjusted:.3g}")
 
 
-def not_distinguishable(stat):
+def not_distinguishable(stat: Optional[Stat]) -> str:
+    """'not distinguishable at n seeds', 'n/a' without a statistic."""
     return f"not distinguishable at {stat['n']} seeds" if stat else "n/a"

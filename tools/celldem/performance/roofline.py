@@ -570,12 +570,38 @@ def kernel_row(key, label, counts, bytes_ps, share, particle_steps, roofs):
 def summarise(m):
     """roofline.json from measure()'s raw results: per kernel and for the step, per particle-step and against the
     roofs, every number with its unit and how it was obtained."""
-    probe, caches, sample, native, notes = m["probe"], m["caches"], m["sample"], m["native"], m["notes"]
-    per_kernel, steps, pss = m["per_kernel"], m["steps"], m["pss"]
-    particles, pairs = sample["particles"], sample["pairs_per_particle"]
-    particle_steps = steps * particles
+    sample, notes = m["sample"], m["notes"]
+    particle_steps = m["steps"] * sample["particles"]
+    add_rebuild(m)
+    compulsory = compulsory_bytes(sample["pairs_per_particle"], sample["crossings_per_particle"])
+    notes += layout_notes(m, compulsory)
+    roofs = machine_roofs(m)
+    shares = m["shares"] or {}
+    kernels = [kernel_row(key, label, m["per_kernel"][key], compulsory["kernels"].get(key, 0.0), shares.get(key),
+                          particle_steps, roofs) for key, label, _ in KERNELS]
+    step = kernel_row("step", "whole step", totals(m["per_kernel"]), compulsory["step"], 1.0, particle_steps, roofs)
+    law = next(k for k in kernels if k["kernel"] == "evaluate_chunk")
+    return {
+        "scene": scene_summary(m, roofs),
+        "machine": machine_summary(m, roofs),
+        "per_particle_step": step_summary(m, step, compulsory),
+        "pair_law": pair_law_summary(m, law, roofs),
+        "achieved": achieved_summary(m, step, compulsory, roofs),
+        "bandwidth_level": roofs["level"],
+        "kernels": kernels,
+        "step": step,
+        "rebuild": m["rebuild"],
+        "large_sample": m["large"],
+        "definitions": definitions(roofs["level"]),
+        "notes": notes,
+    }
 
-    # The rebuild: measured once, added at the native bench's rate, unless the callgrind steps had some.
+
+def add_rebuild(m):
+    """The neighbour-list rebuild, measured once, added to the neighbour kernel at the native bench's rate unless
+    the callgrind steps had some; notes what it did and what ran outside the binary."""
+    per_kernel, steps, sample, native, notes = m["per_kernel"], m["steps"], m["sample"], m["native"], m["notes"]
+    particle_steps = steps * sample["particles"]
     rebuild = m["rebuild"]
     rebuild["rebuilds_per_step"] = native.get("rebuilds", 0) / native["steps"]
     if sample.get("rebuilds", 0) == 0:
@@ -591,7 +617,13 @@ def summarise(m):
         notes.append(f"{elsewhere:.3g} instructions per particle-step ran outside the celldem binary (libc, libgomp): "
                      "counted as instructions, their flops (if any) not")
 
-    compulsory = compulsory_bytes(pairs, sample["crossings_per_particle"])
+
+def layout_notes(m, compulsory):
+    """The notes on the layout table (ARRAYS) against the bench's byte count, and on the simulated L2 misses
+    against the bytes the step touches."""
+    per_kernel, sample, notes = m["per_kernel"], m["sample"], []
+    particles = sample["particles"]
+    particle_steps = m["steps"] * particles
     if abs(compulsory["footprint"] - sample["bytes_per_particle"]) > 0.02 * sample["bytes_per_particle"]:
         notes.append(f"WARNING: the layout table (ARRAYS in tools/celldem/performance/roofline.py) holds "
                      f"{compulsory['footprint']:.0f} bytes per particle, the bench counts "
@@ -605,21 +637,69 @@ def summarise(m):
         ratios.append(f"{large['ll_miss_bytes_per_particle_step'] / touched:.2f} x on {large['particles']}")
     notes.append(f"the simulated L2-miss bytes are {' and '.join(ratios)} the bytes of the arrays the step touches "
                  f"({compulsory['touched']:.0f} B per particle-step, each array once, write-backs aside)")
-    footprint = sample["bytes_per_particle"] * particles
+    return notes
+
+
+def machine_roofs(m):
+    """The roofs the kernels are held against: clock, peak flops, the bandwidth level of the sample's footprint,
+    the triad bandwidths and the divider rates, and the native seconds per particle-step."""
+    probe, caches, sample = m["probe"], m["caches"], m["sample"]
+    footprint = sample["bytes_per_particle"] * sample["particles"]
     level = "L2" if footprint <= caches["L2"] else \
         ("L3" if caches.get("L3") and footprint <= caches["L3"] else "DRAM")
-    per_cycle, per_cycle_how = m["peak_per_cycle"]
+    per_cycle = m["peak_per_cycle"][0]
     clock = probe["clock_ghz"] * 1e9
-    roofs = {"clock": clock, "peak": per_cycle * clock, "level": level, "seconds_per_ps": 1.0 / pss,
-             "bw": {k: v * 1e9 for k, v in probe["triad_gbs"].items()},
-             "div": probe.get("div_glanes", 0) * 1e9, "sqrt": probe.get("sqrt_glanes", 0) * 1e9}
-    shares = m["shares"] or {}
-    kernels = [kernel_row(key, label, per_kernel[key], compulsory["kernels"].get(key, 0.0), shares.get(key),
-                          particle_steps, roofs) for key, label, _ in KERNELS]
-    step = kernel_row("step", "whole step", totals(per_kernel), compulsory["step"], 1.0, particle_steps, roofs)
-    law = next(k for k in kernels if k["kernel"] == "evaluate_chunk")
+    return {"clock": clock, "peak": per_cycle * clock, "level": level, "seconds_per_ps": 1.0 / m["pss"],
+            "bw": {k: v * 1e9 for k, v in probe["triad_gbs"].items()},
+            "div": probe.get("div_glanes", 0) * 1e9, "sqrt": probe.get("sqrt_glanes", 0) * 1e9,
+            "footprint": footprint}
 
-    bench_steps, bench_warmup, bench_repeats = m["bench"]
+
+HOW_PROBE = "roofline_probe.cpp (g++ -O3 -march=native)"
+
+
+def scene_summary(m, roofs):
+    """roofline.json's scene: the deck, state, binary and the sample's pairs, contacts and footprint."""
+    sample, level = m["sample"], roofs["level"]
+    return {
+        "deck": m["deck"], "state": m["state"], "celldem": m["celldem"], "celldem_sha256": m["sha256"],
+        "particles": sample["particles"],
+        "pairs_per_particle": quantity(sample["pairs_per_particle"], "listed pairs / particle",
+                                       "bench.json of the callgrind run (half list)"),
+        "contacts_per_particle": quantity(sample["contacts_per_particle"], "contacts / particle",
+                                          "bench.json of the callgrind run"),
+        "footprint": quantity(roofs["footprint"], "B", f"bench.json bytes_per_particle x particles: in {level}")}
+
+
+def machine_summary(m, roofs):
+    """roofline.json's machine: the CPU, caches, clock, compute roof, divider and bandwidth roofs, the load."""
+    probe, caches, how_probe = m["probe"], m["caches"], HOW_PROBE
+    clock, (per_cycle, per_cycle_how) = roofs["clock"], m["peak_per_cycle"]
+    return {
+        "cpu": m["cpu"],
+        "caches": caches,
+        "clock": quantity(clock / 1e9, "GHz",
+                          f"{how_probe}: a chain of dependent register adds, 1 cycle each, best of 5"),
+        "peak_flops_per_cycle": quantity(per_cycle, "flop/cycle", per_cycle_how),
+        "peak_flops": quantity(roofs["peak"] / 1e9, "GFlop/s", "peak_flops_per_cycle x clock (the compute roof)"),
+        "measured_fma_flops": quantity(probe.get("fma_gflops"), "GFlop/s",
+                                       f"{how_probe}: 16 independent {int(probe.get('fma_lanes', 0))}-lane FMA "
+                                       "chains, best of 3"),
+        "divider": {op: quantity(probe.get(f"{op}_glanes"), "G lane-operations/s",
+                                 f"{how_probe}: 16 independent chains of vector {op}, best of 3")
+                    for op in ("div", "sqrt")},
+        "bandwidth": {k: quantity(v, "GB/s", f"{how_probe}: triad a = b + s c, 3 arrays of "
+                                             f"{probe['triad_bytes'][k] / 3 / 2**20:.4g} MiB each, 24 B per "
+                                             "element (STREAM's count), best of 7")
+                      for k, v in probe["triad_gbs"].items()},
+        "load_average": {"start": m["load_start"], "end": m["load_end"],
+                         "note": "the machine's 1-minute load average: other jobs share the memory system"}}
+
+
+def step_summary(m, step, compulsory):
+    """roofline.json's per_particle_step: the whole step's instructions, flops, bytes and intensity."""
+    pairs, caches, steps = m["sample"]["pairs_per_particle"], m["caches"], m["steps"]
+    particles = m["sample"]["particles"]
     how_cg = (f"valgrind --tool=callgrind --dump-instr=yes --instr-atstart=no --toggle-collect={m['toggle']} on "
               f"`celldem bench --threads 1 --steps {m['callgrind_steps']} --warmup {m['callgrind_warmup']}` "
               "(instrumented from the timed steps on: the bench's client request), OMP_NUM_THREADS=1; divided by the steps "
@@ -632,107 +712,86 @@ def summarise(m):
     how_cache = (f"callgrind --cache-sim=yes with this core's L1d ({caches['L1d'] >> 10} KiB) as D1 and its L2 "
                  f"({caches['L2'] >> 20} MiB) as LL: (misses, read and write) x {LINE} B; LRU, no prefetch, "
                  "write-backs not counted")
-    how_probe = "roofline_probe.cpp (g++ -O3 -march=native)"
     return {
-        "scene": {
-            "deck": m["deck"], "state": m["state"], "celldem": m["celldem"], "celldem_sha256": m["sha256"],
-            "particles": particles,
-            "pairs_per_particle": quantity(pairs, "listed pairs / particle",
-                                           "bench.json of the callgrind run (half list)"),
-            "contacts_per_particle": quantity(sample["contacts_per_particle"], "contacts / particle",
-                                              "bench.json of the callgrind run"),
-            "footprint": quantity(footprint, "B", f"bench.json bytes_per_particle x particles: in {level}")},
-        "machine": {
-            "cpu": m["cpu"],
-            "caches": caches,
-            "clock": quantity(clock / 1e9, "GHz",
-                              f"{how_probe}: a chain of dependent register adds, 1 cycle each, best of 5"),
-            "peak_flops_per_cycle": quantity(per_cycle, "flop/cycle", per_cycle_how),
-            "peak_flops": quantity(roofs["peak"] / 1e9, "GFlop/s", "peak_flops_per_cycle x clock (the compute roof)"),
-            "measured_fma_flops": quantity(probe.get("fma_gflops"), "GFlop/s",
-                                           f"{how_probe}: 16 independent {int(probe.get('fma_lanes', 0))}-lane FMA "
-                                           "chains, best of 3"),
-            "divider": {op: quantity(probe.get(f"{op}_glanes"), "G lane-operations/s",
-                                     f"{how_probe}: 16 independent chains of vector {op}, best of 3")
-                        for op in ("div", "sqrt")},
-            "bandwidth": {k: quantity(v, "GB/s", f"{how_probe}: triad a = b + s c, 3 arrays of "
-                                                 f"{probe['triad_bytes'][k] / 3 / 2**20:.4g} MiB each, 24 B per "
-                                                 "element (STREAM's count), best of 7")
-                          for k, v in probe["triad_gbs"].items()},
-            "load_average": {"start": m["load_start"], "end": m["load_end"],
-                             "note": "the machine's 1-minute load average: other jobs share the memory system"}},
-        "per_particle_step": {
-            "instructions": quantity(step["instructions_per_particle_step"], "instructions / particle-step",
-                                     how_cg + "; evaluate_chunk is its AVX2 clone under valgrind (natively: AVX-512)"),
-            "flops": quantity(step["flops_per_particle_step"], "flop / particle-step", how_flops),
-            "compulsory_bytes": quantity(compulsory["step"], "B / particle-step", how_bytes),
-            "touched_bytes": quantity(compulsory["touched"], "B / particle-step",
-                                      "the arrays the step reads or writes, each counted once (ARRAYS)"),
-            "d1_miss_bytes": quantity(step["d1_miss_bytes_per_particle_step"], "B / particle-step", how_cache),
-            "ll_miss_bytes": quantity(step["ll_miss_bytes_per_particle_step"], "B / particle-step", how_cache),
-            "arithmetic_intensity": quantity(step["arithmetic_intensity"], "flop / B", "flops / compulsory bytes")},
-        "pair_law": {
-            "flops_per_pair": quantity(law["flops_per_particle_step"] / pairs, "flop / listed pair",
-                                       "evaluate_chunk's flops / listed pairs (the law runs branch-free on every "
-                                       "listed pair)"),
-            "flops_per_contact": quantity(law["flops_per_particle_step"] / sample["contacts_per_particle"],
-                                          "flop / contact", "evaluate_chunk's flops / touching pairs"),
-            "div_sqrt_per_pair": quantity(law["div_sqrt_per_particle_step"] / pairs, "lane-operations / listed pair",
-                                          "evaluate_chunk's divisions and square roots / listed pairs"),
-            "instructions_per_pair": quantity(law["instructions_per_particle_step"] / pairs,
-                                              "instructions / listed pair", "the AVX2 clone, 4 pairs per ymm instruction"),
-            "cycles_per_pair": quantity(law["seconds_per_particle_step"] and
-                                        law["seconds_per_particle_step"] * clock / pairs, "cycles / listed pair",
-                                        "natively: evaluate_chunk's time share x cycles per particle-step / pairs"),
-            "divider_cycles_per_pair": quantity(law["percent_divider_bound"] and law["seconds_per_particle_step"] and
-                                                law["percent_divider_bound"] / 100 * law["seconds_per_particle_step"]
-                                                * clock / pairs, "cycles / listed pair",
-                                                "the least time of its divisions and square roots on the measured "
-                                                "divider rates")},
-        "achieved": {
-            "particle_steps_per_second": quantity(pss, "particle-steps / s",
-                                                  f"native `celldem bench --threads 1 --steps {bench_steps} --warmup "
-                                                  f"{bench_warmup} --repeats {bench_repeats}`, bench.json's median"),
-            "cycles_per_particle_step": quantity(clock / pss, "cycles / particle-step",
-                                                 "clock / particle-steps per second"),
-            "flops": quantity(step["flops_per_second"] / 1e9, "GFlop/s", "flops per particle-step x particle-steps/s"),
-            "compulsory_bandwidth": quantity(compulsory["step"] * pss / 1e9, "GB/s",
-                                             "compulsory bytes x particle-steps/s"),
-            "l2_bandwidth": quantity(step["d1_miss_bytes_per_particle_step"] * pss / 1e9, "GB/s",
-                                     "simulated L1d-miss bytes x particle-steps/s (traffic between L1 and L2)"),
-            "ipc": quantity(step["ipc"], "instructions / cycle",
-                            "valgrind's instructions (AVX2 clone of evaluate_chunk) / native cycles (AVX-512 clone): "
-                            "mixed, a rough figure"),
-            "percent_of_compute_roof": quantity(step["percent_of_compute_roof"], "%", "achieved flops / peak_flops"),
-            "percent_of_bandwidth_roof": quantity(step["percent_of_bandwidth_roof"], "%",
-                                                  f"compulsory bandwidth / the {level} triad roof (the sample's "
-                                                  f"footprint is in {level})"),
-            "percent_of_l2_roof": quantity(step["percent_of_l2_roof"], "%", "L1-L2 bandwidth / the L2 triad roof")},
-        "bandwidth_level": level,
-        "kernels": kernels,
-        "step": step,
-        "rebuild": rebuild,
-        "large_sample": m["large"],
-        "definitions": {
-            "instructions_per_particle_step": "callgrind Ir (see per_particle_step.instructions)",
-            "flops_per_particle_step": "flop (see per_particle_step.flops)",
-            "packed_flop_fraction": "share of the flops done by packed (SIMD) instructions",
-            "div_sqrt_per_particle_step": "division and square-root lane-operations (included in the flops)",
-            "compulsory_bytes_per_particle_step": "B, each array the kernel touches once (ARRAYS)",
-            "d1_miss_bytes_per_particle_step": "B, simulated L1d misses x 64",
-            "ll_miss_bytes_per_particle_step": "B, simulated L2 misses x 64",
-            "arithmetic_intensity": "flop/B against the compulsory bytes; _l2: against the L1d-miss bytes",
-            "time_share": "share of the step's CPU time, perf record -e cpu-clock self samples",
-            "seconds_per_particle_step": "s, time_share / native particle-steps per second",
-            "ipc": "instructions per cycle (valgrind's instructions / native cycles)",
-            "flops_per_second": "flop/s natively",
-            "percent_of_compute_roof": "%, of machine.peak_flops",
-            "percent_of_bandwidth_roof": f"%, compulsory bytes/s of the {level} triad roof",
-            "percent_of_l2_roof": "%, L1d-miss bytes/s of the L2 triad roof",
-            "percent_divider_bound": "%, the least time the divider needs for the divisions and square roots "
-                                     "(machine.divider rates) of the kernel's time"},
-        "notes": notes,
-    }
+        "instructions": quantity(step["instructions_per_particle_step"], "instructions / particle-step",
+                                 how_cg + "; evaluate_chunk is its AVX2 clone under valgrind (natively: AVX-512)"),
+        "flops": quantity(step["flops_per_particle_step"], "flop / particle-step", how_flops),
+        "compulsory_bytes": quantity(compulsory["step"], "B / particle-step", how_bytes),
+        "touched_bytes": quantity(compulsory["touched"], "B / particle-step",
+                                  "the arrays the step reads or writes, each counted once (ARRAYS)"),
+        "d1_miss_bytes": quantity(step["d1_miss_bytes_per_particle_step"], "B / particle-step", how_cache),
+        "ll_miss_bytes": quantity(step["ll_miss_bytes_per_particle_step"], "B / particle-step", how_cache),
+        "arithmetic_intensity": quantity(step["arithmetic_intensity"], "flop / B", "flops / compulsory bytes")}
+
+
+def pair_law_summary(m, law, roofs):
+    """roofline.json's pair_law: evaluate_chunk per listed pair and per contact."""
+    pairs, sample, clock = m["sample"]["pairs_per_particle"], m["sample"], roofs["clock"]
+    return {
+        "flops_per_pair": quantity(law["flops_per_particle_step"] / pairs, "flop / listed pair",
+                                   "evaluate_chunk's flops / listed pairs (the law runs branch-free on every "
+                                   "listed pair)"),
+        "flops_per_contact": quantity(law["flops_per_particle_step"] / sample["contacts_per_particle"],
+                                      "flop / contact", "evaluate_chunk's flops / touching pairs"),
+        "div_sqrt_per_pair": quantity(law["div_sqrt_per_particle_step"] / pairs, "lane-operations / listed pair",
+                                      "evaluate_chunk's divisions and square roots / listed pairs"),
+        "instructions_per_pair": quantity(law["instructions_per_particle_step"] / pairs,
+                                          "instructions / listed pair", "the AVX2 clone, 4 pairs per ymm instruction"),
+        "cycles_per_pair": quantity(law["seconds_per_particle_step"] and
+                                    law["seconds_per_particle_step"] * clock / pairs, "cycles / listed pair",
+                                    "natively: evaluate_chunk's time share x cycles per particle-step / pairs"),
+        "divider_cycles_per_pair": quantity(law["percent_divider_bound"] and law["seconds_per_particle_step"] and
+                                            law["percent_divider_bound"] / 100 * law["seconds_per_particle_step"]
+                                            * clock / pairs, "cycles / listed pair",
+                                            "the least time of its divisions and square roots on the measured "
+                                            "divider rates")}
+
+
+def achieved_summary(m, step, compulsory, roofs):
+    """roofline.json's achieved: the native rate against the roofs."""
+    pss, clock, level = m["pss"], roofs["clock"], roofs["level"]
+    bench_steps, bench_warmup, bench_repeats = m["bench"]
+    return {
+        "particle_steps_per_second": quantity(pss, "particle-steps / s",
+                                              f"native `celldem bench --threads 1 --steps {bench_steps} --warmup "
+                                              f"{bench_warmup} --repeats {bench_repeats}`, bench.json's median"),
+        "cycles_per_particle_step": quantity(clock / pss, "cycles / particle-step",
+                                             "clock / particle-steps per second"),
+        "flops": quantity(step["flops_per_second"] / 1e9, "GFlop/s", "flops per particle-step x particle-steps/s"),
+        "compulsory_bandwidth": quantity(compulsory["step"] * pss / 1e9, "GB/s",
+                                         "compulsory bytes x particle-steps/s"),
+        "l2_bandwidth": quantity(step["d1_miss_bytes_per_particle_step"] * pss / 1e9, "GB/s",
+                                 "simulated L1d-miss bytes x particle-steps/s (traffic between L1 and L2)"),
+        "ipc": quantity(step["ipc"], "instructions / cycle",
+                        "valgrind's instructions (AVX2 clone of evaluate_chunk) / native cycles (AVX-512 clone): "
+                        "mixed, a rough figure"),
+        "percent_of_compute_roof": quantity(step["percent_of_compute_roof"], "%", "achieved flops / peak_flops"),
+        "percent_of_bandwidth_roof": quantity(step["percent_of_bandwidth_roof"], "%",
+                                              f"compulsory bandwidth / the {level} triad roof (the sample's "
+                                              f"footprint is in {level})"),
+        "percent_of_l2_roof": quantity(step["percent_of_l2_roof"], "%", "L1-L2 bandwidth / the L2 triad roof")}
+
+
+def definitions(level):
+    """What each column of a kernel row means (roofline.json's definitions)."""
+    return {
+        "instructions_per_particle_step": "callgrind Ir (see per_particle_step.instructions)",
+        "flops_per_particle_step": "flop (see per_particle_step.flops)",
+        "packed_flop_fraction": "share of the flops done by packed (SIMD) instructions",
+        "div_sqrt_per_particle_step": "division and square-root lane-operations (included in the flops)",
+        "compulsory_bytes_per_particle_step": "B, each array the kernel touches once (ARRAYS)",
+        "d1_miss_bytes_per_particle_step": "B, simulated L1d misses x 64",
+        "ll_miss_bytes_per_particle_step": "B, simulated L2 misses x 64",
+        "arithmetic_intensity": "flop/B against the compulsory bytes; _l2: against the L1d-miss bytes",
+        "time_share": "share of the step's CPU time, perf record -e cpu-clock self samples",
+        "seconds_per_particle_step": "s, time_share / native particle-steps per second",
+        "ipc": "instructions per cycle (valgrind's instructions / native cycles)",
+        "flops_per_second": "flop/s natively",
+        "percent_of_compute_roof": "%, of machine.peak_flops",
+        "percent_of_bandwidth_roof": f"%, compulsory bytes/s of the {level} triad roof",
+        "percent_of_l2_roof": "%, L1d-miss bytes/s of the L2 triad roof",
+        "percent_divider_bound": "%, the least time the divider needs for the divisions and square roots "
+                                 "(machine.divider rates) of the kernel's time"}
 
 
 # ---- the report ----
@@ -743,7 +802,17 @@ def _f(value, spec=".3g"):
 
 def markdown(r):
     """roofline.md: the machine, the per-kernel table, the whole step against the roofs, and the caveats."""
-    m, a, level = r["machine"], r["achieved"], r["bandwidth_level"]
+    lines = machine_lines(r) + [kernel_table(r), ""] + [
+        "† Instructions under valgrind, where evaluate_chunk runs its AVX2 (x86-64-v3) clone; natively it runs the "
+        "AVX-512 clone (fewer instructions, the same flops). IPC divides these by the native cycles.", "",
+        "## The whole step", "", whole_step_table(r), ""]
+    lines += large_sample_lines(r) + note_lines(r)
+    return "\n".join(lines)
+
+
+def kernel_table(r):
+    """The per-kernel table (and the whole step's row) against the roofs."""
+    level = r["bandwidth_level"]
 
     def packed(k):  # (not for a handful of flops)
         return 100 * k["packed_flop_fraction"] if k["flops_per_particle_step"] >= 1 else None
@@ -755,13 +824,17 @@ def markdown(r):
              _f(k["percent_of_bandwidth_roof"], ".1f"), _f(k["percent_of_l2_roof"], ".1f"),
              _f(k["percent_divider_bound"], ".0f"))
             for k in r["kernels"] + [r["step"]]]
-    table = md_table(("kernel", "instructions / p-step †", "flops / p-step", "packed flops %", "div+sqrt / p-step",
-                      "time % (perf)", "compulsory B / p-step", "L1-miss B / p-step (sim.)", "AI [flop/B]", "IPC †",
-                      "GFlop/s", "% compute roof", f"% {level} roof (compulsory B)", "% L2 roof (L1-miss B)",
-                      "divider-bound % of time"),
-                     rows, align="lrrrrrrrrrrrrrr")
-    s = r["scene"]
-    lines = [
+    return md_table(("kernel", "instructions / p-step †", "flops / p-step", "packed flops %", "div+sqrt / p-step",
+                     "time % (perf)", "compulsory B / p-step", "L1-miss B / p-step (sim.)", "AI [flop/B]", "IPC †",
+                     "GFlop/s", "% compute roof", f"% {level} roof (compulsory B)", "% L2 roof (L1-miss B)",
+                     "divider-bound % of time"),
+                    rows, align="lrrrrrrrrrrrrrr")
+
+
+def machine_lines(r):
+    """The heading, the scene and the machine's roofs."""
+    m, s, level = r["machine"], r["scene"], r["bandwidth_level"]
+    return [
         "# Roofline of the time step (one core)", "",
         f"Scene: {s['deck']}, {s['particles']} spheres from {s['state']}; {s['pairs_per_particle']['value']:.3g} listed "
         f"pairs and {s['contacts_per_particle']['value']:.3g} contacts per particle; footprint "
@@ -771,41 +844,51 @@ def markdown(r):
         f"measured FMA rate {_f(m['measured_fma_flops']['value'], '.4g')} GFlop/s); divider "
         f"{_f(m['divider']['div']['value'])} G divisions/s, {_f(m['divider']['sqrt']['value'])} G square roots/s "
         "(lane-operations); triad bandwidth "
-        + ", ".join(f"{k} {v['value']:.3g} GB/s" for k, v in m["bandwidth"].items()) + ".", "",
-        table, "",
-        "† Instructions under valgrind, where evaluate_chunk runs its AVX2 (x86-64-v3) clone; natively it runs the "
-        "AVX-512 clone (fewer instructions, the same flops). IPC divides these by the native cycles.", "",
-        "## The whole step", "",
-        md_table(("quantity", "value"), [
-            ("particle-steps/s (native, median)", f"{a['particle_steps_per_second']['value']:.4g}"),
-            ("cycles / particle-step", f"{a['cycles_per_particle_step']['value']:.0f}"),
-            ("instructions / particle-step †", f"{r['per_particle_step']['instructions']['value']:.0f}"),
-            ("flops / particle-step", f"{r['per_particle_step']['flops']['value']:.0f}"),
-            ("flops / listed pair (pair law)", f"{r['pair_law']['flops_per_pair']['value']:.0f}"),
-            ("divisions + square roots / listed pair (pair law)", f"{r['pair_law']['div_sqrt_per_pair']['value']:.1f}"),
-            ("instructions / listed pair (pair law, AVX2 clone)", f"{r['pair_law']['instructions_per_pair']['value']:.0f}"),
-            ("cycles / listed pair (pair law, native; of which the divider's floor)",
-             f"{_f(r['pair_law']['cycles_per_pair']['value'], '.1f')} "
-             f"({_f(r['pair_law']['divider_cycles_per_pair']['value'], '.1f')})"),
-            ("compulsory bytes / particle-step", f"{r['per_particle_step']['compulsory_bytes']['value']:.0f}"),
-            ("touched bytes / particle-step (each array once)", f"{r['per_particle_step']['touched_bytes']['value']:.0f}"),
-            ("L1-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['d1_miss_bytes']['value']:.0f}"),
-            ("L2-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['ll_miss_bytes']['value']:.0f}"),
-            ("arithmetic intensity (compulsory)", f"{r['per_particle_step']['arithmetic_intensity']['value']:.2f} flop/B"),
-            ("achieved", f"{a['flops']['value']:.3g} GFlop/s, {a['compulsory_bandwidth']['value']:.3g} GB/s compulsory, "
-                         f"{a['l2_bandwidth']['value']:.3g} GB/s L1-L2, IPC {a['ipc']['value']:.2f} †"),
-            ("of the compute roof", f"{a['percent_of_compute_roof']['value']:.1f} %"),
-            (f"of the {level} bandwidth roof (compulsory bytes)", f"{a['percent_of_bandwidth_roof']['value']:.1f} %"),
-            ("of the L2 bandwidth roof (L1-miss bytes)", f"{a['percent_of_l2_roof']['value']:.1f} %"),
-        ], align="lr"), ""]
-    if r.get("large_sample"):
-        g = r["large_sample"]
-        lines += [f"Larger sample ({g['particles']} spheres, {g['steps']} steps under callgrind, footprint "
-                  f"{g['footprint_bytes'] / 2**20:.3g} MiB): {g['instructions_per_particle_step']:.0f} instructions, "
-                  f"{g['flops_per_particle_step']:.0f} flops, {g['compulsory_bytes_per_particle_step']:.0f} compulsory B, "
-                  f"{g['d1_miss_bytes_per_particle_step']:.0f} L1-miss B and {g['ll_miss_bytes_per_particle_step']:.0f} "
-                  "L2-miss B per particle-step (simulated).", ""]
-    lines += ["## Notes", ""] + [f"- {n}" for n in r["notes"]] + [
+        + ", ".join(f"{k} {v['value']:.3g} GB/s" for k, v in m["bandwidth"].items()) + ".", ""]
+
+
+def whole_step_table(r):
+    """The whole step's numbers: rates, counts per particle-step and per listed pair, and the share of each roof."""
+    a, level = r["achieved"], r["bandwidth_level"]
+    return md_table(("quantity", "value"), [
+        ("particle-steps/s (native, median)", f"{a['particle_steps_per_second']['value']:.4g}"),
+        ("cycles / particle-step", f"{a['cycles_per_particle_step']['value']:.0f}"),
+        ("instructions / particle-step †", f"{r['per_particle_step']['instructions']['value']:.0f}"),
+        ("flops / particle-step", f"{r['per_particle_step']['flops']['value']:.0f}"),
+        ("flops / listed pair (pair law)", f"{r['pair_law']['flops_per_pair']['value']:.0f}"),
+        ("divisions + square roots / listed pair (pair law)", f"{r['pair_law']['div_sqrt_per_pair']['value']:.1f}"),
+        ("instructions / listed pair (pair law, AVX2 clone)", f"{r['pair_law']['instructions_per_pair']['value']:.0f}"),
+        ("cycles / listed pair (pair law, native; of which the divider's floor)",
+         f"{_f(r['pair_law']['cycles_per_pair']['value'], '.1f')} "
+         f"({_f(r['pair_law']['divider_cycles_per_pair']['value'], '.1f')})"),
+        ("compulsory bytes / particle-step", f"{r['per_particle_step']['compulsory_bytes']['value']:.0f}"),
+        ("touched bytes / particle-step (each array once)", f"{r['per_particle_step']['touched_bytes']['value']:.0f}"),
+        ("L1-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['d1_miss_bytes']['value']:.0f}"),
+        ("L2-miss bytes / particle-step (simulated)", f"{r['per_particle_step']['ll_miss_bytes']['value']:.0f}"),
+        ("arithmetic intensity (compulsory)", f"{r['per_particle_step']['arithmetic_intensity']['value']:.2f} flop/B"),
+        ("achieved", f"{a['flops']['value']:.3g} GFlop/s, {a['compulsory_bandwidth']['value']:.3g} GB/s compulsory, "
+                     f"{a['l2_bandwidth']['value']:.3g} GB/s L1-L2, IPC {a['ipc']['value']:.2f} †"),
+        ("of the compute roof", f"{a['percent_of_compute_roof']['value']:.1f} %"),
+        (f"of the {level} bandwidth roof (compulsory bytes)", f"{a['percent_of_bandwidth_roof']['value']:.1f} %"),
+        ("of the L2 bandwidth roof (L1-miss bytes)", f"{a['percent_of_l2_roof']['value']:.1f} %"),
+    ], align="lr")
+
+
+def large_sample_lines(r):
+    """The larger sample's counts, when it was measured."""
+    if not r.get("large_sample"):
+        return []
+    g = r["large_sample"]
+    return [f"Larger sample ({g['particles']} spheres, {g['steps']} steps under callgrind, footprint "
+            f"{g['footprint_bytes'] / 2**20:.3g} MiB): {g['instructions_per_particle_step']:.0f} instructions, "
+            f"{g['flops_per_particle_step']:.0f} flops, {g['compulsory_bytes_per_particle_step']:.0f} compulsory B, "
+            f"{g['d1_miss_bytes_per_particle_step']:.0f} L1-miss B and {g['ll_miss_bytes_per_particle_step']:.0f} "
+            "L2-miss B per particle-step (simulated).", ""]
+
+
+def note_lines(r):
+    """## Notes: the run's notes and the method's caveats."""
+    return ["## Notes", ""] + [f"- {n}" for n in r["notes"]] + [
         "- Under valgrind evaluate_chunk is the AVX2 clone (valgrind does not emulate AVX-512); the flop count "
         "(lane-operations) is the same for the AVX-512 clone that runs natively, the instruction count is not.",
         "- Compulsory bytes assume every array moves once per step; the L1-/L2-miss bytes come from valgrind's cache "
@@ -819,7 +902,6 @@ def markdown(r):
         "divider rates (they share one unit): a floor under the kernel's time that FMA throughput does not show.",
         "- The roofs are single-core triad, FMA and divider rates on a shared virtual machine; the compute roof "
         "assumes two AVX-512 FMA pipes (the measured FMA rate checks it).", ""]
-    return "\n".join(lines)
 
 
 def plot(r, path):

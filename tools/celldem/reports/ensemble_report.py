@@ -272,49 +272,81 @@ def paper_claims(ens):
         if args[2] is not None and args[2].get("n", 0) >= 2:
             claims.append(Claim(*args, **kw))
 
+    for section in (prepared_claims, psc_claims, ttc_claims, pair_claims, per_test_claims):
+        section(ens, add)
+    flat = [p for c in claims for p in c.p]
+    adjusted, _ = stats.holm(flat, ALPHA)
+    k = 0
+    for c in claims:
+        c.adjusted = adjusted[k:k + len(c.p)]
+        k += len(c.p)
+    return claims
+
+
+def prepared_claims(ens, add):
+    """The prepared sample's void ratio and coordination number against the paper's."""
     for key, label, value, digits in (("void_ratio", "Prepared void ratio e", report.PAPER_VOID_RATIO, 3),
                                       ("Z", "Prepared coordination number Z", report.PAPER_Z, 2)):
         add(label, fmt(value, digits), ens.statistic("prepared", key), 1.0, digits, "value", PREDICTION,
             against=value)
-    if ens.test("psc") is not None:
-        add("PSC b at peak σ1/σ3", fmt(report.PAPER_B_AT_PEAK), ens.statistic("tests", "psc", "b_at_peak"), 1.0, 3,
-            "value", PREDICTION, against=report.PAPER_B_AT_PEAK)
-        add("PSC b at ε1 = 10 %", fmt(report.PAPER_B_AT_10), per_seed(ens, report.psc_b_at_10, ("psc",)), 1.0, 3,
-            "value", PREDICTION, against=report.PAPER_B_AT_10)
 
-        def b_fall(run):
-            b10, peak = report.psc_b_at_10(run), run.quantity("psc", "b_at_peak")
-            return None if b10 is None or peak is None or not run.peak_reached("psc") else b10 - peak
-        add("PSC b falls after the peak (b at 10 % − b at peak)", "yes", per_seed(ens, b_fall, ("psc",)), 1.0, 3,
-            "sign", ONE_SAMPLE.format(0), expected=-1)
-        add("PSC ε2 stays 0 (max |ε2|, %)", "yes", per_seed(ens, report.psc_max_e2, ("psc",)), PERCENT, 4,
-            "construction", "by construction (plane strain prescribes ε2 = 0)", against=report.ZERO_STRAIN_TOL)
-    if ens.test("ttc") is not None:
-        add("TTC b stays 0 (max |b| for ε1 ≥ 0.1 %)", "yes", per_seed(ens, report.ttc_max_b, ("ttc",)), 1.0, 3,
-            "construction", "by construction (the triaxial test holds σ2 = σ3)", against=report.ZERO_B_TOL)
-    if both(ens):
-        # ensemble.json's pairs are named B-A with B after A alphabetically: "ttc-psc" is ttc − psc.
-        add("PSC peak σ1/σ3 exceeds TTC's (ttc − psc)", "yes", ens.statistic("paired", "ttc-psc", "peak_ratio13"),
-            1.0, 3, "sign", PAIRED, expected=-1)
-        for name, label in (("Z", "Z"), ("sliding_fraction", "Sliding fraction"), ("DI", "DI")):
-            stat = per_seed(ens, lambda run, c=name: metrics.mean_difference(
-                run.column("ttc", "e1"), run.column("ttc", c), run.column("psc", "e1"), run.column("psc", c),
-                bins=report.CURVE_BINS))
-            add(f"{label} evolves alike in TTC and PSC (mean psc − ttc over ε1 bins)", "yes", stat, 1.0, 3, "alike",
-                PAIRED, margin=ALIKE_MARGINS[name])
-        for name in ("H11_H33", "Hs11_Hs33", "Hw11_Hw33"):
-            stat = per_seed(ens, lambda run, c=name: None if metrics.max_of(run.column("psc", c)) is None
-                            or metrics.max_of(run.column("ttc", c)) is None
-                            else metrics.max_of(run.column("psc", c)) - metrics.max_of(run.column("ttc", c)))
-            label = name.replace("_", "/")
-            add(f"{label} grows more in PSC (max psc − max ttc)", "yes", stat, 1.0, 3, "sign", PAIRED, expected=1)
 
-        def macro_micro(run):
-            return metrics.mean_difference(*report.macro_micro_relation(run, "ttc"),
-                                           *report.macro_micro_relation(run, "psc"),
-                                           bins=report.MACRO_MICRO_BINS, relative=True)
-        add("σ1/σ3 vs Hs11/Hs33 (ε1 ≤ 1 %) is one curve (mean relative psc − ttc)", "yes",
-            per_seed(ens, macro_micro), 1.0, 3, "alike", PAIRED, margin=ALIKE_MARGINS["macro_micro"])
+def psc_claims(ens, add):
+    """PSC: b at the peak and at 10 %, b falling after the peak, ε2 held at 0."""
+    if ens.test("psc") is None:
+        return
+    add("PSC b at peak σ1/σ3", fmt(report.PAPER_B_AT_PEAK), ens.statistic("tests", "psc", "b_at_peak"), 1.0, 3,
+        "value", PREDICTION, against=report.PAPER_B_AT_PEAK)
+    add("PSC b at ε1 = 10 %", fmt(report.PAPER_B_AT_10), per_seed(ens, report.psc_b_at_10, ("psc",)), 1.0, 3,
+        "value", PREDICTION, against=report.PAPER_B_AT_10)
+
+    def b_fall(run):
+        b10, peak = report.psc_b_at_10(run), run.quantity("psc", "b_at_peak")
+        return None if b10 is None or peak is None or not run.peak_reached("psc") else b10 - peak
+    add("PSC b falls after the peak (b at 10 % − b at peak)", "yes", per_seed(ens, b_fall, ("psc",)), 1.0, 3,
+        "sign", ONE_SAMPLE.format(0), expected=-1)
+    add("PSC ε2 stays 0 (max |ε2|, %)", "yes", per_seed(ens, report.psc_max_e2, ("psc",)), PERCENT, 4,
+        "construction", "by construction (plane strain prescribes ε2 = 0)", against=report.ZERO_STRAIN_TOL)
+
+
+def ttc_claims(ens, add):
+    """TTC: b held at 0."""
+    if ens.test("ttc") is None:
+        return
+    add("TTC b stays 0 (max |b| for ε1 ≥ 0.1 %)", "yes", per_seed(ens, report.ttc_max_b, ("ttc",)), 1.0, 3,
+        "construction", "by construction (the triaxial test holds σ2 = σ3)", against=report.ZERO_B_TOL)
+
+
+def pair_claims(ens, add):
+    """TTC against PSC: the peaks, Z, sliding and DI alike, fabric growing more in PSC, one macro-micro curve."""
+    if not both(ens):
+        return
+    # ensemble.json's pairs are named B-A with B after A alphabetically: "ttc-psc" is ttc − psc.
+    add("PSC peak σ1/σ3 exceeds TTC's (ttc − psc)", "yes", ens.statistic("paired", "ttc-psc", "peak_ratio13"),
+        1.0, 3, "sign", PAIRED, expected=-1)
+    for name, label in (("Z", "Z"), ("sliding_fraction", "Sliding fraction"), ("DI", "DI")):
+        stat = per_seed(ens, lambda run, c=name: metrics.mean_difference(
+            run.column("ttc", "e1"), run.column("ttc", c), run.column("psc", "e1"), run.column("psc", c),
+            bins=report.CURVE_BINS))
+        add(f"{label} evolves alike in TTC and PSC (mean psc − ttc over ε1 bins)", "yes", stat, 1.0, 3, "alike",
+            PAIRED, margin=ALIKE_MARGINS[name])
+    for name in ("H11_H33", "Hs11_Hs33", "Hw11_Hw33"):
+        stat = per_seed(ens, lambda run, c=name: None if metrics.max_of(run.column("psc", c)) is None
+                        or metrics.max_of(run.column("ttc", c)) is None
+                        else metrics.max_of(run.column("psc", c)) - metrics.max_of(run.column("ttc", c)))
+        label = name.replace("_", "/")
+        add(f"{label} grows more in PSC (max psc − max ttc)", "yes", stat, 1.0, 3, "sign", PAIRED, expected=1)
+
+    def macro_micro(run):
+        return metrics.mean_difference(*report.macro_micro_relation(run, "ttc"),
+                                       *report.macro_micro_relation(run, "psc"),
+                                       bins=report.MACRO_MICRO_BINS, relative=True)
+    add("σ1/σ3 vs Hs11/Hs33 (ε1 ≤ 1 %) is one curve (mean relative psc − ttc)", "yes",
+        per_seed(ens, macro_micro), 1.0, 3, "alike", PAIRED, margin=ALIKE_MARGINS["macro_micro"])
+
+
+def per_test_claims(ens, add):
+    """Each test: the fabric peak after the stress ratio's, Hs11/Hs33 (and PSC's b) tracking σ1/σ3."""
     for test in ("ttc", "psc"):
         if ens.test(test) is None:
             continue
@@ -327,13 +359,6 @@ def paper_claims(ens):
             add(f"{test}: {label} tracks σ1/σ3 (Pearson r)", "yes",
                 per_seed(ens, lambda run, t=test, c=name: stats.fisher_z(report.tracks_r(run, t, c)), (test,)), 1.0,
                 2, "correlation", FISHER.format(report.TRACKS_MIN_R), against=report.TRACKS_MIN_R, below=False)
-    flat = [p for c in claims for p in c.p]
-    adjusted, _ = stats.holm(flat, ALPHA)
-    k = 0
-    for c in claims:
-        c.adjusted = adjusted[k:k + len(c.p)]
-        k += len(c.p)
-    return claims
 
 
 def paper_section(ens):

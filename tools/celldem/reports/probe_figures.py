@@ -4,7 +4,7 @@
     per magnitude M, the tips of the strain response vectors divided by M (a linear response gives one curve for
     every M): the total response as a closed curve through the directions in order (solid) and the plastic
     response left after unloading (dashed), in the probes' plane on the basis of their directions
-    (celldem.probes.PLANE_BASES, σ1's axis up), with the stress directions as a rose beside it. Listed
+    (celldem.probes.plane_bases: the solver's, σ1's axis up), with the stress directions as a rose beside it. Listed
     directions: the size of each response against the direction's index.
   - probe_stiffness_<test>.png: per point of a test with strain probes, its elastic and tangent stiffness (and the
     contact network's, when stiffness.json holds it) as heat maps in MPa, each with its asymmetry.
@@ -135,7 +135,7 @@ def draw_envelope(ax, side, probe_set, point):
             a.axis("off")
         ax.text(0.5, 0.5, why, transform=ax.transAxes, ha="center", va="center", fontsize=8, wrap=True)
         return
-    draw = draw_plane_envelope if probe_set.plane in probes.PLANE_BASES else draw_listed_envelope
+    draw = draw_plane_envelope if probes.in_a_plane(probe_set.plane) else draw_listed_envelope
     if draw(ax, side, probe_set, point):
         side.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12),
                     frameon=False)
@@ -205,7 +205,7 @@ def stiffness_figure(probe_set, label):
 
 
 def plans(run, label, plan_type):
-    """The probes' figures of `run` (a results.Run) as plan_type(stem, caption, section, make) entries."""
+    """The probes' figures of `run` (a results.RunArrays) as plan_type(stem, caption, section, make) entries."""
     sets = probes.load_all(run)
     out = []
     stress = [s for s in sets if s.kind == "stress" and any(s.point_rows(p) for p in s.points)]

@@ -590,7 +590,7 @@ def probe_set_text(s):
     if s.kind == "stress":
         first = s.rows[0] if s.rows else None  # the directions of one point and magnitude
         count = len(s.point_rows(first["point"], first["magnitude"])) if first else 0
-        where = f"in the {s.plane} plane" if s.plane in probes.PLANE_BASES else "along listed directions"
+        where = f"in the {s.plane} plane" if probes.in_a_plane(s.plane) else "along listed directions"
         what = f"stress probes {where}, {count or 'n/a'} directions, M = {magnitudes} kPa"
     else:
         what = f"strain probes of the six strains (e11, e22, e33, g12, g13, g23), M = {magnitudes}"

@@ -5,7 +5,7 @@ ensemble_report, which builds on report's sections, is imported by report's call
 import os
 
 from .. import scenes
-from ..results import Ensemble
+from ..results import EnsembleArrays
 from . import ensemble_report, figures, report
 
 
@@ -18,7 +18,7 @@ def write_report(run, refresh_figures=False, paper=None):
     fig_dir = os.path.join(run.directory, "figures")
     if refresh_figures or figures.stale(fig_dir, planned, run.directory):
         figures.write_figures(run, fig_dir, paper)
-    build = ensemble_report.build_report if isinstance(run, Ensemble) else report.build_report
+    build = ensemble_report.build_report if isinstance(run, EnsembleArrays) else report.build_report
     text = build(run, paper, planned)
     path = os.path.join(run.directory, "report.md")
     with open(path, "w", encoding="utf-8") as f:

@@ -523,7 +523,13 @@ def stress_targets(entry, test):
 
 def analyse_stability(results, floor):
     """Time step × damping, servo gains, and error against the inertial number."""
-    out = {"dt": [], "servo": []}
+    return {"dt": stability_dt_rows(results, floor), "servo": servo_gain_rows(results)}
+
+
+def stability_dt_rows(results, floor):
+    """The time step × damping runs, by damping then time step: each one's kinetic energy, its drift from the same
+    damping's run at the paper's time step, and its state (blow-up, unstable, drift, stable or failed)."""
+    rows = []
     stab = {n: e for n, e in results.items() if e["spec"].get("group") == "stability_dt"}
     # The baseline of each damping value: its run at the paper's time step.
     base = {}
@@ -538,7 +544,7 @@ def analyse_stability(results, floor):
         if e["outcome"].get("rc") != 0 or series is None:
             row.update(state="failed", message=(e["outcome"].get("log_tail") or "").strip().splitlines()[-1:]
                        if e["outcome"].get("log_tail") else [])
-            out["dt"].append(row)
+            rows.append(row)
             continue
         finite = all_finite(series)
         ke_rel = kinetic_ratio(series, solid_volume(e))
@@ -550,27 +556,39 @@ def analyse_stability(results, floor):
             row["ke_max"] = math.inf
         b = base.get(s["damping"][0])
         if b is not None and b is not e:
-            bs = b["series"]["ttc"]
-            dev = []
-            for col in ("ratio13", "ev"):
-                diff, _ = curve_difference(series["e1"], series[col], bs["e1"], bs[col], bins=20,
-                                           relative_to="range")
-                dev.append(diff)
-            # Drift of σ1/σ3 at the end of the run (mean over its last fifth), against the TTC peak's noise floor.
-            end = min(s["end_strain"], float(np.nanmax(series["e1"])), float(np.nanmax(bs["e1"])))
-
-            def tail_mean(x, y):
-                keep = (x >= 0.8 * end) & (x <= end) & np.isfinite(y)
-                return float(np.mean(y[keep])) if np.any(keep) else None
-
-            end_r, end_b = tail_mean(series["e1"], series["ratio13"]), tail_mean(bs["e1"], bs["ratio13"])
-            f = floor.get(("ttc", "peak_ratio"))
-            row["ratio_drift"] = abs(end_r - end_b) / f if end_r is not None and end_b is not None and f else None
-            row["curve_diff_ratio"], row["curve_diff_ev"] = dev
+            row.update(drift_from_base(series, b["series"]["ttc"], s["end_strain"], floor))
         drift = row.get("ratio_drift") is not None and row["ratio_drift"] > DRIFT_FLOORS
         row["state"] = ("blow-up" if not finite else "unstable" if (row["ke_max"] or 0.0) > KE_UNSTABLE
                         else "drift" if drift else "stable")
-        out["dt"].append(row)
+        rows.append(row)
+    return rows
+
+
+def drift_from_base(series, bs, end_strain, floor):
+    """A stability run's TTC against its damping's run at the paper's time step `bs`: the curves' differences
+    (σ1/σ3, εv; relative to their range) and the drift of σ1/σ3 over the last fifth of the run, in TTC peak noise
+    floors."""
+    dev = []
+    for col in ("ratio13", "ev"):
+        diff, _ = curve_difference(series["e1"], series[col], bs["e1"], bs[col], bins=20,
+                                   relative_to="range")
+        dev.append(diff)
+    # Drift of σ1/σ3 at the end of the run (mean over its last fifth), against the TTC peak's noise floor.
+    end = min(end_strain, float(np.nanmax(series["e1"])), float(np.nanmax(bs["e1"])))
+
+    def tail_mean(x, y):
+        keep = (x >= 0.8 * end) & (x <= end) & np.isfinite(y)
+        return float(np.mean(y[keep])) if np.any(keep) else None
+
+    end_r, end_b = tail_mean(series["e1"], series["ratio13"]), tail_mean(bs["e1"], bs["ratio13"])
+    f = floor.get(("ttc", "peak_ratio"))
+    return {"ratio_drift": abs(end_r - end_b) / f if end_r is not None and end_b is not None and f else None,
+            "curve_diff_ratio": dev[0], "curve_diff_ev": dev[1]}
+
+
+def servo_gain_rows(results):
+    """The servo gain runs: the std, bias and largest error of the held stresses, and whether the servo holds."""
+    rows = []
     for n, e in sorted(results.items()):
         s = e["spec"]
         if s.get("group") != "stability_servo":
@@ -582,5 +600,5 @@ def analyse_stability(results, floor):
             row["std"], row["bias"], row["max"] = servo_error_stats(series, stress_targets(e, "ttc"))
             row["peak_ratio"] = e["metrics"]["ttc"]["peak_ratio"]
             row["holds"] = row["std"] is not None and row["std"] <= SERVO_STD_LIMIT and row["bias"] <= SERVO_STD_LIMIT
-        out["servo"].append(row)
-    return out
+        rows.append(row)
+    return rows

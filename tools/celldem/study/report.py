@@ -29,16 +29,29 @@ GROUP_STYLE = {
 }
 
 
+# Below this a score is drawn at FLOOR_Y (the reference's own errors are 0), above 1e3 at 1e3.
+FLOOR_Y = 1e-2
+
+
 def draw_charts(study, fig_dir):
+    """figures/pareto.png and figures/stability.png; returns {"pareto": path, "stability": path}."""
     plt = plotting.pyplot()
-
     os.makedirs(fig_dir, exist_ok=True)
-    paths = {}
-    rows = [r for r in study["rows"] if r["cost"] is not None and r["score"] is not None]
-    floor_y = 1e-2
+    paths = {"pareto": draw_pareto(plt, study, fig_dir)}
+    st = study["stability"]
+    fig, axes = plt.subplots(2, 2, figsize=(12, 9.5))
+    draw_dt_damping(axes[0, 0], st)
+    draw_rate(axes[0, 1], study)
+    draw_servo_gains(fig, axes[1, 0], st)
+    draw_kinetic_energy(axes[1, 1], st)
+    paths["stability"] = plotting.save(fig, os.path.join(fig_dir, "stability.png"))
+    return paths
 
-    # 1. Error against cost, with the Pareto front and the inertial number of each point: all quantities, and the
-    #    stress-ratio quantities alone.
+
+def draw_pareto(plt, study, fig_dir):
+    """Error against cost, with the Pareto front and the inertial number of each point: all quantities, and the
+    stress-ratio quantities alone (figures/pareto.png; returns its path)."""
+    rows = [r for r in study["rows"] if r["cost"] is not None and r["score"] is not None]
     fig, axes = plt.subplots(1, 2, figsize=(16, 7), sharex=True)
     preset_keys = {p["row"]: name for name, p in study["presets"].items()}
     null = next((r for r in rows if r["group"] == "null"), None)
@@ -46,7 +59,7 @@ def draw_charts(study, fig_dir):
                            (axes[1], "score_stress", "stress-ratio quantities: peak σ1/σ3, ε1 at peak, b")):
         seen = set()
         panel = [r for r in rows if r.get(key) is not None]
-        ys = [min(max(r[key], floor_y), 1e3) for r in panel]
+        ys = [min(max(r[key], FLOOR_Y), 1e3) for r in panel]
         front = set(pareto_front([(r["cost"], y) for r, y in zip(panel, ys)]))
         for i, (r, y) in enumerate(zip(panel, ys)):
             color, marker, label = GROUP_STYLE.get(r["group"], ("0.5", "o", r["group"]))
@@ -77,12 +90,11 @@ def draw_charts(study, fig_dir):
     axes[0].legend(fontsize=7.5, loc="lower left")
     fig.suptitle("celldem speed against accuracy on the reduced scene (error: mean over seeds of the paired "
                  "difference from the reference; reference drawn at 0.01; magenta rings: presets)", fontsize=10)
-    paths["pareto"] = plotting.save(fig, os.path.join(fig_dir, "pareto.png"))
+    return plotting.save(fig, os.path.join(fig_dir, "pareto.png"))
 
-    # 2. The stability map.
-    st = study["stability"]
-    fig, axes = plt.subplots(2, 2, figsize=(12, 9.5))
-    ax = axes[0, 0]
+
+def draw_dt_damping(ax, st):
+    """The stability map's time step × damping panel: each run's state and its largest kinetic energy."""
     colors = {"stable": "tab:green", "drift": "tab:orange", "unstable": "tab:red", "blow-up": "darkred",
               "failed": "k"}
     for state, color in colors.items():
@@ -102,13 +114,16 @@ def draw_charts(study, fig_dir):
     ax.legend(fontsize=8, loc="center right")
     ax.grid(True, alpha=0.3)
 
-    ax = axes[0, 1]
+
+def draw_rate(ax, study):
+    """The loading rate panel: the score of each rate setting against its inertial number and the solver's
+    quasi-static limit."""
     rate_rows = [r for r in study["rows"] if r["group"] in ("reference", "strain_increment", "time_step", "density",
                                                              "combined") and r["score"] is not None
                  and r.get("dt_within_warning") and r["inertial_number"]]
     for r in rate_rows:
         color, marker, _ = GROUP_STYLE.get(r["group"], ("0.5", "o", ""))
-        ax.scatter(r["inertial_number"], min(max(r["score"], floor_y), 1e3), color=color, marker=marker)
+        ax.scatter(r["inertial_number"], min(max(r["score"], FLOOR_Y), 1e3), color=color, marker=marker)
     ax.axhline(1.0, color="r", linewidth=1)
     limit = quasi_static_inertial_number()
     ax.axvline(limit, color="0.4", linestyle="--", linewidth=1)
@@ -121,7 +136,9 @@ def draw_charts(study, fig_dir):
                  fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
 
-    ax = axes[1, 0]
+
+def draw_servo_gains(fig, ax, st):
+    """The servo panel: the std of the stress error per gain and integral gain, as a map."""
     servo = [r for r in st["servo"] if r.get("std") is not None]
     if servo:
         gains = sorted({r["gain"] for r in st["servo"]})
@@ -142,7 +159,9 @@ def draw_charts(study, fig_dir):
     ax.set_ylabel("servo integral_gain (–)")
     ax.set_title(f"servo: std of (σ/100 kPa − 1) of x2, x3; ✗: std or bias above {SERVO_STD_LIMIT:.1%}")
 
-    ax = axes[1, 1]
+
+def draw_kinetic_energy(ax, st):
+    """The kinetic energy against the time step, one curve per damping."""
     for alpha in sorted({r["damping"] for r in st["dt"]}):
         pts = sorted((r for r in st["dt"] if r["damping"] == alpha and r.get("ke_max") is not None),
                      key=lambda r: r["dt_over_tc"])
@@ -156,8 +175,6 @@ def draw_charts(study, fig_dir):
     ax.set_title("kinetic energy against time step, per damping")
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
-    paths["stability"] = plotting.save(fig, os.path.join(fig_dir, "stability.png"))
-    return paths
 
 
 def draw_reference_curves(results, fig_dir):
@@ -203,9 +220,9 @@ def err_cell(errors, key, scale=1.0):
     return f"{fmt(e * scale)} ({fmt(n, 2)}){mark}"
 
 
-def write_markdown(study, root, fig_paths, ref_fig):
+def scene_section(study):
+    """study.md's title and its first paragraphs: the reduced scene, the binaries, the reference peaks."""
     sc = study["scene"]
-    floor = study["noise_floor"]
     window = sc.get("end_window")
     end_window_from = "n/a" if window is None else f"{(sc['end_strain'] - window) * 100:g}"
     out = ["# celldem speed–accuracy and stability study",
@@ -229,19 +246,30 @@ def write_markdown(study, root, fig_paths, ref_fig):
            f"Reference ε1 at peak σ1/σ3 per seed: TTC {', '.join(fmt(x * 100 if x is not None else None, 2) for x in sc['reference_e1_at_peak']['ttc'])} %, "
            f"PSC {', '.join(fmt(x * 100 if x is not None else None, 2) for x in sc['reference_e1_at_peak']['psc'])} %: "
            f"the peak lies well inside ε1 = {sc['end_strain']:.0%}.",
-           "",
-           "## Noise floor",
-           "",
-           f"Mean and seed-to-seed standard deviation over the reference samples (seeds "
-           f"{', '.join(str(s) for s in sc['reference_seeds'])}, paper settings). An error below the standard "
-           f"deviation is not an error.",
-           "",
-           md_table(("quantity", "mean", "std (noise floor)"),
-                    [(f"{t.upper()} {QUANTITY_LABELS[q]}" + (" (%)" if q in PERCENT_QUANTITIES else ""),
-                      fmt(in_display_units(floor[f'{t}.{q}'][0], q)), fmt(in_display_units(floor[f'{t}.{q}'][1], q)))
-                     for t, q in QUANTITIES]),
-           "",
-           "## Speed against accuracy",
+           ""]
+    return out
+
+
+def noise_floor_section(study):
+    """## Noise floor: the reference samples' mean and seed-to-seed std of each compared quantity."""
+    floor = study["noise_floor"]
+    sc = study["scene"]
+    return ["## Noise floor",
+            "",
+            f"Mean and seed-to-seed standard deviation over the reference samples (seeds "
+            f"{', '.join(str(s) for s in sc['reference_seeds'])}, paper settings). An error below the standard "
+            f"deviation is not an error.",
+            "",
+            md_table(("quantity", "mean", "std (noise floor)"),
+                     [(f"{t.upper()} {QUANTITY_LABELS[q]}" + (" (%)" if q in PERCENT_QUANTITIES else ""),
+                       fmt(in_display_units(floor[f'{t}.{q}'][0], q)), fmt(in_display_units(floor[f'{t}.{q}'][1], q)))
+                      for t, q in QUANTITIES]),
+            ""]
+
+
+def speed_section(study, root, fig_paths):
+    """## Speed against accuracy: the chart, each setting's errors, and its run-time health."""
+    out = ["## Speed against accuracy",
            "",
            f"![error against run time]({os.path.relpath(fig_paths['pareto'], root)})",
            "",
@@ -249,8 +277,7 @@ def write_markdown(study, root, fig_paths, ref_fig):
            "differences from the reference on the same sample (mean over the seeds run), in parentheses divided by "
            "the noise floor; ✗ marks a quantity outside the floor. Score: the largest normalised error. "
            "Particle count runs are different samples, compared with the reference mean.",
-           "",
-           ]
+           ""]
     headers = ("setting", "seeds", "dt/t_c", "Δε1/step", "I", "CPU s", "wall s", "score", "Pareto",
                "TTC peak σ1/σ3", "TTC ε1 peak (%)", "TTC εv end (%)", "TTC Z end", "PSC peak σ1/σ3",
                "PSC ε1 peak (%)", "PSC εv end (%)", "PSC Z end", "PSC b peak")
@@ -271,7 +298,12 @@ def write_markdown(study, root, fig_paths, ref_fig):
                      [(r["label"], fmt(r["inertial_number"]), fmt(r["dt_over_tc"], 3), fmt(r.get("ke_max")),
                        fmt(r.get("servo_max_error") and r["servo_max_error"] * 100), fmt(r["score"], 2))
                       for r in study["rows"]]), ""]
+    return out
 
+
+def presets_section(study):
+    """## Presets: each preset's rule and setting, and the samples prepared at larger dt it avoids."""
+    out = []
     out += ["## Presets", ""]
     if study["presets"]:
         prow = []
@@ -304,7 +336,12 @@ def write_markdown(study, root, fig_paths, ref_fig):
         out += [""]
     else:
         out += ["No setting meets a preset's rule (or no reference yet).", ""]
+    return out
 
+
+def samples_section(study):
+    """## Samples: each prepared sample's void ratio, Z, steps and cost."""
+    out = []
     out += ["## Samples", ""]
     srows = []
     for n, s in sorted(study["samples"].items()):
@@ -312,7 +349,12 @@ def write_markdown(study, root, fig_paths, ref_fig):
         srows.append((n, s["spec"]["label"], fmt(p.get("void_ratio")), fmt(p.get("Z"), 3), fmt(p.get("steps")),
                       fmt(s.get("cpu_s"), 1), "ok" if s["outcome_rc"] == 0 else f"rc {s['outcome_rc']}"))
     out += [md_table(("sample", "what", "void ratio e", "Z", "preparation steps", "CPU s", "state"), srows), ""]
+    return out
 
+
+def stability_section(study, root, fig_paths):
+    """## Stability map: the chart and the time step × damping runs."""
+    out = []
     out += ["## Stability map", "", f"![stability map]({os.path.relpath(fig_paths['stability'], root)})", "",
             f"Time step × damping: TTC from the seed-1 sample to ε1 = {STABILITY_STRAIN:.0%} at the paper's strain "
             "rate 0.2/s. blow-up: non-finite values; unstable: max kinetic energy above "
@@ -324,6 +366,12 @@ def write_markdown(study, root, fig_paths, ref_fig):
              for r in study["stability"]["dt"]]
     out += [md_table(("dt/t_c", "damping", "state", "max KE/(pV)", "σ1/σ3 drift / floor",
                       "σ1/σ3 curve diff / range", "εv curve diff / range"), drows), ""]
+    return out
+
+
+def servo_cap_lines(study):
+    """The servo cap's paragraph and table (part of the stability map)."""
+    out = []
     out += ["Servo cap: the first pass of the strain-increment, time-step, density and combined settings, run with "
             "celldem's default servo.max_strain_increment = 1e-6 (the stress servo moves an axis by at most that "
             "much per step). PSC's free axis dilates at about 2 × Δε1 per step, so once Δε1 exceeds about half the "
@@ -337,6 +385,13 @@ def write_markdown(study, root, fig_paths, ref_fig):
             for r in sorted(study.get("servo_cap_rows", []), key=lambda r: r["strain_increment"])]
     out += [md_table(("setting", "Δε1/step", "Δε1 / cap", "I", "TTC servo max error (%)", "PSC servo max error (%)",
                       "score"), crow), ""]
+    return out
+
+
+def servo_gain_lines(study):
+    """The servo gains' paragraph and table (part of the stability map)."""
+    sc = study["scene"]
+    out = []
     out += [f"Servo gains: TTC to ε1 = {SERVO_STRAIN:.1%} at Δε1 = {SERVO_INC:g}/step (I = "
             f"{fmt_spec(sc.get('servo_inertial_number'), '.1e', 'n/a')}), a row every "
             f"{SERVO_OUTPUT_INTERVAL} steps; error of σ22 and σ33 against 100 kPa after the first 10 % of rows.", ""]
@@ -346,7 +401,12 @@ def write_markdown(study, root, fig_paths, ref_fig):
              for r in study["stability"]["servo"]]
     out += [md_table(("gain", "integral_gain", "error std (%)", "|mean error| (%)", "max error (%)", "TTC peak σ1/σ3",
                       "holds (std and bias ≤ 0.5 %)"), srows), ""]
+    return out
 
+
+def thresholds_section(study):
+    """## Where the scheme fails: the measured thresholds for run-time detection."""
+    out = []
     t = study.get("thresholds") or {}
     out += ["## Where the scheme fails: thresholds for run-time detection", "",
             md_table(("what", "measured"), [
@@ -370,7 +430,12 @@ def write_markdown(study, root, fig_paths, ref_fig):
                      f"gain {g:g} / integral {i:g} (bias {b * 100:.2g} %)" for g, i, _, b in t.get("servo_failing", []))
                      or "none") + f"; holding settings: error std ≤ {fmt((t.get('servo_std_max_holding') or 0) * 100, 3)} %"),
             ]), ""]
+    return out
 
+
+def modelling_section(study):
+    """## Modelling choices: the reduced TTC with one choice changed, against the reference."""
+    out = []
     out += ["## Modelling choices", "",
             "The reduced TTC with one modelling choice changed, against the reference on the same samples (mean "
             "signed difference over the seeds run; in parentheses divided by the noise floor; ✗: outside it).", ""]
@@ -386,6 +451,15 @@ def write_markdown(study, root, fig_paths, ref_fig):
         mrows.append((m["label"], m["seeds"], *cells, ", ".join(changes) or "none beyond the noise floor"))
     out += [md_table(("choice (paper: rotate, contact_point, rot. damping 0.05, affine)", "seeds",
                       "Δ peak σ1/σ3", "Δ εv at end (%)", "Δ Z at end", "changes"), mrows), ""]
+    return out
+
+
+def write_markdown(study, root, fig_paths, ref_fig):
+    """Writes root/study.md from the analysed study, section by section; returns its path."""
+    out = scene_section(study) + noise_floor_section(study) + speed_section(study, root, fig_paths)
+    out += presets_section(study) + samples_section(study)
+    out += stability_section(study, root, fig_paths) + servo_cap_lines(study) + servo_gain_lines(study)
+    out += thresholds_section(study) + modelling_section(study)
     out += sufficiency.study_section(root)  # sufficiency*/sufficiency.md beside the study root, when present
     if ref_fig:
         out += ["## Reference curves", "", f"![reference]({os.path.relpath(ref_fig, root)})", ""]

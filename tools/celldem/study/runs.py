@@ -73,6 +73,18 @@ MORE_SEEDS = ("inc_5e-07", "inc_1e-06", "dt_2e-06", "dt_3e-06", "combo_dt3e-06_i
 def build_plan(tc):
     """Every run of the study, in order of importance (priority, then as listed); tc: sqrt(m_min/kn) of the paper
     deck [s] (`celldem plan` normal_time_step), which places the time steps of the stability map."""
+    plan = reference_specs() + setting_specs(tc) + other_knob_specs() + modelling_specs()
+    plan += stability_specs(tc) + preparation_specs(tc) + count_specs()
+    plan += more_seed_specs(plan)
+    order = {id(s): i for i, s in enumerate(plan)}
+    return sorted(plan, key=lambda s: (s["priority"], order[id(s)]))
+
+
+SEEDS12 = (1, 2)  # the seeds a setting runs on (MORE_SEEDS: 3 and 4 too)
+
+
+def reference_specs():
+    """The reference samples, the paper's settings on each, and the round-off level."""
     plan = []
     # Samples: the reference seeds first; the others when their runs come up. Seeds 5-8 only sharpen the noise
     # floor (a standard deviation from 4 samples is uncertain by a factor of 2); settings are run on seeds 1-4.
@@ -82,30 +94,35 @@ def build_plan(tc):
     for seed in REF_SEEDS:
         plan.append(test_spec(f"ref_s{seed}", "reference", f"paper settings, seed {seed}", 1 if seed <= 4 else 6,
                               seed=seed, role="reference", knob="reference", value=seed))
-    seeds12 = (1, 2)
     # The round-off level: the paper's settings with dt changed in its 9th digit. DEM is chaotic, so this alone
     # sends each run down another path; its differences from the reference are what a perfect setting scores.
     for seed in (1, 2, 3, 4):
         plan.append(test_spec(f"null_s{seed}", "null", "paper settings, dt × (1 + 1e-9): round-off only", 2,
                               seed=seed, time_step=PAPER_DT * (1 + 1e-9), knob="null", value=seed))
+    return plan
 
+
+def setting_specs(tc):
+    """The knobs that trade accuracy for speed: the strain increment, the time step, density scaling, and the
+    combinations of a larger time step with a larger rate (the presets' candidates)."""
+    plan = []
     # Knob 1: axial strain increment per step at the paper's dt (the strain rate rises with it).
-    for inc, seeds, prio in ((5e-7, seeds12, 2), (1e-6, seeds12, 2), (2e-6, seeds12, 2), (5e-6, seeds12, 2),
-                             (1e-5, seeds12, 2), (2e-5, seeds12, 3), (5e-5, seeds12, 3), (1e-4, seeds12, 3),
+    for inc, seeds, prio in ((5e-7, SEEDS12, 2), (1e-6, SEEDS12, 2), (2e-6, SEEDS12, 2), (5e-6, SEEDS12, 2),
+                             (1e-5, SEEDS12, 2), (2e-5, SEEDS12, 3), (5e-5, SEEDS12, 3), (1e-4, SEEDS12, 3),
                              (1e-7, (1,), 10)):
         for seed in seeds:
             plan.append(test_spec(f"inc_{inc:g}_s{seed}", "strain_increment", f"Δε1 = {inc:g}/step", prio,
                                   seed=seed, strain_increment=inc, knob="strain_increment", value=inc))
     # Knob 2: time step at the paper's strain rate (so the strain per step grows with dt).
     for frac_dt in (2e-6, 3e-6, 4e-6, 5e-6):
-        for seed in seeds12:
+        for seed in SEEDS12:
             plan.append(test_spec(f"dt_{frac_dt:g}_s{seed}", "time_step", f"dt = {frac_dt / tc:.2f} t_c",
                                   3, seed=seed, time_step=frac_dt, strain_increment=PAPER_RATE * frac_dt,
                                   knob="time_step", value=frac_dt))
     # Knob 3: density scaling ×f with dt ×sqrt(f) (the critical step grows by sqrt(f)), at the paper's rate.
     for factor in (10.0, 100.0):
         dt = PAPER_DT * math.sqrt(factor)
-        for seed in seeds12:
+        for seed in SEEDS12:
             plan.append(test_spec(f"density_x{factor:g}_s{seed}", "density",
                                   f"density ×{factor:g}, dt ×{math.sqrt(factor):.3g}",
                                   3, seed=seed, time_step=dt, strain_increment=PAPER_RATE * dt,
@@ -113,10 +130,16 @@ def build_plan(tc):
     # Combinations of a larger dt with a larger strain rate: the candidates for the presets.
     for dt, inc in ((3e-6, 1.5e-6), (3e-6, 3e-6), (3e-6, 6e-6), (5e-6, 2.5e-6), (5e-6, 5e-6), (5e-6, 1e-5),
                     (3e-6, 1e-6), (2e-6, 8e-7)):
-        for seed in seeds12:
+        for seed in SEEDS12:
             plan.append(test_spec(f"combo_dt{dt:g}_inc{inc:g}_s{seed}", "combined",
                                   f"dt = {dt / tc:.2f} t_c, Δε1 = {inc:g}", 4, seed=seed, time_step=dt,
                                   strain_increment=inc, knob="combined", value=inc))
+    return plan
+
+
+def other_knob_specs():
+    """The damping fraction and the output interval."""
+    plan = []
     # Knob 4: damping fraction (translational and rotational together).
     for alpha in (0.02, 0.1, 0.2):
         plan.append(test_spec(f"damping_{alpha:g}_s1", "damping", f"damping {alpha:g}", 5,
@@ -125,6 +148,12 @@ def build_plan(tc):
     for interval in (100, 10000):
         plan.append(test_spec(f"output_{interval}_s1", "output_interval", f"a row every {interval} steps", 5,
                               output_interval=interval, knob="output_interval", value=interval))
+    return plan
+
+
+def modelling_specs():
+    """The modelling choices: TTC only, each against the reference on the same sample."""
+    plan = []
     # Modelling choices: TTC only, each against the reference on the same sample.
     for key, (label, kw) in {
         "project": ("tangential_rotation project", {"contact": {"tangential_rotation": "project"}}),
@@ -132,9 +161,15 @@ def build_plan(tc):
         "rotdamp0": ("rotational damping 0", {"damping": (PAPER_DAMPING, 0.0)}),
         "lammps": ("kinematics lammps", {"kinematics": "lammps"}),
     }.items():
-        for seed in seeds12:
+        for seed in SEEDS12:
             plan.append(test_spec(f"model_{key}_s{seed}", "modelling", label, 6, seed=seed, tests=("ttc",),
                                   role="modelling", knob="modelling", value=key, **kw))
+    return plan
+
+
+def stability_specs(tc):
+    """The stability map: time step × damping, and the servo gains."""
+    plan = []
     # Stability map 1: time step (fraction of t_c) × damping, short TTC at the paper's strain rate. celldem now
     # refuses (exit 2) a time step above the smallest limit over the contact modes, 0.5345 t_c with kt = kn.
     for alpha in (0.05, 0.01, 0.0):
@@ -158,6 +193,12 @@ def build_plan(tc):
                                   tests=("ttc",), end_strain=SERVO_STRAIN,
                                   servo={"gain": gain, "integral_gain": igain}, role="stability", knob="servo",
                                   value=[gain, igain]))
+    return plan
+
+
+def preparation_specs(tc):
+    """Samples prepared at a larger time step or servo cap, then the paper's tests."""
+    plan = []
     # Samples prepared at a larger time step (a preset's dt changes its preparation too), then the paper's tests.
     for dt, seeds in ((3e-6, (1, 2)), (5e-6, (1,))):
         for seed in seeds:
@@ -172,11 +213,23 @@ def build_plan(tc):
             plan.append(test_spec(f"prepcap_{cap:g}_s{seed}", "prepare_dt",
                                   f"sample prepared with servo.max_strain_increment {cap:g}", 9, seed=seed,
                                   sample_cap=cap, knob="prepare_cap", value=cap))
+    return plan
+
+
+def count_specs():
+    """Particle count: each count its own sample, the paper's test settings."""
+    plan = []
     # Particle count: each count its own sample, the paper's test settings.
     for count in (500, 2000):
         plan.append(sample_spec(count=count, seed=1, priority=10))
         plan.append(test_spec(f"count_{count}_s1", "count", f"{count} spheres", 10, count=count,
                               knob="count", value=count))
+    return plan
+
+
+def more_seed_specs(plan):
+    """The settings of MORE_SEEDS in `plan` on seeds 3 and 4 as well."""
+    more = []
     # The settings nearest the reference (the candidates for the presets) on seeds 3 and 4 as well: their errors are
     # a fraction of the noise floor, and two seeds leave too much chaotic scatter in the mean.
     for spec in [s for s in plan if s["kind"] == "test" and s["seed"] == 1
@@ -186,9 +239,8 @@ def build_plan(tc):
             extra.update(name=f"{spec['name'].rsplit('_s', 1)[0]}_s{seed}", seed=seed,
                          priority=max(5, spec["priority"]),
                          sample=sample_name(spec["count"], seed))
-            plan.append(extra)
-    order = {id(s): i for i, s in enumerate(plan)}
-    return sorted(plan, key=lambda s: (s["priority"], order[id(s)]))
+            more.append(extra)
+    return more
 
 
 def deck_of(spec, paper=None, state_path="prepared.state"):

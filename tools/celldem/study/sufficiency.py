@@ -427,86 +427,19 @@ def judge_switch(changes, alpha=ALPHA):
 
 def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_FLOORS, alpha=ALPHA):
     """The result dict of the runs under `root` (sufficiency.json)."""
-    specs = build_plan(deck, configs, seeds)
-    end_strain = scene["end_strain"]
     runs, samples, failed = {}, [], []
-    for s in specs:
-        d = study_runs.run_dir(root, s)
-        out = study_runs.outcome(root, s)
-        entry = {"name": s["name"], "seed": s["seed"], "rc": None if out is None else out.get("rc"),
-                 "cpu_s": None if out is None else out.get("cpu_s"),
-                 "wall_s": None if out is None else out.get("wall_s")}
-        summary = read_json(os.path.join(d, "summary.json")) or {}
+    for s in build_plan(deck, configs, seeds):
+        entry = run_entry(root, s, scene["end_strain"])
         if s["kind"] == "sample":
-            prep = summary.get("prepared") or {}
-            entry.update(void_ratio=number(prep.get("void_ratio")), Z=number(prep.get("Z")),
-                         steps=prep.get("steps"))
             samples.append(entry)
-            continue
-        if entry["rc"] != 0:
+        elif entry["rc"] != 0:
             failed.append(s["name"])
-            continue
-        entry["metrics"] = run_metrics(summary, end_strain)
-        # tests whose control failed (summary.json "controlled": false) are left out of the comparisons
-        entry["excluded"] = {t: "uncontrolled" for t, info in (summary.get("tests") or {}).items()
-                             if isinstance(info, dict) and info.get("controlled", True) is False}
-        for t in entry["excluded"]:  # nor in the noise floor
-            entry["metrics"].pop(t, None)
-        entry["no_peak"] = [t for t, info in (summary.get("tests") or {}).items()
-                            if isinstance(info, dict) and info.get("peak_reached", True) is False]
-        for t in entry["no_peak"]:  # no peak reached: no peak quantities
-            for q in PEAK_QUANTITIES:
-                entry["metrics"].get(t, {}).pop(q, None)
-        entry["peak_at_end"] = {}
-        for test, info in (summary.get("tests") or {}).items():
-            plateau = (info.get("peak_robust") or {}).get("plateau_e1") if isinstance(info, dict) else None
-            final = number(info.get("final_e1")) if isinstance(info, dict) else None
-            if plateau and final is not None:
-                entry["peak_at_end"][test] = plateau[1] >= final * (1 - 1e-9)
-        entry["contact_law"] = (summary.get("settings") or {}).get("contact_law")
-        runs.setdefault(s["group"], []).append(entry)
-
+        else:
+            runs.setdefault(s["group"], []).append(entry)
     quantities = quantities_of(deck)
     base_runs = runs.get("baseline", [])
     mean, floor = noise_floor([r["metrics"] for r in base_runs], quantities)
-
-    def values(rs, q):
-        return [r["metrics"].get(q[0], {}).get(q[1]) for r in rs if r["metrics"].get(q[0], {}).get(q[1]) is not None]
-
-    def by_seed(rs, q):
-        return {r["seed"]: r["metrics"][q[0]][q[1]] for r in rs
-                if r["metrics"].get(q[0], {}).get(q[1]) is not None}
-
-    rows = []
-    for key, label, vdeck, info in configs:
-        row = {"key": key, "label": label, "info": info}
-        if vdeck is None:
-            row["verdict"] = info["skipped"]
-            rows.append(row)
-            continue
-        rs = runs.get(key, [])
-        row["seeds"] = sorted(r["seed"] for r in rs)
-        row["cpu_s"] = sum(r["cpu_s"] or 0.0 for r in rs)
-        row["contact_law"] = rs[0]["contact_law"] if rs else None
-        row["peak_at_end"] = {t: sum(1 for r in rs if r["peak_at_end"].get(t)) for t in deck_tests(deck)}
-        row["seed_means"] = {f"{t}.{q}": (describe(values(rs, (t, q))) or {}).get("mean") for t, q in quantities}
-        if key != "baseline":
-            row["changes"] = {f"{t}.{q}": change(paired(by_seed(base_runs, (t, q)), by_seed(rs, (t, q))),
-                                                 floor[(t, q)], len(quantities), margin_floors, alpha,
-                                                 floor_n=len(values(base_runs, (t, q))))
-                              for t, q in quantities}
-            row["verdict"] = judge_switch(row["changes"], alpha)
-            row["needed_for"] = [k for k, c in row["changes"].items() if c and c["verdict"] == "changes"]
-            if not rs:
-                row["verdict"] = "not run"
-        rows.append(row)
-
-    timing = read_json(os.path.join(root, "timing.json")) or {"invocations": []}
-    all_runs = [r for rs in runs.values() for r in rs] + samples
-    cost = {"cpu_s": sum(r["cpu_s"] or 0.0 for r in all_runs),
-            "run_wall_s": sum(r["wall_s"] or 0.0 for r in all_runs),
-            "runs": len(all_runs), "invocations": timing["invocations"],
-            "wall_s": sum(i["wall_s"] for i in timing["invocations"])}
+    rows = [switch_row(config, runs, floor, quantities, deck, margin_floors, alpha) for config in configs]
     uncontrolled = sorted(f"{r['name']}: {t}" for rs in runs.values() for r in rs for t in r["excluded"])
     no_peak = sorted(f"{r['name']}: {t}" for rs in runs.values() for r in rs for t in r.get("no_peak", []))
     return {"deck": deck_path, "scene": scene, "seeds": list(seeds), "alpha": alpha, "margin_floors": margin_floors,
@@ -516,7 +449,92 @@ def analyse(root, deck_path, deck, configs, seeds, scene, margin_floors=MARGIN_F
             "summary_fields": SUMMARY_TEXT,
             "noise_floor": {f"{t}.{q}": {"mean": mean[(t, q)], "std": floor[(t, q)]} for t, q in quantities},
             "mean_contact": configs[0][3].get("mean_contact"), "rows": rows, "samples": samples,
-            "failed": failed, "cost": cost}
+            "failed": failed, "cost": cost_of(root, runs, samples)}
+
+
+def run_entry(root, s, end_strain):
+    """One run of the plan as the analysis reads it: its outcome, and for a sample its packing; for a test run that
+    finished its metrics (less its uncontrolled tests, and the peak quantities of tests that reached no peak), the
+    tests whose peak plateau reaches the end, and the contact law."""
+    d = study_runs.run_dir(root, s)
+    out = study_runs.outcome(root, s)
+    entry = {"name": s["name"], "seed": s["seed"], "rc": None if out is None else out.get("rc"),
+             "cpu_s": None if out is None else out.get("cpu_s"),
+             "wall_s": None if out is None else out.get("wall_s")}
+    summary = read_json(os.path.join(d, "summary.json")) or {}
+    if s["kind"] == "sample":
+        prep = summary.get("prepared") or {}
+        entry.update(void_ratio=number(prep.get("void_ratio")), Z=number(prep.get("Z")),
+                     steps=prep.get("steps"))
+        return entry
+    if entry["rc"] != 0:
+        return entry
+    entry["metrics"] = run_metrics(summary, end_strain)
+    # tests whose control failed (summary.json "controlled": false) are left out of the comparisons
+    entry["excluded"] = {t: "uncontrolled" for t, info in (summary.get("tests") or {}).items()
+                         if isinstance(info, dict) and info.get("controlled", True) is False}
+    for t in entry["excluded"]:  # nor in the noise floor
+        entry["metrics"].pop(t, None)
+    entry["no_peak"] = [t for t, info in (summary.get("tests") or {}).items()
+                        if isinstance(info, dict) and info.get("peak_reached", True) is False]
+    for t in entry["no_peak"]:  # no peak reached: no peak quantities
+        for q in PEAK_QUANTITIES:
+            entry["metrics"].get(t, {}).pop(q, None)
+    entry["peak_at_end"] = {}
+    for test, info in (summary.get("tests") or {}).items():
+        plateau = (info.get("peak_robust") or {}).get("plateau_e1") if isinstance(info, dict) else None
+        final = number(info.get("final_e1")) if isinstance(info, dict) else None
+        if plateau and final is not None:
+            entry["peak_at_end"][test] = plateau[1] >= final * (1 - 1e-9)
+    entry["contact_law"] = (summary.get("settings") or {}).get("contact_law")
+    return entry
+
+
+def metric_values(rs, q):
+    """The runs' values of quantity q = (test, quantity), those they have."""
+    return [r["metrics"].get(q[0], {}).get(q[1]) for r in rs if r["metrics"].get(q[0], {}).get(q[1]) is not None]
+
+
+def metric_by_seed(rs, q):
+    """{seed: value} of quantity q = (test, quantity) over the runs that have it."""
+    return {r["seed"]: r["metrics"][q[0]][q[1]] for r in rs
+            if r["metrics"].get(q[0], {}).get(q[1]) is not None}
+
+
+def switch_row(config, runs, floor, quantities, deck, margin_floors, alpha):
+    """One configuration's row: its seeds, cost, seed means and, for a switch, each quantity's paired change
+    from the baseline and the verdict."""
+    key, label, vdeck, info = config
+    row = {"key": key, "label": label, "info": info}
+    if vdeck is None:
+        row["verdict"] = info["skipped"]
+        return row
+    rs, base_runs = runs.get(key, []), runs.get("baseline", [])
+    row["seeds"] = sorted(r["seed"] for r in rs)
+    row["cpu_s"] = sum(r["cpu_s"] or 0.0 for r in rs)
+    row["contact_law"] = rs[0]["contact_law"] if rs else None
+    row["peak_at_end"] = {t: sum(1 for r in rs if r["peak_at_end"].get(t)) for t in deck_tests(deck)}
+    row["seed_means"] = {f"{t}.{q}": (describe(metric_values(rs, (t, q))) or {}).get("mean") for t, q in quantities}
+    if key != "baseline":
+        row["changes"] = {f"{t}.{q}": change(paired(metric_by_seed(base_runs, (t, q)), metric_by_seed(rs, (t, q))),
+                                             floor[(t, q)], len(quantities), margin_floors, alpha,
+                                             floor_n=len(metric_values(base_runs, (t, q))))
+                          for t, q in quantities}
+        row["verdict"] = judge_switch(row["changes"], alpha)
+        row["needed_for"] = [k for k, c in row["changes"].items() if c and c["verdict"] == "changes"]
+        if not rs:
+            row["verdict"] = "not run"
+    return row
+
+
+def cost_of(root, runs, samples):
+    """The CPU and wall time of every run and sample, and of the invocations (timing.json)."""
+    timing = read_json(os.path.join(root, "timing.json")) or {"invocations": []}
+    all_runs = [r for rs in runs.values() for r in rs] + samples
+    return {"cpu_s": sum(r["cpu_s"] or 0.0 for r in all_runs),
+            "run_wall_s": sum(r["wall_s"] or 0.0 for r in all_runs),
+            "runs": len(all_runs), "invocations": timing["invocations"],
+            "wall_s": sum(i["wall_s"] for i in timing["invocations"])}
 
 
 def deck_tests(deck):
@@ -549,9 +567,15 @@ def cell(c, key):
 
 
 def markdown(result, heading="#"):
+    """sufficiency.md: the scene and how to read the cells, the table of switches, and the notes."""
+    out = intro_lines(result, heading) + [md_table(*switch_table(result)), ""]
+    return "\n".join(out + notes_lines(result) + [""])
+
+
+def intro_lines(result, heading):
+    """The heading, the reduced scene, the switches' linear equivalents and how the cells and verdicts read."""
     sc = result["scene"]
     cm = result.get("mean_contact") or {}
-    cost = result["cost"]
     qs = result["quantities"]
     # results written before the margin carried the floor's uncertainty have no margin_level
     margin_level = result.get("margin_level", 1.0 - result["alpha"] / 2.0)
@@ -597,6 +621,12 @@ def markdown(result, heading="#"):
             "margin at the estimated floor itself it was 23 %); else \"undecided at n seeds\" (more seeds, or a "
             "detectable change below the margin, would decide). Quantities from summary.json: "
             + "; ".join(f"{k}: {v}" for k, v in result["summary_fields"].items()) + ".", ""]
+    return out
+
+
+def switch_table(result):
+    """(headers, rows) of the table: the baseline's means and floors, then each switch's verdict and cells."""
+    qs = result["quantities"]
     headers = ["switch", "seeds", "verdict"] + [quantity_label(k) for k in qs]
     rows = []
     for r in result["rows"]:
@@ -610,7 +640,12 @@ def markdown(result, heading="#"):
             continue
         rows.append([r["label"], ",".join(map(str, r["seeds"])), r["verdict"]] +
                     [cell(r["changes"].get(k), k) for k in qs])
-    out += [md_table(headers, rows), ""]
+    return headers, rows
+
+
+def notes_lines(result):
+    """The notes under the table: each switch's set values, late peaks, failed and uncontrolled runs, the cost."""
+    cost = result["cost"]
     notes = []
     for r in result["rows"]:
         info = r.get("info") or {}
@@ -636,8 +671,7 @@ def markdown(result, heading="#"):
                  f"{fmt(cost['cpu_s'], 0)} CPU s in all; wall {fmt(cost['wall_s'], 0)} s with "
                  f"{', '.join(str(i['jobs']) for i in waits) or 'n/a'} runs at a time"
                  f"{' over ' + str(len(waits)) + ' invocations' if len(waits) > 1 else ''}.")
-    out += notes + [""]
-    return "\n".join(out)
+    return notes
 
 
 def write(root, result):
