@@ -406,6 +406,7 @@ void rest_point(RunDirectory& run, const Deck& deck, const RunOptions& options, 
   const double goal = def.rest_fraction * def.target_strain;
   Json creep = Json::array();
   bool reached = false, controlled = true;
+  std::string gave_up;
   std::string error;
   const std::int64_t from_step = state.control.stage_steps;
   if (windows > 0) {
@@ -443,6 +444,12 @@ void rest_point(RunDirectory& run, const Deck& deck, const RunOptions& options, 
           reached = true;
           break;
         }
+        // Creep that grows from window to window (twice running) does not lead to rest: a state at its limit.
+        const std::size_t n = creep.size();
+        if (n >= 3 && crept > creep[n - 2].get<double>() && creep[n - 2].get<double>() > creep[n - 3].get<double>()) {
+          gave_up = "the creep grew in two windows running: the state flows at its stresses";
+          break;
+        }
       }
       out.finish(state);
       for (const ControlErrors& e : errors)
@@ -451,13 +458,17 @@ void rest_point(RunDirectory& run, const Deck& deck, const RunOptions& options, 
       error = e.what();
     }
   }
+  const std::int64_t rested_steps = state.control.stage_steps - from_step;
+  // A rest that did not reach its goal leaves the point as the test took it: probed as it stands, its drift judged.
+  if (!reached) state = read_state((point_dir / "point.state").string());
   state.control.leg = point_leg;  // the probes' servo cap is the test's leg's at the point (probe_model)
   fs::create_directories(run.stage_dir(stage));
   write_state((run.stage_dir(stage) / kRestedStateName).string(), state,
               "probe point " + test.name + "/" + point.name + " at rest", state_physics(deck));
   write_file_atomic(run.stage_dir(stage) / kProbeResultName,
-                    Json{{"reached", reached}, {"steps", state.control.stage_steps - from_step},
+                    Json{{"reached", reached}, {"steps", rested_steps},
                          {"window_steps", window}, {"goal", goal}, {"creep", creep}, {"controlled", controlled},
+                         {"gave_up", gave_up}, {"probed_from", reached ? "rest" : "point"},
                          {"error", error}}.dump(1));
 }
 
@@ -617,7 +628,7 @@ struct RestRecord {
   bool reached = false, controlled = true;
   std::int64_t steps = 0;
   double goal = NAN, last_creep = NAN;
-  std::string error;
+  std::string error, gave_up;
   Json json;
 };
 std::optional<RestRecord> read_rest(const fs::path& point_dir) {
@@ -631,6 +642,7 @@ std::optional<RestRecord> read_rest(const fs::path& point_dir) {
   r.goal = r.json.at("goal").get<double>();
   r.error = r.json.at("error").get<std::string>();
   if (!r.json.at("creep").empty()) r.last_creep = r.json.at("creep").back().get<double>();
+  r.gave_up = r.json.value("gave_up", std::string());
   return r;
 }
 
@@ -688,7 +700,7 @@ ElasticCheck read_elastic_check(const fs::path& point_dir, const ProbeDef& def) 
 // A scaled stress set's magnitude at a point [Pa]: target_strain over the largest compliance |C^-1 d| of the set's
 // directions, C the tangent stiffness where its symmetric part is positive definite, else the elastic one; with
 // what it came from. NaN where neither gives a finite positive size.
-std::pair<double, std::string> probe_scale(const ProbeDef& def, const ElasticCheck& check) {
+std::pair<double, std::string> stiffness_scale(const ProbeDef& def, const ElasticCheck& check) {
   const std::vector<ProbeDirection> directions = probe_directions(def);
   for (const auto& [c, from] : {std::pair{check.tangent, "tangent"}, std::pair{check.elastic, "elastic"}}) {
     if (!(min_symmetric_eigenvalue(c) > 0.0)) continue;
@@ -703,6 +715,30 @@ std::pair<double, std::string> probe_scale(const ProbeDef& def, const ElasticChe
     if (std::isfinite(m) && m > 0.0) return {m, from};
   }
   return {NAN, "none"};
+}
+
+// A scaled stress set's magnitude at a point [Pa], and what it came from: stiffness_scale, capped by the test's path.
+std::pair<double, std::string> probe_scale(const ProbeDef& def, const ElasticCheck& check, double path_tangent) {
+  std::pair<double, std::string> sized = stiffness_scale(def, check);
+  // A strain probe holds the other strains and so blocks the mechanism that a stress probe frees: the test's own
+  // path (which loads at its stresses) is softer in the loading cone. The smaller size of the two, not below a
+  // hundredth of the elastic one (at a limit state the path's tangent vanishes).
+  const double path = def.target_strain * path_tangent;
+  if (std::isfinite(sized.first) && std::isfinite(path) && path < sized.first)
+    sized = {std::max(path, 0.01 * sized.first), path >= 0.01 * sized.first ? "path" : "path, floored"};
+  return sized;
+}
+
+// The test's tangent along its own path at a point [Pa]: |ds| / |de| (six components each) between the point's row
+// of the test's series and the row before it; NaN where there is none.
+double path_tangent(const fs::path& run_dir, const TestDef& test, double point_step) {
+  const fs::path file = run_dir / test.name / "series.csv";
+  if (!fs::exists(file)) return NAN;
+  const std::vector<SeriesRow> rows = read_series_file(file);
+  const auto at = std::find_if(rows.begin(), rows.end(), [&](const SeriesRow& r) { return r.step == point_step; });
+  if (at == rows.end() || at == rows.begin()) return NAN;
+  const double de = norm(minus(strains(*at), strains(*(at - 1))));
+  return de > 0.0 ? norm(minus(stresses(*at), stresses(*(at - 1)))) / de : NAN;
 }
 
 }  // namespace
@@ -721,8 +757,11 @@ ProbeVerdict judge_probe_point(const ProbeDef& def, const ProbeEvidence& e) {
                                   fmt(def.drift_limit) + ")");
   if (!e.rest_reached)
     fail(kProbeCheckNames[1], "the rest's last window crept " + fmt(e.rest_creep) + " (goal " +
-                                  fmt(def.rest_fraction * def.target_strain) + ") when its budget of " +
-                                  std::to_string(def.rest_max_steps) + " steps was spent");
+                                  fmt(def.rest_fraction * def.target_strain) + ") when " +
+                                  (e.rest_gave_up.empty() ? "its budget of " + std::to_string(def.rest_max_steps) +
+                                                                " steps was spent"
+                                                          : e.rest_gave_up) +
+                                  "; probed as the test took it");
   if (std::isfinite(e.elastic_asymmetry) || !std::isnan(e.elastic_min_eigenvalue)) {
     if (!(e.elastic_min_eigenvalue > 0.0))
       fail(kProbeCheckNames[2], "the elastic stiffness's symmetric part has the eigenvalue " +
@@ -734,7 +773,7 @@ ProbeVerdict judge_probe_point(const ProbeDef& def, const ProbeEvidence& e) {
   if (!e.elastic_check_missing.empty())
     fail(kProbeCheckNames[4], "no elastic part to compare with: " + e.elastic_check_missing);
   else if (!std::isnan(e.elastic_factor) && !(e.elastic_factor <= def.elastic_factor))
-    fail(kProbeCheckNames[4], "a probe's recovered strain is " +
+    fail(kProbeCheckNames[4], (e.elastic_worst_probe.empty() ? "a probe" : e.elastic_worst_probe) + "'s recovered strain is " +
                                   (std::isfinite(e.elastic_factor) ? fmt(e.elastic_factor) + " times"
                                                                    : std::string("more than 60 deg from")) +
                                   " C_elastic^-1 ds (limit " + fmt(def.elastic_factor) + "x)");
@@ -854,7 +893,8 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
     if (chosen[p].empty()) continue;
     double scale = 1.0;  // given magnitudes as they are
     if (def.kind == ProbeKind::Stress && def.scaled)
-      scale = probe_scale(def, read_elastic_check(probes_dir / points[p].name, def)).first;
+      scale = probe_scale(def, read_elastic_check(probes_dir / points[p].name, def),
+                          path_tangent(run.stage_dir(test.name).parent_path(), test, points[p].row.step)).first;
     for (Job job : chosen[p]) {
       if (!std::isfinite(scale)) continue;  // no stiffness to size the probes by: the point says so (tabulate)
       if (def.kind == ProbeKind::Stress) job.probe.magnitude *= scale;
@@ -914,7 +954,7 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     entry["state"] = (fs::path(test.name) / "probes" / name / "point.state").string();
     const std::optional<ProbeResult> reference_record = read_probe_result(point_dir / "reference");
     const std::optional<RestRecord> rest = read_rest(point_dir);
-    if (!reference_record || !rest) {
+    if (!rest) {
       entry["status"] = "not run here";
       entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
       entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
@@ -923,23 +963,19 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     }
     entry["rest"] = {{"reached", rest->reached}, {"steps", rest->steps}, {"goal", rest->goal},
                      {"last_window_creep", rest->last_creep}, {"window_steps", rest->json.at("window_steps")},
-                     {"controlled", rest->controlled}, {"folder", (fs::path(test.name) / "probes" / name / kRestName).string()}};
+                     {"controlled", rest->controlled}, {"probed_from", rest->reached ? "rest" : "point"},
+                     {"folder", (fs::path(test.name) / "probes" / name / kRestName).string()}};
+    if (!rest->gave_up.empty()) entry["rest"]["gave_up"] = rest->gave_up;
     if (!rest->error.empty()) {
       entry["status"] = "failed";
       entry["reason"] = "the rest before the probes failed: " + rest->error;
       summary["points"][name] = entry;
       continue;
     }
-    const ProbeResult& reference = *reference_record;
-    if (!reference.ran) {
-      entry["status"] = "failed";
-      entry["reason"] = "the reference probe failed: " + reference.error;
-      summary["points"][name] = entry;
-      continue;
-    }
     ProbeEvidence evidence;
     evidence.rest_reached = rest->reached;
     evidence.rest_creep = rest->last_creep;
+    evidence.rest_gave_up = rest->gave_up;
     // A stress set's elastic check: C_elastic at the same rested state, and the probes' size where it is scaled.
     ElasticCheck check;
     double scale = 1.0;
@@ -960,19 +996,35 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
         evidence.elastic_min_eigenvalue = min_symmetric_eigenvalue(check.elastic);
       }
       if (def.scaled) {
-        std::tie(scale, scale_from) = probe_scale(def, check);
+        std::tie(scale, scale_from) = probe_scale(def, check, path_tangent(run_dir, test, point_step));
         Json m = Json::array();
         for (double f : def.magnitudes) m.push_back(f * scale);
         entry["magnitudes"] = m;
         entry["magnitude_from"] = scale_from;
-        if (!std::isfinite(scale)) {
+        if (!std::isfinite(scale)) {  // its probes were not run (run_test_probes)
+          const ProbeVerdict v = judge_probe_point(def, evidence);
           entry["status"] = "failed";
+          entry["checks_failed"] = v.failed;
           entry["reason"] = "no stiffness to size the probes by: the elastic check's tangent and elastic stiffness "
-                            "are both not positive definite (elastic_check)";
+                            "are both not positive definite (elastic_check)" + (v.reason.empty() ? "" : "; " + v.reason);
           summary["points"][name] = entry;
           continue;
         }
       }
+    }
+    if (!reference_record) {
+      entry["status"] = "not run here";
+      entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
+      entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
+      summary["points"][name] = entry;
+      continue;
+    }
+    const ProbeResult& reference = *reference_record;
+    if (!reference.ran) {
+      entry["status"] = "failed";
+      entry["reason"] = "the reference probe failed: " + reference.error;
+      summary["points"][name] = entry;
+      continue;
     }
     const Vec3 s{reference.start.s11, reference.start.s22, reference.start.s33};
     int ran = 0, controlled = 0, failed = 0;
@@ -990,6 +1042,7 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
                                     : std::max(norm(minus(stresses(reference.loaded), stresses(reference.start))),
                                                norm(minus(stresses(reference.unloaded), stresses(reference.start))));
     double smallest = INFINITY, worst_factor = 0.0;
+    std::string worst_probe;
     std::vector<double> factors;
     int missing = 0;
     for (std::size_t k = 1; k < directions.size(); ++k) {
@@ -1039,6 +1092,7 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
           predicted = norm(prediction);
           factor = elastic_agreement(de_elastic, prediction);
           factors.push_back(factor);
+          if (!(factor <= worst_factor)) worst_probe = d.name;
           worst_factor = std::max(worst_factor, factor);
         }
       }
@@ -1085,10 +1139,12 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     }
     if (!factors.empty()) {
       evidence.elastic_factor = worst_factor;
+      evidence.elastic_worst_probe = worst_probe;
       std::vector<double> sorted = factors;
       std::sort(sorted.begin(), sorted.end());
       entry["elastic_check"]["agreement"] = {
           {"worst_factor", worst_factor},  // null when a probe's is infinite (turned)
+          {"worst_probe", worst_probe},
           {"turned", std::count_if(factors.begin(), factors.end(), [](double f) { return std::isinf(f); })},
           {"median_factor", sorted[sorted.size() / 2]},
           {"within_limit", std::count_if(factors.begin(), factors.end(), [&](double f) { return f <= def.elastic_factor; })},

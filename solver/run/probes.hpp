@@ -122,11 +122,13 @@ std::vector<Leg> probe_legs(const ProbeDef& def, const ProbeDirection& probe, co
 struct ProbeEvidence {
   bool rest_reached = true;  // the rest reached its goal within its budget
   double rest_creep = NAN;   // [-] the strain crept in the rest's last window
+  std::string rest_gave_up;  // why the rest stopped before its budget without reaching its goal (empty: it did not)
   double drift = NAN;        // the reference's largest drift over a probe: |de| [-] (stress sets), |ds| [Pa] (strain)
   double smallest_response = NAN;  // the point's smallest probe response, in the drift's unit
   double elastic_asymmetry = NAN;  // |C - C^T| / |C| of the elastic stiffness
   double elastic_min_eigenvalue = NAN;  // [Pa] smallest eigenvalue of its symmetric part
   double elastic_factor = NAN;     // stress sets: the worst probe's disagreement (elastic_agreement); inf: turned
+  std::string elastic_worst_probe;    // stress sets: the probe of elastic_factor
   std::string elastic_check_missing;  // stress sets: why the elastic check gave no C_elastic (empty: it did)
 };
 
