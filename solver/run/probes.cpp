@@ -755,7 +755,10 @@ ProbeVerdict judge_probe_point(const ProbeDef& def, const ProbeEvidence& e) {
     fail(kProbeCheckNames[0], "the reference drifts " + fmt(e.drift) + " over a probe, " + fmt(drift_ratio) +
                                   " of the smallest response " + fmt(e.smallest_response) + " (limit " +
                                   fmt(def.drift_limit) + ")");
-  if (!e.rest_reached)
+  if (!e.rest_reached && std::isnan(e.rest_creep))
+    fail(kProbeCheckNames[1], "the point was not rested (rest_max_steps " + std::to_string(def.rest_max_steps) +
+                                  "); probed as the test took it");
+  else if (!e.rest_reached)
     fail(kProbeCheckNames[1], "the rest's last window crept " + fmt(e.rest_creep) + " (goal " +
                                   fmt(def.rest_fraction * def.target_strain) + ") when " +
                                   (e.rest_gave_up.empty() ? "its budget of " + std::to_string(def.rest_max_steps) +

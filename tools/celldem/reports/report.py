@@ -631,7 +631,11 @@ def probe_point_row(s, point, entry):
     agreement = probes.number(((entry.get("elastic_check") or {}).get("agreement") or {}).get("worst_factor"))
     checks = f"drift {fmt_spec(drift, '.2g', 'n/a')} of the smallest response"
     if s.kind == "stress":
-        checks += f"; elastic part within {fmt_spec(agreement, '.3g', 'n/a')}× of C⁻¹Δσ"
+        turned = ((entry.get("elastic_check") or {}).get("agreement") or {}).get("turned") or 0
+        checks += (f"; elastic part within {fmt_spec(agreement, '.3g', 'n/a')}× of C⁻¹Δσ" if not turned else
+                   f"; {turned} elastic parts more than 60° from C⁻¹Δσ")
+    if drift is None and agreement is None:  # a run before the checks, or a point not probed
+        checks = "—"
     return (point, *where, f"**{status}**" if status != "ran" else status,
             counts, measure, checks, entry.get("reason", "") or "")
 
