@@ -2,10 +2,10 @@
 // of axis 1, the peak, the end), small loadings in several directions, each loaded, held, unloaded and held
 // again, so that the response splits into its recovered (elastic) and irrecoverable (plastic) parts.
 //
-// Each probe set also runs a reference probe that loads nothing: from a state in motion the sample goes on
-// deforming (creep under held stresses, relaxation under held strains), and the reference's response at the
-// same step is subtracted from every probe's (as in the stress-probe studies of Calvetti, Viggiani & Tamagnini
-// 2003 and Kuhn 2006 with DEM).
+// Each point first rests at its stresses (a probe from equilibrium), and each probe set also runs a reference probe
+// that loads nothing: what the sample still deforms (creep under held stresses, relaxation under held strains) is
+// subtracted from every probe's response at the same step (as in the stress-probe studies of Calvetti, Viggiani &
+// Tamagnini 2003 and Kuhn 2006 with DEM), and reported as the reference's drift beside it.
 //
 // Stress probes: the three normal stresses follow a ramp from the point's stresses s to s + M d over `steps`,
 // are held for `hold_steps`, ramp back to s and are held again; the cell's tilts (shear strains) are held. The
