@@ -299,7 +299,8 @@ Json plan_json(const Deck& deck) {
       const ProbePlan probes = plan_probes(t);
       const std::int64_t first = probe_number_offset(deck, t) + 1;  // --probes numbers, one numbering over the deck
       out["tests"].back()["probes"] = {{"points", probes.points}, {"probes_per_point", probes.probes_per_point},
-                                       {"steps_per_probe", probes.steps_per_probe}, {"steps", probes.steps()},
+                                       {"steps_per_probe", probes.steps_per_probe}, {"check_probes_per_point", probes.check_probes_per_point},
+                                       {"rest_steps_per_point", probes.rest_steps_per_point}, {"steps", probes.steps()},
                                        {"numbers", {first, first + probes.points * (probes.probes_per_point - 1) - 1}}};
     }
     if (holds) {
@@ -520,11 +521,13 @@ Command add_plan_command(CLI::App& app) {
       print_stage(t["name"].get<std::string>(), t["steps"], t["rows"], t["legs"], t.value("equilibrium", Json()),
                   t["time_step"].get<double>(), t["time_step_ratio"].get<double>());
       if (const Json& p = t.value("probes", Json()); p.is_object())
-        std::printf("    probes: %lld points x %lld probes (a reference and the directions at each magnitude) x %lld "
-                    "steps = %lld steps at most (a point the test does not reach is not probed), side by side on the "
-                    "test's threads\n",
+        std::printf("    probes: %lld points x (a rest of at most %lld steps + (%lld probes: a reference and the "
+                    "directions at each magnitude, + %lld of the elastic check) x %lld steps) = %lld steps at most (a "
+                    "point the test does not reach is not probed), side by side on the test's threads\n",
                     static_cast<long long>(p["points"].get<std::int64_t>()),
+                    static_cast<long long>(p["rest_steps_per_point"].get<std::int64_t>()),
                     static_cast<long long>(p["probes_per_point"].get<std::int64_t>()),
+                    static_cast<long long>(p["check_probes_per_point"].get<std::int64_t>()),
                     static_cast<long long>(p["steps_per_probe"].get<std::int64_t>()),
                     static_cast<long long>(p["steps"].get<std::int64_t>()));
       if (const Json& p = t.value("probes", Json()); p.is_object())

@@ -247,9 +247,16 @@ struct ProbeDef {
   ProbePlane plane = ProbePlane::Rendulic;
   int directions = static_cast<int>(keys::probes_directions.fallback);
   std::vector<std::array<double, 3>> list;  // plane List: unit directions (ds11, ds22, ds33)
-  std::vector<double> magnitudes;           // [Pa] stress, [-] strain
+  std::vector<double> magnitudes;           // [Pa] stress, [-] strain; scaled: factors of the point's scale
+  bool scaled = false;                      // magnitudes left out: they follow the point's stiffness
   std::int64_t steps = static_cast<std::int64_t>(keys::probes_steps.fallback);
   std::int64_t hold_steps = static_cast<std::int64_t>(keys::probes_hold_steps.fallback);
+  double target_strain = keys::probes_target_strain.fallback;       // [-]
+  double rest_fraction = keys::probes_rest_fraction.fallback;       // [-] of target_strain per probe's steps
+  std::int64_t rest_max_steps = static_cast<std::int64_t>(keys::probes_rest_max_steps.fallback);
+  double drift_limit = keys::probes_drift_limit.fallback;           // [-] of the smallest response
+  double elastic_factor = keys::probes_elastic_factor.fallback;     // [-]
+  double asymmetry_limit = keys::probes_asymmetry_limit.fallback;   // [-]
 };
 
 // A loading test: a load program of one or more legs from the prepared state.

@@ -515,9 +515,40 @@ inline constexpr KeySpec probes_list{.path = "tests[].probes.list", .kind = KeyK
     .default_text = "required with `list`",
     .meaning = "stress probes' directions (ds11, ds22, ds33), each normalised to length 1"};
 inline constexpr KeySpec probes_magnitudes{.path = "tests[].probes.magnitudes", .kind = KeyKind::Array,
-    .default_text = "required",
+    .required = false, .default_text = "from target_strain",
     .meaning = "the probes' sizes M, each a probe set: [Pa] the stress increment's length (stress), [-] the strain "
-               "(strain, at most 0.01); two show the linear range"};
+               "(strain, at most 0.01); two show the linear range. Left out, they follow the point's stiffness: "
+               "strain probes M = target_strain; stress probes M = 1 and 2 times target_strain over the largest "
+               "compliance |C^-1 d| of the set's directions (C: the tangent stiffness of the point's strain probes, "
+               "its elastic part where the tangent is not positive definite)"};
+inline constexpr KeySpec probes_target_strain{.path = "tests[].probes.target_strain", .kind = KeyKind::Number,
+    .min = 1e-8, .max = 1e-3, .required = false, .fallback = 1e-5,
+    .meaning = "the probes' strain scale: the strain of the stress set's elastic check (six strain probes from the "
+               "same rested state), the stress probes' size where `magnitudes` is left out, and the response that "
+               "the rest goal is a fraction of"};
+inline constexpr KeySpec probes_rest_fraction{.path = "tests[].probes.rest_fraction", .kind = KeyKind::Number,
+    .min = 1e-4, .max = 1.0, .required = false, .fallback = 0.1,
+    .meaning = "before probing, the point rests at its stresses (normal stresses held, tilts held) in windows of one "
+               "probe's steps until the strain it creeps in a window, |de| over the six strains, is below this "
+               "fraction of target_strain (a probe from equilibrium)"};
+inline constexpr KeySpec probes_rest_max_steps{.path = "tests[].probes.rest_max_steps", .kind = KeyKind::Integer,
+    .min = 0, .max = kMaxCount, .required = false, .fallback = 120000,
+    .meaning = "the rest's budget of steps: a point that has not reached the rest goal by then is probed as it "
+               "stands, with the status `not at rest` (0: probed without resting)"};
+inline constexpr KeySpec probes_drift_limit{.path = "tests[].probes.drift_limit", .kind = KeyKind::Number,
+    .min = 1e-4, .max = 10.0, .required = false, .fallback = 0.25,
+    .meaning = "the reference probe's drift over a probe (|de| from its start to its end; strain sets |ds|) above "
+               "this fraction of the point's smallest probe response gives the status `drifting`"};
+inline constexpr KeySpec probes_elastic_factor{.path = "tests[].probes.elastic_factor", .kind = KeyKind::Number,
+    .min = 1.0, .max = 1000.0, .required = false, .fallback = 3.0,
+    .meaning = "stress probes: each probe's recovered (elastic) strain against C_elastic^-1 ds from the elastic "
+               "check at the same state; a ratio of lengths beyond this factor either way, or an angle between "
+               "them above 60 deg, gives the status `elastic mismatch`"};
+inline constexpr KeySpec probes_asymmetry_limit{.path = "tests[].probes.asymmetry_limit", .kind = KeyKind::Number,
+    .min = 0.0, .max = 2.0, .required = false, .fallback = 0.1,
+    .meaning = "the elastic stiffness (strain probes, or a stress set's elastic check) with |C - C^T| / |C| above "
+               "this gives the status `elastic asymmetric`; one whose symmetric part has an eigenvalue <= 0, "
+               "`elastic not positive definite`"};
 inline constexpr KeySpec probes_steps{.path = "tests[].probes.steps", .kind = KeyKind::Integer, .min = 1,
     .max = kMaxCount, .required = false, .fallback = 3000, .meaning = "steps of the loading ramp, and of the "
                                                                       "unloading ramp"};
@@ -553,7 +584,8 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &snapshots_e1, &snapshots_format, &test_time_step, &test_output_interval, &test_dynamic, &test_verify_rate,
     &verify_rate_at, &verify_rate_window_strain, &verify_rate_rate_factor, &test_probes, &probes_at, &probes_at_e1,
     &probes_kind, &probes_plane, &probes_directions, &probes_list, &probes_magnitudes, &probes_steps,
-    &probes_hold_steps});
+    &probes_hold_steps, &probes_target_strain, &probes_rest_fraction, &probes_rest_max_steps, &probes_drift_limit,
+    &probes_elastic_factor, &probes_asymmetry_limit});
 
 // The keys that choose the contact sub-models; a SubModelSelection names each one's choice in this order.
 inline constexpr auto kSubModels = std::to_array<const KeySpec*>({&contact_normal, &contact_tangential,

@@ -425,6 +425,8 @@ ProbePlan plan_probes(const TestDef& test) {
                                                                                                  : static_cast<std::size_t>(d.directions);
   p.probes_per_point = 1 + static_cast<std::int64_t>(directions * d.magnitudes.size());
   p.steps_per_probe = 2 * (d.steps + d.hold_steps);
+  p.check_probes_per_point = d.kind == ProbeKind::Stress ? 7 : 0;
+  p.rest_steps_per_point = (d.rest_max_steps + p.steps_per_probe - 1) / p.steps_per_probe * p.steps_per_probe;
   return p;
 }
 

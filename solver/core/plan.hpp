@@ -92,13 +92,18 @@ struct TestPlan {
   std::vector<LegPlan> legs;     // plan_legs of the test's legs
 };
 TestPlan plan_test(const Deck& deck, const TestDef& test);
-// The steps of a test's probes (tests[].probes) when the test reaches every point: points x (the reference and
-// each direction at each magnitude) x (two ramps and two holds); 0 without probes.
+// The steps of a test's probes (tests[].probes) when the test reaches every point, at most: points x (the rest's
+// budget + (the elastic check's seven probes of a stress set + the reference and each direction at each magnitude)
+// x (two ramps and two holds)); 0 without probes.
 struct ProbePlan {
   std::int64_t points = 0;
   std::int64_t probes_per_point = 0;  // the reference included
+  std::int64_t check_probes_per_point = 0;  // a stress set's elastic check: its reference and six strain probes
+  std::int64_t rest_steps_per_point = 0;    // the rest's budget
   std::int64_t steps_per_probe = 0;
-  std::int64_t steps() const { return points * probes_per_point * steps_per_probe; }
+  std::int64_t steps() const {
+    return points * (rest_steps_per_point + (probes_per_point + check_probes_per_point) * steps_per_probe);
+  }
 };
 ProbePlan plan_probes(const TestDef& test);
 

@@ -666,8 +666,14 @@ ProbeDef read_probes(ObjectReader r) {
   } else if (r.has(keys::probes_list)) {
     fail(r.at(keys::probes_list), "a list of directions needs \"plane\": \"list\"");
   }
-  p.magnitudes = read_numbers(r, keys::probes_magnitudes);
-  if (p.magnitudes.empty()) fail(r.at(keys::probes_magnitudes), "expected at least one magnitude");
+  p.target_strain = r.number(keys::probes_target_strain);
+  p.scaled = !r.has(keys::probes_magnitudes);
+  if (p.scaled) {  // factors of the point's scale (run/probes.cpp): two sizes show the linear range
+    p.magnitudes = stress ? std::vector<double>{1.0, 2.0} : std::vector<double>{p.target_strain};
+  } else {
+    p.magnitudes = read_numbers(r, keys::probes_magnitudes);
+    if (p.magnitudes.empty()) fail(r.at(keys::probes_magnitudes), "expected at least one magnitude");
+  }
   for (std::size_t i = 0; i < p.magnitudes.size(); ++i) {
     const std::string item = r.at(keys::probes_magnitudes) + "[" + std::to_string(i) + "]";
     if (!(p.magnitudes[i] > 0.0)) fail(item, "must be > 0");
@@ -675,6 +681,13 @@ ProbeDef read_probes(ObjectReader r) {
   }
   p.steps = r.integer(keys::probes_steps);
   p.hold_steps = r.integer(keys::probes_hold_steps);
+  p.rest_fraction = r.number(keys::probes_rest_fraction);
+  p.rest_max_steps = r.integer(keys::probes_rest_max_steps);
+  p.drift_limit = r.number(keys::probes_drift_limit);
+  p.elastic_factor = r.number(keys::probes_elastic_factor);
+  if (!stress && r.has(keys::probes_elastic_factor))
+    fail(r.at(keys::probes_elastic_factor), "only stress probes have an elastic part to compare with C_elastic^-1 ds");
+  p.asymmetry_limit = r.number(keys::probes_asymmetry_limit);
   r.finish();
   return p;
 }

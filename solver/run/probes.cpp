@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 
 #include <Eigen/Dense>
 
@@ -301,40 +302,61 @@ struct ProbeResult {
   bool ran = false;
   bool controlled = true;
   std::string error;   // the probe failed (a RunError), else empty
-  SeriesRow loaded, unloaded;
+  SeriesRow start, loaded, unloaded;
 };
 
+// One run of the probe set's work at a point: its rest, a probe of its elastic check (stress sets) or a probe.
+enum class JobKind { Rest, Elastic, Probe };
 struct Job {
   std::size_t point;
   ProbeDirection probe;
+  JobKind kind = JobKind::Probe;
 };
 
 constexpr const char* kProbeResultName = "result.json";
 constexpr const char* kPointRecordName = "point.json";
 
-void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-               const ProbePoints::Point& point, const ProbeDirection& probe) {
-  bool ran = false, controlled = true;
-  std::string error;
-  std::int64_t steps = 0;
-  Json control_errors = Json::array();
-  const ProbeDef& def = *test.probes;
-  // From the point's state as its file holds it, forces computed: the same start whether the point was taken in this
-  // process or read back by a resumed run (a state file holds no forces or neighbour list).
-  State state = read_state((run.stage_dir(test.name) / "probes" / point.name / "point.state").string());
+constexpr const char* kRestName = "rest";            // <point>/rest: the rest before probing
+constexpr const char* kRestedStateName = "rested.state";
+constexpr const char* kElasticPrefix = "elastic-";   // <point>/elastic-<probe>: a stress set's elastic check
+
+// The model a point's probes run under, from the point's state: the servo keeps the cap of the test's leg at the
+// point, so that a probe's stress axes follow a sample that moves at the test's rate when the probe starts (the
+// probe's own legs, driven by nothing, would get the smallest cap). The state's forces are computed: the same start
+// whether the point was taken in this process or read back (a state file holds no forces or neighbour list).
+Model probe_model(const Deck& deck, const TestDef& test, State& state) {
   Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
-  // The servo keeps the cap of the test's leg at the point: a probe's stress axes follow a sample that moves at
-  // the test's rate when the probe starts (the probe's own legs, driven by nothing, would get the smallest cap).
   model.servo.max_strain_increment =
       servo_cap(deck.stage_servo(test), test.legs[static_cast<std::size_t>(state.control.leg)], model.dt);
   model.servo.max_strain_increment_given = true;
   evaluate_forces(model, test.stage_friction(), state);
+  return model;
+}
+
+// The elastic check of a stress set: the six strain probes of target_strain from the same rested state.
+ProbeDef elastic_check_def(const ProbeDef& def) {
+  ProbeDef e = def;
+  e.kind = ProbeKind::Strain;
+  e.magnitudes = {def.target_strain};
+  e.scaled = false;
+  return e;
+}
+
+// Runs one probe of `def` from the state in `state_file` into the stage folder `stage` (its series.csv and
+// result.json).
+void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
+               const ProbeDef& def, const fs::path& state_file, const std::string& stage, const ProbeDirection& probe) {
+  bool ran = false, controlled = true;
+  std::string error;
+  std::int64_t steps = 0;
+  Json control_errors = Json::array();
+  State state = read_state(state_file.string());
+  const Model model = probe_model(deck, test, state);
   const std::vector<Leg> legs = probe_legs(def, probe, state.normal_stress(), model.dt);
   begin_leg(state, 0);
   const std::int64_t from_step = state.control.stage_steps;
   const std::int64_t total = 2 * (def.steps + def.hold_steps);
   const std::int64_t interval = std::max<std::int64_t>(1, def.steps / 10);
-  const std::string stage = test.name + "/probes/" + point.name + "/" + probe.name;
   RunOptions quiet = options;
   quiet.progress = ProgressMode::Off;  // one line for the whole set (run_test_probes)
   // A folder a stopped run left (half-written, or whole) is run again: its old result goes first, so that a stop
@@ -370,6 +392,90 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
                                                  {"steps", steps}, {"control_errors", control_errors}}.dump(1));
 }
 
+// The point's rest before its probes (run/probes.hpp): from point.state, the normal stresses held at the point's
+// and the tilts held, in windows of one probe's steps, until the strain crept in a window is below rest_fraction x
+// target_strain or the budget (rest_max_steps) is spent. Writes <point>/rest/series.csv, its result.json (reached,
+// the creep of each window) and rested.state, the state the point's probes start from.
+void rest_point(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
+                const ProbePoints::Point& point) {
+  const ProbeDef& def = *test.probes;
+  const fs::path point_dir = run.stage_dir(test.name) / "probes" / point.name;
+  const std::string stage = test.name + "/probes/" + point.name + "/" + kRestName;
+  fs::remove(run.stage_dir(stage) / kProbeResultName);
+  State state = read_state((point_dir / "point.state").string());
+  const int point_leg = state.control.leg;
+  const Model model = probe_model(deck, test, state);
+  const std::int64_t window = 2 * (def.steps + def.hold_steps);
+  const std::int64_t windows = (def.rest_max_steps + window - 1) / window;
+  const double goal = def.rest_fraction * def.target_strain;
+  Json creep = Json::array();
+  bool reached = false, controlled = true;
+  std::string gave_up;
+  std::string error;
+  const std::int64_t from_step = state.control.stage_steps;
+  if (windows > 0) {
+    Leg hold;
+    hold.end.kind = LegEndKind::Steps;
+    hold.end.steps = window;
+    const Vec3 s = state.normal_stress();
+    for (int k = 0; k < 3; ++k) hold.axes[static_cast<std::size_t>(k)] = AxisControl{AxisMode::Stress, s[k]};
+    const std::vector<Leg> legs(static_cast<std::size_t>(windows), hold);
+    RunOptions quiet = options;
+    quiet.progress = ProgressMode::Off;
+    try {
+      StageOutput out(run, deck, quiet, model, stage, std::max<std::int64_t>(1, window / 4), /*loading_test=*/true);
+      out.set_branch();
+      out.open(state, /*resumed=*/false);
+      std::vector<ControlErrors> errors;
+      begin_leg(state, 0);
+      for (std::int64_t j = 0; j < windows; ++j) {  // a window a leg, run one by one: the rest ends at its goal
+        if (j > 0) {
+          out.end_leg(state);
+          begin_leg(state, static_cast<int>(j));
+        }
+        const Vec6 before = component_strains(state);
+        const std::vector<Leg> upto(legs.begin(), legs.begin() + j + 1);
+        Program program{upto, test.stage_friction(), &test.equilibrium, from_step + windows * window};
+        program.adaptive_threads = false;
+        program.kind = StageKind::Test;
+        program.stage = stage;
+        program.control_failure = ControlFailure::Warn;
+        program.print_control_warnings = false;
+        run_program(model, program, state, out, errors);
+        const double crept = (component_strains(state) - before).norm();
+        creep.push_back(crept);
+        if (crept < goal) {
+          reached = true;
+          break;
+        }
+        // Creep that grows from window to window (twice running) does not lead to rest: a state at its limit.
+        const std::size_t n = creep.size();
+        if (n >= 3 && crept > creep[n - 2].get<double>() && creep[n - 2].get<double>() > creep[n - 3].get<double>()) {
+          gave_up = "the creep grew in two windows running: the state flows at its stresses";
+          break;
+        }
+      }
+      out.finish(state);
+      for (const ControlErrors& e : errors)
+        controlled &= std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
+    } catch (const RunError& e) {
+      error = e.what();
+    }
+  }
+  const std::int64_t rested_steps = state.control.stage_steps - from_step;
+  // A rest that did not reach its goal leaves the point as the test took it: probed as it stands, its drift judged.
+  if (!reached) state = read_state((point_dir / "point.state").string());
+  state.control.leg = point_leg;  // the probes' servo cap is the test's leg's at the point (probe_model)
+  fs::create_directories(run.stage_dir(stage));
+  write_state((run.stage_dir(stage) / kRestedStateName).string(), state,
+              "probe point " + test.name + "/" + point.name + " at rest", state_physics(deck));
+  write_file_atomic(run.stage_dir(stage) / kProbeResultName,
+                    Json{{"reached", reached}, {"steps", rested_steps},
+                         {"window_steps", window}, {"goal", goal}, {"creep", creep}, {"controlled", controlled},
+                         {"gave_up", gave_up}, {"probed_from", reached ? "rest" : "point"},
+                         {"error", error}}.dump(1));
+}
+
 // A probe's record as its folder holds it (run_probe wrote it, in this run or in another job's: --probes);
 // nullopt when the folder has none.
 std::optional<ProbeResult> read_probe_result(const fs::path& dir) {
@@ -385,6 +491,7 @@ std::optional<ProbeResult> read_probe_result(const fs::path& dir) {
     if (loaded == rows.rend() || rows.back().leg != 3.0)
       throw RunError((dir / "series.csv").string() + ": no row at the end of the loaded hold (leg 1) or of the "
                      "unloaded hold (leg 3): not a finished probe's series");
+    r.start = rows.front();
     r.loaded = *loaded;
     r.unloaded = rows.back();
   }
@@ -509,16 +616,198 @@ Json network_estimate(const Deck& deck, const TestDef& test, const State& point,
   return out;
 }
 
+// The smallest eigenvalue of the symmetric part of `a` [its unit]; NaN for a matrix with a non-finite entry.
+double min_symmetric_eigenvalue(const Eigen::Matrix<double, 6, 6>& a) {
+  if (!a.allFinite()) return NAN;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> solver(0.5 * (a + a.transpose()));
+  return solver.eigenvalues().minCoeff();
+}
+
+// The rest before a point's probes, as its folder holds it (rest_point); nullopt when there is none.
+struct RestRecord {
+  bool reached = false, controlled = true;
+  std::int64_t steps = 0;
+  double goal = NAN, last_creep = NAN;
+  std::string error, gave_up;
+  Json json;
+};
+std::optional<RestRecord> read_rest(const fs::path& point_dir) {
+  const fs::path file = point_dir / kRestName / kProbeResultName;
+  if (!fs::exists(file)) return std::nullopt;
+  RestRecord r;
+  r.json = Json::parse(read_file(file.string()));
+  r.reached = r.json.at("reached").get<bool>();
+  r.controlled = r.json.at("controlled").get<bool>();
+  r.steps = r.json.at("steps").get<std::int64_t>();
+  r.goal = r.json.at("goal").get<double>();
+  r.error = r.json.at("error").get<std::string>();
+  if (!r.json.at("creep").empty()) r.last_creep = r.json.at("creep").back().get<double>();
+  r.gave_up = r.json.value("gave_up", std::string());
+  return r;
+}
+
+// A stress set's elastic check at a point (its six strain probes net of their reference, which holds the strains):
+// the tangent and elastic stiffness, the reference's stress drift and the smallest probe response |ds|.
+struct ElasticCheck {
+  bool whole = false;  // every probe and the reference ran and held their controls
+  std::string reason;  // why not
+  Eigen::Matrix<double, 6, 6> tangent = Eigen::Matrix<double, 6, 6>::Zero(), elastic = tangent;
+  double drift = NAN, smallest_response = NAN;  // [Pa]
+};
+
+// Strain probes net of their reference (`probes` in kStrainProbeNames order, each from the same start): the
+// columns of the tangent stiffness (the loaded stress increments per unit strain) and of its elastic part (those
+// recovered on unloading). With the reference's drift |ds| over the probe and the smallest |ds| response.
+ElasticCheck strain_stiffness(const ProbeResult& reference, const std::vector<std::optional<ProbeResult>>& probes,
+                              double magnitude) {
+  ElasticCheck c;
+  c.whole = reference.ran && reference.controlled;
+  c.drift = std::max(norm(minus(stresses(reference.loaded), stresses(reference.start))),
+                     norm(minus(stresses(reference.unloaded), stresses(reference.start))));
+  c.smallest_response = INFINITY;
+  for (std::size_t column = 0; column < probes.size(); ++column) {
+    if (!probes[column] || !probes[column]->ran || !probes[column]->controlled) {
+      c.whole = false;
+      c.reason = std::string("the elastic check's probe ") + kStrainProbeNames[column] + " did not run or hold its control";
+      continue;
+    }
+    const ProbeResult& r = *probes[column];
+    const Row6 ds = minus(stresses(r.loaded), stresses(reference.loaded));
+    const Row6 ds_residual = minus(stresses(r.unloaded), stresses(reference.unloaded));
+    c.smallest_response = std::min(c.smallest_response, norm(ds));
+    for (std::size_t i = 0; i < 6; ++i) {
+      c.tangent(static_cast<int>(i), static_cast<int>(column)) = ds[i] / magnitude;
+      c.elastic(static_cast<int>(i), static_cast<int>(column)) = (ds[i] - ds_residual[i]) / magnitude;
+    }
+  }
+  return c;
+}
+
+ElasticCheck read_elastic_check(const fs::path& point_dir, const ProbeDef& def) {
+  const std::optional<ProbeResult> reference = read_probe_result(point_dir / (std::string(kElasticPrefix) + "reference"));
+  if (!reference || !reference->ran) {
+    ElasticCheck c;
+    c.reason = "the elastic check's reference did not run";
+    return c;
+  }
+  std::vector<std::optional<ProbeResult>> probes;
+  for (const char* name : kStrainProbeNames) probes.push_back(read_probe_result(point_dir / (std::string(kElasticPrefix) + name)));
+  ElasticCheck c = strain_stiffness(*reference, probes, def.target_strain);
+  if (!reference->controlled) c.reason = "the elastic check's reference lost its control";
+  return c;
+}
+
+// A scaled stress set's magnitude at a point [Pa]: target_strain over the largest compliance |C^-1 d| of the set's
+// directions, C the tangent stiffness where its symmetric part is positive definite, else the elastic one; with
+// what it came from. NaN where neither gives a finite positive size.
+std::pair<double, std::string> stiffness_scale(const ProbeDef& def, const ElasticCheck& check) {
+  const std::vector<ProbeDirection> directions = probe_directions(def);
+  for (const auto& [c, from] : {std::pair{check.tangent, "tangent"}, std::pair{check.elastic, "elastic"}}) {
+    if (!(min_symmetric_eigenvalue(c) > 0.0)) continue;
+    const Eigen::Matrix<double, 6, 6> compliance = c.inverse();
+    double largest = 0.0;
+    for (std::size_t k = 1; k < directions.size(); ++k) {
+      Eigen::Matrix<double, 6, 1> d;
+      for (int i = 0; i < 6; ++i) d(i) = directions[k].direction[static_cast<std::size_t>(i)];
+      largest = std::max(largest, (compliance * d).norm());
+    }
+    const double m = def.target_strain / largest;
+    if (std::isfinite(m) && m > 0.0) return {m, from};
+  }
+  return {NAN, "none"};
+}
+
+// A scaled stress set's magnitude at a point [Pa], and what it came from: stiffness_scale, capped by the test's path.
+std::pair<double, std::string> probe_scale(const ProbeDef& def, const ElasticCheck& check, double path_tangent) {
+  std::pair<double, std::string> sized = stiffness_scale(def, check);
+  // A strain probe holds the other strains and so blocks the mechanism that a stress probe frees: the test's own
+  // path (which loads at its stresses) is softer in the loading cone. The smaller size of the two, not below a
+  // hundredth of the elastic one (at a limit state the path's tangent vanishes).
+  const double path = def.target_strain * path_tangent;
+  if (std::isfinite(sized.first) && std::isfinite(path) && path < sized.first)
+    sized = {std::max(path, 0.01 * sized.first), path >= 0.01 * sized.first ? "path" : "path, floored"};
+  return sized;
+}
+
+// The test's tangent along its own path at a point [Pa]: |ds| / |de| (six components each) between the point's row
+// of the test's series and the row before it; NaN where there is none.
+double path_tangent(const fs::path& run_dir, const TestDef& test, double point_step) {
+  const fs::path file = run_dir / test.name / "series.csv";
+  if (!fs::exists(file)) return NAN;
+  const std::vector<SeriesRow> rows = read_series_file(file);
+  const auto at = std::find_if(rows.begin(), rows.end(), [&](const SeriesRow& r) { return r.step == point_step; });
+  if (at == rows.end() || at == rows.begin()) return NAN;
+  const double de = norm(minus(strains(*at), strains(*(at - 1))));
+  return de > 0.0 ? norm(minus(stresses(*at), stresses(*(at - 1)))) / de : NAN;
+}
+
 }  // namespace
+
+ProbeVerdict judge_probe_point(const ProbeDef& def, const ProbeEvidence& e) {
+  ProbeVerdict v;
+  const auto fail = [&](std::string_view check, const std::string& why) {
+    v.failed.emplace_back(check);
+    if (!v.reason.empty()) v.reason += "; ";
+    v.reason.append(check).append(": ").append(why);
+  };
+  const double drift_ratio = e.drift / e.smallest_response;
+  if (std::isfinite(e.drift) && std::isfinite(e.smallest_response) && !(drift_ratio <= def.drift_limit))
+    fail(kProbeCheckNames[0], "the reference drifts " + fmt(e.drift) + " over a probe, " + fmt(drift_ratio) +
+                                  " of the smallest response " + fmt(e.smallest_response) + " (limit " +
+                                  fmt(def.drift_limit) + ")");
+  if (!e.rest_reached && std::isnan(e.rest_creep))
+    fail(kProbeCheckNames[1], "the point was not rested (rest_max_steps " + std::to_string(def.rest_max_steps) +
+                                  "); probed as the test took it");
+  else if (!e.rest_reached)
+    fail(kProbeCheckNames[1], "the rest's last window crept " + fmt(e.rest_creep) + " (goal " +
+                                  fmt(def.rest_fraction * def.target_strain) + ") when " +
+                                  (e.rest_gave_up.empty() ? "its budget of " + std::to_string(def.rest_max_steps) +
+                                                                " steps was spent"
+                                                          : e.rest_gave_up) +
+                                  "; probed as the test took it");
+  if (std::isfinite(e.elastic_asymmetry) || !std::isnan(e.elastic_min_eigenvalue)) {
+    if (!(e.elastic_min_eigenvalue > 0.0))
+      fail(kProbeCheckNames[2], "the elastic stiffness's symmetric part has the eigenvalue " +
+                                    fmt(e.elastic_min_eigenvalue) + " Pa");
+    if (!(e.elastic_asymmetry <= def.asymmetry_limit))
+      fail(kProbeCheckNames[3], "|C - C^T| / |C| = " + fmt(e.elastic_asymmetry) + " (limit " +
+                                    fmt(def.asymmetry_limit) + ")");
+  }
+  if (!e.elastic_check_missing.empty())
+    fail(kProbeCheckNames[4], "no elastic part to compare with: " + e.elastic_check_missing);
+  else if (!std::isnan(e.elastic_factor) && !(e.elastic_factor <= def.elastic_factor))
+    fail(kProbeCheckNames[4], (e.elastic_worst_probe.empty() ? "a probe" : e.elastic_worst_probe) + "'s recovered strain is " +
+                                  (std::isfinite(e.elastic_factor) ? fmt(e.elastic_factor) + " times"
+                                                                   : std::string("more than 60 deg from")) +
+                                  " C_elastic^-1 ds (limit " + fmt(def.elastic_factor) + "x)");
+  return v;
+}
+
+double elastic_agreement(const std::array<double, 6>& measured, const std::array<double, 6>& predicted) {
+  const double a = norm(measured), p = norm(predicted);
+  if (!(a > 0.0) || !(p > 0.0)) return INFINITY;
+  double dot = 0.0;
+  for (std::size_t k = 0; k < 6; ++k) dot += measured[k] * predicted[k];
+  if (!(dot / (a * p) >= 0.5)) return INFINITY;  // more than 60 deg apart (or NaN)
+  return std::max(a / p, p / a);
+}
+
+int probe_cone(const std::array<double, 6>& d, const Vec3& s) {
+  const double change = d[0] * s[2] - s[0] * d[2];  // s33^2 d(s11/s33)
+  const double scale = std::abs(s[0]) + std::abs(s[2]);
+  if (!(std::abs(change) > 1e-9 * scale)) return 0;
+  return change > 0.0 ? 1 : -1;
+}
 
 Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
                      const ProbePoints& probe_points, bool peak_reached) {
   const ProbeDef& def = *test.probes;
   const std::vector<ProbePoints::Point> points = probe_points.points(peak_reached);
   const std::vector<ProbeDirection> directions = probe_directions(def);
+  const fs::path probes_dir = run.stage_dir(test.name) / "probes";
   // Each point's record and state, for the table (here or after a merge) and for probes run again elsewhere.
   for (const ProbePoints::Point& point : points) {
-    const fs::path dir = run.stage_dir(test.name) / "probes" / point.name;
+    const fs::path dir = probes_dir / point.name;
     fs::create_directories(dir);
     if (point.state)
       write_state((dir / "point.state").string(), *point.state, "probe point " + test.name + "/" + point.name,
@@ -528,51 +817,95 @@ Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& opti
                            {"reason", point.missing}}.dump(1));
   }
   // The probes this run runs: those of options.probes by their number (1-based over the deck's tests, then every
-  // point of the set, reference excluded, in probes.csv's order: probe_number_offset), with their points' references.
-  std::vector<Job> jobs;
+  // point of the set, reference excluded, in probes.csv's order: probe_number_offset), with their points' rests,
+  // elastic checks and references.
+  std::vector<std::vector<Job>> chosen(points.size());
   const std::int64_t per_point = static_cast<std::int64_t>(directions.size()) - 1;
   const std::int64_t offset = probe_number_offset(deck, test);  // one numbering over the deck's tests
   for (std::size_t p = 0; p < points.size(); ++p) {
     if (!points[p].state) continue;
-    std::vector<Job> chosen;
     for (std::size_t k = 1; k < directions.size(); ++k) {
       const std::int64_t number = offset + static_cast<std::int64_t>(p) * per_point + static_cast<std::int64_t>(k);
-      if (number >= options.probes.first && number <= options.probes.last) chosen.push_back({p, directions[k]});
+      if (number >= options.probes.first && number <= options.probes.last) chosen[p].push_back({p, directions[k]});
     }
-    if (chosen.empty()) continue;
-    jobs.push_back({p, directions[0]});
-    jobs.insert(jobs.end(), chosen.begin(), chosen.end());
+    if (!chosen[p].empty()) chosen[p].insert(chosen[p].begin(), Job{p, directions[0]});
   }
-
-  // Side by side over the test's threads, each probe on one (its result does not depend on the count).
-  const int workers = std::max(1, std::min<int>(omp_get_max_threads(), static_cast<int>(jobs.size())));
-  std::atomic<std::size_t> next{0};
+  const ProbeDef check = elastic_check_def(def);
+  const std::vector<ProbeDirection> check_directions = probe_directions(check);
+  // Three rounds, each side by side over the test's threads, one job on one thread (its result does not depend on
+  // the count): the points' rests, then the stress sets' elastic checks (which scale the stress probes), then the
+  // probes.
+  std::vector<Job> rests, checks, probes;
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    if (chosen[p].empty()) continue;
+    rests.push_back({p, directions[0], JobKind::Rest});
+    if (def.kind == ProbeKind::Stress)
+      for (const ProbeDirection& d : check_directions) checks.push_back({p, d, JobKind::Elastic});
+  }
+  const std::int64_t steps_each = 2 * (def.steps + def.hold_steps);
+  const std::int64_t all_steps = static_cast<std::int64_t>(rests.size()) * def.rest_max_steps +
+      steps_each * static_cast<std::int64_t>(checks.size() + [&] {
+        std::size_t n = 0;
+        for (const auto& c : chosen) n += c.size();
+        return n;
+      }());
   std::atomic<std::int64_t> steps_done{0};
   std::mutex progress_mutex;
   Progress progress(test.name + " probes", options.progress, options.progress_interval);
-  const std::int64_t steps_each = 2 * (def.steps + def.hold_steps);
-  std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
-  const auto work = [&](int w) {
-    omp_set_num_threads(1);
-    try {
-      for (std::size_t j; (j = next.fetch_add(1)) < jobs.size();) {
-        run_probe(run, deck, options, test, points[jobs[j].point], jobs[j].probe);
-        const std::int64_t done = steps_done += steps_each;
-        const std::lock_guard<std::mutex> lock(progress_mutex);
-        progress.update(done, static_cast<double>(done) / static_cast<double>(steps_each * static_cast<std::int64_t>(jobs.size())));
+  const auto run_jobs = [&](const std::vector<Job>& jobs) {
+    const int workers = std::max(1, std::min<int>(omp_get_max_threads(), static_cast<int>(jobs.size())));
+    std::atomic<std::size_t> next{0};
+    std::vector<std::exception_ptr> errors(static_cast<std::size_t>(workers));
+    const auto work = [&](int w) {
+      omp_set_num_threads(1);
+      try {
+        for (std::size_t j; (j = next.fetch_add(1)) < jobs.size();) {
+          const Job& job = jobs[j];
+          const ProbePoints::Point& point = points[job.point];
+          const fs::path dir = probes_dir / point.name;
+          const fs::path rested = dir / kRestName / kRestedStateName;
+          const std::string stage = test.name + "/probes/" + point.name + "/";
+          std::int64_t done_steps = steps_each;
+          if (job.kind == JobKind::Rest) {
+            rest_point(run, deck, options, test, point);
+            done_steps = def.rest_max_steps;
+          } else if (job.kind == JobKind::Elastic) {
+            run_probe(run, deck, options, test, check, rested, stage + kElasticPrefix + job.probe.name, job.probe);
+          } else {
+            run_probe(run, deck, options, test, def, rested, stage + job.probe.name, job.probe);
+          }
+          const std::int64_t done = steps_done += done_steps;
+          const std::lock_guard<std::mutex> lock(progress_mutex);
+          progress.update(done, static_cast<double>(done) / static_cast<double>(std::max<std::int64_t>(1, all_steps)));
+        }
+      } catch (...) {
+        errors[static_cast<std::size_t>(w)] = std::current_exception();
+        next = jobs.size();  // the others stop after their present job
       }
-    } catch (...) {
-      errors[static_cast<std::size_t>(w)] = std::current_exception();
-      next = jobs.size();  // the others stop after their present probe
-    }
+    };
+    std::vector<std::thread> threads;
+    for (int w = 1; w < workers; ++w) threads.emplace_back(work, w);
+    work(0);
+    for (std::thread& t : threads) t.join();
+    for (const std::exception_ptr& e : errors)
+      if (e) std::rethrow_exception(e);
   };
-  std::vector<std::thread> threads;
-  for (int w = 1; w < workers; ++w) threads.emplace_back(work, w);
-  work(0);
-  for (std::thread& t : threads) t.join();
+  run_jobs(rests);
+  run_jobs(checks);
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    if (chosen[p].empty()) continue;
+    double scale = 1.0;  // given magnitudes as they are
+    if (def.kind == ProbeKind::Stress && def.scaled)
+      scale = probe_scale(def, read_elastic_check(probes_dir / points[p].name, def),
+                          path_tangent(run.stage_dir(test.name).parent_path(), test, points[p].row.step)).first;
+    for (Job job : chosen[p]) {
+      if (!std::isfinite(scale)) continue;  // no stiffness to size the probes by: the point says so (tabulate)
+      if (def.kind == ProbeKind::Stress) job.probe.magnitude *= scale;
+      probes.push_back(job);
+    }
+  }
+  run_jobs(probes);
   progress.finish();
-  for (const std::exception_ptr& e : errors)
-    if (e) std::rethrow_exception(e);
   return tabulate_probes(run.stage_dir(test.name).parent_path(), deck, test);
 }
 
@@ -580,7 +913,9 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
   const ProbeDef& def = *test.probes;
   const std::vector<ProbeDirection> directions = probe_directions(def);
   const fs::path probes_dir = run_dir / test.name / "probes";
-  // probes.csv: each probe's response net of its point's reference, at the loaded and the unloaded ends.
+  const bool stress_set = def.kind == ProbeKind::Stress;
+  // probes.csv: each probe's response net of its point's reference, at the loaded and the unloaded ends; beside it
+  // the reference's own drift over the probe, and (stress sets) the elastic prediction and the loading cone.
   std::string csv = "point,point_step,point_e1,kind,probe,magnitude,angle_deg,d11,d22,d33,d12,d13,d23";
   const auto add_columns = [&](const std::array<const char*, 6>& names, const char* suffix) {
     for (const char* name : names) csv.append(",d").append(name).append(suffix);
@@ -590,11 +925,19 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
   add_columns(kStrainNames, "_plastic");
   add_columns(kStrainNames, "_elastic");
   add_columns(kStressNames, "_residual");
-  csv += ",controlled,status\n";
+  csv += ",response,reference_drift,elastic_predicted,elastic_factor,cone,controlled,status\n";
   Json summary = {{"kind", std::string(name_of(def.kind, kProbeKindNames))}, {"steps", def.steps},
                   {"hold_steps", def.hold_steps}, {"magnitudes", def.magnitudes}, {"points", Json::object()},
-                  {"table", (fs::path(test.name) / "probes" / "probes.csv").string()}};
-  if (def.kind == ProbeKind::Stress) summary["plane"] = std::string(name_of(def.plane, kProbePlaneNames));
+                  {"table", (fs::path(test.name) / "probes" / "probes.csv").string()},
+                  {"target_strain", def.target_strain},
+                  {"rules", {{"rest_fraction", def.rest_fraction}, {"rest_max_steps", def.rest_max_steps},
+                             {"drift_limit", def.drift_limit}, {"asymmetry_limit", def.asymmetry_limit}}}};
+  if (stress_set) summary["rules"]["elastic_factor"] = def.elastic_factor;
+  if (def.scaled && stress_set) {
+    summary["magnitudes"] = Json::array();  // per point (points.<p>.magnitudes)
+    summary["magnitude_factors"] = def.magnitudes;
+  }
+  if (stress_set) summary["plane"] = std::string(name_of(def.plane, kProbePlaneNames));
   Json stiffness = {{"voigt_order", {"11", "22", "33", "12", "13", "23"}},
                     {"units", "Pa per unit strain; engineering shear strains g_ij; compression +"},
                     {"points", Json::object()}};
@@ -613,6 +956,65 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     }
     entry["state"] = (fs::path(test.name) / "probes" / name / "point.state").string();
     const std::optional<ProbeResult> reference_record = read_probe_result(point_dir / "reference");
+    const std::optional<RestRecord> rest = read_rest(point_dir);
+    if (!rest) {
+      entry["status"] = "not run here";
+      entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
+      entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
+      summary["points"][name] = entry;
+      continue;
+    }
+    entry["rest"] = {{"reached", rest->reached}, {"steps", rest->steps}, {"goal", rest->goal},
+                     {"last_window_creep", rest->last_creep}, {"window_steps", rest->json.at("window_steps")},
+                     {"controlled", rest->controlled}, {"probed_from", rest->reached ? "rest" : "point"},
+                     {"folder", (fs::path(test.name) / "probes" / name / kRestName).string()}};
+    if (!rest->gave_up.empty()) entry["rest"]["gave_up"] = rest->gave_up;
+    if (!rest->error.empty()) {
+      entry["status"] = "failed";
+      entry["reason"] = "the rest before the probes failed: " + rest->error;
+      summary["points"][name] = entry;
+      continue;
+    }
+    ProbeEvidence evidence;
+    evidence.rest_reached = rest->reached;
+    evidence.rest_creep = rest->last_creep;
+    evidence.rest_gave_up = rest->gave_up;
+    // A stress set's elastic check: C_elastic at the same rested state, and the probes' size where it is scaled.
+    ElasticCheck check;
+    double scale = 1.0;
+    std::string scale_from = "given";
+    if (stress_set) {
+      check = read_elastic_check(point_dir, def);
+      Json e = {{"target_strain", def.target_strain}, {"whole", check.whole}};
+      if (!check.whole) e["reason"] = check.reason;
+      e["elastic"] = matrix_json(check.elastic);
+      e["tangent"] = matrix_json(check.tangent);
+      e["elastic_asymmetry"] = asymmetry(check.elastic);
+      e["elastic_min_eigenvalue"] = min_symmetric_eigenvalue(check.elastic);
+      e["reference_drift_stress"] = check.drift;
+      entry["elastic_check"] = e;
+      if (!check.whole) evidence.elastic_check_missing = check.reason;
+      if (check.whole) {
+        evidence.elastic_asymmetry = asymmetry(check.elastic);
+        evidence.elastic_min_eigenvalue = min_symmetric_eigenvalue(check.elastic);
+      }
+      if (def.scaled) {
+        std::tie(scale, scale_from) = probe_scale(def, check, path_tangent(run_dir, test, point_step));
+        Json m = Json::array();
+        for (double f : def.magnitudes) m.push_back(f * scale);
+        entry["magnitudes"] = m;
+        entry["magnitude_from"] = scale_from;
+        if (!std::isfinite(scale)) {  // its probes were not run (run_test_probes)
+          const ProbeVerdict v = judge_probe_point(def, evidence);
+          entry["status"] = "failed";
+          entry["checks_failed"] = v.failed;
+          entry["reason"] = "no stiffness to size the probes by: the elastic check's tangent and elastic stiffness "
+                            "are both not positive definite (elastic_check)" + (v.reason.empty() ? "" : "; " + v.reason);
+          summary["points"][name] = entry;
+          continue;
+        }
+      }
+    }
     if (!reference_record) {
       entry["status"] = "not run here";
       entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
@@ -627,13 +1029,24 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       summary["points"][name] = entry;
       continue;
     }
+    const Vec3 s{reference.start.s11, reference.start.s22, reference.start.s33};
     int ran = 0, controlled = 0, failed = 0;
     // Strain probes: per magnitude, the columns of the tangent and elastic stiffness.
     std::vector<Eigen::Matrix<double, 6, 6>> tangent(def.magnitudes.size(), Eigen::Matrix<double, 6, 6>::Zero()),
         elastic = tangent;
     // Stress probes: the strain response's length per direction and magnitude (linearity across magnitudes).
     std::vector<std::vector<double>> response(def.magnitudes.size());
+    std::vector<std::vector<int>> cones(def.magnitudes.size());
     std::vector<std::vector<PlanePoint>> plastic(def.magnitudes.size());  // stress probes in a plane
+    // The reference's drift over a probe: its strains (stress sets: it holds the stresses) or its stresses (strain
+    // sets: it holds the strains) from its start to the ends of the loaded and the unloaded holds.
+    const double drift = stress_set ? std::max(norm(minus(strains(reference.loaded), strains(reference.start))),
+                                               norm(minus(strains(reference.unloaded), strains(reference.start))))
+                                    : std::max(norm(minus(stresses(reference.loaded), stresses(reference.start))),
+                                               norm(minus(stresses(reference.unloaded), stresses(reference.start))));
+    double smallest = INFINITY, worst_factor = 0.0;
+    std::string worst_probe;
+    std::vector<double> factors;
     int missing = 0;
     for (std::size_t k = 1; k < directions.size(); ++k) {
       const ProbeDirection& d = directions[k];
@@ -644,13 +1057,14 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       }
       const ProbeResult& r = *record;
       const std::size_t m = static_cast<std::size_t>(std::find(def.magnitudes.begin(), def.magnitudes.end(), d.magnitude) - def.magnitudes.begin());
+      const double magnitude = stress_set ? d.magnitude * scale : d.magnitude;
       csv.append(name).append(",").append(fmt(point_step)).append(",").append(fmt(point_e1));
       csv.append(",").append(name_of(def.kind, kProbeKindNames)).append(",").append(d.name);
-      csv.append(",").append(fmt(d.magnitude)).append(",").append(fmt(d.angle_deg));
+      csv.append(",").append(fmt(magnitude)).append(",").append(fmt(d.angle_deg));
       for (double x : d.direction) csv.append(",").append(fmt(x));
       if (!r.ran) {
         ++failed;
-        for (int k = 0; k < 30; ++k) csv += ",";
+        for (int c = 0; c < 35; ++c) csv += ",";
         std::string why = r.error;
         std::replace(why.begin(), why.end(), ',', ';');
         std::replace(why.begin(), why.end(), '\n', ' ');
@@ -666,8 +1080,29 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       const Row6 de_elastic = minus(de, de_plastic);
       for (const Row6* v : {&ds, &de, &de_plastic, &de_elastic, &ds_residual})
         for (double x : *v) csv.append(",").append(fmt(x));
+      const double size = stress_set ? norm(de) : norm(ds);
+      smallest = std::min(smallest, size);
+      double predicted = NAN, factor = NAN;
+      int cone = 0;
+      if (stress_set) {
+        cone = probe_cone(d.direction, s);
+        if (check.whole) {  // C_elastic^-1 of the recovered stress increment
+          Eigen::Matrix<double, 6, 1> recovered;
+          for (int i = 0; i < 6; ++i) recovered(i) = ds[static_cast<std::size_t>(i)] - ds_residual[static_cast<std::size_t>(i)];
+          const Eigen::Matrix<double, 6, 1> p = check.elastic.fullPivLu().solve(recovered);
+          Row6 prediction;
+          for (int i = 0; i < 6; ++i) prediction[static_cast<std::size_t>(i)] = p(i);
+          predicted = norm(prediction);
+          factor = elastic_agreement(de_elastic, prediction);
+          factors.push_back(factor);
+          if (!(factor <= worst_factor)) worst_probe = d.name;
+          worst_factor = std::max(worst_factor, factor);
+        }
+      }
+      csv.append(",").append(fmt(size)).append(",").append(fmt(drift)).append(",").append(fmt(predicted));
+      csv.append(",").append(fmt(factor)).append(",").append(stress_set ? (cone > 0 ? "loading" : cone < 0 ? "unloading" : "neutral") : "");
       csv.append(r.controlled ? ",true,ok\n" : ",false,ok\n");
-      if (def.kind == ProbeKind::Strain) {
+      if (!stress_set) {
         const int column = static_cast<int>(std::max_element(d.direction.begin(), d.direction.end()) - d.direction.begin());
         for (int i = 0; i < 6; ++i) {
           tangent[m](i, column) = ds[static_cast<std::size_t>(i)] / d.magnitude;
@@ -675,10 +1110,11 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
         }
       } else {
         response[m].push_back(norm(de));
+        cones[m].push_back(cone);
         if (def.plane != ProbePlane::List) {
           const auto [u1, u2] = plane_basis(def.plane);
           double p1 = 0.0, p2 = 0.0;
-          for (int k = 0; k < 3; ++k) p1 += u1[k] * de_plastic[k], p2 += u2[k] * de_plastic[k];
+          for (int c = 0; c < 3; ++c) p1 += u1[c] * de_plastic[c], p2 += u2[c] * de_plastic[c];
           plastic[m].push_back({d.angle_deg * kPi / 180.0, p1, p2});
         }
       }
@@ -698,33 +1134,96 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     }
     entry["controlled"] = controlled;
     entry["folder"] = (fs::path(test.name) / "probes" / name).string();
+    if (ran > 0) {
+      evidence.drift = drift;
+      evidence.smallest_response = smallest;
+      entry["drift"] = {{"reference", drift}, {"smallest_response", smallest}, {"ratio", drift / smallest},
+                        {"unit", stress_set ? "strain |de|" : "stress |ds| [Pa]"}};
+    }
+    if (!factors.empty()) {
+      evidence.elastic_factor = worst_factor;
+      evidence.elastic_worst_probe = worst_probe;
+      std::vector<double> sorted = factors;
+      std::sort(sorted.begin(), sorted.end());
+      entry["elastic_check"]["agreement"] = {
+          {"worst_factor", worst_factor},  // null when a probe's is infinite (turned)
+          {"worst_probe", worst_probe},
+          {"turned", std::count_if(factors.begin(), factors.end(), [](double f) { return std::isinf(f); })},
+          {"median_factor", sorted[sorted.size() / 2]},
+          {"within_limit", std::count_if(factors.begin(), factors.end(), [&](double f) { return f <= def.elastic_factor; })},
+          {"probes", factors.size()},
+          {"meaning", "per probe, its recovered strain against C_elastic^-1 ds (elastic_agreement): the ratio of "
+                      "lengths taken >= 1, infinite where they are more than 60 deg apart"}};
+    }
     if (def.kind == ProbeKind::Strain && whole) {
       Json per_magnitude = Json::array();
       for (std::size_t m = 0; m < def.magnitudes.size(); ++m)
         per_magnitude.push_back({{"magnitude", def.magnitudes[m]}, {"tangent", matrix_json(tangent[m])},
                                  {"elastic", matrix_json(elastic[m])}, {"elastic_asymmetry", asymmetry(elastic[m])},
+                                 {"elastic_min_eigenvalue", min_symmetric_eigenvalue(elastic[m])},
                                  {"tangent_asymmetry", asymmetry(tangent[m])}});
       stiffness["points"][name] = {{"step", point_step}, {"e1", point_e1}, {"magnitudes", per_magnitude}};
       entry["elastic_asymmetry"] = per_magnitude[0]["elastic_asymmetry"];
+      entry["elastic_min_eigenvalue"] = per_magnitude[0]["elastic_min_eigenvalue"];
+      evidence.elastic_asymmetry = asymmetry(elastic.front());
+      evidence.elastic_min_eigenvalue = min_symmetric_eigenvalue(elastic.front());
       const Json network = network_estimate(deck, test, read_state((point_dir / "point.state").string()), elastic.front());
       stiffness["points"][name]["network"] = network;
       if (network.contains("elastic_vs_network")) entry["elastic_vs_network"] = network["elastic_vs_network"];
     }
-    if (def.kind == ProbeKind::Stress && def.magnitudes.size() > 1 && whole) {
-      // Linear response scales with the magnitude: the median over directions of
-      // |de(M_last)| / |de(M_first)| / (M_last / M_first) is 1 in the linear range.
-      std::vector<double> ratios;
-      const std::size_t last = def.magnitudes.size() - 1;
-      for (std::size_t i = 0; i < response[0].size() && i < response[last].size(); ++i)
-        ratios.push_back(response[last][i] / response[0][i] / (def.magnitudes[last] / def.magnitudes[0]));
-      std::sort(ratios.begin(), ratios.end());
-      if (!ratios.empty())
-        entry["linearity"] = {{"median_ratio", ratios[ratios.size() / 2]},
-                              {"meaning", "median over directions of |de| at the largest magnitude over |de| at the "
-                                          "smallest, divided by the magnitudes' ratio: 1 where the response is linear"}};
+    // The point's judgement (judge_probe_point): a status naming the first check failed, every failed check with
+    // its numbers, and the readings that rest on them withheld.
+    const ProbeVerdict verdict = judge_probe_point(def, evidence);
+    entry["checks_failed"] = verdict.failed;
+    const bool trusted = verdict.failed.empty();
+    if (whole && !trusted) {
+      entry["status"] = verdict.failed.front();
+      entry["reason"] = verdict.reason;
+    } else if (!trusted) {
+      entry["checks_reason"] = verdict.reason;
     }
-    if (def.kind == ProbeKind::Stress && def.plane != ProbePlane::List && whole)
-      entry["plastic"] = plastic_response(plastic.back(), def.magnitudes.back());
+    const std::string withheld = "withheld: " + verdict.reason;
+    if (stress_set && def.magnitudes.size() > 1 && whole) {
+      // Linear response scales with the magnitude: per direction |de(M_last)| / |de(M_first)| / (M_last / M_first)
+      // is 1 in the linear range; given per cone (loading: the probe raises s11/s33), whose responses differ.
+      const std::size_t last = def.magnitudes.size() - 1;
+      std::vector<double> all;
+      std::vector<double> by_cone[2];
+      for (std::size_t i = 0; i < response[0].size() && i < response[last].size(); ++i) {
+        const double ratio = response[last][i] / response[0][i] / (def.magnitudes[last] / def.magnitudes[0]);
+        all.push_back(ratio);
+        if (cones[0][i] != 0) by_cone[cones[0][i] > 0 ? 0 : 1].push_back(ratio);
+      }
+      const auto describe = [](std::vector<double> r) {
+        if (r.empty()) return Json();
+        std::sort(r.begin(), r.end());
+        return Json{{"directions", r.size()}, {"median_ratio", r[r.size() / 2]}, {"min_ratio", r.front()},
+                    {"max_ratio", r.back()}};
+      };
+      if (!all.empty()) {
+        Json linearity = describe(all);
+        linearity["loading"] = describe(by_cone[0]);
+        linearity["unloading"] = describe(by_cone[1]);
+        linearity["meaning"] = "per direction |de| at the largest magnitude over |de| at the smallest, divided by the "
+                               "magnitudes' ratio (1 where the response is linear): over all directions, and per cone "
+                               "(loading: the probe raises s11/s33; unloading: it lowers it)";
+        const bool drifting = std::find(verdict.failed.begin(), verdict.failed.end(), "drifting") != verdict.failed.end();
+        if (drifting) {
+          entry["linearity"] = nullptr;
+          entry["linearity_withheld"] = withheld;
+        } else {
+          entry["linearity"] = linearity;
+        }
+      }
+    }
+    if (stress_set && def.plane != ProbePlane::List && whole) {
+      if (trusted) {
+        entry["plastic"] = plastic_response(plastic.back(), def.magnitudes.back() * scale);
+      } else {  // the split into elastic and plastic parts, and so flow, normal and concentration, rests on the checks
+        entry["plastic"] = nullptr;
+        entry["plastic_withheld"] = withheld;
+      }
+    }
     summary["points"][name] = entry;
   }
   write_file_atomic(probes_dir / "probes.csv", csv);

@@ -330,9 +330,14 @@ TEST(Plan, LoadingRateCountsShearAxesAndProbesCountTheirSteps) {
   const ProbePlan p = plan_probes(t);
   EXPECT_EQ(p.points, 3);
   EXPECT_EQ(p.probes_per_point, 1 + 8 * 2);
-  EXPECT_EQ(p.steps(), 3 * 17 * 300);
+  // Each point: a rest of at most rest_max_steps (whole windows of one probe's 300 steps), the elastic check's
+  // seven probes and the set's.
+  const std::int64_t rest = (probes.rest_max_steps + 299) / 300 * 300;
+  EXPECT_EQ(p.rest_steps_per_point, rest);
+  EXPECT_EQ(p.steps(), 3 * (rest + (17 + 7) * 300));
   t.probes->kind = ProbeKind::Strain;
   EXPECT_EQ(plan_probes(t).probes_per_point, 1 + 6 * 2);
+  EXPECT_EQ(plan_probes(t).check_probes_per_point, 0);  // a strain set is its own elastic check
 }
 
 }  // namespace

@@ -5,7 +5,7 @@ on a frictionless packing, measured again by LAMMPS from the same state through 
 Self-contained: prepares the 300-sphere frictionless state of small.json (isotropic, 100 kPa), then in celldem a
 hold (every strain held, 50,000 steps: the packing settles) with strain probes at its end (`probes`: e11, e22, e33, g12, g13, g23,
 M = 1e-5 over 1000 steps, held 500, unloaded, held 500; the deck matched to LAMMPS's contact model). The probe
-point's state (`hold/probes/end/point.state`) becomes the initial state of a deck whose tests are the same
+point's rested state (`hold/probes/end/rest/rested.state`, where its probes start) becomes the initial state of a deck whose tests are the same
 probes' load programs written out as legs (and the reference, every strain held), translated to LAMMPS and run
 there. Frictionless, so that nothing the data file cannot carry (tangential contact history) matters.
 
@@ -75,7 +75,8 @@ def check(celldem, work, codes):
     subprocess.run([celldem, "run", deck_path, "--out", out, "--threads", "1", "--quiet", "--force"], check=True)
     with open(os.path.join(out, "hold", "probes", "probes.csv")) as f:
         ours = {r["probe"]: r for r in csv.DictReader(f)}
-    point_state = os.path.join(out, "hold", "probes", "end", "point.state")
+    # The probes start from the point after its rest (rest/rested.state; docs/outputs.md)
+    point_state = os.path.join(out, "hold", "probes", "end", "rest", "rested.state")
 
     tests = [{"name": "reference", "friction": 0.0, "legs": probe_legs(None), "output_interval": HOLD},
              {"name": "reference_tilted", "friction": 0.0, "legs": probe_legs(None, True), "output_interval": HOLD}]

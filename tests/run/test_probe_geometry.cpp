@@ -3,6 +3,7 @@
 // probe's legs load by exactly M d over `steps` and give it back.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "run/probes.hpp"
@@ -114,6 +115,119 @@ TEST(ProbeLegs, StrainProbeMovesOneStrainByM) {
         EXPECT_DOUBLE_EQ(legs[phase].strain_per_step(3 + a, 1e-6), 3 + a == k ? sign * 2e-5 / 400 : 0.0);
     }
   }
+}
+
+
+// The judgement of a probed point (judge_probe_point) on constructed evidence: a rested point whose reference stays
+// still, whose recovered strains match C_elastic^-1 ds and whose elastic stiffness is symmetric positive definite
+// passes; each failed check is named, in order, and only those.
+ProbeEvidence good_evidence() {
+  ProbeEvidence e;
+  e.rest_reached = true;
+  e.rest_creep = 5e-7;
+  e.drift = 1e-7;
+  e.smallest_response = 1e-5;
+  e.elastic_asymmetry = 0.01;
+  e.elastic_min_eigenvalue = 2e7;
+  e.elastic_factor = 1.4;
+  return e;
+}
+
+bool names(const ProbeVerdict& v, std::string_view check) {
+  return std::find(v.failed.begin(), v.failed.end(), check) != v.failed.end();
+}
+
+TEST(ProbeJudgement, ARestedConsistentPointPasses) {
+  const ProbeDef def = stress_probes(ProbePlane::Rendulic, 8);
+  const ProbeVerdict v = judge_probe_point(def, good_evidence());
+  EXPECT_TRUE(v.failed.empty()) << v.reason;
+  EXPECT_TRUE(v.reason.empty());
+}
+
+TEST(ProbeJudgement, EachFailedCheckIsNamed) {
+  const ProbeDef def = stress_probes(ProbePlane::Rendulic, 8);  // default limits: drift 0.25, factor 3, asymmetry 0.1
+  ProbeEvidence e = good_evidence();
+  e.drift = 5.4e-4;  // the review's creeping reference: 54x the response
+  ProbeVerdict v = judge_probe_point(def, e);
+  ASSERT_EQ(v.failed.size(), 1u);
+  EXPECT_EQ(v.failed[0], "drifting");
+  EXPECT_NE(v.reason.find("54"), std::string::npos) << v.reason;  // the ratio is stated
+
+  e = good_evidence();
+  e.drift = 0.24e-5;  // within the limit: passes
+  EXPECT_TRUE(judge_probe_point(def, e).failed.empty());
+  e.drift = 0.26e-5;
+  EXPECT_TRUE(names(judge_probe_point(def, e), "drifting"));
+
+  e = good_evidence();
+  e.rest_reached = false;
+  v = judge_probe_point(def, e);
+  ASSERT_EQ(v.failed.size(), 1u);
+  EXPECT_EQ(v.failed[0], "not at rest");
+
+  e = good_evidence();
+  e.elastic_min_eigenvalue = -2.8e7;  // the review's negative diagonal at e1 = 3 %
+  e.elastic_asymmetry = 0.98;
+  v = judge_probe_point(def, e);
+  ASSERT_EQ(v.failed.size(), 2u);
+  EXPECT_EQ(v.failed[0], "elastic not positive definite");
+  EXPECT_EQ(v.failed[1], "elastic asymmetric");
+
+  e = good_evidence();
+  e.elastic_factor = 3.01;
+  EXPECT_TRUE(names(judge_probe_point(def, e), "elastic mismatch"));
+  e.elastic_factor = INFINITY;  // turned more than 60 deg (the review's opposite sign)
+  EXPECT_TRUE(names(judge_probe_point(def, e), "elastic mismatch"));
+  e = good_evidence();
+  e.elastic_check_missing = "the elastic check's probe e11 did not run or hold its control";
+  EXPECT_TRUE(names(judge_probe_point(def, e), "elastic mismatch"));
+
+  // A non-finite ratio is a failure, never a pass: NaN drift against a response of 0.
+  e = good_evidence();
+  e.smallest_response = 0.0;
+  EXPECT_TRUE(names(judge_probe_point(def, e), "drifting"));
+
+  // Every failure at once: all five, in kProbeCheckNames order; the status is the first.
+  e.rest_reached = false;
+  e.elastic_min_eigenvalue = -1.0;
+  e.elastic_asymmetry = 0.5;
+  e.elastic_factor = 10.0;
+  v = judge_probe_point(def, e);
+  ASSERT_EQ(v.failed.size(), kProbeCheckNames.size());
+  for (std::size_t k = 0; k < v.failed.size(); ++k) EXPECT_EQ(v.failed[k], kProbeCheckNames[k]);
+}
+
+TEST(ProbeJudgement, LimitsComeFromTheDeck) {
+  ProbeDef def = stress_probes(ProbePlane::Rendulic, 8);
+  def.elastic_factor = 1.2;
+  def.drift_limit = 0.001;
+  def.asymmetry_limit = 0.005;
+  const ProbeVerdict v = judge_probe_point(def, good_evidence());
+  EXPECT_TRUE(names(v, "drifting") && names(v, "elastic asymmetric") && names(v, "elastic mismatch")) << v.reason;
+}
+
+TEST(ProbeJudgement, ElasticAgreementIsALengthRatioWithinSixtyDegrees) {
+  const std::array<double, 6> p = {1e-5, -5e-6, -5e-6, 0, 0, 0};
+  EXPECT_DOUBLE_EQ(elastic_agreement(p, p), 1.0);
+  std::array<double, 6> a = p;
+  for (double& x : a) x *= 3.0;
+  EXPECT_NEAR(elastic_agreement(a, p), 3.0, 1e-12);
+  EXPECT_NEAR(elastic_agreement(p, a), 3.0, 1e-12);  // either way
+  for (double& x : a) x = -x;  // opposite sign: the review's de1 -2.06e-4 against +9.5e-6
+  EXPECT_TRUE(std::isinf(elastic_agreement(a, p)));
+  const std::array<double, 6> q = {1e-5, 1e-5, 0, 0, 0, 0}, r = {0, 1e-5, 1e-5, 0, 0, 0};  // 60 deg: still compared
+  EXPECT_NEAR(elastic_agreement(q, r), 1.0, 1e-12);
+  const std::array<double, 6> t = {1e-5, 0, 0, 0, 0, 0}, u = {0, 1e-5, 0, 0, 0, 0};  // 90 deg
+  EXPECT_TRUE(std::isinf(elastic_agreement(t, u)));
+  EXPECT_TRUE(std::isinf(elastic_agreement({}, p)));
+}
+
+TEST(ProbeJudgement, ConesFollowTheStressRatio) {
+  const Vec3 s(300e3, 100e3, 100e3);  // a TTC state, s11/s33 = 3
+  EXPECT_EQ(probe_cone({1, 0, 0, 0, 0, 0}, s), 1);     // raises s11
+  EXPECT_EQ(probe_cone({-1, 0, 0, 0, 0, 0}, s), -1);
+  EXPECT_EQ(probe_cone({0, 0.7, 0.7, 0, 0, 0}, s), -1);  // raises the confinement
+  EXPECT_EQ(probe_cone({0.9486832980505138, 0, 0.31622776601683794, 0, 0, 0}, s), 0);  // along s: neutral
 }
 
 }  // namespace

@@ -12,6 +12,9 @@
 - a job array: the probes split over two runs (`--probes K-L`) and gathered by `celldem merge` give the whole
   run's probes.csv and summary, a run of another deck is refused, and seed shares (`--seeds k`) merged give the
   ensemble of `--seeds 1-2`;
+- probes from rest: each probe starts where its point's rest ended; a point probed in motion (no rest) is
+  `drifting`, named by the run, its plastic reading withheld, and the same point after its rest passes its checks
+  (drift, elastic part against C_elastic^-1 ds within 3x) with probes sized to the target strain;
 - a probe that loses its control flags its point (no stiffness, linearity or plastic reading from it) and the
   run names the point;
 - bad probe keys are refused with exit 2 naming the key.
@@ -110,8 +113,11 @@ def test_stress_probes_reach_and_give_back_their_increments(runs):
     table = rows(os.path.join(tmp, "two", "ttc", "probes", "probes.csv"))
     assert len(table) == 2 * 2 * 4, f"ttc probes.csv has {len(table)} rows, expected 16"
     for point, p in ttc["points"].items():
-        assert p["status"] == "ran" and p["failed"] == 0 and p["controlled"] == 8, f"ttc {point}: {p}"
-        assert "linearity" in p, f"ttc {point}: no linearity"
+        # Every probe ran and held its control; the point's checks (rest, drift, elastic part) may flag it: then its
+        # status names the check (never plain `ran`) and its plastic reading is withheld.
+        assert p["failed"] == 0 and p["controlled"] == 8, f"ttc {point}: {p}"
+        assert p["status"] == ("ran" if not p["checks_failed"] else p["checks_failed"][0]), f"ttc {point}: {p}"
+        assert ("linearity" in p) and (p["plastic"] is None) == bool(p["checks_failed"]), f"ttc {point}: {p}"
     for r in table:
         where = f"ttc {r['point']} {r['probe']}"
         assert r["status"] == "ok" and r["controlled"] == "true", f"{where}: {r['status']} controlled {r['controlled']}"
@@ -130,14 +136,26 @@ def test_stress_probes_reach_and_give_back_their_increments(runs):
             assert float(r["de1"]) > 0.0, f"{where}: de1 {r['de1']} not compressive under ds11 > 0"
 
 
-def test_a_probe_starts_from_the_tests_own_state(runs):
+def test_a_probe_starts_from_the_tests_own_state_at_rest(runs):
+    """The rest starts from the test's row at the point; every probe, the elastic check's too, starts where the
+    rest ended."""
     tmp, _, _ = runs
     test_rows = {r["step"]: r for r in rows(os.path.join(tmp, "two", "ttc", "series.csv"))}
-    first = rows(os.path.join(tmp, "two", "ttc", "probes", "e1_0.002", "m1-d01", "series.csv"))[0]
-    parent = test_rows.get(first["step"])
-    assert parent is not None, f"the probe's first step {first['step']} is not a row of the test"
-    differ = [c for c in ("e1", "e2", "e3", "s11", "s22", "s33", "s12", "Z", "void_ratio") if first[c] != parent[c]]
-    assert not differ, f"the probe's first row differs from the test's in {differ}"
+    point = os.path.join(tmp, "two", "ttc", "probes", "e1_0.002")
+    rest = rows(os.path.join(point, "rest", "series.csv"))
+    parent = test_rows.get(rest[0]["step"])
+    assert parent is not None, f"the rest's first step {rest[0]['step']} is not a row of the test"
+    columns = ("e1", "e2", "e3", "s11", "s22", "s33", "s12", "Z", "void_ratio")
+    differ = [c for c in columns if rest[0][c] != parent[c]]
+    assert not differ, f"the rest's first row differs from the test's in {differ}"
+    for probe in ("m1-d01", "reference", "elastic-reference", "elastic-e11"):
+        first = rows(os.path.join(point, probe, "series.csv"))[0]
+        differ = [c for c in ("step",) + columns if first[c] != rest[-1][c]]
+        assert not differ, f"{probe}'s first row differs from the rest's last in {differ}"
+    with open(os.path.join(point, "rest", "result.json")) as f:
+        result = json.load(f)
+    assert int(rest[-1]["step"]) - int(rest[0]["step"]) == result["steps"] == \
+        len(result["creep"]) * result["window_steps"], f"the rest's steps: {result}"
 
 
 def test_strain_probes_impose_their_increments_and_give_the_elastic_stiffness(runs):
@@ -252,9 +270,54 @@ def test_an_uncontrolled_probe_flags_its_point(celldem, tmp_path):
         f"the run does not name the flagged point: {result.stdout[-500:]}"
 
 
+def test_a_point_in_motion_is_flagged_and_a_rested_point_is_not(celldem, tmp_path):
+    """Probes of the stiffness's size (magnitudes left out) at e1 = 0.2 % of the small TTC, in motion: taken without
+    a rest (rest_max_steps 0) the reference creeps over a probe far more than the smallest response, so the point
+    is `drifting` (not `ran`), the run names it and its plastic reading is withheld; after its rest the drift is small
+    and the point's elastic parts agree with C_elastic^-1 ds within 3x."""
+    tmp = str(tmp_path)
+    sized = {"at_e1": [0.002], "kind": "stress", "plane": "rendulic", "directions": 8, "steps": 1500,
+             "hold_steps": 500}
+    points = {}
+    for name, extra in (("moving", {"rest_max_steps": 0}), ("rested", {})):
+        deck = base_deck()
+        deck["tests"] = [dict(deck["tests"][0], probes={**sized, **extra})]
+        deck["tests"][0]["end"]["strain"] = 0.0025
+        result = subprocess.run([celldem, "run", write(deck, tmp, name), "--out", os.path.join(tmp, name)],
+                                capture_output=True, text=True)
+        assert result.returncode == 0, f"{name}: exit {result.returncode}: {result.stderr[-500:]}"
+        with open(os.path.join(tmp, name, "summary.json")) as f:
+            points[name] = json.load(f)["tests"]["ttc"]["probes"]["points"]["e1_0.002"]
+        points[name]["stdout"] = result.stdout
+    moving, rested = points["moving"], points["rested"]
+    assert moving["rest"]["steps"] == 0 and not moving["rest"]["reached"], f"moving: {moving['rest']}"
+    assert moving["checks_failed"][0] == "drifting" and moving["status"] == "drifting", f"moving: {moving}"
+    assert moving["drift"]["ratio"] > 0.25 and moving["plastic"] is None and "plastic_withheld" in moving, \
+        f"moving: {moving}"
+    assert "probes at e1_0.002: drifting" in moving["stdout"], f"the run does not name the point: {moving['stdout']}"
+    assert rested["rest"]["reached"], f"rested: {rested['rest']}"
+    assert rested["drift"]["ratio"] <= 0.25, f"rested: {rested['drift']}"
+    assert rested["elastic_check"]["agreement"]["worst_factor"] is not None and \
+        rested["elastic_check"]["agreement"]["worst_factor"] <= 3.0, f"rested: {rested['elastic_check']['agreement']}"
+    assert rested["status"] == "ran" and rested["plastic"] is not None, f"rested: {rested}"
+    # Sized by the stiffness: the most compliant direction moves by about the target strain, not by the point's e1.
+    table = [r for r in rows(os.path.join(tmp, "rested", "ttc", "probes", "probes.csv")) if r["probe"].startswith("m1-")]
+    largest = max(float(r["response"]) for r in table)
+    assert 0.3e-5 < largest < 3e-5, f"the largest response at the first size: {largest}"
+    assert {r["cone"] for r in table} >= {"loading", "unloading"}, "the cones"
+    assert set(rested["linearity"]) >= {"loading", "unloading", "median_ratio"}, f"rested: {rested['linearity']}"
+
+
 BAD_CASES = [
     ({**STRAIN, "plane": "pi"}, "tests[1].probes.plane"),
-    ({k: v for k, v in STRESS.items() if k != "magnitudes"}, "tests[1].probes.magnitudes"),
+    ({**STRESS, "target_strain": 0.1}, "tests[1].probes.target_strain"),
+    ({**STRESS, "target_strain": "small"}, "tests[1].probes.target_strain"),
+    ({**STRESS, "rest_max_steps": 1.5}, "tests[1].probes.rest_max_steps"),
+    ({**STRESS, "rest_fraction": 0}, "tests[1].probes.rest_fraction"),
+    ({**STRESS, "drift_limit": -1}, "tests[1].probes.drift_limit"),
+    ({**STRESS, "elastic_factor": 0.5}, "tests[1].probes.elastic_factor"),
+    ({**STRAIN, "elastic_factor": 3}, "tests[1].probes.elastic_factor"),
+    ({**STRESS, "asymmetry_limit": 5}, "tests[1].probes.asymmetry_limit"),
     ({**STRESS, "at": ["middle"]}, "tests[1].probes.at[0]"),
     ({**STRAIN, "magnitudes": [0.1]}, "tests[1].probes.magnitudes[0]"),
     ({**{k: v for k, v in STRESS.items() if k != "directions"}, "plane": "list"}, "tests[1].probes.list"),

@@ -221,16 +221,16 @@ def test_probes_section(probe_run):
     assert "stress probes in the rendulic plane, 8 directions, M = 2, 4 kPa" in probes_text
     assert "stress probes in the pi plane, 6 directions, M = 3 kPa" in probes_text
     assert "stress probes along listed directions, 3 directions" in probes_text
-    assert "| e1_0.002 | 0.200 | 2000 | ran | 16 / 16 / 0 | 0.987 |  |" in probes_text
-    assert "| peak | 0.750 | 7500 | **ran with failures** | 16 / 15 / 1 | n/a |  |" in probes_text
-    assert f"| e1_0.05 | — | — | **not run** | — | n/a | {NOT_RUN} |" in probes_text
+    assert "| e1_0.002 | 0.200 | 2000 | ran | 16 / 16 / 0 | 0.987 | — |  |" in probes_text
+    assert "| peak | 0.750 | 7500 | **ran with failures** | 16 / 15 / 1 | n/a | — |  |" in probes_text
+    assert f"| e1_0.05 | — | — | **not run** | — | n/a | — | {NOT_RUN} |" in probes_text
     assert f"- peak, m2-d05: {FAILURE}" in probes_text
     ratio = (ELASTIC + PLASTIC) / ELASTIC
     assert (f"- e1_0.002, M = 2 kPa: the largest total response is along d00 (0°; Δσ/M = 1, 0, 0), {ratio:.3g} times "
             "the smallest") in probes_text
     assert f"d00 (0°; Δσ/M = 1, 0, 0), {PLASTIC * 1e6:.3g} per MPa" in probes_text
     # strain probes: the elastic asymmetry from summary.json, the diagonals in MPa, the network's rows
-    assert "| e1_0.002 | 0.200 | 2000 | ran | 6 / 6 / 0 | 0.111 |  |" in probes_text
+    assert "| e1_0.002 | 0.200 | 2000 | ran | 6 / 6 / 0 | 0.111 | — |  |" in probes_text
     assert "| elastic | 200 | 180 | 130 | 75 | 70 | 60 | 0.111 |" in probes_text
     assert "| tangent | 190 | 171 | 123.5 | 71.25 | 66.5 | 57 | 0.222 |" in probes_text
     relaxed = " | ".join(f"{v * 1e-6:.4g}" for v in NETWORK_RELAXED_DIAGONAL)

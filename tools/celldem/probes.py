@@ -68,8 +68,22 @@ class ProbeSet:
 
     @property
     def magnitudes(self) -> List[float]:
-        """The probe magnitudes M (Pa for stress probes, strain for strain probes)."""
-        return [m for m in (number(v) for v in self.info.get("magnitudes") or []) if m is not None]
+        """The set's magnitudes M (Pa for stress probes, strain for strain probes); a set whose magnitudes follow
+        each point's stiffness (summary.json magnitude_factors) has none of its own: every magnitude of
+        probes.csv, ascending."""
+        given = [m for m in (number(v) for v in self.info.get("magnitudes") or []) if m is not None]
+        if given:
+            return given
+        return sorted({r["magnitude"] for r in self.rows if isinstance(r.get("magnitude"), float)
+                       and math.isfinite(r["magnitude"])})
+
+    def point_magnitudes(self, point: str) -> List[float]:
+        """The magnitudes probed at `point`, ascending: the set's, or the point's own where they follow its
+        stiffness."""
+        if self.info.get("magnitude_factors"):
+            return sorted({r["magnitude"] for r in self.point_rows(point) if isinstance(r.get("magnitude"), float)
+                           and math.isfinite(r["magnitude"])})
+        return self.magnitudes
 
     @property
     def points(self) -> Dict[str, Dict[str, Any]]:
@@ -97,7 +111,7 @@ def parse_cell(name: str, text: str) -> Union[bool, float, str]:
     """One probes.csv cell: `controlled` a bool, the names a text, a number a float (NaN when empty)."""
     if name == "controlled":
         return text == "true"
-    if name in ("point", "kind", "probe", "status"):
+    if name in ("point", "kind", "probe", "status", "cone"):
         return text
     try:
         return float(text) if text != "" else math.nan

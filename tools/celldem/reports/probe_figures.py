@@ -78,7 +78,7 @@ def draw_rose(rose, rows, plane):
 def draw_plane_envelope(ax, rose, probe_set, point):
     plane = probe_set.plane
     drawn = []
-    for k, m in enumerate(probe_set.magnitudes):
+    for k, m in enumerate(probe_set.point_magnitudes(point)):
         rows = probe_set.point_rows(point, m)
         if not rows:
             continue
@@ -107,7 +107,7 @@ def draw_plane_envelope(ax, rose, probe_set, point):
 
 def draw_listed_envelope(ax, rose, probe_set, point):
     drawn = False
-    for k, m in enumerate(probe_set.magnitudes):
+    for k, m in enumerate(probe_set.point_magnitudes(point)):
         rows = probe_set.point_rows(point, m)
         if not rows:
             continue

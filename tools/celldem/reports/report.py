@@ -581,12 +581,19 @@ PROBES_INTRO = (
     "at the smallest, divided by the magnitudes' ratio (1: linear). Strain probes: the stress increments per unit "
     "strain (tangent) and their recovered part (elastic); asymmetry is |C − Cᵀ| / |C|. The sentences under each "
     "table are measured on probes.csv; a plastic response larger than the total one means that unloading did not "
-    "bring the sample back (as near a peak).")
+    "bring the sample back (as near a peak). Each point rests at its stresses before its probes; its checks: the "
+    "reference's drift over a probe against the smallest response, and (stress probes) the worst probe's recovered "
+    "strain against C_elastic⁻¹Δσ from six strain probes at the same state (a ratio ≥ 1; ∞: more than 60° apart). "
+    "A point that fails one says which in its status, and its plastic reading is withheld.")
 
 
 def probe_set_text(s):
     """'stress probes in the rendulic plane, 8 directions, M = 2, 4 kPa; ramps of 3000 steps, holds of 1000'."""
     magnitudes = ", ".join(f"{m * 1e-3:g}" if s.kind == "stress" else f"{m:g}" for m in s.magnitudes)
+    if s.kind == "stress" and s.info.get("magnitude_factors"):
+        factors = ", ".join(f"{f:g}" for f in s.info["magnitude_factors"])
+        magnitudes = (f"{factors} times each point's scale (target strain {fmt(s.info.get('target_strain'))}; "
+                      f"the points' M in the table), i.e. {magnitudes}")
     if s.kind == "stress":
         first = s.rows[0] if s.rows else None  # the directions of one point and magnitude
         count = len(s.point_rows(first["point"], first["magnitude"])) if first else 0
@@ -606,20 +613,37 @@ def probe_point_row(s, point, entry):
             entry["controlled"] < ran - (entry.get("failed") or 0):
         counts += " (**not all controlled**)"
     if s.kind == "stress":
-        measure = fmt(probes.number((entry.get("linearity") or {}).get("median_ratio")))
+        linearity = entry.get("linearity") or {}
+        measure = fmt(probes.number(linearity.get("median_ratio")))
+        cones = [f"{cone} {fmt(probes.number(c.get('median_ratio')))} ({fmt(probes.number(c.get('min_ratio')))}–"
+                 f"{fmt(probes.number(c.get('max_ratio')))})"
+                 for cone in ("loading", "unloading") if isinstance(c := linearity.get(cone), dict)]
+        if cones:
+            measure += "; " + "; ".join(cones)
+        if entry.get("linearity_withheld"):
+            measure = "withheld"
     else:
         measure = fmt(probes.number(entry.get("elastic_asymmetry")))
     e1, step = probes.number(entry.get("e1")), probes.number(entry.get("step"))
     # A point not run has no place in the test (the reason says what the test reached).
     where = ("—", "—") if status == "not run" or e1 is None or step is None else (fmt(e1 * PERCENT), fmt(round(step)))
+    drift = probes.number((entry.get("drift") or {}).get("ratio"))
+    agreement = probes.number(((entry.get("elastic_check") or {}).get("agreement") or {}).get("worst_factor"))
+    checks = f"drift {fmt_spec(drift, '.2g', 'n/a')} of the smallest response"
+    if s.kind == "stress":
+        turned = ((entry.get("elastic_check") or {}).get("agreement") or {}).get("turned") or 0
+        checks += (f"; elastic part within {fmt_spec(agreement, '.3g', 'n/a')}× of C⁻¹Δσ" if not turned else
+                   f"; {turned} elastic parts more than 60° from C⁻¹Δσ")
+    if drift is None and agreement is None:  # a run before the checks, or a point not probed
+        checks = "—"
     return (point, *where, f"**{status}**" if status != "ran" else status,
-            counts, measure, entry.get("reason", "") or "")
+            counts, measure, checks, entry.get("reason", "") or "")
 
 
 def envelope_lines(s, point):
     """What each magnitude's envelope at `point` shows, measured on probes.csv (probes.envelope_findings)."""
     lines = []
-    for m in s.magnitudes:
+    for m in s.point_magnitudes(point):
         f = probes.envelope_findings(s.point_rows(point, m), s.plane)
         if f is None:
             continue
@@ -670,7 +694,8 @@ def probes_section(run, planned, fig_dir_name="figures"):
         measure = "Linearity" if s.kind == "stress" else "Elastic asymmetry"
         rows = [probe_point_row(s, p, e) for p, e in s.points.items()]
         out += [f"### {s.test}", "", probe_set_text(s) + ".", "",
-                md_table(("Point", "ε1 (%)", "Step", "Status", "Probes / controlled / failed", measure, "Why"), rows)
+                md_table(("Point", "ε1 (%)", "Step", "Status", "Probes / controlled / failed", measure,
+                          "Checks (from rest)", "Why"), rows)
                 if rows else "No points in summary.json.", ""]
         details = []
         for point in s.points:
