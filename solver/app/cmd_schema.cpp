@@ -298,39 +298,6 @@ Json plan_json(const Deck& deck) {
   return out;
 }
 
-// What --tolerance did (io/tolerance's resolved settings per stage) and the particle-steps each stage is
-// predicted to take, against the deck as written and the ratio.
-Json tolerance_json(const Deck& written, const Deck& resolved) {
-  Json out = Json::parse(resolved.tolerance_settings);
-  const double n = resolved.sample.count;
-  const auto steps_json = [n](const StepRange& w, const StepRange& r) {
-    const auto high = [n](const StepRange& s) { return s.high < 0 ? Json() : Json(n * static_cast<double>(s.high)); };
-    return Json{{"particle_steps_written", {{"low", n * static_cast<double>(w.low)}, {"high", high(w)}}},
-                {"particle_steps", {{"low", n * static_cast<double>(r.low)}, {"high", high(r)}}},
-                {"ratio_low", r.low > 0 ? Json(static_cast<double>(w.low) / static_cast<double>(r.low)) : Json()}};
-  };
-  double start_fraction = -1.0;
-  if (written.prepare && written.initial_state) start_fraction = preparation_start(written).solid_fraction;
-  StepRange all_written, all;
-  const auto add = [](StepRange& a, const StepRange& b) {
-    a.low += b.low;
-    a.high = a.high < 0 || b.high < 0 ? -1 : a.high + b.high;
-  };
-  std::size_t k = 0;
-  if (written.prepare) {
-    const StepRange w = preparation_steps(written, start_fraction), r = preparation_steps(resolved, start_fraction);
-    out["stages"][k++].update(steps_json(w, r));
-    add(all_written, w), add(all, r);
-  }
-  for (std::size_t i = 0; i < written.tests.size(); ++i) {
-    const StepRange w = test_steps(written, written.tests[i]), r = test_steps(resolved, resolved.tests[i]);
-    out["stages"][k++].update(steps_json(w, r));
-    add(all_written, w), add(all, r);
-  }
-  out["total"] = steps_json(all_written, all);
-  return out;
-}
-
 // The tolerance block of `plan` in words: per stage its time step, each leg's driving and inertial number,
 // the damping, the output interval and the particle-steps against the deck as written.
 void print_tolerance(const Json& t) {
@@ -389,6 +356,53 @@ void print_tolerance(const Json& t) {
 }
 
 }  // namespace
+
+// What --tolerance did (io/tolerance's resolved settings per stage) and the particle-steps each stage is
+// predicted to take, against the deck as written and the ratio.
+Json tolerance_json(const Deck& written, const Deck& resolved) {
+  Json out = Json::parse(resolved.tolerance_settings);
+  const double n = resolved.sample.count;
+  const auto steps_json = [n](const StepRange& w, const StepRange& r) {
+    const auto high = [n](const StepRange& s) { return s.high < 0 ? Json() : Json(n * static_cast<double>(s.high)); };
+    return Json{{"particle_steps_written", {{"low", n * static_cast<double>(w.low)}, {"high", high(w)}}},
+                {"particle_steps", {{"low", n * static_cast<double>(r.low)}, {"high", high(r)}}},
+                {"ratio_low", r.low > 0 ? Json(static_cast<double>(w.low) / static_cast<double>(r.low)) : Json()}};
+  };
+  double start_fraction = -1.0;
+  if (written.prepare && written.initial_state) start_fraction = preparation_start(written).solid_fraction;
+  StepRange all_written, all;
+  const auto add = [](StepRange& a, const StepRange& b) {
+    a.low += b.low;
+    a.high = a.high < 0 || b.high < 0 ? -1 : a.high + b.high;
+  };
+  std::size_t k = 0;
+  if (written.prepare) {
+    const StepRange w = preparation_steps(written, start_fraction), r = preparation_steps(resolved, start_fraction);
+    out["stages"][k++].update(steps_json(w, r));
+    add(all_written, w), add(all, r);
+  }
+  for (std::size_t i = 0; i < written.tests.size(); ++i) {
+    const StepRange w = test_steps(written, written.tests[i]), r = test_steps(resolved, resolved.tests[i]);
+    out["stages"][k++].update(steps_json(w, r));
+    add(all_written, w), add(all, r);
+  }
+  out["total"] = steps_json(all_written, all);
+  return out;
+}
+
+std::string describe_tolerance(const Json& t) {
+  const Json& rules = t["rules"];
+  const Json& total = t["total"];
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the "
+                "stability limit, inertial number %.3g; predicted %.3g particle-steps against %.3g as written: %.2fx fewer "
+                "(each equilibrium at its min_steps; `celldem plan --tolerance %g` has every setting)",
+                t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(),
+                rules["inertial_number"].get<double>(), total["particle_steps"]["low"].get<double>(),
+                total["particle_steps_written"]["low"].get<double>(),
+                total["ratio_low"].is_null() ? NAN : total["ratio_low"].get<double>(), t["tolerance"].get<double>());
+  return buf;
+}
 
 Command add_plan_command(CLI::App& app) {
   struct Args {
