@@ -71,8 +71,7 @@ Command add_run_command(CLI::App& app) {
   VerifyRateOptions& verify = args->options.verify_rate;  // NOLINT: lives as long as args
   cmd->add_flag("--verify-rate", verify.enabled,
                 "Each test checks its own convergence: it runs again from the same starting state over its whole path "
-                "at a fraction of its rate, and once more as a round-off twin (one coordinate 1 ulp off: the chaos of a "
-                "pair), and judges each summary quantity's difference in noise floors at 95 % (summary.json "
+                "at a fraction of its rate, and once more as a twin at 1.001 times its rate (the chaos of a pair), and judges each summary quantity's difference in noise floors at 95 % (summary.json "
                 "verify_rate; <test>/verify/slow/, <test>/verify/twin/; its cost is printed before it runs)");
   cmd->add_option("--verify-rate-factor", verify.rate_factor,
                   "With --verify-rate: the slower run's driving rate over the test's (strain increments and rates, "
@@ -80,7 +79,7 @@ Command add_run_command(CLI::App& app) {
       ->check(CLI::Range(1e-3, 0.999))
       ->capture_default_str();
   cmd->add_flag("--no-verify-twin", args->no_twin,
-                "With --verify-rate: no round-off twin (a third less cost); the chaos of a pair is then taken at its "
+                "With --verify-rate: no twin (a third less cost); the chaos of a pair is then taken at its "
                 "bound, sqrt 2 floors, and a single run's check seldom resolves a tolerance of 1 floor");
   cmd->add_option("--floors", verify.floors_path,
                   "With --verify-rate: the noise floors, an ensemble.json of this deck or a JSON of seed-to-seed stds "

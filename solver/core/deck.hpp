@@ -235,7 +235,7 @@ struct PrepareDef {
 // A test's own rate check (tests[].verify_rate; run/verify_rate.hpp runs it).
 struct VerifyRateDef {
   double rate_factor = keys::verify_rate_rate_factor.fallback;  // the slower run's rate over the test's
-  bool twin = true;                                             // run the round-off twin
+  bool twin = true;                                             // run the twin (1.001 times the rate)
 };
 
 // A test's incremental response probes (tests[].probes; run/probes.hpp runs them).

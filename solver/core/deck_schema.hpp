@@ -474,8 +474,8 @@ inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind
 inline constexpr KeySpec test_verify_rate{.path = "tests[].verify_rate", .kind = KeyKind::Object, .required = false,
     .default_text = "none (`celldem run --verify-rate` checks every test)",
     .meaning = "the test checks its own convergence: it runs again from the same starting state over its whole path "
-               "at `rate_factor` times its rate (and, with `twin`, once more with one coordinate 1 ulp off to measure "
-               "the chaos of a pair) and judges each summary quantity's difference in noise floors at 95 % "
+               "at `rate_factor` times its rate (and, with `twin`, once more at 1.001 times its rate to measure the chaos "
+               "of a pair) and judges each summary quantity's difference in noise floors at 95 % "
                "(summary.json `verify_rate`, `<test>/verify/slow/`, `<test>/verify/twin/`; docs/outputs.md); the "
                "command line's `--verify-*` values, when given, replace these"};
 inline constexpr KeySpec verify_rate_rate_factor{.path = "tests[].verify_rate.rate_factor", .kind = KeyKind::Number,
@@ -484,7 +484,7 @@ inline constexpr KeySpec verify_rate_rate_factor{.path = "tests[].verify_rate.ra
                "axes, stress ramps' and rotations' rates (step ends and the output interval follow)"};
 inline constexpr KeySpec verify_rate_twin{.path = "tests[].verify_rate.twin", .kind = KeyKind::Boolean,
     .required = false, .default_text = "true",
-    .meaning = "also run the round-off twin (the test once more, one coordinate 1 ulp off), whose differences "
+    .meaning = "also run the twin (the test once more at 1.001 times its rate), whose differences "
                "calibrate the chaos of a pair; `false`: the chaos is taken at its bound, sqrt 2 floors"};
 inline constexpr KeySpec test_probes{.path = "tests[].probes", .kind = KeyKind::Object, .required = false,
     .default_text = "none",

@@ -169,7 +169,7 @@ void print_rate_check(const std::string& name, const Json& v) {
   if (v.contains("chaos"))
     std::printf("%s: rate check at %g x the rate, tolerance %g floors, chaos of a pair %.3g floors (%s)\n", name.c_str(),
                 v.value("rate_factor", 0.0), v.value("tolerance_floors", 0.0),
-                v["chaos"].value("pair_sd_floors", 0.0), v["chaos"].value("dof", 0.0) > 0 ? "round-off twin" : "bound");
+                v["chaos"].value("pair_sd_floors", 0.0), v["chaos"].value("dof", 0.0) > 0 ? "twin" : "bound");
   if (v.contains("comparisons"))
     for (const auto& [q, c] : v["comparisons"].items()) {
       const bool has = c.contains("error_floors") && c["error_floors"].is_number();

@@ -1,8 +1,9 @@
 // A run's own convergence check (`celldem run --verify-rate`): the test is run again from the same starting state
 // (the prepared sample) over its whole path at a fraction of its driving rate (half by default), and each summary
-// quantity of the two runs is compared in units of the seed-to-seed noise floor. A round-off twin (the same test
-// from the same state with one coordinate moved by one ulp) measures what chaos alone makes of one pair of runs,
-// and the verdict accounts for it at a stated confidence:
+// quantity of the two runs is compared in units of the seed-to-seed noise floor. A twin (the same test from the same
+// state at 1.001 times its rate: a change whose own effect is negligible, but which parts the two runs from the
+// first step as the slower run does) measures what chaos alone makes of one pair of runs, and the verdict accounts
+// for it at a stated confidence:
 //   converged      the rate's effect is within the tolerance T at 95 % (|d| + c s <= T; both one-sided tests of
 //                  TOST reject |effect| >= T),
 //   not converged  the effect is beyond T at 95 % (|d| - c s > T),
@@ -30,7 +31,7 @@ struct RunOptions;
 struct VerifyRateOptions {
   bool enabled = false;                                         // --verify-rate: every test is checked
   double rate_factor = keys::verify_rate_rate_factor.fallback;  // the slower run's rate over the test's
-  bool twin = true;          // run the round-off twin (false: the chaos of a pair is taken at its bound, sqrt 2 floors)
+  bool twin = true;          // run the twin (false: the chaos of a pair is taken at its bound, sqrt 2 floors)
   double tolerance = 1.0;    // [noise floors] the largest effect of a converged quantity (a run's --tolerance over it)
   std::string floors_path;   // an ensemble.json or {"ratio13", "ev", "Z"} stds (optionally per test); empty: default
   // Given on the command line: these replace a test's verify_rate values.
@@ -80,9 +81,10 @@ struct PairChaos {
   double critical = 0.0;   // one-sided 95 %: Student's t(dof), or the normal's with a bound
   std::string source;
 };
-// From a round-off twin's differences in floors (NaN where not compared): their root mean square over the compared
+// From the twin's differences in floors (NaN where not compared): their root mean square over the compared
 // quantities (dof = their count), at most the bound sqrt 2 (two runs from one prepared sample differ by chaos at
-// most as two seeds do); with no twin difference, the bound itself.
+// most as two seeds do); with no twin difference, or a twin that did not part from the test (root mean square
+// below 1e-3 floors), the bound itself.
 PairChaos pair_chaos(const std::vector<double>& twin_floors);
 
 // The verdict of an effect d [floors] measured with chaos sd s and quantile c against tolerance T.

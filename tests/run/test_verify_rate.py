@@ -1,7 +1,7 @@
 """`celldem run --verify-rate` on a small deck (tests/run/small_run.json, 150 spheres, tests to 2 % of axial
 strain) at two driving rates, the paper's strain increment (inputs/paper.json's tests) and a hundred times it.
-The check runs each test again from the same prepared state over its whole path at half the rate, and a round-off
-twin (one coordinate 1 ulp off) whose differences calibrate the chaos of one pair of runs:
+The check runs each test again from the same prepared state over its whole path at half the rate, and a twin
+(the test at 1.001 times its rate) whose differences calibrate the chaos of one pair of runs:
 
 - at the paper's rate no quantity and no test is "not converged";
 - the run a hundred times too fast (inertial number near 1e-2, which the run warns of) is "not converged": a
@@ -160,7 +160,7 @@ def test_the_cost_is_printed_before_the_check_runs(fast):
         announced = stdout.index(f"{test}: rate check after the test: ")
         assert announced < stdout.index(f"{test}: done"), "the cost comes before the test is done"
         cost = t["verify_rate"]["cost"]
-        assert f"{cost['slow_steps']} steps at the slower rate and {cost['twin_steps']} of the round-off twin" in \
+        assert f"{cost['slow_steps']} steps at the slower rate and {cost['twin_steps']} of the twin" in \
             stdout[announced:], stdout[announced:][:300]
         assert cost["slow_steps"] == t["verify_rate"]["runs"]["slow"]["steps"], "the predicted steps are run"
 

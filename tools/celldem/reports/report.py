@@ -561,7 +561,7 @@ def verify_rate_section(run):
     factor = next((run.test_summary(t)["verify_rate"].get("rate_factor") for t in run.test_names
                    if isinstance(run.test_summary(t).get("verify_rate"), dict)), None)
     intro = (f"Each test was run again from the same starting state over its whole path at {fmt(factor)} times its "
-             "rate (`--verify-rate`), and once more with one coordinate 1 ulp off (the round-off twin, whose "
+             "rate (`--verify-rate`), and once more at 1.001 times its rate (the twin, whose "
              "differences measure the chaos of one pair of runs). Error: (test − slower) / (1 − factor) in noise "
              "floors, the test's distance from the quasi-static limit at first order. Converged: the error is "
              "within the tolerance at 95 %; not converged: beyond it at 95 %; unresolved: the rest. "
