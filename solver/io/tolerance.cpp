@@ -259,6 +259,7 @@ ToleranceRules parse_tolerance_rules(const std::string& json_text) {
   if (!j.is_object() || !j.contains("levels") || !j["levels"].is_array() || j["levels"].empty())
     throw DeckError("time-to-answer rules: expected an object with a non-empty array \"levels\"");
   ToleranceRules rules;
+  if (j.contains("particles")) rules.particles = static_cast<int>(positive_number(j, "particles", "(top level)"));
   for (std::size_t i = 0; i < j["levels"].size(); ++i) {
     const Json& l = j["levels"][i];
     const std::string at = "levels[" + std::to_string(i) + "]";
