@@ -343,6 +343,10 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     const double floor = floor_of(floors, q.floor);
     const double a = at_path(summary, q.path), b = at_path(slow.summary, q.path);
     Json c = {{"test", number_or_null(a)}, {"slow", number_or_null(b)}, {"floor", floor}};
+    if (twin_ok && !(q.peak && !(test_peak && twin_peak))) {  // the differences pair_chaos was given
+      c["twin"] = number_or_null(at_path(twin.summary, q.path));
+      c["twin_floors"] = number_or_null((a - at_path(twin.summary, q.path)) / floor);
+    }
     if (q.peak && !(test_peak && slow_peak)) {
       c["verdict"] = "not compared";
       c["reason"] = std::string("no peak reached by the ") + (test_peak ? "slower run" : "test");
@@ -354,10 +358,6 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     c["difference"] = number_or_null(a - b);
     c["floors"] = number_or_null(d);
     c["error_floors"] = number_or_null(e);
-    if (twin_ok && !(q.peak && !twin_peak)) {
-      c["twin"] = number_or_null(at_path(twin.summary, q.path));
-      c["twin_floors"] = number_or_null((a - at_path(twin.summary, q.path)) / floor);
-    }
     const std::string v = rate_verdict(e, s, chaos.critical, o.tolerance);
     c["verdict"] = v;
     if (v == "not compared") not_compared += std::string(not_compared.empty() ? "" : ", ") + q.path;

@@ -96,7 +96,7 @@ def check_against_oracle(v):
     """Recomputes a test's verify_rate verdicts from its numbers with SciPy."""
     twin = [c["twin_floors"] for c in v["comparisons"].values() if isinstance(c.get("twin_floors"), (int, float))]
     rms = math.sqrt(sum(t * t for t in twin) / len(twin)) if twin else math.inf
-    if rms < math.sqrt(2):
+    if 1e-3 <= rms < math.sqrt(2):  # (a twin within 1e-3 floors of the test has not parted from it: the bound)
         sd, critical = rms, stats.t.ppf(0.95, len(twin))
     else:
         sd, critical = math.sqrt(2), stats.norm.ppf(0.95)
@@ -178,9 +178,10 @@ def test_the_runs_start_from_the_tests_start_and_leave_its_series_alone(celldem,
             row = first_row(os.path.join(work, "fast", runs[name]["series"]))
             for k in ("step", "e1", "e2", "e3", "s11", "s22", "s33", "ev", "Z"):
                 assert row[k] == own[k], f"{test} {name}: first row {k} {row[k]} is not the test's {own[k]}"
-        # The slower run covers the same strain at half the rate: twice the steps (within a step of each leg's end).
+        # The slower run covers the same strain at half the rate: twice the steps (within a step of each leg's end);
+        # the twin at 1.001 times the rate.
         assert abs(runs["slow"]["steps"] - 2 * t["steps"]) <= 2, (runs["slow"]["steps"], t["steps"])
-        assert runs["twin"]["steps"] == t["steps"]
+        assert abs(runs["twin"]["steps"] - t["steps"] / 1.001) <= 2, (runs["twin"]["steps"], t["steps"])
 
 
 def test_the_check_gives_the_same_bytes_on_two_threads(celldem, work, fast):
