@@ -101,7 +101,7 @@ def check_against_oracle(v):
     else:
         sd, critical = math.sqrt(2), stats.norm.ppf(0.95)
     assert v["chaos"]["pair_sd_floors"] == pytest.approx(sd, rel=1e-12) and \
-        v["chaos"]["critical"] == pytest.approx(critical, rel=1e-9), v["chaos"]
+        v["chaos"]["critical"] == pytest.approx(critical, rel=1e-6), v["chaos"]  # (SciPy's t.ppf: to about 1e-9)
     scale = 1 / (1 - v["rate_factor"])
     tests = []
     for q, c in v["comparisons"].items():
