@@ -28,6 +28,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kConfidence = 0.95;  // of each one-sided test (TOST at 5 %)
+// A single run's chaos has two 95 % half-widths (its twin's, its bound's); the smaller of the two, each taken at
+// 97.5 %, holds at 95 % (Bonferroni).
+constexpr double kSideConfidence = 0.975;
 // The twin runs at (1 + this) times the test's rate. A change of one coordinate by one ulp (a round-off twin) parts
 // from the test too slowly: on a test of 1000 steps its rows, written to 10 digits, were the test's to the last
 // digit (tests/run/test_verify_rate.py). A rate change parts the two runs from the first step, as the slower run's
@@ -140,47 +143,25 @@ NoiseFloors noise_floors(const std::string& path, const std::string& test, int p
   return f;
 }
 
-PairChaos pair_chaos(const std::vector<double>& twin_floors) {
-  const double bound = std::sqrt(2.0);
-  double sum = 0.0;
-  int n = 0;
-  for (const double t : twin_floors)
-    if (std::isfinite(t)) sum += t * t, ++n;
+PairChaos pair_chaos(double twin_floors, bool twin_parted) {
   PairChaos c;
-  if (n == 0) {
-    c.sd = bound;
-    c.critical = normal_quantile(kConfidence);
-    c.source = "the bound sqrt 2 floors (two runs from one prepared sample differ by chaos at most as two seeds do); "
-               "no twin";
-    return c;
+  c.bound = normal_quantile(kSideConfidence) * std::sqrt(2.0);
+  if (twin_parted && std::isfinite(twin_floors)) {
+    c.twin = t_quantile(kSideConfidence, 1.0) * std::abs(twin_floors);
+    c.half_width = std::min(c.twin, c.bound);
+    c.from = c.twin < c.bound ? "twin" : "bound";
+  } else {
+    c.twin = kNaN;
+    c.half_width = c.bound;
+    c.from = "bound";
   }
-  const double rms = std::sqrt(sum / n);
-  if (rms < kTwinParted) {
-    c.sd = bound;
-    c.critical = normal_quantile(kConfidence);
-    c.source = "the bound sqrt 2 floors: the twin did not part from the test (root mean square difference " + fmt(rms) +
-               " floors over " + std::to_string(n) + " quantities), so it says nothing of the chaos";
-    return c;
-  }
-  if (rms >= bound) {
-    c.sd = bound;
-    c.critical = normal_quantile(kConfidence);
-    c.source = "the bound sqrt 2 floors: the twin's root mean square difference (" + fmt(rms) +
-               " floors over " + std::to_string(n) + " quantities) is above it";
-    return c;
-  }
-  c.sd = rms;
-  c.dof = n;
-  c.critical = t_quantile(kConfidence, n);
-  c.source = "the twin (the test at 1.001 times its rate): root mean square of its differences over " +
-             std::to_string(n) + " quantities, in floors (" + std::to_string(n) + " degrees of freedom; Student's t)";
   return c;
 }
 
-std::string rate_verdict(double d, double s, double c, double tolerance) {
+std::string rate_verdict(double d, double half_width, double tolerance) {
   if (!std::isfinite(d)) return "not compared";
-  if (std::abs(d) + c * s <= tolerance) return "converged";
-  if (std::abs(d) - c * s > tolerance) return "not converged";
+  if (std::abs(d) + half_width <= tolerance) return "converged";
+  if (std::abs(d) - half_width > tolerance) return "not converged";
   return "unresolved";
 }
 
@@ -324,17 +305,27 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   const bool test_peak = summary.value("peak_reached", true), slow_peak = slow.summary.value("peak_reached", true);
   const bool twin_ok = o.twin && twin.error.empty();
   const bool twin_peak = twin_ok && twin.summary.value("peak_reached", true);
-  // The twin's differences first: they calibrate the chaos every verdict uses.
-  std::vector<double> twin_floors;
+  // The twin parted from the test when its differences are not all within kTwinParted floors (else it says nothing).
+  double twin_sum = 0.0;
+  int twin_n = 0;
   for (const ComparedQuantity& q : kRateCheckQuantities) {
     if (!twin_ok || (q.peak && !(test_peak && twin_peak))) continue;
-    twin_floors.push_back((at_path(summary, q.path) - at_path(twin.summary, q.path)) / floor_of(floors, q.floor));
+    const double t = (at_path(summary, q.path) - at_path(twin.summary, q.path)) / floor_of(floors, q.floor);
+    if (std::isfinite(t)) twin_sum += t * t, ++twin_n;
   }
-  const PairChaos chaos = pair_chaos(twin_floors);
-  const double s = chaos.sd * extrapolate;  // the chaos of the extrapolated error
-  result["chaos"] = {{"pair_sd_floors", chaos.sd}, {"dof", chaos.dof}, {"critical", chaos.critical},
-                     {"source", chaos.source}};
+  const bool twin_parted = twin_n > 0 && std::sqrt(twin_sum / twin_n) >= kTwinParted;
+  result["chaos"] = {
+      {"rule", "per quantity, the 95 % half-width of one pair's chaos in floors: the smaller of t(0.975, 1) |twin "
+               "difference| (the twin is one sample of the chaos: Student's t with 1 degree of freedom) and z(0.975) "
+               "sqrt 2 (the bound: two runs from one prepared sample differ by chaos at most as two seeds do), each at "
+               "97.5 % so the smaller holds at 95 %; times 1 / (1 - rate_factor) as the error is"},
+      {"twin_quantile", t_quantile(kSideConfidence, 1.0)},
+      {"bound_half_width_floors", normal_quantile(kSideConfidence) * std::sqrt(2.0)},
+      {"twin_parted", twin_parted}};
   if (o.twin && !twin.error.empty()) result["chaos"]["twin_failed"] = twin.error;
+  if (twin_ok && !twin_parted)
+    result["chaos"]["note"] = "the twin did not part from the test (its differences within " + fmt(kTwinParted) +
+                              " floors): the bound alone";
   Json comparisons = Json::object();
   std::string worst_verdict, largest_quantity, not_compared;
   double largest = -1.0;
@@ -358,7 +349,12 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     c["difference"] = number_or_null(a - b);
     c["floors"] = number_or_null(d);
     c["error_floors"] = number_or_null(e);
-    const std::string v = rate_verdict(e, s, chaos.critical, o.tolerance);
+    const PairChaos chaos = pair_chaos(c.contains("twin_floors") && c["twin_floors"].is_number()
+                                           ? c["twin_floors"].get<double>() : kNaN, twin_parted);
+    const double half_width = chaos.half_width * extrapolate;
+    c["chaos_half_width_floors"] = half_width;
+    c["chaos_from"] = chaos.from;
+    const std::string v = rate_verdict(e, half_width, o.tolerance);
     c["verdict"] = v;
     if (v == "not compared") not_compared += std::string(not_compared.empty() ? "" : ", ") + q.path;
     any_unresolved = any_unresolved || v == "unresolved";
@@ -369,8 +365,8 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   result["comparisons"] = comparisons;
   result["largest"] = {{"quantity", largest_quantity}, {"error_floors", largest >= 0 ? Json(largest) : Json(nullptr)}};
   if (!not_compared.empty()) result["not_compared"] = not_compared;
-  const std::string rule = "|error| " + std::string("-+ ") + fmt(chaos.critical) + " x " + fmt(s) +
-                           " floors (the pair's chaos, extrapolated alike) against T = " + fmt(o.tolerance);
+  const std::string rule = "|error| -+ the chaos's 95 % half-width against T = " + fmt(o.tolerance) +
+                           " floors (comparisons.<quantity>.chaos_half_width_floors)";
   if (any_not_converged) {
     std::string which;
     for (const auto& [q, c] : comparisons.items())

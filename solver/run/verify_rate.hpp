@@ -73,22 +73,22 @@ inline constexpr ComparedQuantity kRateCheckQuantities[] = {
     {"end_window.Z", "Z", false},
 };
 
-// The chaos of one pair of runs from the same state, in floors: sd of the difference of one quantity between two
-// runs that differ by chaos alone, its degrees of freedom and the one-sided 95 % quantile used with it.
+// The 95 % half-width [floors] of the chaos of one pair of runs from the same state, for one quantity: the smaller
+// of t(0.975, 1) |twin difference| (the twin is one sample of the pair's chaos: Student's t with 1 degree of
+// freedom) and z(0.975) sqrt 2 (two runs from one prepared sample differ by chaos at most as two seeds do), each at
+// 97.5 % so that the smaller holds at 95 % (Bonferroni). Without a twin difference, or a twin that did not part
+// from the test, the bound.
 struct PairChaos {
-  double sd = 0.0;         // [floors]
-  double dof = 0.0;        // 0: a bound (the normal quantile)
-  double critical = 0.0;   // one-sided 95 %: Student's t(dof), or the normal's with a bound
-  std::string source;
+  double half_width = 0.0;  // [floors]
+  double twin = 0.0;        // [floors] the twin's half-width (NaN: none)
+  double bound = 0.0;       // [floors] the bound's
+  std::string from;         // "twin" or "bound"
 };
-// From the twin's differences in floors (NaN where not compared): their root mean square over the compared
-// quantities (dof = their count), at most the bound sqrt 2 (two runs from one prepared sample differ by chaos at
-// most as two seeds do); with no twin difference, or a twin that did not part from the test (root mean square
-// below 1e-3 floors), the bound itself.
-PairChaos pair_chaos(const std::vector<double>& twin_floors);
+PairChaos pair_chaos(double twin_floors, bool twin_parted);
 
-// The verdict of an effect d [floors] measured with chaos sd s and quantile c against tolerance T.
-std::string rate_verdict(double d, double s, double c, double tolerance);
+// The verdict of an error d [floors] whose chaos has this 95 % half-width, against tolerance T: converged when
+// |d| + half_width <= T, not converged when |d| - half_width > T, else unresolved ("not compared" for no d).
+std::string rate_verdict(double d, double half_width, double tolerance);
 
 // What a check costs before it runs: the particle-steps of the slower run and of the twin (from the test's plan),
 // and their time at `particle_steps_per_s` (0: unknown).

@@ -8,9 +8,9 @@ The check runs each test again from the same prepared state over its whole path 
   whole-path check sees the rate's effect built up along the path (a check that re-ran only a short window
   before the end from the fast run's own state did not);
 - every verdict is recomputed here from the numbers summary.json gives (the twin's differences, the floors, the
-  rate factor) with SciPy: the pair chaos (root mean square of the twin's differences, at most sqrt 2, Student's
-  t with as many degrees of freedom as quantities), the error extrapolated to the quasi-static limit and the
-  three-way verdict at 95 %; likewise the ensemble's TOST over the seeds;
+  rate factor) with SciPy: per quantity the chaos's 95 % half-width (the smaller of t(0.975, 1) |twin difference|
+  and z(0.975) sqrt 2), the error extrapolated to the quasi-static limit and the three-way verdict; likewise the
+  ensemble's TOST over the seeds;
 - the slower run and the twin start from the test's own starting state (their first rows are the test's), the
   slower run takes twice the steps, the test's own series are the bytes of a run without --verify-rate, and the
   check gives the same bytes on one thread and on two;
@@ -84,24 +84,23 @@ def first_row(path):
         return next(csv.DictReader(f))
 
 
-def oracle_verdict(error, sd, critical, tolerance):
-    if abs(error) + critical * sd <= tolerance:
+def oracle_verdict(error, half_width, tolerance):
+    if abs(error) + half_width <= tolerance:
         return "converged"
-    if abs(error) - critical * sd > tolerance:
+    if abs(error) - half_width > tolerance:
         return "not converged"
     return "unresolved"
 
 
 def check_against_oracle(v):
-    """Recomputes a test's verify_rate verdicts from its numbers with SciPy."""
+    """Recomputes a test's verify_rate verdicts from its numbers with SciPy: per quantity the chaos's 95 % half-width,
+    the smaller of t(0.975, 1) |twin difference| and z(0.975) sqrt 2 (Bonferroni), extrapolated as the error is."""
     twin = [c["twin_floors"] for c in v["comparisons"].values() if isinstance(c.get("twin_floors"), (int, float))]
-    rms = math.sqrt(sum(t * t for t in twin) / len(twin)) if twin else math.inf
-    if 1e-3 <= rms < math.sqrt(2):  # (a twin within 1e-3 floors of the test has not parted from it: the bound)
-        sd, critical = rms, stats.t.ppf(0.95, len(twin))
-    else:
-        sd, critical = math.sqrt(2), stats.norm.ppf(0.95)
-    assert v["chaos"]["pair_sd_floors"] == pytest.approx(sd, rel=1e-12) and \
-        v["chaos"]["critical"] == pytest.approx(critical, rel=1e-6), v["chaos"]  # (SciPy's t.ppf: to about 1e-9)
+    parted = bool(twin) and math.sqrt(sum(t * t for t in twin) / len(twin)) >= 1e-3
+    assert v["chaos"]["twin_parted"] == parted
+    bound = stats.norm.ppf(0.975) * math.sqrt(2)
+    assert v["chaos"]["bound_half_width_floors"] == pytest.approx(bound, rel=1e-12)
+    assert v["chaos"]["twin_quantile"] == pytest.approx(stats.t.ppf(0.975, 1), rel=1e-6)  # (SciPy's t.ppf: ~1e-9)
     scale = 1 / (1 - v["rate_factor"])
     tests = []
     for q, c in v["comparisons"].items():
@@ -113,7 +112,13 @@ def check_against_oracle(v):
         assert c["floor"] == floor
         assert c["floors"] == pytest.approx((c["test"] - c["slow"]) / floor, rel=1e-9, abs=1e-12)
         assert c["error_floors"] == pytest.approx(c["floors"] * scale, rel=1e-9, abs=1e-12)
-        expected = oracle_verdict(c["error_floors"], sd * scale, critical, v["tolerance_floors"])
+        if parted and isinstance(c.get("twin_floors"), (int, float)):
+            assert c["twin_floors"] == pytest.approx((c["test"] - c["twin"]) / floor, rel=1e-9, abs=1e-12)
+            half = min(stats.t.ppf(0.975, 1) * abs(c["twin_floors"]), bound)
+        else:
+            half = bound
+        assert c["chaos_half_width_floors"] == pytest.approx(half * scale, rel=1e-6)
+        expected = oracle_verdict(c["error_floors"], half * scale, v["tolerance_floors"])
         assert c["verdict"] == expected, f"{q}: {c} against {expected}"
         tests.append(expected)
     overall = ("not converged" if "not converged" in tests else
@@ -142,7 +147,7 @@ def test_at_the_papers_rate_nothing_is_not_converged(celldem, work):
         check_against_oracle(v)
         assert v["verdict"] != "not converged", f"{test}: at the paper's rate: {v['reason']}"
         assert all(c["verdict"] != "not converged" for c in v["comparisons"].values()), v["comparisons"]
-        assert v["chaos"]["dof"] > 0, f"{test}: the twin calibrates the chaos: {v['chaos']}"
+        assert v["chaos"]["twin_parted"], f"{test}: the twin parts from the test: {v['chaos']}"
 
 
 def test_a_run_too_fast_is_not_converged(fast):
@@ -206,8 +211,8 @@ def test_an_ensemble_judges_the_mean_by_tost(celldem, work):
         for seed in (1, 2, 3):
             with open(os.path.join(out, f"seed-{seed}", "summary.json")) as f:
                 v = json.load(f)["tests"][test]["verify_rate"]
-            assert v["chaos"]["dof"] == 0 and v["chaos"]["pair_sd_floors"] == pytest.approx(math.sqrt(2)), \
-                "no twin: the chaos at its bound"
+            assert not v["chaos"]["twin_parted"] and \
+                all(c.get("chaos_from", "bound") == "bound" for c in v["comparisons"].values()), "no twin: the bound"
             check_against_oracle(v)
             for q, c in v["comparisons"].items():
                 if "error_floors" in c:
@@ -242,7 +247,7 @@ def test_the_deck_key_asks_for_one_test_and_bad_values_are_refused(celldem, work
     name0, name1 = keyed["tests"][0]["name"], keyed["tests"][1]["name"]
     assert "verify_rate" not in by_key["tests"][name0], f"{name0}: checked without being asked"
     v = by_key["tests"][name1]["verify_rate"]
-    assert v["rate_factor"] == 0.25 and "twin" not in v["runs"] and v["chaos"]["dof"] == 0, v
+    assert v["rate_factor"] == 0.25 and "twin" not in v["runs"] and not v["chaos"]["twin_parted"], v
     check_against_oracle(v)
     keyed["tests"][1]["verify_rate"] = {"twin": 3}
     with open(keyed_deck, "w") as f:

@@ -549,12 +549,11 @@ def verify_rate_section(run):
         check = run.test_summary(test).get("verify_rate")
         if not isinstance(check, dict):
             continue
-        chaos = check.get("chaos") or {}
-        notes.append(f"{test}: floors {check.get('floors', {}).get('source', 'n/a')}; chaos of a pair "
-                     f"{fmt_spec(chaos.get('pair_sd_floors'), '.2f')} floors ({chaos.get('source', 'n/a')})")
+        notes.append(f"{test}: floors {check.get('floors', {}).get('source', 'n/a')}")
         for q, c in (check.get("comparisons") or {}).items():
             rows.append((test, q, f"{fmt(c.get('test'))} → {fmt(c.get('slow'))}",
-                         fmt_spec(c.get("error_floors"), "+.2f"), c.get("verdict", "n/a")))
+                         f"{fmt_spec(c.get('error_floors'), '+.2f')} ± {fmt_spec(c.get('chaos_half_width_floors'), '.2f')} "
+                         f"({c.get('chaos_from', 'n/a')})", c.get("verdict", "n/a")))
         rows.append((test, "**the test**", "", "", f"**{check.get('verdict', 'n/a')}**: {check.get('reason', '')}"))
     if not rows:
         return None
@@ -563,10 +562,12 @@ def verify_rate_section(run):
     intro = (f"Each test was run again from the same starting state over its whole path at {fmt(factor)} times its "
              "rate (`--verify-rate`), and once more at 1.001 times its rate (the twin, whose "
              "differences measure the chaos of one pair of runs). Error: (test − slower) / (1 − factor) in noise "
-             "floors, the test's distance from the quasi-static limit at first order. Converged: the error is "
-             "within the tolerance at 95 %; not converged: beyond it at 95 %; unresolved: the rest. "
+             "floors, the test's distance from the quasi-static limit at first order, ± the 95 % half-width of one "
+             "pair's chaos (from the twin, t with 1 degree of freedom, or the bound √2 floors, the smaller). "
+             "Converged: the error is within the tolerance at 95 %; not converged: beyond it at 95 %; unresolved: "
+             "the rest. "
              + "; ".join(notes) + ".")
-    return intro + "\n\n" + md_table(("Test", "Quantity", "Test → slower", "Error (floors)", "Verdict"), rows)
+    return intro + "\n\n" + md_table(("Test", "Quantity", "Test → slower", "Error ± chaos (floors)", "Verdict"), rows)
 
 
 PROBES_INTRO = (
