@@ -15,7 +15,9 @@ The check runs each test again from the same prepared state over its whole path 
   slower run takes twice the steps, the test's own series are the bytes of a run without --verify-rate, and the
   check gives the same bytes on one thread and on two;
 - its cost is printed before it runs; a test's verify_rate key asks for the check of that test alone, and a bad
-  value of it or a floors file without floors is refused with exit 2 naming the key.
+  value of it or a floors file without floors is refused with exit 2 naming the key;
+- a run at `--tolerance 1` prints the tolerance, the predicted saving and the rules' floors at this size before it
+  starts, and each verdict after each test, as summary.json holds them.
 
 About two minutes of CPU.
 
@@ -259,3 +261,28 @@ def test_the_deck_key_asks_for_one_test_and_bad_values_are_refused(celldem, work
                           os.path.join(ROOT, "tests", "run", "small_run.json")], capture_output=True, text=True)
     assert bad.returncode == 2 and "ratio13" in bad.stderr, \
         f"a floors file without floors: exit 2 naming the key, got {bad.returncode}: {bad.stderr}"
+
+
+def test_a_tolerance_run_prints_its_tolerance_saving_and_verdicts(celldem, work):
+    """`--tolerance 1 --verify-rate`: the run prints the tolerance it applied, the predicted saving and what T floors
+    of the rules' 1000-sphere scene are in this deck's floors before it starts, and each rate-check verdict after
+    each test; summary.json holds the same (its tolerance block as `celldem plan --tolerance 1 --json` gives it)."""
+    deck = deck_at(paper_increment(), work, "tolerance")
+    summary, stdout = run(celldem, deck, os.path.join(work, "tolerance"), "--tolerance", "1", "--verify-rate",
+                          "--no-verify-twin", "--threads", "1", quiet=False)
+    plan = json.loads(subprocess.run([celldem, "plan", deck, "--tolerance", "1", "--json"], capture_output=True,
+                                     text=True, check=True).stdout)["tolerance"]
+    t = summary["tolerance"]
+    assert t["total"] == plan["total"] and t["tolerance"] == 1
+    ratio = t["total"]["ratio_low"]
+    first = stdout.splitlines()[0]
+    assert first.startswith("tolerance 1 noise floors") and f"{ratio:.2f}x fewer" in first, first
+    size = t["floors_at_this_size"]
+    assert size["calibration_particles"] == 1000 and size["particles"] == 150
+    assert size["bound_floors"] == pytest.approx(math.sqrt(150 / 1000)) and f"{size['bound_floors']:.3g}" in first
+    for test, s in summary["tests"].items():
+        v = s["verify_rate"]
+        assert v["tolerance_floors"] == 1
+        assert f"{test}: rate check: {v['verdict']}: " in stdout
+        for q, c in v["comparisons"].items():
+            assert f"{test}:   {q:<20s} " in stdout and c["verdict"] in stdout
