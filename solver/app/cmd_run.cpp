@@ -43,6 +43,7 @@ Command add_run_command(CLI::App& app) {
     std::string deck, seeds, probes;
     RunOptions options;
     bool include_uncontrolled = false;
+    bool no_twin = false;  // --no-verify-twin
     std::optional<double> tolerance;
   };
   auto args = std::make_shared<Args>();
@@ -69,21 +70,17 @@ Command add_run_command(CLI::App& app) {
                 "With --seeds: keep tests whose control failed in the ensemble statistics (left out by default)");
   VerifyRateOptions& verify = args->options.verify_rate;  // NOLINT: lives as long as args
   cmd->add_flag("--verify-rate", verify.enabled,
-                "Each test checks its own convergence: at its peak and end it runs again from a state a short window "
-                "before, at a fraction of its rate, and compares (summary.json verify_rate; <test>/verify/<point>/)");
-  cmd->add_option("--verify-at", verify.at, "With --verify-rate: the points to check")
-      ->delimiter(',')
-      ->check(CLI::IsMember(kVerifyPoints))
-      ->capture_default_str();
-  cmd->add_option("--verify-window", verify.window_strain,
-                  "With --verify-rate: driving strain of each branch, ending at its point")
-      ->check(CLI::Range(1e-6, 1.0))
-      ->capture_default_str();
+                "Each test checks its own convergence: it runs again from the same starting state over its whole path "
+                "at a fraction of its rate, and once more as a twin at 1.001 times its rate (the chaos of a pair), and judges each summary quantity's difference in noise floors at 95 % (summary.json "
+                "verify_rate; <test>/verify/slow/, <test>/verify/twin/; its cost is printed before it runs)");
   cmd->add_option("--verify-rate-factor", verify.rate_factor,
-                  "With --verify-rate: the branch's driving rate over the test's (strain increments and rates, stress "
-                  "ramps)")
+                  "With --verify-rate: the slower run's driving rate over the test's (strain increments and rates, "
+                  "stress ramps, rotations)")
       ->check(CLI::Range(1e-3, 0.999))
       ->capture_default_str();
+  cmd->add_flag("--no-verify-twin", args->no_twin,
+                "With --verify-rate: no twin (a third less cost); the chaos of a pair is then taken at its "
+                "bound, sqrt 2 floors, and a single run's check seldom resolves a tolerance of 1 floor");
   cmd->add_option("--floors", verify.floors_path,
                   "With --verify-rate: the noise floors, an ensemble.json of this deck or a JSON of seed-to-seed stds "
                   "{\"ratio13\", \"ev\", \"Z\"} (optionally under tests.<name>); default: the reference ensemble's, "
@@ -102,19 +99,16 @@ Command add_run_command(CLI::App& app) {
       throw CLI::ValidationError("--force and --resume exclude each other");
     const Deck deck = read_deck(args->deck, args->tolerance);
     VerifyRateOptions& verify = args->options.verify_rate;
-    verify.at_given = cmd->count("--verify-at") > 0;
-    verify.window_given = cmd->count("--verify-window") > 0;
     verify.factor_given = cmd->count("--verify-rate-factor") > 0;
+    verify.twin_given = args->no_twin;
+    if (args->no_twin) verify.twin = false;
     const bool checked = verify.enabled || std::any_of(deck.tests.begin(), deck.tests.end(),
                                                        [](const TestDef& t) { return t.verify_rate.has_value(); });
-    if ((verify.at_given || verify.window_given || verify.factor_given || !verify.floors_path.empty()) && !checked)
-      throw CLI::ValidationError("--verify-at, --verify-window, --verify-rate-factor and --floors need --verify-rate "
+    if ((verify.factor_given || verify.twin_given || !verify.floors_path.empty()) && !checked)
+      throw CLI::ValidationError("--verify-rate-factor, --no-verify-twin and --floors need --verify-rate "
                                  "(or a test's verify_rate key)");
-    for (const TestDef& test : deck.tests)  // a floors file or a window that cannot serve is refused before any work
-      if (const std::optional<VerifyRateOptions> o = verify_rate_for(verify, test)) {
-        noise_floors(verify.floors_path, test.name, deck.sample.count);
-        check_verify_window(*o, test);
-      }
+    for (const TestDef& test : deck.tests)  // a floors file that cannot serve is refused before any work
+      if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
     if (!args->probes.empty()) {
       if (std::none_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.probes.has_value(); }))
         throw CLI::ValidationError("--probes: the deck's tests have no probes (tests[].probes)");
@@ -131,6 +125,11 @@ Command add_run_command(CLI::App& app) {
     args->options.progress = args->options.quiet     ? ProgressMode::Off
                              : stderr_is_terminal() ? ProgressMode::Terminal
                                                     : ProgressMode::Log;
+    if (deck.tolerance) {  // what the rules did and what they save, on the console and in summary.json
+      const nlohmann::json t = tolerance_json(read_deck_as_written(args->deck), deck);
+      args->options.tolerance_prediction = t.dump();
+      if (!args->options.quiet) std::printf("%s\n", describe_tolerance(t).c_str());
+    }
     install_stop_handlers();
     if (args->seeds.empty()) run_deck(deck, args->options);
     else run_ensemble(deck, args->options, parse_seed_list(args->seeds, /*allow_one=*/true), args->include_uncontrolled);

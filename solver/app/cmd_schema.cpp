@@ -10,6 +10,7 @@
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
 #include "io/schema_print.hpp"
+#include "io/tolerance.hpp"
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
 #include "run/health.hpp"
@@ -314,39 +315,6 @@ Json plan_json(const Deck& deck) {
   return out;
 }
 
-// What --tolerance did (io/tolerance's resolved settings per stage) and the particle-steps each stage is
-// predicted to take, against the deck as written and the ratio.
-Json tolerance_json(const Deck& written, const Deck& resolved) {
-  Json out = Json::parse(resolved.tolerance_settings);
-  const double n = resolved.sample.count;
-  const auto steps_json = [n](const StepRange& w, const StepRange& r) {
-    const auto high = [n](const StepRange& s) { return s.high < 0 ? Json() : Json(n * static_cast<double>(s.high)); };
-    return Json{{"particle_steps_written", {{"low", n * static_cast<double>(w.low)}, {"high", high(w)}}},
-                {"particle_steps", {{"low", n * static_cast<double>(r.low)}, {"high", high(r)}}},
-                {"ratio_low", r.low > 0 ? Json(static_cast<double>(w.low) / static_cast<double>(r.low)) : Json()}};
-  };
-  double start_fraction = -1.0;
-  if (written.prepare && written.initial_state) start_fraction = preparation_start(written).solid_fraction;
-  StepRange all_written, all;
-  const auto add = [](StepRange& a, const StepRange& b) {
-    a.low += b.low;
-    a.high = a.high < 0 || b.high < 0 ? -1 : a.high + b.high;
-  };
-  std::size_t k = 0;
-  if (written.prepare) {
-    const StepRange w = preparation_steps(written, start_fraction), r = preparation_steps(resolved, start_fraction);
-    out["stages"][k++].update(steps_json(w, r));
-    add(all_written, w), add(all, r);
-  }
-  for (std::size_t i = 0; i < written.tests.size(); ++i) {
-    const StepRange w = test_steps(written, written.tests[i]), r = test_steps(resolved, resolved.tests[i]);
-    out["stages"][k++].update(steps_json(w, r));
-    add(all_written, w), add(all, r);
-  }
-  out["total"] = steps_json(all_written, all);
-  return out;
-}
-
 // The tolerance block of `plan` in words: per stage its time step, each leg's driving and inertial number,
 // the damping, the output interval and the particle-steps against the deck as written.
 void print_tolerance(const Json& t) {
@@ -402,9 +370,78 @@ void print_tolerance(const Json& t) {
   std::printf("  total        %s particle-steps (written %s: %sx fewer, counting each equilibrium at its min_steps)\n",
               steps(t["total"]["particle_steps"]).c_str(), steps(t["total"]["particle_steps_written"]).c_str(),
               ratio(t["total"]["ratio_low"]).c_str());
+  if (t.contains("floors_at_this_size"))
+    std::printf("  calibrated on %d spheres: T floors there are up to %.3g floors of this deck's %.0f spheres (floors as "
+                "1/sqrt(N), a rate's bias not)\n", t["floors_at_this_size"]["calibration_particles"].get<int>(),
+                t["floors_at_this_size"]["bound_floors"].get<double>(), t["floors_at_this_size"]["particles"].get<double>());
 }
 
 }  // namespace
+
+// What --tolerance did (io/tolerance's resolved settings per stage) and the particle-steps each stage is
+// predicted to take, against the deck as written and the ratio.
+Json tolerance_json(const Deck& written, const Deck& resolved) {
+  Json out = Json::parse(resolved.tolerance_settings);
+  const double n = resolved.sample.count;
+  const auto steps_json = [n](const StepRange& w, const StepRange& r) {
+    const auto high = [n](const StepRange& s) { return s.high < 0 ? Json() : Json(n * static_cast<double>(s.high)); };
+    return Json{{"particle_steps_written", {{"low", n * static_cast<double>(w.low)}, {"high", high(w)}}},
+                {"particle_steps", {{"low", n * static_cast<double>(r.low)}, {"high", high(r)}}},
+                {"ratio_low", r.low > 0 ? Json(static_cast<double>(w.low) / static_cast<double>(r.low)) : Json()}};
+  };
+  double start_fraction = -1.0;
+  if (written.prepare && written.initial_state) start_fraction = preparation_start(written).solid_fraction;
+  StepRange all_written, all;
+  const auto add = [](StepRange& a, const StepRange& b) {
+    a.low += b.low;
+    a.high = a.high < 0 || b.high < 0 ? -1 : a.high + b.high;
+  };
+  std::size_t k = 0;
+  if (written.prepare) {
+    const StepRange w = preparation_steps(written, start_fraction), r = preparation_steps(resolved, start_fraction);
+    out["stages"][k++].update(steps_json(w, r));
+    add(all_written, w), add(all, r);
+  }
+  for (std::size_t i = 0; i < written.tests.size(); ++i) {
+    const StepRange w = test_steps(written, written.tests[i]), r = test_steps(resolved, resolved.tests[i]);
+    out["stages"][k++].update(steps_json(w, r));
+    add(all_written, w), add(all, r);
+  }
+  out["total"] = steps_json(all_written, all);
+  // The rules were measured in the floors of their scene; this deck's floors scale as 1/sqrt(N), a rate's bias not.
+  if (const int calibrated = time_to_answer_rules().particles; calibrated > 0) {
+    const double ratio = std::sqrt(n / calibrated);
+    out["floors_at_this_size"] = {
+        {"calibration_particles", calibrated}, {"particles", n}, {"floor_ratio", ratio},
+        {"bound_floors", out["tolerance"].get<double>() * ratio},
+        {"meaning", "the rules hold a rate's bias within T floors of a scene of calibration_particles spheres; the "
+                    "floors shrink as 1/sqrt(N) and the bias does not, so in this deck's floors the bound is T x "
+                    "sqrt(N / calibration_particles) (docs/study.md; not yet rules in the bias's own units)"}};
+  }
+  return out;
+}
+
+std::string describe_tolerance(const Json& t) {
+  const Json& rules = t["rules"];
+  const Json& total = t["total"];
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the "
+                "stability limit, inertial number %.3g; predicted %.3g particle-steps against %.3g as written: %.2fx fewer "
+                "(each equilibrium at its min_steps; `celldem plan --tolerance %g` has every setting)",
+                t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(),
+                rules["inertial_number"].get<double>(), total["particle_steps"]["low"].get<double>(),
+                total["particle_steps_written"]["low"].get<double>(),
+                total["ratio_low"].is_null() ? NAN : total["ratio_low"].get<double>(), t["tolerance"].get<double>());
+  std::string words = buf;
+  if (t.contains("floors_at_this_size")) {
+    const Json& f = t["floors_at_this_size"];
+    std::snprintf(buf, sizeof buf, "; the rules were calibrated on %d spheres: at %.0f spheres their T floors are up to "
+                  "%.3g of this deck's floors (floors as 1/sqrt(N), a rate's bias not)",
+                  f["calibration_particles"].get<int>(), f["particles"].get<double>(), f["bound_floors"].get<double>());
+    words += buf;
+  }
+  return words;
+}
 
 Command add_plan_command(CLI::App& app) {
   struct Args {

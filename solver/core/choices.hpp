@@ -41,8 +41,6 @@ inline constexpr std::array<std::string_view, 2> kControlFailureNames = {"stop",
 inline constexpr std::array<std::string_view, 3> kSnapshotFormatNames = {"binary", "zlib", "ascii"};
 inline constexpr std::array<std::string_view, 2> kGradingBasisNames = {"mass", "number"};
 inline constexpr std::array<std::string_view, 3> kAxisNames = {"x1", "x2", "x3"};
-// The points of a test a rate check (tests[].verify_rate, run --verify-rate) branches to.
-inline constexpr std::array<std::string_view, 2> kVerifyPointNames = {"peak", "end"};
 // Probes (tests[].probes, run/probes.hpp): what a probe controls, the plane of stress probes' directions, and
 // the named points a probe set starts from (beside strains of axis 1).
 enum class ProbeKind { Stress, Strain };

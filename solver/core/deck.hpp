@@ -234,9 +234,8 @@ struct PrepareDef {
 
 // A test's own rate check (tests[].verify_rate; run/verify_rate.hpp runs it).
 struct VerifyRateDef {
-  std::vector<std::string> at = {"peak", "end"};                    // points, kVerifyPointNames
-  double window_strain = keys::verify_rate_window_strain.fallback;  // [-] driving strain of each branch
-  double rate_factor = keys::verify_rate_rate_factor.fallback;      // the branch's rate over the test's
+  double rate_factor = keys::verify_rate_rate_factor.fallback;  // the slower run's rate over the test's
+  bool twin = true;                                             // run the twin (1.001 times the rate)
 };
 
 // A test's incremental response probes (tests[].probes; run/probes.hpp runs them).

@@ -381,8 +381,9 @@ inline constexpr KeySpec adaptive_kinetic_to_elastic{.path = "tests[].adaptive_r
     .meaning = "target of the kinetic over the elastic energy of the contacts (series `kinetic_to_elastic`)"};
 inline constexpr KeySpec adaptive_inertial_number{.path = "tests[].adaptive_rate.inertial_number",
     .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 5e-4,
-    .meaning = "ceiling on the inertial number rate d_mean sqrt(rho / p) (rate the fastest axis's, p the mean stress; "
-               "the default is half the quasi-static limit 1e-3)"};
+    .meaning = "ceiling on the inertial number rate d_mean sqrt(rho / p) (rate the deviatoric strain-rate scale of "
+               "the leg's driven axes, |e1-dot| for an axial test, docs/physics.md; p the mean stress; the default is "
+               "half the quasi-static limit 1e-3)"};
 inline constexpr KeySpec adaptive_check_interval{.path = "tests[].adaptive_rate.check_interval",
     .kind = KeyKind::Integer, .min = 1, .max = kMaxCount, .required = false, .fallback = 200,
     .meaning = "steps between the rate's checks"};
@@ -472,20 +473,19 @@ inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind
     "force and kinetic energy stay high (not quasi-static) stops the run, naming the likely cause"};
 inline constexpr KeySpec test_verify_rate{.path = "tests[].verify_rate", .kind = KeyKind::Object, .required = false,
     .default_text = "none (`celldem run --verify-rate` checks every test)",
-    .meaning = "the test checks its own convergence: at each point it runs again from a state a window of driving "
-               "strain before it at `rate_factor` times its rate and reports the difference in noise floors "
-               "(summary.json `verify_rate`, `<test>/verify/<point>/`; docs/outputs.md); the command line's "
-               "`--verify-*` values, when given, replace these"};
-inline constexpr KeySpec verify_rate_at{.path = "tests[].verify_rate.at", .kind = KeyKind::Array, .required = false,
-    .default_text = "[\"peak\", \"end\"]", .choices = kVerifyPointNames,
-    .meaning = "the points: `peak` (the first row of the largest s11/s33) and `end` (the last row)"};
-inline constexpr KeySpec verify_rate_window_strain{.path = "tests[].verify_rate.window_strain", .kind = KeyKind::Number,
-    .min = 1e-6, .max = 1.0, .required = false, .fallback = 0.005,
-    .meaning = "driving strain of each branch, ending at its point"};
+    .meaning = "the test checks its own convergence: it runs again from the same starting state over its whole path "
+               "at `rate_factor` times its rate (and, with `twin`, once more at 1.001 times its rate to measure the chaos "
+               "of a pair) and judges each summary quantity's difference in noise floors at 95 % "
+               "(summary.json `verify_rate`, `<test>/verify/slow/`, `<test>/verify/twin/`; docs/outputs.md); the "
+               "command line's `--verify-*` values, when given, replace these"};
 inline constexpr KeySpec verify_rate_rate_factor{.path = "tests[].verify_rate.rate_factor", .kind = KeyKind::Number,
     .min = 1e-3, .max = 0.999, .required = false, .fallback = 0.5,
-    .meaning = "the branch's driving rate over the test's: strain increments and rates of the strain-driven axes, "
-               "and stress ramps' rates"};
+    .meaning = "the slower run's driving rate over the test's: strain increments and rates of the strain-driven "
+               "axes, stress ramps' and rotations' rates (step ends and the output interval follow)"};
+inline constexpr KeySpec verify_rate_twin{.path = "tests[].verify_rate.twin", .kind = KeyKind::Boolean,
+    .required = false, .default_text = "true",
+    .meaning = "also run the twin (the test once more at 1.001 times its rate), whose differences "
+               "calibrate the chaos of a pair; `false`: the chaos is taken at its bound, sqrt 2 floors"};
 inline constexpr KeySpec test_probes{.path = "tests[].probes", .kind = KeyKind::Object, .required = false,
     .default_text = "none",
     .meaning = "incremental response probes: from the exact state at each point of the test, small stress or strain "
@@ -582,7 +582,7 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({
     &rotation_from, &rotation_rate, &rotation_angle_increment, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
     &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
     &snapshots_e1, &snapshots_format, &test_time_step, &test_output_interval, &test_dynamic, &test_verify_rate,
-    &verify_rate_at, &verify_rate_window_strain, &verify_rate_rate_factor, &test_probes, &probes_at, &probes_at_e1,
+    &verify_rate_rate_factor, &verify_rate_twin, &test_probes, &probes_at, &probes_at_e1,
     &probes_kind, &probes_plane, &probes_directions, &probes_list, &probes_magnitudes, &probes_steps,
     &probes_hold_steps, &probes_target_strain, &probes_rest_fraction, &probes_rest_max_steps, &probes_drift_limit,
     &probes_elastic_factor, &probes_asymmetry_limit});

@@ -43,6 +43,26 @@ double leg_driving_increment(const Leg& leg, double time_step) {
   return d;
 }
 
+double inertial_strain_rate(const std::array<double, kComponents>& e) {
+  // In differences: an isotropic drive gives an exact 0, and one normal rate with the rest 0 gives (e11^2 + e11^2) / 2
+  // = fl(e11^2) exactly, whose square root is |e11| exactly.
+  const double a = e[0] - e[1], b = e[1] - e[2], c = e[2] - e[0];
+  const double j = 0.5 * (a * a + b * b + c * c) + 0.75 * (e[3] * e[3] + e[4] * e[4] + e[5] * e[5]);
+  if (j > 0.0) return std::sqrt(j);
+  return std::max({std::abs(e[0]), std::abs(e[1]), std::abs(e[2])});  // isotropic: no deviatoric part
+}
+
+double leg_inertial_rate(const Leg& leg, double time_step) {
+  std::array<double, kComponents> rate{};
+  for (int k = 0; k < kComponents; ++k) {
+    const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
+    rate[static_cast<std::size_t>(k)] = a.mode == AxisMode::StrainIncrement ? a.value / time_step
+                                        : a.mode == AxisMode::StrainRate     ? a.value
+                                                                             : 0.0;
+  }
+  return inertial_strain_rate(rate);
+}
+
 std::int64_t ramp_target_steps(const Leg& leg, double time_step) {
   const LegEnd& e = leg.end;
   if (e.kind != LegEndKind::Stress) return -1;
@@ -164,13 +184,7 @@ double first_leg_stress(const TestDef& test) {
 
 double loading_rate(const Deck& deck, const TestDef& test) {
   double rate = 0.0;
-  const double dt = deck.stage_time_step(test);
-  for (const Leg& leg : test.legs) {
-    for (const AxisControl& a : leg.axes) {  // a shear axis: its engineering shear rate (simple shear's gamma-dot)
-      if (a.mode == AxisMode::StrainIncrement) rate = std::max(rate, std::abs(a.value) / dt);
-      if (a.mode == AxisMode::StrainRate) rate = std::max(rate, std::abs(a.value));
-    }
-  }
+  for (const Leg& leg : test.legs) rate = std::max(rate, leg_inertial_rate(leg, deck.stage_time_step(test)));
   return rate;
 }
 

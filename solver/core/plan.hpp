@@ -41,6 +41,15 @@ std::int64_t ramp_target_steps(const Leg& leg, double time_step);
 
 // The largest |strain per step| of the leg's strain-driven axes (0 when none drives it).
 double leg_driving_increment(const Leg& leg, double time_step);
+// The inertial number's strain-rate scale [1/s] of imposed strain rates `rate` (Voigt order: the normal rates e11,
+// e22, e33 and the engineering shear rates g12, g13, g23; a component not driven by its strain counts 0): the
+// deviatoric rate sqrt(3/2 e':e') = sqrt(((e11 - e22)^2 + (e22 - e33)^2 + (e33 - e11)^2) / 2 + 3/4 (g12^2 + g13^2
+// + g23^2)), which is |e11| exactly with one driven axis (the axial tests: the scale they always had) and
+// (sqrt 3 / 2) g for a simple shear g; a drive with no deviatoric part (an isotropic compression) its largest
+// |normal rate| (docs/physics.md).
+double inertial_strain_rate(const std::array<double, kComponents>& rate);
+// The same of a leg's strain-driven axes at the deck's rate (strain increments over the time step, strain rates).
+double leg_inertial_rate(const Leg& leg, double time_step);
 // Whether a servo moves one of the leg's axes (stress, mean_stress or b).
 bool leg_has_servo(const Leg& leg);
 // The cap of the servo's strain per step in this leg: servo.max_strain_increment when the deck gives it, else
@@ -107,8 +116,7 @@ struct ProbePlan {
 };
 ProbePlan plan_probes(const TestDef& test);
 
-// The fastest strain rate [1/s] of the test's strain-driven axes over its legs, shear axes included (their engineering
-// shear rate): the inertial number's rate.
+// The inertial number's strain-rate scale [1/s] of the test: the largest leg_inertial_rate over its legs.
 double loading_rate(const Deck& deck, const TestDef& test);
 // [Pa] the mean stress target of a test's first leg over its stress, mean_stress and stress_ramp axes (a ramp at
 // its start): the stress of its planned inertial number. NaN when no axis holds a stress.

@@ -171,6 +171,9 @@ struct State {
   // `strain_rate`; not saved: run_program sets it before each run of steps; 0 outside a load program).
   double driving_rate = 0.0;
   double driving_factor = 1.0;  // the adaptive factor in those steps (series `rate_factor`; 1 at the deck's rate)
+  // [1/s] the inertial number's strain-rate scale in those steps (core/plan leg_inertial_rate, the adaptive factor
+  // included; series `inertial_number`); 0 outside a load program.
+  double inertial_rate = 0.0;
 };
 
 }  // namespace celldem

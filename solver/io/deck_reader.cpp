@@ -601,7 +601,7 @@ void read_program(const Json& list, const std::string& path, bool preparation, s
   }
 }
 
-// A list of a test's named points (verify_rate.at, probes.at): each one of the key's choices ("peak", "end"),
+// A list of a test's named points (probes.at): each one of the key's choices ("peak", "end"),
 // none twice.
 std::vector<std::string> read_point_names(ObjectReader& r, const KeySpec& key, bool may_be_empty) {
   const Json& list = r.raw(key);
@@ -620,9 +620,8 @@ std::vector<std::string> read_point_names(ObjectReader& r, const KeySpec& key, b
 
 VerifyRateDef read_verify_rate(ObjectReader r) {
   VerifyRateDef v;
-  if (r.has(keys::verify_rate_at)) v.at = read_point_names(r, keys::verify_rate_at, /*may_be_empty=*/false);
-  v.window_strain = r.number(keys::verify_rate_window_strain);
   v.rate_factor = r.number(keys::verify_rate_rate_factor);
+  if (r.has(keys::verify_rate_twin)) v.twin = r.boolean(keys::verify_rate_twin);
   r.finish();
   return v;
 }

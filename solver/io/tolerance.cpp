@@ -1,6 +1,7 @@
 #include "io/tolerance.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -30,14 +31,29 @@ double positive_number(const Json& level, const char* key, const std::string& at
   return level[key].get<double>();
 }
 
-// The axes' strain rate [1/s] that drives the leg: the largest |strain_increment| / dt or |strain_rate|.
-double driving_rate(const Json& axes, double time_step) {
-  double rate = 0.0;
+// The axes' strain rates [1/s] (Voigt order, kComponentNames; 0 where no strain drives), the largest of them,
+// and the inertial number's scale of them (core/plan inertial_strain_rate).
+struct LegRates {
+  std::array<double, kComponents> rate{};
+  double driving = 0.0;   // the largest |strain_increment| / dt or |strain_rate|
+  double inertial = 0.0;  // the deviatoric scale
+};
+LegRates leg_rates(const Json& axes, const Json* simple_shear, double time_step) {
+  LegRates r;
   for (const auto& [name, axis] : axes.items()) {
-    if (axis.contains("strain_increment")) rate = std::max(rate, std::abs(axis["strain_increment"].get<double>()) / time_step);
-    if (axis.contains("strain_rate")) rate = std::max(rate, std::abs(axis["strain_rate"].get<double>()));
+    const auto at = std::find(kComponentNames.begin(), kComponentNames.end(), name);
+    if (at == kComponentNames.end()) continue;
+    double v = 0.0;
+    if (axis.contains("strain_increment")) v = axis["strain_increment"].get<double>() / time_step;
+    if (axis.contains("strain_rate")) v = axis["strain_rate"].get<double>();
+    r.rate[static_cast<std::size_t>(at - kComponentNames.begin())] = v;
   }
-  return rate;
+  if (simple_shear && simple_shear->contains("gamma_increment"))  // its g12
+    r.rate[3] = (*simple_shear)["gamma_increment"].get<double>() / time_step;
+  if (simple_shear && simple_shear->contains("gamma_rate")) r.rate[3] = (*simple_shear)["gamma_rate"].get<double>();
+  for (const double v : r.rate) r.driving = std::max(r.driving, std::abs(v));
+  r.inertial = inertial_strain_rate(r.rate);
+  return r;
 }
 
 // [Pa] the mean of the leg's stress targets (stress, mean_stress, a ramp's start); NaN without one.
@@ -91,11 +107,8 @@ struct Resolver {
     Json no_axes = Json::object();
     Json& axes = leg.contains("axes") ? leg["axes"] : no_axes;
     Json* simple_shear = leg.contains("simple_shear") ? &leg["simple_shear"] : nullptr;
-    double rate = driving_rate(axes, dt_written);
-    if (simple_shear && simple_shear->contains("gamma_increment"))
-      rate = std::max(rate, std::abs((*simple_shear)["gamma_increment"].get<double>()) / dt_written);
-    if (simple_shear && simple_shear->contains("gamma_rate"))
-      rate = std::max(rate, std::abs((*simple_shear)["gamma_rate"].get<double>()));
+    const LegRates rates = leg_rates(axes, simple_shear, dt_written);
+    const double rate = rates.driving;
     Json report = {{"strain_driven", rate > 0.0}};
     double steps_factor = dt_written / dt;  // steps of the same physical time
     step_factor = 0.0;
@@ -105,8 +118,11 @@ struct Resolver {
       if (std::isnan(stress)) stress = stage_stress;
       if (std::isnan(stress) || stress <= 0.0) stress = largest_stress;
       const double d = mean_diameter(written.sample), rho = written.sample.density;
+      // A test leg: the driving rate whose inertial scale gives the level's inertial number (the axes scaled together;
+      // the ratio is exactly 1 with one driven axis).
+      const double to_inertial = rates.inertial / rate;
       const double new_rate = preparation ? rate * level.fast_strain_increment_scale * dt_written / dt
-                                          : level.inertial_number / (d * std::sqrt(rho / stress));
+                                          : level.inertial_number / (d * std::sqrt(rho / stress)) / to_inertial;
       const double rate_factor = new_rate / rate;
       step_factor = rate_factor * dt / dt_written;
       for (auto& [name, axis] : axes.items()) {
@@ -125,8 +141,8 @@ struct Resolver {
       report["driving_increment_written"] = rate * dt_written;
       report["driving_increment"] = new_rate * dt;
       if (stress > 0.0) {
-        report["inertial_number_written"] = inertial_number(rate, d, rho, stress);
-        report["inertial_number"] = inertial_number(new_rate, d, rho, stress);
+        report["inertial_number_written"] = inertial_number(rate * to_inertial, d, rho, stress);
+        report["inertial_number"] = inertial_number(new_rate * to_inertial, d, rho, stress);
       }
     }
     // A principal-axis rotation by angle per step keeps its angle per unit time, as its steps keep their time.
@@ -243,6 +259,7 @@ ToleranceRules parse_tolerance_rules(const std::string& json_text) {
   if (!j.is_object() || !j.contains("levels") || !j["levels"].is_array() || j["levels"].empty())
     throw DeckError("time-to-answer rules: expected an object with a non-empty array \"levels\"");
   ToleranceRules rules;
+  if (j.contains("particles")) rules.particles = static_cast<int>(positive_number(j, "particles", "(top level)"));
   for (std::size_t i = 0; i < j["levels"].size(); ++i) {
     const Json& l = j["levels"][i];
     const std::string at = "levels[" + std::to_string(i) + "]";

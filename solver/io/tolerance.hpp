@@ -22,6 +22,10 @@ struct ToleranceLevel {
 
 struct ToleranceRules {
   std::vector<ToleranceLevel> levels;  // ascending tolerance, at least one
+  // The particle count of the scene the levels were measured on ("particles"; 0: not given). Its floors are
+  // sqrt(N / particles) times a deck of N spheres': a rate's bias of T floors there is T sqrt(N / particles)
+  // floors of the deck (the bias does not shrink with N; docs/study.md).
+  int particles = 0;
 };
 
 // The table as the binary carries it (CMake embeds the file at build time: no file is read at run time).

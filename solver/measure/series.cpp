@@ -88,7 +88,8 @@ const std::array kColumns = std::to_array<SeriesColumn>({
     {"strain_rate", &R::strain_rate, kReal, "1/s",
      "the fastest strain-driven axis's strain rate in the steps up to the row (0 before the first step)", false},
     {"inertial_number", &R::inertial_number, kReal, "-",
-     "strain_rate d_mean sqrt(rho / p), d_mean the particles' mean diameter (quasi-static below about 1e-3)", false},
+     "rate d_mean sqrt(rho / p), rate the deviatoric strain-rate scale of the driven axes (strain_rate for an axial "
+     "test; docs/physics.md), d_mean the particles' mean diameter (quasi-static below about 1e-3)", false},
     {"kinetic_to_elastic", &R::kinetic_to_elastic, kReal, "-",
      "kinetic_energy over the elastic energy stored in the contact springs (nan without contacts)", false},
 });
@@ -188,8 +189,8 @@ SeriesRow series_row(const Model& model, const State& state, const ContactMeasur
   r.ratio_principal = ratio(r.sigma1, r.sigma3);
   r.rate_factor = state.driving_factor;
   r.strain_rate = state.driving_rate;
-  r.inertial_number = state.driving_rate == 0.0 ? 0.0
-                      : inv.p > 0.0 ? inertial_number(state.driving_rate, mean_particle_diameter(state.particles),
+  r.inertial_number = state.inertial_rate == 0.0 ? 0.0
+                      : inv.p > 0.0 ? inertial_number(state.inertial_rate, mean_particle_diameter(state.particles),
                                                       model.density, inv.p)
                                     : std::numeric_limits<double>::quiet_NaN();
   r.kinetic_to_elastic = ratio(m.kinetic_energy, m.elastic_energy);

@@ -11,6 +11,7 @@
 
 #include "io/files.hpp"
 #include "run/run_directory.hpp"
+#include "run/verify_rate.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -148,6 +149,8 @@ Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vec
               {"tests", Json::object()},
               {"paired", Json::object()}};
   for (const auto& [name, columns] : tests) out["tests"][name] = describe_all(columns);
+  // The rate check over the seeds that ran it: TOST on the mean paired error (run/verify_rate.hpp).
+  if (Json rate = rate_check_across_seeds(seeds, summaries); !rate.empty()) out["verify_rate"] = rate;
   // Paired differences on the same seeds (the same sample): B - A for every quantity both tests have.
   for (auto a = by_seed.begin(); a != by_seed.end(); ++a)
     for (auto b = std::next(a); b != by_seed.end(); ++b) {
@@ -181,6 +184,16 @@ void write_ensemble(const fs::path& dir, const std::vector<std::uint64_t>& seeds
                            "their peak quantities left out\n",
                    name.c_str(), ex["no_peak"].size(), seeds.size());
   }
+  if (statistics.contains("verify_rate"))  // the verdicts over the seeds, on the console as in the file
+    for (const auto& [name, t] : statistics["verify_rate"].items()) {
+      for (const auto& [q, r] : t["quantities"].items())
+        std::printf("ensemble: %s: rate check %-20s mean error %+.2f floors over %zu seeds, 95 %% bounds [%+.2f, %+.2f]: "
+                    "%s\n", name.c_str(), q.c_str(), r["mean"].get<double>(), r["values"].size(),
+                    r.contains("bounds95") ? r["bounds95"][0].get<double>() : NAN,
+                    r.contains("bounds95") ? r["bounds95"][1].get<double>() : NAN, r["verdict"].get<std::string>().c_str());
+      std::printf("ensemble: %s: rate check over the seeds (TOST, T = %g floors): %s\n", name.c_str(),
+                  t["tolerance_floors"].get<double>(), t["verdict"].get<std::string>().c_str());
+    }
   if (!quiet) std::printf("wrote %s\n", (dir / "ensemble.json").c_str());
 }
 

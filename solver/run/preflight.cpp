@@ -413,13 +413,15 @@ std::string initial_state_path(const Deck& deck) {
 
 std::string fast_loading(const Deck& deck, const TestDef& test) {
   constexpr double kLargeStrainPerStep = 1e-4;  // the shipped decks drive 1e-6 to 1e-5 per step
-  const double rate = loading_rate(deck, test), per_step = rate * deck.stage_time_step(test);
+  const double rate = loading_rate(deck, test);  // the inertial number's scale
+  double per_step = 0.0;                          // the largest strain per step of a driven axis
+  for (const Leg& leg : test.legs) per_step = std::max(per_step, leg_driving_increment(leg, deck.stage_time_step(test)));
   const double p = first_leg_stress(test);
   const double inertia =
       std::isnan(p) ? 0.0 : inertial_number(rate, mean_diameter(deck.sample), deck.sample.density, p);
   if (!(per_step > kLargeStrainPerStep) && !(inertia > 10.0 * kQuasiStaticInertia)) return "";
   char buf[360];
-  std::snprintf(buf, sizeof buf, "the loading of test '%s', a strain of %.3g per step (%.3g /s, inertial number %.3g; "
+  std::snprintf(buf, sizeof buf, "the loading of test '%s', a strain of %.3g per step (%.3g /s deviatoric, inertial number %.3g; "
                 "quasi-static below %.3g, `celldem plan` gives both), is faster than the packing can follow: lower "
                 "its strain increment or rate", test.name.c_str(), per_step, rate, inertia, kQuasiStaticInertia);
   return buf;

@@ -148,6 +148,7 @@ class LegRun {
         watch_(leg_, model, state, stage_name(program) + " " + leg_name(state)),
         checks_(leg_, model),
         deck_rate_(leg_driving_increment(leg_, model.dt) / model.dt),
+        inertial_rate_(leg_inertial_rate(leg_, model.dt)),
         mean_diameter_(mean_diameter) {}
 
   // Runs the leg to its end; `rebuild` carries the neighbour list's state from leg to leg. Returns whether the
@@ -160,6 +161,7 @@ class LegRun {
       const Loading loading{leg_.axes, program_.friction, servo_cap(model_.servo, leg_, model_.dt, c.rate_factor),
                             leg_.rotation};
       state_.driving_rate = deck_rate_ * c.rate_factor, state_.driving_factor = c.rate_factor;
+      state_.inertial_rate = inertial_rate_ * c.rate_factor;
       advance_steps(model_, loading, state_, rebuild, [&](bool) { return after_step(rebuild); },
                     program_.adaptive_threads ? governor_.current() : threads);
     }
@@ -247,7 +249,7 @@ class LegRun {
       const double p = state_.mean_stress();
       RateIndicators now{contacts->unbalanced_force, contacts->kinetic_energy / contacts->elastic_energy,
                          kControlShareOfTolerance * present_over_tolerance(errors_),
-                         p > 0.0 ? inertial_number(deck_rate_, mean_diameter_, model_.density, p) : 0.0};
+                         p > 0.0 ? inertial_number(inertial_rate_, mean_diameter_, model_.density, p) : 0.0};
       if (model_.servo.max_strain_increment_given)  // a fixed cap: the factor the servo's components can follow
         now.servo_ceiling = model_.servo.max_strain_increment / (kMinServoCapRatio * leg_driving_increment(leg_, model_.dt));
       factor = adapted_rate_factor(rule, factor, now);
@@ -279,7 +281,8 @@ class LegRun {
   const Leg& leg_;
   const LegEndWatch watch_;
   const LegChecks checks_;
-  const double deck_rate_;  // [1/s] at factor 1
+  const double deck_rate_;      // [1/s] at factor 1
+  const double inertial_rate_;  // [1/s] the inertial number's scale at factor 1 (leg_inertial_rate)
   const double mean_diameter_;
   std::string status_;
   bool leg_over_ = false;  // the leg's end condition holds

@@ -92,6 +92,16 @@ Json started_from(const Deck& deck, const PreparationStart& start, int skipped) 
   return j;
 }
 
+// The state a test starts from: the prepared state (or the initial state without a preparation), its stage
+// begun, the deck's skin, its forces evaluated (the first row: the state as loaded).
+State test_start_state(const Deck& deck, const TestDef& test, const fs::path& prepared, const Model& model) {
+  State state = deck.initial_state && !deck.prepare ? load_initial_state(deck) : read_state(prepared.string());
+  begin_stage(state);
+  state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
+  evaluate_forces(model, test.stage_friction(), state);
+  return state;
+}
+
 // A loading test from the prepared state, or the initial state without a preparation (or from its own checkpoint).
 void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
               const fs::path& prepared, bool resumed) {
@@ -110,29 +120,18 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
     out.set_start_cause(fast_loading_cause(deck, test));
   out.open(state, resumed);
   const std::optional<VerifyRateOptions> check = verify_rate_for(options.verify_rate, test);
-  BranchPoints branch_points(test, deck, check.value_or(VerifyRateOptions{}));
+  if (check && !options.quiet)  // its cost, before anything runs
+    std::printf("%s: rate check after the test: %s\n", test.name.c_str(),
+                rate_check_cost(deck, test, *check, 0.0).words().c_str());
   const ProbeDef no_probes;
   ProbePoints probe_points(test.probes ? *test.probes : no_probes);
-  if (check) {
-    if (resumed) {  // the rows read back, and the state resumed from, with its forces (a checkpoint has none)
-      State start = state;
-      evaluate_forces(model, test.stage_friction(), start);
-      branch_points.resume(start, out.rows());
-    } else {
-      branch_points.on_row(state, out.rows().front());  // the first row, written by open
-    }
-  }
   if (test.probes) {
     probe_points.keep_in(out.dir() / "probes", test.name, state_physics(deck));
     if (resumed) probe_points.resume(out.rows());
     else probe_points.on_row(state, out.rows().front());
     out.set_checkpoint_observer([&](const State& s) { probe_points.save(s); });
   }
-  if (check || test.probes)
-    out.set_row_observer([&](const State& s, const SeriesRow& row) {
-      if (check) branch_points.on_row(s, row);
-      if (test.probes) probe_points.on_row(s, row);
-    });
+  if (test.probes) out.set_row_observer([&](const State& s, const SeriesRow& row) { probe_points.on_row(s, row); });
   Program program{test.legs, test.stage_friction(), &test.equilibrium, plan_test(deck, test).steps};
   program.equilibrium_key = "tests[].equilibrium";
   program.adaptive_threads = !options.fixed_threads;
@@ -156,10 +155,28 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
         run.add_warning(test.name + ": the probes at " + point + " were not run: " + p.value("reason", ""));
   }
   if (check) {
-    const Json verified = verify_test_rate(run, deck, options, test, *check, branch_points, out.rows(),
-                                         result.value("peak_reached", true));
+    if (!options.quiet)
+      std::printf("%s: rate check: %s\n", test.name.c_str(),
+                  rate_check_cost(deck, test, *check, result.value("particle_steps_per_s", 0.0)).words().c_str());
+    const State start = test_start_state(deck, test, prepared, model);  // the test's own start, resumed or not
+    const Json verified = verify_test_rate(run, deck, options, test, *check, start, result);
     run.update_summary([&](Json& s) { s["tests"][test.name]["verify_rate"] = verified; });
   }
+}
+
+// A rate check's verdict on the console: per quantity its error in floors and verdict, then the test's.
+void print_rate_check(const std::string& name, const Json& v) {
+  std::printf("%s: rate check at %g x the rate, tolerance %g floors (95 %%)\n", name.c_str(), v.value("rate_factor", 0.0),
+              v.value("tolerance_floors", 0.0));
+  if (v.contains("comparisons"))
+    for (const auto& [q, c] : v["comparisons"].items()) {
+      const bool has = c.contains("error_floors") && c["error_floors"].is_number();
+      std::printf("%s:   %-20s error %+7.2f -+ %.2f floors (chaos: %s): %s\n", name.c_str(), q.c_str(),
+                  has ? c["error_floors"].get<double>() : NAN, c.value("chaos_half_width_floors", NAN),
+                  c.value("chaos_from", std::string("-")).c_str(), c.value("verdict", std::string()).c_str());
+    }
+  std::printf("%s: rate check: %s: %s\n", name.c_str(), v.value("verdict", std::string()).c_str(),
+              v.value("reason", std::string()).c_str());
 }
 
 void print_test_done(const RunDirectory& run, const std::string& name) {
@@ -178,6 +195,7 @@ void print_test_done(const RunDirectory& run, const std::string& name) {
   if (!s.value("controlled", true))
     std::printf("%s: uncontrolled: a control failed (summary.json control_failures; control_failure \"warn\")\n",
                 name.c_str());
+  if (s.contains("verify_rate")) print_rate_check(name, s["verify_rate"]);
   if (s.contains("probes"))  // a point whose probes did not all run and hold their controls is named with its reason
     for (const auto& [point, p] : s["probes"]["points"].items())
       if (p.value("status", "") != "ran")
@@ -213,6 +231,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     s["celldem_version"] = CELLDEM_VERSION;
     s["deck"] = deck.source;
     s["settings"] = run_settings(deck, threads);
+    if (!options.tolerance_prediction.empty()) s["tolerance"] = Json::parse(options.tolerance_prediction);
     if (deck.sample.grading) s["grading"] = grading_json(*deck.sample.grading, run_sample_diameters(deck));
   });
 

@@ -25,6 +25,9 @@ struct RunOptions {
   // What the run folder is, as progress.json records it for `merge`: "single", "probe share" (--probes), "seed
   // share" (--seeds k) or "ensemble" (a seed of --seeds k-l); empty: single or probe share, from `probes`.
   std::string kind;
+  // With --tolerance: what the rules set and the particle-steps they predict against the deck as written (JSON text,
+  // the command line's tolerance_json), written to summary.json's "tolerance"; empty: none.
+  std::string tolerance_prediction;
 };
 
 // Thrown after SIGINT/SIGTERM once a checkpoint has been written.

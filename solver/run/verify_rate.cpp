@@ -4,10 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 
 #include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
 
-#include "cell/control.hpp"
 #include "core/model.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
@@ -16,6 +17,8 @@
 #include "run/run_directory.hpp"
 #include "run/runner.hpp"
 #include "run/stage_output.hpp"
+#include "run/summary.hpp"
+#include "step.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -24,17 +27,19 @@ using Json = nlohmann::json;
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kConfidence = 0.95;  // of each one-sided test (TOST at 5 %)
+// A single run's chaos has two 95 % half-widths (its twin's, its bound's); the smaller of the two, each taken at
+// 97.5 %, holds at 95 % (Bonferroni).
+constexpr double kSideConfidence = 0.975;
+// The twin runs at (1 + this) times the test's rate. A change of one coordinate by one ulp (a round-off twin) parts
+// from the test too slowly: on a test of 1000 steps its rows, written to 10 digits, were the test's to the last
+// digit (tests/run/test_verify_rate.py). A rate change parts the two runs from the first step, as the slower run's
+// does, while its own effect on the answer is 1e-3 / (1 - factor) of the one measured (2e-3 at half the rate).
+constexpr double kTwinRateChange = 1e-3;
+// A twin whose compared quantities all stay within this many floors of the test's has not parted from it: the
+// chaos is then unknown and taken at its bound.
+constexpr double kTwinParted = 1e-3;
 Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
-
-// The axis that drives a leg (its largest |strain per step|), or -1 when no axis is strain-driven.
-int driving_axis(const Leg& leg, double time_step) {
-  int axis = -1;
-  double largest = 0.0;
-  for (int k = 0; k < 3; ++k)
-    if (leg.axes[k].strain_driven() && std::abs(leg.strain_per_step(k, time_step)) > largest)
-      largest = std::abs(leg.strain_per_step(k, time_step)), axis = k;
-  return axis;
-}
 
 double positive_number(const Json& j, const std::string& key, const std::string& where) {
   if (!j.contains(key) || !j[key].is_number() || !(j[key].get<double>() > 0.0) || !std::isfinite(j[key].get<double>()))
@@ -49,6 +54,36 @@ double ensemble_std(const Json& tests, const std::string& test, const std::strin
     throw UsageError(where + ": missing (the ensemble has no such test or quantity; give --floors a file of this deck's "
                     "ensemble)");
   return positive_number(tests[test][quantity], "std", where);
+}
+
+std::string fmt(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
+// A summary value by its dotted path ("end_window.ev"); NaN when missing or not a number.
+double at_path(const Json& j, const std::string& path) {
+  const Json* p = &j;
+  std::size_t from = 0;
+  while (true) {
+    const std::size_t dot = path.find('.', from);
+    const std::string key = path.substr(from, dot == std::string::npos ? std::string::npos : dot - from);
+    if (!p->is_object() || !p->contains(key)) return kNaN;
+    p = &(*p)[key];
+    if (dot == std::string::npos) break;
+    from = dot + 1;
+  }
+  return p->is_number() ? p->get<double>() : kNaN;
+}
+
+double floor_of(const NoiseFloors& f, const std::string& name) {
+  return name == "ratio13" ? f.ratio13 : name == "ev" ? f.ev : f.Z;
+}
+
+double normal_quantile(double p) { return boost::math::quantile(boost::math::normal_distribution<double>(), p); }
+double t_quantile(double p, double dof) {
+  return boost::math::quantile(boost::math::students_t_distribution<double>(dof), p);
 }
 
 }  // namespace
@@ -108,295 +143,296 @@ NoiseFloors noise_floors(const std::string& path, const std::string& test, int p
   return f;
 }
 
-void check_verify_window(const VerifyRateOptions& check, const TestDef& test) {
-  double longest = 0.0;
-  for (const Leg& leg : test.legs)
-    if (leg.end.kind == LegEndKind::Strain) longest = std::max(longest, std::abs(leg.end.value));
-  if (longest > 0.0 && check.window_strain > longest) {
-    char buf[320];
-    std::snprintf(buf, sizeof buf, "--verify-window %g: longer than test '%s', whose driving strain ends at %g: give "
-                  "a window shorter than the test (the default is %g)", check.window_strain, test.name.c_str(),
-                  longest, keys::verify_rate_window_strain.fallback);
-    throw UsageError(buf);
+PairChaos pair_chaos(double twin_floors, bool twin_parted) {
+  PairChaos c;
+  c.bound = normal_quantile(kSideConfidence) * std::sqrt(2.0);
+  if (twin_parted && std::isfinite(twin_floors)) {
+    c.twin = t_quantile(kSideConfidence, 1.0) * std::abs(twin_floors);
+    c.half_width = std::min(c.twin, c.bound);
+    c.from = c.twin < c.bound ? "twin" : "bound";
+  } else {
+    c.twin = kNaN;
+    c.half_width = c.bound;
+    c.from = "bound";
   }
+  return c;
 }
 
-BranchPoints::BranchPoints(const TestDef& test, const Deck& deck, const VerifyRateOptions& options)
-    : test_(test), dt_(deck.stage_time_step(test)), options_(options) {}
-
-void BranchPoints::on_row(const State& state, const SeriesRow& row) {
-  const std::size_t index = rows_++;
-  const int leg = state.control.leg;
-  const int axis = driving_axis(test_.legs[static_cast<std::size_t>(leg)], dt_);
-  const double strain = axis >= 0 ? axis_strains(state)[axis] : kNaN;
-  if (axis >= 0) {
-    const double spacing = 0.25 * options_.window_strain;  // reached up to round-off, as the window
-    if (ring_.empty() || ring_.back().leg != leg || std::abs(strain - ring_.back().strain) >= spacing * (1.0 - 1e-9))
-      ring_.push_back({std::make_shared<const State>(state), leg, strain});
-    // Behind the newest state at least a window back, nothing is needed again (nor states of earlier legs).
-    while (ring_.size() > 1 && (ring_.front().leg != leg ||
-                                (ring_[1].leg == leg && std::abs(strain - ring_[1].strain) >= window_reached())))
-      ring_.erase(ring_.begin());
-  }
-  last_ = start_for(leg, axis, strain, index);
-  if (row.ratio13 > best_ratio_) {  // the summary's peak: the first row of the largest s11/s33
-    best_ratio_ = row.ratio13;
-    peak_ = last_;
-  }
+std::string rate_verdict(double d, double half_width, double tolerance) {
+  if (!std::isfinite(d)) return "not compared";
+  if (std::abs(d) + half_width <= tolerance) return "converged";
+  if (std::abs(d) - half_width > tolerance) return "not converged";
+  return "unresolved";
 }
 
-void BranchPoints::resume(const State& state, const std::vector<SeriesRow>& rows) {
-  for (const SeriesRow& row : rows) best_ratio_ = std::max(best_ratio_, row.ratio13);
-  rows_ = rows.size();
-  resumed_ = true;
-  const std::string missing = "the test was resumed after the window began (the states kept before are lost with "
-                              "the run that was stopped; --force runs it again whole)";
-  peak_ = Start{};
-  peak_.missing = missing;
-  last_ = peak_;
-  // The state it resumes from: a start for the points a window after it.
-  const int leg = state.control.leg;
-  const int axis = driving_axis(test_.legs[static_cast<std::size_t>(leg)], dt_);
-  if (axis >= 0) ring_.push_back({std::make_shared<const State>(state), leg, axis_strains(state)[axis]});
-}
-
-BranchPoints::Start BranchPoints::start_for(int leg, int axis, double strain, std::size_t row) const {
-  Start s;
-  s.leg = leg;
-  s.axis = axis;
-  s.point_strain = strain;
-  s.point_row = row;
-  if (axis < 0) {
-    s.missing = "no strain-driven axis drives the point's leg (no driving strain to branch in)";
-    return s;
+std::string RateCheckCost::words() const {
+  char buf[320];
+  if (slow_steps < 0)
+    return "the test again at a slower rate" + std::string(twin_steps != 0 ? " and a twin" : "") +
+           ": steps known only by running (a leg that does not end on its driven strain)";
+  std::snprintf(buf, sizeof buf, "%lld steps at the slower rate%s%s: %.3g particle-steps", static_cast<long long>(slow_steps),
+                twin_steps > 0 ? " and " : "", twin_steps > 0 ? (std::to_string(twin_steps) + " of the twin").c_str() : "",
+                particle_steps);
+  std::string s = buf;
+  if (seconds > 0.0) {
+    std::snprintf(buf, sizeof buf, ", about %.0f s at this test's speed", seconds);
+    s += buf;
   }
-  const Kept* chosen = nullptr;  // the newest a whole window back, else the oldest of the leg (a shorter window)
-  for (const Kept& k : ring_)
-    if (k.leg == leg && std::abs(strain - k.strain) >= window_reached()) chosen = &k;
-  if (!chosen)
-    for (const Kept& k : ring_)
-      if (k.leg == leg && k.strain != strain) {
-        chosen = &k;
-        break;
-      }
-  if (chosen) s.state = chosen->state, s.from_strain = chosen->strain;
-  else s.missing = resumed_ ? "no state before the point in its leg (the test was resumed after the window began: "
-                              "--force runs it again whole)"
-                            : "no state before the point in its leg (the point is the leg's first row)";
   return s;
 }
 
-BranchPoints::Start BranchPoints::end() const { return last_; }
-
-namespace {
-
-// The leg a branch drives: the test's leg at rate x factor (strain increments and rates of the strain-driven
-// axes, shear axes included, a stress ramp's rate from its target where the branch starts), ending at the point's
-// strain.
-Leg branch_leg(const Leg& parent, const BranchPoints::Start& start, double factor, double leg_time) {
-  Leg leg = parent;
-  for (AxisControl& a : leg.axes) {  // (a shear axis driven by its strain slows down alike)
-    if (a.strain_driven()) a.value *= factor;
-    if (a.mode == AxisMode::StressRamp) a.value = a.stress_target(leg_time), a.rate *= factor;
+RateCheckCost rate_check_cost(const Deck& deck, const TestDef& test, const VerifyRateOptions& check,
+                              double particle_steps_per_s) {
+  RateCheckCost c;
+  const std::int64_t test_steps = plan_test(deck, test).steps;
+  c.slow_steps = plan_test(deck, slowed_test(test, check.rate_factor)).steps;
+  c.twin_steps = check.twin ? test_steps : 0;
+  if (c.slow_steps < 0 || test_steps < 0) {
+    c.slow_steps = -1;
+    return c;
   }
-  leg.end = LegEnd{};
-  leg.end.kind = LegEndKind::Strain;
-  leg.end.axis = start.axis;
-  leg.end.value = start.point_strain;
-  return leg;
+  c.particle_steps = static_cast<double>(deck.sample.count) * static_cast<double>(c.slow_steps + c.twin_steps);
+  c.seconds = particle_steps_per_s > 0.0 ? c.particle_steps / particle_steps_per_s : 0.0;
+  return c;
 }
 
-// A difference from chaos alone: the branch shares the test's state at its start, so by the window's end the
-// two differ at most as two independent seeds do, with a std of sqrt(2) floors. Beyond tolerance + this
-// margin (two-sided 95 %), a difference is the rate's and not chance's.
-double chaos_margin() { return boost::math::quantile(boost::math::normal_distribution<double>(), 0.975) * std::sqrt(2.0); }
-
-Json compare(double parent, double branch, double floor, double tolerance) {
-  const double floors = (branch - parent) / floor;
-  return {{"parent", number_or_null(parent)}, {"branch", number_or_null(branch)},
-          {"difference", number_or_null(branch - parent)}, {"floor", floor}, {"floors", number_or_null(floors)},
-          {"within_tolerance", std::isfinite(floors) && std::abs(floors) <= tolerance}};
-}
-
-// The window's end is compared as the means over its last kEndShare (rows of the point's leg whose driving
-// strain lies within that much of the point, on the window's side), for both series alike: one row's Z or
-// s11/s33 jumps as a few contacts open and close, the mean over a few rows in the same strain range does not.
-constexpr double kEndShare = 0.25;
-struct EndMeans {
-  double ratio13 = 0.0, ev = 0.0, Z = 0.0;
-  int rows = 0;
-};
-EndMeans end_means(const std::vector<SeriesRow>& rows, const BranchPoints::Start& start, double span) {
-  const double direction = start.point_strain >= start.from_strain ? 1.0 : -1.0;
-  // A row at the point or at the span's edge, up to round-off: the rows hold the strains as written, to 10
-  // significant digits (a row at the point was missed when the slack scaled with the span alone).
-  const double slack = 1e-9 * (span + std::abs(start.point_strain));
-  EndMeans m;
-  for (const SeriesRow& r : rows) {
-    const double before = direction * (start.point_strain - r.strain(start.axis));  // strain before the point
-    if (r.leg == static_cast<double>(start.leg) && before >= -slack && before <= span + slack)
-      m.ratio13 += r.ratio13, m.ev += r.ev, m.Z += r.Z, ++m.rows;
-  }
-  // No row in the span: no mean (NaN), so the comparison is not made, never a comparison of two zeros.
-  const double count = m.rows ? m.rows : NAN;
-  m.ratio13 /= count, m.ev /= count, m.Z /= count;
-  return m;
-}
-
-std::string fmt(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
-  return buf;
-}
-
-// Why a comparison of the end means could not be made: the side without a row in the span, or a row's value
-// that is not a number (an s11/s33 at zero stress).
-std::string end_means_gap(const EndMeans& test, const EndMeans& branch, double span, std::int64_t test_interval,
-                          std::int64_t branch_interval) {
-  if (test.rows == 0 || branch.rows == 0)
-    return "no row of the " + std::string(test.rows == 0 ? "test" : "branch") + " in the window's last " + fmt(span) +
-           " of strain; rows every " + std::to_string(test.rows == 0 ? test_interval : branch_interval) +
-           " steps: a longer --verify-window or a shorter output_interval gives it rows";
-  return "a row's value in the window's last " + fmt(span) + " of strain is not a number";
-}
-
-// The verdict of one point from its comparisons: converged when every difference is within the tolerance;
-// not converged when one is beyond what chaos alone makes of one pair of runs; otherwise unresolved. A
-// quantity that could not be compared (`not_compared`: no difference in floors) leaves the point unresolved
-// unless another is already beyond the margin: a check that was not made never counts as passed.
-void add_verdict(Json& point, double tolerance, const std::string& not_compared_why) {
-  const double margin = chaos_margin();
-  double largest = -1.0;
-  std::string which, not_compared;
-  for (const auto& [quantity, c] : point["comparisons"].items()) {
-    if (!c["floors"].is_number()) {
-      not_compared += (not_compared.empty() ? "" : ", ") + quantity;
-      continue;
+TestDef slowed_test(const TestDef& test, double factor) {
+  TestDef t = test;
+  for (Leg& leg : t.legs) {
+    for (AxisControl& a : leg.axes) {  // (a shear axis driven by its strain slows down alike)
+      if (a.strain_driven()) a.value *= factor;
+      if (a.mode == AxisMode::StressRamp) a.rate *= factor;
     }
-    const double d = std::abs(c["floors"].get<double>());
-    if (d > largest) largest = d, which = quantity;
+    if (leg.rotation) leg.rotation->rate *= factor;
+    if (leg.end.kind == LegEndKind::Steps)
+      leg.end.steps = std::max<std::int64_t>(1, std::llround(static_cast<double>(leg.end.steps) / factor));
+    if (leg.end.max_steps > 0)
+      leg.end.max_steps = std::max<std::int64_t>(1, std::llround(static_cast<double>(leg.end.max_steps) / factor));
   }
-  point["largest"] = {{"quantity", which}, {"floors", largest >= 0.0 ? Json(largest) : Json(nullptr)}};
-  point["tolerance_floors"] = tolerance;
-  point["chaos_margin_floors"] = margin;
-  const std::string at = which + " differs by " + fmt(largest) + " floors";
-  if (!not_compared.empty()) point["not_compared"] = not_compared + ": " + not_compared_why;
-  if (largest > tolerance + margin) {
-    point["verdict"] = "not converged";
-    point["reason"] = at + ", beyond the tolerance " + fmt(tolerance) + " plus the " + fmt(margin) +
-                      " floors by which chaos alone can part one pair of runs (95 %): the rate moves the answer";
-  } else if (!not_compared.empty()) {
-    point["verdict"] = "unresolved";
-    point["reason"] = not_compared + " not compared (" + not_compared_why + ")" +
-                      (which.empty() ? std::string() : "; the largest compared: " + at);
-  } else if (largest <= tolerance) {
-    point["verdict"] = "converged";
-    point["reason"] = "every difference within " + fmt(tolerance) + " floor(s); the largest: " + at + " (margin " +
-                      fmt(tolerance - largest) + " floors; one branch is one sample of chaotic runs)";
-  } else {
-    point["verdict"] = "unresolved";
-    point["reason"] = at + ": over the tolerance " + fmt(tolerance) + " but within it plus the " + fmt(margin) +
-                      " floors by which chaos alone can part one pair of runs (95 %); one branch cannot tell (an ensemble "
-                      "of seeds at both rates can)";
-  }
+  t.output_interval = std::max<std::int64_t>(1, std::llround(static_cast<double>(test.output_interval) / factor));
+  t.verify_rate.reset();
+  t.probes.reset();
+  t.snapshots = {};
+  return t;
 }
-
-}  // namespace
 
 std::optional<VerifyRateOptions> verify_rate_for(const VerifyRateOptions& command_line, const TestDef& test) {
   if (!command_line.enabled && !test.verify_rate) return std::nullopt;
   VerifyRateOptions o = command_line;
   o.enabled = true;
   if (test.verify_rate) {
-    if (!o.at_given) o.at = test.verify_rate->at;
-    if (!o.window_given) o.window_strain = test.verify_rate->window_strain;
     if (!o.factor_given) o.rate_factor = test.verify_rate->rate_factor;
+    if (!o.twin_given) o.twin = test.verify_rate->twin;
   }
   return o;
 }
 
+namespace {
+
+// One run of the check: the test (slowed, or as it is for the twin) from `state`, into <test>/verify/<name>/; its
+// summary, or its error.
+struct CheckRun {
+  Json summary;
+  std::string error;
+};
+CheckRun run_check(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& t,
+                   const std::string& name, State state) {
+  CheckRun r;
+  const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(t));
+  const std::string stage = t.name + "/verify/" + name;
+  try {
+    evaluate_forces(model, t.stage_friction(), state);
+    StageOutput out(run, deck, options, model, stage, t.output_interval, /*loading_test=*/true);
+    out.set_branch();
+    out.open(state, /*resumed=*/false);
+    Program program{t.legs, t.stage_friction(), &t.equilibrium, plan_test(deck, t).steps};
+    program.adaptive_threads = !options.fixed_threads;
+    program.kind = StageKind::Test;
+    program.stage = stage;
+    program.control_failure = ControlFailure::Warn;  // recorded with the run, not a stop of the test's run
+    std::vector<ControlErrors> errors;
+    run_program(model, program, state, out, errors);
+    out.finish(state);
+    std::vector<std::string> warnings;
+    r.summary = summarize_test(deck, t, out.rows(), errors, out.elapsed(), state.control.stage_steps,
+                               state.particles.size(), warnings);
+    r.summary["series"] = (fs::path(t.name) / "verify" / name / "series.csv").string();
+  } catch (const RunError& e) {
+    r.error = e.what();
+  }
+  return r;
+}
+
+Json run_record(const CheckRun& r) {
+  if (!r.error.empty()) return {{"failed", r.error}};
+  return {{"series", r.summary["series"]}, {"steps", r.summary["steps"]}, {"wall_s", r.summary["wall_s"]},
+          {"controlled", r.summary.value("controlled", true)}, {"peak_reached", r.summary.value("peak_reached", true)},
+          {"inertial_number", r.summary["inertial_number"]}};
+}
+
+}  // namespace
+
 Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                      const VerifyRateOptions& given, const BranchPoints& points, const std::vector<SeriesRow>& rows,
-                      bool peak_reached) {
+                      const VerifyRateOptions& given, const State& start, const Json& summary) {
   VerifyRateOptions o = given;
   if (deck.tolerance) o.tolerance = *deck.tolerance;  // a run asked for a tolerance is checked against it
   const NoiseFloors floors = noise_floors(o.floors_path, test.name, deck.sample.count);
-  Json result = {{"rate_factor", o.rate_factor}, {"window_strain", o.window_strain}, {"tolerance_floors", o.tolerance},
+  const double speed = summary.value("particle_steps_per_s", 0.0);
+  const RateCheckCost cost = rate_check_cost(deck, test, o, speed);
+  // The effect of the rate on the test: d = test - slower, and the test's own error extrapolated to the
+  // quasi-static limit at first order in the rate, d / (1 - f).
+  const double extrapolate = 1.0 / (1.0 - o.rate_factor);
+  Json result = {{"rate_factor", o.rate_factor},
+                 {"tolerance_floors", o.tolerance},
+                 {"confidence", kConfidence},
+                 {"extrapolation", "error = (test - slower) / (1 - rate_factor): the test's distance from the "
+                                   "quasi-static limit if the rate's effect is linear in the rate"},
                  {"floors", {{"ratio13", floors.ratio13}, {"ev", floors.ev}, {"Z", floors.Z}, {"source", floors.source}}},
-                 {"points", Json::object()}};
-  for (const std::string& name : o.at) {
-    const BranchPoints::Start start = name == "peak" ? points.peak() : points.end();
-    Json point = {{"point", name}};
-    // A test whose s11/s33 is largest at its last row has no peak (summary.json peak_reached): nothing to check.
-    const bool no_peak = name == "peak" && !peak_reached;
-    if (no_peak || !start.state) {
-      point["verdict"] = "not checked";
-      point["reason"] = no_peak ? "no peak reached: s11/s33 is largest at the end of the test (summary.json peak_reached)"
-                                : start.missing;
-      result["points"][name] = point;
+                 {"cost", {{"slow_steps", cost.slow_steps}, {"twin_steps", cost.twin_steps},
+                           {"particle_steps", cost.particle_steps}, {"estimated_s", cost.seconds}}}};
+  const CheckRun slow = run_check(run, deck, options, slowed_test(test, o.rate_factor), "slow", start);
+  result["runs"]["slow"] = run_record(slow);
+  CheckRun twin;
+  if (o.twin) {
+    twin = run_check(run, deck, options, slowed_test(test, 1.0 + kTwinRateChange), "twin", start);
+    result["runs"]["twin"] = run_record(twin);
+  }
+  if (!slow.error.empty()) {
+    result["verdict"] = "run failed";
+    result["reason"] = "the slower run failed: " + slow.error;
+    return result;
+  }
+  const bool test_peak = summary.value("peak_reached", true), slow_peak = slow.summary.value("peak_reached", true);
+  const bool twin_ok = o.twin && twin.error.empty();
+  const bool twin_peak = twin_ok && twin.summary.value("peak_reached", true);
+  // The twin parted from the test when its differences are not all within kTwinParted floors (else it says nothing).
+  double twin_sum = 0.0;
+  int twin_n = 0;
+  for (const ComparedQuantity& q : kRateCheckQuantities) {
+    if (!twin_ok || (q.peak && !(test_peak && twin_peak))) continue;
+    const double t = (at_path(summary, q.path) - at_path(twin.summary, q.path)) / floor_of(floors, q.floor);
+    if (std::isfinite(t)) twin_sum += t * t, ++twin_n;
+  }
+  const bool twin_parted = twin_n > 0 && std::sqrt(twin_sum / twin_n) >= kTwinParted;
+  result["chaos"] = {
+      {"rule", "per quantity, the 95 % half-width of one pair's chaos in floors: the smaller of t(0.975, 1) |twin "
+               "difference| (the twin is one sample of the chaos: Student's t with 1 degree of freedom) and z(0.975) "
+               "sqrt 2 (the bound: two runs from one prepared sample differ by chaos at most as two seeds do), each at "
+               "97.5 % so the smaller holds at 95 %; times 1 / (1 - rate_factor) as the error is"},
+      {"twin_quantile", t_quantile(kSideConfidence, 1.0)},
+      {"bound_half_width_floors", normal_quantile(kSideConfidence) * std::sqrt(2.0)},
+      {"twin_parted", twin_parted}};
+  if (o.twin && !twin.error.empty()) result["chaos"]["twin_failed"] = twin.error;
+  if (twin_ok && !twin_parted)
+    result["chaos"]["note"] = "the twin did not part from the test (its differences within " + fmt(kTwinParted) +
+                              " floors): the bound alone";
+  Json comparisons = Json::object();
+  std::string worst_verdict, largest_quantity, not_compared;
+  double largest = -1.0;
+  bool any_unresolved = false, any_not_converged = false;
+  for (const ComparedQuantity& q : kRateCheckQuantities) {
+    const double floor = floor_of(floors, q.floor);
+    const double a = at_path(summary, q.path), b = at_path(slow.summary, q.path);
+    Json c = {{"test", number_or_null(a)}, {"slow", number_or_null(b)}, {"floor", floor}};
+    if (twin_ok && !(q.peak && !(test_peak && twin_peak))) {  // the differences pair_chaos was given
+      c["twin"] = number_or_null(at_path(twin.summary, q.path));
+      c["twin_floors"] = number_or_null((a - at_path(twin.summary, q.path)) / floor);
+    }
+    if (q.peak && !(test_peak && slow_peak)) {
+      c["verdict"] = "not compared";
+      c["reason"] = std::string("no peak reached by the ") + (test_peak ? "slower run" : "test");
+      not_compared += std::string(not_compared.empty() ? "" : ", ") + q.path;
+      comparisons[q.path] = c;
       continue;
     }
-    const SeriesRow& at = rows.at(start.point_row);
-    State state = *start.state;
-    const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
-    // The test's legs up to the point's, which goes on from where the branch starts at its new rate (the servo
-    // keeps its memory; the series' leg column stays the test's).
-    std::vector<Leg> legs(test.legs.begin(), test.legs.begin() + start.leg + 1);
-    // An adaptive leg's branch runs at a fixed rate: rate_factor times the rate the test had where the branch starts.
-    legs.back() = branch_leg(legs.back(), start, o.rate_factor * state.control.rate_factor,
-                             static_cast<double>(state.control.leg_steps) * model.dt);
-    legs.back().adaptive.reset();
-    restart_leg(state);
-    const std::int64_t from_step = state.control.stage_steps;
-    const std::int64_t interval =
-        std::max<std::int64_t>(1, std::llround(static_cast<double>(test.output_interval) / o.rate_factor));
-    const std::string stage = test.name + "/verify/" + name;
-    point["window"] = {{"axis", std::string(kAxisNames[start.axis])}, {"leg", start.leg},
-                       {"from_strain", start.from_strain}, {"to_strain", start.point_strain},
-                       {"strain", std::abs(start.point_strain - start.from_strain)}, {"from_step", from_step},
-                       {"point_step", at.step}, {"output_interval", interval}};
-    try {
-      StageOutput out(run, deck, options, model, stage, interval, /*loading_test=*/true);
-      out.set_branch();
-      out.open(state, /*resumed=*/false);
-      Program program{legs, test.stage_friction(), &test.equilibrium,
-                      from_step + leg_steps(legs.back(), model.dt, start.from_strain)};
-      program.adaptive_threads = !options.fixed_threads;
-      program.kind = StageKind::Test;
-      program.stage = stage;
-      program.control_failure = ControlFailure::Warn;  // recorded with the branch, not a stop of the run
-      std::vector<ControlErrors> errors;
-      run_program(model, program, state, out, errors);
-      out.finish(state);
-      const std::vector<SeriesRow>& branch = out.rows();
-      point["window"]["steps"] = state.control.stage_steps - from_step;
-      point["window"]["branch_end_strain"] = axis_strains(state)[start.axis];
-      const ControlErrors& e = errors.back();
-      point["controlled"] = std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
-      // By quantity: with --seeds, ensemble.json then holds each difference's mean and interval over the seeds
-      // (e.g. verify_rate.points.peak.comparisons.Z.floors), the answer one branch cannot give.
-      Json comparisons = Json::object();
-      if (name == "peak") {
-        double peak = -INFINITY;
-        for (const SeriesRow& r : branch) peak = std::max(peak, r.ratio13);
-        comparisons["peak_ratio13"] = compare(at.ratio13, peak, floors.ratio13, o.tolerance);
-      }
-      const double span = kEndShare * std::abs(start.point_strain - start.from_strain);
-      const EndMeans p = end_means(rows, start, span), b = end_means(branch, start, span);
-      point["window"]["end_means"] = {{"strain", span}, {"parent_rows", p.rows}, {"branch_rows", b.rows}};
-      comparisons["ratio13"] = compare(p.ratio13, b.ratio13, floors.ratio13, o.tolerance);
-      comparisons["ev"] = compare(p.ev, b.ev, floors.ev, o.tolerance);
-      comparisons["Z"] = compare(p.Z, b.Z, floors.Z, o.tolerance);
-      point["comparisons"] = comparisons;
-      point["series"] = (fs::path(test.name) / "verify" / name / "series.csv").string();
-      add_verdict(point, o.tolerance, end_means_gap(p, b, span, test.output_interval, interval));
-    } catch (const RunError& e) {
-      point["verdict"] = "branch failed";
-      point["reason"] = e.what();
-    }
-    result["points"][name] = point;
+    const double d = (a - b) / floor, e = d * extrapolate;
+    c["difference"] = number_or_null(a - b);
+    c["floors"] = number_or_null(d);
+    c["error_floors"] = number_or_null(e);
+    const PairChaos chaos = pair_chaos(c.contains("twin_floors") && c["twin_floors"].is_number()
+                                           ? c["twin_floors"].get<double>() : kNaN, twin_parted);
+    const double half_width = chaos.half_width * extrapolate;
+    c["chaos_half_width_floors"] = half_width;
+    c["chaos_from"] = chaos.from;
+    const std::string v = rate_verdict(e, half_width, o.tolerance);
+    c["verdict"] = v;
+    if (v == "not compared") not_compared += std::string(not_compared.empty() ? "" : ", ") + q.path;
+    any_unresolved = any_unresolved || v == "unresolved";
+    any_not_converged = any_not_converged || v == "not converged";
+    if (std::isfinite(e) && std::abs(e) > largest) largest = std::abs(e), largest_quantity = q.path;
+    comparisons[q.path] = c;
+  }
+  result["comparisons"] = comparisons;
+  result["largest"] = {{"quantity", largest_quantity}, {"error_floors", largest >= 0 ? Json(largest) : Json(nullptr)}};
+  if (!not_compared.empty()) result["not_compared"] = not_compared;
+  const std::string rule = "|error| -+ the chaos's 95 % half-width against T = " + fmt(o.tolerance) +
+                           " floors (comparisons.<quantity>.chaos_half_width_floors)";
+  if (any_not_converged) {
+    std::string which;
+    for (const auto& [q, c] : comparisons.items())
+      if (c["verdict"] == "not converged") which += (which.empty() ? "" : ", ") + q + " " + fmt(c["error_floors"].get<double>());
+    result["verdict"] = "not converged";
+    result["reason"] = "the rate moves the answer beyond the tolerance at 95 %: " + which + " floors (" + rule + ")";
+  } else if (any_unresolved || !not_compared.empty()) {
+    result["verdict"] = "unresolved";
+    result["reason"] = (largest_quantity.empty() ? std::string("nothing compared")
+                                                 : "the largest error " + largest_quantity + " " + fmt(largest) + " floors") +
+                       (not_compared.empty() ? "" : "; not compared: " + not_compared) +
+                       ": one pair cannot tell it from the tolerance at 95 % (" + rule +
+                       "); seeds at both rates can (ensemble.json verify_rate)";
+  } else {
+    result["verdict"] = "converged";
+    result["reason"] = "every error within the tolerance at 95 %: the largest " + largest_quantity + " " + fmt(largest) +
+                       " floors (" + rule + ")";
   }
   return result;
+}
+
+Json rate_check_across_seeds(const std::vector<std::uint64_t>& seeds, const std::vector<Json>& summaries) {
+  Json out = Json::object();
+  std::map<std::string, std::map<std::string, std::vector<double>>> errors;  // test -> quantity -> per seed
+  std::map<std::string, std::vector<std::uint64_t>> checked;
+  std::map<std::string, double> tolerance;
+  for (std::size_t k = 0; k < summaries.size(); ++k) {
+    const Json tests = summaries[k].value("tests", Json::object());
+    for (const auto& [name, t] : tests.items()) {
+      if (!t.contains("verify_rate") || !t["verify_rate"].contains("comparisons")) continue;
+      checked[name].push_back(seeds[k]);
+      tolerance[name] = t["verify_rate"].value("tolerance_floors", 1.0);
+      for (const auto& [q, c] : t["verify_rate"]["comparisons"].items())
+        if (c.contains("error_floors") && c["error_floors"].is_number()) errors[name][q].push_back(c["error_floors"]);
+    }
+  }
+  for (const auto& [name, by_quantity] : errors) {
+    const double T = tolerance[name];
+    Json test = {{"seeds", checked[name]}, {"tolerance_floors", T}, {"confidence", kConfidence},
+                 {"rule", "TOST on the seeds' errors in floors: the mean's one-sided 95 % bounds (Student's t, n - 1) "
+                          "both inside (-T, T): converged; both beyond T on one side: not converged; else unresolved"},
+                 {"quantities", Json::object()}};
+    bool any_not = false, all_converged = true;
+    for (const auto& [q, v] : by_quantity) {
+      const std::size_t n = v.size();
+      double mean = 0.0, var = 0.0;
+      for (double x : v) mean += x / static_cast<double>(n);
+      for (double x : v) var += (x - mean) * (x - mean);
+      Json r = {{"n", n}, {"mean", mean}, {"values", v}};
+      std::string verdict = "unresolved";
+      if (n >= 2) {
+        const double sd = std::sqrt(var / static_cast<double>(n - 1)), se = sd / std::sqrt(static_cast<double>(n));
+        const double c = t_quantile(kConfidence, static_cast<double>(n - 1));
+        const double lo = mean - c * se, hi = mean + c * se;
+        r["std"] = sd, r["bounds95"] = {lo, hi};
+        verdict = lo > -T && hi < T ? "converged" : (lo > T || hi < -T) ? "not converged" : "unresolved";
+      }
+      r["verdict"] = verdict;
+      any_not = any_not || verdict == "not converged";
+      all_converged = all_converged && verdict == "converged";
+      test["quantities"][q] = r;
+    }
+    test["verdict"] = any_not ? "not converged" : all_converged ? "converged" : "unresolved";
+    out[name] = test;
+  }
+  return out;
 }
 
 }  // namespace celldem

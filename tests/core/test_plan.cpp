@@ -299,7 +299,23 @@ namespace {
 
 // The inertial number's rate: the largest strain rate of a driven axis, a shear axis's engineering shear rate
 // included (a simple shear has no driven normal axis), and the probes' steps.
-TEST(Plan, LoadingRateCountsShearAxesAndProbesCountTheirSteps) {
+// The inertial number's rate is one deviatoric scale, sqrt(3/2 e':e') of the imposed rates: |e1-dot| exactly for
+// one driven axis (the axial tests keep their scale bit for bit), (sqrt 3 / 2) g-dot for a shear, every driven
+// component counted together, and the largest normal rate of an isotropic drive.
+TEST(Plan, InertialRateIsOneDeviatoricScale) {
+  for (const double e1 : {0.2, -0.2, 2e-7 / 1e-6, 1.0 / 3.0, 9.98e-7 / 3e-6, 1e-3, 7.3})
+    EXPECT_EQ(inertial_strain_rate({e1, 0.0, 0.0, 0.0, 0.0, 0.0}), std::abs(e1)) << e1;  // exactly
+  EXPECT_EQ(inertial_strain_rate({0.0, 0.0, 0.2, 0.0, 0.0, 0.0}), 0.2);
+  EXPECT_DOUBLE_EQ(inertial_strain_rate({0.0, 0.0, 0.0, 0.2, 0.0, 0.0}), std::sqrt(3.0) / 2.0 * 0.2);  // simple shear
+  EXPECT_DOUBLE_EQ(inertial_strain_rate({0.2, -0.2, 0.0, 0.0, 0.0, 0.0}), std::sqrt(3.0) * 0.2);
+  EXPECT_DOUBLE_EQ(inertial_strain_rate({0.2, -0.1, -0.1, 0.0, 0.0, 0.0}), 0.3);  // isochoric axial: 3/2 e1
+  EXPECT_EQ(inertial_strain_rate({0.3, 0.3, 0.3, 0.0, 0.0, 0.0}), 0.3);  // isotropic: no deviatoric part
+  EXPECT_EQ(inertial_strain_rate({0.0, 0.0, 0.0, 0.0, 0.0, 0.0}), 0.0);
+  // Frame: a pure shear e11 = -e22 = g/2 is the simple shear g rotated by 45 degrees, the same scale.
+  EXPECT_DOUBLE_EQ(inertial_strain_rate({0.1, -0.1, 0.0, 0.0, 0.0, 0.0}), inertial_strain_rate({0.0, 0.0, 0.0, 0.2, 0.0, 0.0}));
+}
+
+TEST(Plan, LoadingRateIsTheDeviatoricScaleAndProbesCountTheirSteps) {
   Deck d = testing::model_deck(1e6, 1e6, 2e-6, 2650.0);
   TestDef t;
   t.name = "dss";
@@ -312,11 +328,16 @@ TEST(Plan, LoadingRateCountsShearAxesAndProbesCountTheirSteps) {
   faster.axes[3 + 0] = AxisControl{AxisMode::Held};
   faster.axes[3 + 2] = AxisControl{AxisMode::StrainRate, -3.0};
   t.legs = {leg};
-  EXPECT_DOUBLE_EQ(loading_rate(d, t), 4e-6 / 2e-6);
+  EXPECT_DOUBLE_EQ(loading_rate(d, t), std::sqrt(3.0) / 2.0 * 4e-6 / 2e-6);  // a simple shear's g-dot
   t.legs = {leg, faster};
-  EXPECT_DOUBLE_EQ(loading_rate(d, t), 3.0);
-  t.legs[1].axes[0] = AxisControl{AxisMode::StrainRate, 5.0};  // a faster normal axis still counts
-  EXPECT_DOUBLE_EQ(loading_rate(d, t), 5.0);
+  EXPECT_DOUBLE_EQ(loading_rate(d, t), std::sqrt(3.0) / 2.0 * 3.0);  // the faster leg
+  t.legs[1].axes[0] = AxisControl{AxisMode::StrainRate, 5.0};  // a normal axis counts with the shear
+  EXPECT_DOUBLE_EQ(loading_rate(d, t), std::sqrt(25.0 + 0.75 * 9.0));
+  Leg axial = leg;
+  axial.axes[3 + 0] = AxisControl{AxisMode::Held};
+  axial.axes[0] = AxisControl{AxisMode::StrainIncrement, -2e-7};
+  t.legs = {axial};
+  EXPECT_EQ(loading_rate(d, t), 2e-7 / 2e-6);  // an axial test: |e1-dot|, exactly as before
 
   EXPECT_EQ(plan_probes(t).steps(), 0);
   ProbeDef probes;

@@ -171,7 +171,7 @@ def test_every_option_of_celldem_run_is_a_keyword_of_run_deck(celldem):
     parameters = inspect.signature(api.run_deck).parameters
     keywords = {name.replace("_", "-") for name, p in parameters.items() if p.kind is p.KEYWORD_ONLY}
     assert flags <= keywords, f"options of `celldem run` that run_deck cannot pass: {sorted(flags - keywords)}"
-    values = {"threads": 2, "seeds": "1-2", "tolerance": 1.5, "verify_at": ["end"], "verify_window": 0.004,
+    values = {"threads": 2, "seeds": "1-2", "tolerance": 1.5,
               "verify_rate_factor": 0.25, "floors": "f.json", "probes": "1-9", "progress_interval": 5.0}
     options = {name.replace("-", "_"): values.get(name.replace("-", "_"), True) for name in flags}
     options.pop("resume")  # (excludes force)
@@ -180,14 +180,14 @@ def test_every_option_of_celldem_run_is_a_keyword_of_run_deck(celldem):
                              threads=2, seeds="1-2", force=True, quiet=True)
     for name in flags - {"resume"}:
         assert "--" + name in cmd, f"--{name} missing from {cmd}"
-    assert cmd[cmd.index("--verify-at") + 1] == "end" and cmd[cmd.index("--tolerance") + 1] == "1.5"
+    assert cmd[cmd.index("--verify-rate-factor") + 1] == "0.25" and cmd[cmd.index("--tolerance") + 1] == "1.5"
 
 
 def test_run_deck_options_are_keyword_only_and_checked(celldem, tmp_path):
     with pytest.raises(TypeError):
         api.run_deck(tiny_deck(), tmp_path / "x", 2)  # threads positionally
-    with pytest.raises(ValueError, match="verify_window need verify_rate"):
-        api.run_deck(tiny_deck(), tmp_path / "x", verify_window=0.004, celldem=celldem)
+    with pytest.raises(ValueError, match="no_verify_twin need verify_rate"):
+        api.run_deck(tiny_deck(), tmp_path / "x", no_verify_twin=True, celldem=celldem)
     with pytest.raises(ValueError, match="exclude each other"):
         api.run_deck(tiny_deck(), tmp_path / "x", force=True, resume=True, celldem=celldem)
 

@@ -163,9 +163,9 @@ def test_report_quotes_summary(alike, tmp_path):
 
 
 def test_report_shows_the_rate_check(alike, tmp_path):
-    """A run with --verify-rate: the report's Rate check section quotes summary.json's verify_rate (window, both
-    values and the difference in floors of each quantity, the verdict and its reason); a run without it has no
-    such section."""
+    """A run with --verify-rate: the report's Rate check section quotes summary.json's verify_rate (each quantity's
+    value in the test and in the slower run, its error in floors with the chaos's half-width and verdict, the test's
+    verdict and its reason, the floors with their source); a run without it has no such section."""
     edited = str(tmp_path / "verified")
     shutil.copytree(alike, edited)
     tool("report", edited)
@@ -173,21 +173,22 @@ def test_report_shows_the_rate_check(alike, tmp_path):
     path = os.path.join(edited, "summary.json")
     s = json.load(open(path))
     s["tests"]["ttc"]["verify_rate"] = {
-        "rate_factor": 0.5, "window_strain": 0.005, "tolerance_floors": 1.0,
+        "rate_factor": 0.5, "tolerance_floors": 1.0, "verdict": "unresolved", "reason": "REASON-TEST",
         "floors": {"ratio13": 0.1, "ev": 0.002, "Z": 0.05, "source": "FLOORS-SOURCE"},
-        "points": {
-            "peak": {"point": "peak", "verdict": "unresolved", "reason": "REASON-PEAK",
-                     "window": {"axis": "x1", "from_strain": 0.02, "to_strain": 0.025},
-                     "comparisons": {"peak_ratio13": {"parent": 3.9, "branch": 3.75, "floors": -1.5}}},
-            "end": {"point": "end", "verdict": "not checked", "reason": "REASON-END"}}}
+        "chaos": {"rule": "RULE", "twin_parted": True},
+        "comparisons": {"peak_ratio13": {"test": 3.9, "slow": 3.75, "floors": 1.5, "error_floors": 3.0,
+                                         "chaos_half_width_floors": 1.25, "chaos_from": "twin",
+                                         "verdict": "not converged"},
+                        "end_window.Z": {"test": 4.5, "slow": 4.5, "floors": 0.0, "error_floors": 0.0,
+                                         "verdict": "converged"}}}
     with open(path, "w") as f:
         json.dump(s, f)
     tool("report", edited)
     r = read_text(os.path.join(edited, "report.md"))
-    assert "## Rate check" in r and "FLOORS-SOURCE" in r and "0.500 times the test's rate" in r
-    assert ("| ttc | peak | x1 0.020 → 0.025 | peak_ratio13 3.900 → 3.750 (-1.50) | **unresolved** | REASON-PEAK |"
-            in r), r[r.index("## Rate check"):][:1500]
-    assert "| ttc | end | — | — | **not checked** | REASON-END |" in r
+    assert "## Rate check" in r and "FLOORS-SOURCE" in r and "0.500 times its rate" in r
+    assert "| ttc | peak_ratio13 | 3.900 → 3.750 | +3.00 ± 1.25 (twin) | not converged |" in r, \
+        r[r.index("## Rate check"):][:1500]
+    assert "| ttc | **the test** |  |  | **unresolved**: REASON-TEST |" in r, r[r.index("## Rate check"):][:1500]
 
 
 def test_diverging_run_figures(diverging):

@@ -290,8 +290,8 @@ def check_deck(deck: DeckLike, *, celldem: Optional[PathLike] = None) -> str:
 def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, seeds: Optional[str] = None,
              force: bool = False, resume: bool = False, quiet: bool = True, fixed_threads: bool = False,
              tolerance: Optional[float] = None, include_uncontrolled: bool = False, verify_rate: bool = False,
-             verify_at: Optional[Sequence[str]] = None, verify_window: Optional[float] = None,
-             verify_rate_factor: Optional[float] = None, floors: Optional[PathLike] = None,
+             verify_rate_factor: Optional[float] = None, no_verify_twin: bool = False,
+             floors: Optional[PathLike] = None,
              probes: Optional[str] = None, progress_interval: Optional[float] = None,
              celldem: Optional[PathLike] = None) -> Union[Run, Ensemble]:
     """`celldem run` of a deck into a folder; every option of `celldem run --help` is a keyword.
@@ -318,8 +318,8 @@ def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, se
         `--include-uncontrolled` (with seeds): keep uncontrolled tests in the ensemble statistics.
     verify_rate : bool
         `--verify-rate`: each test checks its own convergence.
-    verify_at, verify_window, verify_rate_factor, floors : optional
-        `--verify-at`, `--verify-window`, `--verify-rate-factor`, `--floors` (with verify_rate).
+    verify_rate_factor, no_verify_twin, floors : optional
+        `--verify-rate-factor`, `--no-verify-twin`, `--floors` (with verify_rate).
     probes : str, optional
         `--probes K-L`: only these probes (a job array's share).
     progress_interval : float, optional
@@ -348,8 +348,8 @@ def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, se
         cmd = binary.run_command(path, os.path.abspath(out), threads, seeds, force, resume, quiet, exe,
                                  fixed_threads=fixed_threads, tolerance=tolerance,
                                  include_uncontrolled=include_uncontrolled, verify_rate=verify_rate,
-                                 verify_at=verify_at, verify_window=verify_window,
-                                 verify_rate_factor=verify_rate_factor, floors=floors, probes=probes,
+                                 verify_rate_factor=verify_rate_factor, no_verify_twin=no_verify_twin,
+                                 floors=floors, probes=probes,
                                  progress_interval=progress_interval)
         r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE if quiet else None, text=True)
     message = (r.stderr or "").strip().replace(path, "<deck>")

@@ -120,30 +120,28 @@ def run_command(deck_path: PathLike, out: PathLike, threads: Optional[int] = Non
                 force: bool = False, resume: bool = False, quiet: bool = True, binary: Optional[PathLike] = None,
                 *, fixed_threads: bool = False, tolerance: Optional[float] = None,
                 include_uncontrolled: bool = False, verify_rate: bool = False,
-                verify_at: Optional[Sequence[str]] = None, verify_window: Optional[float] = None,
-                verify_rate_factor: Optional[float] = None, floors: Optional[PathLike] = None,
+                verify_rate_factor: Optional[float] = None, no_verify_twin: bool = False,
+                floors: Optional[PathLike] = None,
                 probes: Optional[str] = None, progress_interval: Optional[float] = None) -> List[str]:
     """The command line of `celldem run DECK --out OUT` with the given options, the binary first (find(binary)).
     Each keyword is the option of the same name (`celldem run --help`); None or False leaves it out."""
     if force and resume:
         raise ValueError("force and resume exclude each other")
-    verify_options = {"verify_at": verify_at, "verify_window": verify_window,
-                      "verify_rate_factor": verify_rate_factor, "floors": floors}
+    verify_options = {"verify_rate_factor": verify_rate_factor, "floors": floors,
+                      "no_verify_twin": True if no_verify_twin else None}
     if not verify_rate and any(v is not None for v in verify_options.values()):
         raise ValueError(f"{', '.join(k for k, v in verify_options.items() if v is not None)} need verify_rate=True")
     if include_uncontrolled and seeds is None:
         raise ValueError("include_uncontrolled needs seeds")
     cmd = [find(binary), "run", str(deck_path), "--out", str(out)]
     valued = [("--threads", threads), ("--seeds", seeds), ("--tolerance", tolerance),
-              ("--verify-window", verify_window), ("--verify-rate-factor", verify_rate_factor),
+              ("--verify-rate-factor", verify_rate_factor),
               ("--floors", floors), ("--probes", probes), ("--progress-interval", progress_interval)]
     for flag, value in valued:
         if value is not None:
             cmd += [flag, str(value)]
-    if verify_at is not None:
-        cmd += ["--verify-at", *verify_at]
     for flag, on in (("--fixed-threads", fixed_threads), ("--include-uncontrolled", include_uncontrolled),
-                     ("--verify-rate", verify_rate), ("--quiet", quiet), ("--resume", resume), ("--force", force)):
+                     ("--verify-rate", verify_rate), ("--no-verify-twin", no_verify_twin), ("--quiet", quiet), ("--resume", resume), ("--force", force)):
         if on:
             cmd.append(flag)
     return cmd

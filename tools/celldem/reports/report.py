@@ -540,37 +540,34 @@ def uncontrolled_note(run):
 
 
 def verify_rate_section(run):
-    """`celldem run --verify-rate`: per test and point, the branch's window, each quantity's value in the test and
-    in the branch at half the rate (or the run's rate factor), the difference in noise floors and the verdict with
-    its reason (summary.json verify_rate); None when no test was checked."""
-    rows, floors = [], []
+    """`celldem run --verify-rate`: per test and summary quantity, its value in the test and in the same test run at
+    a fraction of the rate from the same state over the whole path, the error in noise floors (the difference
+    extrapolated to the quasi-static limit), and the verdict at 95 % with the pair chaos it used (summary.json
+    verify_rate); None when no test was checked."""
+    rows, notes = [], []
     for test in run.test_names:
         check = run.test_summary(test).get("verify_rate")
         if not isinstance(check, dict):
             continue
-        floors.append(f"{test}: {check.get('floors', {}).get('source', 'n/a')}")
-        for point, p in (check.get("points") or {}).items():
-            window = p.get("window") or {}
-            span = (f"{window.get('axis', '')} {fmt(window.get('from_strain'))} → {fmt(window.get('to_strain'))}"
-                    if window else "—")
-            order = ("peak_ratio13", "ratio13", "ev", "Z")  # summary.json's object is in key order
-            comparisons = sorted((p.get("comparisons") or {}).items(),
-                                 key=lambda kv: order.index(kv[0]) if kv[0] in order else len(order))
-            diffs = "; ".join(f"{q} {fmt(c.get('parent'))} → {fmt(c.get('branch'))} "
-                              f"({fmt_spec(c.get('floors'), '+.2f')})" for q, c in comparisons) or "—"
-            rows.append((test, point, span, diffs, f"**{p.get('verdict', 'n/a')}**", p.get("reason", "")))
+        notes.append(f"{test}: floors {check.get('floors', {}).get('source', 'n/a')}")
+        for q, c in (check.get("comparisons") or {}).items():
+            rows.append((test, q, f"{fmt(c.get('test'))} → {fmt(c.get('slow'))}",
+                         f"{fmt_spec(c.get('error_floors'), '+.2f')} ± {fmt_spec(c.get('chaos_half_width_floors'), '.2f')} "
+                         f"({c.get('chaos_from', 'n/a')})", c.get("verdict", "n/a")))
+        rows.append((test, "**the test**", "", "", f"**{check.get('verdict', 'n/a')}**: {check.get('reason', '')}"))
     if not rows:
         return None
     factor = next((run.test_summary(t)["verify_rate"].get("rate_factor") for t in run.test_names
                    if isinstance(run.test_summary(t).get("verify_rate"), dict)), None)
-    intro = (f"Each point was run again from a state a short window of driving strain before it, at {fmt(factor)} "
-             "times the test's rate (`--verify-rate`); the branch's value against the test's, the difference in "
-             "noise floors in brackets (the peak: the branch's largest σ1/σ3 in the window against the test's peak; "
-             "σ1/σ3, εv and Z: means over the window's last quarter). Converged: every difference within the "
-             "tolerance; not converged: one beyond the tolerance plus what chaos alone makes of one pair of runs; "
-             "unresolved: in between, where one branch cannot tell. Floors: " + "; ".join(floors) + ".")
-    return intro + "\n\n" + md_table(("Test", "Point", "Window (driving strain)", "Test → branch (floors)", "Verdict",
-                                      "Why"), rows)
+    intro = (f"Each test was run again from the same starting state over its whole path at {fmt(factor)} times its "
+             "rate (`--verify-rate`), and once more at 1.001 times its rate (the twin, whose "
+             "differences measure the chaos of one pair of runs). Error: (test − slower) / (1 − factor) in noise "
+             "floors, the test's distance from the quasi-static limit at first order, ± the 95 % half-width of one "
+             "pair's chaos (from the twin, t with 1 degree of freedom, or the bound √2 floors, the smaller). "
+             "Converged: the error is within the tolerance at 95 %; not converged: beyond it at 95 %; unresolved: "
+             "the rest. "
+             + "; ".join(notes) + ".")
+    return intro + "\n\n" + md_table(("Test", "Quantity", "Test → slower", "Error ± chaos (floors)", "Verdict"), rows)
 
 
 PROBES_INTRO = (

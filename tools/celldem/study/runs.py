@@ -563,6 +563,7 @@ def write_rules(study, path=RULES_PATH):
                         "tools/study.py analyse --write-rules from the study's results: at each level the cheapest "
                         "setting whose error (the mean over seeds of the paired difference from the paper's settings, "
                         "over the seed-to-seed standard deviation) is at most T."),
+        "particles": study["scene"]["count"],
         "source": f"tools/study.py on {study['scene']['count']} spheres, tests to e1 = {study['scene']['end_strain']:g}, "
                   f"reference seeds {study['scene']['reference_seeds']}",
         "columns": {
