@@ -236,7 +236,7 @@ def test_probes_of_a_real_run(tmp_path, celldem):
     for point in ("e1_0.05", "peak"):
         entry = summary["ttc"]["probes"]["points"][point]
         assert entry["status"] == "not run"
-        assert f"| {point} | — | — | **not run** | — | n/a | {entry['reason']} |" in text, f"no row for {point}"
+        assert f"| {point} | — | — | **not run** | — | n/a | — | {entry['reason']} |" in text, f"no row for {point}"
     assert "- e1_0.002, M = 2 kPa: the largest total response is along d0" in text, "no envelope findings"
     magnitude = json.load(open(os.path.join(run_dir, "psc", "probes", "stiffness.json")))["points"]["e1_0.002"][
         "magnitudes"][0]
