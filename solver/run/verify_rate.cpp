@@ -305,12 +305,16 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   const bool test_peak = summary.value("peak_reached", true), slow_peak = slow.summary.value("peak_reached", true);
   const bool twin_ok = o.twin && twin.error.empty();
   const bool twin_peak = twin_ok && twin.summary.value("peak_reached", true);
-  // The twin parted from the test when its differences are not all within kTwinParted floors (else it says nothing).
+  // Each quantity's test - twin in floors (NaN where the twin says nothing of it: no twin, or a peak not reached by
+  // both). The twin parted from the test when these are not all within kTwinParted floors.
+  std::map<std::string, double> twin_floors;
   double twin_sum = 0.0;
   int twin_n = 0;
   for (const ComparedQuantity& q : kRateCheckQuantities) {
-    if (!twin_ok || (q.peak && !(test_peak && twin_peak))) continue;
-    const double t = (at_path(summary, q.path) - at_path(twin.summary, q.path)) / floor_of(floors, q.floor);
+    const bool compared = twin_ok && !(q.peak && !(test_peak && twin_peak));
+    const double t = compared ? (at_path(summary, q.path) - at_path(twin.summary, q.path)) / floor_of(floors, q.floor)
+                              : kNaN;
+    twin_floors[q.path] = t;
     if (std::isfinite(t)) twin_sum += t * t, ++twin_n;
   }
   const bool twin_parted = twin_n > 0 && std::sqrt(twin_sum / twin_n) >= kTwinParted;
@@ -334,9 +338,9 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     const double floor = floor_of(floors, q.floor);
     const double a = at_path(summary, q.path), b = at_path(slow.summary, q.path);
     Json c = {{"test", number_or_null(a)}, {"slow", number_or_null(b)}, {"floor", floor}};
-    if (twin_ok && !(q.peak && !(test_peak && twin_peak))) {  // the differences pair_chaos was given
+    if (twin_ok && !(q.peak && !(test_peak && twin_peak))) {  // the differences pair_chaos is given
       c["twin"] = number_or_null(at_path(twin.summary, q.path));
-      c["twin_floors"] = number_or_null((a - at_path(twin.summary, q.path)) / floor);
+      c["twin_floors"] = number_or_null(twin_floors[q.path]);
     }
     if (q.peak && !(test_peak && slow_peak)) {
       c["verdict"] = "not compared";
@@ -349,8 +353,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     c["difference"] = number_or_null(a - b);
     c["floors"] = number_or_null(d);
     c["error_floors"] = number_or_null(e);
-    const PairChaos chaos = pair_chaos(c.contains("twin_floors") && c["twin_floors"].is_number()
-                                           ? c["twin_floors"].get<double>() : kNaN, twin_parted);
+    const PairChaos chaos = pair_chaos(twin_floors[q.path], twin_parted);
     const double half_width = chaos.half_width * extrapolate;
     c["chaos_half_width_floors"] = half_width;
     c["chaos_from"] = chaos.from;
