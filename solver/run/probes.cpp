@@ -948,20 +948,25 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     const Json record = Json::parse(read_file((point_dir / kPointRecordName).string()));
     const double point_step = record.at("step").get<double>(), point_e1 = record.at("e1").get<double>();
     Json entry = {{"step", point_step}, {"e1", point_e1}};
-    if (!record.at("reached").get<bool>()) {
-      entry["status"] = "not run";
-      entry["reason"] = record.at("reason");
+    // A point that ends here: its status and why, in the summary.
+    const auto settle = [&](const char* status, const std::string& reason) {
+      entry["status"] = status;
+      entry["reason"] = reason;
       summary["points"][name] = entry;
+    };
+    const auto left_to_other_jobs = [&] {
+      entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
+      settle("not run here", "its probes were left to other jobs (--probes); `celldem merge` gathers them");
+    };
+    if (!record.at("reached").get<bool>()) {
+      settle("not run", record.at("reason").get<std::string>());
       continue;
     }
     entry["state"] = (fs::path(test.name) / "probes" / name / "point.state").string();
     const std::optional<ProbeResult> reference_record = read_probe_result(point_dir / "reference");
     const std::optional<RestRecord> rest = read_rest(point_dir);
     if (!rest) {
-      entry["status"] = "not run here";
-      entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
-      entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
-      summary["points"][name] = entry;
+      left_to_other_jobs();
       continue;
     }
     entry["rest"] = {{"reached", rest->reached}, {"steps", rest->steps}, {"goal", rest->goal},
@@ -970,9 +975,7 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
                      {"folder", (fs::path(test.name) / "probes" / name / kRestName).string()}};
     if (!rest->gave_up.empty()) entry["rest"]["gave_up"] = rest->gave_up;
     if (!rest->error.empty()) {
-      entry["status"] = "failed";
-      entry["reason"] = "the rest before the probes failed: " + rest->error;
-      summary["points"][name] = entry;
+      settle("failed", "the rest before the probes failed: " + rest->error);
       continue;
     }
     ProbeEvidence evidence;
@@ -989,14 +992,16 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       if (!check.whole) e["reason"] = check.reason;
       e["elastic"] = matrix_json(check.elastic);
       e["tangent"] = matrix_json(check.tangent);
-      e["elastic_asymmetry"] = asymmetry(check.elastic);
-      e["elastic_min_eigenvalue"] = min_symmetric_eigenvalue(check.elastic);
+      const double asymmetry_of_elastic = asymmetry(check.elastic);
+      const double min_eigenvalue_of_elastic = min_symmetric_eigenvalue(check.elastic);
+      e["elastic_asymmetry"] = asymmetry_of_elastic;
+      e["elastic_min_eigenvalue"] = min_eigenvalue_of_elastic;
       e["reference_drift_stress"] = check.drift;
       entry["elastic_check"] = e;
       if (!check.whole) evidence.elastic_check_missing = check.reason;
       if (check.whole) {
-        evidence.elastic_asymmetry = asymmetry(check.elastic);
-        evidence.elastic_min_eigenvalue = min_symmetric_eigenvalue(check.elastic);
+        evidence.elastic_asymmetry = asymmetry_of_elastic;
+        evidence.elastic_min_eigenvalue = min_eigenvalue_of_elastic;
       }
       if (def.scaled) {
         std::tie(scale, scale_from) = probe_scale(def, check, path_tangent(run_dir, test, point_step));
@@ -1006,27 +1011,20 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
         entry["magnitude_from"] = scale_from;
         if (!std::isfinite(scale)) {  // its probes were not run (run_test_probes)
           const ProbeVerdict v = judge_probe_point(def, evidence);
-          entry["status"] = "failed";
           entry["checks_failed"] = v.failed;
-          entry["reason"] = "no stiffness to size the probes by: the elastic check's tangent and elastic stiffness "
-                            "are both not positive definite (elastic_check)" + (v.reason.empty() ? "" : "; " + v.reason);
-          summary["points"][name] = entry;
+          settle("failed", "no stiffness to size the probes by: the elastic check's tangent and elastic stiffness "
+                           "are both not positive definite (elastic_check)" + (v.reason.empty() ? "" : "; " + v.reason));
           continue;
         }
       }
     }
     if (!reference_record) {
-      entry["status"] = "not run here";
-      entry["reason"] = "its probes were left to other jobs (--probes); `celldem merge` gathers them";
-      entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
-      summary["points"][name] = entry;
+      left_to_other_jobs();
       continue;
     }
     const ProbeResult& reference = *reference_record;
     if (!reference.ran) {
-      entry["status"] = "failed";
-      entry["reason"] = "the reference probe failed: " + reference.error;
-      summary["points"][name] = entry;
+      settle("failed", "the reference probe failed: " + reference.error);
       continue;
     }
     const Vec3 s{reference.start.s11, reference.start.s22, reference.start.s33};
@@ -1207,7 +1205,7 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
         linearity["meaning"] = "per direction |de| at the largest magnitude over |de| at the smallest, divided by the "
                                "magnitudes' ratio (1 where the response is linear): over all directions, and per cone "
                                "(loading: the probe raises s11/s33; unloading: it lowers it)";
-        const bool drifting = std::find(verdict.failed.begin(), verdict.failed.end(), "drifting") != verdict.failed.end();
+        const bool drifting = std::find(verdict.failed.begin(), verdict.failed.end(), kProbeCheckNames[0]) != verdict.failed.end();
         if (drifting) {
           entry["linearity"] = nullptr;
           entry["linearity_withheld"] = withheld;
