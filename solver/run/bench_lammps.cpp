@@ -135,15 +135,15 @@ std::string bare_lammps_script(const std::string& script) {
 
 LammpsScene prepare_lammps(const Deck& deck, const TestDef& test, const State& state, std::int64_t steps,
                            const fs::path& dir, Json* tuned_settings, bool bare) {
-  if (bare && !tuned_settings) throw std::logic_error("prepare_lammps: the bare kernel starts from the tuned script");
   fs::create_directories(dir);
   const std::vector<std::string> diffs = state_differences(state, TargetCode::Lammps);
   std::ofstream(dir / kTranslatedDataName) << translate_data(deck, state, TargetCode::Lammps, "bench", diffs);
   const std::string script = script_file_name(test, TargetCode::Lammps);
   const std::string text = translate_test(deck, test, TargetCode::Lammps);
-  Json discarded;
-  const std::string tuned = tuned_settings ? tune_lammps_script(text, test, bare ? discarded : *tuned_settings) : text;
-  std::ofstream(dir / script) << (bare ? bare_lammps_script(tuned) : tuned);
+  Json settings;  // the bare kernel's set-up is the tuned script's, whose settings the caller did not ask for
+  const bool tuned = tuned_settings || bare;
+  const std::string text_run = tuned ? tune_lammps_script(text, test, tuned_settings ? *tuned_settings : settings) : text;
+  std::ofstream(dir / script) << (bare ? bare_lammps_script(text_run) : text_run);
   return {dir, script, steps};
 }
 

@@ -29,8 +29,8 @@ std::string tune_lammps_script(const std::string& script, const TestDef& test, n
 // itself costs, the yardstick for celldem's whole step (the physics is not the scene's: nothing loads it).
 std::string bare_lammps_script(const std::string& script);
 
-// Writes the translated data file and test script into `dir` (tuned when tuned_settings is given; the bare
-// kernel when bare is true, which needs tuned_settings).
+// Writes the translated data file and test script into `dir`: tuned when tuned_settings is given (its settings
+// written there); the bare kernel of the tuned script when bare is true.
 LammpsScene prepare_lammps(const Deck& deck, const TestDef& test, const State& state, std::int64_t steps,
                            const std::filesystem::path& dir, nlohmann::json* tuned_settings, bool bare = false);
 

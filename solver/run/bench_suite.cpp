@@ -49,7 +49,7 @@ Json time_threads(const Deck& deck, const TestDef& test, const State& state, con
   Json lammps_settings;
   if (o.vs_lammps) {
     scene = prepare_lammps(deck, test, state, o.warmup + o.steps, o.out / "lammps", &lammps_settings);
-    bare = prepare_lammps(deck, test, state, o.warmup + o.steps, o.out / "lammps-bare", &lammps_settings, true);
+    bare = prepare_lammps(deck, test, state, o.warmup + o.steps, o.out / "lammps-bare", nullptr, true);
     if (o.lammps_as_translated)
       as_translated = prepare_lammps(deck, test, state, o.warmup + o.steps, o.out / "lammps-as-translated", nullptr);
   }
