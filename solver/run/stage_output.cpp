@@ -156,7 +156,8 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
     progress_.finish();
     throw Interrupted("stopped by a signal in the branch '" + stage_ + "' at step " + std::to_string(s) +
                       "; the test's last checkpoint is kept. Continue with: celldem run " + deck_.source + " --out " +
-                      options_.out_dir + " --resume (its rate checks and probes at points before that checkpoint are then not run)");
+                      options_.out_dir + " --resume (the test goes on from that checkpoint; its rate check runs again whole, its "
+                      "probes from the points' kept states)");
   }
   if (stop_requested()) {
     checkpoint(state);
