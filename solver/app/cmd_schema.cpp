@@ -315,6 +315,18 @@ Json plan_json(const Deck& deck) {
   return out;
 }
 
+// The floor model's line: what T floors of this deck are in the rules' scene.
+std::string describe_calibration(const Json& t) {
+  if (!t.contains("calibration") || !t["calibration"].contains("calibration_particles")) return "";
+  const Json& c = t["calibration"];
+  char buf[320];
+  std::snprintf(buf, sizeof buf, "%g floors of these %.0f spheres are %.3g floors of the rules' %d-sphere scene "
+                "(floors as 1/sqrt(N), a rate's bias not; a smaller deck keeps T)", c["tolerance"].get<double>(),
+                c["particles"].get<double>(), c["tolerance_at_calibration"].get<double>(),
+                c["calibration_particles"].get<int>());
+  return buf;
+}
+
 // The tolerance block of `plan` in words: per stage its time step, each leg's driving and inertial number,
 // the damping, the output interval and the particle-steps against the deck as written.
 void print_tolerance(const Json& t) {
@@ -326,12 +338,17 @@ void print_tolerance(const Json& t) {
     return std::string(buf);
   };
   const auto ratio = [](const Json& r) { return r.is_null() ? std::string("?") : std::to_string(r.get<double>()).substr(0, 5); };
-  const Json& rules = t["rules"];
-  std::printf("tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the stability limit %.3g s "
-              "(preparation %.3f), inertial number %.3g, damping translational %.3g rotational %.3g\n",
-              t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(), t["stability_limit"].get<double>(),
-              rules["prepare_time_step_fraction"].get<double>(), rules["inertial_number"].get<double>(),
-              t["damping"]["translational"].get<double>(), t["damping"]["rotational"].get<double>());
+  if (t.value("as_written", false)) {
+    std::printf("%s\n", t["reason"].get<std::string>().c_str());
+  } else {
+    const Json& rules = t["rules"];
+    std::printf("tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the stability limit %.3g s "
+                "(preparation %.3f), inertial number %.3g, damping translational %.3g rotational %.3g\n",
+                t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(), t["stability_limit"].get<double>(),
+                rules["prepare_time_step_fraction"].get<double>(), rules["inertial_number"].get<double>(),
+                t["damping"]["translational"].get<double>(), t["damping"]["rotational"].get<double>());
+  }
+  if (const std::string c = describe_calibration(t); !c.empty()) std::printf("  %s\n", c.c_str());
   for (const Json& s : t["stages"]) {
     std::printf("  %-12s dt %.3g s = %.3f of the limit (written %.3g s = %.3f); output every %lld steps (written %lld); "
                 "%s particle-steps (written %s: %sx)\n",
@@ -370,10 +387,6 @@ void print_tolerance(const Json& t) {
   std::printf("  total        %s particle-steps (written %s: %sx fewer, counting each equilibrium at its min_steps)\n",
               steps(t["total"]["particle_steps"]).c_str(), steps(t["total"]["particle_steps_written"]).c_str(),
               ratio(t["total"]["ratio_low"]).c_str());
-  if (t.contains("floors_at_this_size"))
-    std::printf("  calibrated on %d spheres: T floors there are up to %.3g floors of this deck's %.0f spheres (floors as "
-                "1/sqrt(N), a rate's bias not)\n", t["floors_at_this_size"]["calibration_particles"].get<int>(),
-                t["floors_at_this_size"]["bound_floors"].get<double>(), t["floors_at_this_size"]["particles"].get<double>());
 }
 
 }  // namespace
@@ -408,38 +421,27 @@ Json tolerance_json(const Deck& written, const Deck& resolved) {
     add(all_written, w), add(all, r);
   }
   out["total"] = steps_json(all_written, all);
-  // The rules were measured in the floors of their scene; this deck's floors scale as 1/sqrt(N), a rate's bias not.
-  if (const int calibrated = time_to_answer_rules().particles; calibrated > 0) {
-    const double ratio = std::sqrt(n / calibrated);
-    out["floors_at_this_size"] = {
-        {"calibration_particles", calibrated}, {"particles", n}, {"floor_ratio", ratio},
-        {"bound_floors", out["tolerance"].get<double>() * ratio},
-        {"meaning", "the rules hold a rate's bias within T floors of a scene of calibration_particles spheres; the "
-                    "floors shrink as 1/sqrt(N) and the bias does not, so in this deck's floors the bound is T x "
-                    "sqrt(N / calibration_particles) (docs/study.md; not yet rules in the bias's own units)"}};
-  }
   return out;
 }
 
 std::string describe_tolerance(const Json& t) {
-  const Json& rules = t["rules"];
   const Json& total = t["total"];
+  const double ratio = total["ratio_low"].is_null() ? NAN : total["ratio_low"].get<double>();
   char buf[512];
-  std::snprintf(buf, sizeof buf, "tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the "
-                "stability limit, inertial number %.3g; predicted %.3g particle-steps against %.3g as written: %.2fx fewer "
-                "(each equilibrium at its min_steps; `celldem plan --tolerance %g` has every setting)",
-                t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(),
-                rules["inertial_number"].get<double>(), total["particle_steps"]["low"].get<double>(),
-                total["particle_steps_written"]["low"].get<double>(),
-                total["ratio_low"].is_null() ? NAN : total["ratio_low"].get<double>(), t["tolerance"].get<double>());
-  std::string words = buf;
-  if (t.contains("floors_at_this_size")) {
-    const Json& f = t["floors_at_this_size"];
-    std::snprintf(buf, sizeof buf, "; the rules were calibrated on %d spheres: at %.0f spheres their T floors are up to "
-                  "%.3g of this deck's floors (floors as 1/sqrt(N), a rate's bias not)",
-                  f["calibration_particles"].get<int>(), f["particles"].get<double>(), f["bound_floors"].get<double>());
-    words += buf;
+  if (t.value("as_written", false)) {
+    std::snprintf(buf, sizeof buf, "tolerance %g noise floors: the deck runs as written (%.2fx): the rules promise no "
+                  "faster setting within it", t["tolerance"].get<double>(), ratio);
+  } else {
+    const Json& rules = t["rules"];
+    std::snprintf(buf, sizeof buf, "tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the "
+                  "stability limit, inertial number %.3g; predicted %.3g particle-steps against %.3g as written: %.2fx "
+                  "fewer (each equilibrium at its min_steps; `celldem plan --tolerance %g` has every setting)",
+                  t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(),
+                  rules["inertial_number"].get<double>(), total["particle_steps"]["low"].get<double>(),
+                  total["particle_steps_written"]["low"].get<double>(), ratio, t["tolerance"].get<double>());
   }
+  std::string words = buf;
+  if (const std::string c = describe_calibration(t); !c.empty()) words += "; " + c;
   return words;
 }
 

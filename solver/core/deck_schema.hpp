@@ -187,8 +187,9 @@ inline constexpr KeySpec tolerance{.path = "tolerance", .kind = KeyKind::Number,
     .default_text = "none (the deck as written)", .unit = "noise floors",
     .meaning = "ask for an answer within this many seed-to-seed noise floors of the deck as written, in fewer steps: "
                "the time steps, strain rates, preparation schedule and output intervals are rewritten by "
-               "the study's rules (io/time_to_answer_rules.json, levels 0.5 to 3; `celldem plan --tolerance`); "
-               "`run --tolerance` overrides it"};
+               "the study's rules (io/time_to_answer_rules.json, levels 0.5 to 3 floors of their 1000-sphere scene; a "
+               "deck of N > 1000 spheres asks T sqrt(1000/N) of them, and below the lowest level runs as written; "
+               "`celldem plan --tolerance`); `run --tolerance` overrides it"};
 
 inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
     .default_text = "defaults", .meaning = "the stress servo (docs/physics.md: Mixed control)"};

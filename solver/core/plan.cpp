@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include "core/number_text.hpp"
 
 namespace celldem {
 
@@ -280,15 +281,10 @@ ModeLimit mode_limit(ContactMode mode, const char* name, const char* stiffness_n
   return l;
 }
 
-std::string fmt(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
-  return buf;
-}
 }  // namespace
 
 std::string ModeLimit::describe() const {
-  return std::string(name) + " mode: " + stiffness_name + " = " + fmt(stiffness) +
+  return std::string(name) + " mode: " + stiffness_name + " = " + fmt3(stiffness) +
          (mode == ContactMode::Twisting ? " N m/rad" : " N/m");
 }
 
@@ -340,11 +336,11 @@ std::vector<TimeStepFinding> time_step_findings(double time_step, const Critical
     const double fraction = time_step / base;
     if (b.above ? !(fraction > b.fraction) : !(fraction < b.fraction)) continue;
     const ModeLimit& mode = b.of_normal_mode ? limit.modes[0] : limit.limiting();
-    std::string msg = fmt(time_step) + " s is " + fmt(fraction) + " of " +
-                      (b.of_normal_mode ? "the normal mode's limit " : "the stability limit ") + fmt(base) + " s (" +
-                      mode.describe() + "), " + (b.above ? "above " : "below ") + fmt(b.fraction) + " of it: " + b.why;
-    if (b.refuse && b.above) msg += "; use at most " + fmt(suggested_time_step(limit)) + " s";
-    else if (!b.refuse && b.above) msg += "; use at most " + fmt(std::min(b.fraction * base, suggested_time_step(limit))) + " s";
+    std::string msg = fmt3(time_step) + " s is " + fmt3(fraction) + " of " +
+                      (b.of_normal_mode ? "the normal mode's limit " : "the stability limit ") + fmt3(base) + " s (" +
+                      mode.describe() + "), " + (b.above ? "above " : "below ") + fmt3(b.fraction) + " of it: " + b.why;
+    if (b.refuse && b.above) msg += "; use at most " + fmt3(suggested_time_step(limit)) + " s";
+    else if (!b.refuse && b.above) msg += "; use at most " + fmt3(std::min(b.fraction * base, suggested_time_step(limit))) + " s";
     out.push_back({&b, std::move(msg)});
   }
   return out;

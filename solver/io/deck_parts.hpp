@@ -7,17 +7,11 @@
 #include <string_view>
 
 #include "core/deck.hpp"
+#include "core/number_text.hpp"
 
 namespace celldem::deck_json {
 
 using Json = nlohmann::json;
-
-// A number as the messages and the printed key table write it.
-inline std::string fmt(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
 
 // The top-level object has the empty path: its messages name "deck".
 [[noreturn]] inline void fail(const std::string& path, const std::string& what) {

@@ -16,7 +16,6 @@ namespace celldem {
 namespace {
 
 using deck_json::fail;
-using deck_json::fmt;
 using deck_json::key_path;
 using deck_json::Json;
 using deck_json::parse_json;
@@ -848,7 +847,6 @@ PrepareDef read_prepare(ObjectReader r) {
   r.finish();
   return p;
 }
-
 
 // The reference overlap of hertz/mindlin (from the deck's stresses unless given), then the time step against
 // the bounds that refuse it (core/plan: above the stability limit of the stiffest mode, or far below it).

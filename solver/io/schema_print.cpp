@@ -11,7 +11,6 @@ namespace celldem {
 
 namespace {
 
-using deck_json::fmt;
 using deck_json::Json;
 
 std::string kind_name(KeyKind kind) {

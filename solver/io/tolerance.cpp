@@ -19,7 +19,6 @@ extern const char* const kTimeToAnswerRules;
 
 namespace {
 
-using deck_json::fmt;
 using deck_json::Json;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -308,15 +307,73 @@ ToleranceLevel interpolate_rules(const ToleranceRules& rules, double tolerance, 
   return out;
 }
 
+double calibration_tolerance(const ToleranceRules& rules, double tolerance, double particles) {
+  if (rules.particles <= 0 || !(particles > rules.particles)) return tolerance;
+  return tolerance * std::sqrt(rules.particles / particles);
+}
+
+namespace {
+
+// What the floor model did to T, for the summary and the plan.
+Json calibration_json(const ToleranceRules& rules, double tolerance, double particles, double at_calibration) {
+  Json c = {{"particles", particles}, {"tolerance", tolerance}, {"tolerance_at_calibration", at_calibration},
+            {"model", "seed-to-seed floors as 1/sqrt(N) (tools/study.py floors; docs/study.md), a rate's bias not: T "
+                      "floors of a deck larger than the rules' scene are T sqrt(calibration_particles / N) of the "
+                      "scene's floors; a smaller deck keeps T"}};
+  if (rules.particles > 0) c["calibration_particles"] = rules.particles;
+  return c;
+}
+
+// Below the rules' lowest level no setting they know is promised within T: the deck as written, with a report
+// of the same shape (every stage at its written time step, nothing rewritten).
+Deck as_written(const Deck& written, Json j, double tolerance, double limit, Json calibration) {
+  const std::string note = "tolerance " + fmt(tolerance) + " noise floors: run as written (below the time-to-answer "
+                           "rules' lowest level at this particle count)";
+  Json stages = Json::array();
+  const auto stage = [&](const std::string& name, double dt, std::int64_t output_interval) {
+    stages.push_back({{"stage", name}, {"time_step_written", dt}, {"time_step", dt},
+                      {"time_step_fraction_written", dt / limit}, {"time_step_fraction", dt / limit},
+                      {"output_interval_written", output_interval}, {"output_interval", output_interval},
+                      {"legs", Json::array()}});
+  };
+  if (written.prepare) stage("prepare", written.stage_time_step(*written.prepare), written.prepare->output_interval);
+  for (const TestDef& t : written.tests) stage(t.name, written.stage_time_step(t), t.output_interval);
+  Deck d = parse_deck(j.dump(), written.source);
+  d.tolerance = tolerance;
+  d.tolerance_settings = Json{{"tolerance", tolerance}, {"as_written", true}, {"reason", note},
+                              {"calibration", std::move(calibration)}, {"stability_limit", limit},
+                              {"damping", {{"translational", d.damping.translational}, {"rotational", d.damping.rotational}}},
+                              {"stages", stages}}
+                             .dump();
+  return d;
+}
+
+}  // namespace
+
 Deck resolve_tolerance(const Deck& written, const std::string& json_text, double tolerance, const std::string& key_path) {
-  Resolver r{written, interpolate_rules(time_to_answer_rules(), tolerance, key_path)};
+  const ToleranceRules& rules = time_to_answer_rules();
+  const double particles = written.sample.count;
+  const double at_calibration = calibration_tolerance(rules, tolerance, particles);
+  Json calibration = calibration_json(rules, tolerance, particles, at_calibration);
+  const double largest = rules.levels.back().tolerance;
+  if (!(tolerance > 0.0) || !std::isfinite(tolerance))
+    throw DeckError(key_path + ": " + fmt(tolerance) + ": expected a positive number of noise floors");
+  if (at_calibration > largest)
+    throw DeckError(key_path + ": " + fmt(tolerance) + " is outside the time-to-answer rules' range: at most " +
+                    fmt(largest * tolerance / at_calibration) + " noise floors at " + fmt(particles) +
+                    " spheres (their largest level, " + fmt(largest) + " floors" +
+                    (rules.particles > 0 ? " of their " + std::to_string(rules.particles) + "-sphere scene" : "") +
+                    "; io/time_to_answer_rules.json)");
   // The rules' time step unit: the stability limit, or where the normal mode limits (kt well below kn) the bound
   // check refuses above (core/plan.hpp kNormalModeFraction of the normal mode's own limit: packings boil there).
   const CriticalTimeStep modes = critical_time_steps(written.sample, written.contact);
-  r.limit = std::min(modes.value(), kNormalModeFraction * modes.modes[0].time_step);
-  r.largest_stress = largest_deck_stress(written);
+  const double limit = std::min(modes.value(), kNormalModeFraction * modes.modes[0].time_step);
   Json j = deck_json::parse_json(json_text);
   j.erase("tolerance");
+  if (at_calibration < rules.levels.front().tolerance) return as_written(written, j, tolerance, limit, calibration);
+  Resolver r{written, interpolate_rules(rules, at_calibration, key_path)};
+  r.limit = limit;
+  r.largest_stress = largest_deck_stress(written);
   Json stages = Json::array();
   if (written.prepare) stages.push_back(r.preparation(j["prepare"]));
   for (std::size_t i = 0; i < written.tests.size(); ++i) stages.push_back(r.test(j["tests"][i], written.tests[i]));
@@ -338,6 +395,7 @@ Deck resolve_tolerance(const Deck& written, const std::string& json_text, double
   d.tolerance = tolerance;
   const ToleranceLevel& l = r.level;
   d.tolerance_settings = Json{{"tolerance", tolerance},
+                              {"calibration", calibration},
                               {"rules", {{"time_step_fraction", l.time_step_fraction},
                                          {"prepare_time_step_fraction", l.prepare_time_step_fraction},
                                          {"inertial_number", l.inertial_number},

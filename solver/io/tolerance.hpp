@@ -23,10 +23,15 @@ struct ToleranceLevel {
 struct ToleranceRules {
   std::vector<ToleranceLevel> levels;  // ascending tolerance, at least one
   // The particle count of the scene the levels were measured on ("particles"; 0: not given). Its floors are
-  // sqrt(N / particles) times a deck of N spheres': a rate's bias of T floors there is T sqrt(N / particles)
-  // floors of the deck (the bias does not shrink with N; docs/study.md).
+  // sqrt(N / particles) times a deck of N spheres' (floors as 1/sqrt(N): tools/study.py floors, docs/study.md),
+  // and a rate's bias does not shrink with N.
   int particles = 0;
 };
+
+// T floors of a deck of `particles` spheres in floors of the rules' scene: T sqrt(rules.particles / N) for a
+// larger deck (its floors are narrower, the bias the same); T itself for a smaller one (its wider floors are not
+// spent: the floor model is measured from 500 spheres up) or where the rules give no count.
+double calibration_tolerance(const ToleranceRules& rules, double tolerance, double particles);
 
 // The table as the binary carries it (CMake embeds the file at build time: no file is read at run time).
 const std::string& time_to_answer_rules_text();
@@ -38,7 +43,9 @@ ToleranceRules parse_tolerance_rules(const std::string& json_text);
 // the table's range a DeckError names `key_path` ("tolerance" or "--tolerance") and the range.
 ToleranceLevel interpolate_rules(const ToleranceRules& rules, double tolerance, const std::string& key_path);
 
-// The deck (as written, and its JSON text) rewritten for `tolerance` and read again: every stage gets its own
+// The deck (as written, and its JSON text) rewritten for `tolerance` floors of its own (calibration_tolerance
+// carries it to the rules' scene; below their lowest level the deck runs as written, above their largest the
+// tolerance is refused) and read again: every stage gets its own
 // time step at the level's fraction of the stability limit; each strain-driven test leg the strain rate of the
 // level's inertial number at the leg's confining stress (its stress targets, else the test's, else the deck's
 // largest), its strain-driven axes scaled together and its step ends kept at their strain; the preparation's

@@ -7,22 +7,17 @@
 #include "cell/control.hpp"
 #include "core/plan.hpp"
 #include "run/health.hpp"
+#include "core/number_text.hpp"
 
 namespace celldem {
 using Json = nlohmann::json;
 
 namespace {
-Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
 double number_of(const Json& j, const char* key) {
   const auto it = j.find(key);
   return it != j.end() && it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
 }
 double worst_of(double a, double b) { return std::isfinite(a) ? (std::isfinite(b) ? std::max(a, b) : a) : b; }
-std::string fmt(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
-  return buf;
-}
 bool controlled(AxisMode mode) {
   return mode == AxisMode::Stress || mode == AxisMode::StressRamp || mode == AxisMode::MeanStress ||
          mode == AxisMode::B || mode == AxisMode::ConstantVolume;
@@ -262,16 +257,16 @@ std::vector<ControlFailureRecord> control_failures(const std::vector<ControlErro
 namespace {
 // "target 1e+05 Pa, reached 5.2e+04 Pa" in the kind's quantity.
 std::string target_text(const std::string& kind, double target, double reached) {
-  if (kind == "b") return "target b = " + fmt(target) + ", reached b = " + fmt(reached);
-  if (kind == "volume") return "V/V(leg start) = " + fmt(reached) + " against 1";
+  if (kind == "b") return "target b = " + fmt3(target) + ", reached b = " + fmt3(reached);
+  if (kind == "volume") return "V/V(leg start) = " + fmt3(reached) + " against 1";
   const std::string what = kind == "mean_stress" ? "p = " : "";
-  return "target " + what + fmt(target) + " Pa, reached " + what + fmt(reached) + " Pa";
+  return "target " + what + fmt3(target) + " Pa, reached " + what + fmt3(reached) + " Pa";
 }
 }  // namespace
 
 std::string control_failure_message(const std::string& where, const ControlErrors& e, int k, double cap,
                                     const ServoDef& servo, const State& state, const LegChecks& checks) {
-  const std::string span = checks.driving > 0.0 ? "a span of " + fmt(100 * kPersistStrain) + " % of driving strain"
+  const std::string span = checks.driving > 0.0 ? "a span of " + fmt3(100 * kPersistStrain) + " % of driving strain"
                                                 : "a span of " + std::to_string(checks.span) + " steps";
   const AxisMode mode = e.mode[k];
   const std::string kind = control_kind(mode, k);
@@ -280,8 +275,8 @@ std::string control_failure_message(const std::string& where, const ControlError
   const std::string unit = relative ? " %" : "";
   std::string m = where + ": the " + kind + " control of axis " + component_name(k) + " failed: " +
                   target_text(kind, e.target_at_failure[k], e.reached_at_failure[k]) + "; its error averaged " +
-                  fmt(scale * e.sustained[k]) + unit + " over " + span + " (tolerance " +
-                  fmt(scale * control_tolerance(mode, k)) + unit + ", worst step " + fmt(scale * e.error[k]) + unit + ")";
+                  fmt3(scale * e.sustained[k]) + unit + " over " + span + " (tolerance " +
+                  fmt3(scale * control_tolerance(mode, k)) + unit + ", worst step " + fmt3(scale * e.error[k]) + unit + ")";
   if (mode == AxisMode::ConstantVolume) return m + " (the volume hold is exact: report this as a bug)";
   const bool saturated = 2 * e.over_saturated[k] > e.over_steps[k];
   if (saturated && is_shear_component(k)) {
@@ -292,20 +287,20 @@ std::string control_failure_message(const std::string& where, const ControlError
     if (normal > 0.0 && std::abs(reached) < std::abs(target))
       return m + "; the cell sheared at the servo's cap in " + std::to_string(e.over_saturated[k]) + " of the " +
              std::to_string(e.over_steps[k]) + " steps out of tolerance while s" + component_name(k).substr(1) +
-             " stayed at " + fmt(std::abs(reached) / normal) + " of the normal stress s" + std::to_string(j + 1) +
+             " stayed at " + fmt3(std::abs(reached) / normal) + " of the normal stress s" + std::to_string(j + 1) +
              std::to_string(j + 1) + ": the packing flows there (its Coulomb limit), so the target (" +
-             fmt(std::abs(target) / normal) + " of it) is beyond the shear stress it can carry; hold a shear stress "
+             fmt3(std::abs(target) / normal) + " of it) is beyond the shear stress it can carry; hold a shear stress "
              "below its strength, or drive the axis by its strain";
   }
   if (saturated)
     return m + "; the servo's increment sat at its cap in " + std::to_string(e.over_saturated[k]) + " of the " +
            std::to_string(e.over_steps[k]) + " steps out of tolerance: the target is beyond what the servo reaches at "
-           "its cap; raise servo.max_strain_increment (now " + fmt(cap) +
+           "its cap; raise servo.max_strain_increment (now " + fmt3(cap) +
            (servo.max_strain_increment_given ? "" : ", the default for this leg") + ") or lower the loading rate";
-  return m + "; the servo was not at its cap (" + fmt(cap) +
+  return m + "; the servo was not at its cap (" + fmt3(cap) +
          "): its target moved, or the packing was loaded, faster than it follows; lower the rate (a rotation's "
-         "or a ramp's rate, or the strain rate), or raise servo.gain/integral_gain (now " + fmt(servo.gain) + "/" +
-         fmt(servo.integral_gain) + ")";
+         "or a ramp's rate, or the strain rate), or raise servo.gain/integral_gain (now " + fmt3(servo.gain) + "/" +
+         fmt3(servo.integral_gain) + ")";
 }
 
 std::vector<std::string> control_warnings(const std::string& test_name, const std::vector<ControlErrors>& errors) {

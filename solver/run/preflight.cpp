@@ -18,15 +18,11 @@
 #include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
 #include "run/sample.hpp"
+#include "core/number_text.hpp"
 
 namespace celldem {
 namespace {
 
-std::string fmt(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
 
 // The neighbour list needs every face width of the cell above 2 (largest diameter + skin).
 double smallest_cell_width(const Deck& deck) {

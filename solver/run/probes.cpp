@@ -30,6 +30,7 @@
 #include "run/runner.hpp"
 #include "run/stage_output.hpp"
 #include "step.hpp"
+#include "core/number_text.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -43,11 +44,6 @@ constexpr std::array<const char*, 6> kStressNames = {"s11", "s22", "s33", "s12",
 constexpr std::array<const char*, 6> kStrainNames = {"e1", "e2", "e3", "g12", "g13", "g23"};
 constexpr std::array<const char*, 6> kStrainProbeNames = {"e11", "e22", "e33", "g12", "g13", "g23"};
 
-std::string fmt(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.10g", x);
-  return buf;
-}
 
 Row6 stresses(const SeriesRow& r) { return {r.s11, r.s22, r.s33, r.s12, r.s13, r.s23}; }
 Row6 strains(const SeriesRow& r) { return {r.e1, r.e2, r.e3, r.g12, r.g13, r.g23}; }
@@ -122,7 +118,7 @@ std::int64_t probe_count(const Deck& deck) {
 
 std::vector<std::string> probe_point_names(const ProbeDef& def) {
   std::vector<std::string> names;
-  for (const double e1 : def.at_e1) names.push_back("e1_" + fmt(e1));
+  for (const double e1 : def.at_e1) names.push_back("e1_" + fmt10(e1));
   names.insert(names.end(), def.at.begin(), def.at.end());
   return names;
 }
@@ -132,7 +128,7 @@ ProbePoints::ProbePoints(const ProbeDef& def) : def_(def) {
   for (std::size_t k = 0; k < def.at_e1.size(); ++k) {
     Point p;
     p.name = names[k];
-    p.missing = "the test ended before e1 reached " + fmt(def.at_e1[k]);
+    p.missing = "the test ended before e1 reached " + fmt10(def.at_e1[k]);
     e1_.push_back(p);
   }
   peak_.name = "peak";
@@ -752,15 +748,15 @@ ProbeVerdict judge_probe_point(const ProbeDef& def, const ProbeEvidence& e) {
   };
   const double drift_ratio = e.drift / e.smallest_response;
   if (std::isfinite(e.drift) && std::isfinite(e.smallest_response) && !(drift_ratio <= def.drift_limit))
-    fail(kProbeCheckNames[0], "the reference drifts " + fmt(e.drift) + " over a probe, " + fmt(drift_ratio) +
-                                  " of the smallest response " + fmt(e.smallest_response) + " (limit " +
-                                  fmt(def.drift_limit) + ")");
+    fail(kProbeCheckNames[0], "the reference drifts " + fmt10(e.drift) + " over a probe, " + fmt10(drift_ratio) +
+                                  " of the smallest response " + fmt10(e.smallest_response) + " (limit " +
+                                  fmt10(def.drift_limit) + ")");
   if (!e.rest_reached && std::isnan(e.rest_creep))
     fail(kProbeCheckNames[1], "the point was not rested (rest_max_steps " + std::to_string(def.rest_max_steps) +
                                   "); probed as the test took it");
   else if (!e.rest_reached)
-    fail(kProbeCheckNames[1], "the rest's last window crept " + fmt(e.rest_creep) + " (goal " +
-                                  fmt(def.rest_fraction * def.target_strain) + ") when " +
+    fail(kProbeCheckNames[1], "the rest's last window crept " + fmt10(e.rest_creep) + " (goal " +
+                                  fmt10(def.rest_fraction * def.target_strain) + ") when " +
                                   (e.rest_gave_up.empty() ? "its budget of " + std::to_string(def.rest_max_steps) +
                                                                 " steps was spent"
                                                           : e.rest_gave_up) +
@@ -768,18 +764,18 @@ ProbeVerdict judge_probe_point(const ProbeDef& def, const ProbeEvidence& e) {
   if (std::isfinite(e.elastic_asymmetry) || !std::isnan(e.elastic_min_eigenvalue)) {
     if (!(e.elastic_min_eigenvalue > 0.0))
       fail(kProbeCheckNames[2], "the elastic stiffness's symmetric part has the eigenvalue " +
-                                    fmt(e.elastic_min_eigenvalue) + " Pa");
+                                    fmt10(e.elastic_min_eigenvalue) + " Pa");
     if (!(e.elastic_asymmetry <= def.asymmetry_limit))
-      fail(kProbeCheckNames[3], "|C - C^T| / |C| = " + fmt(e.elastic_asymmetry) + " (limit " +
-                                    fmt(def.asymmetry_limit) + ")");
+      fail(kProbeCheckNames[3], "|C - C^T| / |C| = " + fmt10(e.elastic_asymmetry) + " (limit " +
+                                    fmt10(def.asymmetry_limit) + ")");
   }
   if (!e.elastic_check_missing.empty())
     fail(kProbeCheckNames[4], "no elastic part to compare with: " + e.elastic_check_missing);
   else if (!std::isnan(e.elastic_factor) && !(e.elastic_factor <= def.elastic_factor))
     fail(kProbeCheckNames[4], (e.elastic_worst_probe.empty() ? "a probe" : e.elastic_worst_probe) + "'s recovered strain is " +
-                                  (std::isfinite(e.elastic_factor) ? fmt(e.elastic_factor) + " times"
+                                  (std::isfinite(e.elastic_factor) ? fmt10(e.elastic_factor) + " times"
                                                                    : std::string("more than 60 deg from")) +
-                                  " C_elastic^-1 ds (limit " + fmt(def.elastic_factor) + "x)");
+                                  " C_elastic^-1 ds (limit " + fmt10(def.elastic_factor) + "x)");
   return v;
 }
 
@@ -1056,10 +1052,10 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       const ProbeResult& r = *record;
       const std::size_t m = static_cast<std::size_t>(std::find(def.magnitudes.begin(), def.magnitudes.end(), d.magnitude) - def.magnitudes.begin());
       const double magnitude = stress_set ? d.magnitude * scale : d.magnitude;
-      csv.append(name).append(",").append(fmt(point_step)).append(",").append(fmt(point_e1));
+      csv.append(name).append(",").append(fmt10(point_step)).append(",").append(fmt10(point_e1));
       csv.append(",").append(name_of(def.kind, kProbeKindNames)).append(",").append(d.name);
-      csv.append(",").append(fmt(magnitude)).append(",").append(fmt(d.angle_deg));
-      for (double x : d.direction) csv.append(",").append(fmt(x));
+      csv.append(",").append(fmt10(magnitude)).append(",").append(fmt10(d.angle_deg));
+      for (double x : d.direction) csv.append(",").append(fmt10(x));
       if (!r.ran) {
         ++failed;
         for (int c = 0; c < 35; ++c) csv += ",";
@@ -1077,7 +1073,7 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
       const Row6 ds_residual = minus(stresses(r.unloaded), stresses(reference.unloaded));
       const Row6 de_elastic = minus(de, de_plastic);
       for (const Row6* v : {&ds, &de, &de_plastic, &de_elastic, &ds_residual})
-        for (double x : *v) csv.append(",").append(fmt(x));
+        for (double x : *v) csv.append(",").append(fmt10(x));
       const double size = stress_set ? norm(de) : norm(ds);
       smallest = std::min(smallest, size);
       double predicted = NAN, factor = NAN;
@@ -1097,8 +1093,8 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
           worst_factor = std::max(worst_factor, factor);
         }
       }
-      csv.append(",").append(fmt(size)).append(",").append(fmt(drift)).append(",").append(fmt(predicted));
-      csv.append(",").append(fmt(factor)).append(",").append(stress_set ? (cone > 0 ? "loading" : cone < 0 ? "unloading" : "neutral") : "");
+      csv.append(",").append(fmt10(size)).append(",").append(fmt10(drift)).append(",").append(fmt10(predicted));
+      csv.append(",").append(fmt10(factor)).append(",").append(stress_set ? (cone > 0 ? "loading" : cone < 0 ? "unloading" : "neutral") : "");
       csv.append(r.controlled ? ",true,ok\n" : ",false,ok\n");
       if (!stress_set) {
         const int column = static_cast<int>(std::max_element(d.direction.begin(), d.direction.end()) - d.direction.begin());

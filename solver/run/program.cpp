@@ -17,16 +17,12 @@
 #include "run/stage_output.hpp"
 #include "run/thread_governor.hpp"
 #include "step.hpp"
+#include "core/number_text.hpp"
 
 namespace celldem {
 
 namespace {
 
-std::string fmt(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
-  return buf;
-}
 
 std::string stage_name(const Program& program) {
   return program.kind == StageKind::Preparation ? "the preparation" : "test '" + program.stage + "'";
@@ -125,8 +121,8 @@ std::string strain_leg_cut_short(const Program& program, const Model& model, con
   const double reached = component_strains(state)[e.axis];
   if (std::abs(reached - e.value) <= 0.5 * std::abs(leg.strain_per_step(e.axis, model.dt))) return "";
   return stage_name(program) + " " + leg_name(state) + ": end.max_steps " + std::to_string(e.max_steps) +
-         " stopped the leg at " + component_name(e.axis) + " strain " + fmt(reached) + ", short of its end strain " +
-         fmt(e.value) + " (raise max_steps, or give the leg a step count as its end)";
+         " stopped the leg at " + component_name(e.axis) + " strain " + fmt3(reached) + ", short of its end strain " +
+         fmt3(e.value) + " (raise max_steps, or give the leg a step count as its end)";
 }
 
 }  // namespace
@@ -228,7 +224,7 @@ class LegRun {
       const std::string who = program_.kind == StageKind::Preparation ? "the preparation" : stage_name(program_) + " " + leg_name(state_);
       throw RunError(who + " did not reach equilibrium in " + std::to_string(c.leg_steps) + " servo steps (" + status_ +
                      "); " +
-                     (boiling ? "an unbalanced force ratio above " + fmt(kMaxQuasiStaticUnbalanced) +
+                     (boiling ? "an unbalanced force ratio above " + fmt3(kMaxQuasiStaticUnbalanced) +
                                     " at the target pressure means the packing boils: the time step is likely too close to the "
                                     "stability limit (`celldem plan` gives it per mode) or damping too low"
                               : "raise " + program_.equilibrium_key + ".max_steps or relax its tolerances"));

@@ -11,13 +11,10 @@
 #include "run/health.hpp"
 #include "run/preflight.hpp"
 #include "run/sample.hpp"
+#include "core/number_text.hpp"
 
 namespace celldem {
 using Json = nlohmann::json;
-
-namespace {
-Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
-}  // namespace
 
 // plateau_end: the last row of the smoothed peak's plateau.
 Json robust_peak(const std::vector<SeriesRow>& rows, std::size_t* plateau_end = nullptr) {

@@ -19,6 +19,7 @@
 #include "run/stage_output.hpp"
 #include "run/summary.hpp"
 #include "step.hpp"
+#include "core/number_text.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
@@ -39,7 +40,6 @@ constexpr double kTwinRateChange = 1e-3;
 // A twin whose compared quantities all stay within this many floors of the test's has not parted from it: the
 // chaos is then unknown and taken at its bound.
 constexpr double kTwinParted = 1e-3;
-Json number_or_null(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
 
 double positive_number(const Json& j, const std::string& key, const std::string& where) {
   if (!j.contains(key) || !j[key].is_number() || !(j[key].get<double>() > 0.0) || !std::isfinite(j[key].get<double>()))
@@ -56,11 +56,6 @@ double ensemble_std(const Json& tests, const std::string& test, const std::strin
   return positive_number(tests[test][quantity], "std", where);
 }
 
-std::string fmt(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
-  return buf;
-}
 
 // A summary value by its dotted path ("end_window.ev"); NaN when missing or not a number.
 double at_path(const Json& j, const std::string& path) {
@@ -328,7 +323,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
       {"twin_parted", twin_parted}};
   if (o.twin && !twin.error.empty()) result["chaos"]["twin_failed"] = twin.error;
   if (twin_ok && !twin_parted)
-    result["chaos"]["note"] = "the twin did not part from the test (its differences within " + fmt(kTwinParted) +
+    result["chaos"]["note"] = "the twin did not part from the test (its differences within " + fmt3(kTwinParted) +
                               " floors): the bound alone";
   Json comparisons = Json::object();
   std::string worst_verdict, largest_quantity, not_compared;
@@ -368,24 +363,24 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   result["comparisons"] = comparisons;
   result["largest"] = {{"quantity", largest_quantity}, {"error_floors", largest >= 0 ? Json(largest) : Json(nullptr)}};
   if (!not_compared.empty()) result["not_compared"] = not_compared;
-  const std::string rule = "|error| -+ the chaos's 95 % half-width against T = " + fmt(o.tolerance) +
+  const std::string rule = "|error| -+ the chaos's 95 % half-width against T = " + fmt3(o.tolerance) +
                            " floors (comparisons.<quantity>.chaos_half_width_floors)";
   if (any_not_converged) {
     std::string which;
     for (const auto& [q, c] : comparisons.items())
-      if (c["verdict"] == "not converged") which += (which.empty() ? "" : ", ") + q + " " + fmt(c["error_floors"].get<double>());
+      if (c["verdict"] == "not converged") which += (which.empty() ? "" : ", ") + q + " " + fmt3(c["error_floors"].get<double>());
     result["verdict"] = "not converged";
     result["reason"] = "the rate moves the answer beyond the tolerance at 95 %: " + which + " floors (" + rule + ")";
   } else if (any_unresolved || !not_compared.empty()) {
     result["verdict"] = "unresolved";
     result["reason"] = (largest_quantity.empty() ? std::string("nothing compared")
-                                                 : "the largest error " + largest_quantity + " " + fmt(largest) + " floors") +
+                                                 : "the largest error " + largest_quantity + " " + fmt3(largest) + " floors") +
                        (not_compared.empty() ? "" : "; not compared: " + not_compared) +
                        ": one pair cannot tell it from the tolerance at 95 % (" + rule +
                        "); seeds at both rates can (ensemble.json verify_rate)";
   } else {
     result["verdict"] = "converged";
-    result["reason"] = "every error within the tolerance at 95 %: the largest " + largest_quantity + " " + fmt(largest) +
+    result["reason"] = "every error within the tolerance at 95 %: the largest " + largest_quantity + " " + fmt3(largest) +
                        " floors (" + rule + ")";
   }
   return result;

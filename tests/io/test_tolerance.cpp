@@ -2,7 +2,8 @@
 // time step reaches its model and plan and is held to the deck key's bounds; the time-to-answer rules embedded in
 // the binary parse, interpolate log-linearly and refuse a tolerance outside them; a resolved deck meets the
 // rules it was resolved by (time step fraction, inertial number from its definition, rows per unit strain,
-// equilibrium and output in physical time) and leaves a deck without a tolerance as it was.
+// equilibrium and output in physical time) and leaves a deck without a tolerance as it was; a deck larger than
+// the rules' scene gets T sqrt(calibration / N) of the scene's floors, and below the lowest level runs as written.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -268,6 +269,50 @@ TEST(Tolerance, DeckKeyAndArgumentResolveAlikeAndNoneLeavesTheDeck) {
   EXPECT_EQ(a, b);
   j["tolerance"] = 42.0;  // outside the table
   EXPECT_THROW(resolve_tolerance(parse_deck(j.dump()), j.dump(), 42.0), DeckError);
+}
+
+// The floor model: T floors of N spheres are T sqrt(1000 / N) floors of the rules' 1000-sphere scene (floors as
+// 1/sqrt(N), a rate's bias not); a smaller deck keeps T. Below the lowest level the deck runs as written, every
+// stage reported at its written step; above the largest, the refusal names the deck's own bound.
+TEST(Tolerance, LargerDecksCarryTheirTightFloorsToTheRules) {
+  const ToleranceRules& rules = time_to_answer_rules();
+  ASSERT_EQ(rules.particles, 1000);
+  EXPECT_DOUBLE_EQ(calibration_tolerance(rules, 1.0, 8000.0), std::sqrt(1000.0 / 8000.0));
+  EXPECT_DOUBLE_EQ(calibration_tolerance(rules, 2.0, 4000.0), 1.0);
+  EXPECT_EQ(calibration_tolerance(rules, 1.0, 150.0), 1.0);
+  EXPECT_EQ(calibration_tolerance(ToleranceRules{rules.levels, 0}, 1.0, 8000.0), 1.0);
+
+  Json j = deck_json();
+  j["sample"]["count"] = 8000;
+  const std::string text = j.dump();
+  const Deck written = parse_deck(text, "deck.json");
+  // T = 1 at 8000 spheres: 0.354 floors of the scene, below its lowest level (0.5): the deck as written.
+  const Deck same = resolve_tolerance(written, text, 1.0);
+  ASSERT_TRUE(same.tolerance.has_value());
+  Json a = Json::parse(same.canonical), b = Json::parse(written.canonical);
+  a.erase("description"), b.erase("description");
+  EXPECT_EQ(a, b);
+  const Json settings = Json::parse(same.tolerance_settings);
+  EXPECT_TRUE(settings["as_written"].get<bool>());
+  EXPECT_NEAR(settings["calibration"]["tolerance_at_calibration"].get<double>(), std::sqrt(0.125), 1e-15);
+  ASSERT_EQ(settings["stages"].size(), 3u);
+  for (const Json& s : settings["stages"]) EXPECT_EQ(s["time_step"], s["time_step_written"]);
+  // T = 2: 0.707 floors of the scene, the rules interpolated there (not at 2).
+  const Deck faster = resolve_tolerance(written, text, 2.0);
+  const Json rules_at = Json::parse(faster.tolerance_settings)["rules"];
+  EXPECT_NEAR(rules_at["time_step_fraction"].get<double>(),
+              interpolate_rules(rules, 2.0 * std::sqrt(0.125), "t").time_step_fraction, 1e-15);
+  EXPECT_LT(rules_at["time_step_fraction"].get<double>(), interpolate_rules(rules, 2.0, "t").time_step_fraction);
+  // Above the largest level in this deck's floors (3 sqrt(8) = 8.49): refused, naming the bound.
+  try {
+    resolve_tolerance(written, text, 9.0, "--tolerance");
+    ADD_FAILURE() << "a tolerance above the rules at 8000 spheres was accepted";
+  } catch (const DeckError& e) {
+    EXPECT_NE(std::string(e.what()).find("--tolerance: 9 is outside the time-to-answer rules' range: at most 8.48528"),
+              std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(resolve_tolerance(written, text, 8.4));
+  EXPECT_THROW(resolve_tolerance(written, text, 0.0), DeckError);
 }
 
 }  // namespace

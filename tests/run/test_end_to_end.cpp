@@ -327,5 +327,22 @@ TEST(EndToEnd, ToleranceRunRecordsItsDeckWhichRunsAgainAsWritten) {
   EXPECT_NE(r.err.find("--tolerance: 100 is outside"), std::string::npos) << r.err;
 }
 
+// A tolerance below the rules' lowest level (here 0.3 floors of 150 spheres): no setting the rules know is promised
+// within it, so the deck runs as written, to the same bytes as without --tolerance, and the run says so.
+TEST(EndToEnd, ToleranceBelowTheRulesRunsTheDeckAsWritten) {
+  const fs::path dir = test_dir("tolerance_as_written");
+  const fs::path deck = dir / "deck.json";
+  testing::write_bytes(deck, testing::small_deck_json(150, kTtc));
+  Result r = celldem(dir, run_args(deck, dir / "plain", "--quiet"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = celldem(dir, run_args(deck, dir / "tol", "--tolerance 0.3"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("tolerance 0.3 noise floors: the deck runs as written (1.00x)"), std::string::npos) << r.out;
+  for (const char* f : {"prepared.state", "prepare/series.csv", "ttc/series.csv", "ttc/final.state"})
+    EXPECT_EQ(read_bytes(dir / "tol" / f), read_bytes(dir / "plain" / f)) << f;
+  const auto summary = nlohmann::json::parse(read_bytes(dir / "tol" / "summary.json"));
+  EXPECT_TRUE(summary["settings"]["resolved"]["as_written"].get<bool>());
+}
+
 }  // namespace
 }  // namespace celldem

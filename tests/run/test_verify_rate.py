@@ -265,7 +265,7 @@ def test_the_deck_key_asks_for_one_test_and_bad_values_are_refused(celldem, work
 
 def test_a_tolerance_run_prints_its_tolerance_saving_and_verdicts(celldem, work):
     """`--tolerance 1 --verify-rate`: the run prints the tolerance it applied, the predicted saving and what T floors
-    of the rules' 1000-sphere scene are in this deck's floors before it starts, and each rate-check verdict after
+    of this deck are in the rules' 1000-sphere scene before it starts, and each rate-check verdict after
     each test; summary.json holds the same (its tolerance block as `celldem plan --tolerance 1 --json` gives it)."""
     deck = deck_at(paper_increment(), work, "tolerance")
     summary, stdout = run(celldem, deck, os.path.join(work, "tolerance"), "--tolerance", "1", "--verify-rate",
@@ -277,9 +277,10 @@ def test_a_tolerance_run_prints_its_tolerance_saving_and_verdicts(celldem, work)
     ratio = t["total"]["ratio_low"]
     first = stdout.splitlines()[0]
     assert first.startswith("tolerance 1 noise floors") and f"{ratio:.2f}x fewer" in first, first
-    size = t["floors_at_this_size"]
-    assert size["calibration_particles"] == 1000 and size["particles"] == 150
-    assert size["bound_floors"] == pytest.approx(math.sqrt(150 / 1000)) and f"{size['bound_floors']:.3g}" in first
+    c = t["calibration"]
+    # 150 spheres, fewer than the rules' 1000: the deck keeps T (its wider floors are not spent).
+    assert c["calibration_particles"] == 1000 and c["particles"] == 150 and c["tolerance_at_calibration"] == 1
+    assert "1 floors of these 150 spheres are 1 floors of the rules' 1000-sphere scene" in first, first
     for test, s in summary["tests"].items():
         v = s["verify_rate"]
         assert v["tolerance_floors"] == 1

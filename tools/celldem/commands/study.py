@@ -18,6 +18,10 @@ Usage: /usr/bin/python3 tools/study.py plan                 list the runs and wh
                                                             same seeds: each summary quantity's mean paired
                                                             difference in BASE's floors, paired t and TOST, and
                                                             the particle-steps and wall-time ratios
+       /usr/bin/python3 tools/study.py floors [--counts 500,1000,2000] [--seeds 1-8]
+                                                            the noise floor against the particle count: the
+                                                            evidence for --tolerance's floor model
+                                                            (results/study-floors/floors.md; study/floors.py)
 
 The scene: SCENE_COUNT spheres with the paper's sizes, density, contact law and preparation, tests to
 ε1 = END_STRAIN (the peak lies well inside it). Each sample is prepared once (samples/<name>/prepared.state)
@@ -43,7 +47,7 @@ import sys
 
 from celldem import binary, decks
 from celldem.study import analysis as study_analysis, any_deck, compare as study_compare, report as study_report
-from celldem.study import runs as study_runs
+from celldem.study import floors as study_floors, runs as study_runs
 from celldem.study.runs import DEFAULT_ROOT
 from celldem.study.scene import END_STRAIN, SCENE_COUNT
 
@@ -155,6 +159,17 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_floors(args):
+    try:
+        result = study_floors.study(args.root, decks.load(), [int(n) for n in args.counts.split(",")], args.seeds,
+                                    args.celldem)
+    except (study_floors.FloorsError, OSError) as err:
+        return error(err)
+    print(study_floors.markdown(result))
+    print(f"wrote {os.path.join(args.root, 'floors.json')} and floors.md")
+    return 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -191,9 +206,18 @@ def main(argv=None):
     p.add_argument("--margin", type=float, default=study_compare.MARGIN_FLOORS,
                    help="equivalence margin of TOST in floors (default 1)")
     p.add_argument("--json", help="also write the comparison to this file")
+    p = sub.add_parser("floors", help="the noise floor against the particle count (--tolerance's floor model)")
+    p.add_argument("--counts", default=",".join(str(n) for n in study_floors.DEFAULT_COUNTS),
+                   help="particle counts, comma-separated (default 500,1000,2000)")
+    p.add_argument("--seeds", default=study_floors.DEFAULT_SEEDS, help="seeds of each ensemble (default 1-8)")
+    p.add_argument("--root", default=os.path.join("results", "study-floors"), help="results folder")
+    p.add_argument("--celldem", default=binary.find(), help="celldem binary (default $CELLDEM, else build/celldem)")
     args = parser.parse_args(argv)
     if args.command == "compare":
         return cmd_compare(args)
+    if args.command == "floors":
+        args.celldem, args.root = os.path.abspath(args.celldem), os.path.abspath(args.root)
+        return cmd_floors(args)
     args.celldem = os.path.abspath(args.celldem)
     if args.deck:
         return cmd_any_deck(args)
