@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+
 #include "core/number_text.hpp"
 
 namespace celldem {

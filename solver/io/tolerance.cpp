@@ -331,10 +331,10 @@ Deck as_written(const Deck& written, Json j, double tolerance, double limit, Jso
                            "rules' lowest level at this particle count)";
   Json stages = Json::array();
   const auto stage = [&](const std::string& name, double dt, std::int64_t output_interval) {
-    stages.push_back({{"stage", name}, {"time_step_written", dt}, {"time_step", dt},
-                      {"time_step_fraction_written", dt / limit}, {"time_step_fraction", dt / limit},
-                      {"output_interval_written", output_interval}, {"output_interval", output_interval},
-                      {"legs", Json::array()}});
+    Json report = Resolver::stage_time(dt, dt, limit);
+    report.update({{"stage", name}, {"output_interval_written", output_interval}, {"output_interval", output_interval},
+                   {"legs", Json::array()}});
+    stages.push_back(std::move(report));
   };
   if (written.prepare) stage("prepare", written.stage_time_step(*written.prepare), written.prepare->output_interval);
   for (const TestDef& t : written.tests) stage(t.name, written.stage_time_step(t), t.output_interval);
@@ -351,14 +351,13 @@ Deck as_written(const Deck& written, Json j, double tolerance, double limit, Jso
 }  // namespace
 
 Deck resolve_tolerance(const Deck& written, const std::string& json_text, double tolerance, const std::string& key_path) {
+  if (!(tolerance > 0.0) || !std::isfinite(tolerance))
+    throw DeckError(key_path + ": " + fmt(tolerance) + ": expected a positive number of noise floors");
   const ToleranceRules& rules = time_to_answer_rules();
   const double particles = written.sample.count;
   const double at_calibration = calibration_tolerance(rules, tolerance, particles);
-  Json calibration = calibration_json(rules, tolerance, particles, at_calibration);
   const double largest = rules.levels.back().tolerance;
-  if (!(tolerance > 0.0) || !std::isfinite(tolerance))
-    throw DeckError(key_path + ": " + fmt(tolerance) + ": expected a positive number of noise floors");
-  if (at_calibration > largest)
+  if (at_calibration > largest)  // the deck's own bound: the largest level in this deck's floors
     throw DeckError(key_path + ": " + fmt(tolerance) + " is outside the time-to-answer rules' range: at most " +
                     fmt(largest * tolerance / at_calibration) + " noise floors at " + fmt(particles) +
                     " spheres (their largest level, " + fmt(largest) + " floors" +
@@ -370,6 +369,7 @@ Deck resolve_tolerance(const Deck& written, const std::string& json_text, double
   const double limit = std::min(modes.value(), kNormalModeFraction * modes.modes[0].time_step);
   Json j = deck_json::parse_json(json_text);
   j.erase("tolerance");
+  Json calibration = calibration_json(rules, tolerance, particles, at_calibration);
   if (at_calibration < rules.levels.front().tolerance) return as_written(written, j, tolerance, limit, calibration);
   Resolver r{written, interpolate_rules(rules, at_calibration, key_path)};
   r.limit = limit;

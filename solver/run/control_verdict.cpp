@@ -5,9 +5,9 @@
 #include <cstdio>
 
 #include "cell/control.hpp"
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "run/health.hpp"
-#include "core/number_text.hpp"
 
 namespace celldem {
 using Json = nlohmann::json;

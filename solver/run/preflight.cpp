@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/model.hpp"
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
 #include "io/lammps_data.hpp"
@@ -18,7 +19,6 @@
 #include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
 #include "run/sample.hpp"
-#include "core/number_text.hpp"
 
 namespace celldem {
 namespace {

@@ -17,6 +17,7 @@
 
 #include "cell/control.hpp"
 #include "core/model.hpp"
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
 #include "measure/network_stiffness.hpp"
@@ -30,7 +31,6 @@
 #include "run/runner.hpp"
 #include "run/stage_output.hpp"
 #include "step.hpp"
-#include "core/number_text.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "cell/control.hpp"
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
@@ -17,7 +18,6 @@
 #include "run/stage_output.hpp"
 #include "run/thread_governor.hpp"
 #include "step.hpp"
-#include "core/number_text.hpp"
 
 namespace celldem {
 

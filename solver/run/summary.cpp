@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
@@ -11,7 +12,6 @@
 #include "run/health.hpp"
 #include "run/preflight.hpp"
 #include "run/sample.hpp"
-#include "core/number_text.hpp"
 
 namespace celldem {
 using Json = nlohmann::json;

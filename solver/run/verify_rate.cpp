@@ -10,6 +10,7 @@
 #include <boost/math/distributions/students_t.hpp>
 
 #include "core/model.hpp"
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
 #include "run/program.hpp"
@@ -19,7 +20,6 @@
 #include "run/stage_output.hpp"
 #include "run/summary.hpp"
 #include "step.hpp"
-#include "core/number_text.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;
