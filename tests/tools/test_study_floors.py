@@ -4,7 +4,6 @@ fitted exponent and its bootstrap interval on synthetic ensembles whose true exp
 floor that does not shrink must not pass for 1/sqrt(N))."""
 
 import json
-import os
 
 import numpy as np
 import pytest
@@ -52,6 +51,22 @@ def test_inverse_sqrt_is_found_inside_and_a_flat_floor_outside():
     assert not flat["inverse_sqrt_inside"] and flat["interval"][0] > -0.5, flat["interval"]
     text = floors.markdown(inside)
     assert "1/sqrt(N) lies inside it" in text and "| ttc.peak_ratio13 |" in text
+
+
+def test_a_run_of_another_deck_is_refused(tmp_path, monkeypatch):
+    # A folder whose deck.json differs from the one the scene gives now (the paper deck edited since): its
+    # ensemble is not reused, and nothing is run over it.
+    paper = decks.load()
+    folder = tmp_path / "n500"
+    (folder / "run").mkdir(parents=True)
+    (folder / "deck.json").write_text(json.dumps(floors.floor_deck(paper, 400), indent=2))
+    (folder / "run" / "ensemble.json").write_text("{}")
+    monkeypatch.setattr(floors.subprocess, "run", lambda *a, **k: pytest.fail("ran celldem over another deck's run"))
+    with pytest.raises(floors.FloorsError, match="another deck"):
+        floors.run_count(str(tmp_path), paper, 500, "1-2", "celldem")
+    same = floors.floor_deck(paper, 500)
+    (folder / "deck.json").write_text(json.dumps(same, indent=2))
+    assert floors.run_count(str(tmp_path), paper, 500, "1-2", "celldem") == str(folder / "run")
 
 
 def test_one_count_is_refused():

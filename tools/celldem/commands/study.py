@@ -24,7 +24,7 @@ Usage: /usr/bin/python3 tools/study.py plan                 list the runs and wh
                                                             (results/study-floors/floors.md; study/floors.py)
 
 The scene: SCENE_COUNT spheres with the paper's sizes, density, contact law and preparation, tests to
-ε1 = END_STRAIN (the peak lies well inside it). Each sample is prepared once (samples/<name>/prepared.state)
+ε1 = END_STRAIN (its report says where the reference seeds' peaks lie). Each sample is prepared once (samples/<name>/prepared.state)
 and every setting is run from it with a deck that uses "initial_state" (runs/<name>/deck.json: inputs/paper.json
 with values changed; plan.json beside it is `celldem plan deck.json --json`). A run is skipped when its
 outcome.json exists; an interrupted one is resumed.

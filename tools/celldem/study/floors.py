@@ -48,9 +48,15 @@ def run_count(root: str, paper: Dict[str, Any], count: int, seeds: str, celldem:
     folder = os.path.join(root, f"n{count}")
     os.makedirs(folder, exist_ok=True)
     deck_path = os.path.join(folder, "deck.json")
-    with open(deck_path, "w") as f:
-        json.dump(floor_deck(paper, count), f, indent=2)
+    text = json.dumps(floor_deck(paper, count), indent=2)
     out = os.path.join(folder, "run")
+    if os.path.exists(deck_path):
+        with open(deck_path) as f:
+            if f.read() != text and os.path.isdir(out):  # a run of another deck (the paper deck since edited)
+                raise FloorsError(f"{out} was run from another deck than {deck_path} would be now: remove {folder} "
+                                  "or give another --root")
+    with open(deck_path, "w") as f:
+        f.write(text)
     if os.path.exists(os.path.join(out, "ensemble.json")):
         return out
     cmd = [celldem, "run", deck_path, "--seeds", seeds, "--out", out, "--quiet"]
@@ -114,8 +120,7 @@ def fit(values: Dict[int, Dict[str, List[float]]], resamples: int = 4000, seed: 
                          paired=False, confidence_level=CONFIDENCE, method="percentile",
                          random_state=np.random.default_rng(seed))
     lo, hi = float(boot.confidence_interval.low), float(boot.confidence_interval.high)
-    x = np.log(np.asarray(counts, dtype=float))
-    per_quantity = {q: {"exponent": float(np.polyfit(x, np.log(stds[:, i]), 1)[0]),
+    per_quantity = {q: {"exponent": exponent_of(stds[:, [i]], counts),
                         "floors": {str(n): float(stds[k, i]) for k, n in enumerate(counts)}}
                     for i, q in enumerate(common)}
     return {"model": "floor = a_q N^b, one b for all quantities (least squares in logs, one intercept each)",
