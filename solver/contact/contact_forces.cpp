@@ -37,8 +37,6 @@ struct ChunkIn {
 };
 // What the in-order sums after the SIMD loop need besides the pair arrays.
 struct ChunkOut {
-  alignas(64) double torque_i[3][kChunk];   // moment on the owner
-  alignas(64) double torque_j[3][kChunk];   // moment on the neighbour
   alignas(64) double normal[3][kChunk];     // force_k * branch_k
   alignas(64) double stiffness[3][kChunk];  // kn (n_k l_k)^2
   alignas(64) double shear[3][kChunk];      // (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23
@@ -158,7 +156,8 @@ template <class Law, Kinematics K, bool Diagonal, bool Shear>
 CELLDEM_ISA_CLONES
 void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
                     double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
-                    double* __restrict radius, double* __restrict force, ChunkOut& __restrict o) {
+                    double* __restrict radius, double* __restrict force, double* __restrict torque_i,
+                    double* __restrict torque_j, ChunkOut& __restrict o) {
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
@@ -181,8 +180,8 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
     }
     if constexpr (Law::radius_history) radius[k] = r.history.contact_radius;
     force[3 * k] = r.force.x, force[3 * k + 1] = r.force.y, force[3 * k + 2] = r.force.z;
-    o.torque_j[0][k] = r.torque_j.x, o.torque_j[1][k] = r.torque_j.y, o.torque_j[2][k] = r.torque_j.z;
-    o.torque_i[0][k] = r.torque_i.x, o.torque_i[1][k] = r.torque_i.y, o.torque_i[2][k] = r.torque_i.z;
+    torque_i[3 * k] = r.torque_i.x, torque_i[3 * k + 1] = r.torque_i.y, torque_i[3 * k + 2] = r.torque_i.z;
+    torque_j[3 * k] = r.torque_j.x, torque_j[3 * k + 1] = r.torque_j.y, torque_j[3 * k + 2] = r.torque_j.z;
     o.normal[0][k] = r.force.x * branch.x, o.normal[1][k] = r.force.y * branch.y, o.normal[2][k] = r.force.z * branch.z;
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
     const double kn = r.normal_stiffness;
@@ -199,69 +198,21 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
   }
 }
 
-// What sum_chunk carries from pair to pair and chunk to chunk within a reduction block: the block's sums so
-// far, and the net force and moment of the owner being summed (in registers while its row lasts).
+// What sum_chunk carries from chunk to chunk within a reduction block: the block's sums so far.
 struct RunningSums {
   double normal[3] = {};     // sum of force_k branch_k [N m]
   double stiffness[3] = {};  // sum of kn (n_k l_k)^2 [N m]
   double shear[3] = {};      // sum of (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23 [N m]
   double shear_stiffness[3] = {};  // sum of kn (n_i l_j)^2 [N m]
   std::int64_t touching = 0;
-  Index owner = -1;          // the owner whose net force and moment are being summed, and those sums
-  double force[3] = {};
-  double torque[3] = {};
 };
 
-// Where sum_chunk hands the neighbours' share: the force block being evaluated (a neighbour outside it makes
-// the pair a crossing one), and the slot of its next crossing pair's moment (its force stays in the pair).
-struct HandOver {
-  Index block_begin, block_size;  // the force block's particles
-  double* next_crossing_torque;   // in pairs.crossing_torque
-};
-
-// Stores the chunk's flags and adds its pairs, in pair order, to both ends' net force and moment and to
-// the block's sums. The owner's sums run in registers from what its block's earlier pairs handed it, and
-// are stored after every pair (the last store is the total); the neighbour's share goes straight into its
-// net force and moment when it is in the force block, else (the moment) into the next crossing slot and
-// (the force) nowhere: the kick reads it from the pair. Pairs apart add zeros, so they change no sum:
-// nothing depends on whether a pair touches.
+// Stores the chunk's flags and adds its pairs, in pair order, to the reduction block's sums. Pairs apart add
+// zeros, so they change no sum: nothing depends on whether a pair touches.
 template <bool Shear>
-void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const PairList& pl,
-               std::uint8_t* __restrict flags, double* __restrict net_force, double* __restrict net_torque,
-               RunningSums& block, HandOver& to) {
+void sum_chunk(const ChunkOut& c, Index q0, int m, std::uint8_t* __restrict flags, RunningSums& block) {
   RunningSums s = block;
-  const Index* __restrict owner = in.owner;
-  const Index* __restrict neighbor = pl.neighbor.data() + q0;
-  const double* __restrict pair_force = pl.force[q0].data();
-  using Unsigned = std::make_unsigned_t<Index>;
-  const Index block_begin = to.block_begin;
-  const Unsigned block_size = static_cast<Unsigned>(to.block_size);
-  double* const crossing_torque = to.next_crossing_torque;
-  Index crossed = 0;
   for (int k = 0; k < m; ++k) {
-    const Index i = owner[k], j = neighbor[k];
-    const bool same = i == s.owner;
-    s.owner = i;
-    // (Both sides of each select are valid to load: the compiler may choose either a branch or a blend.)
-    const double f_owner[3] = {net_force[3 * i], net_force[3 * i + 1], net_force[3 * i + 2]};
-    const double t_owner[3] = {net_torque[3 * i], net_torque[3 * i + 1], net_torque[3 * i + 2]};
-    for (int a = 0; a < 3; ++a) {
-      s.force[a] = (same ? s.force[a] : f_owner[a]) - pair_force[3 * k + a];
-      s.torque[a] = (same ? s.torque[a] : t_owner[a]) + c.torque_i[a][k];
-      net_force[3 * i + a] = s.force[a];
-      net_torque[3 * i + a] = s.torque[a];
-    }
-    const bool crossing = static_cast<Unsigned>(j - block_begin) >= block_size;
-    // A crossing pair leaves j's force in the pair (the kick adds it from there) and stores the owner's net
-    // force back as it stands instead, so that the stores need no branch.
-    double* const f = net_force + 3 * (crossing ? i : j);
-    double* const t = crossing ? crossing_torque + 3 * crossed : net_torque + 3 * j;
-    const double f_before[3] = {f[0], f[1], f[2]}, t_before[3] = {t[0], t[1], t[2]};
-    for (int a = 0; a < 3; ++a) {  // a crossing slot starts from zero
-      f[a] = crossing ? f_before[a] : f_before[a] + pair_force[3 * k + a];
-      t[a] = (crossing ? 0.0 : t_before[a]) + c.torque_j[a][k];
-    }
-    crossed += crossing;
     for (int a = 0; a < 3; ++a) s.normal[a] += c.normal[a][k];
     for (int a = 0; a < 3; ++a) s.stiffness[a] += c.stiffness[a][k];
     if constexpr (Shear) {
@@ -272,7 +223,6 @@ void sum_chunk(const ChunkIn& in, const ChunkOut& c, Index q0, int m, const Pair
   }
   for (int k = 0; k < m; ++k) flags[q0 + k] = static_cast<std::uint8_t>(c.flags[k]);
   block = s;
-  to.next_crossing_torque += 3 * crossed;
 }
 
 // The calling thread's share of the pairs: force blocks with about equal numbers of pairs (thread_blocks),
@@ -293,8 +243,6 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
   double* const rolling = Law::rotational ? doubles(pl.rolling) : nullptr;
   double* const twist = Law::rotational ? pl.twist.data() : nullptr;
   double* const radius = Law::radius_history ? pl.contact_radius.data() : nullptr;  // (mindlin_rescale)
-  double* const net_force = doubles(p.force);
-  double* const net_torque = doubles(p.torque);
   ChunkIn in;
   ChunkOut out;
   using GatherFn = void (*)(const Particles&, const PairList&, Index, int, ChunkIn&);
@@ -305,11 +253,6 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
 #endif
   for (const std::size_t fb : blocks) {
     const std::size_t block_begin = fb * kForceBlock, block_end = std::min(n, (fb + 1) * kForceBlock);
-    // The net forces and moments start from zero; the block's pairs add to both ends.
-    std::fill(net_force + 3 * block_begin, net_force + 3 * block_end, 0.0);
-    std::fill(net_torque + 3 * block_begin, net_torque + 3 * block_end, 0.0);
-    HandOver to{static_cast<Index>(block_begin), static_cast<Index>(block_end - block_begin),
-                doubles(pl.crossing_torque) + 3 * pl.block_crossings[fb]};
     for (std::size_t first_owner = block_begin; first_owner < block_end; first_owner += kReductionBlock) {
       const std::size_t last_owner = std::min(block_end, first_owner + kReductionBlock);
       RunningSums sums;
@@ -321,8 +264,9 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
         gather(p, pl, q0, m, in);
         evaluate_chunk<Law, K, Diagonal, Shear>(law, h, L, dt, m, in, pl.tangential[q0].data(),
                                          rolling ? rolling + 3 * q0 : nullptr, twist ? twist + q0 : nullptr,
-                                         radius ? radius + q0 : nullptr, pl.force[q0].data(), out);
-        sum_chunk<Shear>(in, out, q0, m, pl, pl.flags.data(), net_force, net_torque, sums, to);
+                                         radius ? radius + q0 : nullptr, pl.force[q0].data(),
+                                         pl.torque_i[q0].data(), pl.torque_j[q0].data(), out);
+        sum_chunk<Shear>(out, q0, m, pl.flags.data(), sums);
       }
       ReductionSums& part = reduction_sums[first_owner / kReductionBlock];
       part.normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);

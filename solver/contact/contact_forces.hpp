@@ -1,13 +1,13 @@
-// The pair loop: every listed pair through the contact law, its history updated, each particle's net contact
-// force and moment, and the sums the control needs (stress, axis stiffness, contact count). The same loop
+// The pair loop: every listed pair through the contact law, its history updated, its force and moments on both
+// ends, and the sums the control needs (stress, axis stiffness, contact count). Each particle's net force and
+// moment are summed from its pairs afterwards, by the kick (integrate/leapfrog.cpp gather_forces). The same loop
 // written plainly, for reading and for the tests: contact_forces_reference.hpp.
 //
 // A map of contact_forces.cpp.
 // Two kinds of block, both of consecutive particle ids (a pair belongs to its owner, the lower id):
 // - force blocks (kForceBlock, 2048 ids, core/state.hpp): what a thread takes (thread_force_blocks; the drift
-//   and the kick take the same) and the unit of the net-force hand-over. A pair with both ends in one force
-//   block adds its force and moment to both at once; a pair whose neighbour is in a later force block (a
-//   crossing pair) leaves the neighbour's share for the kick, which adds it last (integrate/leapfrog.cpp).
+//   and the kick take the same). Once a block's pairs are evaluated, its particles' net forces can be summed:
+//   the pairs that reach into a block are owned by it or by earlier blocks (PairList::incoming_pair).
 // - reduction blocks (kReductionBlock, 256 owners, eight to a force block): the unit of the cell's sums.
 //   Each sums its owners' pairs in list order (ReductionSums); finish() adds the blocks in order.
 // Either way every sum runs in one fixed order, whatever the number of threads.
@@ -16,16 +16,8 @@
 // - gather_chunk (gather_chunk_avx2 where the CPU has AVX2, the same bits): both ends' positions,
 //   velocities, spins and radii, component-major, one lane per pair;
 // - evaluate_chunk: the contact law (contact_law.hpp) in SIMD lanes (target_clones: AVX-512, AVX2 or
-//   SSE2, the same bits); writes each pair's force and springs in place;
-// - sum_chunk: in pair order, adds each pair to both ends' net force and moment (RunningSums carries the
-//   owner's from pair to pair), hands a crossing pair's moment over, adds to the reduction block's sums.
-// Five crossing arrays (PairList; built with the list, build_crossings in neighbor/neighbor_list.cpp):
-// - block_crossings (force blocks + 1): the crossing pairs owned by earlier blocks, so where each force
-//   block's crossing pairs start in crossing_torque;
-// - crossing_torque (C): each crossing pair's moment on its neighbour, in pair order (written by sum_chunk;
-//   the neighbour's force needs no slot: it is the pair's own, pairs.force);
-// - crossing_first (N + 1), crossing_rank (C), crossing_pair (C): the same pairs as a CSR by neighbour, in
-//   pair order, for the kick: each one's rank in crossing_torque and its pair index.
+//   SSE2, the same bits); writes each pair's force, moments and springs in place;
+// - sum_chunk: in pair order, adds each pair to the reduction block's sums and stores its flags.
 #pragma once
 #include <functional>
 #include <vector>

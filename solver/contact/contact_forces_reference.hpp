@@ -1,7 +1,7 @@
 // The pair loop written plainly, for the tests to hold the fast one (contact/contact_forces.cpp) against:
 // one scalar loop over the listed pairs in list order, each pair through the contact law once, its force
 // and moments added to both ends, the cell's sums added up. No chunks, SIMD lanes, force blocks, reduction
-// blocks or crossing arrays. Not used by the solver.
+// blocks or incoming-pair lists. Not used by the solver.
 #pragma once
 #include <cstdint>
 #include <vector>

@@ -1,7 +1,7 @@
 // The mutable state of a simulation: periodic cell, particles, contacts (with history) and control memory.
 // A state file (io/state_file) keeps what the next step needs to continue bit for bit: the cell, the particles,
 // the control memory, the last evaluation's stresses and each touching pair's history. The pair list itself,
-// the pair and net forces, the crossing arrays and the build's positions and skin are recomputed from those.
+// the pair and net forces, the incoming pairs and the build's positions and skin are recomputed from those.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -63,17 +63,23 @@ struct PairList {
   std::vector<std::uint8_t> flags;               // (P) PairFlag bits of the last force evaluation
   // Per-pair results of the last force evaluation (zero where the pair does not touch).
   std::vector<Vec3> force;                       // (P) [N] force on j by i
-  // How the pair loop hands a pair's force and moment to its neighbour j. Particles are grouped in fixed
-  // blocks of kForceBlock ids. A pair whose ends are in one block adds them to j's net force and moment at
-  // once; for a crossing pair (ends in two blocks, the owner's first: j > i) the pair loop leaves j's moment
-  // in crossing_torque, in pair order (its force is the pair's own), and j's kick adds both once the pair
-  // loop is done. Every particle's sum thus runs in one fixed order for any number of threads (the threads
-  // share whole blocks, each writing its own crossings). The pair loop's map: contact/contact_forces.hpp.
-  std::vector<Index> block_crossings;            // (blocks + 1) crossing pairs owned by earlier blocks
-  std::vector<Vec3> crossing_torque;             // (C) [N m] moment on j of each crossing pair, in pair order
-  std::vector<Index> crossing_first;             // (N + 1) CSR by j: the pairs crossing into j, in pair order,
-  std::vector<Index> crossing_rank;              // (C)   their ranks in crossing_torque
-  std::vector<Index> crossing_pair;              // (C)   and their pair indices
+  std::vector<Vec3> torque_i;                    // (P) [N m] moment on i
+  std::vector<Vec3> torque_j;                    // (P) [N m] moment on j
+  // Each particle's net force and moment is summed from its pairs after the pair loop, in one fixed order for
+  // any number of threads (integrate/leapfrog.cpp): particles are grouped in fixed blocks of kForceBlock ids,
+  // and particle j's sum takes first its incoming pairs (those where it is the neighbour) whose owner is in its
+  // force block, then its own pairs, then its incoming pairs whose owner is in an earlier block (crossing
+  // pairs), each in pair order. The incoming pairs, as a CSR by j in that order:
+  std::vector<Index> incoming_first;             // (N + 1) offsets into incoming_pair
+  std::vector<Index> incoming_crossing;          // (N)     where j's crossing pairs start
+  std::vector<Index> incoming_pair;              // (P)     pair indices
+  // The pairs whose ends lie in two force blocks.
+  std::size_t crossings() const {
+    std::size_t c = 0;
+    for (std::size_t j = 0; j < incoming_crossing.size(); ++j)
+      c += static_cast<std::size_t>(incoming_first[j + 1] - incoming_crossing[j]);
+    return c;
+  }
   // Positions and cell at the last build, for the rebuild criterion. The positions are kept in single
   // precision (half the memory and the drift's traffic); build_rounding bounds what that rounding hides, and
   // the criterion adds it to the distance moved, so the list is rebuilt no later than with exact positions.

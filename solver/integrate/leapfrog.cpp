@@ -11,31 +11,37 @@
 namespace celldem {
 
 namespace {
-// Completes particle i's net force and moment: the pair loop summed the pairs of i's force block (kForceBlock)
-// where i is either end; the pairs that cross into it from other blocks come here, in ascending pair order.
-// Pairs apart hold zero force and moment, so adding them changes nothing (and needs no branch). (Nor does
-// the sign of a zero: a net force starts from +0 and sums reach -0 only from two -0 terms, so f is never
-// -0, and f + (-0) = f + (+0) = f.)
+// Particle i's net force and moment, summed from its pairs in a fixed order (PairList::incoming_pair): the
+// pairs coming into it from its force block, its own pairs, then the pairs crossing into it from earlier
+// blocks, each in pair order (j gets +F, i gets -F). Pairs apart hold zero force and moment, so adding them
+// changes nothing (and needs no branch).
 inline void gather(const PairList& pl, Particles& p, std::size_t i) {
-  Vec3 f = p.force[i], t = p.torque[i];
-  for (Index k = pl.crossing_first[i]; k < pl.crossing_first[i + 1]; ++k) {
-    CELLDEM_ASSERT(pl.crossing_rank[k] >= 0 && static_cast<std::size_t>(pl.crossing_rank[k]) < pl.crossing_torque.size(),
-                   "a crossing pair's rank lies within crossing_torque");
-    CELLDEM_ASSERT(k == pl.crossing_first[i] || pl.crossing_rank[k - 1] < pl.crossing_rank[k],
-                   "the pairs crossing into a particle are summed in pair order (their ranks ascend)");
-    CELLDEM_ASSERT(pl.crossing_pair[k] >= 0 && static_cast<std::size_t>(pl.crossing_pair[k]) < pl.force.size(),
-                   "a crossing pair is a listed pair");
-    f += pl.force[pl.crossing_pair[k]];  // the force on j: the pair's own
-    t += pl.crossing_torque[pl.crossing_rank[k]];
+  Vec3 f = Vec3::Zero(), t = Vec3::Zero();
+  const Index crossing = pl.incoming_crossing[i];
+  for (Index k = pl.incoming_first[i]; k < crossing; ++k) {
+    const Index q = pl.incoming_pair[k];
+    f += pl.force[q];
+    t += pl.torque_j[q];
+  }
+  for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
+    f -= pl.force[q];
+    t += pl.torque_i[q];
+  }
+  for (Index k = crossing; k < pl.incoming_first[i + 1]; ++k) {
+    const Index q = pl.incoming_pair[k];
+    f += pl.force[q];
+    t += pl.torque_j[q];
   }
   p.force[i] = f;
   p.torque[i] = t;
 }
 
-// The calling thread's share of the particles: a contiguous range with about equal work (crossing pairs
-// plus the particle itself).
+// The calling thread's share of the particles: a contiguous range with about equal work (its pairs, both
+// ways, plus the particle itself).
 std::pair<std::size_t, std::size_t> gather_share(const PairList& pl, std::size_t n) {
-  return thread_share(n, [&](std::size_t k) { return static_cast<std::size_t>(pl.crossing_first[k]) + k; });
+  return thread_share(n, [&](std::size_t k) {
+    return static_cast<std::size_t>(pl.incoming_first[k]) + static_cast<std::size_t>(pl.first[k]) + k;
+  });
 }
 }  // namespace
 

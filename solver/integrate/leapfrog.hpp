@@ -5,11 +5,11 @@
 
 namespace celldem {
 
-// Completes each particle's net contact force and moment (the pair loop summed the pairs within its force
-// block; this adds those that cross into it from other blocks, in a fixed order).
+// Each particle's net contact force and moment, summed from the pair loop's per-pair forces and moments in one
+// fixed order (PairList::incoming_pair), the same on any number of threads.
 void gather_forces(State& state);
 
-// Completes the net force and moment of particles [begin, end) as gather_forces does, then advances their
+// Sums the net force and moment of particles [begin, end) as gather_forces does, then advances their
 // fluctuating velocity and spin by one step with implicit body damping (the kick), on the calling thread.
 void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end);
 

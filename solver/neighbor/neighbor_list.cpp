@@ -173,34 +173,25 @@ PairSearch::Candidates PairSearch::candidates() {
 
 namespace {
 
-// The crossing pairs (PairList): ranked in pair order, and listed by neighbour.
-void build_crossings(PairList& pl, std::size_t n) {
-  const std::size_t blocks = (n + kForceBlock - 1) / kForceBlock;
-  // Calls f(i, q, rank) for each crossing pair q (owner i), in pair order.
-  const auto for_each_crossing = [&](auto f) {
-    Index rank = 0;
-    for_each_pair(pl, [&](Index i, Index q) {
-      if (i / kForceBlock != pl.neighbor[q] / kForceBlock) f(i, q, rank++);
-    });
-  };
-  pl.block_crossings.assign(blocks + 1, 0);
-  pl.crossing_first.assign(n + 1, 0);
-  for_each_crossing([&](Index i, Index q, Index) {
-    ++pl.block_crossings[i / kForceBlock + 1];
-    ++pl.crossing_first[pl.neighbor[q] + 1];
+// Each particle's incoming pairs in the order of its sum (PairList::incoming_pair): those owned in its force
+// block, then those owned in earlier blocks, each in pair order.
+void build_incoming(PairList& pl, std::size_t n) {
+  const auto block = [](Index i) { return i / static_cast<Index>(kForceBlock); };
+  pl.incoming_first.assign(n + 1, 0);
+  for (const Index j : pl.neighbor) ++pl.incoming_first[static_cast<std::size_t>(j) + 1];
+  for (std::size_t k = 0; k < n; ++k) pl.incoming_first[k + 1] += pl.incoming_first[k];
+  pl.incoming_crossing.assign(pl.incoming_first.begin(), pl.incoming_first.end() - 1);
+  for_each_pair(pl, [&](Index i, Index q) {
+    const Index j = pl.neighbor[q];
+    if (block(i) == block(j)) ++pl.incoming_crossing[static_cast<std::size_t>(j)];
   });
-  for (std::size_t b = 0; b < blocks; ++b) pl.block_crossings[b + 1] += pl.block_crossings[b];
-  for (std::size_t k = 0; k < n; ++k) pl.crossing_first[k + 1] += pl.crossing_first[k];
-  const std::size_t count = pl.crossing_first[n];
-  pl.crossing_rank.resize(count);
-  pl.crossing_pair.resize(count);
-  std::vector<Index> fill(pl.crossing_first.begin(), pl.crossing_first.end() - 1);
-  for_each_crossing([&](Index, Index q, Index rank) {
-    const Index k = fill[pl.neighbor[q]]++;
-    pl.crossing_rank[k] = rank;
-    pl.crossing_pair[k] = q;
+  pl.incoming_pair.resize(pl.neighbor.size());
+  std::vector<Index> same(pl.incoming_first.begin(), pl.incoming_first.end() - 1);  // where the next one goes
+  std::vector<Index> crossing(pl.incoming_crossing);
+  for_each_pair(pl, [&](Index i, Index q) {
+    const Index j = pl.neighbor[q];
+    pl.incoming_pair[(block(i) == block(j) ? same : crossing)[static_cast<std::size_t>(j)]++] = q;
   });
-  pl.crossing_torque.assign(count, Vec3::Zero());
 }
 
 }  // namespace
@@ -236,6 +227,8 @@ void rebuild_pairs(const Model& model, State& state, PairSearch& search) {
   const bool carry_radius = radius && pl.contact_radius.size() == pl.size();
   next.flags.assign(count, 0);
   next.force.assign(count, Vec3::Zero());
+  next.torque_i.assign(count, Vec3::Zero());
+  next.torque_j.assign(count, Vec3::Zero());
 
   const bool have_old = pl.first.size() == n + 1;
   for (std::size_t i = 0; i < n; ++i) {
@@ -258,7 +251,7 @@ void rebuild_pairs(const Model& model, State& state, PairSearch& search) {
       }
     }
   }
-  build_crossings(next, n);
+  build_incoming(next, n);
   next.scaled_at_build.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     next.scaled_at_build[i] = p.scaled[i].cast<float>();
@@ -279,43 +272,42 @@ void check_pair_list(const PairList& pl, std::size_t particles) {
   require(pl.first.size() == particles + 1 && pl.first[0] == 0, "first has N + 1 offsets from 0");
   const Index count = pl.first[n];
   const auto holds = [&](const auto& v) { return v.size() == static_cast<std::size_t>(count); };
-  require(holds(pl.neighbor) && holds(pl.image) && holds(pl.tangential) && holds(pl.flags) && holds(pl.force),
+  require(holds(pl.neighbor) && holds(pl.image) && holds(pl.tangential) && holds(pl.flags) && holds(pl.force) &&
+              holds(pl.torque_i) && holds(pl.torque_j),
           "every per-pair array holds first[N] pairs");
   require((pl.rolling.empty() || holds(pl.rolling)) && (pl.twist.empty() || holds(pl.twist)) &&
               (pl.contact_radius.empty() || holds(pl.contact_radius)),
           "the optional per-pair arrays are empty or hold first[N] pairs");
-  Index crossings = 0;
   for (Index i = 0; i < n; ++i) {
     require(pl.first[i] <= pl.first[i + 1], "first is non-decreasing");
     for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
       const Index j = pl.neighbor[q];
-      require(j >= 0 && j < n && j != i, "a neighbour is another particle");
+      require(j > i && j < n, "a neighbour has a higher id than its owner");
       require(q == pl.first[i] || pl.neighbor[q - 1] < j, "a row's neighbours are strictly increasing");
-      if (i / static_cast<Index>(kForceBlock) != j / static_cast<Index>(kForceBlock)) {
-        require(j > i, "a crossing pair's neighbour is in a later force block");
-        ++crossings;
-      }
     }
   }
-  const auto crossing_holds = [&](const auto& v) { return v.size() == static_cast<std::size_t>(crossings); };
-  require(pl.crossing_first.size() == particles + 1 && pl.crossing_first[0] == 0 && pl.crossing_first[n] == crossings &&
-              crossing_holds(pl.crossing_rank) && crossing_holds(pl.crossing_pair) && crossing_holds(pl.crossing_torque),
-          "the crossing arrays hold every crossing pair once");
-  // Each crossing pair's rank: its place among the crossing pairs in pair order, where the pair loop leaves
-  // its moment (crossing_torque); -1 for a pair that does not cross.
-  std::vector<Index> rank_of(static_cast<std::size_t>(count), -1);
-  Index rank = 0;
-  for_each_pair(pl, [&](Index i, Index q) {
-    if (i / static_cast<Index>(kForceBlock) != pl.neighbor[q] / static_cast<Index>(kForceBlock)) rank_of[q] = rank++;
-  });
-  for (Index j = 0; j < n; ++j)
-    for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
-      const Index q = pl.crossing_pair[k];
-      require(q >= 0 && q < count && pl.neighbor[q] == j, "crossing_pair points at the pairs of j");
-      require(k == pl.crossing_first[j] || pl.crossing_pair[k - 1] < q, "the pairs crossing into j are in pair order");
-      require(pl.crossing_rank[k] >= 0 && pl.crossing_rank[k] < crossings, "a crossing's rank is within crossing_torque");
-      require(pl.crossing_rank[k] == rank_of[q], "a crossing's rank is its place among the crossing pairs in pair order");
+  require(pl.incoming_first.size() == particles + 1 && pl.incoming_first[0] == 0 && pl.incoming_first[n] == count &&
+              pl.incoming_crossing.size() == particles && holds(pl.incoming_pair),
+          "the incoming arrays hold every pair once");
+  // Each pair's owner, to check every incoming pair's place in its neighbour's sum.
+  std::vector<Index> owner(static_cast<std::size_t>(count), -1);
+  for_each_pair(pl, [&](Index i, Index q) { owner[static_cast<std::size_t>(q)] = i; });
+  const auto block = [](Index i) { return i / static_cast<Index>(kForceBlock); };
+  std::vector<int> seen(static_cast<std::size_t>(count), 0);
+  for (Index j = 0; j < n; ++j) {
+    require(pl.incoming_first[j] <= pl.incoming_crossing[j] && pl.incoming_crossing[j] <= pl.incoming_first[j + 1],
+            "a particle's crossing pairs lie within its incoming pairs");
+    for (Index k = pl.incoming_first[j]; k < pl.incoming_first[j + 1]; ++k) {
+      const Index q = pl.incoming_pair[k];
+      require(q >= 0 && q < count && pl.neighbor[q] == j, "incoming_pair points at the pairs of j");
+      require(++seen[static_cast<std::size_t>(q)] == 1, "the incoming arrays hold every pair once");
+      const bool crossing = k >= pl.incoming_crossing[j];
+      require(crossing == (block(owner[static_cast<std::size_t>(q)]) < block(j)),
+              "j's pairs owned in its force block come first, those owned in earlier blocks after them");
+      require(k == pl.incoming_first[j] || k == pl.incoming_crossing[j] || pl.incoming_pair[k - 1] < q,
+              "the pairs coming into j are in pair order");
     }
+  }
 }
 
 double largest_move_since_build(const State& state) {
@@ -381,6 +373,8 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   pl.flags.resize(contacts.size());
   pl.image.assign(contacts.size(), {0, 0, 0});  // unknown until the next rebuild, which must come first
   pl.force.assign(contacts.size(), Vec3::Zero());
+  pl.torque_i.assign(contacts.size(), Vec3::Zero());
+  pl.torque_j.assign(contacts.size(), Vec3::Zero());
   std::vector<Index> fill(pl.first.begin(), pl.first.end() - 1);
   for (const auto& c : contacts) {  // contacts arrive sorted by (i, j), so each row stays sorted
     const Index q = fill[c.i]++;

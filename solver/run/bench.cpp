@@ -117,7 +117,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   t.bytes_per_particle = t.memory.total();
   t.pairs_per_particle = static_cast<double>(state.pairs.size()) / static_cast<double>(state.particles.size());
   t.crossings_per_particle =
-      static_cast<double>(state.pairs.crossing_rank.size()) / static_cast<double>(state.particles.size());
+      static_cast<double>(state.pairs.crossings()) / static_cast<double>(state.particles.size());
   t.contacts_per_particle = static_cast<double>(state.touching) / static_cast<double>(state.particles.size());
   return t;
 }
@@ -174,11 +174,11 @@ MemoryPerParticle memory_per_particle(const State& s, const Model& m) {
   const double n = static_cast<double>(std::max<std::size_t>(p.size(), 1));
   MemoryPerParticle out;
   out.particles = (bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) + bytes(p.force) +
-                   bytes(p.torque) + bytes(pl.first) + bytes(pl.crossing_first) + bytes(pl.scaled_at_build)) / n;
+                   bytes(p.torque) + bytes(pl.first) + bytes(pl.incoming_first) + bytes(pl.incoming_crossing) +
+                   bytes(pl.scaled_at_build)) / n;
   out.pairs = (bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) + bytes(pl.twist) +
                bytes(pl.contact_radius) +
-               bytes(pl.flags) + bytes(pl.force) + bytes(pl.block_crossings) + bytes(pl.crossing_torque) +
-               bytes(pl.crossing_rank) + bytes(pl.crossing_pair)) / n;
+               bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_i) + bytes(pl.torque_j) + bytes(pl.incoming_pair)) / n;
   out.model = (bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +
                bytes(m.spin_gain)) / n;
   return out;

@@ -275,7 +275,7 @@ TEST(ContactForces, ResultsIndependentOfThreadCount) {
   base.cell.velocity_gradient = Mat3::Identity() * 0.1;
   const std::vector<State> results = testing::on_thread_counts(model, base, 0.4, {1, 2, 3, 4});
   ASSERT_GT(results[0].touching, 10000);
-  ASSERT_GT(results[0].pairs.crossing_rank.size(), 500u);
+  ASSERT_GT(results[0].pairs.crossings(), 500u);
   for (std::size_t r = 1; r < results.size(); ++r) expect_same_bits(results[r], results[0]);
 }
 
@@ -297,8 +297,8 @@ TEST(ContactForces, PortableGatherGivesTheSameBits) {
   expect_same_bits(portable, vector_gather);
 }
 
-// Every pair reaches both its ends once, whichever way it is handed over (at once within a force block, or
-// through the crossing arrays): the net forces and moments equal the plain loop's sums over the pairs
+// Every pair reaches both its ends once, whether its owner lies in its neighbour's force block or in an earlier
+// one: the net forces and moments equal the plain loop's sums over the pairs
 // (contact_forces_reference.hpp), up to the order of the additions.
 void expect_net_forces_are_pair_sums(const Model& model, State s) {
   rebuild_pairs(model, s);
@@ -322,7 +322,7 @@ TEST(ContactForces, NetForcesAreTheSumsOfTheirPairs) {
   const Model model = make_model(model_deck(kKn, kKt, kDt), s.particles.radius);
   State listed = s;
   rebuild_pairs(model, listed);
-  ASSERT_GT(listed.pairs.crossing_rank.size(), 500u);
+  ASSERT_GT(listed.pairs.crossings(), 500u);
   expect_net_forces_are_pair_sums(model, s);
 }
 

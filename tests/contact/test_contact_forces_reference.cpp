@@ -1,5 +1,5 @@
-// The fast pair loop (contact/contact_forces.cpp: chunks, SIMD lanes, force blocks and their crossing
-// arrays, reduction blocks) against the plain one (contact/contact_forces_reference.hpp), scene by scene.
+// The fast pair loop (contact/contact_forces.cpp: chunks, SIMD lanes, force blocks, reduction blocks) and the
+// kick's per-particle sums (PairList::incoming_pair) against the plain one (contact/contact_forces_reference.hpp), scene by scene.
 //
 // What agrees to the bit, and why:
 // - every pair's force, springs and flags: the same law on the same numbers (the gathered differences and
@@ -9,7 +9,7 @@
 // - the stress sums, when the particles fit in one reduction block (kReductionBlock): both sum in list order.
 // What agrees to round-off (1e-12 of the largest value), because the fast path reorders the additions:
 // - the net force and moment of a particle that pairs cross into: the fast path adds those pairs last (in
-//   the kick's gather), the plain loop where they come in the list (first: their owners have lower ids);
+//   its sum), the plain loop where they come in the list (first: their owners have lower ids);
 // - the stress sums over more than one reduction block: the fast path sums each block, then the blocks.
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -72,7 +72,7 @@ void expect_agreement(const Model& model, const Friction& friction, State s, int
   const double force_scale = largest_norm(ref.net_force), torque_scale = largest_norm(ref.net_torque);
   std::size_t crossed_into = 0;
   for (std::size_t i = 0; i < s.particles.size(); ++i) {
-    if (pl.crossing_first[i] == pl.crossing_first[i + 1]) {
+    if (pl.incoming_crossing[i] == pl.incoming_first[i + 1]) {
       EXPECT_TRUE(same_bits(s.particles.force[i], ref.net_force[i])) << "particle " << i;
       EXPECT_TRUE(same_bits(s.particles.torque[i], ref.net_torque[i])) << "particle " << i;
     } else {
@@ -149,7 +149,7 @@ TEST(ReferencePairLoop, TwoForceBlocksWithCrossings) {
   const Model model = make_model(model_deck(kKn, kKt, kDt), s.particles.radius);
   State listed = s;
   rebuild_pairs(model, listed);
-  ASSERT_GT(listed.pairs.crossing_pair.size(), 100u);
+  ASSERT_GT(listed.pairs.crossings(), 100u);
   const int saved = omp_get_max_threads();
   for (int threads : {1, 3}) {
     SCOPED_TRACE(threads);

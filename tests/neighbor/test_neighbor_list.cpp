@@ -76,38 +76,27 @@ void expect_list_consistent(const PairList& pl, std::size_t n) {
       EXPECT_GT(pl.neighbor[q], static_cast<Index>(i));
       if (q > pl.first[i]) { EXPECT_LT(pl.neighbor[q - 1], pl.neighbor[q]); }  // sorted by j, one image each
     }
-  // The crossing index: every pair whose ends lie in two force blocks once, under its neighbour, by its rank
-  // among the crossing pairs in pair order (ascending under each neighbour) and its pair index; each block's
-  // count in order.
-  std::vector<std::size_t> pair_of_rank;
-  Index crossings = 0;
-  const std::size_t blocks = (n + kForceBlock - 1) / kForceBlock;
-  ASSERT_EQ(pl.block_crossings.size(), blocks + 1);
+  // The incoming pairs: under each neighbour j, first the pairs whose owner is in j's force block, then those
+  // whose owner is in an earlier block (crossing pairs), each in pair order.
+  std::vector<std::vector<Index>> same(n), crossing(n);
   for_each_pair(pl, [&](Index i, Index q) {
-    if (i / kForceBlock != pl.neighbor[q] / kForceBlock) pair_of_rank.push_back(q), ++crossings;
+    const Index j = pl.neighbor[q];
+    (i / kForceBlock == j / kForceBlock ? same : crossing)[j].push_back(q);
   });
-  for (std::size_t b = 0; b <= blocks; ++b) {
-    const auto block_start = static_cast<std::size_t>(pl.first[std::min(n, b * kForceBlock)]);
-    EXPECT_EQ(pl.block_crossings[b], std::count_if(pair_of_rank.begin(), pair_of_rank.end(),
-                                                   [&](std::size_t q) { return q < block_start; }));
+  ASSERT_EQ(pl.incoming_first.size(), n + 1);
+  ASSERT_EQ(pl.incoming_crossing.size(), n);
+  ASSERT_EQ(pl.incoming_pair.size(), pl.size());
+  std::size_t crossings = 0;
+  for (std::size_t j = 0; j < n; ++j) {
+    std::vector<Index> expected = same[j];
+    expected.insert(expected.end(), crossing[j].begin(), crossing[j].end());
+    const std::vector<Index> got(pl.incoming_pair.begin() + pl.incoming_first[j],
+                                 pl.incoming_pair.begin() + pl.incoming_first[j + 1]);
+    EXPECT_EQ(got, expected) << "particle " << j;
+    EXPECT_EQ(pl.incoming_crossing[j] - pl.incoming_first[j], static_cast<Index>(same[j].size())) << "particle " << j;
+    crossings += crossing[j].size();
   }
-  ASSERT_EQ(pl.crossing_first.size(), n + 1);
-  ASSERT_EQ(pl.crossing_rank.size(), static_cast<std::size_t>(crossings));
-  ASSERT_EQ(pl.crossing_torque.size(), static_cast<std::size_t>(crossings));
-  ASSERT_EQ(pl.crossing_pair.size(), static_cast<std::size_t>(crossings));
-  std::vector<int> seen(crossings, 0);
-  for (std::size_t j = 0; j < n; ++j)
-    for (Index k = pl.crossing_first[j]; k < pl.crossing_first[j + 1]; ++k) {
-      const Index c = pl.crossing_rank[k];
-      ASSERT_GE(c, 0);
-      ASSERT_LT(c, crossings);
-      const std::size_t q = pair_of_rank[c];
-      EXPECT_EQ(static_cast<std::size_t>(pl.crossing_pair[k]), q);
-      EXPECT_EQ(pl.neighbor[q], static_cast<Index>(j));
-      if (k > pl.crossing_first[j]) { EXPECT_LT(pl.crossing_rank[k - 1], c); }
-      ++seen[c];
-    }
-  for (int c : seen) EXPECT_EQ(c, 1);
+  EXPECT_EQ(pl.crossings(), crossings);
 }
 
 struct CellCase {
@@ -131,7 +120,7 @@ TEST(NeighborList, MatchesBruteForceInCubicShearedAndSmallCells) {
     const Model model = make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius);
     rebuild_pairs(model, s);
     expect_list_consistent(s.pairs, s.particles.size());
-    if (s.particles.size() > kForceBlock) { EXPECT_GT(s.pairs.crossing_rank.size(), 100u); }
+    if (s.particles.size() > kForceBlock) { EXPECT_GT(s.pairs.crossings(), 100u); }
     const std::set<Key> expected = brute_force(s, skin);
     EXPECT_EQ(listed(s.pairs), expected);
     EXPECT_GT(expected.size(), 10u);
@@ -150,7 +139,7 @@ TEST(NeighborListDeathTest, InvariantCheckCatchesBrokenLists) {
   rebuild_pairs(make_model(model_deck(1e4, 1e4, 1e-4), s.particles.radius), s);
   const std::size_t n = s.particles.size();
   check_pair_list(s.pairs, n);  // a built list passes
-  ASSERT_GT(s.pairs.crossing_pair.size(), 1u);
+  ASSERT_GT(s.pairs.crossings(), 1u);
   std::size_t row = 0;  // a particle with at least two neighbours
   while (s.pairs.first[row + 1] - s.pairs.first[row] < 2) ++row;
 
@@ -160,15 +149,29 @@ TEST(NeighborListDeathTest, InvariantCheckCatchesBrokenLists) {
   PairList short_forces = s.pairs;
   short_forces.force.pop_back();
   EXPECT_DEATH(check_pair_list(short_forces, n), "every per-pair array");
-  PairList lost_crossing = s.pairs;
-  lost_crossing.crossing_pair.pop_back();
-  EXPECT_DEATH(check_pair_list(lost_crossing, n), "every crossing pair once");
-  PairList wrong_crossing = s.pairs;
-  std::swap(wrong_crossing.crossing_pair.front(), wrong_crossing.crossing_pair.back());
-  EXPECT_DEATH(check_pair_list(wrong_crossing, n), "crossing_pair points at the pairs of j|in pair order");
-  PairList wrong_rank = s.pairs;  // both ranks still within crossing_torque, but the kick would swap two moments
-  std::swap(wrong_rank.crossing_rank.front(), wrong_rank.crossing_rank.back());
-  EXPECT_DEATH(check_pair_list(wrong_rank, n), "its place among the crossing pairs");
+  PairList short_torques = s.pairs;
+  short_torques.torque_j.pop_back();
+  EXPECT_DEATH(check_pair_list(short_torques, n), "every per-pair array");
+  PairList lost_incoming = s.pairs;
+  lost_incoming.incoming_pair.pop_back();
+  EXPECT_DEATH(check_pair_list(lost_incoming, n), "hold every pair once");
+  PairList wrong_incoming = s.pairs;
+  std::swap(wrong_incoming.incoming_pair.front(), wrong_incoming.incoming_pair.back());
+  EXPECT_DEATH(check_pair_list(wrong_incoming, n), "incoming_pair points at the pairs of j");
+  // A particle with pairs coming in from its own block and from an earlier one: moving the split between
+  // them by one would sum a pair in the wrong place.
+  std::size_t j = kForceBlock;
+  while (s.pairs.incoming_crossing[j] == s.pairs.incoming_first[j] ||
+         s.pairs.incoming_crossing[j] == s.pairs.incoming_first[j + 1])
+    ASSERT_LT(++j, n);
+  PairList wrong_split = s.pairs;
+  ++wrong_split.incoming_crossing[j];
+  EXPECT_DEATH(check_pair_list(wrong_split, n), "come first");
+  PairList wrong_order = s.pairs;  // two of j's own-block pairs swapped: the sum's order would change
+  std::size_t k = 0;
+  while (s.pairs.incoming_crossing[k] - s.pairs.incoming_first[k] < 2) ASSERT_LT(++k, n);
+  std::swap(wrong_order.incoming_pair[wrong_order.incoming_first[k]], wrong_order.incoming_pair[wrong_order.incoming_first[k] + 1]);
+  EXPECT_DEATH(check_pair_list(wrong_order, n), "in pair order");
 }
 
 // The search shared among the threads of a region the caller owns (as the time step runs it) gives the same
@@ -195,7 +198,8 @@ TEST(NeighborList, SearchSharedInACallersRegionGivesTheSameList) {
     EXPECT_EQ(s.pairs.first, reference.pairs.first);
     EXPECT_EQ(s.pairs.neighbor, reference.pairs.neighbor);
     EXPECT_EQ(s.pairs.image, reference.pairs.image);
-    EXPECT_EQ(s.pairs.crossing_pair, reference.pairs.crossing_pair);
+    EXPECT_EQ(s.pairs.incoming_pair, reference.pairs.incoming_pair);
+    EXPECT_EQ(s.pairs.incoming_crossing, reference.pairs.incoming_crossing);
   }
 }
 

@@ -75,7 +75,7 @@ def test_installed_commands_and_import_find_the_binary(celldem, venv, small_run,
     assert r.returncode == 0, f"celldem-report: exit {r.returncode}\n{r.stdout[-1000:]}\n{r.stderr[-2000:]}"
     assert (small_run / "report.md").is_file()
     for command in ("celldem-figures", "celldem-failure-surface", "celldem-study", "celldem-sufficiency", "celldem-roofline",
-                    "celldem-plot-bench"):
+                    "celldem-compare-binaries", "celldem-plot-bench"):
         r = subprocess.run([str(venv / "bin" / command), "--help"], capture_output=True, text=True, env=env)
         assert r.returncode == 0 and "usage" in r.stdout.lower(), f"{command} --help: {r.stderr[-1000:]}"
 

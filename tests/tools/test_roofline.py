@@ -116,17 +116,16 @@ def test_kernels_by_name():
 
 
 def test_layout_table():
-    # The layout table: 180 B per particle, 59 per pair and 32 per crossing pair of memory (the bench's count; a
-    # pair image is 3 x int16, the build positions 3 x float; no owner per pair); 252 + 83 moved per step,
-    # 180 + 59 touched, with no pair crossing force blocks.
+    # The layout table: 184 B per particle and 111 per pair of memory (the bench's count; a pair image is 3 x int16,
+    # the build positions 3 x float; no owner per pair; each pair's force and both moments); 256 + 135 moved per
+    # step, 184 + 111 touched.
     b = rl.compulsory_bytes(1.0)
-    check("footprint, one pair per particle", b["footprint"], 239.0)
-    check("compulsory bytes, one pair per particle", b["step"], 335.0)
-    check("touched bytes, one pair per particle", b["touched"], 239.0)
-    check("evaluate_chunk's compulsory bytes per pair", rl.compulsory_bytes(2.0)["kernels"]["evaluate_chunk"], 144.0)
-    check("footprint with half a crossing per particle", rl.compulsory_bytes(1.0, 0.5)["footprint"], 255.0)
-    check("the kick's crossing bytes", rl.compulsory_bytes(0.0, 1.0)["kernels"]["gather_and_kick_range"]
-          - rl.compulsory_bytes(0.0, 0.0)["kernels"]["gather_and_kick_range"], 32.0)
+    check("footprint, one pair per particle", b["footprint"], 295.0)
+    check("compulsory bytes, one pair per particle", b["step"], 391.0)
+    check("touched bytes, one pair per particle", b["touched"], 295.0)
+    check("evaluate_chunk's compulsory bytes per pair", rl.compulsory_bytes(2.0)["kernels"]["evaluate_chunk"], 240.0)
+    check("the kick's bytes per pair", rl.compulsory_bytes(1.0)["kernels"]["gather_and_kick_range"]
+          - rl.compulsory_bytes(0.0)["kernels"]["gather_and_kick_range"], 76.0)
 
 
 def test_refuses_to_overwrite_without_force(tmp_path):

@@ -57,22 +57,23 @@ ARRAYS = (
     ("scaled", 24, "particle", "RW", {"drift": "RW", "gather_chunk": "R"}),
     ("velocity", 24, "particle", "RW", {"drift": "R", "gather_chunk": "R", "gather_and_kick_range": "RW"}),
     ("spin", 24, "particle", "RW", {"gather_chunk": "R", "gather_and_kick_range": "RW"}),
-    ("force", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "RW", "gather_and_kick_range": "RW"}),
-    ("torque", 24, "particle", "W", {"pair_loop": "W", "sum_chunk": "RW", "gather_and_kick_range": "RW"}),
+    ("force", 24, "particle", "W", {"gather_and_kick_range": "W"}),
+    ("torque", 24, "particle", "W", {"gather_and_kick_range": "W"}),
     ("pairs.scaled_at_build", 12, "particle", "R", {"drift": "R"}),  # 3 x float
-    ("pairs.first", 4, "particle", "R", {"gather_chunk": "R"}),  # the owners of each chunk's pairs
-    ("pairs.crossing_first", 4, "particle", "R", {"gather_and_kick_range": "R"}),
+    ("pairs.first", 4, "particle", "R", {"gather_chunk": "R", "gather_and_kick_range": "R"}),  # the owners' rows
+    ("pairs.incoming_first", 4, "particle", "R", {"gather_and_kick_range": "R"}),
+    ("pairs.incoming_crossing", 4, "particle", "R", {"gather_and_kick_range": "R"}),
     ("model.velocity_keep, velocity_gain, spin_keep, spin_gain", 32, "particle", "R", {"gather_and_kick_range": "R"}),
-    ("pairs.neighbor", 4, "pair", "R", {"gather_chunk": "R", "sum_chunk": "R"}),
+    ("pairs.neighbor", 4, "pair", "R", {"gather_chunk": "R"}),
     ("pairs.image", 6, "pair", "R", {"gather_chunk": "R"}),  # PairImage: 3 x int16
     ("pairs.tangential", 24, "pair", "RW", {"evaluate_chunk": "RW"}),
     ("pairs.flags", 1, "pair", "W", {"sum_chunk": "W"}),
-    ("pairs.force", 24, "pair", "W", {"evaluate_chunk": "W", "sum_chunk": "R"}),
-    # Pairs whose ends lie in two force blocks (state.hpp, kForceBlock) hand j's share over through these.
-    # (Their forces are read again from pairs.force, a second time for those pairs: not counted.)
-    ("pairs.crossing_torque", 24, "crossing", "W", {"sum_chunk": "W", "gather_and_kick_range": "R"}),
-    ("pairs.crossing_rank", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
-    ("pairs.crossing_pair", 4, "crossing", "R", {"gather_and_kick_range": "R"}),
+    # Each pair's force and moments, written by the law and summed into both ends by the kick (each end reads
+    # the force: the second read is not counted).
+    ("pairs.force", 24, "pair", "W", {"evaluate_chunk": "W", "gather_and_kick_range": "R"}),
+    ("pairs.torque_i", 24, "pair", "W", {"evaluate_chunk": "W", "gather_and_kick_range": "R"}),
+    ("pairs.torque_j", 24, "pair", "W", {"evaluate_chunk": "W", "gather_and_kick_range": "R"}),
+    ("pairs.incoming_pair", 4, "pair", "R", {"gather_and_kick_range": "R"}),
 )
 
 CALLGRIND_STEPS = 200     # steps under callgrind (about 20 s with the cache simulation on 8000 spheres)
@@ -292,12 +293,12 @@ def attribute(profile, flops_at, objects):
 
 # ---- bytes ----
 
-def compulsory_bytes(pairs_per_particle, crossings_per_particle=0.0):
+def compulsory_bytes(pairs_per_particle):
     """Bytes per particle-step that each kernel and the whole step must move at least (ARRAYS: a read and a write
     count twice), the bytes of the arrays the step touches (each once: what a cache must bring in, write-backs
-    aside) and the footprint of all the arrays, per particle (crossings: pairs across force blocks)."""
+    aside) and the footprint of all the arrays, per particle."""
     def size(nbytes, per):
-        return nbytes * {"pair": pairs_per_particle, "crossing": crossings_per_particle}.get(per, 1.0)
+        return nbytes * (pairs_per_particle if per == "pair" else 1.0)
     kernels = Counter()
     step = touched = footprint = 0.0
     for _, nbytes, per, step_access, access in ARRAYS:
@@ -470,7 +471,7 @@ def large_sample(celldem, deck, state, workdir, copies, toggle, flops_at, object
             "footprint_bytes": row["bytes_per_particle"] * row["particles"],
             "instructions_per_particle_step": whole["instructions"] / particle_steps,
             "flops_per_particle_step": whole["flops"] / particle_steps,
-            "compulsory_bytes_per_particle_step": compulsory_bytes(row["pairs_per_particle"], row["crossings_per_particle"])["step"],
+            "compulsory_bytes_per_particle_step": compulsory_bytes(row["pairs_per_particle"])["step"],
             "d1_miss_bytes_per_particle_step": LINE * whole["d1_misses"] / particle_steps,
             "ll_miss_bytes_per_particle_step": LINE * whole["ll_misses"] / particle_steps}
 
@@ -573,7 +574,7 @@ def summarise(m):
     sample, notes = m["sample"], m["notes"]
     particle_steps = m["steps"] * sample["particles"]
     add_rebuild(m)
-    compulsory = compulsory_bytes(sample["pairs_per_particle"], sample["crossings_per_particle"])
+    compulsory = compulsory_bytes(sample["pairs_per_particle"])
     notes += layout_notes(m, compulsory)
     roofs = machine_roofs(m)
     shares = m["shares"] or {}
@@ -633,7 +634,7 @@ def layout_notes(m, compulsory):
               f"{particles} spheres"]
     if m["large"]:
         large = m["large"]
-        touched = compulsory_bytes(large["pairs_per_particle"], large["crossings_per_particle"])["touched"]
+        touched = compulsory_bytes(large["pairs_per_particle"])["touched"]
         ratios.append(f"{large['ll_miss_bytes_per_particle_step'] / touched:.2f} x on {large['particles']}")
     notes.append(f"the simulated L2-miss bytes are {' and '.join(ratios)} the bytes of the arrays the step touches "
                  f"({compulsory['touched']:.0f} B per particle-step, each array once, write-backs aside)")
