@@ -39,6 +39,8 @@ struct Particles {
 // Fixed blocks of particle ids for the pair loop's hand-over of forces (PairList): the threads take whole
 // blocks, and the larger the block, the fewer pairs cross between blocks (about 10 % of the paper sample's).
 constexpr std::size_t kForceBlock = 2048;
+// The force block of particle i.
+constexpr Index force_block(Index i) { return i / static_cast<Index>(kForceBlock); }
 
 // Pair flags.
 enum PairFlag : std::uint8_t { kTouching = 1, kSliding = 2 };

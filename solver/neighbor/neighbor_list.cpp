@@ -176,21 +176,20 @@ namespace {
 // Each particle's incoming pairs in the order of its sum (PairList::incoming_pair): those owned in its force
 // block, then those owned in earlier blocks, each in pair order.
 void build_incoming(PairList& pl, std::size_t n) {
-  const auto block = [](Index i) { return i / static_cast<Index>(kForceBlock); };
   pl.incoming_first.assign(n + 1, 0);
   for (const Index j : pl.neighbor) ++pl.incoming_first[static_cast<std::size_t>(j) + 1];
   for (std::size_t k = 0; k < n; ++k) pl.incoming_first[k + 1] += pl.incoming_first[k];
   pl.incoming_crossing.assign(pl.incoming_first.begin(), pl.incoming_first.end() - 1);
   for_each_pair(pl, [&](Index i, Index q) {
     const Index j = pl.neighbor[q];
-    if (block(i) == block(j)) ++pl.incoming_crossing[static_cast<std::size_t>(j)];
+    if (force_block(i) == force_block(j)) ++pl.incoming_crossing[static_cast<std::size_t>(j)];
   });
   pl.incoming_pair.resize(pl.neighbor.size());
   std::vector<Index> same(pl.incoming_first.begin(), pl.incoming_first.end() - 1);  // where the next one goes
   std::vector<Index> crossing(pl.incoming_crossing);
   for_each_pair(pl, [&](Index i, Index q) {
     const Index j = pl.neighbor[q];
-    pl.incoming_pair[(block(i) == block(j) ? same : crossing)[static_cast<std::size_t>(j)]++] = q;
+    pl.incoming_pair[(force_block(i) == force_block(j) ? same : crossing)[static_cast<std::size_t>(j)]++] = q;
   });
 }
 
@@ -292,7 +291,6 @@ void check_pair_list(const PairList& pl, std::size_t particles) {
   // Each pair's owner, to check every incoming pair's place in its neighbour's sum.
   std::vector<Index> owner(static_cast<std::size_t>(count), -1);
   for_each_pair(pl, [&](Index i, Index q) { owner[static_cast<std::size_t>(q)] = i; });
-  const auto block = [](Index i) { return i / static_cast<Index>(kForceBlock); };
   std::vector<int> seen(static_cast<std::size_t>(count), 0);
   for (Index j = 0; j < n; ++j) {
     require(pl.incoming_first[j] <= pl.incoming_crossing[j] && pl.incoming_crossing[j] <= pl.incoming_first[j + 1],
@@ -302,7 +300,7 @@ void check_pair_list(const PairList& pl, std::size_t particles) {
       require(q >= 0 && q < count && pl.neighbor[q] == j, "incoming_pair points at the pairs of j");
       require(++seen[static_cast<std::size_t>(q)] == 1, "the incoming arrays hold every pair once");
       const bool crossing = k >= pl.incoming_crossing[j];
-      require(crossing == (block(owner[static_cast<std::size_t>(q)]) < block(j)),
+      require(crossing == (force_block(owner[static_cast<std::size_t>(q)]) < force_block(j)),
               "j's pairs owned in its force block come first, those owned in earlier blocks after them");
       require(k == pl.incoming_first[j] || k == pl.incoming_crossing[j] || pl.incoming_pair[k - 1] < q,
               "the pairs coming into j are in pair order");
