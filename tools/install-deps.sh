@@ -2,7 +2,7 @@
 # Installs the Debian packages celldem needs. Safe to run repeatedly.
 # Usage: tools/install-deps.sh [--with-crosscheck]   (with the cross-check codes and the fuzzers' compiler)
 set -euo pipefail
-pkgs=(build-essential cmake libeigen3-dev nlohmann-json3-dev libgtest-dev libgmock-dev libcli11-dev
+pkgs=(build-essential cmake ninja-build libeigen3-dev nlohmann-json3-dev libgtest-dev libgmock-dev libcli11-dev
       libboost-dev zlib1g-dev python3-numpy python3-matplotlib python3-scipy python3-pandas python3-pytest python3-vtk9
       python3-venv python3-pip python3-mypy)
 if [[ "${1:-}" == "--with-crosscheck" ]]; then

@@ -11,10 +11,11 @@ bash tools/build.sh -DCELLDEM_WERROR=ON
 (cd "${CELLDEM_BUILD_DIR:-build}" && ctest --output-on-failure -j 2 "$@")
 if [[ "${CELLDEM_QUICK:-0}" != 1 ]]; then
   echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer, invariants checked (CELLDEM_CHECKS) =="
-  # Only the unit tests' executables (the binary and the whole-run tests are not run here), at -O1 (the
-  # sanitizers' usual level; at -O0 the build is 1 minute shorter but the packing tests and the brute-force
-  # neighbour check run 10 to 100 times longer) with line tables only (-g1: the reports' stack traces keep file
-  # and line; full debug information doubles the build).
+  # Only the unit tests' executables (the binary and the whole-run tests are not run here). The physics layer
+  # and the neighbour test at -O1 (the sanitizers' usual level; at -O0 the packing tests and the brute-force
+  # neighbour check run 10 to 100 times longer), the rest at -O0 (CMakeLists.txt's CELLDEM_COLD_OPTIMIZATION:
+  # 40 % less compile time), with line tables only (-g1: the reports' stack traces keep file and line; full
+  # debug information doubles the build).
   CELLDEM_BUILD_DIR=build-asan \
     CELLDEM_TARGETS="test_core test_cell test_neighbor test_contact test_integrate test_measure test_io test_step test_run_rules" \
     bash tools/build.sh -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" \
