@@ -2,8 +2,11 @@
 // CELLDEM_ISA_CLONES before a hot function compiles it for AVX-512, AVX2 and the baseline, chosen at load
 // time. Every clone is the same source built with no contraction or reassociation (CMakeLists.txt), so all
 // give the same bits. Under the sanitizers, and off x86-64, only the baseline: the clones are the same
-// source, and three instrumented copies of every law made the sanitizer build's slowest file take minutes.
-#if defined(__SANITIZE_ADDRESS__) || !defined(__x86_64__)
+// source, and three instrumented copies of every law made the sanitizer build's slowest file take minutes
+// (and clang 14 has no target_clones on templates).
+#include "core/sanitizers.hpp"
+
+#if defined(CELLDEM_SANITIZED) || !defined(__x86_64__)
 #define CELLDEM_ISA_CLONES
 #else
 #define CELLDEM_ISA_CLONES [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]

@@ -16,7 +16,7 @@
 #include "neighbor/neighbor_list.hpp"
 #include "step.hpp"
 
-namespace celldem {
+namespace celldem::contact_forces_test {  // (named: the files of test_contact compile as one unit)
 namespace {
 
 using testing::contact_stress;
@@ -108,12 +108,12 @@ TEST(ContactForces, ForcesDoNotDependOnWhichImageHoldsAParticle) {
   a.particles.radius = radius;
   a.pairs.skin = 0.1;
   for (int i = 0; i < n; ++i) {
-    a.particles.scaled[i] = Vec3(u(gen), u(gen), u(gen));
-    a.particles.velocity[i] = Vec3(u(gen) - 0.5, u(gen) - 0.5, u(gen) - 0.5);
-    a.particles.spin[i] = Vec3(u(gen) - 0.5, u(gen) - 0.5, u(gen) - 0.5) * 10.0;
+    a.particles.scaled[i] = testing::draw_vec3(u, gen);
+    a.particles.velocity[i] = (testing::draw_vec3(u, gen) - Vec3(0.5, 0.5, 0.5));
+    a.particles.spin[i] = (testing::draw_vec3(u, gen) - Vec3(0.5, 0.5, 0.5)) * 10.0;
   }
   State b = a;
-  for (int i = 0; i < n; ++i) b.particles.scaled[i] += Vec3(shift(gen), shift(gen), shift(gen));
+  for (int i = 0; i < n; ++i) b.particles.scaled[i] += testing::draw_vec3(shift, gen);
   rebuild_pairs(model, a);
   rebuild_pairs(model, b);
   compute_contact_forces(model, 0.3, a);
@@ -346,4 +346,4 @@ TEST(ContactForces, NetForcesAreTheSumsOfTheirPairsWithLongAndEmptyRows) {
 }
 
 }  // namespace
-}  // namespace celldem
+}  // namespace celldem::contact_forces_test

@@ -25,7 +25,7 @@
 #include "integrate/leapfrog.hpp"
 #include "neighbor/neighbor_list.hpp"
 
-namespace celldem {
+namespace celldem::contact_forces_reference_test {  // (named: the files of test_contact compile as one unit)
 namespace {
 
 using testing::model_deck;
@@ -173,4 +173,4 @@ TEST(ReferencePairLoop, LawsWithRotationalSprings) {
 }
 
 }  // namespace
-}  // namespace celldem
+}  // namespace celldem::contact_forces_reference_test

@@ -18,7 +18,7 @@
 #include "neighbor/neighbor_list.hpp"
 #include "step.hpp"
 
-namespace celldem {
+namespace celldem::contact_law_test {  // (named: the files of test_contact compile as one unit)
 namespace {
 
 constexpr double kRi = 0.5, kRj = 0.3, kE = 1.0e7, kNu = 0.3;
@@ -459,4 +459,4 @@ TEST(ContactForces, MindlinRescaleIndependentOfThreadCount) {
 }
 
 }  // namespace
-}  // namespace celldem
+}  // namespace celldem::contact_law_test

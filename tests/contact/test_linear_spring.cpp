@@ -7,7 +7,7 @@
 
 #include "contact/contact_law.hpp"
 
-namespace celldem {
+namespace celldem::linear_spring_test {  // (named: the files of test_contact compile as one unit)
 namespace {
 
 constexpr double kKn = 1.0e5, kKt = 5.0e4, kMu = 0.5;
@@ -216,4 +216,4 @@ TEST(LinearSpring, UnturnedNormalBothRotationsAgree) {
 }
 
 }  // namespace
-}  // namespace celldem
+}  // namespace celldem::linear_spring_test

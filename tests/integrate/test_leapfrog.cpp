@@ -66,13 +66,13 @@ TEST(Leapfrog, GatherConservesMomentumAndAngularMomentum) {
   std::vector<Vec3> x(n);
   for (int i = 0; i < n; ++i) {
     r[i] = 0.4 + 0.1 * u(gen);
-    x[i] = Vec3(10.0, 10.0, 10.0) + Vec3(u(gen), u(gen), u(gen)) * 1.6;
+    x[i] = Vec3(10.0, 10.0, 10.0) + testing::draw_vec3(u, gen) * 1.6;
   }
   const Model model = make_model(testing::model_deck(1e4, 8e3, 1e-4), r);
   State s = testing::make_state(Mat3::Identity() * 20.0, r, x, 0.1);
   for (int i = 0; i < n; ++i) {
-    s.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen));
-    s.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * 20.0;
+    s.particles.velocity[i] = testing::draw_vec3(u, gen);
+    s.particles.spin[i] = testing::draw_vec3(u, gen) * 20.0;
   }
   rebuild_pairs(model, s);
   for (int k = 0; k < 5; ++k) compute_contact_forces(model, 0.3, s);  // history builds up, some slide

@@ -36,8 +36,8 @@ State sample_state(const Deck& deck) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (std::size_t i = 0; i < s.particles.size(); ++i) {
     s.particles.scaled[i] += Vec3(double(i % 3) - 1.0, i % 4 == 0 ? 2.0 : 0.0, 0.0);
-    s.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen)) * 1e-3;
-    s.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * 0.7;
+    s.particles.velocity[i] = testing::draw_vec3(u, gen) * 1e-3;
+    s.particles.spin[i] = testing::draw_vec3(u, gen) * 0.7;
   }
   return s;
 }

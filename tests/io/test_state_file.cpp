@@ -25,9 +25,9 @@ State sample_state() {
   s.cell.h(1, 2) = -0.05;
   for (std::size_t i = 0; i < s.particles.size(); ++i) {
     s.particles.radius[i] = 0.5 + 0.01 * u(gen);
-    s.particles.scaled[i] += Vec3(u(gen), u(gen), u(gen)) * 1e-3 + Vec3(i % 2, -(int)(i % 3), 0.0);
-    s.particles.velocity[i] = Vec3(u(gen), u(gen), u(gen));
-    s.particles.spin[i] = Vec3(u(gen), u(gen), u(gen)) * 3.0;
+    s.particles.scaled[i] += testing::draw_vec3(u, gen) * 1e-3 + Vec3(i % 2, -(int)(i % 3), 0.0);
+    s.particles.velocity[i] = testing::draw_vec3(u, gen);
+    s.particles.spin[i] = testing::draw_vec3(u, gen) * 3.0;
   }
   s.cell.velocity_gradient = (Mat3() << 1e-3, 2e-4, 0, 0, -1e-3, 0, 0, 5e-5, 0).finished();
   const Model model = make_model(testing::model_deck(1e4, 1e4, 1e-4), s.particles.radius);

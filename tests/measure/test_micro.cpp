@@ -47,7 +47,7 @@ TEST(Fabric, RandomNormalsHaveUnitTraceAndSymmetry) {
   std::vector<Vec3> n;
   std::vector<double> fn;
   for (int k = 0; k < 500; ++k) {
-    n.push_back(Vec3(g(gen), g(gen), g(gen)).normalized());
+    n.push_back(testing::draw_vec3(g, gen).normalized());
     fn.push_back(std::abs(g(gen)));
   }
   const Fabric f = fabric_of(n, fn);

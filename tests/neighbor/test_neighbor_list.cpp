@@ -61,7 +61,11 @@ State random_state(const Mat3& h, int n, double rmin, double rmax, std::uint64_t
   s.pairs.skin = skin;
   for (int i = 0; i < n; ++i) {
     s.particles.radius[i] = rmin + (rmax - rmin) * u(gen);
-    s.particles.scaled[i] = Vec3(u(gen) + whole(gen), u(gen) + whole(gen), u(gen) + whole(gen));
+    auto coordinate = [&](std::mt19937_64& g) {  // a fraction, then a whole number of cells, in this order
+      const double fraction = u(g);
+      return fraction + whole(g);
+    };
+    s.particles.scaled[i] = testing::draw_vec3(coordinate, gen);
   }
   return s;
 }
@@ -237,7 +241,7 @@ TEST(NeighborList, HistoryCarriedOverRebuild) {
   // Move every particle a little: some pairs leave the list, the others keep their history.
   std::mt19937_64 gen(3);
   std::normal_distribution<double> g(0.0, 0.01);
-  for (auto& x : s.particles.scaled) x += Vec3(g(gen), g(gen), g(gen));
+  for (auto& x : s.particles.scaled) x += testing::draw_vec3(g, gen);
   rebuild_pairs(model, s);
   int kept = 0;
   for (std::size_t q = 0; q < s.pairs.size(); ++q) {
@@ -272,7 +276,7 @@ TEST(NeighborList, RebuildCriterionNeverMissesAContact) {
     for (int k = 0; k < 9; ++k) F.data()[k] += 2e-3 * g(gen);
     s.cell.h = F * s.cell.h;
     const Mat3 hinv = s.cell.h.inverse();
-    for (auto& x : s.particles.scaled) x += hinv * Vec3(g(gen), g(gen), g(gen)) * 4e-3;
+    for (auto& x : s.particles.scaled) x += hinv * testing::draw_vec3(g, gen) * 4e-3;
     if (pairs_need_rebuild(model, s)) {
       rebuild_pairs(model, s);
       have = listed(s.pairs);
@@ -321,7 +325,7 @@ TEST(NeighborList, AdaptedSkinNeverMissesAContact) {
   std::set<Key> have = listed(s.pairs);
   // Each particle drifts at its own steady velocity, the cell at a steady rate of stretch and shear.
   std::vector<Vec3> velocity(s.particles.size());
-  for (Vec3& v : velocity) v = Vec3(g(gen), g(gen), g(gen)) * 2e-5;
+  for (Vec3& v : velocity) v = testing::draw_vec3(g, gen) * 2e-5;
   Mat3 F = Mat3::Identity();
   for (int k = 0; k < 9; ++k) F.data()[k] += 1e-5 * g(gen);
   int checks = 0, rebuilds = 0;
