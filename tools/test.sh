@@ -16,8 +16,8 @@ if [[ "${CELLDEM_QUICK:-0}" != 1 ]]; then
   # 100 times longer; solver/CMakeLists.txt gives clang -O2), the rest at -O0 (CMakeLists.txt's
   # CELLDEM_COLD_OPTIMIZATION), with line tables only (-g1: the reports' stack traces keep file and line; full
   # debug information doubles the build). clang where it is installed (tools/install-deps.sh --with-crosscheck):
-  # it builds this in 3.5 minutes where GCC took 7.8, and the tests run in 1.3 where GCC's took 1.4
-  # (docs/performance.md, "The test suite's time"); a folder keeps the compiler it was configured with.
+  # from a clean clone it built this in 2.5 minutes where GCC took 7.8 (docs/performance.md, "The test suite's
+  # time"); a folder keeps the compiler it was configured with.
   compiler=()
   if [[ ! -f build-asan/CMakeCache.txt ]] && command -v clang++ >/dev/null; then compiler=(-DCMAKE_CXX_COMPILER=clang++); fi
   CELLDEM_BUILD_DIR=build-asan \
