@@ -237,7 +237,8 @@ void random_spheres(int n, double solid_fraction, bool apart, std::uint64_t seed
   for (std::size_t i = 0; i < s.size(); ++i)
     for (int tries = 0;; ++tries) {
       ASSERT_LT(tries, 100000);
-      s[i].x = Vec3(uniform(), uniform(), uniform()) * box;
+      const double z = uniform(), y = uniform(), x = uniform();  // in order (support/helpers.hpp's draw_vec3)
+      s[i].x = Vec3(x, y, z) * box;
       bool free = true;
       for (std::size_t j = 0; apart && free && j < i; ++j) {
         Vec3 b = s[i].x - s[j].x;
