@@ -109,7 +109,7 @@ TEST(ContactForces, ForcesDoNotDependOnWhichImageHoldsAParticle) {
   a.pairs.skin = 0.1;
   for (int i = 0; i < n; ++i) {
     a.particles.scaled[i] = testing::draw_vec3(u, gen);
-    a.particles.velocity[i] = (testing::draw_vec3(u, gen) - Vec3(0.5, 0.5, 0.5));
+    a.particles.velocity[i] = testing::draw_vec3(u, gen) - Vec3(0.5, 0.5, 0.5);
     a.particles.spin[i] = (testing::draw_vec3(u, gen) - Vec3(0.5, 0.5, 0.5)) * 10.0;
   }
   State b = a;

@@ -59,12 +59,12 @@ State random_state(const Mat3& h, int n, double rmin, double rmax, std::uint64_t
   s.cell.h = h;
   s.particles.resize(n);
   s.pairs.skin = skin;
+  auto coordinate = [&](std::mt19937_64& g) {  // a fraction, then a whole number of cells, in this order
+    const double fraction = u(g);
+    return fraction + whole(g);
+  };
   for (int i = 0; i < n; ++i) {
     s.particles.radius[i] = rmin + (rmax - rmin) * u(gen);
-    auto coordinate = [&](std::mt19937_64& g) {  // a fraction, then a whole number of cells, in this order
-      const double fraction = u(g);
-      return fraction + whole(g);
-    };
     s.particles.scaled[i] = testing::draw_vec3(coordinate, gen);
   }
   return s;

@@ -226,7 +226,7 @@ struct Sphere {
 };
 void random_spheres(int n, double solid_fraction, bool apart, std::uint64_t seed, std::vector<Sphere>& s, double& box) {
   std::mt19937_64 rng(seed);
-  const auto uniform = [&rng] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  const auto uniform = [](std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; };
   s.assign(n, {});
   double solid = 0.0;
   for (Sphere& p : s) {
@@ -237,8 +237,7 @@ void random_spheres(int n, double solid_fraction, bool apart, std::uint64_t seed
   for (std::size_t i = 0; i < s.size(); ++i)
     for (int tries = 0;; ++tries) {
       ASSERT_LT(tries, 100000);
-      const double z = uniform(), y = uniform(), x = uniform();  // in order (support/helpers.hpp's draw_vec3)
-      s[i].x = Vec3(x, y, z) * box;
+      s[i].x = testing::draw_vec3(uniform, rng) * box;
       bool free = true;
       for (std::size_t j = 0; apart && free && j < i; ++j) {
         Vec3 b = s[i].x - s[j].x;
