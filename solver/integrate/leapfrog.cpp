@@ -53,15 +53,27 @@ void gather_forces(State& state) {
   }
 }
 
-// The kick and the drift as AVX-512/AVX2 clones, as the pair law: 1.6 % of a one-thread step, the same bits.
+namespace {
+// The kick of particles [begin, end) once their net forces and moments are summed: v' = keep v' + gain F and
+// the same for the spin, per component as Eigen's `keep * v + gain * f`, on plain arrays in SIMD lanes.
+CELLDEM_ISA_CLONES
+void kick_range(const double* __restrict keep, const double* __restrict gain, const double* __restrict force,
+                double* __restrict velocity, std::size_t n) {
+#pragma omp simd
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) velocity[3 * i + c] = keep[i] * velocity[3 * i + c] + gain[i] * force[3 * i + c];
+}
+}  // namespace
+
+// The net forces (scalar sums of varying length), then the kick on the block in SIMD lanes.
 CELLDEM_ISA_CLONES
 void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end) {
   Particles& p = state.particles;
-  for (std::size_t i = begin; i < end; ++i) {
-    gather(state.pairs, p, i);
-    p.velocity[i] = model.velocity_keep[i] * p.velocity[i] + model.velocity_gain[i] * p.force[i];
-    p.spin[i] = model.spin_keep[i] * p.spin[i] + model.spin_gain[i] * p.torque[i];
-  }
+  if (begin >= end) return;
+  for (std::size_t i = begin; i < end; ++i) gather(state.pairs, p, i);
+  const std::size_t n = end - begin;
+  kick_range(&model.velocity_keep[begin], &model.velocity_gain[begin], p.force[begin].data(), p.velocity[begin].data(), n);
+  kick_range(&model.spin_keep[begin], &model.spin_gain[begin], p.torque[begin].data(), p.spin[begin].data(), n);
 }
 
 void gather_and_kick_share(const Model& model, State& state, const std::vector<std::size_t>& blocks) {
@@ -70,20 +82,62 @@ void gather_and_kick_share(const Model& model, State& state, const std::vector<s
     gather_and_kick_range(model, state, b * kForceBlock, std::min(n, (b + 1) * kForceBlock));
 }
 
+namespace {
+// The drift of n particles, s += M v' with M = dt h_mid^-1, on plain arrays so that it runs in SIMD lanes
+// (Vec3's scalar code took most of the drift's time). M v' is summed as Eigen's 3x3 product sums it, so that
+// the positions are those of `scaled += M * velocity` to the bit: rows 1 and 2 left to right, row 3 as
+// a + (b + c) (Eigen's reduction of a strided row; tests/test_integrate.cpp checks the equality). Returns the
+// largest |h (s - s_build)|^2 after the move when at_build is given, else 0: a maximum is the same in any order.
 CELLDEM_ISA_CLONES
+double drift_range(const Mat3& step_map, const Mat3& h, double* __restrict scaled, const double* __restrict velocity,
+                   const float* __restrict at_build, std::size_t n) {
+  const double m00 = step_map(0, 0), m01 = step_map(0, 1), m02 = step_map(0, 2), m10 = step_map(1, 0),
+               m11 = step_map(1, 1), m12 = step_map(1, 2), m20 = step_map(2, 0), m21 = step_map(2, 1),
+               m22 = step_map(2, 2);
+  const double h00 = h(0, 0), h01 = h(0, 1), h02 = h(0, 2), h10 = h(1, 0), h11 = h(1, 1), h12 = h(1, 2),
+               h20 = h(2, 0), h21 = h(2, 1), h22 = h(2, 2);
+  double largest = 0.0;
+  if (at_build == nullptr) {
+#pragma omp simd
+    for (std::size_t i = 0; i < n; ++i) {
+      const double vx = velocity[3 * i], vy = velocity[3 * i + 1], vz = velocity[3 * i + 2];
+      scaled[3 * i] += (m00 * vx + m01 * vy) + m02 * vz;
+      scaled[3 * i + 1] += (m10 * vx + m11 * vy) + m12 * vz;
+      scaled[3 * i + 2] += m20 * vx + (m21 * vy + m22 * vz);
+    }
+    return largest;
+  }
+#pragma omp simd reduction(max : largest)
+  for (std::size_t i = 0; i < n; ++i) {
+    const double vx = velocity[3 * i], vy = velocity[3 * i + 1], vz = velocity[3 * i + 2];
+    const double sx = scaled[3 * i] + ((m00 * vx + m01 * vy) + m02 * vz);
+    const double sy = scaled[3 * i + 1] + ((m10 * vx + m11 * vy) + m12 * vz);
+    const double sz = scaled[3 * i + 2] + (m20 * vx + (m21 * vy + m22 * vz));
+    scaled[3 * i] = sx, scaled[3 * i + 1] = sy, scaled[3 * i + 2] = sz;
+    const double dx = sx - static_cast<double>(at_build[3 * i]);
+    const double dy = sy - static_cast<double>(at_build[3 * i + 1]);
+    const double dz = sz - static_cast<double>(at_build[3 * i + 2]);
+    const double x = h00 * dx + h01 * dy + h02 * dz, y = h10 * dx + h11 * dy + h12 * dz,
+                 z = h20 * dx + h21 * dy + h22 * dz;
+    largest = std::max(largest, x * x + y * y + z * z);
+  }
+  return largest;
+}
+}  // namespace
+
 double drift_share(const Model& model, const Mat3& h_before, State& state, const std::vector<std::size_t>& blocks) {
   Particles& p = state.particles;
   const PairList& pl = state.pairs;
   const Mat3 step_map = model.dt * (0.5 * (h_before + state.cell.h)).inverse();
-  const Mat3& h = state.cell.h;
   const std::size_t n = p.size();
   const bool built = pl.first.size() == n + 1 && pl.scaled_at_build.size() == n;
   double max_disp2 = 0.0;
-  for (const std::size_t b : blocks)
-    for (std::size_t i = b * kForceBlock; i < std::min(n, (b + 1) * kForceBlock); ++i) {
-      p.scaled[i] += step_map * p.velocity[i];
-      if (built) max_disp2 = std::max(max_disp2, (h * (p.scaled[i] - pl.scaled_at_build[i].cast<double>())).squaredNorm());
-    }
+  for (const std::size_t b : blocks) {
+    const std::size_t begin = b * kForceBlock, end = std::min(n, (b + 1) * kForceBlock);
+    if (begin >= end) continue;
+    max_disp2 = std::max(max_disp2, drift_range(step_map, state.cell.h, p.scaled[begin].data(), p.velocity[begin].data(),
+                                                 built ? pl.scaled_at_build[begin].data() : nullptr, end - begin));
+  }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
 }
 
