@@ -11,3 +11,13 @@
 #else
 #define CELLDEM_ISA_CLONES [[gnu::target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")]]
 #endif
+
+// CELLDEM_SIMD(clauses) before a loop asks for it in SIMD lanes (`omp simd clauses`: a reduction named there may
+// run in any order, so only an order-free one such as a maximum belongs there). Under the sanitizers the loop
+// stays scalar: their instrumented loads keep clang from vectorising it, which it reports as an error with -Werror.
+#define CELLDEM_PRAGMA(text) _Pragma(#text)
+#if defined(CELLDEM_SANITIZED)
+#define CELLDEM_SIMD(clauses)
+#else
+#define CELLDEM_SIMD(clauses) CELLDEM_PRAGMA(omp simd clauses)
+#endif

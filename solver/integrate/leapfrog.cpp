@@ -59,7 +59,7 @@ namespace {
 CELLDEM_ISA_CLONES
 void kick_range(const double* __restrict keep, const double* __restrict gain, const double* __restrict force,
                 double* __restrict velocity, std::size_t n) {
-#pragma omp simd
+  CELLDEM_SIMD()
   for (std::size_t i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c) velocity[3 * i + c] = keep[i] * velocity[3 * i + c] + gain[i] * force[3 * i + c];
 }
@@ -98,7 +98,7 @@ double drift_range(const Mat3& step_map, const Mat3& h, double* __restrict scale
                h20 = h(2, 0), h21 = h(2, 1), h22 = h(2, 2);
   double largest = 0.0;
   if (at_build == nullptr) {
-#pragma omp simd
+  CELLDEM_SIMD()
     for (std::size_t i = 0; i < n; ++i) {
       const double vx = velocity[3 * i], vy = velocity[3 * i + 1], vz = velocity[3 * i + 2];
       scaled[3 * i] += (m00 * vx + m01 * vy) + m02 * vz;
@@ -107,7 +107,7 @@ double drift_range(const Mat3& step_map, const Mat3& h, double* __restrict scale
     }
     return largest;
   }
-#pragma omp simd reduction(max : largest)
+  CELLDEM_SIMD(reduction(max : largest))
   for (std::size_t i = 0; i < n; ++i) {
     const double vx = velocity[3 * i], vy = velocity[3 * i + 1], vz = velocity[3 * i + 2];
     const double sx = scaled[3 * i] + ((m00 * vx + m01 * vy) + m02 * vz);
