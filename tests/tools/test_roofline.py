@@ -106,6 +106,8 @@ def test_callgrind_profile_counts():
 def test_kernels_by_name():
     # Kernels by name, callgrind's and perf's spellings.
     for name, kernel in (("celldem::drift_share(celldem::Model const&)", "drift"),
+                         ("celldem::(anonymous namespace)::drift_range(Eigen::Matrix<...> const&, ...)", "drift"),
+                         ("celldem::(anonymous namespace)::kick_range(double const*, ...)", "gather_and_kick_range"),
                          ("celldem::(anonymous namespace)::gather_chunk", "gather_chunk"),
                          ("void celldem::(anonymous namespace)::evaluate_share<Law, true>(...)", "pair_loop"),
                          ("celldem::gather_and_kick_range(celldem::Model const&, ...)", "gather_and_kick_range"),

@@ -34,14 +34,14 @@ REBUILD = "celldem::rebuild_pairs("
 # first kernel whose pattern is in a name takes it. `pair_loop` is what the pair loop (pair_loop, or
 # evaluate_share in the newer code) does around the three chunk functions (block bounds, zeroing the owners' sums).
 KERNELS = (
-    ("drift", "drift", ("celldem::drift",)),
+    ("drift", "drift", ("celldem::drift", "::drift_range")),
     ("neighbour", "neighbour list (check, rebuild)", ("PairSearch", "find_candidates", "rebuild_pairs",
                                                       "pairs_need_rebuild", "Candidate")),
     ("gather_chunk", "gather_chunk, chunk_owners", ("gather_chunk", "chunk_owners")),
     ("evaluate_chunk", "evaluate_chunk (pair law)", ("evaluate_chunk",)),
     ("sum_chunk", "sum_chunk", ("sum_chunk",)),
     ("pair_loop", "pair loop, rest (blocks, zeroing)", ("pair_loop", "evaluate_share", "ContactForceEvaluation")),
-    ("gather_and_kick_range", "gather_and_kick_range", ("gather_and_kick",)),
+    ("gather_and_kick_range", "gather_and_kick_range", ("gather_and_kick", "::kick_range")),
     ("other", "other", ()),
 )
 KERNEL_KEYS = tuple(k for k, _, _ in KERNELS)
