@@ -10,6 +10,9 @@
 
 namespace celldem {
 
+// The drift and the kick read the 3-vectors as plain arrays of doubles (and floats).
+static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Vec3f) == 3 * sizeof(float), "3-vectors are packed");
+
 namespace {
 // Particle i's net force and moment, summed from its pairs in a fixed order (PairList::incoming_pair): the
 // pairs coming into it from its force block, its own pairs, then the pairs crossing into it from earlier
@@ -86,8 +89,12 @@ namespace {
 // The drift of n particles, s += M v' with M = dt h_mid^-1, on plain arrays so that it runs in SIMD lanes
 // (Vec3's scalar code took most of the drift's time). M v' is summed as Eigen's 3x3 product sums it, so that
 // the positions are those of `scaled += M * velocity` to the bit: rows 1 and 2 left to right, row 3 as
-// a + (b + c) (Eigen's reduction of a strided row; tests/test_integrate.cpp checks the equality). Returns the
-// largest |h (s - s_build)|^2 after the move when at_build is given, else 0: a maximum is the same in any order.
+// a + (b + c) (Eigen's reduction of a strided row). Eigen fuses its products' multiply-adds where the build
+// targets FMA (CELLDEM_NATIVE on such a CPU), and this code does not, so there the bits differ from Eigen's;
+// the default build's clones are compiled with Eigen's SSE2 code, unfused. Returns the largest
+// |h (s - s_build)|^2 after the move, summed as Eigen's (h * d).squaredNorm() (largest_move_since_build), when
+// at_build is given, else 0: a maximum is the same in any order. (Test:
+// tests/integrate/test_leapfrog.cpp, Leapfrog.DriftIsEigensProductToTheBitAndMeasuresTheLargestMove.)
 CELLDEM_ISA_CLONES
 double drift_range(const Mat3& step_map, const Mat3& h, double* __restrict scaled, const double* __restrict velocity,
                    const float* __restrict at_build, std::size_t n) {
@@ -118,7 +125,7 @@ double drift_range(const Mat3& step_map, const Mat3& h, double* __restrict scale
     const double dy = sy - static_cast<double>(at_build[3 * i + 1]);
     const double dz = sz - static_cast<double>(at_build[3 * i + 2]);
     const double x = h00 * dx + h01 * dy + h02 * dz, y = h10 * dx + h11 * dy + h12 * dz,
-                 z = h20 * dx + h21 * dy + h22 * dz;
+                 z = h20 * dx + (h21 * dy + h22 * dz);  // (as Eigen's h * d: largest_move_since_build's value)
     largest = std::max(largest, x * x + y * y + z * z);
   }
   return largest;
