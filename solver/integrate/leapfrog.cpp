@@ -7,11 +7,12 @@
 #include "core/check.hpp"
 #include "core/isa_clones.hpp"
 #include "core/parallel.hpp"
+#include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
 
-// The drift and the kick read the 3-vectors as plain arrays of doubles (and floats).
-static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Vec3f) == 3 * sizeof(float), "3-vectors are packed");
+// The drift and the kick read the 3-vectors as plain arrays of doubles.
+static_assert(sizeof(Vec3) == 3 * sizeof(double), "3-vectors are packed");
 
 namespace {
 // Particle i's net force and moment, summed from its pairs in a fixed order (PairList::incoming_pair): the
@@ -91,44 +92,20 @@ namespace {
 // the positions are those of `scaled += M * velocity` to the bit: rows 1 and 2 left to right, row 3 as
 // a + (b + c) (Eigen's reduction of a strided row). Eigen fuses its products' multiply-adds where the build
 // targets FMA (CELLDEM_NATIVE on such a CPU), and this code does not, so there the bits differ from Eigen's;
-// the default build's clones are compiled with Eigen's SSE2 code, unfused. Returns the largest
-// |h (s - s_build)|^2 after the move, summed as Eigen's (h * d).squaredNorm() (largest_move_since_build), when
-// at_build is given, else 0: a maximum is the same in any order. (Test:
-// tests/integrate/test_leapfrog.cpp, Leapfrog.DriftIsEigensProductToTheBitAndMeasuresTheLargestMove.)
+// the default build's clones are compiled with Eigen's SSE2 code, unfused. (Test: tests/integrate/test_leapfrog.cpp,
+// Leapfrog.DriftIsEigensProductToTheBitAndMeasuresTheLargestMove.)
 CELLDEM_ISA_CLONES
-double drift_range(const Mat3& step_map, const Mat3& h, double* __restrict scaled, const double* __restrict velocity,
-                   const float* __restrict at_build, std::size_t n) {
+void drift_range(const Mat3& step_map, double* __restrict scaled, const double* __restrict velocity, std::size_t n) {
   const double m00 = step_map(0, 0), m01 = step_map(0, 1), m02 = step_map(0, 2), m10 = step_map(1, 0),
                m11 = step_map(1, 1), m12 = step_map(1, 2), m20 = step_map(2, 0), m21 = step_map(2, 1),
                m22 = step_map(2, 2);
-  const double h00 = h(0, 0), h01 = h(0, 1), h02 = h(0, 2), h10 = h(1, 0), h11 = h(1, 1), h12 = h(1, 2),
-               h20 = h(2, 0), h21 = h(2, 1), h22 = h(2, 2);
-  double largest = 0.0;
-  if (at_build == nullptr) {
   CELLDEM_SIMD()
-    for (std::size_t i = 0; i < n; ++i) {
-      const double vx = velocity[3 * i], vy = velocity[3 * i + 1], vz = velocity[3 * i + 2];
-      scaled[3 * i] += (m00 * vx + m01 * vy) + m02 * vz;
-      scaled[3 * i + 1] += (m10 * vx + m11 * vy) + m12 * vz;
-      scaled[3 * i + 2] += m20 * vx + (m21 * vy + m22 * vz);
-    }
-    return largest;
-  }
-  CELLDEM_SIMD(reduction(max : largest))
   for (std::size_t i = 0; i < n; ++i) {
     const double vx = velocity[3 * i], vy = velocity[3 * i + 1], vz = velocity[3 * i + 2];
-    const double sx = scaled[3 * i] + ((m00 * vx + m01 * vy) + m02 * vz);
-    const double sy = scaled[3 * i + 1] + ((m10 * vx + m11 * vy) + m12 * vz);
-    const double sz = scaled[3 * i + 2] + (m20 * vx + (m21 * vy + m22 * vz));
-    scaled[3 * i] = sx, scaled[3 * i + 1] = sy, scaled[3 * i + 2] = sz;
-    const double dx = sx - static_cast<double>(at_build[3 * i]);
-    const double dy = sy - static_cast<double>(at_build[3 * i + 1]);
-    const double dz = sz - static_cast<double>(at_build[3 * i + 2]);
-    const double x = h00 * dx + h01 * dy + h02 * dz, y = h10 * dx + h11 * dy + h12 * dz,
-                 z = h20 * dx + (h21 * dy + h22 * dz);  // (as Eigen's h * d: largest_move_since_build's value)
-    largest = std::max(largest, x * x + y * y + z * z);
+    scaled[3 * i] += (m00 * vx + m01 * vy) + m02 * vz;
+    scaled[3 * i + 1] += (m10 * vx + m11 * vy) + m12 * vz;
+    scaled[3 * i + 2] += m20 * vx + (m21 * vy + m22 * vz);
   }
-  return largest;
 }
 }  // namespace
 
@@ -142,8 +119,8 @@ double drift_share(const Model& model, const Mat3& h_before, State& state, const
   for (const std::size_t b : blocks) {
     const std::size_t begin = b * kForceBlock, end = std::min(n, (b + 1) * kForceBlock);
     if (begin >= end) continue;
-    max_disp2 = std::max(max_disp2, drift_range(step_map, state.cell.h, p.scaled[begin].data(), p.velocity[begin].data(),
-                                                 built ? pl.scaled_at_build[begin].data() : nullptr, end - begin));
+    drift_range(step_map, p.scaled[begin].data(), p.velocity[begin].data(), end - begin);
+    if (built) max_disp2 = std::max(max_disp2, largest_move2(state.cell.h, p, pl, begin, end));  // (the block in cache)
   }
   return built ? std::sqrt(max_disp2) : std::numeric_limits<double>::infinity();
 }

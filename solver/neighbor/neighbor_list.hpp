@@ -74,6 +74,9 @@ void check_pair_list(const PairList& pl, std::size_t particles);
 bool pairs_need_rebuild(const Model& model, const State& state, double largest_move);
 bool pairs_need_rebuild(const Model& model, const State& state);  // measures the largest move itself
 double largest_move_since_build(const State& state);  // [m]; infinity when the list was never built
+// The largest |h (s_i - s_build_i)|^2 of particles [begin, end) of a built list [m^2]: the one definition of the
+// move that both of the above measure (the drift block by block, right after moving it).
+double largest_move2(const Mat3& h, const Particles& p, const PairList& pl, std::size_t begin, std::size_t end);
 
 // Sets the skin of the next build (state.pairs.build_skin) from how long the current list lasted: scaled
 // toward a lifetime of kSkinLifetime steps (at most halved or doubled at once), between kSmallestSkin of the

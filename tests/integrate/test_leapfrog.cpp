@@ -84,35 +84,6 @@ TEST(Leapfrog, DriftIsEigensProductToTheBitAndMeasuresTheLargestMove) {
   }
 }
 
-// The largest move the drift measures is largest_move_since_build's to the bit (the rebuild decision must not
-// depend on which of the two measured it): in each trial one particle of 67 moves, at a random place in the
-// SIMD loop, and the others sit still at their build positions, so the maximum is that particle's own value.
-TEST(Leapfrog, DriftMeasuresTheLargestMoveAsLargestMoveSinceBuildToTheBit) {
-  const double dt = 1e-3;
-  const std::size_t n = 67;
-  const Model model = make_model(testing::model_deck(1e4, 1e4, dt), std::vector<double>(n, 0.01));
-  std::mt19937_64 gen(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  const Mat3 h0 = (Mat3() << 4.0, 0.3, -0.2, 0.1, 5.0, 0.4, -0.3, 0.2, 6.0).finished();
-  int differ = 0;
-  for (int trial = 0; trial < 200; ++trial) {
-    State s = testing::make_state(h0, std::vector<double>(n, 0.01), std::vector<Vec3>(n, Vec3::Zero()), 0.1);
-    s.cell.h = h0 + (Mat3() << 1e-3, 2e-4, -1e-4, 3e-4, -2e-3, 1e-4, 2e-4, -3e-4, 5e-4).finished();
-    s.pairs = PairList{};
-    s.pairs.first.assign(n + 1, 0);
-    s.pairs.scaled_at_build.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      s.pairs.scaled_at_build[i] = (testing::draw_vec3(u, gen) * 3.0).cast<float>();
-      s.particles.scaled[i] = s.pairs.scaled_at_build[i].cast<double>();  // (no move: a zero displacement)
-      s.particles.velocity[i].setZero();
-    }
-    s.particles.velocity[gen() % n] = testing::draw_vec3(u, gen) * std::pow(10.0, 3.0 * u(gen));
-    const double largest = testing::drift(model, h0, s);
-    differ += largest != largest_move_since_build(s);
-  }
-  EXPECT_EQ(differ, 0) << "trials of 200 where the drift's largest move differs from largest_move_since_build's";
-}
-
 // A free particle under body damping: v_n = keep^n v_0, close to the exact exp(-c t / m).
 TEST(Leapfrog, DampedFreeParticleDecaysExponentially) {
   const double dt = 1e-4, kn = 1e4, a = 0.5;

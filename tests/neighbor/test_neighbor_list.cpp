@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <optional>
 #include <random>
 #include <set>
@@ -16,6 +17,32 @@
 
 namespace celldem {
 namespace {
+
+// The largest move since the build, on plain arrays in SIMD lanes, is |h (s - s_build)| as Eigen computes it,
+// to the bit: in each trial one particle of 67 has moved, at a random place in the SIMD loop, and the others sit
+// at their build positions, so the largest move is that particle's own value, computed here with Eigen.
+TEST(NeighborList, LargestMoveIsEigensNormOfTheMoveToTheBit) {
+  const std::size_t n = 67;
+  std::mt19937_64 gen(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Mat3 h = (Mat3() << 4.001, 0.3002, -0.2001, 0.1003, 4.998, 0.4001, -0.2998, 0.1997, 6.0005).finished();
+  int differ = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    State s = testing::make_state(h, std::vector<double>(n, 0.01), std::vector<Vec3>(n, Vec3::Zero()), 0.1);
+    s.pairs = PairList{};
+    s.pairs.first.assign(n + 1, 0);
+    s.pairs.scaled_at_build.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      s.pairs.scaled_at_build[i] = (testing::draw_vec3(u, gen) * 3.0).cast<float>();
+      s.particles.scaled[i] = s.pairs.scaled_at_build[i].cast<double>();  // (not moved: a zero displacement)
+    }
+    const std::size_t moved = gen() % n;
+    s.particles.scaled[moved] += testing::draw_vec3(u, gen) * std::pow(10.0, -3.0 + 2.0 * u(gen));
+    const Vec3 d = s.particles.scaled[moved] - s.pairs.scaled_at_build[moved].cast<double>();
+    differ += largest_move_since_build(s) != std::sqrt((h * d).squaredNorm());
+  }
+  EXPECT_EQ(differ, 0) << "trials of 200 where the largest move differs from Eigen's |h d| of the moved particle";
+}
 
 using testing::model_deck;
 using Key = std::tuple<Index, Index, int, int, int>;  // (i, j, total image shift n)
