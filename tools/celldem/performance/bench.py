@@ -12,15 +12,29 @@ def _mega(value):
     return f"{value / 1e6:.3g} M"
 
 
+def parallel_efficiency(rows):
+    """Per scaling row, (speed-up, parallel efficiency) over the one-thread row of the same sample (same particles and
+    copies): rate / rate_1 and rate / (threads x rate_1); (None, None) where the sample has no one-thread row."""
+    one = {(r["particles"], r.get("copies")): r["particle_steps_per_s"] for r in rows if r["threads"] == 1}
+    out = []
+    for r in rows:
+        base = one.get((r["particles"], r.get("copies")))
+        speedup = r["particle_steps_per_s"] / base if base else None
+        out.append((speedup, speedup / r["threads"] if speedup is not None else None))
+    return out
+
+
 def scaling_markdown(bench):
     rows = bench.get("scaling", [])
-    lines = [md_table(("particles", "threads", "steps", "particle-steps/s", "bytes/particle",
-                       "particles / pairs / model", "peak RSS [MiB]"),
+    efficiency = parallel_efficiency(rows)
+    lines = [md_table(("particles", "threads", "steps", "particle-steps/s", "speed-up", "parallel efficiency",
+                       "bytes/particle", "particles / pairs / model", "peak RSS [MiB]"),
                       [(r["particles"], r["threads"], r["steps"], f"{r['particle_steps_per_s']:.3g}",
+                        f"{e[0]:.2f}" if e[0] is not None else "", f"{e[1]:.2f}" if e[1] is not None else "",
                         f"{r['bytes_per_particle']:.0f}",
                         " / ".join(f"{r['bytes_per_particle_breakdown'][k]:.0f}" for k in ("particles", "pairs", "model"))
                         if "bytes_per_particle_breakdown" in r else "",
-                        r.get("max_rss_mib", "")) for r in rows], align="rrrrrrr")]
+                        r.get("max_rss_mib", "")) for r, e in zip(rows, efficiency)], align="rrrrrrrrr")]
     medians = bench.get("median_particle_steps_per_s", {})
     lines += ["", md_table(("run", "median particle-steps/s"), [(k, f"{v:.3g}") for k, v in sorted(medians.items())],
                            align="lr")]

@@ -1,0 +1,57 @@
+"""The thread-scaling study: the scaling table of `celldem bench --scaling` (tools/celldem/performance/bench.py),
+whose speed-up and parallel efficiency of each row over the same sample's one-thread row are checked against values
+worked out by hand, and tools/thread_scaling.sh's refusals."""
+
+from celldem.performance.bench import parallel_efficiency, scaling_markdown
+
+
+def row(particles, copies, threads, rate):
+    return {"particles": particles, "copies": copies, "threads": threads, "steps": 100,
+            "particle_steps_per_s": rate, "bytes_per_particle": 500.0}
+
+
+def test_efficiency_is_the_rate_over_threads_times_the_same_samples_one_thread_rate():
+    rows = [row(8000, 1, 1, 10e6), row(8000, 1, 4, 30e6), row(128000, 16, 1, 8e6), row(128000, 16, 16, 64e6),
+            row(1000, 0, 2, 5e6)]  # an extra sample timed on two threads only: no one-thread rate to compare with
+    got = parallel_efficiency(rows)
+    assert got[0] == (1.0, 1.0)
+    assert got[1][0] == 3.0 and got[1][1] == 0.75
+    assert got[3][0] == 8.0 and got[3][1] == 0.5  # against 128,000's own one-thread rate, not 8000's
+    assert got[4] == (None, None)
+    table = scaling_markdown({"scaling": rows})
+    assert "parallel efficiency" in table.splitlines()[0]
+    line = next(l for l in table.splitlines() if l.startswith("| 128000") and "| 16 |" in l)
+    assert "| 8.00 | 0.50 |" in line
+
+
+def test_thread_scaling_refuses_bad_arguments_before_measuring(tmp_path, celldem):
+    """tools/thread_scaling.sh: no arguments, a missing state or deck, a missing binary and a folder that already
+    holds results each stop it with exit 2 and a message naming the problem, before anything is timed."""
+    import os
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    script = str(root / "tools" / "thread_scaling.sh")
+    env = dict(os.environ, CELLDEM=celldem)
+
+    def run(*args, **extra):
+        return subprocess.run(["bash", script, *map(str, args)], capture_output=True, text=True,
+                              env=dict(env, **extra), timeout=60)
+
+    r = run()
+    assert r.returncode == 2 and "usage" in r.stderr
+    r = run(tmp_path / "out", tmp_path / "missing.state")
+    assert r.returncode == 2 and "no state file" in r.stderr
+    state = tmp_path / "a.state"
+    state.write_text("not read before the checks pass")
+    r = run(tmp_path / "out", state, tmp_path / "missing.json")
+    assert r.returncode == 2 and "no deck" in r.stderr
+    r = run(tmp_path / "out", state, CELLDEM=str(tmp_path / "no-binary"))
+    assert r.returncode == 2 and "no celldem binary" in r.stderr
+    (tmp_path / "done" / "bench").mkdir(parents=True)
+    (tmp_path / "done" / "bench" / "bench.json").write_text("{}")
+    r = run(tmp_path / "done", state)
+    assert r.returncode == 2 and "already holds results" in r.stderr
+    assert (tmp_path / "done" / "bench" / "bench.json").read_text() == "{}"
+    assert not (tmp_path / "out").exists()
