@@ -69,11 +69,12 @@ State tile_state(const State& s, int copies) {
       }
   begin_stage(t);
   set_stored_contacts(t, tiled);
+  t.pairs.build_skin = s.pairs.build_skin;  // (set_stored_contacts leaves the list to be built)
   return t;
 }
 
 ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initial, int threads, std::int64_t steps,
-                       std::int64_t warmup, bool governed) {
+                       std::int64_t warmup, bool governed, State* final_state) {
   omp_set_num_threads(threads);
   State state = initial;
   begin_stage(state);
@@ -119,6 +120,7 @@ ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& initi
   t.crossings_per_particle =
       static_cast<double>(state.pairs.crossings()) / static_cast<double>(state.particles.size());
   t.contacts_per_particle = static_cast<double>(state.touching) / static_cast<double>(state.particles.size());
+  if (final_state) *final_state = std::move(state);
   return t;
 }
 

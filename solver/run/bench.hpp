@@ -16,7 +16,8 @@ namespace celldem {
 // `copies` periodic copies of a state (contacts and their history included), stacked in a near-cubic
 // block (2 = 2x1x1, 4 = 2x2x1, 8 = 2x2x2, 16 = 4x2x2, ...): a larger sample with the same packing
 // statistics, for measuring how cost grows with the particle count. Copies are consecutive in particle
-// order, so the result is as spatially ordered as the original.
+// order, so the result is as spatially ordered as the original. Its first list is built with the skin the
+// original's list had adapted to (PairList::build_skin), as each copy's would have.
 State tile_state(const State& state, int copies);
 
 // Memory per particle [bytes] of the arrays that grow with the sample (capacities, not sizes): the State's
@@ -46,9 +47,10 @@ struct ShearTiming {
 
 // Runs `steps` steps of the deck's test `test` from `state` with `threads` threads, writing a row every
 // output_interval steps to memory (as a run would to its file), after `warmup` untimed steps.
-// governed: with a ThreadGovernor, as a run has by default (else the thread count is fixed).
+// governed: with a ThreadGovernor, as a run has by default (else the thread count is fixed). final_state, if
+// given, receives the state after the steps.
 ShearTiming time_shear(const Deck& deck, const TestDef& test, const State& state, int threads, std::int64_t steps,
-                       std::int64_t warmup, bool governed = false);
+                       std::int64_t warmup, bool governed = false, State* final_state = nullptr);
 
 // A CPU-bound process (a busy loop) until the object goes: the contention of another job on the machine.
 class BusyProcess {
