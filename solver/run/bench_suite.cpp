@@ -185,10 +185,11 @@ Json time_scaling(const Deck& deck, const TestDef& test, const State& state, con
   const std::size_t n = state.particles.size();
   State adapted;
   if (!o.copies.empty()) time_shear(deck, test, state, o.threads.back(), kTileAfter, 0, false, &adapted);
+  const double skin_fraction = o.copies.empty() ? 1.0 : adapted.pairs.current_skin() / adapted.pairs.skin;
   std::fprintf(progress, "scaling (about %lld particle-steps per point, at least %lld steps; copies tiled from the "
                "sample after %lld steps, list skin %.3g of the deck's):\n",
                static_cast<long long>(o.steps * static_cast<std::int64_t>(n)), static_cast<long long>(kMinSteps),
-               static_cast<long long>(kTileAfter), o.copies.empty() ? 1.0 : adapted.pairs.current_skin() / adapted.pairs.skin);
+               static_cast<long long>(kTileAfter), skin_fraction);
   std::vector<std::pair<std::string, int>> sources;  // (extra state, 0) or ("", copies)
   for (const std::string& path : o.extra_states) sources.emplace_back(path, 0);
   for (int k : o.copies) sources.emplace_back("", k);

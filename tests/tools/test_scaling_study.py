@@ -55,3 +55,31 @@ def test_thread_scaling_refuses_bad_arguments_before_measuring(tmp_path, celldem
     assert r.returncode == 2 and "already holds results" in r.stderr
     assert (tmp_path / "done" / "bench" / "bench.json").read_text() == "{}"
     assert not (tmp_path / "out").exists()
+
+
+def test_the_scaling_bench_tiles_the_adapted_sample_and_the_table_reads_it(tmp_path, celldem):
+    """`celldem bench --scaling` on the small deck's prepared sample: every copy row says it was tiled after the
+    adapted run (tiled_after_steps), a sample and its 2 and 4 copies list about as many pairs per particle (the
+    same skin), and plot_bench's table gives their efficiencies."""
+    import json
+    import os
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    deck = root / "tests" / "run" / "small_run.json"
+    run = tmp_path / "small"
+    subprocess.run([celldem, "run", str(deck), "--out", str(run), "--threads", "1"], check=True, capture_output=True)
+    out = tmp_path / "bench"
+    subprocess.run([celldem, "bench", "--deck", str(deck), "--state", str(run / "prepared.state"), "--scaling",
+                    "--copies", "1,2,4", "--threads", "1", "--steps", "400", "--warmup", "20", "--repeats", "1",
+                    "--out", str(out)], check=True, capture_output=True, timeout=300)
+    rows = json.loads((out / "bench.json").read_text())["scaling"]
+    assert [r["copies"] for r in rows] == [1, 2, 4]
+    assert all(r["tiled_after_steps"] == 10000 for r in rows)
+    pairs = [r["pairs_per_particle"] for r in rows]
+    assert max(pairs) / min(pairs) < 1.1, pairs
+    subprocess.run(["/usr/bin/python3", str(root / "tools" / "plot_bench.py"), str(out)], check=True,
+                   capture_output=True, env=dict(os.environ))
+    table = (out / "scaling.md").read_text()
+    assert "parallel efficiency" in table and "| 1.00 | 1.00 |" in table
