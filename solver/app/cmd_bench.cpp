@@ -37,7 +37,7 @@ Command add_bench_command(CLI::App& app) {
     std::string deck = "inputs/paper.json", state = "results/paper/prepared.state", test, out = "results/bench";
     std::string threads = "1,2", ranks = "1,2", copies = "1,2,4,8,16";
     std::vector<std::string> extra_states;
-    std::int64_t steps = 20000, warmup = 1000, process_steps = 10000;
+    std::int64_t steps = 20000, warmup = 1000, process_steps = 10000, tile_after = 10000;
     int repeats = 3;
     bool vs_lammps = false, scaling = false, laws = false, contention = false, force = false;
     bool lammps_as_translated = false, whole_process = false;
@@ -65,6 +65,9 @@ Command add_bench_command(CLI::App& app) {
   cmd->add_option("--copies", a->copies, "Copy counts for --scaling, up to 125 (16 copies of 8000 spheres = "
                   "128,000; 125 = 1,000,000: about 1 GB, larger samples run fewer steps)")
       ->capture_default_str();
+  cmd->add_option("--tile-after", a->tile_after, "Steps of the test before the sample is tiled for --scaling, so that "
+                  "the copies start with the list skin a long run adapts to (0: tile the state as given)")
+      ->capture_default_str()->check(CLI::Range(0, 100000000));
   cmd->add_option("--extra-state", a->extra_states, "Other prepared samples to add to the scaling table (e.g. a "
                   "1000-sphere one)")->check(CLI::ExistingFile);
   cmd->add_flag("--laws", a->laws, "Also time the scene with each contact law (hertz, mindlin, rolling, twisting) "
@@ -95,6 +98,7 @@ Command add_bench_command(CLI::App& app) {
     o.steps = a->steps;
     o.warmup = a->warmup;
     o.process_steps = a->process_steps;
+    o.tile_after = a->tile_after;
     o.repeats = a->repeats;
     o.vs_lammps = a->vs_lammps;
     o.lammps_as_translated = a->lammps_as_translated;

@@ -175,21 +175,22 @@ Json time_contention(const Deck& deck, const TestDef& test, const State& state, 
 
 // The extra samples, then periodic copies of the sample, per thread count: about the same particle-steps per
 // point (fewer steps for larger samples, at least kMinSteps), the samples made one at a time (1,000,000 spheres:
-// about 1 GB, twice while a timing copies it). The copies are tiled from the sample after kTileAfter steps of the
-// test, when its list's skin has adapted (the paper's first list lasts some 5000 steps), so that every size runs
-// on lists of the same skin, as a long run does; a larger sample's few timed steps would otherwise all run on
-// the deck's first, wider list.
+// about 1 GB, twice while a timing copies it). The copies are tiled from the sample after o.tile_after steps of
+// the test (10,000 by default; the steps run past the test's end if it is shorter), when its list's skin has
+// adapted (the paper's first list lasts some 5000 steps): each copy's list then has the skin of a long run's, as
+// the sample's own long point does. Extra samples start from their files, on the deck's skin.
 Json time_scaling(const Deck& deck, const TestDef& test, const State& state, const BenchOptions& o,
                   std::FILE* progress) {
-  constexpr std::int64_t kMinSteps = 100, kTileAfter = 10000;
+  constexpr std::int64_t kMinSteps = 100;
   const std::size_t n = state.particles.size();
-  State adapted;
-  if (!o.copies.empty()) time_shear(deck, test, state, o.threads.back(), kTileAfter, 0, false, &adapted);
-  const double skin_fraction = o.copies.empty() ? 1.0 : adapted.pairs.current_skin() / adapted.pairs.skin;
+  State adapted = state;
+  if (!o.copies.empty() && o.tile_after > 0)
+    time_shear(deck, test, state, o.threads.back(), o.tile_after, /*warmup=*/0, /*governed=*/false, &adapted);
+  const double skin_fraction = adapted.pairs.skin > 0.0 ? adapted.pairs.current_skin() / adapted.pairs.skin : 1.0;
   std::fprintf(progress, "scaling (about %lld particle-steps per point, at least %lld steps; copies tiled from the "
                "sample after %lld steps, list skin %.3g of the deck's):\n",
                static_cast<long long>(o.steps * static_cast<std::int64_t>(n)), static_cast<long long>(kMinSteps),
-               static_cast<long long>(kTileAfter), skin_fraction);
+               static_cast<long long>(o.tile_after), skin_fraction);
   std::vector<std::pair<std::string, int>> sources;  // (extra state, 0) or ("", copies)
   for (const std::string& path : o.extra_states) sources.emplace_back(path, 0);
   for (int k : o.copies) sources.emplace_back("", k);
@@ -209,7 +210,8 @@ Json time_scaling(const Deck& deck, const TestDef& test, const State& state, con
       }
       const long rss = max_rss_mib();
       scaling.push_back({{"particles", count}, {"threads", t}, {"steps", steps}, {"warmup", warmup},
-                         {"copies", k}, {"tiled_after_steps", path.empty() ? kTileAfter : 0},
+                         {"copies", k}, {"tiled_after_steps", path.empty() ? o.tile_after : 0},
+                         {"source", path.empty() ? "copies " + std::to_string(k) : path},
                          {"particle_steps_per_s", median(v)}, {"samples", v},
                          {"bytes_per_particle", s.bytes_per_particle},
                          {"bytes_per_particle_breakdown", {{"particles", s.memory.particles},

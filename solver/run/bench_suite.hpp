@@ -26,6 +26,7 @@ struct BenchOptions {
   std::int64_t steps = 0;            // timed steps per measurement
   std::int64_t warmup = 0;           // untimed steps before each
   std::int64_t process_steps = 0;    // steps of each whole-process run
+  std::int64_t tile_after = 0;       // steps of the test before the sample is tiled for the scaling table
   int repeats = 1;                   // medians over these
   bool vs_lammps = false;            // the scene in LAMMPS too
   bool lammps_as_translated = false; // and the translator's own (untuned) script

@@ -12,13 +12,22 @@ def _mega(value):
     return f"{value / 1e6:.3g} M"
 
 
+def _sample(row):
+    """Which sample a scaling row timed: its source (an extra state's path or "copies K"), or for a bench.json
+    written before rows named it, its size and copy count."""
+    return row.get("source", (row["particles"], row.get("copies")))
+
+
 def parallel_efficiency(rows):
-    """Per scaling row, (speed-up, parallel efficiency) over the one-thread row of the same sample (same particles and
-    copies): rate / rate_1 and rate / (threads x rate_1); (None, None) where the sample has no one-thread row."""
-    one = {(r["particles"], r.get("copies")): r["particle_steps_per_s"] for r in rows if r["threads"] == 1}
+    """Per scaling row, (speed-up, parallel efficiency) over the first one-thread row of the same sample:
+    rate / rate_1 and rate / (threads x rate_1); (None, None) where the sample has no one-thread row."""
+    one = {}
+    for r in rows:
+        if r["threads"] == 1:
+            one.setdefault(_sample(r), r["particle_steps_per_s"])
     out = []
     for r in rows:
-        base = one.get((r["particles"], r.get("copies")))
+        base = one.get(_sample(r))
         speedup = r["particle_steps_per_s"] / base if base else None
         out.append((speedup, speedup / r["threads"] if speedup is not None else None))
     return out

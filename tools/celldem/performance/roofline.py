@@ -455,11 +455,12 @@ def rebuild_cost(celldem, deck, state, workdir, flops_at, objects):
 
 
 def large_sample(celldem, deck, state, workdir, copies, toggle, flops_at, objects):
-    """The cache simulation on `copies` periodic copies of the sample (bench --scaling): per particle-step
-    instructions, flops and bytes. The bench first runs one step of the sample itself: --dump-before writes that
+    """The cache simulation on `copies` periodic copies of the sample as given (bench --scaling --tile-after 0): per
+    particle-step instructions, flops and bytes. The bench first runs one step of the sample itself: --dump-before writes that
     to callgrind.large.out.1 before the copies are made, and callgrind.large.out holds the copies' steps."""
     path, bench = workdir / "callgrind.large.out", workdir / "bench-large"
-    callgrind(bench_command(celldem, deck, state, bench, 1, 0, 1, ("--scaling", "--copies", copies)), path, toggle,
+    callgrind(bench_command(celldem, deck, state, bench, 1, 0, 1, ("--scaling", "--copies", copies, "--tile-after", 0)),
+              path, toggle,
               cache_sim=True, extra=("--dump-before=celldem::tile_state*",))
     profile = parse_callgrind(path.read_text())
     row = json.loads((bench / "bench.json").read_text())["scaling"][0]
