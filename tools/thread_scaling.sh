@@ -9,7 +9,8 @@
 #    slows both shares a physical core): OUT/probe.log. A run's threads meet every step, so the slowest of N
 #    copies bounds what N threads of one run can reach.
 # 3. With DECK (a deck that starts from a prepared state): whole `celldem run` processes on 1 and 2 threads,
-#    alternated, 3 rounds: OUT/whole.log.
+#    alternated, 3 rounds: OUT/whole.log. A deck's tests run side by side when threads are spare, so a deck of
+#    one test times one run on 2 threads, and a deck of two times two runs on one thread each.
 # Env: CELLDEM (default build/celldem), STEPS (10000), REPEATS (3), PROBE_STEPS (3000).
 set -euo pipefail
 if [[ $# -lt 2 ]]; then
