@@ -5,9 +5,9 @@
 #    (1,000,000), on 1, 2, 4, 8, ... threads and the number of CPUs this process may use: OUT/bench/bench.json and
 #    OUT/bench/scaling.md (with the speed-up and parallel efficiency of each row).
 # 2. The machine's own scaling for this kernel: N independent one-thread benches at once, each pinned to a CPU of
-#    its own (N = 1, a quarter, half and all of the CPUs), and the first CPU beside each other one (a pair that
-#    slows both shares a physical core): OUT/probe.log. A run's threads meet every step, so the slowest of N
-#    copies bounds what N threads of one run can reach.
+#    its own (N = a quarter, half and all of the CPUs; one alone is the solo bench), and the first CPU beside each
+#    other one (a pair that slows both shares a physical core): OUT/probe.log. A run's threads meet every step, so
+#    the slowest of N copies bounds what N threads of one run can reach.
 # 3. With DECK (a deck that starts from a prepared state): whole `celldem run` processes on 1 and 2 threads,
 #    alternated, 3 rounds: OUT/whole.log. A deck's tests run side by side when threads are spare, so a deck of
 #    one test times one run on 2 threads, and a deck of two times two runs on one thread each.
@@ -67,8 +67,8 @@ for c in "${cpus[@]:1}"; do
   rates=$(together "${cpus[0]}" "$c")
   echo "pair cpu${cpus[0]}+cpu$c $rates" | tee -a "$probe"
 done
-last=0
-for n in 1 $((cores / 4)) $((cores / 2)) "$cores"; do
+last=1  # (one at once is the solo bench above)
+for n in $((cores / 4)) $((cores / 2)) "$cores"; do
   ((n > last)) || continue
   last=$n
   rates=$(together "${cpus[@]:0:n}")

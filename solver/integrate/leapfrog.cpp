@@ -11,9 +11,6 @@
 
 namespace celldem {
 
-// The drift and the kick read the 3-vectors as plain arrays of doubles.
-static_assert(sizeof(Vec3) == 3 * sizeof(double), "3-vectors are packed");
-
 namespace {
 // Particle i's net force and moment, summed from its pairs in a fixed order (PairList::incoming_pair): the
 // pairs coming into it from its force block, its own pairs, then the pairs crossing into it from earlier

@@ -327,7 +327,6 @@ double largest_move_since_build(const State& state) {
 // to right, row 3 as a + (b + c) (tests/neighbor/test_neighbor_list.cpp checks it bit for bit).
 CELLDEM_ISA_CLONES
 double largest_move2(const Mat3& h, const Particles& p, const PairList& pl, std::size_t begin, std::size_t end) {
-  static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Vec3f) == 3 * sizeof(float), "3-vectors are packed");
   if (begin >= end) return 0.0;
   const double* const __restrict s = p.scaled[begin].data();
   const float* const __restrict at_build = pl.scaled_at_build[begin].data();

@@ -183,14 +183,18 @@ Json time_scaling(const Deck& deck, const TestDef& test, const State& state, con
                   std::FILE* progress) {
   constexpr std::int64_t kMinSteps = 100;
   const std::size_t n = state.particles.size();
-  State adapted = state;
-  if (!o.copies.empty() && o.tile_after > 0)
-    time_shear(deck, test, state, o.threads.back(), o.tile_after, /*warmup=*/0, /*governed=*/false, &adapted);
-  const double skin_fraction = adapted.pairs.skin > 0.0 ? adapted.pairs.current_skin() / adapted.pairs.skin : 1.0;
+  const std::int64_t tile_after = o.copies.empty() ? 0 : o.tile_after;
   std::fprintf(progress, "scaling (about %lld particle-steps per point, at least %lld steps; copies tiled from the "
-               "sample after %lld steps, list skin %.3g of the deck's):\n",
+               "sample after %lld steps of the test):\n",
                static_cast<long long>(o.steps * static_cast<std::int64_t>(n)), static_cast<long long>(kMinSteps),
-               static_cast<long long>(o.tile_after), skin_fraction);
+               static_cast<long long>(tile_after));
+  std::fflush(progress);  // (before the steps that adapt the skin)
+  State adapted = state;
+  if (tile_after > 0)
+    time_shear(deck, test, state, o.threads.back(), tile_after, /*warmup=*/0, /*governed=*/false, &adapted);
+  if (!o.copies.empty())
+    std::fprintf(progress, "  the copies' list skin %.3g of the deck's\n",
+                 adapted.pairs.skin > 0.0 ? adapted.pairs.current_skin() / adapted.pairs.skin : 1.0);
   std::vector<std::pair<std::string, int>> sources;  // (extra state, 0) or ("", copies)
   for (const std::string& path : o.extra_states) sources.emplace_back(path, 0);
   for (int k : o.copies) sources.emplace_back("", k);
@@ -210,7 +214,7 @@ Json time_scaling(const Deck& deck, const TestDef& test, const State& state, con
       }
       const long rss = max_rss_mib();
       scaling.push_back({{"particles", count}, {"threads", t}, {"steps", steps}, {"warmup", warmup},
-                         {"copies", k}, {"tiled_after_steps", path.empty() ? o.tile_after : 0},
+                         {"copies", k}, {"tiled_after_steps", path.empty() ? tile_after : 0},
                          {"source", path.empty() ? "copies " + std::to_string(k) : path},
                          {"particle_steps_per_s", median(v)}, {"samples", v},
                          {"bytes_per_particle", s.bytes_per_particle},

@@ -3,7 +3,6 @@
 // like the original's after its warm-up.
 #include <gtest/gtest.h>
 
-#include "contact/contact_forces.hpp"
 #include "helpers.hpp"
 #include "neighbor/neighbor_list.hpp"
 #include "run/bench.hpp"

@@ -91,7 +91,7 @@ def test_the_scaling_bench_tiles_the_adapted_sample_and_the_table_reads_it(tmp_p
     assert [r["copies"] for r in rows] == [0, 1, 2, 4]  # the extra sample first, as it is read
     assert [r["tiled_after_steps"] for r in rows] == [0, 10000, 10000, 10000]
     assert rows[0]["source"] == state and rows[2]["source"] == "copies 2"
-    skin = float(done.stdout.split("list skin ")[1].split()[0])
+    skin = float(done.stdout.split("list skin ")[1].split()[0])  # (the copies' list skin, of the deck's)
     assert 0 < skin < 1, done.stdout  # the premise: the sample's skin adapted in its 10,000 steps
     pairs = [r["pairs_per_particle"] for r in rows]
     assert max(pairs[1:]) / min(pairs[1:]) < 1.1, pairs  # the copies list alike
