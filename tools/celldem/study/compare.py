@@ -119,10 +119,15 @@ def compare_quantity(base_values, pairs, margin=MARGIN_FLOORS):
     return out
 
 
-def compare(base_dir, other_dir, margin=MARGIN_FLOORS, alpha=ALPHA):
+def compare(base_dir, other_dir, margin=MARGIN_FLOORS, alpha=ALPHA, seeds=None):
     """The comparison of two ensemble folders: {"seeds", "quantities": [{label, n, floor, mean_difference, floors,
-    p, p_holm, p_tost, verdict}], "cost": {...}}."""
+    p, p_holm, p_tost, verdict}], "cost": {...}}. seeds: only these seeds of either folder count (the floor's
+    included); None: every seed."""
     base, other = load_seeds(base_dir), load_seeds(other_dir)
+    if seeds is not None:
+        wanted = set(seeds)
+        base = {s: v for s, v in base.items() if s in wanted}
+        other = {s: v for s, v in other.items() if s in wanted}
     seeds = sorted(set(base) & set(other))
     if not seeds:
         raise CompareError(f"{base_dir} (seeds {sorted(base)}) and {other_dir} (seeds {sorted(other)}) have no seed "
