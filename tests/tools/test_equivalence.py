@@ -13,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -120,11 +121,11 @@ def test_a_failed_control_an_untested_quantity_or_a_constant_offset_is_never_equ
     assert r["control_failures"] == [{"seed": 3, "binary": "NEW", "test": "ttc", "failures": []}]
     assert "control failed: seed 3 NEW ttc" in r["text"]
 
-    untested = str(tmp_path / "untested")
-    seeds = synthetic(untested, b_final=lambda k: None)  # NEW's summaries lack a quantity OLD's have
-    r = equivalence.judge(untested, seeds)
-    assert r["exit"] == 1 and r["untested"] == ["ttc b at the end"], r["text"]
-    assert "untested: ttc b at the end" in r["text"]
+    missing = str(tmp_path / "missing")
+    seeds = synthetic(missing, b_final=lambda k: None)  # NEW's summaries lack a quantity OLD's have
+    r = equivalence.judge(missing, seeds)
+    assert r["exit"] == 1 and r["missing"] == ["ttc b at the end"], r["text"]
+    assert "ttc b at the end: missing: no value from NEW on seeds 1, 2, 3, 4, 5, 6" in r["text"]
 
     offset = str(tmp_path / "offset")
     # the same small difference on every seed (exactly: binary fractions): no spread to test with
@@ -132,6 +133,47 @@ def test_a_failed_control_an_untested_quantity_or_a_constant_offset_is_never_equ
     r = equivalence.judge(offset, seeds)
     row = next(q for q in r["comparison"]["quantities"] if q["label"] == "ttc b at the end")
     assert row["verdict"].startswith("undecided at 6 seeds") and r["exit"] == 1
+
+
+def edit_summary(out, role, seed, change):
+    path = os.path.join(equivalence.run_dir(out, role, seed), "summary.json")
+    with open(path) as f:
+        summary = json.load(f)
+    change(summary["tests"]["ttc"])
+    with open(path, "w") as f:
+        json.dump(summary, f)  # (NaN as NaN, as Python's json writes it)
+
+
+def test_a_nan_or_a_missing_peak_on_one_side_is_never_left_out_silently(tmp_path):
+    # a NaN from NEW where OLD has a number: named, not dropped from the pairs
+    nan = str(tmp_path / "nan")
+    seeds = synthetic(nan)
+    edit_summary(nan, "new", 2, lambda t: t["end_window"].update(Z=float("nan")))
+    r = equivalence.judge(nan, seeds)
+    assert r["exit"] == 1 and r["missing"] == ["ttc Z at the end"], r["text"]
+    assert "no value from NEW on seeds 2" in r["text"]
+
+    # NEW reaches no peak on two seeds where OLD did: the peak-reached row sees it (OLD always reached one, so it
+    # has no floor to judge against: untested, never equivalent); the peak quantities are paired on 4 seeds
+    peak = str(tmp_path / "peak")
+    seeds = synthetic(peak)
+    for k in (2, 5):
+        edit_summary(peak, "new", k, lambda t: t.update(peak_reached=False))
+    r = equivalence.judge(peak, seeds)
+    rows = {q["label"]: q for q in r["comparison"]["quantities"]}
+    assert rows["ttc peak reached (1/0)"]["verdict"].startswith("untested (no floor"), r["text"]
+    assert rows["ttc peak reached (1/0)"]["differences"] == [0, -1, 0, 0, -1, 0]
+    assert rows["ttc peak σ1/σ3"]["n"] == 4 and r["exit"] == 1
+
+    # a quantity paired on fewer than 3 seeds is not judged
+    few = str(tmp_path / "few")
+    seeds = synthetic(few)
+    for k in (1, 2, 3, 4):
+        edit_summary(few, "old", k, lambda t: t.update(peak_reached=False))
+    r = equivalence.judge(few, seeds)
+    rows = {q["label"]: q for q in r["comparison"]["quantities"]}
+    assert rows["ttc peak σ1/σ3"]["verdict"] == "untested (paired on 2 seeds, fewer than 3)", r["text"]
+    assert "ttc peak σ1/σ3" in r["untested"] and r["exit"] == 1
 
 
 def test_a_shift_of_a_floor_is_not_equivalent_and_a_steady_shift_is_different(tmp_path):
@@ -260,6 +302,63 @@ def test_an_interrupted_study_and_a_half_written_run_continue_where_they_stopped
     assert f"{len(complete) - 1} of 3 seeds complete" in r.stderr
 
 
+def children_in(out):
+    """The processes whose working folder lies in OUT (the study's celldem runs)."""
+    found = []
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            if os.readlink(f"/proc/{pid}/cwd").startswith(out + os.sep):
+                found.append(int(pid))
+        except OSError:
+            pass
+    return found
+
+
+def start_study(old, new, deck, out):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([TOOLS] + ([os.environ["PYTHONPATH"]]
+                                                                   if os.environ.get("PYTHONPATH") else [])))
+    proc = subprocess.Popen([sys.executable, os.path.join(TOOLS, "compare_binaries.py"), old, new,
+                             "--equivalence", "--deck", deck, "--out", out, "--seeds", "3"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    for line in proc.stderr:
+        if "OLD prepares the sample" in line:
+            break
+    deadline = time.monotonic() + 30
+    while not children_in(out) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert children_in(out), "no run started"
+    return proc
+
+
+def test_a_killed_study_takes_its_runs_with_it_and_continues(tmp_path, celldem, deck):
+    # An OLD whose runs would last a minute (it checks decks as celldem does): killed by SIGKILL, the study leaves
+    # no run behind to write into a folder the next call starts again.
+    slow = wrapper(tmp_path / "slow", celldem, 'os.execv("/bin/sleep", ["sleep", "60"])')
+    out = str(tmp_path / "slow-study")
+    proc = start_study(slow, celldem, deck, out)
+    proc.kill()  # SIGKILL: no handler of the study runs
+    proc.wait()
+    deadline = time.monotonic() + 5
+    while children_in(out) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not children_in(out), "a run outlived the killed study"
+    # The real binary, killed and at once called again: it continues and completes.
+    out = str(tmp_path / "study")
+    proc = start_study(celldem, celldem, deck, out)
+    proc.kill()
+    proc.wait()
+    r = equivalence_tool(celldem, celldem, deck, out, "--seeds", SEEDS)
+    assert r.returncode == 0 and "identical bits" in r.stdout, r.stderr
+
+
+def test_a_new_that_writes_nothing_is_a_failed_run(tmp_path, celldem, deck):
+    silent = tmp_path / "silent"
+    silent.write_text("#!/bin/sh\nexit 0\n")
+    silent.chmod(0o755)
+    r = equivalence_tool(celldem, str(silent), deck, str(tmp_path / "study"), "--seeds", SEEDS)
+    assert r.returncode == 2 and "NEW's tests exited 0 but wrote no summary.json" in r.stderr, r.stderr
+
+
 def test_other_binaries_a_deck_or_a_margin_in_the_folder_are_refused_unless_forced(same, celldem, deck, tmp_path):
     out = str(tmp_path / "copy")
     shutil.copytree(same[0], out)
@@ -307,7 +406,11 @@ def test_bad_options_are_refused(tmp_path, celldem, deck, capsys):
         ([celldem, celldem, "--deck", deck, "--seeds", "x"], "--seeds"),
         ([celldem, celldem, "--deck", deck, "--margin", "0"], "--margin must be a positive"),
         ([celldem, celldem, "--deck", deck, "--margin", "-1"], "--margin must be a positive"),
-        ([celldem, celldem, "--deck", deck, "--jobs", "0"], "--jobs must be at least 1"),
+        ([celldem, celldem, "--deck", deck, "--jobs", "0"], "--jobs must be from 1 to the"),
+        ([celldem, celldem, "--deck", deck, "--jobs", "100000"], "--jobs must be from 1 to the"),
+        ([celldem, celldem, "--deck", deck, "--seeds", "99999999999999999999"], "asks for more than 1000 seeds"),
+        ([celldem, celldem, "--deck", deck, "--seeds", "5000"], "asks for more than 1000 seeds"),
+        ([celldem, celldem, "--deck", deck, "--json", str(tmp_path / "no" / "v.json")], "--json: cannot write"),
         ([celldem, celldem, "--deck", str(tmp_path / "none.json")], "--deck: no deck at"),
         ([celldem, celldem, "--deck", started], "--deck:"),
         ([celldem, celldem, "--deck", deck, "--rounds", "3"], "--rounds does not apply with --equivalence"),

@@ -83,7 +83,16 @@ def main(argv=None):
             setattr(args, name, value)
     if args.json and os.path.exists(args.json):
         return fail(f"--json: {args.json} exists (remove it first)")
-    return equivalence_main(args) if args.equivalence else timing_main(args)
+    if args.json:
+        folder = os.path.dirname(os.path.abspath(args.json))
+        if not (os.path.isdir(folder) and os.access(folder, os.W_OK)):
+            return fail(f"--json: cannot write {args.json} (no writable folder {folder})")
+    if not args.equivalence:
+        return timing_main(args)
+    try:
+        return equivalence_main(args)
+    except OSError as e:  # a folder or file the study cannot write (a full disk, permissions)
+        return fail(f"{e.filename or 'a file'}: {e.strerror or e}")
 
 
 def timing_main(args):
@@ -127,8 +136,10 @@ def equivalence_main(args):
         new = equivalence.check_binary("new", args.new)
         seeds = equivalence.parse_seeds(args.seeds)
         margin = equivalence.check_margin(args.margin)
-        if args.jobs < 1:
-            raise equivalence.EquivalenceError(f"--jobs must be at least 1, got {args.jobs}")
+        cpus = len(os.sched_getaffinity(0))
+        if not 1 <= args.jobs <= cpus:
+            raise equivalence.EquivalenceError(f"--jobs must be from 1 to the {cpus} CPUs this process may use (each "
+                                               f"run takes one), got {args.jobs}")
         scene = equivalence.deck_scene(args.deck, old) if args.deck else equivalence.study_scene()
         out = os.path.abspath(args.out or equivalence.default_out(old, new, args.deck))
         lock = equivalence.open_folder(out, equivalence.identity(old, new, scene, margin), args.force)

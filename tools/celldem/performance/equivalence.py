@@ -29,12 +29,15 @@ errs at most alpha: intersection-union), no test's control failed and no quantit
 quantities that are "different", "undecided at n seeds" or untested, and the failed controls, are named. A
 quantity whose paired differences are all exactly 0 is "identical on every seed" (equivalent; celldem.stats would
 give TOST p = 0 from a zero spread), one whose differences are all one non-zero value is undecided (the t-tests
-are degenerate). The prepared e and Z are the same sample's for both binaries, and the summaries of runs from a
+are degenerate), one paired on fewer than MIN_SEEDS seeds untested. No seed drops out unseen: a value one binary
+gives and the other does not (NaN, a missing field) where the control held and the peak was reached is "missing";
+whether each test reached its peak is a quantity of its own (peak_reached_rows), judged as the others. The prepared e and Z are the same sample's for both binaries, and the summaries of runs from a
 state do not have them: they are listed as not compared.
 """
 
 from __future__ import annotations
 
+import ctypes
 import fcntl
 import filecmp
 import hashlib
@@ -59,6 +62,8 @@ ALPHA = study_compare.ALPHA
 DEFAULT_SEEDS = 30
 MIN_SEEDS = 3             # a floor (a standard deviation) and a paired t-test need a spread
 DEFAULT_JOBS = 2
+MAX_SEEDS = 1000          # a study of more seeds is a mistake in --seeds (1000 seeds: about 4 hours here)
+MAX_SEED = 2**53           # sample.seed's largest (kMaxSeed, `celldem schema`)
 FORMAT = 1
 
 ROLES = ("prepare", "old", "new")
@@ -157,6 +162,9 @@ def parse_seeds(text: str) -> List[int]:
     first, last = (1, int(match.group(1))) if match.group(2) is None else (int(match.group(1)), int(match.group(2)))
     if first < 1 or last < first:
         raise EquivalenceError(f"--seeds: {text!r} is not a range of seeds from 1 up")
+    if last > MAX_SEED or last - first + 1 > MAX_SEEDS:
+        raise EquivalenceError(f"--seeds: {text!r} asks for more than {MAX_SEEDS} seeds or a seed above {MAX_SEED} "
+                               "(sample.seed's range; 100 seeds already take about 30 minutes)")
     seeds = list(range(first, last + 1))
     if len(seeds) < MIN_SEEDS:
         raise EquivalenceError(f"--seeds must give at least {MIN_SEEDS} seeds (a noise floor and a paired test need "
@@ -328,7 +336,7 @@ def start(out: str, scene: Scene, role: str, seed: int, exe: str) -> Job:
     celldem run on it, one thread."""
     directory = run_dir(out, role, seed)
     shutil.rmtree(directory, ignore_errors=True)
-    os.makedirs(directory)
+    os.makedirs(directory, exist_ok=True)
     if role == "prepare":
         deck = scene.sample_deck(seed)
     else:
@@ -340,8 +348,18 @@ def start(out: str, scene: Scene, role: str, seed: int, exe: str) -> Job:
     log = open(os.path.join(directory, LOG), "w", encoding="utf-8")
     log.write(f"$ {' '.join(cmd)}\n")
     log.flush()
-    proc = subprocess.Popen(cmd, cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env)
+    proc = subprocess.Popen(cmd, cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env,
+                            preexec_fn=_stop_with_parent)
     return Job(seed, role, directory, proc, log, time.monotonic())
+
+
+def _stop_with_parent() -> None:
+    """In the child, before celldem starts: SIGTERM when the study's process dies, even by SIGKILL (Linux's
+    PR_SET_PDEATHSIG), so that no run goes on writing into a folder the next call starts again."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG = 1
+    except (OSError, AttributeError):
+        pass  # not Linux: the runs outlive a killed study as before
 
 
 def log_tail(directory: str, chars: int = 2000) -> str:
@@ -424,6 +442,12 @@ def run_seeds(out: str, scene: Scene, old: str, new: str, seeds: Sequence[int], 
                     who = {"prepare": "OLD's preparation", "old": "OLD's tests", "new": "NEW's tests"}[job.role]
                     raise RunFailed(f"seed {job.seed}: {who} failed (exit {rc}; {exe[job.role]} in "
                                     f"{job.directory}):\n{log_tail(job.directory)}")
+                result = "prepared.state" if job.role == "prepare" else "summary.json"
+                if not os.path.isfile(os.path.join(job.directory, result)):
+                    stop(running)
+                    who = {"prepare": "OLD's preparation", "old": "OLD's tests", "new": "NEW's tests"}[job.role]
+                    raise RunFailed(f"seed {job.seed}: {who} exited 0 but wrote no {result} ({exe[job.role]} in "
+                                    f"{job.directory}): not a celldem run?\n{log_tail(job.directory)}")
                 study_runs.write_json(os.path.join(job.directory, DONE),
                                       {"rc": 0, "wall_s": wall, "binary": exe[job.role],
                                        "finished": time.strftime("%Y-%m-%d %H:%M:%S")})
@@ -511,6 +535,50 @@ def control_failures(summaries: Dict[int, Dict[str, Any]], who: str) -> List[Dic
     return out
 
 
+def one_sided_missing(base: Dict[int, Dict[str, Any]], other: Dict[int, Dict[str, Any]], seeds: Sequence[int],
+                      key) -> Dict[str, List[int]]:
+    """{"OLD" or "NEW": [seeds]} where that binary gave no finite value of the quantity `key` and the other did,
+    though its test's control held and (for a peak quantity) it reached a peak: a NaN or a missing field, never left
+    out silently. (Where a run reached no peak, the peak-reached row counts it.)"""
+    test, _, peak = key
+    out: Dict[str, List[int]] = {}
+    for seed in seeds:
+        values = {"OLD": study_compare.quantity_values(base[seed], key),
+                  "NEW": study_compare.quantity_values(other[seed], key)}
+        for who, summary in (("OLD", base[seed]), ("NEW", other[seed])):
+            t = (summary.get("tests") or {}).get(test) if test is not None else None
+            explained = test is not None and (not isinstance(t, dict) or t.get("controlled") is False
+                                              or (peak and t.get("peak_reached") is False))
+            mate = values["NEW" if who == "OLD" else "OLD"]
+            if values[who] is None and mate is not None and not explained:
+                out.setdefault(who, []).append(seed)
+    return out
+
+
+def peak_reached_rows(base: Dict[int, Dict[str, Any]], other: Dict[int, Dict[str, Any]], seeds: Sequence[int],
+                      margin: float) -> List[Dict[str, Any]]:
+    """Whether each test reached its peak (1) or ended on its largest ratio (0), as one more quantity: a run whose
+    peak is its last row has no peak quantities, so a binary that reaches the peak less (or more) often would
+    otherwise go unseen. Paired over the seeds where both controls held, judged as the others (study.compare)."""
+    rows = []
+    tests = sorted({name for s in seeds for name in (base[s].get("tests") or {})})
+    for name in tests:
+        def reached(summary):
+            t = (summary.get("tests") or {}).get(name)
+            if not isinstance(t, dict) or t.get("controlled") is False or "peak_reached" not in t:
+                return None
+            return 1.0 if t["peak_reached"] else 0.0
+        base_values = [v for v in (reached(base[s]) for s in sorted(base)) if v is not None]
+        pairs = [(reached(base[s]), reached(other[s])) for s in seeds]
+        pairs = [(b, o) for b, o in pairs if b is not None and o is not None]
+        if not pairs:
+            continue
+        row = study_compare.compare_quantity(base_values, pairs, margin)
+        row["label"] = f"{name} peak reached (1/0)"
+        rows.append(row)
+    return rows
+
+
 def judge(out: str, seeds: Sequence[int], margin: float = MARGIN_FLOORS, alpha: float = ALPHA) -> Dict[str, Any]:
     """The verdict on the complete seeds `seeds` of OUT (see the module's doc): {"verdict": "identical bits",
     "equivalent" or "not shown equivalent", "exit": 0 or 1, "text": the verdict line, "differing_outputs"
@@ -526,7 +594,7 @@ def judge(out: str, seeds: Sequence[int], margin: float = MARGIN_FLOORS, alpha: 
                                       f"{alpha * 100:g} % per quantity (SciPy via celldem.stats); paired t of no "
                                       "difference, Holm-adjusted",
                               "differing_outputs": {str(k): v for k, v in differing.items()}, "comparison": None,
-                              "different": [], "undecided": [], "untested": [], "not_compared": [],
+                              "different": [], "undecided": [], "untested": [], "missing": [], "not_compared": [],
                               "control_failures": []}
     base = {k: v for k, v in study_compare.load_seeds(base_dir).items() if k in seeds}
     other = {k: v for k, v in study_compare.load_seeds(other_dir).items() if k in seeds}
@@ -539,31 +607,47 @@ def judge(out: str, seeds: Sequence[int], margin: float = MARGIN_FLOORS, alpha: 
                            + (f" (control failed in both alike: {failed})" if failed else ""))
         return result
     comparison = study_compare.compare(base_dir, other_dir, margin, alpha, seeds=seeds)
-    keys = dict(study_compare.quantities_of(base[s] for s in comparison["seeds"]))
+    paired = comparison["seeds"]
+    keys = dict(study_compare.quantities_of(base[s] for s in paired))
     rows = []
-    for row in comparison["quantities"]:
+    for row in comparison["quantities"] + peak_reached_rows(base, other, paired, margin):
         key = keys.get(row["label"])
         present = key is not None and any(study_compare.quantity_values(s, key) is not None
                                            for s in list(base.values()) + list(other.values()))
         if not present and key is not None and key[0] is None:
             result["not_compared"].append(row["label"])  # the prepared sample: OLD's, the same for both
             continue
-        diffs = row["differences"]
-        if row["p"] is not None and len(diffs) >= 2 and all(d == 0 for d in diffs):
-            row["verdict"] = "identical on every seed"
-        elif row["p"] is not None and (stats.describe(diffs) or {}).get("std") == 0:
-            row["verdict"] = f"undecided at {row['n']} seeds (every difference the same: the tests are degenerate)"
+        if key is not None:
+            row["missing"] = one_sided_missing(base, other, paired, key)
         rows.append(row)
+    adjusted, _ = stats.holm([r["p"] for r in rows], alpha)  # again: the peak-reached rows joined the family
+    for row, p_holm in zip(rows, adjusted):
+        row["p_holm"] = p_holm
+        diffs = row["differences"]
+        if row.get("missing"):
+            row["verdict"] = "missing: " + "; ".join(f"no value from {who} on seeds {', '.join(map(str, s))}"
+                                                      for who, s in row["missing"].items())
+        elif row["n"] < MIN_SEEDS:
+            row["verdict"] = f"untested (paired on {row['n']} seeds, fewer than {MIN_SEEDS})"
+        elif all(d == 0 for d in diffs):
+            row["verdict"] = "identical on every seed"
+        elif row["p"] is None:
+            row["verdict"] = "untested (no floor: OLD's value is the same on every seed)"
+        elif (stats.describe(diffs) or {}).get("std") == 0:
+            row["verdict"] = f"undecided at {row['n']} seeds (every difference the same: the tests are degenerate)"
+        else:
+            row["verdict"] = stats.equivalence_verdict(p_holm, row["p_tost"], row["n"], alpha)
     comparison["quantities"] = rows
     result["comparison"] = comparison
     for row in rows:
         v = row["verdict"]
         if v in EQUIVALENT_VERDICTS:
             continue
-        bucket = ("different" if v == "different" else "untested" if v.startswith("untested") else "undecided")
+        bucket = ("different" if v == "different" else "untested" if v.startswith("untested")
+                  else "missing" if v.startswith("missing") else "undecided")
         result[bucket].append(row["label"])
     equivalent = bool(rows) and not (result["different"] or result["undecided"] or result["untested"]
-                                     or result["control_failures"])
+                                     or result["missing"] or result["control_failures"])
     if equivalent:
         result.update(verdict="equivalent", exit=0,
                       text=f"equivalent within ±{margin:g} floors on every quantity ({test_text}) over {n} "
@@ -579,6 +663,9 @@ def judge(out: str, seeds: Sequence[int], margin: float = MARGIN_FLOORS, alpha: 
     reasons += [f"{verdict}: {', '.join(labels)}" for verdict, labels in undecided.items()]
     if result["untested"]:
         reasons.append("untested: " + ", ".join(result["untested"]))
+    for row in rows:
+        if row["label"] in result["missing"]:
+            reasons.append(f"{row['label']}: {row['verdict']}")
     if failed:
         reasons.append("control failed: " + failed)
     if not rows:
