@@ -412,6 +412,7 @@ def test_bad_options_are_refused(tmp_path, celldem, deck, capsys):
         ([celldem, celldem, "--deck", deck, "--seeds", "5000"], "asks for more than 1000 seeds"),
         ([celldem, celldem, "--deck", deck, "--json", str(tmp_path / "no" / "v.json")], "--json: cannot write"),
         ([celldem, celldem, "--deck", str(tmp_path / "none.json")], "--deck: no deck at"),
+        ([celldem, celldem, "--deck", str(plain)], "is not a JSON deck"),
         ([celldem, celldem, "--deck", started], "--deck:"),
         ([celldem, celldem, "--deck", deck, "--rounds", "3"], "--rounds does not apply with --equivalence"),
         ([celldem, celldem, "--deck", deck, "--out", str(foreign)], "not an equivalence folder"),

@@ -133,7 +133,9 @@ def deck_scene(path: str, celldem: str) -> Scene:
         deck = decks.load(path)
     except (OSError, ValueError) as err:
         raise EquivalenceError(f"--deck: {path} is not a JSON deck ({err})") from err
-    if not isinstance(deck, dict) or "initial_state" in deck or "prepare" not in deck:
+    if not isinstance(deck, dict):
+        raise EquivalenceError(f"--deck: {path} is not a deck (a JSON object)")
+    if "initial_state" in deck or "prepare" not in deck:
         raise EquivalenceError(f"--deck: {path} starts from initial_state (or has no prepare): paired seeds need a "
                                "deck that prepares its own sample, one per seed")
     if not deck.get("tests"):
