@@ -7,8 +7,10 @@ ask it instead of deriving these again. `celldem check` and the command line of 
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
+import signal
 import shutil
 import subprocess
 import tempfile
@@ -145,6 +147,30 @@ def run_command(deck_path: PathLike, out: PathLike, threads: Optional[int] = Non
         if on:
             cmd.append(flag)
     return cmd
+
+
+def _stop_with_parent() -> None:
+    """In the child before it runs: SIGTERM when the process that started it dies, even by SIGKILL (Linux's
+    PR_SET_PDEATHSIG); elsewhere nothing."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG = 1
+    except (OSError, AttributeError):
+        pass
+
+
+def start_run(cmd: Sequence[str], directory: PathLike, append_log: bool = False):
+    """Starts `cmd` (a run_command with one thread) in `directory` as a batch runs it beside others: OpenMP threads
+    that wait passively, its output into directory/celldem.log after a "$ cmd" line (appended to an earlier log, or
+    a new one). The run gets SIGTERM (it writes its checkpoint and stops) when the calling process dies, even by
+    SIGKILL, so that no run outlives the tool that started it and writes into a folder the next call starts again.
+    Returns (the Popen, the open log: close it once the run has ended)."""
+    env = dict(os.environ, OMP_WAIT_POLICY="passive", OMP_NUM_THREADS="1")
+    log = open(os.path.join(directory, "celldem.log"), "a" if append_log else "w", encoding="utf-8")
+    log.write(f"$ {' '.join(map(str, cmd))}\n")
+    log.flush()
+    proc = subprocess.Popen(list(cmd), cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env,
+                            preexec_fn=_stop_with_parent)
+    return proc, log
 
 
 def plan(deck_path: PathLike, binary: Optional[PathLike] = None) -> Dict[str, Any]:

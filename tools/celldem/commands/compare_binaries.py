@@ -18,11 +18,12 @@ not shown equivalent, 2 on bad input or a failed run, 130 when stopped (the same
 """
 
 import argparse
-import json
 import os
 import sys
 
 from celldem import binary
+from celldem.files import read_json
+from celldem.study.runs import write_json
 from celldem.performance import equivalence, paired
 
 TIMING_DEFAULTS = {"rounds": 8, "steps": 4000, "warmup": 1000,
@@ -176,13 +177,7 @@ def run_walls(out, seeds):
     """{role: [wall seconds of each seed's run]} from the runs' done.json (earlier calls' included)."""
     walls = {}
     for role in equivalence.ROLES:
-        done = [equivalence.read_json(os.path.join(equivalence.run_dir(out, role, s), equivalence.DONE))
+        done = [read_json(os.path.join(equivalence.run_dir(out, role, s), equivalence.DONE))
                 for s in seeds]
         walls[role] = [d.get("wall_s") for d in done if isinstance(d, dict)]
     return walls
-
-
-def write_json(path, data):
-    with open(path, "w") as f:
-        json.dump(data, f, indent=1)
-        f.write("\n")

@@ -37,7 +37,6 @@ state do not have them: they are listed as not compared.
 
 from __future__ import annotations
 
-import ctypes
 import fcntl
 import filecmp
 import hashlib
@@ -53,6 +52,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 from .. import binary, decks, stats
+from ..files import read_json
 from ..study import compare as study_compare
 from ..study import runs as study_runs
 from ..study.scene import END_STRAIN, SCENE_COUNT
@@ -303,14 +303,6 @@ def run_dir(out: str, role: str, seed: int) -> str:
     return os.path.join(out, FOLDERS[role], f"seed-{seed}")
 
 
-def read_json(path: str) -> Optional[Any]:
-    try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
-    except (OSError, ValueError):
-        return None
-
-
 def complete(out: str, role: str, seed: int) -> bool:
     """The run succeeded and its result is there (prepared.state for a preparation, summary.json for tests)."""
     d = run_dir(out, role, seed)
@@ -346,22 +338,8 @@ def start(out: str, scene: Scene, role: str, seed: int, exe: str) -> Job:
         deck = scene.test_deck(seed, state)
     study_runs.write_json(os.path.join(directory, "deck.json"), deck)
     cmd = binary.run_command("deck.json", ".", threads=1, quiet=True, force=True, binary=exe)
-    env = dict(os.environ, OMP_WAIT_POLICY="passive", OMP_NUM_THREADS="1")
-    log = open(os.path.join(directory, LOG), "w", encoding="utf-8")
-    log.write(f"$ {' '.join(cmd)}\n")
-    log.flush()
-    proc = subprocess.Popen(cmd, cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env,
-                            preexec_fn=_stop_with_parent)
+    proc, log = binary.start_run(cmd, directory)
     return Job(seed, role, directory, proc, log, time.monotonic())
-
-
-def _stop_with_parent() -> None:
-    """In the child, before celldem starts: SIGTERM when the study's process dies, even by SIGKILL (Linux's
-    PR_SET_PDEATHSIG), so that no run goes on writing into a folder the next call starts again."""
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG = 1
-    except (OSError, AttributeError):
-        pass  # not Linux: the runs outlive a killed study as before
 
 
 def log_tail(directory: str, chars: int = 2000) -> str:

@@ -410,11 +410,7 @@ def start(root, paper, spec, celldem, samples):
         remove_quietly(os.path.join(directory, "partial_cpu.json"))
     cmd = binary.run_command("deck.json", ".", threads=1, quiet=True, resume=resume, force=not resume,
                              binary=celldem)
-    env = dict(os.environ, OMP_WAIT_POLICY="passive", OMP_NUM_THREADS="1")
-    log = open(os.path.join(directory, "celldem.log"), "a", encoding="utf-8")
-    log.write(f"$ {' '.join(cmd)}\n")
-    log.flush()
-    proc = subprocess.Popen(cmd, cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env)
+    proc, log = binary.start_run(cmd, directory, append_log=True)
     return Job(spec, proc, log, directory, time.monotonic())
 
 
