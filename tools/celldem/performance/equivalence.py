@@ -495,10 +495,10 @@ def output_differences(base: str, other: str) -> List[str]:
                     out += [os.path.relpath(os.path.join(folder, n), root) for n in names]
         return sorted(out)
 
-    a, b = files(base), files(other)
-    differ = sorted(set(a) ^ set(b))
-    differ += [f for f in a if f in set(b) and not filecmp.cmp(os.path.join(base, f), os.path.join(other, f),
-                                                                  shallow=False)]
+    a, b = files(base), set(files(other))
+    differ = sorted(set(a) ^ b)
+    differ += [f for f in a if f in b and not filecmp.cmp(os.path.join(base, f), os.path.join(other, f),
+                                                             shallow=False)]
     sa, sb = (read_json(os.path.join(d, "summary.json")) for d in (base, other))
     if sa is None or sb is None or _without_run_time(sa) != _without_run_time(sb):
         differ.append("summary.json")
