@@ -314,7 +314,19 @@ def children_in(out):
     return found
 
 
-def start_study(old, new, deck, out):
+def running_in(out, program):
+    """Whether a process whose working folder lies in OUT runs `program` (its command line names it)."""
+    for pid in children_in(out):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                if program.encode() in f.read():
+                    return True
+        except OSError:
+            pass
+    return False
+
+
+def start_study(old, new, deck, out, program="celldem"):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([TOOLS] + ([os.environ["PYTHONPATH"]]
                                                                    if os.environ.get("PYTHONPATH") else [])))
     proc = subprocess.Popen([sys.executable, os.path.join(TOOLS, "compare_binaries.py"), old, new,
@@ -324,9 +336,9 @@ def start_study(old, new, deck, out):
         if "OLD prepares the sample" in line:
             break
     deadline = time.monotonic() + 30
-    while not children_in(out) and time.monotonic() < deadline:
+    while not running_in(out, program) and time.monotonic() < deadline:
         time.sleep(0.01)
-    assert children_in(out), "no run started"
+    assert running_in(out, program), "no run started"
     return proc
 
 
@@ -335,7 +347,7 @@ def test_a_killed_study_takes_its_runs_with_it_and_continues(tmp_path, celldem, 
     # no run behind to write into a folder the next call starts again.
     slow = wrapper(tmp_path / "slow", celldem, 'os.execv("/bin/sleep", ["sleep", "60"])')
     out = str(tmp_path / "slow-study")
-    proc = start_study(slow, celldem, deck, out)
+    proc = start_study(slow, celldem, deck, out, program="sleep")
     proc.kill()  # SIGKILL: no handler of the study runs
     proc.wait()
     deadline = time.monotonic() + 5

@@ -8,13 +8,15 @@ ask it instead of deriving these again. `celldem check` and the command line of 
 from __future__ import annotations
 
 import ctypes
+import fcntl
 import json
 import os
 import signal
 import shutil
 import subprocess
 import tempfile
-from typing import Any, Dict, List, Optional, Sequence, Union
+import time
+from typing import IO, Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -149,16 +151,44 @@ def run_command(deck_path: PathLike, out: PathLike, threads: Optional[int] = Non
     return cmd
 
 
-def _stop_with_parent() -> None:
-    """In the child before it runs: SIGTERM when the process that started it dies, even by SIGKILL (Linux's
-    PR_SET_PDEATHSIG); elsewhere nothing."""
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG = 1
-    except (OSError, AttributeError):
-        pass
+def _stop_with(parent: int) -> Callable[[], None]:
+    """For the child, before it runs: SIGTERM when `parent` (the process that starts it) dies, even by SIGKILL
+    (Linux's PR_SET_PDEATHSIG), and at once if it died before the request was made; elsewhere nothing."""
+    def request() -> None:
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG = 1
+        except (OSError, AttributeError):
+            return
+        if os.getppid() != parent:
+            os.kill(os.getpid(), signal.SIGTERM)
+    return request
 
 
-def start_run(cmd: Sequence[str], directory: PathLike, append_log: bool = False):
+RUN_LOCK = "run.lock"  # what a running `celldem run` holds (flock) in its folder (solver/run/run_directory.hpp)
+
+
+def wait_for_run_folder(directory: PathLike, timeout: float = 60.0) -> bool:
+    """Waits until no celldem process holds directory's run lock (a run stopped by SIGTERM writes its checkpoint
+    first, in a second or two); True once it is free (or there is none), False after `timeout` seconds."""
+    path = os.path.join(directory, RUN_LOCK)
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            with open(path, "rb") as f:
+                try:
+                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    return True
+                except OSError:
+                    pass
+        except FileNotFoundError:
+            return True
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+
+
+def start_run(cmd: Sequence[str], directory: PathLike,
+              append_log: bool = False) -> Tuple["subprocess.Popen[bytes]", IO[str]]:
     """Starts `cmd` (a run_command with one thread) in `directory` as a batch runs it beside others: OpenMP threads
     that wait passively, its output into directory/celldem.log after a "$ cmd" line (appended to an earlier log, or
     a new one). The run gets SIGTERM (it writes its checkpoint and stops) when the calling process dies, even by
@@ -169,7 +199,7 @@ def start_run(cmd: Sequence[str], directory: PathLike, append_log: bool = False)
     log.write(f"$ {' '.join(map(str, cmd))}\n")
     log.flush()
     proc = subprocess.Popen(list(cmd), cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env,
-                            preexec_fn=_stop_with_parent)
+                            preexec_fn=_stop_with(os.getpid()))
     return proc, log
 
 

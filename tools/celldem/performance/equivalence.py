@@ -329,6 +329,10 @@ def start(out: str, scene: Scene, role: str, seed: int, exe: str) -> Job:
     """A fresh run folder (what was there is removed: a half-written run starts again) with its deck.json, and
     celldem run on it, one thread."""
     directory = run_dir(out, role, seed)
+    # A run of a study that was killed may still be writing its checkpoint here: wait for it before starting again.
+    if not binary.wait_for_run_folder(directory):
+        raise RunFailed(f"seed {seed}: {directory} is still in use by another celldem process (its {binary.RUN_LOCK}):"
+                        " stop it, then run the same command again")
     shutil.rmtree(directory, ignore_errors=True)
     os.makedirs(directory, exist_ok=True)
     if role == "prepare":
