@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
 
 namespace celldem {
@@ -106,6 +108,14 @@ void AppendFile::append(std::string_view record) {
     throw_io_error(path_, "cannot write", error);
   }
   size_ += static_cast<long long>(record.size());
+}
+
+std::string fnv1a_hex(std::string_view bytes) {
+  std::uint64_t hash = 14695981039346656037ull;
+  for (const char c : bytes) hash = (hash ^ static_cast<unsigned char>(c)) * 1099511628211ull;
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash));
+  return buf;
 }
 
 }  // namespace celldem

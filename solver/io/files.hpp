@@ -41,6 +41,9 @@ class AppendFile {
   long long size_ = 0;
 };
 
+// The FNV-1a 64 hash of `bytes` as 16 hex digits: what a run records of a file it will trust again on --resume.
+std::string fnv1a_hex(std::string_view bytes);
+
 // "<path>: <what>: <strerror(errno)>"
 [[noreturn]] void throw_io_error(const std::filesystem::path& path, const std::string& what, int error_number);
 

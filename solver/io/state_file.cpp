@@ -94,7 +94,8 @@ class Reader {
 
 }  // namespace
 
-std::string serialize_state(const State& s, const std::string& label, const std::string& physics) {
+std::string serialize_state(const State& s, const std::string& label, const std::string& physics,
+                            const std::string& checkpoint_record) {
   Writer w;
   const std::vector<StoredContact> contacts = stored_contacts(s);
   const bool rotational = !s.pairs.rolling.empty();
@@ -102,9 +103,13 @@ std::string serialize_state(const State& s, const std::string& label, const std:
   // Format 7 (every state with a physics record or contact radii) holds the control as one record of the six
   // components; without either, format 2 or 3 as before (their cells were never sheared by the control and their
   // legs ran at the deck's rate).
-  const std::uint32_t version = radius || !physics.empty() ? 7 : rotational ? 3 : 2;
+  const std::uint32_t version = !checkpoint_record.empty()        ? 8
+                                : radius || !physics.empty() ? 7
+                                : rotational                 ? 3
+                                                             : 2;
   w.put_string(label);
   if (version >= 4) w.put_string(physics);
+  if (version >= 8) w.put_string(checkpoint_record);
   w.put(static_cast<std::uint64_t>(s.particles.size()));
   w.put(static_cast<std::uint64_t>(contacts.size()));
   w.put(s.time);
@@ -202,7 +207,7 @@ void read_control_up_to_6(Reader& r, std::uint32_t version, State& s) {
 }
 }  // namespace
 
-State parse_state(const std::string& bytes, std::string* label, std::string* physics) {
+State parse_state(const std::string& bytes, std::string* label, std::string* physics, std::string* checkpoint_record) {
   Reader head(bytes.data(), bytes.size());
   head.need(sizeof kMagic);
   if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0) throw StateFileError("not a celldem state file");
@@ -226,6 +231,9 @@ State parse_state(const std::string& bytes, std::string* label, std::string* phy
   if (label) *label = text;
   const std::string record = version >= 4 ? r.string(65536) : std::string();
   if (physics) *physics = record;
+  std::string checkpoint = version >= 8 ? r.string(std::size_t{1} << 28) : std::string();
+  if (version >= 8 && checkpoint.empty()) throw StateFileError("state file format 8 holds an empty checkpoint record");
+  if (checkpoint_record) *checkpoint_record = std::move(checkpoint);
   const auto n = r.get<std::uint64_t>();
   const auto nc = r.get<std::uint64_t>();
   constexpr std::size_t kParticleBytes = 10 * sizeof(double), kContactBytes = 8 + 3 * sizeof(double) + 1;
@@ -295,17 +303,18 @@ State parse_state(const std::string& bytes, std::string* label, std::string* phy
   return s;
 }
 
-void write_state(const std::string& path, const State& state, const std::string& label, const std::string& physics) {
-  write_file_atomic(path, serialize_state(state, label, physics));
+void write_state(const std::string& path, const State& state, const std::string& label, const std::string& physics,
+                 const std::string& checkpoint_record) {
+  write_file_atomic(path, serialize_state(state, label, physics, checkpoint_record));
 }
 
-State read_state(const std::string& path, std::string* label, std::string* physics) {
+State read_state(const std::string& path, std::string* label, std::string* physics, std::string* checkpoint_record) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw StateFileError(path + ": cannot open the state file");
   std::ostringstream text;
   text << in.rdbuf();
   try {
-    return parse_state(text.str(), label, physics);
+    return parse_state(text.str(), label, physics, checkpoint_record);
   } catch (const StateFileError& e) {
     throw StateFileError(path + ": " + e.what());
   }

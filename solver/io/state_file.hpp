@@ -28,20 +28,28 @@ struct StateFileError : std::runtime_error {
 // 7: the control as one record of the six components (ControlState's reference entries, servo integrals and
 // leg start strains, its rate factor and leg progress; the state's stresses and stiffnesses), written for every
 // state with a physics record or contact radii (formats 2 and 3 otherwise). Formats 1 to 6 are still read.
-inline constexpr std::uint32_t kStateFormatVersion = 7;
+// 8: format 7 with a checkpoint record after the physics record: JSON text of what a stage carries over a resume
+// besides its state (run/stage_output: the series' proof, the controls' errors, warnings, elapsed time), so that a
+// checkpoint is one file written by one rename and no kill can leave its parts out of step. Written only for a
+// state with such a record (checkpoints); every other state is written as before.
+inline constexpr std::uint32_t kStateFormatVersion = 8;
 inline constexpr std::uint8_t kStateRotationalFields = 1, kStateRadiusField = 2;
 
 // label says what the state is (e.g. "prepared", "checkpoint:ttc"); physics, when not empty, the physics it
-// was made with; both are stored and returned. Written atomically; a failed write throws IoError
-// (io/files.hpp).
+// was made with; checkpoint_record, when not empty, a checkpoint's record (format 8); all are stored and returned.
+// Written atomically; a failed write throws IoError (io/files.hpp).
 void write_state(const std::string& path, const State& state, const std::string& label,
-                 const std::string& physics = "");
+                 const std::string& physics = "", const std::string& checkpoint_record = "");
 
 // Reads and validates a state file; the pair list holds only the stored contacts until the next rebuild.
 // Throws StateFileError with the reason (truncated, corrupted, wrong version, invalid values). `physics`
 // receives the record (empty for files written without one, formats 1 to 3 included).
-State read_state(const std::string& path, std::string* label = nullptr, std::string* physics = nullptr);
-State parse_state(const std::string& bytes, std::string* label = nullptr, std::string* physics = nullptr);
-std::string serialize_state(const State& state, const std::string& label, const std::string& physics = "");
+// `checkpoint_record` receives format 8's record (empty for every other file).
+State read_state(const std::string& path, std::string* label = nullptr, std::string* physics = nullptr,
+                 std::string* checkpoint_record = nullptr);
+State parse_state(const std::string& bytes, std::string* label = nullptr, std::string* physics = nullptr,
+                  std::string* checkpoint_record = nullptr);
+std::string serialize_state(const State& state, const std::string& label, const std::string& physics = "",
+                            const std::string& checkpoint_record = "");
 
 }  // namespace celldem

@@ -47,12 +47,7 @@ bool is_run_output(const fs::directory_entry& entry) {
 std::string deck_fingerprint(const std::string& canonical_deck) {
   Json deck = Json::parse(canonical_deck);
   if (deck.contains("sample") && deck["sample"].is_object()) deck["sample"].erase("seed");
-  const std::string text = deck.dump();
-  std::uint64_t hash = 14695981039346656037ull;
-  for (const char c : text) hash = (hash ^ static_cast<unsigned char>(c)) * 1099511628211ull;
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash));
-  return buf;
+  return fnv1a_hex(deck.dump());
 }
 
 void create_run_folder(const fs::path& dir) {
@@ -136,6 +131,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
     if (progress_.value("deck", std::string()) != deck.canonical)
       throw UsageError("--resume: the deck differs from the one this run was started with");
     summary_ = fs::exists(dir_ / kSummaryName) ? read_json(dir_ / kSummaryName) : Json::object();
+    for (const Json& stage : progress_["completed"]) check_finished(stage.get<std::string>());
     lock_.claim();
     return;
   }
@@ -155,7 +151,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
   const bool share = options.probes.first != ProbeSelection{}.first || options.probes.last != ProbeSelection{}.last;
   const std::string kind = !options.kind.empty() ? options.kind : share ? "probe share" : "single";
   progress_ = {{"deck", deck.canonical}, {"fingerprint", deck_fingerprint(deck.canonical)}, {"kind", kind},
-               {"completed", Json::array()}, {"elapsed", Json::object()}};
+               {"completed", Json::array()}, {"finished", Json::object()}};
   if (deck.tolerance) {
     progress_["tolerance"] = *deck.tolerance;
     write_file_atomic(dir_ / kResolvedDeckName, resolved_deck_json(deck));
@@ -173,30 +169,47 @@ bool RunDirectory::completed(const std::string& stage) const {
 
 bool RunDirectory::resumes(const std::string& stage) const { return resume_ && fs::exists(checkpoint(stage)); }
 
-double RunDirectory::elapsed_of(const std::string& stage) const {
-  const std::lock_guard<std::mutex> lock(mutex_);
-  return progress_["elapsed"].value(stage, 0.0);
+std::vector<fs::path> RunDirectory::finished_files(const std::string& stage) const {
+  if (stage == "prepare") return {stage_dir(stage) / "series.csv", prepared_state()};
+  return {stage_dir(stage) / "series.csv", stage_dir(stage) / "final.state"};
 }
 
-void RunDirectory::record_checkpoint(const std::string& stage, double seconds, const Json& memory) {
-  const std::lock_guard<std::mutex> lock(mutex_);
-  progress_["elapsed"][stage] = seconds;
-  progress_["memory"][stage] = memory;
-  write_progress();
-}
-
-Json RunDirectory::memory_of(const std::string& stage) const {
-  const std::lock_guard<std::mutex> lock(mutex_);
-  return progress_.contains("memory") && progress_["memory"].contains(stage) ? progress_["memory"][stage] : Json();
+const Json& RunDirectory::summary_entry(const std::string& stage) const {
+  static const Json none;
+  if (stage == "prepare") return summary_.contains("prepared") ? summary_["prepared"] : none;
+  return summary_.contains("tests") && summary_["tests"].contains(stage) ? summary_["tests"][stage] : none;
 }
 
 void RunDirectory::mark_done(const std::string& stage) {
   const std::lock_guard<std::mutex> lock(mutex_);
   write_file_atomic(dir_ / kSummaryName, summary_.dump(2));
+  // What --resume will trust of the finished stage: its files' and its summary entry's hashes.
+  Json proof = {{"summary.json", fnv1a_hex(summary_entry(stage).dump())}};
+  for (const fs::path& file : finished_files(stage))
+    proof[fs::relative(file, dir_).string()] = fnv1a_hex(read_file(file));
+  progress_["finished"][stage] = proof;
   progress_["completed"].push_back(stage);
   write_progress();
   fs::remove(checkpoint(stage));
-  fs::remove(stage_dir(stage) / kCheckpointSeriesName);
+}
+
+void RunDirectory::check_finished(const std::string& stage) const {
+  const auto refuse = [&](const fs::path& file, const std::string& what) {
+    throw UsageError("--resume: " + file.string() + " " + what + " since stage '" + stage +
+                     "' finished; a resumed run builds only on what its stages wrote: restore the file, or run again "
+                     "with --force");
+  };
+  const Json proof = progress_.contains("finished") ? progress_["finished"].value(stage, Json()) : Json();
+  if (!proof.is_object())
+    refuse(dir_ / kProgressName, "records no proof of its files (a run of an older celldem?) ");
+  for (const fs::path& file : finished_files(stage)) {
+    const std::string name = fs::relative(file, dir_).string();
+    if (!fs::exists(file)) refuse(file, "was removed");
+    if (proof.value(name, std::string()) != fnv1a_hex(read_file(file))) refuse(file, "was changed");
+  }
+  const Json& entry = summary_entry(stage);
+  if (entry.is_null()) refuse(dir_ / kSummaryName, "lost the stage's results");
+  if (proof.value("summary.json", std::string()) != fnv1a_hex(entry.dump())) refuse(dir_ / kSummaryName, "was changed");
 }
 
 void RunDirectory::add_warning(const std::string& warning) {

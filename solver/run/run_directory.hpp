@@ -8,6 +8,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "core/deck.hpp"
 #include "run/runner.hpp"
@@ -20,9 +21,6 @@ inline constexpr const char* kPreparedName = "prepared.state";
 inline constexpr const char* kResolvedDeckName = "resolved_deck.json";
 inline constexpr const char* kProgressName = "progress.json";
 inline constexpr const char* kSummaryName = "summary.json";
-// What a stage's series held at its checkpoint (rows, last step, checksum of the bytes): written just before the
-// checkpoint, so that --resume continues only a series it can prove (StageOutput::open).
-inline constexpr const char* kCheckpointSeriesName = "checkpoint.series.json";
 // The run folder's owner: an advisory lock (flock) on this file, with the holder's pid in it for the message.
 inline constexpr const char* kLockName = "run.lock";
 
@@ -64,16 +62,12 @@ class RunDirectory {
   std::filesystem::path prepared_state() const { return dir_ / kPreparedName; }
 
   bool completed(const std::string& stage) const;
-  // A stage of a resumed run that has a checkpoint continues from it.
+  // A stage of a resumed run that has a checkpoint continues from it (its record: StageOutput).
   bool resumes(const std::string& stage) const;
-  double elapsed_of(const std::string& stage) const;
 
-  // After a checkpoint of `stage` was written: its elapsed time and what else the stage must carry over a
-  // resume (its controls' errors so far).
-  void record_checkpoint(const std::string& stage, double seconds, const nlohmann::json& memory);
-  nlohmann::json memory_of(const std::string& stage) const;
-  // Order matters for a kill at any moment: the summary first, then the stage marked complete, then its
-  // checkpoint removed. Killed in between, a resume re-runs the stage's tail from the checkpoint.
+  // Order matters for a kill at any moment: the summary first, then the stage marked complete (with the hashes of
+  // its files and summary entry, which --resume checks), then its checkpoint removed. Killed in between, a resume
+  // re-runs the stage's tail from the checkpoint.
   void mark_done(const std::string& stage);
 
   // Prints a warning and records it in the summary, once: a resumed run reloads the summary it had written.
@@ -85,6 +79,11 @@ class RunDirectory {
 
  private:
   void write_progress();
+  // The files a finished stage leaves (its series and final state) and its entry in the summary.
+  std::vector<std::filesystem::path> finished_files(const std::string& stage) const;
+  const nlohmann::json& summary_entry(const std::string& stage) const;
+  // UsageError naming the file when a finished stage's files or summary entry are not those it recorded.
+  void check_finished(const std::string& stage) const;
 
   std::filesystem::path dir_;
   FolderLock lock_;  // before anything in the folder is read or removed

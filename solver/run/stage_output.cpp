@@ -58,13 +58,11 @@ void StageOutput::open(const State& state, bool resumed) {
   const fs::path path = dir_ / "series.csv";
   write_file_atomic(dir_ / "series.columns.json", series_columns_json());
   if (resumed) {
-    elapsed_before_ = run_.elapsed_of(stage_);
-    for (const auto& e : run_.memory_of(stage_).value("control_errors", nlohmann::json::array()))
-      control_errors_.push_back(control_errors_from_json(e));
-    for (const auto& w : run_.memory_of(stage_).value("warnings", nlohmann::json::array())) warn(w.get<std::string>());
-  }
-  if (resumed) {
-    std::istringstream in(proven_series(state));
+    const nlohmann::json record = read_checkpoint_record();
+    elapsed_before_ = record.at("elapsed_s").get<double>();
+    for (const auto& e : record.at("control_errors")) control_errors_.push_back(control_errors_from_json(e));
+    for (const auto& w : record.at("warnings")) warn(w.get<std::string>());
+    std::istringstream in(proven_series(state, record.at("series_proofs")));
     std::string line;
     std::vector<std::string> header;
     if (!std::getline(in, line) || in.eof()) throw RunError(path.string() + ": no header");
@@ -80,9 +78,8 @@ void StageOutput::open(const State& state, bool resumed) {
       rows_.push_back(*row);
       kept += line + "\n";
     }
-    // The record first: killed before the series is cut, the series still begins with what it proves.
+    // `kept` is a prefix the checkpoint's record proves, so the record still holds once the series is cut to it.
     last_proof_ = series_proof(kept, rows_.size(), rows_.empty() ? 0.0 : rows_.back().step, state.control.stage_steps);
-    write_series_record(nlohmann::json::array({last_proof_}));
     write_file_atomic(path, kept);
     series_ = AppendFile(path, /*truncate=*/false);
     series_bytes_ = kept.size();
@@ -94,9 +91,10 @@ void StageOutput::open(const State& state, bool resumed) {
     append_series(series_header());
   }
   for (const SeriesRow& row : rows_) best_ratio_ = std::max(best_ratio_, row.ratio13);
-  // Strain snapshots already passed before a resume are not repeated.
-  const double e1 = rows_.empty() ? 0.0 : rows_.back().e1;
-  while (next_e1_snapshot_ < snapshot_plan_.e1.size() && snapshot_plan_.e1[next_e1_snapshot_] <= e1 && resumed)
+  // Strain snapshots already passed at the checkpoint are not repeated: judged on the checkpoint's own strain (as
+  // snapshot_if_due judges it), not on its last row's, which may lie before the snapshot's step.
+  const double e1 = 1.0 - state.cell.h(0, 0) / state.control.reference[0];
+  while (resumed && next_e1_snapshot_ < snapshot_plan_.e1.size() && snapshot_plan_.e1[next_e1_snapshot_] <= e1)
     ++next_e1_snapshot_;
   if (!resumed) {
     write_row(state);
@@ -191,11 +189,16 @@ void StageOutput::finish(const State& state) {
   }
   series_ = AppendFile();
   // Killed from here until the stage is marked done, a resume goes on from the last checkpoint in this series:
-  // its record proves the prefix as written before and as rewritten now.
-  if (!last_proof_.is_null() && fs::exists(run_.checkpoint(stage_))) {
+  // its record is made to prove the prefix as written before and as rewritten now (the state rewritten as read).
+  const fs::path checkpoint_path = run_.checkpoint(stage_);
+  if (!last_proof_.is_null() && fs::exists(checkpoint_path)) {
     const nlohmann::json& p = last_proof_;
-    write_series_record(nlohmann::json::array(
-        {p, series_proof(text, p["rows"].get<std::size_t>(), p["last_step"].get<double>(), p["step"].get<std::int64_t>())}));
+    std::string label, physics, text_record;
+    const State at_checkpoint = read_state(checkpoint_path.string(), &label, &physics, &text_record);
+    nlohmann::json record = nlohmann::json::parse(text_record);
+    record["series_proofs"] = nlohmann::json::array(
+        {p, series_proof(text, p["rows"].get<std::size_t>(), p["last_step"].get<double>(), p["step"].get<std::int64_t>())});
+    write_state(checkpoint_path.string(), at_checkpoint, label, physics, record.dump());
   }
   write_file_atomic(dir_ / "series.csv", text);
   progress_.finish();
@@ -220,8 +223,23 @@ void StageOutput::write_row(const State& state, const ContactMeasures* measured)
   if (row_observer_) row_observer_(state, rows_.back());
 }
 
-void StageOutput::write_series_record(const nlohmann::json& proofs) {
-  write_file_atomic(dir_ / kCheckpointSeriesName, nlohmann::json{{"proofs", proofs}}.dump(1));
+nlohmann::json StageOutput::read_checkpoint_record() const {
+  const fs::path path = run_.checkpoint(stage_);
+  std::string text;
+  try {
+    (void)read_state(path.string(), nullptr, nullptr, &text);
+    if (text.empty())
+      throw UsageError(path.string() + ": a checkpoint without its record (written by an older celldem, whose checkpoints "
+                       "were several files): --resume cannot prove the series and controls it continues; run again with --force");
+    nlohmann::json record = nlohmann::json::parse(text);
+    for (const char* key : {"elapsed_s", "control_errors", "warnings", "series_proofs"})
+      if (!record.contains(key)) throw UsageError(path.string() + ": the checkpoint's record lacks '" + key + "'");
+    return record;
+  } catch (const StateFileError& e) {
+    throw UsageError(std::string(e.what()) + "; run again with --force");
+  } catch (const nlohmann::json::exception& e) {
+    throw UsageError(path.string() + ": the checkpoint's record is not readable (" + e.what() + "); run again with --force");
+  }
 }
 
 void StageOutput::append_series(const std::string& text) {
@@ -230,29 +248,20 @@ void StageOutput::append_series(const std::string& text) {
   series_hash_ = fnv1a(text, series_hash_);
 }
 
-std::string StageOutput::proven_series(const State& state) const {
-  const fs::path path = dir_ / "series.csv", record = dir_ / kCheckpointSeriesName;
+std::string StageOutput::proven_series(const State& state, const nlohmann::json& proofs) const {
+  const fs::path path = dir_ / "series.csv";
   const std::int64_t step = state.control.stage_steps;
   const auto refuse = [&](const std::string& what) {
     throw UsageError(path.string() + ": " + what + ": --resume continues only the rows its checkpoint (step " +
-                     std::to_string(step) + ") recorded in " + record.string() +
-                     "; start the run again with --force");
+                     std::to_string(step) + ", " + run_.checkpoint(stage_).string() +
+                     ") recorded; start the run again with --force");
   };
-  if (!fs::exists(record)) refuse("no record of what the series held at the checkpoint");
-  nlohmann::json proofs;
-  try {
-    proofs = nlohmann::json::parse(read_file(record)).at("proofs");
-  } catch (const nlohmann::json::exception& e) {
-    refuse(std::string("the checkpoint's record is not readable (") + e.what() + ")");
-  }
   if (!fs::exists(path)) refuse("the file is missing");
   const std::string text = read_file(path);
   std::string what = "holds other bytes than the checkpoint recorded (an edited, deleted, repeated or renamed row or "
                      "header)";
   for (const nlohmann::json& p : proofs) {
     const std::size_t bytes = p.at("bytes").get<std::size_t>();
-    // The record is written just before the state: one newer than the checkpoint proves a longer prefix.
-    if (p.at("step").get<std::int64_t>() < step) refuse("the checkpoint's record is older than the checkpoint");
     if (text.size() < bytes) {
       what = "holds " + std::to_string(text.size()) + " bytes, fewer than the " + std::to_string(bytes) +
              " (header and " + std::to_string(p.at("rows").get<std::size_t>()) + " rows to step " +
@@ -269,18 +278,16 @@ std::string StageOutput::proven_series(const State& state) const {
 void StageOutput::checkpoint(const State& state) {
   write_peak_contacts();  // (before the state: a resumed run's peak file is never older than its checkpoint)
   if (checkpoint_observer_) checkpoint_observer_(state);
-  // What the series holds, just before the state: a kill in between leaves a record newer than the checkpoint,
-  // which still proves the checkpoint's rows (a prefix of its own).
+  // The state and all a resume needs besides it, in one file written by one rename (io/state_file, format 8): the
+  // series' proof, the controls' errors (the control verdict's memory), this stage's warnings, its elapsed time.
   last_proof_ = {{"step", state.control.stage_steps}, {"rows", rows_.size()},
                  {"last_step", rows_.empty() ? 0.0 : rows_.back().step}, {"bytes", series_bytes_},
                  {"fnv1a64", hex(series_hash_)}};
-  write_series_record(nlohmann::json::array({last_proof_}));
-  write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_));
   nlohmann::json errors = nlohmann::json::array();
   for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));
-  nlohmann::json memory = {{"control_errors", errors}};
-  if (!warnings_.empty()) memory["warnings"] = warnings_;
-  run_.record_checkpoint(stage_, elapsed(), memory);
+  const nlohmann::json record = {{"elapsed_s", elapsed()}, {"control_errors", errors}, {"warnings", warnings_},
+                                 {"series_proofs", nlohmann::json::array({last_proof_})}};
+  write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_), record.dump());
 }
 
 void StageOutput::warn(const std::string& warning) {

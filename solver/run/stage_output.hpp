@@ -73,11 +73,13 @@ class StageOutput {
  private:
   void write_row(const State& state, const ContactMeasures* contacts = nullptr);
   void checkpoint(const State& state);
-  // The series as a stage resumed from `state` may continue it: the prefix its checkpoint's record proves, up to
-  // the checkpoint's step; UsageError naming the file when the series no longer holds that prefix.
-  std::string proven_series(const State& state) const;
+  // The series as a stage resumed from `state` may continue it: the prefix one of its checkpoint's `proofs` proves,
+  // up to the checkpoint's step; UsageError naming the file when the series no longer holds that prefix.
+  std::string proven_series(const State& state, const nlohmann::json& proofs) const;
+  // The record of the stage's checkpoint (written with its state: checkpoint()); UsageError naming the file when it
+  // is missing or unreadable.
+  nlohmann::json read_checkpoint_record() const;
   void append_series(const std::string& text);
-  void write_series_record(const nlohmann::json& proofs);  // kCheckpointSeriesName
   void snapshot_if_due(const State& state, bool force);
   // The contacts of the row with the largest s11/s33 so far are kept in memory and written (peak_contacts.csv
   // and .json) at the next checkpoint or when the stage ends: a test's rising part makes a new peak at every

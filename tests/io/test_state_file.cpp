@@ -142,6 +142,30 @@ TEST(StateFile, PhysicsRecordRoundTripsAndSetsFormatSeven) {
   EXPECT_EQ(physics, "");
 }
 
+// A checkpoint's record (format 8) travels with its state in one file: returned as written, the state as a format 7
+// file holds it, and a state read back and written again with another record keeps its own bytes (a stage's finish
+// rewrites its checkpoint's record so). Every other state stays format 7 or older.
+TEST(StateFile, CheckpointRecordRoundTripsAndSetsFormatEight) {
+  const State a = sample_state();
+  const std::string physics = R"({"contact.kn":1000000.0})", record = R"({"elapsed_s":1.5,"warnings":[]})";
+  const std::string bytes = serialize_state(a, "stage:ttc", physics, record);
+  std::uint32_t version = 0;
+  std::memcpy(&version, bytes.data() + 8, sizeof version);
+  EXPECT_EQ(version, 8u);
+  std::string label, got_physics, got_record;
+  const State b = parse_state(bytes, &label, &got_physics, &got_record);
+  EXPECT_EQ(label, "stage:ttc");
+  EXPECT_EQ(got_physics, physics);
+  EXPECT_EQ(got_record, record);
+  EXPECT_EQ(serialize_state(b, label, physics, record), bytes);
+  const std::string seven = serialize_state(a, "stage:ttc", physics);
+  EXPECT_EQ(serialize_state(b, label, physics), seven);  // the same state as a format 7 file holds it
+  (void)parse_state(seven, nullptr, nullptr, &got_record);
+  EXPECT_EQ(got_record, "");
+  const std::string other = serialize_state(b, label, physics, R"({"elapsed_s":2.5})");
+  EXPECT_EQ(parse_state(other).particles.velocity, a.particles.velocity);
+}
+
 // The adaptive rate's record (the factor and the leg's progress) is part of the control record: a leg resumes
 // bit for bit; a factor that is not positive is refused.
 TEST(StateFile, AdaptiveRateRecordRoundTrips) {

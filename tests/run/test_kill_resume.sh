@@ -33,7 +33,8 @@ RANDOM=$$
 pid=$!
 interrupted=0
 for ((k = 0; k < kills; ++k)); do
-  delay=$(echo "scale=3; $ref_seconds * ($RANDOM % 1000) / 1000 / $kills + 0.05" | bc)
+  # $((RANDOM % 1000)) in the shell: bc's % at scale=3 is always 0, which put every kill at 0.05 s.
+  delay=$(echo "scale=3; $ref_seconds * $((RANDOM % 1000)) / 1000 / $kills + 0.05" | bc)
   sleep "$delay"
   if ! kill -0 $pid 2>/dev/null; then break; fi
   if ((k == 1)); then

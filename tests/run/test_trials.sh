@@ -59,7 +59,7 @@ trial_kill_resume() {  # 1 to 3 SIGKILLs or SIGTERMs at random moments, each fol
   rm -rf "$d"
   start "$work/deck.json" --out "$d"
   for ((i = 0; i < n; ++i)); do
-    sleep "$(echo "scale=3; $ref_seconds * ($RANDOM % 1000) / 1000 / $n" | bc)"
+    sleep "$(echo "scale=3; $ref_seconds * $((RANDOM % 1000)) / 1000 / $n" | bc)"  # (% in the shell: bc's is 0 at scale=3)
     kill -0 $pid 2>/dev/null || break
     if ((RANDOM % 2)); then kill -TERM $pid; else kill -KILL $pid; fi
     wait $pid 2>/dev/null
