@@ -6,13 +6,16 @@
 # ends. Every finished file must be the uninterrupted run's bytes, and summary.json its values (control errors and
 # verdicts included; only times and speeds differ). A trial whose kill did not land (the run ended first) is counted
 # as skipped, never as passed.
-# Usage: test_file_events.sh CELLDEM KILL_AT_LIBRARY [SEED=1] [SECONDS=120] [MIN_TRIALS=20]
+# Usage: test_file_events.sh CELLDEM KILL_AT_LIBRARY [SEED=1] [SECONDS=120] [MIN_TRIALS=20] [PATTERN]
+# PATTERN (grep -E over the event log's "N op path" lines) draws only among matching events, e.g.
+# 'rename .*checkpoint' for the windows after each checkpoint's commit.
 set -uo pipefail
 celldem="$1"
 interposer="$2"
 seed="${3:-1}"
 budget="${4:-120}"
 min_trials="${5:-20}"
+pattern="${6:-.}"
 RANDOM=$seed
 work=$(mktemp -d)
 trap 'jobs -p | xargs -r kill -9 2>/dev/null; rm -rf "$work"' EXIT
@@ -77,6 +80,8 @@ CELLDEM_KILL_LOG="$work/events.log" LD_PRELOAD="$interposer" "$celldem" run "$wo
   2>"$work/err" || { cat "$work/err"; fail "reference run"; }
 events=$(wc -l < "$work/events.log")
 ((events > 50)) || fail "the interposer saw only $events file events: is $interposer preloaded?"
+mapfile -t drawn < <(grep -E -- "$pattern" "$work/events.log" | cut -d' ' -f1)
+((${#drawn[@]} > 0)) || fail "no file event matches '$pattern'"
 echo "reference: $(echo "$(date +%s.%N) - $start" | bc) s, $events file events ($(cut -d' ' -f2 "$work/events.log" | sort | uniq -c | tr '\n' ' ' | tr -s ' '))"
 
 passed=0 failed=0 skipped=0 trials=0
@@ -86,7 +91,7 @@ while ((trials < min_trials || SECONDS - t0 < budget)); do
   trials=$((trials + 1))
   d="$work/t"
   rm -rf "$d"
-  n=$((1 + (RANDOM * 32768 + RANDOM) % events))
+  n=${drawn[(RANDOM * 32768 + RANDOM) % ${#drawn[@]}]}
   when=(after before torn)
   when=${when[RANDOM % 3]}
   what="event $n ($when): $(sed -n "${n}p" "$work/events.log" | cut -d' ' -f2- | sed "s|$work/ref/||")"
