@@ -17,7 +17,7 @@ here="$(dirname "$0")"
 cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
 declare -A passed failed skipped
-kinds=(kill_resume series_extra series_tampered two_processes branch_resumed probe_stop probe_shares foreign_share)
+kinds=(kill_resume series_extra series_tampered finished_tampered two_processes branch_resumed probe_stop probe_shares foreign_share)
 why=""
 run_quiet() { "$celldem" run "$@" --quiet --threads 1; }
 # Starts a run in the background: $pid is celldem's own (a function run with & would be a subshell's).
@@ -96,6 +96,24 @@ trial_series_tampered() {  # a series that no longer holds what the checkpoint r
   "$celldem" run "$work/deck.json" --out "$d" --resume --quiet --threads 1 2>"$work/err"; local rc=$?
   ((rc == 2)) || { why="$variant: --resume exited $rc, expected 2"; return 1; }
   grep -q "ttc/series.csv" "$work/err" || { why="$variant: the message does not name ttc/series.csv: $(cat "$work/err")"; return 1; }
+}
+
+trial_finished_tampered() {  # a finished stage's files or results changed behind a stopped run: refused, exit 2, naming it
+  local d="$work/ft" variant=$((RANDOM % 6)) f
+  stop_when "$d" TERM "$d/psc/checkpoint.state" "$work/deck.json" || { why="skipped: finished first"; return 2; }
+  [[ -f $d/psc/checkpoint.state && -f $d/ttc/final.state ]] || { why="skipped: not stopped inside psc"; return 2; }
+  case $variant in
+    0) f=ttc/series.csv; tail -1 "$d/$f" | sed 's/^[0-9]*/99999999/' >> "$d/$f"; variant="a row appended" ;;
+    1) f=ttc/series.csv; awk -F, -v OFS=, 'NR == 3 { $5 = ($5 == 0 ? 1 : $5 * 1.01) } 1' "$d/$f" > "$d/x" && mv "$d/x" "$d/$f"
+       variant="a value edited" ;;
+    2) f=ttc/series.csv; sed -i '$d' "$d/$f"; variant="the last row cut" ;;
+    3) f=summary.json; rm "$d/$f"; variant="summary.json deleted" ;;
+    4) f=prepared.state; cp "$d/ttc/final.state" "$d/$f"; variant="prepared.state replaced" ;;
+    5) f=ttc/final.state; rm "$d/$f"; variant="a final state deleted" ;;
+  esac
+  "$celldem" run "$work/deck.json" --out "$d" --resume --quiet --threads 1 2>"$work/err"; local rc=$?
+  ((rc == 2)) || { why="$variant: --resume exited $rc, expected 2"; return 1; }
+  grep -q "$f" "$work/err" || { why="$variant: the message does not name $f: $(cat "$work/err")"; return 1; }
 }
 
 trial_two_processes() {  # a second process on a live folder: refused with exit 2 naming the holder, nothing deleted
