@@ -11,6 +11,7 @@
 
 #include "io/files.hpp"
 #include "run/run_directory.hpp"
+#include "run/runner.hpp"
 #include "run/verify_rate.hpp"
 
 namespace celldem {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/deck.hpp"
-#include "run/runner.hpp"
+#include "run/run_options.hpp"
 
 namespace celldem {
 

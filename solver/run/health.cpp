@@ -8,7 +8,7 @@
 #include "core/plan.hpp"
 #include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
-#include "run/runner.hpp"
+#include "run/errors.hpp"
 
 namespace celldem {
 

@@ -8,7 +8,7 @@
 #include "run/ensemble.hpp"
 #include "run/probes.hpp"
 #include "run/run_directory.hpp"
-#include "run/runner.hpp"
+#include "run/errors.hpp"
 
 namespace celldem {
 namespace fs = std::filesystem;

@@ -28,7 +28,7 @@
 #include "run/program.hpp"
 #include "run/progress.hpp"
 #include "run/run_directory.hpp"
-#include "run/runner.hpp"
+#include "run/errors.hpp"
 #include "run/stage_output.hpp"
 #include "step.hpp"
 

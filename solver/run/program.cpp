@@ -14,7 +14,7 @@
 #include "measure/quasi_static.hpp"
 #include "run/adaptive_rate.hpp"
 #include "run/health.hpp"
-#include "run/runner.hpp"
+#include "run/errors.hpp"
 #include "run/stage_output.hpp"
 #include "run/thread_governor.hpp"
 #include "step.hpp"

@@ -11,7 +11,8 @@
 #include <vector>
 
 #include "core/deck.hpp"
-#include "run/runner.hpp"
+#include "run/errors.hpp"
+#include "run/run_options.hpp"
 
 namespace celldem {
 

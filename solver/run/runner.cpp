@@ -3,7 +3,6 @@
 #include <omp.h>
 
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <thread>
 
@@ -28,9 +27,6 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 namespace {
-
-volatile std::sig_atomic_t g_stop_requested = 0;
-void on_stop_signal(int) { g_stop_requested = 1; }
 
 // A stage from a loaded state whose overlaps are well above a packing's (its pairs listed): what a runaway
 // should name before the time step; empty otherwise.
@@ -204,13 +200,6 @@ void print_test_done(const RunDirectory& run, const std::string& name) {
 }
 
 }  // namespace
-
-void install_stop_handlers() {
-  std::signal(SIGINT, on_stop_signal);
-  std::signal(SIGTERM, on_stop_signal);
-}
-
-bool stop_requested() { return g_stop_requested != 0; }
 
 void run_deck(const Deck& deck, const RunOptions& options) {
   if (options.threads > 0) omp_set_num_threads(options.threads);

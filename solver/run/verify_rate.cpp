@@ -16,7 +16,7 @@
 #include "run/program.hpp"
 #include "run/reference_floors.hpp"
 #include "run/run_directory.hpp"
-#include "run/runner.hpp"
+#include "run/errors.hpp"
 #include "run/stage_output.hpp"
 #include "run/summary.hpp"
 #include "step.hpp"
