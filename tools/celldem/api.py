@@ -145,9 +145,10 @@ class Ensemble:
         if not isinstance(statistics, dict):
             raise FileFormatError(path, f"top level is {files.json_type(statistics)}, not a JSON object")
         seeds = statistics.get("seeds")
-        if not isinstance(seeds, list) or not all(isinstance(k, int) and not isinstance(k, bool) for k in seeds):
-            raise FileFormatError(path, f'"seeds" is {files.json_type(seeds)}, not an array of whole numbers'
-                                  if not isinstance(seeds, list) else '"seeds" holds a value that is not a whole number')
+        if not isinstance(seeds, list):
+            raise FileFormatError(path, f'"seeds" is {files.json_type(seeds)}, not an array of whole numbers')
+        if not all(isinstance(k, int) and not isinstance(k, bool) for k in seeds):
+            raise FileFormatError(path, f'"seeds" holds a value that is not a whole number: {seeds}')
         self.statistics: Dict[str, Any] = statistics
         self.seeds: List[int] = list(seeds)
         self.runs = {k: Run(os.path.join(self.directory, f"seed-{k}")) for k in self.seeds

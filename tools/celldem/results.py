@@ -27,8 +27,8 @@ from .files import (Arrays, Columns, FileFormatError, RunError, discover_tests, 
                     load_series, load_summary, number, read_json)
 
 # The readers of celldem.files are re-exported: the tools and tests read a series or a summary.json through here.
-__all__ = ["RATIO_FALLBACKS", "Arrays", "Columns", "FileFormatError", "RunError", "RunArrays", "EnsembleArrays", "Loaded", "arrays",
-           "units", "column", "discover_tests", "is_ensemble", "load_columns", "load_deck", "load_ensemble",
+__all__ = ["RATIO_FALLBACKS", "Arrays", "Columns", "FileFormatError", "RunError", "RunArrays", "EnsembleArrays",
+           "Loaded", "arrays", "units", "column", "discover_tests", "is_ensemble", "load_columns", "load_deck", "load_ensemble",
            "load_json", "load_run", "load_run_or_report", "load_series", "load_summary", "number", "read_json",
            "run_dir_parser"]
 
