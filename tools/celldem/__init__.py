@@ -6,7 +6,8 @@ Modules, from the bottom up:
               per-test quantities for a series without one, such as LAMMPS's or LIGGGHTS's), check, run
   files       the files of a run directory: summary.json, <stage>/series.csv (columns by its header),
               series.columns.json, progress.json's deck
-  api         the public API (re-exported here): open_run, open_ensemble, Deck, check_deck, run_deck; the one run type
+  api         the public API (re-exported here): open_run, open_ensemble, Deck, check_deck, run_deck; the one run type;
+              its errors: DeckError, RunFailed, RunError and FileFormatError (a file named, and what is wrong in it)
   results     the tools' view of an api.Run or api.Ensemble: its series as dicts of arrays (RunArrays, EnsembleArrays)
   metrics     curve helpers on series columns (interpolation, binned differences, maxima)
   decks       decks as data: load, edit, write with a generic JSON layout
@@ -28,8 +29,8 @@ first on sys.path, so `/usr/bin/python3 tools/report.py RUN_DIR` imports it with
 the tests put tools/ on PYTHONPATH (ctest does: tests/CMakeLists.txt).
 """
 
-from .api import (Deck, DeckError, Ensemble, Run, RunFailed, Stage, check_deck, open_ensemble,  # noqa: E402
-                  open_run, run_deck)
+from .api import (Deck, DeckError, Ensemble, FileFormatError, Run, RunError, RunFailed, Stage,  # noqa: E402
+                  check_deck, open_ensemble, open_run, run_deck)
 
-__all__ = ["Deck", "DeckError", "Ensemble", "Run", "RunFailed", "Stage", "check_deck", "open_ensemble", "open_run",
-           "run_deck"]
+__all__ = ["Deck", "DeckError", "Ensemble", "FileFormatError", "Run", "RunError", "RunFailed", "Stage", "check_deck",
+           "open_ensemble", "open_run", "run_deck"]

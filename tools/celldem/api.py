@@ -18,21 +18,27 @@ summary.json's, what a deck implies is `celldem plan`'s). The binary is found as
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
 import os
+import re
+import signal
 import subprocess
 import tempfile
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Union
+import threading
+from types import FrameType
+from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Set, Union
 
 from . import binary, decks, files
 from .binary import PathLike
+from .files import FileFormatError, RunError
 
 if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["Stage", "Run", "Ensemble", "open_run", "open_ensemble", "Deck", "DeckError", "RunFailed",
-           "check_deck", "run_deck"]
+           "RunError", "FileFormatError", "check_deck", "run_deck"]
 
 PREPARE = "prepare"
 
@@ -46,15 +52,21 @@ class Stage:
              attrs["units"] and attrs["meanings"] map column names to series.columns.json's unit and meaning
              (empty for runs older than that file)
     path     the stage's folder
+    damaged  None for a stage whose series.csv is there; else why it cannot be read (a test summary.json lists
+             whose <test>/series.csv is missing): its summary is still there, its series raises FileNotFoundError
+             naming the file
     """
 
-    def __init__(self, name: str, path: str, summary: Dict[str, Any]) -> None:
-        self.name, self.path, self.summary = name, path, summary
+    def __init__(self, name: str, path: str, summary: Dict[str, Any], damaged: Optional[str] = None) -> None:
+        self.name, self.path, self.summary, self.damaged = name, path, summary, damaged
         self._series: Optional[pd.DataFrame] = None
 
     @property
     def series(self) -> pd.DataFrame:
-        """<stage>/series.csv as a pandas DataFrame (units and meanings in attrs), read on first use."""
+        """<stage>/series.csv as a pandas DataFrame (units and meanings in attrs), read on first use;
+        FileNotFoundError naming the file for a damaged stage."""
+        if self.damaged is not None:
+            raise FileNotFoundError(f"{self.name!r} is damaged: {self.damaged}")
         if self._series is None:
             import pandas as pd  # here, so that `import celldem` stays quick
 
@@ -67,7 +79,8 @@ class Stage:
         return self._series
 
     def __repr__(self) -> str:
-        return f"Stage({self.name!r}, {self.path!r})"
+        damaged = f", damaged={self.damaged!r}" if self.damaged is not None else ""
+        return f"Stage({self.name!r}, {self.path!r}{damaged})"
 
 
 class Run:
@@ -77,14 +90,18 @@ class Run:
     summary    summary.json as a dict
     deck       the deck celldem ran (from progress.json), a dict, or None for a run without progress.json
     stages     {name: Stage}: the preparation first when the run prepared its sample, then the tests
-    tests      {name: Stage}: the tests only, in the deck's order (then any other <name>/series.csv)
+    tests      {name: Stage}: the tests only, in the deck's order (then any other <name>/series.csv); a test
+               summary.json lists whose series.csv is missing is there too, damaged (Stage.damaged says why)
+    damaged    {name: why} of the damaged tests ({} for a whole run)
     """
 
     def __init__(self, directory: PathLike) -> None:
         self.directory = os.path.abspath(directory)
         try:
             self.summary = files.load_summary(self.directory)
-        except files.RunError as err:
+        except FileFormatError:
+            raise
+        except RunError as err:
             raise FileNotFoundError(str(err)) from err
         self.deck: Optional[Dict[str, Any]] = files.load_deck(self.directory)
         self.tests: Dict[str, Stage] = {}
@@ -94,8 +111,10 @@ class Run:
             names.sort(key=lambda n: order.index(n) if n in order else len(order))
         for name in names:
             path = os.path.join(self.directory, name)
-            if os.path.isfile(os.path.join(path, "series.csv")):
-                self.tests[name] = Stage(name, path, (self.summary.get("tests") or {}).get(name) or {})
+            csv = os.path.join(path, "series.csv")
+            damaged = None if os.path.isfile(csv) else f"summary.json lists the test but {csv} is missing"
+            self.tests[name] = Stage(name, path, (self.summary.get("tests") or {}).get(name) or {}, damaged)
+        self.damaged: Dict[str, str] = {n: t.damaged for n, t in self.tests.items() if t.damaged is not None}
         self.stages: Dict[str, Stage] = {}
         prepare = os.path.join(self.directory, PREPARE)
         if os.path.isfile(os.path.join(prepare, "series.csv")):
@@ -103,7 +122,8 @@ class Run:
         self.stages.update(self.tests)
 
     def __repr__(self) -> str:
-        return f"Run({self.directory!r}, stages={list(self.stages)})"
+        damaged = f", damaged={list(self.damaged)}" if self.damaged else ""
+        return f"Run({self.directory!r}, stages={list(self.stages)}{damaged})"
 
 
 class Ensemble:
@@ -121,9 +141,16 @@ class Ensemble:
         path = os.path.join(self.directory, "ensemble.json")
         if not os.path.isfile(path):
             raise FileNotFoundError(f"ensemble.json not found in {self.directory} (not a --seeds run folder)")
-        with open(path, encoding="utf-8") as f:
-            self.statistics: Dict[str, Any] = json.load(f)
-        self.seeds: List[int] = list(self.statistics.get("seeds") or [])
+        statistics = files.load_json(path)
+        if not isinstance(statistics, dict):
+            raise FileFormatError(path, f"top level is {files.json_type(statistics)}, not a JSON object")
+        seeds = statistics.get("seeds")
+        if not isinstance(seeds, list):
+            raise FileFormatError(path, f'"seeds" is {files.json_type(seeds)}, not an array of whole numbers')
+        if not all(isinstance(k, int) and not isinstance(k, bool) for k in seeds):
+            raise FileFormatError(path, f'"seeds" holds a value that is not a whole number: {seeds}')
+        self.statistics: Dict[str, Any] = statistics
+        self.seeds: List[int] = list(seeds)
         self.runs = {k: Run(os.path.join(self.directory, f"seed-{k}")) for k in self.seeds
                      if os.path.isfile(os.path.join(self.directory, f"seed-{k}", "summary.json"))}
 
@@ -148,6 +175,12 @@ def open_run(path: PathLike) -> Run:
     ------
     FileNotFoundError
         The folder or its summary.json is missing.
+    FileFormatError
+        summary.json, progress.json or series.columns.json is not JSON (the message names the file, the line and
+        the column), or summary.json is not a JSON object.
+
+    A test summary.json lists whose series.csv is missing is kept, damaged: run.damaged names it, and its series
+    raises FileNotFoundError naming the file.
     """
     return Run(path)
 
@@ -169,12 +202,17 @@ def open_ensemble(path: PathLike) -> Ensemble:
     ------
     FileNotFoundError
         The folder has no ensemble.json.
+    FileFormatError
+        ensemble.json is not JSON (the message names the file, the line and the column), not a JSON object, or its
+        "seeds" is not an array of whole numbers.
     """
     return Ensemble(path)
 
 
 class DeckError(ValueError):
-    """celldem refused a deck; the message is celldem's (it names the key path)."""
+    """A deck that is refused: by celldem (the message is celldem's; it names the key path), or, for a deck file
+    that is not a JSON object, by Deck.load (the message names the file, and for one that is not JSON the line and
+    column)."""
 
 
 class RunFailed(RuntimeError):
@@ -203,9 +241,16 @@ class Deck:
 
     @classmethod
     def load(cls, path: PathLike) -> Deck:
-        """The deck in the JSON file at `path`."""
-        with open(path, encoding="utf-8") as f:
-            return cls(json.load(f), os.path.dirname(os.path.abspath(path)))
+        """The deck in the JSON file at `path`; its relative paths resolve from the file's folder. DeckError naming
+        the file when it is not JSON (with the line and column) or not a JSON object; FileNotFoundError when it is
+        missing."""
+        try:
+            data = files.load_json(path)
+        except FileFormatError as err:
+            raise DeckError(str(err)) from err
+        if not isinstance(data, dict):
+            raise DeckError(f"{os.fspath(path)}: a deck is a JSON object, and the file holds {files.json_type(data)}")
+        return cls(data, os.path.dirname(os.path.abspath(path)))
 
     def save(self, path: PathLike) -> PathLike:
         """Writes the deck as JSON (the tools' layout) to `path`; returns the path. Relative paths in it keep
@@ -230,16 +275,25 @@ class Deck:
         return f"Deck({json.dumps(self.data)[:80]}...)"
 
 
-DeckLike = Union[Deck, Mapping[str, Any]]
+DeckLike = Union[Deck, Mapping[str, Any], str, "os.PathLike[str]"]
 
 
-def _as_deck(deck: DeckLike) -> Deck:
-    return deck if isinstance(deck, Deck) else Deck.from_dict(deck)
+def _as_deck(deck: DeckLike, parameter: str = "deck") -> Deck:
+    """A Deck of what the API takes as one: a Deck, a dict (copied) or a deck file's path (Deck.load); TypeError
+    naming the parameter and the type for anything else."""
+    if isinstance(deck, Deck):
+        return deck
+    if isinstance(deck, Mapping):
+        return Deck.from_dict(deck)
+    if isinstance(deck, (str, os.PathLike)) and isinstance(os.fspath(deck), str):
+        return Deck.load(deck)
+    raise TypeError(f"{parameter}: a Deck, a dict or a deck file's path (str or os.PathLike) is needed, not "
+                    f"{type(deck).__name__}")
 
 
 class _DeckFile:
     """The deck written to a temporary file in its own folder (so that its relative paths resolve as they
-    would from a deck file there), removed on exit."""
+    would from a deck file there), removed on exit however the block ends."""
 
     def __init__(self, deck: DeckLike) -> None:
         self.deck = _as_deck(deck)
@@ -248,11 +302,59 @@ class _DeckFile:
     def __enter__(self) -> str:
         fd, self.path = tempfile.mkstemp(prefix=".celldem-deck-", suffix=".json", dir=self.deck.directory)
         os.close(fd)
-        self.deck.save(self.path)
+        try:
+            self.deck.save(self.path)
+        except BaseException:
+            self._remove()
+            raise
         return self.path
 
     def __exit__(self, *exc: object) -> None:
-        os.remove(self.path)
+        self._remove()
+
+    def _remove(self) -> None:
+        for path in (self.path, self.path + ".tmp"):  # (.tmp: Deck.save's, when a write fails)
+            with contextlib.suppress(FileNotFoundError):
+                os.remove(path)
+
+
+class _Terminated(BaseException):
+    """SIGTERM arrived while run_deck waited for celldem (_sigterm_raises)."""
+
+
+@contextlib.contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """Within the block, SIGTERM (a batch system's time limit) raises _Terminated, so that the block's cleanup runs
+    (celldem stopped, the temporary deck removed); on leaving, the previous handler is back and a SIGTERM that
+    arrived is delivered again, so that the process ends as SIGTERM would have ended it. Only where SIGTERM has its
+    default action and in the main thread (where Python runs handlers); elsewhere nothing changes: a handler of
+    the caller's own runs as before."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    def terminated(signum: int, frame: Optional[FrameType]) -> None:
+        raise _Terminated()
+
+    previous = signal.signal(signal.SIGTERM, terminated)
+    try:
+        yield
+    except _Terminated:
+        signal.signal(signal.SIGTERM, previous)
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise SystemExit(128 + signal.SIGTERM)  # (only where the default action did not end the process)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _stop(proc: "subprocess.Popen[str]") -> None:
+    """Ends a celldem run that is still going (the caller was interrupted): SIGTERM, which celldem answers by
+    writing its checkpoint and stopping, then waits for it."""
+    if proc.poll() is None:
+        with contextlib.suppress(ProcessLookupError):
+            proc.terminate()
+        proc.wait()
 
 
 def check_deck(deck: DeckLike, *, celldem: Optional[PathLike] = None) -> str:
@@ -260,8 +362,8 @@ def check_deck(deck: DeckLike, *, celldem: Optional[PathLike] = None) -> str:
 
     Parameters
     ----------
-    deck : Deck or dict
-        The deck; its relative paths resolve from its `directory`.
+    deck : Deck, dict, str or os.PathLike
+        The deck (a path: the deck file, as Deck.load); its relative paths resolve from its `directory`.
     celldem : str or os.PathLike, optional
         The binary; default as binary.find: $CELLDEM, PATH, the checkout's build.
 
@@ -274,16 +376,19 @@ def check_deck(deck: DeckLike, *, celldem: Optional[PathLike] = None) -> str:
     Raises
     ------
     DeckError
-        celldem refused the deck; the message is celldem's, naming the key.
+        celldem refused the deck; the message is celldem's, naming the key. Or a deck file that is not a JSON
+        object (the message names the file).
+    TypeError
+        `deck` is none of the types above.
     binary.BinaryError
-        No binary was found (the message lists the places tried).
+        No binary was found (the message lists the places tried), or the one given is not celldem (its
+        `--version` does not say so; the message names the path).
     """
+    exe = binary.require(celldem)
     with _DeckFile(deck) as path:
         try:
-            return binary.check(path, celldem).replace(path, "<deck>")
+            return binary.check(path, exe).replace(path, "<deck>")
         except binary.BinaryError as err:
-            if not os.access(binary.find(celldem), os.X_OK):
-                raise
             raise DeckError(str(err).replace(path, "<deck>")) from err
 
 
@@ -298,14 +403,15 @@ def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, se
 
     Parameters
     ----------
-    deck : Deck or dict
-        The deck; its relative paths resolve from its `directory`.
+    deck : Deck, dict, str or os.PathLike
+        The deck (a path: the deck file, as Deck.load); its relative paths resolve from its `directory`.
     out : str or os.PathLike
         The run folder (`--out`).
     threads : int, optional
         `--threads`; None: celldem's default (all cores).
     seeds : str, optional
-        `--seeds` ("1-8"; "3": one share of a job array): an ensemble.
+        `--seeds` ("1-8", "1,3,5"): an ensemble. One seed ("3", or "3-3"): one share of a job array, run into
+        out/seed-3/ with no ensemble.json (`celldem merge` gathers the shares).
     force, resume : bool
         `--force` (replace an earlier run's outputs), `--resume` (continue an interrupted run); not both.
     quiet : bool
@@ -330,31 +436,63 @@ def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, se
     Returns
     -------
     Run or Ensemble
-        open_run(out), or open_ensemble(out) with seeds.
+        open_run(out); with seeds open_ensemble(out), or for one seed k (a share) open_run(out/seed-k).
 
     Raises
     ------
     DeckError
-        celldem refused the deck or the options (exit 2).
+        celldem refused the deck or the options (exit 2), or a deck file that is not a JSON object.
     RunFailed
         The run failed (exit 1: a control that failed, a write that failed, ...).
     ValueError
         Options that exclude each other (force and resume; verify options without verify_rate).
+    TypeError
+        `deck` is none of the types above.
     binary.BinaryError
-        No binary was found (the message lists the places tried).
+        No binary was found (the message lists the places tried), or the one given is not celldem (its
+        `--version` does not say so; the message names the path).
+
+    celldem does not outlive the call: interrupted (an exception, KeyboardInterrupt, SIGTERM), run_deck stops it
+    (SIGTERM: it writes its checkpoint, so that resume=True continues) and waits for it; and it gets SIGTERM when
+    the calling process dies, even by SIGKILL (binary.start). The temporary deck file is removed however the call
+    ends, but for SIGKILL. A SIGTERM with its default action still ends the process, after that cleanup.
     """
     exe = binary.require(celldem)
-    with _DeckFile(deck) as path:
+    with _sigterm_raises(), _DeckFile(deck) as path:
         cmd = binary.run_command(path, os.path.abspath(out), threads, seeds, force, resume, quiet, exe,
                                  fixed_threads=fixed_threads, tolerance=tolerance,
                                  include_uncontrolled=include_uncontrolled, verify_rate=verify_rate,
                                  verify_rate_factor=verify_rate_factor, no_verify_twin=no_verify_twin,
                                  floors=floors, probes=probes,
                                  progress_interval=progress_interval)
-        r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE if quiet else None, text=True)
-    message = (r.stderr or "").strip().replace(path, "<deck>")
-    if r.returncode == 2:
+        proc = binary.start(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE if quiet else None, text=True)
+        try:
+            _, stderr = proc.communicate()
+        finally:
+            _stop(proc)
+    message = (stderr or "").strip().replace(path, "<deck>")
+    if proc.returncode == 2:
         raise DeckError(message or "celldem refused the deck (exit 2)")
-    if r.returncode != 0:
-        raise RunFailed(message or f"celldem run failed (exit {r.returncode})", r.returncode)
-    return open_ensemble(out) if seeds is not None else open_run(out)
+    if proc.returncode != 0:
+        raise RunFailed(message or f"celldem run failed (exit {proc.returncode})", proc.returncode)
+    if seeds is None:
+        return open_run(out)
+    share = _one_seed(seeds)
+    return open_run(os.path.join(out, f"seed-{share}")) if share is not None else open_ensemble(out)
+
+
+def _one_seed(seeds: str) -> Optional[int]:
+    """The seed of a `--seeds` list that names one ("3", "3-3", "3,3"): a job array's share; None otherwise (a list
+    celldem accepted: K, K-L or comma-separated ones)."""
+    found: Set[int] = set()
+    for item in str(seeds).split(","):
+        match = re.fullmatch(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?", item)
+        if not match:
+            return None
+        first = int(match.group(1))
+        last = int(match.group(2)) if match.group(2) is not None else first
+        found.update(range(first, min(last, first + 1) + 1))
+        if len(found) > 1:
+            return None
+    return found.pop() if len(found) == 1 else None

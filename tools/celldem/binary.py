@@ -11,6 +11,7 @@ import ctypes
 import fcntl
 import json
 import os
+import re
 import signal
 import shutil
 import subprocess
@@ -55,7 +56,9 @@ def find(path: Optional[PathLike] = None) -> str:
 
 
 def require(path: Optional[PathLike] = None) -> str:
-    """find(path), or BinaryError naming every place tried when none holds an executable binary."""
+    """find(path), checked to be celldem (identify): BinaryError naming every place tried when none holds an
+    executable binary, or naming the path when the binary there is not celldem. Every function of the package that
+    runs a binary it was given (or found) goes through here."""
     exe = find(path)
     if not os.access(exe, os.X_OK):
         tried = candidates(path)
@@ -63,7 +66,45 @@ def require(path: Optional[PathLike] = None) -> str:
             tried.insert(0, "$CELLDEM (not set)")
         raise BinaryError("no celldem binary found; tried: " + ", ".join(tried) +
                           " (build it with tools/build.sh, set $CELLDEM, or give its path)")
+    identify(exe)
     return exe
+
+
+# What `celldem --version` prints (solver/app/main.cpp: "celldem " CELLDEM_VERSION, the project's version).
+VERSION_LINE = re.compile(r"celldem (\d+(?:\.\d+)*\S*)")
+VERSION_TIMEOUT_S = 30.0
+_VERSIONS: Dict[Tuple[str, int, int], str] = {}
+
+
+def identify(exe: PathLike) -> str:
+    """The version of the celldem binary at `exe`, from the line `celldem --version` prints ("celldem 0.1.0");
+    read once per file (its path, size and modification time). A program that prints anything else, or fails, is
+    not believed to be celldem: BinaryError naming the path and what it printed."""
+    exe = os.path.abspath(exe)
+    try:
+        st = os.stat(exe)
+    except OSError as err:
+        raise BinaryError(f"{exe}: cannot use it as the celldem binary ({err.strerror or err})") from err
+    key = (exe, st.st_size, st.st_mtime_ns)
+    if key in _VERSIONS:
+        return _VERSIONS[key]
+    try:
+        r = subprocess.run([exe, "--version"], stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                           errors="replace", timeout=VERSION_TIMEOUT_S)
+    except subprocess.TimeoutExpired as err:
+        raise BinaryError(f"{exe} is not the celldem binary: `{exe} --version` did not answer in "
+                          f"{VERSION_TIMEOUT_S:g} s") from err
+    except OSError as err:
+        raise BinaryError(f"{exe} is not the celldem binary: it cannot be run ({err.strerror or err})") from err
+    lines = (r.stdout or "").strip().splitlines()
+    match = VERSION_LINE.fullmatch(lines[0].strip()) if r.returncode == 0 and len(lines) == 1 else None
+    if not match:
+        printed = ((r.stdout or "").strip() or (r.stderr or "").strip()).splitlines()
+        said = repr(printed[0][:120]) + (" ..." if len(printed) > 1 else "") if printed else "nothing"
+        raise BinaryError(f"{exe} is not the celldem binary: `{exe} --version` exited {r.returncode} and printed "
+                          f"{said}, not a line 'celldem <version>' (give the path of a celldem build)")
+    _VERSIONS[key] = match.group(1)
+    return match.group(1)
 
 
 def run_json(args: Sequence[str], binary: Optional[PathLike] = None) -> Any:
@@ -187,19 +228,25 @@ def wait_for_run_folder(directory: PathLike, timeout: float = 60.0) -> bool:
         time.sleep(0.05)
 
 
+def start(cmd: Sequence[str], **popen_args: Any) -> "subprocess.Popen[Any]":
+    """subprocess.Popen(cmd, **popen_args) for a process that must not outlive the caller: it gets SIGTERM (a run
+    writes its checkpoint and stops) when the calling process dies, even by SIGKILL (_stop_with). What every run
+    the package starts in the background or waits for goes through (start_run, api.run_deck)."""
+    return subprocess.Popen(list(cmd), preexec_fn=_stop_with(os.getpid()), **popen_args)
+
+
 def start_run(cmd: Sequence[str], directory: PathLike,
               append_log: bool = False) -> Tuple["subprocess.Popen[bytes]", IO[str]]:
     """Starts `cmd` (a run_command with one thread) in `directory` as a batch runs it beside others: OpenMP threads
     that wait passively, its output into directory/celldem.log after a "$ cmd" line (appended to an earlier log, or
     a new one). The run gets SIGTERM (it writes its checkpoint and stops) when the calling process dies, even by
-    SIGKILL, so that no run outlives the tool that started it and writes into a folder the next call starts again.
-    Returns (the Popen, the open log: close it once the run has ended)."""
+    SIGKILL (start), so that no run outlives the tool that started it and writes into a folder the next call starts
+    again. Returns (the Popen, the open log: close it once the run has ended)."""
     env = dict(os.environ, OMP_WAIT_POLICY="passive", OMP_NUM_THREADS="1")
     log = open(os.path.join(directory, "celldem.log"), "a" if append_log else "w", encoding="utf-8")
     log.write(f"$ {' '.join(map(str, cmd))}\n")
     log.flush()
-    proc = subprocess.Popen(list(cmd), cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env,
-                            preexec_fn=_stop_with(os.getpid()))
+    proc = start(cmd, cwd=directory, stdout=log, stderr=subprocess.STDOUT, env=env)
     return proc, log
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from . import binary
 from .reports import plotting
 from .metrics import on_grid
-from .results import column, load_series, read_json
+from .results import column, load_json, load_series, read_json
 from .reports.tables import fmt_spec, md_table
 
 EXE = {"lammps": "lmp", "liggghts": "liggghts"}
@@ -421,7 +421,7 @@ def plan_scene(args, deck, state):
 
 def run(args):
     """Runs the cross-check of parse_args' `args`; returns 0 when every check passes, 1 otherwise."""
-    deck = json.load(open(args.deck))
+    deck = load_json(args.deck)
     state = resolve_state(args.deck, deck, args.state)
     if not os.path.exists(state):
         fail("no state file %s" % state)

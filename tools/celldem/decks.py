@@ -11,6 +11,7 @@ import os
 from typing import Any, Dict, Mapping
 
 from .binary import CHECKOUT, REPO, PathLike
+from .files import load_json
 
 # A deck as data: the JSON object of a deck file.
 DeckData = Dict[str, Any]
@@ -34,10 +35,16 @@ def load(path: PathLike = PAPER_DECK) -> DeckData:
     Returns
     -------
     dict
-        The deck's JSON object.
+        The deck's JSON value (a deck is an object; the callers check).
+
+    Raises
+    ------
+    files.FileFormatError
+        The file is not JSON (the message names it, the line and the column).
+    OSError
+        The file cannot be opened.
     """
-    with open(path, encoding="utf-8") as f:
-        data: DeckData = json.load(f)
+    data: DeckData = load_json(path)
     return data
 
 

@@ -4,6 +4,9 @@ here interprets a value (what a quantity means is celldem's: docs/outputs.md).
 
 A series CSV has one header row naming its columns; empty fields and 'nan' (b while s11 ≈ s33, DI at the ends)
 read as NaN. Strains are dimensionless and stresses in Pa, both compression positive.
+
+Every JSON file of the package is parsed by load_json (read_json for one that may be absent): a file that is not
+JSON raises FileFormatError naming the file, the line and the column.
 """
 
 from __future__ import annotations
@@ -33,8 +36,51 @@ class RunError(Exception):
     """A run folder or file that cannot be read; the message says which file and why."""
 
 
+class FileFormatError(RunError, ValueError):
+    """A file that is there but is not what it should be: not JSON (the message gives the line and column of the
+    problem), or not the JSON value expected. The message starts with the file's path; `path` and `problem` hold
+    them apart."""
+
+    def __init__(self, path: PathLike, problem: str) -> None:
+        self.path, self.problem = os.fspath(path), problem
+        super().__init__(f"{self.path}: {problem}")
+
+
+def load_json(path: PathLike) -> Any:
+    """The JSON value in a file: the one place the package parses a JSON file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    object
+        The parsed value.
+
+    Raises
+    ------
+    FileFormatError
+        The file is not JSON (its message names the file, and the line and column of the problem).
+    OSError
+        The file cannot be opened (FileNotFoundError when it is missing); the message names it.
+    """
+    with open(path, "rb") as f:
+        raw = f.read()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise FileFormatError(path, f"not JSON: not UTF-8 text (byte {err.start}: {err.reason})") from err
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as err:
+        empty = " (the file is empty)" if not text.strip() else ""
+        raise FileFormatError(path, f"not JSON: {err.msg} at line {err.lineno} column {err.colno}{empty}") from err
+
+
 def read_json(path: PathLike) -> Any:
-    """The JSON value in a file.
+    """The JSON value in a file that may be absent.
 
     Parameters
     ----------
@@ -44,13 +90,21 @@ def read_json(path: PathLike) -> Any:
     Returns
     -------
     object or None
-        The parsed value; None when the file is missing or is not JSON.
+        The parsed value; None when the file is missing.
+
+    Raises
+    ------
+    FileFormatError
+        The file is there but is not JSON (load_json).
+    RunError
+        The file is there but cannot be read.
     """
     try:
-        with open(path, encoding="utf-8") as f:
-            return json.load(f)
-    except (OSError, json.JSONDecodeError):
+        return load_json(path)
+    except (FileNotFoundError, NotADirectoryError):
         return None
+    except OSError as err:
+        raise RunError(f"cannot read {os.fspath(path)}: {err.strerror or err}") from err
 
 
 def number(value: Any) -> Optional[float]:
@@ -87,21 +141,34 @@ def load_summary(run_dir: PathLike) -> Dict[str, Any]:
     Raises
     ------
     RunError
-        The folder or the file is missing, unreadable, or not a JSON object.
+        The folder or the file is missing or unreadable.
+    FileFormatError
+        summary.json is not JSON, or not a JSON object (a RunError too).
     """
     path = os.path.join(run_dir, "summary.json")
     if not os.path.isdir(run_dir):
         raise RunError(f"run directory not found: {run_dir}")
     if not os.path.isfile(path):
         raise RunError(f"summary.json not found in run directory {run_dir}")
-    try:
-        with open(path, encoding="utf-8") as f:
-            summary = json.load(f)
-    except (OSError, json.JSONDecodeError) as err:
-        raise RunError(f"cannot read {path}: {err}") from err
+    summary = read_json(path)
     if not isinstance(summary, dict):
-        raise RunError(f"{path}: top level must be a JSON object")
+        raise FileFormatError(path, f"top level is {json_type(summary)}, not a JSON object")
     return summary
+
+
+def json_type(value: Any) -> str:
+    """The JSON name of a parsed value's type (for messages): object, array, string, number, boolean, null."""
+    if isinstance(value, dict):
+        return "an object"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    return "null" if value is None else type(value).__name__
 
 
 def load_series(path: PathLike) -> Arrays:
@@ -197,10 +264,20 @@ def load_deck(run_dir: PathLike) -> Optional[Dict[str, Any]]:
     -------
     dict or None
         progress.json's deck (canonical JSON text, parsed); None when the file or the deck is missing.
+
+    Raises
+    ------
+    FileFormatError
+        progress.json, or the deck text in it, is not JSON.
     """
-    progress = read_json(os.path.join(run_dir, "progress.json"))
-    try:
-        deck = json.loads(progress["deck"]) if isinstance(progress, dict) else None
-    except (KeyError, TypeError, json.JSONDecodeError):
+    path = os.path.join(run_dir, "progress.json")
+    progress = read_json(path)
+    text = progress.get("deck") if isinstance(progress, dict) else None
+    if not isinstance(text, str):
         return None
+    try:
+        deck = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise FileFormatError(path, f'its "deck" is not JSON: {err.msg} at column {err.colno} of the deck text') \
+            from err
     return deck if isinstance(deck, dict) else None

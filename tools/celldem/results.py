@@ -23,13 +23,14 @@ import numpy.typing as npt
 
 from . import api
 from .binary import PathLike
-from .files import (Arrays, Columns, RunError, discover_tests, load_columns, load_deck, load_series,
-                    load_summary, number, read_json)
+from .files import (Arrays, Columns, FileFormatError, RunError, discover_tests, load_columns, load_deck, load_json,
+                    load_series, load_summary, number, read_json)
 
 # The readers of celldem.files are re-exported: the tools and tests read a series or a summary.json through here.
-__all__ = ["RATIO_FALLBACKS", "Arrays", "Columns", "RunError", "RunArrays", "EnsembleArrays", "Loaded", "arrays",
-           "units", "column", "discover_tests", "is_ensemble", "load_columns", "load_deck", "load_ensemble",
-           "load_run", "load_run_or_report", "load_series", "load_summary", "number", "read_json", "run_dir_parser"]
+__all__ = ["RATIO_FALLBACKS", "Arrays", "Columns", "FileFormatError", "RunError", "RunArrays", "EnsembleArrays",
+           "Loaded", "arrays", "units", "column", "discover_tests", "is_ensemble", "load_columns", "load_deck", "load_ensemble",
+           "load_json", "load_run", "load_run_or_report", "load_series", "load_summary", "number", "read_json",
+           "run_dir_parser"]
 
 # Columns that can be rebuilt from others when a series lacks them (a series of another code, an older run):
 # name -> (numerator, denominator). ratio13 is s11/s33 by its definition in the series table.
@@ -72,7 +73,7 @@ def units(stages: List[api.Stage]) -> Columns:
 
 
 class RunArrays:
-    """An api.Run as the tools read it.
+    """An api.Run as the tools read it (its damaged tests, whose series.csv is missing, left out: load_run warns).
 
     Attributes
     ----------
@@ -97,10 +98,11 @@ class RunArrays:
         self.directory: str = run.directory
         self.summary: Dict[str, Any] = run.summary
         self.deck: Optional[Dict[str, Any]] = run.deck
-        self.series: Dict[str, Arrays] = {name: arrays(stage) for name, stage in run.tests.items()}
+        self.series: Dict[str, Arrays] = {name: arrays(stage) for name, stage in run.tests.items()
+                                          if stage.damaged is None}
         prepare = run.stages.get(api.PREPARE)
         self.prepare: Optional[Arrays] = arrays(prepare) if prepare is not None else None
-        self.columns: Columns = units(list(run.stages.values()))
+        self.columns: Columns = units([stage for stage in run.stages.values() if stage.damaged is None])
 
     @property
     def runs(self) -> List[RunArrays]:
@@ -254,16 +256,18 @@ def load_run(run_dir: PathLike) -> RunArrays:
     Raises
     ------
     RunError
-        The folder, its summary.json or a series cannot be read.
+        The folder, its summary.json or a series cannot be read (FileFormatError, a RunError, for a JSON file that
+        is not JSON).
+
+    A damaged test (in summary.json, its series.csv missing) is left out with a warning naming the file.
     """
     try:
         run = api.open_run(run_dir)
     except FileNotFoundError as err:
         raise RunError(str(err)) from err
-    for name in (run.summary.get("tests") or {}):
-        if name not in run.tests:
-            path = os.path.join(run.directory, name, "series.csv")
-            warnings.warn(f"test '{name}' is in summary.json but {path} is missing; skipped")
+    for name in run.damaged:
+        path = os.path.join(run.directory, name, "series.csv")
+        warnings.warn(f"test '{name}' is in summary.json but {path} is missing; skipped")
     return RunArrays(run)
 
 
@@ -292,10 +296,10 @@ def load_ensemble(directory: PathLike) -> EnsembleArrays:
     """
     try:
         ensemble = api.open_ensemble(directory)
+    except RunError:
+        raise
     except (OSError, ValueError) as err:
         raise RunError(f"cannot read {os.path.join(directory, 'ensemble.json')}: {err}") from err
-    if not isinstance(ensemble.statistics, dict):
-        raise RunError(f"cannot read {os.path.join(directory, 'ensemble.json')}: not a JSON object")
     if not ensemble.runs:
         raise RunError(f"{directory}: ensemble.json names seeds {ensemble.seeds} but no seed-<k>/summary.json "
                        "is there")

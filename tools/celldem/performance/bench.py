@@ -1,9 +1,9 @@
 """The scaling table and plot of `celldem bench --scaling` (tools/plot_bench.py): DIR/bench.json ->
 DIR/scaling.md and DIR/scaling.png."""
 
-import json
 from pathlib import Path
 
+from ..files import load_json
 from ..reports import plotting
 from ..reports.tables import md_table
 
@@ -102,6 +102,6 @@ def scaling_plot(bench, path):
 def write_scaling(folder):
     """Reads folder/bench.json, writes scaling.md and scaling.png beside it; returns their paths."""
     folder = Path(folder)
-    bench = json.loads((folder / "bench.json").read_text())
+    bench = load_json(folder / "bench.json")
     (folder / "scaling.md").write_text(scaling_markdown(bench))
     return folder / "scaling.md", scaling_plot(bench, folder / "scaling.png")

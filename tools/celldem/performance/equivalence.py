@@ -52,7 +52,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 from .. import binary, decks, stats
-from ..files import read_json
+from ..files import load_json, read_json
 from ..study import compare as study_compare
 from ..study import runs as study_runs
 from ..study.scene import END_STRAIN, SCENE_COUNT
@@ -280,11 +280,10 @@ def open_folder(out: str, wanted: Dict[str, Any], force: bool):
     path = os.path.join(out, IDENTITY)
     recorded = None
     if os.path.exists(path):
-        with open(path, encoding="utf-8") as f:
-            try:
-                recorded = json.load(f)
-            except ValueError:
-                recorded = {}
+        try:
+            recorded = load_json(path)
+        except ValueError:  # (a damaged record: differs from every identity)
+            recorded = {}
     if recorded is not None and force:
         remove_results(out)
     elif recorded is not None:

@@ -16,7 +16,6 @@ whether the interval's lower end clears a bar (the performance issue's 5 % for a
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import subprocess
@@ -26,6 +25,8 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence
 
 from scipy import stats
+
+from ..files import load_json
 
 CONFIDENCE = 0.95
 BAR = 1.05  # a structural change lands only if it buys at least 5 %
@@ -133,8 +134,7 @@ def run_half(old: str, new: str, deck: str, state: Optional[str], steps: int, wa
             if state is None:
                 rates[name] = 1.0 / seconds[name]
                 continue
-            with open(os.path.join(out, "bench.json")) as f:
-                rates[name] = float(json.load(f)["median_particle_steps_per_s"]["celldem-t1"])
+            rates[name] = float(load_json(os.path.join(out, "bench.json"))["median_particle_steps_per_s"]["celldem-t1"])
         return rates
 
 

@@ -20,6 +20,7 @@ import tempfile
 from collections import Counter
 from pathlib import Path
 
+from ..files import load_json
 from ..reports import plotting
 from ..reports.tables import md_table
 
@@ -381,7 +382,7 @@ def native_bench(celldem, deck, state, workdir, steps, warmup, repeats):
     """The bench's median particle-steps/s on one thread, and its bench.json."""
     out = Path(workdir) / "bench-native"
     run(bench_command(celldem, deck, state, out, steps, warmup, repeats), "the native bench")
-    report = json.loads((out / "bench.json").read_text())
+    report = load_json(out / "bench.json")
     return report["median_particle_steps_per_s"]["celldem-t1"], report
 
 
@@ -463,7 +464,7 @@ def large_sample(celldem, deck, state, workdir, copies, toggle, flops_at, object
               path, toggle,
               cache_sim=True, extra=("--dump-before=celldem::tile_state*",))
     profile = parse_callgrind(path.read_text())
-    row = json.loads((bench / "bench.json").read_text())["scaling"][0]
+    row = load_json(bench / "bench.json")["scaling"][0]
     whole = totals(attribute(profile, flops_at, objects))
     steps = steps_in(profile, path)
     particle_steps = steps * row["particles"]
@@ -509,7 +510,7 @@ def measure(celldem, deck, state, workdir, callgrind_steps=CALLGRIND_STEPS, benc
     callgrind(bench_command(celldem, deck, state, bench, callgrind_steps, callgrind_warmup, 1), path, m["toggle"],
               cache_sim=True, extra=("--instr-atstart=no",))
     profile = parse_callgrind(path.read_text())
-    m["sample"] = json.loads((bench / "bench.json").read_text())
+    m["sample"] = load_json(bench / "bench.json")
     m["steps"] = steps_in(profile, path)
     if m["steps"] != callgrind_steps:
         m["notes"].append(f"callgrind collected {m['steps']} steps for the bench's {callgrind_steps}: divided by "

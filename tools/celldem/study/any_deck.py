@@ -26,6 +26,7 @@ import os
 import subprocess
 
 from .. import binary
+from ..files import load_json
 from . import compare as study_compare
 
 DEFAULT_COUNT = 1000
@@ -134,8 +135,7 @@ def measured_throughput(root):
 
 def plan_study(deck_path, root, budget_core_hours, celldem, count=DEFAULT_COUNT, throughput=None):
     """Writes each setting's deck and ROOT/study_plan.json; returns the plan."""
-    with open(deck_path, encoding="utf-8") as f:
-        deck = json.load(f)
+    deck = load_json(deck_path)
     base = scene(deck, count)
     costs, plans = {}, {}
     os.makedirs(root, exist_ok=True)
@@ -197,8 +197,7 @@ def analyse_study(root, plan):
         other = os.path.join(setting_dir(root, factor), "ensemble")
         failed = os.path.join(setting_dir(root, factor), "failed.json")
         if os.path.exists(failed):
-            with open(failed, encoding="utf-8") as f:
-                why = json.load(f)["stderr"].strip().splitlines()
+            why = load_json(failed)["stderr"].strip().splitlines()
             rows.append({"factor": factor, "error": None, "worst": "failed: " + (why[-1] if why else "?"),
                          "equivalent": None, "cpu_s": None, "particle_steps": None, "comparison": None})
             continue
@@ -275,8 +274,7 @@ def read_plan(root):
     path = os.path.join(root, "study_plan.json")
     if not os.path.exists(path):
         raise StudyError(f"no {path}: run `tools/study.py plan --deck DECK --budget-core-hours H` first")
-    with open(path, encoding="utf-8") as f:
-        plan = json.load(f)
+    plan = load_json(path)
     plan["factors"] = [float(f) for f in plan["factors"]]
     return plan
 

@@ -17,12 +17,12 @@ preparation and the tests) summed over the paired seeds, BASE over OTHER (a spee
 """
 
 import glob
-import json
 import math
 import os
 import re
 
 from .. import stats
+from ..files import load_json
 
 ALPHA = 0.05
 MARGIN_FLOORS = 1.0
@@ -55,8 +55,7 @@ def load_seeds(directory):
     for path in glob.glob(os.path.join(directory, "seed-*", "summary.json")):
         match = re.search(r"seed-(\d+)$", os.path.dirname(path))
         if match:
-            with open(path) as f:
-                out[int(match.group(1))] = json.load(f)
+            out[int(match.group(1))] = load_json(path)
     if not out:
         raise CompareError(f"{directory}: no seed-<k>/summary.json (a `celldem run --seeds` folder is needed)")
     return out

@@ -17,6 +17,7 @@ from typing import Any, Dict, List, Sequence
 import numpy as np
 from scipy import stats as sps
 
+from ..files import load_json
 from .scene import END_STRAIN
 
 DEFAULT_COUNTS = (500, 1000, 2000)
@@ -71,8 +72,7 @@ def run_count(root: str, paper: Dict[str, Any], count: int, seeds: str, celldem:
 def read_values(run_dir: str) -> Dict[str, List[float]]:
     """Each quantity's per-seed values (ensemble.json: "prepared" and "tests" by name, each quantity by its
     summary.json path, "values" in seed order); quantities missing a seed are left out."""
-    with open(os.path.join(run_dir, "ensemble.json")) as f:
-        ensemble = json.load(f)
+    ensemble = load_json(os.path.join(run_dir, "ensemble.json"))
     seeds = len(ensemble.get("seeds", [])) or None
     out = {}
     for q in QUANTITIES:
