@@ -38,6 +38,36 @@ std::string describe_estimate(const Deck& deck, double start_solid_fraction) {
          "run side by side on spare cores)";
 }
 
+// A word as a POSIX shell reads it back: quoted when it holds anything but safe characters.
+std::string shell_word(const std::string& word) {
+  const bool safe = !word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                                            "0123456789_-+=./:,@%") == std::string::npos;
+  if (safe) return word;
+  std::string quoted(1, '\'');
+  for (const char c : word) {
+    if (c == '\'') quoted.append("'\\''");  // close the quote, an escaped quote, open it again
+    else quoted.push_back(c);
+  }
+  quoted.push_back('\'');
+  return quoted;
+}
+
+// `celldem run` as this command line gave it, with --force dropped and --resume added: what continues it after a
+// stop, every other option (--tolerance, --seeds, --probes, --verify-rate ...) kept as given.
+std::string continue_command(const CLI::App& cmd) {
+  std::string line = "celldem run";
+  for (const CLI::Option* option : cmd.get_options()) {
+    if (option->count() == 0 || option->get_name() == "--force" || option->get_name() == "--resume" ||
+        option->get_name() == "--help")
+      continue;
+    const bool positional = option->get_name().rfind("-", 0) != 0;
+    if (!positional) line.append(" ").append(option->get_name());
+    if (option->get_expected_min() == 0) continue;  // a flag
+    for (const std::string& value : option->results()) line.append(" ").append(shell_word(value));
+  }
+  return line.append(" --resume");
+}
+
 Command add_run_command(CLI::App& app) {
   struct Args {
     std::string deck, seeds, probes;
@@ -130,6 +160,7 @@ Command add_run_command(CLI::App& app) {
       args->options.tolerance_prediction = t.dump();
       if (!args->options.quiet) std::printf("%s\n", describe_tolerance(t).c_str());
     }
+    args->options.continue_command = continue_command(*cmd);
     install_stop_handlers();
     if (args->seeds.empty()) run_deck(deck, args->options);
     else run_ensemble(deck, args->options, parse_seed_list(args->seeds, /*allow_one=*/true), args->include_uncontrolled);

@@ -25,6 +25,10 @@ struct RunOptions {
   // With --tolerance: what the rules set and the particle-steps they predict against the deck as written (JSON text,
   // the command line's tolerance_json), written to summary.json's "tolerance"; empty: none.
   std::string tolerance_prediction;
+  // The command that continues this run after a stop: the command line as given, --force dropped and --resume added
+  // (with --tolerance, --seeds and every other option kept, so that the resume is accepted as printed). Empty:
+  // "celldem run DECK --out DIR --resume".
+  std::string continue_command;
 };
 
 }  // namespace celldem

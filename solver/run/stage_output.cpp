@@ -153,22 +153,25 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
   if (stop_requested() && branch_) {  // a rate check or a probe is run again whole, with the tail of its test
     progress_.finish();
     throw Interrupted("stopped by a signal in the branch '" + stage_ + "' at step " + std::to_string(s) +
-                      "; the test's last checkpoint is kept. Continue with: celldem run " + deck_.source + " --out " +
-                      options_.out_dir + " --resume (the test goes on from that checkpoint; its rate check runs again whole, its "
+                      "; the test's last checkpoint is kept. Continue with: " + continue_command() + " (the test goes on from that checkpoint; its rate check runs again whole, its "
                       "probes from the points' kept states)");
   }
   if (stop_requested()) {
     checkpoint(state);
     progress_.finish();
     throw Interrupted("stopped by a signal in stage '" + stage_ + "' at step " + std::to_string(s) +
-                      "; a checkpoint was written. Continue with: celldem run " + deck_.source + " --out " +
-                      options_.out_dir + " --resume");
+                      "; a checkpoint was written. Continue with: " + continue_command());
   }
   if (!branch_ && s % deck_.checkpoint_interval == 0) {
     checkpoint(state);
     return true;
   }
   return false;
+}
+
+std::string StageOutput::continue_command() const {
+  if (!options_.continue_command.empty()) return options_.continue_command;
+  return "celldem run " + deck_.source + " --out " + options_.out_dir + " --resume";
 }
 
 void StageOutput::end_leg(const State& state) {

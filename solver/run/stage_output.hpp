@@ -72,6 +72,7 @@ class StageOutput {
 
  private:
   void write_row(const State& state, const ContactMeasures* contacts = nullptr);
+  std::string continue_command() const;  // what the message of a stop tells the user to run
   void checkpoint(const State& state);
   // The series as a stage resumed from `state` may continue it: the prefix one of its checkpoint's `proofs` proves,
   // up to the checkpoint's step; UsageError naming the file when the series no longer holds that prefix.

@@ -7,7 +7,7 @@
 # trial failed. (test_kill_resume.sh: kills over a whole run and the report tools.)
 # Usage: test_trials.sh CELLDEM [SEED=1] [SECONDS=90]
 set -uo pipefail
-celldem="$1"
+celldem="$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"  # absolute: some trials run from another folder
 seed="${2:-1}"
 budget="${3:-90}"
 RANDOM=$seed
@@ -17,7 +17,7 @@ here="$(dirname "$0")"
 cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
 declare -A passed failed skipped
-kinds=(kill_resume series_extra series_tampered finished_tampered two_processes branch_resumed probe_stop probe_shares foreign_share)
+kinds=(continue_command kill_resume series_extra series_tampered finished_tampered two_processes branch_resumed probe_stop probe_shares foreign_share)
 why=""
 run_quiet() { "$celldem" run "$@" --quiet --threads 1; }
 # Starts a run in the background: $pid is celldem's own (a function run with & would be a subshell's).
@@ -114,6 +114,22 @@ trial_finished_tampered() {  # a finished stage's files or results changed behin
   "$celldem" run "$work/deck.json" --out "$d" --resume --quiet --threads 1 2>"$work/err"; local rc=$?
   ((rc == 2)) || { why="$variant: --resume exited $rc, expected 2"; return 1; }
   grep -q "$f" "$work/err" || { why="$variant: the message does not name $f: $(cat "$work/err")"; return 1; }
+}
+
+trial_continue_command() {  # SIGINT under --tolerance and --seeds: the printed "Continue with" command works as printed
+  local d="$work/c c" pid rc line
+  rm -rf "$d"
+  (cd "$work" && exec "$celldem" run deck.json --out "c c" --tolerance 1 --seeds 1-2 --threads 1 --quiet 2>"$work/cerr") &
+  pid=$!
+  for ((k = 0; k < 500; ++k)); do [[ -f $d/seed-1/prepare/series.csv ]] && break; sleep 0.02; done
+  sleep "0.$((RANDOM % 5))"
+  kill -INT $pid 2>/dev/null
+  wait $pid; rc=$?
+  ((rc == 130)) || { why="skipped: the run was not stopped (exit $rc)"; return 2; }
+  line=$(grep -o "Continue with: .*" "$work/cerr" | sed 's/^Continue with: celldem //')
+  [[ -n $line ]] || { why="no 'Continue with' line: $(tail -1 "$work/cerr")"; return 1; }
+  (cd "$work" && eval "\"\$celldem\" $line") >/dev/null 2>"$work/err" || { why="'celldem $line' exited $?: $(tail -1 "$work/err")"; return 1; }
+  [[ -f $d/ensemble.json ]] || { why="'celldem $line' wrote no ensemble.json"; return 1; }
 }
 
 trial_two_processes() {  # a second process on a live folder: refused with exit 2 naming the holder, nothing deleted
@@ -260,7 +276,7 @@ while :; do
   "trial_$kind"; rc=$?
   if ((rc == 0)); then passed[$kind]=$((${passed[$kind]:-0} + 1))
   elif ((rc == 1)); then failed[$kind]=$((${failed[$kind]:-0} + 1)); echo "failed: $kind: $why"
-  else skipped[$kind]=$((${skipped[$kind]:-0} + 1))  # the moment drawn did not set the trial up (said in $why)
+  else skipped[$kind]=$((${skipped[$kind]:-0} + 1)); echo "skipped: $kind: $why"  # the moment drawn did not set it up
   fi
 done
 printf '%-16s %6s %6s %7s\n' kind passed failed skipped
