@@ -266,6 +266,12 @@ SampleDef read_sample(ObjectReader r) {
   if (s.grid_spacing <= dmax)
     fail(r.at(keys::sample_grid_spacing),
          "must exceed the largest diameter (" + fmt(dmax) + ") so that the initial spheres do not overlap");
+  // The grid's cell (a cube of ceil(cbrt(count)) spacings a side) must have a volume a double holds.
+  const double side = std::ceil(std::cbrt(static_cast<double>(s.count))) * s.grid_spacing;
+  if (!std::isfinite(side * side * side))
+    fail(r.at(keys::sample_grid_spacing), fmt(s.grid_spacing) + " m makes the initial cell " + fmt(side) +
+                                              " m a side, whose volume overflows a double: give a spacing a little "
+                                              "above the largest diameter (default 1.1 times it)");
   r.finish();
   return s;
 }
@@ -857,6 +863,11 @@ void check_leg_lengths(const TestDef& t, double time_step, const std::string& le
       fail(at, std::string("the end axis is not ") + (is_shear_component(k) ? "sheared" : "strained") +
                    " towards this value: axis " + component_name(k) + " moves " + fmt(per_step) + " per step from " +
                    fmt(from[j]) + " at the leg start, away from its end strain " + fmt(leg.end.value));
+    // Steps are counted in integers: a leg longer than the schema's count bound (2^50) overflowed leg_steps.
+    if (const double n = distance / per_step; !(n <= keys::kMaxCount))
+      fail(at, "the leg takes " + fmt(n) + " steps (axis " + component_name(k) + " moves " + fmt(per_step) +
+                   " per step over " + fmt(std::abs(distance)) + "), more than " + fmt(keys::kMaxCount) +
+                   ": raise its strain increment or rate");
     // One whole step, less round-off (an end strain of exactly one increment is one step).
     if (std::abs(distance) >= std::abs(per_step) * (1.0 - 1e-9)) continue;
     const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
@@ -986,6 +997,25 @@ PrepareDef read_prepare(ObjectReader r) {
   return p;
 }
 
+// Each spring's stability limit must be a normal double: a stiffness so large against the spheres' mass that the
+// mode's frequency overflows gives a limit of 0 s (kn = 1e308 was refused as a time step "inf of the stability
+// limit 0 s"), and one so small that the frequency underflows to 0 gives an infinite one. The key named is the
+// spring's stiffness (the density and sizes are bounded by check_sphere_masses).
+void check_mode_limits(const CriticalTimeStep& limit, const ContactDef& c) {
+  for (const ModeLimit& mode : limit.modes) {
+    if (!(mode.stiffness > 0.0)) continue;  // no such spring
+    if (mode.time_step >= std::numeric_limits<double>::min() && std::isfinite(mode.time_step)) continue;
+    const bool linear = mode.mode == ContactMode::Normal ? c.normal == NormalModel::Linear
+                                                         : c.tangential == TangentialModel::LinearHistory;
+    const std::string key = mode.mode == ContactMode::Rolling ? "contact.rolling_stiffness"
+                            : linear ? (mode.mode == ContactMode::Normal ? "contact.kn" : "contact.kt")
+                                     : "contact.youngs_modulus";
+    fail(key, "the " + std::string(mode.name) + " mode's stability limit is " + fmt(mode.time_step) + " s (" +
+                  mode.describe() + " against the smallest sphere's mass): beyond what a double resolves, give a "
+                  "stiffness of ordinary size");
+  }
+}
+
 // The reference overlap of hertz/mindlin (from the deck's stresses unless given), then the time step against
 // the bounds that refuse it (core/plan: above the stability limit of the stiffest mode, or far below it).
 void check_time_step(Deck& d) {
@@ -996,6 +1026,7 @@ void check_time_step(Deck& d) {
       fail("contact.reference_overlap", "missing; the deck names no stress to estimate the largest overlap from");
   }
   const CriticalTimeStep limit = critical_time_steps(d.sample, c);
+  check_mode_limits(limit, c);
   const auto check = [&](double time_step, const std::string& path) {
     for (const TimeStepFinding& f : time_step_findings(time_step, limit))
       if (f.bound->refuse) fail(path, f.message);
@@ -1004,6 +1035,34 @@ void check_time_step(Deck& d) {
   if (d.prepare && d.prepare->time_step) check(*d.prepare->time_step, "prepare.time_step");
   for (std::size_t i = 0; i < d.tests.size(); ++i)
     if (d.tests[i].time_step) check(*d.tests[i].time_step, "tests[" + std::to_string(i) + "].time_step");
+}
+
+// A stress the spheres cannot carry or resolve: the mean contact's overlap under it (mean_contact_force, the deck's
+// normal law) above half the mean diameter (spheres that pass through one another; contact laws hold for overlaps
+// of a few per cent) or below 1e-12 of it (lost in the round-off of positions: eps times a cell a few hundred
+// diameters wide is about 1e-13 of a diameter). Each stress target of the preparation and of the tests' legs.
+void check_stress_scale(const Deck& d) {
+  const double dmean = mean_diameter(d.sample);
+  const auto check = [&](double stress, const std::string& path) {
+    if (!(stress > 0.0)) return;
+    const double overlap = normal_overlap(d.contact, mean_contact_force(d.sample, stress), 0.25 * dmean) / dmean;
+    if (overlap >= 1e-12 && overlap <= 0.5) return;
+    fail(path, fmt(stress) + " Pa gives the mean contact an overlap of " + fmt(overlap) + " of the mean diameter " +
+                   (overlap > 0.5 ? "(above 0.5: the spheres would pass through one another)"
+                                  : "(below 1e-12: lost in the round-off of the positions)") +
+                   " with the deck's contact stiffness");
+  };
+  if (d.prepare) check(d.prepare->target_pressure, "prepare.target_pressure");
+  for (std::size_t i = 0; i < d.tests.size(); ++i)
+    for (std::size_t j = 0; j < d.tests[i].legs.size(); ++j) {
+      const Leg& leg = d.tests[i].legs[j];
+      const std::string at = "tests[" + std::to_string(i) + "] (test '" + d.tests[i].name + "', leg " + std::to_string(j) + "): ";
+      for (std::size_t k = 0; k < 3; ++k)
+        if (leg.axes[k].mode == AxisMode::Stress || leg.axes[k].mode == AxisMode::MeanStress ||
+            leg.axes[k].mode == AxisMode::StressRamp)
+          check(leg.axes[k].value, at + "axes." + std::string(kAxisNames[k]));
+      if (leg.end.kind == LegEndKind::Stress) check(leg.end.value, at + "end.stress");
+    }
 }
 
 }  // namespace
@@ -1070,6 +1129,7 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
   if (d.prepare && d.prepare->rolling_friction > 0.0 && !key_used(keys::prepare_rolling_friction, d.contact.selection()))
     fail("prepare.rolling_friction", unused_message(keys::prepare_rolling_friction, d.contact.selection()));
   check_time_step(d);
+  check_stress_scale(d);
   check_probe_magnitudes(d);
   r.finish();
   return d;

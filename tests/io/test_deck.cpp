@@ -1133,6 +1133,28 @@ TEST(DeckErrors, ExtremeNumbersNameTheirKey) {
   j["sample"]["diameters"] = {{"list", {1e-70}}};
   j["sample"]["grid_spacing"] = 2e-70;
   expect_error(j, "sample.diameters", "below the smallest normal double");
+  // A grid whose cell volume overflows; a stiffness whose mode's frequency overflows (a stability limit of 0 s).
+  j = minimal_deck();
+  j["sample"]["grid_spacing"] = 1e200;
+  expect_error(j, "sample.grid_spacing", "overflows");
+  j = minimal_deck();
+  j["contact"]["kn"] = 1e308;
+  expect_error(j, "contact.kn", "stability limit is 0 s");
+  j = minimal_deck();
+  j["contact"]["kt"] = 1e308;
+  expect_error(j, "contact.kt", "stability limit is 0 s");
+  // A leg whose steps overflow the step count; stresses no sphere carries, or that round-off swallows.
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x1"] = {{"strain_increment", 1e-300}};
+  expect_error(j, "tests[0].end.strain", "the leg takes 1e+299 steps");
+  j = minimal_deck();
+  j["prepare"]["target_pressure"] = 1e308;
+  expect_error(j, "prepare.target_pressure", "pass through one another");
+  j["prepare"]["target_pressure"] = 1e-300;
+  expect_error(j, "prepare.target_pressure", "round-off");
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x2"] = {{"stress", 1e300}};
+  expect_error(j, "tests[0] (test 'ttc', leg 0): axes.x2", "pass through one another");
 }
 
 Json probed_deck(const Json& probes) {
