@@ -3,7 +3,9 @@
 // run folder that already holds results), 130 stopped by a signal after writing a checkpoint.
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <string>
 #include <vector>
@@ -19,6 +21,32 @@ namespace {
 int report_error(bool during_run, const char* kind, const std::exception& e, int exit_code) {
   std::fprintf(stderr, "%scelldem: %s%s\n", during_run ? "\n" : "", kind, e.what());
   return exit_code;
+}
+
+// Every option of every command that takes a value refuses an empty one: CLI11 reads '' as 0 or as "not
+// given", so a batch script's unset variable (--tolerance "$T") would run the deck differently without a word.
+// Every number option (CLI11's FLOAT type) refuses a value that is not finite: CLI11 reads nan, inf and 1e400
+// (as inf), and its range checks let NaN through (each comparison is false). Added after each option's own
+// checks, with no description, so the help text is unchanged; the messages name the option (CLI11 prefixes it).
+void refuse_empty_and_non_finite_values(CLI::App& app) {
+  for (CLI::Option* option : app.get_options()) {
+    if (option->get_type_size_max() == 0) continue;  // a flag: no value
+    const std::string type = option->get_type_name();
+    const bool number = type.rfind("FLOAT", 0) == 0;
+    option->check(CLI::Validator(
+        [number](const std::string& value) -> std::string {
+          if (value.empty()) return "an empty value (an unset variable?): give a value or leave the option out";
+          if (!number) return "";
+          char* end = nullptr;
+          const double x = std::strtod(value.c_str(), &end);
+          if (end != value.c_str() && !std::isfinite(x))
+            return value + " is not a finite number (nan, inf and numbers beyond 1.8e308 are refused)";
+          return "";  // not a number at all: CLI11's own conversion names it
+        },
+        ""));
+  }
+  for (CLI::App* command : app.get_subcommands(std::function<bool(CLI::App*)>()))
+    refuse_empty_and_non_finite_values(*command);
 }
 }  // namespace
 
@@ -38,6 +66,7 @@ int main(int argc, char** argv) {
       celldem::app::add_summarize_command(app),
       celldem::app::add_merge_command(app),
   };
+  refuse_empty_and_non_finite_values(app);
   try {
     app.parse(argc, argv);
     for (const auto& command : commands)

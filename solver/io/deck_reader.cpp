@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -229,17 +231,47 @@ void read_diameters(ObjectReader d, SampleDef& s) {
   d.finish();
 }
 
+// A sphere's mass and moment of inertia (m d^2 / 10) must be normal doubles, the largest finite: below the
+// smallest normal double (2.2e-308) they lose their digits or vanish (a density of 1e-300 kg/m^3 made every
+// sphere weigh nothing and was refused as a time step far above a stability limit of 1e-157 s), above the largest
+// the motion is inf. The key named is the density, unless the diameters alone (at 1 kg/m^3) break the bound.
+void check_sphere_masses(const ObjectReader& r, const SampleDef& s) {
+  const auto mass = [](double density, double d) { return density * M_PI / 6.0 * d * d * d; };
+  const double dmin = s.smallest_diameter(), dmax = s.largest_diameter();
+  const double lightest = mass(s.density, dmin), heaviest = mass(s.density, dmax);
+  const double inertia = 0.1 * lightest * dmin * dmin, largest_inertia = 0.1 * heaviest * dmax * dmax;
+  constexpr double kNormal = std::numeric_limits<double>::min();
+  if (inertia >= kNormal && std::isfinite(largest_inertia)) return;
+  const double unit_inertia = 0.1 * mass(1.0, dmin) * dmin * dmin, unit_largest = 0.1 * mass(1.0, dmax) * dmax * dmax;
+  const bool sizes = !(unit_inertia >= kNormal) || !std::isfinite(unit_largest);
+  const std::string what = fmt(s.density) + " kg/m^3 with diameters " + fmt(dmin) + " to " + fmt(dmax) +
+                           " m gives spheres of " + fmt(lightest) + " to " + fmt(heaviest) +
+                           " kg (moments of inertia " + fmt(inertia) + " to " + fmt(largest_inertia) + " kg m^2)";
+  fail(r.at(sizes ? keys::sample_diameters : keys::sample_density),
+       what + (inertia >= kNormal ? ": beyond the largest double (1.8e308)" : ": below the smallest normal double "
+                                                                               "(2.2e-308), where masses lose their "
+                                                                               "digits or vanish") +
+           (sizes ? "" : "; a density is in kg/m^3 (quartz: 2650)"));
+}
+
 SampleDef read_sample(ObjectReader r) {
   SampleDef s;
   s.count = static_cast<int>(r.integer(keys::sample_count));
   s.density = r.number(keys::sample_density);
   s.seed = static_cast<std::uint64_t>(r.integer(keys::sample_seed));
   read_diameters(r.object(keys::sample_diameters), s);
+  check_sphere_masses(r, s);
   const double dmax = s.largest_diameter();
   s.grid_spacing = r.has(keys::sample_grid_spacing) ? r.number(keys::sample_grid_spacing) : 1.1 * dmax;
   if (s.grid_spacing <= dmax)
     fail(r.at(keys::sample_grid_spacing),
          "must exceed the largest diameter (" + fmt(dmax) + ") so that the initial spheres do not overlap");
+  // The grid's cell (a cube of ceil(cbrt(count)) spacings a side) must have a volume a double holds.
+  const double side = std::ceil(std::cbrt(static_cast<double>(s.count))) * s.grid_spacing;
+  if (!std::isfinite(side * side * side))
+    fail(r.at(keys::sample_grid_spacing), fmt(s.grid_spacing) + " m makes the initial cell " + fmt(side) +
+                                              " m a side, whose volume overflows a double: give a spacing a little "
+                                              "above the largest diameter (default 1.1 times it)");
   r.finish();
   return s;
 }
@@ -390,6 +422,54 @@ LegEnd read_end(ObjectReader end, bool preparation) {
   return e;
 }
 
+// Ends that a leg's own servo keeps it from: a stress end on an axis that the leg holds at a constant stress
+// while the axis starts the leg at a known stress, with the end stress not between the two (beyond
+// kServoReachMargin of the target: a held stress wanders around its target as the packing yields, a few per cent;
+// the control warnings start at 0.5 %); a ratio end s11/s33 with x1 and x3 held all leg at the stresses they
+// start it at, of another ratio. The run would stop at max_steps advising to raise it. A leg starts an axis at a
+// known stress after a leg that ended on that axis's stress or in equilibrium, or held it at the stress it started
+// it at; `start` holds them (NaN: unknown) and returns them after the program. A rotation's targets move: its legs
+// are not judged and leave the stresses unknown. `name(j)` is leg j's path.
+inline constexpr double kServoReachMargin = 0.1;
+
+std::array<double, 3> check_servo_reach(const std::vector<Leg>& legs, std::array<double, 3> start,
+                                        const std::function<std::string(std::size_t)>& name) {
+  const double unknown = std::numeric_limits<double>::quiet_NaN();
+  const auto near = [](double a, double b) { return std::abs(a - b) <= kServoReachMargin * std::abs(b); };
+  for (std::size_t j = 0; j < legs.size(); ++j) {
+    const Leg& leg = legs[j];
+    const LegEnd& e = leg.end;
+    std::array<double, 3> held{unknown, unknown, unknown};
+    for (std::size_t k = 0; k < 3; ++k)
+      if (leg.axes[k].mode == AxisMode::Stress && !leg.rotation) held[k] = leg.axes[k].value;
+    const auto a = static_cast<std::size_t>(e.axis);
+    if (e.kind == LegEndKind::Stress && !std::isnan(held[a]) && !std::isnan(start[a])) {
+      const double m = kServoReachMargin * held[a];
+      if (e.value < std::min(start[a], held[a]) - m || e.value > std::max(start[a], held[a]) + m)
+        fail(name(j) + "end.stress", "the leg holds axis " + std::string(kAxisNames[a]) + " at " + fmt(held[a]) +
+                                         " Pa by its servo from " + fmt(start[a]) + " Pa at the leg start: it never "
+                                         "reaches this end stress " + fmt(e.value) + " Pa (drive the axis, or give it "
+                                         "a stress_ramp towards it)");
+    }
+    if (e.kind == LegEndKind::Ratio && !std::isnan(held[0]) && !std::isnan(held[2]) && !std::isnan(start[0]) &&
+        !std::isnan(start[2]) && near(start[0], held[0]) && near(start[2], held[2])) {
+      const double ratio = held[0] / held[2], lo = (1.0 - kServoReachMargin) / (1.0 + kServoReachMargin);
+      if (e.value < ratio * lo || e.value > ratio / lo)
+        fail(name(j) + "end.ratio", "the leg holds x1 at " + fmt(held[0]) + " Pa and x3 at " + fmt(held[2]) +
+                                        " Pa by its servo, as they start it (s11/s33 = " + fmt(ratio) + "): it "
+                                        "never reaches this end ratio " + fmt(e.value) + " (drive x1 or x3)");
+    }
+    for (std::size_t k = 0; k < 3; ++k) {  // where the next leg starts
+      const bool stays = !std::isnan(held[k]) && !std::isnan(start[k]) && near(start[k], held[k]);
+      start[k] = e.kind == LegEndKind::Stress && a == k           ? e.value
+                 : e.kind == LegEndKind::Equilibrium && !leg.rotation ? leg.axes[k].value
+                 : stays                                             ? held[k]
+                                                                     : unknown;
+    }
+  }
+  return start;
+}
+
 // The rules that make a leg's controls well defined; `at` is the leg's path.
 void check_leg(const Leg& leg, const std::string& at) {
   int driven = 0, stress = 0, b = 0;
@@ -423,10 +503,12 @@ void check_leg(const Leg& leg, const std::string& at) {
     fail(at + ".axes", "mean_stress axes need a strain-driven or b axis beside them, or all three on mean_stress");
   const LegEnd& e = leg.end;
   const std::string end = at + ".end";
-  if (e.kind == LegEndKind::Strain && leg.axes[static_cast<std::size_t>(e.axis)].mode == AxisMode::Held) {
+  if (const AxisMode mode = leg.axes[static_cast<std::size_t>(e.axis)].mode;
+      e.kind == LegEndKind::Strain && is_shear_component(e.axis) && !leg.axes[static_cast<std::size_t>(e.axis)].strain_driven()) {
     const std::string name(kComponentNames[static_cast<std::size_t>(e.axis)]);
     fail(end + ".axis", "a strain end on shear axis " + name + " needs the leg to drive " + name + " (axes." + name +
-                            ".strain_increment or strain_rate, or simple_shear for x12): the leg holds its tilt");
+                            ".strain_increment or strain_rate, or simple_shear for x12): the leg " +
+                            (mode == AxisMode::Held ? "holds its tilt" : "holds a stress on it"));
   }
   if (e.kind == LegEndKind::Strain) {
     const bool driven_end = leg.axes[e.axis].strain_driven();
@@ -656,8 +738,18 @@ ProbeDef read_probes(ObjectReader r) {
         if (!list[i][k].is_number() || !std::isfinite(list[i][k].get<double>())) fail(item, "expected three finite numbers");
         d[k] = list[i][k].get<double>();
       }
-      const double length = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-      if (!(length > 0.0)) fail(item, "the direction has length 0");
+      // The length as the sum of squares gives it (the normalisation decks have always had): a sum that overflows
+      // (components above about 1e154) or falls below the smallest normal double is refused, not normalised to 0.
+      const double squares = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      const bool zero = d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0;
+      if (zero) fail(item, "the direction has length 0");
+      if (!std::isfinite(squares))
+        fail(item, "the direction's length overflows: its squared length is above the largest double (1.8e308); a "
+                   "direction is normalised to length 1, give components of ordinary size");
+      if (squares < std::numeric_limits<double>::min())
+        fail(item, "the direction's squared length " + fmt(squares) + " is below the smallest normal double "
+                   "(2.2e-308), where its components lose their digits: give components of ordinary size");
+      const double length = std::sqrt(squares);
       for (double& x : d) x /= length;
       p.list.push_back(d);
     }
@@ -676,6 +768,9 @@ ProbeDef read_probes(ObjectReader r) {
     const std::string item = r.at(keys::probes_magnitudes) + "[" + std::to_string(i) + "]";
     if (!(p.magnitudes[i] > 0.0)) fail(item, "must be > 0");
     if (!stress && p.magnitudes[i] > 0.01) fail(item, "a strain probe's strain must be at most 0.01 (it probes the tangent)");
+    if (!stress && p.magnitudes[i] < keys::probes_target_strain.min)
+      fail(item, "a strain probe's strain must be at least " + fmt(keys::probes_target_strain.min) +
+                     " (the smallest target_strain): a smaller one measures round-off, not the tangent");
   }
   p.steps = r.integer(keys::probes_steps);
   p.hold_steps = r.integer(keys::probes_hold_steps);
@@ -710,22 +805,71 @@ SnapshotDef read_snapshots(ObjectReader r) {
   return s;
 }
 
-// A leg shorter than one step is an input error: its end strain lies less than one step from where it starts
-// (an end strain below one step's increment, or a strain rate so large that one step passes the end).
+// A stress probe's increment M [Pa] below kSmallestProbeFraction of the stress the test holds measures nothing: the
+// stress it is read on is a sum over every contact, each term rounded at 2.2e-16, whose round-off reaches N eps
+// of the stress (2e-11 over 1e5 contacts); 1e-9 keeps the increment 50 times above that. (A probe of 1e-12 Pa at
+// 1e5 Pa held nothing but round-off: its point was called `drifting` with a drift of 0.) The stress is the
+// largest the test's legs hold or end on, else the deck's (the preparation's); no stress anywhere: no bound.
+inline constexpr double kSmallestProbeFraction = 1e-9;
+
+void check_probe_magnitudes(const Deck& d) {
+  const double deck_stress = largest_deck_stress(d);
+  for (std::size_t i = 0; i < d.tests.size(); ++i) {
+    const TestDef& t = d.tests[i];
+    if (!t.probes || t.probes->kind != ProbeKind::Stress || t.probes->scaled) continue;
+    double stress = 0.0;
+    for (const Leg& leg : t.legs) {
+      for (int k = 0; k < 3; ++k)
+        if (leg.axes[static_cast<std::size_t>(k)].stress_driven() && leg.axes[static_cast<std::size_t>(k)].mode != AxisMode::B)
+          stress = std::max(stress, std::abs(leg.axes[static_cast<std::size_t>(k)].value));
+      if (leg.end.kind == LegEndKind::Stress) stress = std::max(stress, leg.end.value);
+    }
+    const bool own = stress > 0.0;
+    if (!own) stress = deck_stress;
+    for (std::size_t m = 0; m < t.probes->magnitudes.size(); ++m) {
+      const double magnitude = t.probes->magnitudes[m];
+      if (!(magnitude < kSmallestProbeFraction * stress)) continue;
+      fail("tests[" + std::to_string(i) + "].probes.magnitudes[" + std::to_string(m) + "]",
+           fmt(magnitude) + " Pa is " + fmt(magnitude / stress) + " of the " + (own ? "test's" : "deck's") +
+               " stress (" + fmt(stress) + " Pa), below " + fmt(kSmallestProbeFraction) + " of it: the increment is "
+               "lost in the round-off of the stress it is measured on (a sum over every contact); a probe is a few "
+               "per cent of the stress (e.g. " + fmt(0.02 * stress) + " Pa)");
+    }
+  }
+}
+
+// The path of leg j's keys as messages name them, up to the key ("tests[0].end." in the one-leg form).
+std::function<std::string(std::size_t)> leg_paths(const std::string& path, bool one_leg) {
+  return [path, one_leg](std::size_t j) {
+    return one_leg ? path + "." : path + " (leg " + std::to_string(j) + " of the program, repeats unrolled): ";
+  };
+}
+
+// The strain ends of every leg whose start strain is known ahead (the one-leg form's, and each leg of a program
+// after legs of known length): a leg that drives its end axis away from its end strain (the run stops there when
+// the leg starts: LegEndWatch), and a leg shorter than one step (an end strain below one step's increment, or a
+// strain rate so large that one step passes the end).
 void check_leg_lengths(const TestDef& t, double time_step, const std::string& legs_path, bool one_leg) {
   std::vector<double> from;
   const std::vector<std::int64_t> steps = program_leg_steps(t.legs, time_step, &from);
+  const auto name = leg_paths(legs_path, one_leg);
   for (std::size_t j = 0; j < t.legs.size(); ++j) {
     const Leg& leg = t.legs[j];
-    if (steps[j] < 0 || leg.end.kind != LegEndKind::Strain || std::isnan(from[j])) continue;
+    if (steps[j] < 0 || !leg.ends_on_driven_strain() || std::isnan(from[j])) continue;
     const int k = leg.end.axis;
     const double per_step = leg.end_strain_per_step(time_step), distance = leg.end.value - from[j];
-    // A leg that moves away from its end strain is another error, named when the leg starts (LegEndWatch).
-    if (distance * per_step < 0.0) continue;
+    const std::string at = name(j) + "end.strain";
+    if (distance * per_step < 0.0)
+      fail(at, std::string("the end axis is not ") + (is_shear_component(k) ? "sheared" : "strained") +
+                   " towards this value: axis " + component_name(k) + " moves " + fmt(per_step) + " per step from " +
+                   fmt(from[j]) + " at the leg start, away from its end strain " + fmt(leg.end.value));
+    // Steps are counted in integers: a leg longer than the schema's count bound (2^50) overflowed leg_steps.
+    if (const double n = distance / per_step; !(n <= keys::kMaxCount))
+      fail(at, "the leg takes " + fmt(n) + " steps (axis " + component_name(k) + " moves " + fmt(per_step) +
+                   " per step over " + fmt(std::abs(distance)) + "), more than " + fmt(keys::kMaxCount) +
+                   ": raise its strain increment or rate");
     // One whole step, less round-off (an end strain of exactly one increment is one step).
     if (std::abs(distance) >= std::abs(per_step) * (1.0 - 1e-9)) continue;
-    const std::string at = one_leg ? legs_path + ".end.strain" : legs_path + " (leg " + std::to_string(j) +
-                                                                      " of the program, repeats unrolled): end.strain";
     const AxisControl& a = leg.axes[static_cast<std::size_t>(k)];
     fail(at, "the leg is shorter than one step: axis " + std::string(kComponentNames[static_cast<std::size_t>(k)]) +
                  " moves " + fmt(per_step) +
@@ -760,7 +904,9 @@ void read_given_fields(ObjectReader& r, S& s, const Bindings<S, T>& fields) {
     }
 }
 
-TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, const EquilibriumDef& equilibrium) {
+// `start_stress`: the normal stresses the test starts at where the preparation's servo set them (NaN: unknown).
+TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, const EquilibriumDef& equilibrium,
+                  const std::array<double, 3>& start_stress) {
   TestDef t;
   t.equilibrium = equilibrium;
   t.name = r.string(keys::test_name);
@@ -784,9 +930,11 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
       fail(r.at(keys::test_legs), "give either \"legs\" or \"axes\" (or \"simple_shear\") and \"end\", not both");
     read_program(r.raw(keys::test_legs), r.at(keys::test_legs), false, t.legs);
     check_leg_lengths(t, time_step, r.at(keys::test_legs), false);
+    check_servo_reach(t.legs, start_stress, leg_paths(r.at(keys::test_legs), false));
   } else {
     const Leg leg = read_leg(r, false);
-    // The one-leg form: the axis that ends the test must be strained towards the end strain.
+    // The one-leg form: the axis that ends the test must be strain-controlled (a program's leg may end on the
+    // strain of a normal axis it holds by stress, with max_steps). Its direction: check_leg_lengths, every leg's.
     if (leg.end.kind == LegEndKind::Strain) {
       const AxisControl& driver = leg.axes[static_cast<std::size_t>(leg.end.axis)];
       const std::string name = component_name(leg.end.axis);
@@ -794,13 +942,14 @@ TestDef read_test(ObjectReader r, const ContactDef& contact, double time_step, c
         fail(r.at("end.axis"), "the axis that ends the test (" + name + ") must be strain-controlled" +
                                    (driver.mode == AxisMode::Held ? std::string(": the test holds its tilt") : std::string(": the test holds a stress on it")));
       if (leg.end.value == 0.0) fail(r.at("end.strain"), "must be non-zero");
-      if (driver.value == 0.0 || (driver.value > 0) != (leg.end.value > 0))
-        fail(r.at("end.strain"), std::string("the end axis is not ") + (is_shear_component(leg.end.axis) ? "sheared" : "strained") +
-                                     " towards this value");
+      if (driver.value == 0.0)
+        fail(r.at("end.strain"), std::string("the end axis is not ") +
+                                     (is_shear_component(leg.end.axis) ? "sheared" : "strained") + " towards this value");
     }
     check_leg(leg, r.path());
     t.legs.push_back(leg);
     check_leg_lengths(t, time_step, r.path(), true);
+    check_servo_reach(t.legs, start_stress, leg_paths(r.path(), true));
   }
   if (r.has(keys::test_equilibrium)) {
     ObjectReader e = r.object(keys::test_equilibrium);
@@ -848,6 +997,25 @@ PrepareDef read_prepare(ObjectReader r) {
   return p;
 }
 
+// Each spring's stability limit must be a normal double: a stiffness so large against the spheres' mass that the
+// mode's frequency overflows gives a limit of 0 s (kn = 1e308 was refused as a time step "inf of the stability
+// limit 0 s"), and one so small that the frequency underflows to 0 gives an infinite one. The key named is the
+// spring's stiffness (the density and sizes are bounded by check_sphere_masses).
+void check_mode_limits(const CriticalTimeStep& limit, const ContactDef& c) {
+  for (const ModeLimit& mode : limit.modes) {
+    if (!(mode.stiffness > 0.0)) continue;  // no such spring
+    if (mode.time_step >= std::numeric_limits<double>::min() && std::isfinite(mode.time_step)) continue;
+    const bool linear = mode.mode == ContactMode::Normal ? c.normal == NormalModel::Linear
+                                                         : c.tangential == TangentialModel::LinearHistory;
+    const std::string key = mode.mode == ContactMode::Rolling ? "contact.rolling_stiffness"
+                            : linear ? (mode.mode == ContactMode::Normal ? "contact.kn" : "contact.kt")
+                                     : "contact.youngs_modulus";
+    fail(key, "the " + std::string(mode.name) + " mode's stability limit is " + fmt(mode.time_step) + " s (" +
+                  mode.describe() + " against the smallest sphere's mass): beyond what a double resolves, give a "
+                  "stiffness of ordinary size");
+  }
+}
+
 // The reference overlap of hertz/mindlin (from the deck's stresses unless given), then the time step against
 // the bounds that refuse it (core/plan: above the stability limit of the stiffest mode, or far below it).
 void check_time_step(Deck& d) {
@@ -858,6 +1026,7 @@ void check_time_step(Deck& d) {
       fail("contact.reference_overlap", "missing; the deck names no stress to estimate the largest overlap from");
   }
   const CriticalTimeStep limit = critical_time_steps(d.sample, c);
+  check_mode_limits(limit, c);
   const auto check = [&](double time_step, const std::string& path) {
     for (const TimeStepFinding& f : time_step_findings(time_step, limit))
       if (f.bound->refuse) fail(path, f.message);
@@ -866,6 +1035,34 @@ void check_time_step(Deck& d) {
   if (d.prepare && d.prepare->time_step) check(*d.prepare->time_step, "prepare.time_step");
   for (std::size_t i = 0; i < d.tests.size(); ++i)
     if (d.tests[i].time_step) check(*d.tests[i].time_step, "tests[" + std::to_string(i) + "].time_step");
+}
+
+// A stress the spheres cannot carry or resolve: the mean contact's overlap under it (mean_contact_force, the deck's
+// normal law) above half the mean diameter (spheres that pass through one another; contact laws hold for overlaps
+// of a few per cent) or below 1e-12 of it (lost in the round-off of positions: eps times a cell a few hundred
+// diameters wide is about 1e-13 of a diameter). Each stress target of the preparation and of the tests' legs.
+void check_stress_scale(const Deck& d) {
+  const double dmean = mean_diameter(d.sample);
+  const auto check = [&](double stress, const std::string& path) {
+    if (!(stress > 0.0)) return;
+    const double overlap = normal_overlap(d.contact, mean_contact_force(d.sample, stress), 0.25 * dmean) / dmean;
+    if (overlap >= 1e-12 && overlap <= 0.5) return;
+    fail(path, fmt(stress) + " Pa gives the mean contact an overlap of " + fmt(overlap) + " of the mean diameter " +
+                   (overlap > 0.5 ? "(above 0.5: the spheres would pass through one another)"
+                                  : "(below 1e-12: lost in the round-off of the positions)") +
+                   " with the deck's contact stiffness");
+  };
+  if (d.prepare) check(d.prepare->target_pressure, "prepare.target_pressure");
+  for (std::size_t i = 0; i < d.tests.size(); ++i)
+    for (std::size_t j = 0; j < d.tests[i].legs.size(); ++j) {
+      const Leg& leg = d.tests[i].legs[j];
+      const std::string at = "tests[" + std::to_string(i) + "] (test '" + d.tests[i].name + "', leg " + std::to_string(j) + "): ";
+      for (std::size_t k = 0; k < 3; ++k)
+        if (leg.axes[k].mode == AxisMode::Stress || leg.axes[k].mode == AxisMode::MeanStress ||
+            leg.axes[k].mode == AxisMode::StressRamp)
+          check(leg.axes[k].value, at + "axes." + std::string(kAxisNames[k]));
+      if (leg.end.kind == LegEndKind::Stress) check(leg.end.value, at + "end.stress");
+    }
 }
 
 }  // namespace
@@ -911,10 +1108,17 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
     const Json& tests = r.raw(keys::tests);
     if (!tests.is_array()) fail("tests", "expected an array");
     std::set<std::string> names;
+    // Where the preparation's servo leaves the stresses (a generated sample starts at none; a loaded one unknown).
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    std::array<double, 3> start{unknown, unknown, unknown};
+    if (d.prepare) {
+      if (!has_state) start = {0.0, 0.0, 0.0};
+      start = check_servo_reach(d.prepare->legs, start, leg_paths("prepare.legs", false));
+    }
     for (std::size_t i = 0; i < tests.size(); ++i) {
       const std::string path = "tests[" + std::to_string(i) + "]";
       d.tests.push_back(read_test(ObjectReader(tests[i], path), d.contact, d.time_step,
-                                  d.prepare ? d.prepare->equilibrium : EquilibriumDef{}));
+                                  d.prepare ? d.prepare->equilibrium : EquilibriumDef{}, start));
       if (!names.insert(d.tests.back().name).second)
         fail(path + ".name", "duplicate test name \"" + d.tests.back().name + "\"");
     }
@@ -925,6 +1129,8 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
   if (d.prepare && d.prepare->rolling_friction > 0.0 && !key_used(keys::prepare_rolling_friction, d.contact.selection()))
     fail("prepare.rolling_friction", unused_message(keys::prepare_rolling_friction, d.contact.selection()));
   check_time_step(d);
+  check_stress_scale(d);
+  check_probe_magnitudes(d);
   r.finish();
   return d;
 }

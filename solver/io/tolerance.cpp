@@ -357,9 +357,11 @@ Deck resolve_tolerance(const Deck& written, const std::string& json_text, double
   const double particles = written.sample.count;
   const double at_calibration = calibration_tolerance(rules, tolerance, particles);
   const double largest = rules.levels.back().tolerance;
-  if (at_calibration > largest)  // the deck's own bound: the largest level in this deck's floors
+  // The deck's own bound: the largest level in this deck's floors (calibration_tolerance is T times a factor of
+  // the deck alone, taken at T = 1: T / at_calibration overflows to inf for a T near the largest double).
+  if (at_calibration > largest)
     throw DeckError(key_path + ": " + fmt(tolerance) + " is outside the time-to-answer rules' range: at most " +
-                    fmt(largest * tolerance / at_calibration) + " noise floors at " + fmt(particles) +
+                    fmt(largest / calibration_tolerance(rules, 1.0, particles)) + " noise floors at " + fmt(particles) +
                     " spheres (their largest level, " + fmt(largest) + " floors" +
                     (rules.particles > 0 ? " of their " + std::to_string(rules.particles) + "-sphere scene" : "") +
                     "; io/time_to_answer_rules.json)");

@@ -1120,5 +1120,113 @@ TEST(Deck, ReadDeckFromFileKeepsSource) {
   EXPECT_EQ(d.sample.count, 100);
 }
 
+// Hostile numbers are refused naming the key that is wrong, not a key that a derived number trips.
+TEST(DeckErrors, ExtremeNumbersNameTheirKey) {
+  // A density whose spheres weigh less than the smallest normal double: the density, not the time step.
+  Json j = minimal_deck();
+  j["sample"]["density"] = 1e-300;
+  expect_error(j, "sample.density", "below the smallest normal double");
+  j["sample"]["density"] = 1e-30;  // light, but a double carries it (the time step's bounds judge it)
+  expect_error(j, "time_step");
+  // Diameters that break the bound at any density are named instead.
+  j = minimal_deck();
+  j["sample"]["diameters"] = {{"list", {1e-70}}};
+  j["sample"]["grid_spacing"] = 2e-70;
+  expect_error(j, "sample.diameters", "below the smallest normal double");
+  // A grid whose cell volume overflows; a stiffness whose mode's frequency overflows (a stability limit of 0 s).
+  j = minimal_deck();
+  j["sample"]["grid_spacing"] = 1e200;
+  expect_error(j, "sample.grid_spacing", "overflows");
+  j = minimal_deck();
+  j["contact"]["kn"] = 1e308;
+  expect_error(j, "contact.kn", "stability limit is 0 s");
+  j = minimal_deck();
+  j["contact"]["kt"] = 1e308;
+  expect_error(j, "contact.kt", "stability limit is 0 s");
+  // A leg whose steps overflow the step count; stresses no sphere carries, or that round-off swallows.
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x1"] = {{"strain_increment", 1e-300}};
+  expect_error(j, "tests[0].end.strain", "the leg takes 1e+299 steps");
+  j = minimal_deck();
+  j["prepare"]["target_pressure"] = 1e308;
+  expect_error(j, "prepare.target_pressure", "pass through one another");
+  j["prepare"]["target_pressure"] = 1e-300;
+  expect_error(j, "prepare.target_pressure", "round-off");
+  j = minimal_deck();
+  j["tests"][0]["axes"]["x2"] = {{"stress", 1e300}};
+  expect_error(j, "tests[0] (test 'ttc', leg 0): axes.x2", "pass through one another");
+}
+
+Json probed_deck(const Json& probes) {
+  Json j = minimal_deck();
+  j["tests"][0]["probes"] = probes;
+  return j;
+}
+
+// Probe directions whose length overflows, and probes too small to measure anything, are refused naming the key.
+TEST(DeckErrors, ProbesOutsideWhatDoublesResolve) {
+  const Json list = {{"at_e1", {0.002}}, {"plane", "list"}, {"magnitudes", {2000}}};
+  Json j = probed_deck(list);
+  j["tests"][0]["probes"]["list"] = {{1e308, 1e308, 1e308}};
+  expect_error(j, "tests[0].probes.list[0]", "overflows");
+  j["tests"][0]["probes"]["list"] = {{1.0, 0.0, 0.0}, {1e-160, 0.0, 0.0}};
+  expect_error(j, "tests[0].probes.list[1]", "below the smallest normal double");
+  j["tests"][0]["probes"]["list"] = {{0.0, 0.0, 0.0}};
+  expect_error(j, "tests[0].probes.list[0]", "length 0");
+  // Components of any ordinary size are a direction like any other, normalised to length 1.
+  j["tests"][0]["probes"]["list"] = {{1e100, 0.0, 1e100}};
+  const Deck d = parse_deck(j.dump());
+  EXPECT_DOUBLE_EQ(d.tests[0].probes->list[0][0], std::sqrt(0.5));
+  EXPECT_DOUBLE_EQ(d.tests[0].probes->list[0][2], std::sqrt(0.5));
+  // 1e-12 Pa at 1e5 Pa: below 1e-9 of the test's stress.
+  j = probed_deck({{"at_e1", {0.002}}, {"magnitudes", {2000, 1e-12}}});
+  expect_error(j, "tests[0].probes.magnitudes[1]", "1e-17 of the test's stress");
+  j["tests"][0]["probes"]["magnitudes"] = {1e-4};  // 1e-9 of 1e5 Pa: the smallest accepted
+  EXPECT_NO_THROW(parse_deck(j.dump()));
+  j = probed_deck({{"at_e1", {0.002}}, {"kind", "strain"}, {"magnitudes", {1e-12}}});
+  expect_error(j, "tests[0].probes.magnitudes[0]", "at least 1e-08");
+}
+
+// The one-leg form's checks hold in every leg of a program: an end strain behind the leg's drive, a strain end
+// on a shear axis the leg holds by stress; and an end that the leg's own servo keeps it from is refused, naming
+// the leg and the key, in both forms.
+TEST(DeckErrors, EveryLegIsCheckedLikeTheOneLegForm) {
+  Json j = minimal_deck();
+  j["tests"][0].erase("axes");
+  j["tests"][0].erase("end");
+  const Json axes = {{"x1", {{"strain_increment", 1e-6}}}, {"x2", {{"stress", 1e5}}}, {"x3", {{"stress", 1e5}}}};
+  j["tests"][0]["legs"] = {{{"axes", axes}, {"end", {{"strain", 0.01}}}},
+                           {{"axes", axes}, {"end", {{"strain", 0.005}}}}};
+  expect_error(j, "tests[0].legs (leg 1 of the program, repeats unrolled): end.strain",
+               "not strained towards this value");
+  j["tests"][0]["legs"][1]["axes"]["x1"] = {{"strain_increment", -1e-6}};  // unloading: towards it
+  EXPECT_NO_THROW(parse_deck(j.dump()));
+  // A shear strain end on an axis the leg holds at a shear stress, in a program.
+  Json shear = j;
+  shear["tests"][0]["legs"][1]["axes"]["x12"] = {{"stress", 0.0}};
+  shear["tests"][0]["legs"][1]["end"] = {{"axis", "x12"}, {"strain", 0.01}, {"max_steps", 1000}};
+  expect_error(shear, "tests[0].legs[1].end.axis", "holds a stress on it");
+  // A stress end on an axis the leg holds at 1e5 Pa, which it starts at (the leg before held it there).
+  Json stress = j;
+  stress["tests"][0]["legs"][1]["end"] = {{"axis", "x2"}, {"stress", 2e5}, {"max_steps", 100000}};
+  expect_error(stress, "tests[0].legs (leg 1 of the program, repeats unrolled): end.stress",
+               "never reaches this end stress");
+  stress["tests"][0]["legs"][1]["axes"]["x2"] = {{"stress", 3e5}};  // a step of the target passes 2e5: reachable
+  EXPECT_NO_THROW(parse_deck(stress.dump()));
+  // The one-leg form after the preparation's servo (1e5 Pa on every axis).
+  Json one = minimal_deck();
+  one["tests"][0]["end"] = {{"axis", "x3"}, {"stress", 5e4}, {"max_steps", 100000}};
+  expect_error(one, "tests[0].end.stress", "never reaches this end stress");
+  // A ratio end s11/s33 that two held axes fix at 1.
+  Json ratio = j;
+  ratio["tests"][0]["legs"][1]["axes"] = {{"x1", {{"stress", 1e5}}}, {"x2", {{"stress", 1e5}}}, {"x3", {{"stress", 1e5}}}};
+  ratio["tests"][0]["legs"][0]["axes"]["x1"] = {{"stress", 1e5}};
+  ratio["tests"][0]["legs"][0]["end"] = {{"steps", 1000}};
+  ratio["tests"][0]["legs"][1]["end"] = {{"ratio", 2.0}, {"max_steps", 1000}};
+  expect_error(ratio, "tests[0].legs (leg 1 of the program, repeats unrolled): end.ratio", "never reaches this end ratio");
+  ratio["tests"][0]["legs"][1]["end"] = {{"ratio", 1.02}, {"max_steps", 1000}};  // within the servo's wander
+  EXPECT_NO_THROW(parse_deck(ratio.dump()));
+}
+
 }  // namespace
 }  // namespace celldem

@@ -311,6 +311,15 @@ TEST(Tolerance, LargerDecksCarryTheirTightFloorsToTheRules) {
     EXPECT_NE(std::string(e.what()).find("--tolerance: 9 is outside the time-to-answer rules' range: at most 8.48528"),
               std::string::npos) << e.what();
   }
+  // A tolerance near the largest double names the same bound (T / T_at_calibration overflowed: "at most inf").
+  try {
+    resolve_tolerance(written, text, 1e308, "--tolerance");
+    ADD_FAILURE() << "--tolerance 1e308 was accepted";
+  } catch (const DeckError& e) {
+    EXPECT_NE(std::string(e.what()).find("--tolerance: 1e+308 is outside the time-to-answer rules' range: at most "
+                                         "8.48528"),
+              std::string::npos) << e.what();
+  }
   EXPECT_NO_THROW(resolve_tolerance(written, text, 8.4));
   EXPECT_THROW(resolve_tolerance(written, text, 0.0), DeckError);
 }

@@ -128,7 +128,7 @@ def test_run_deck_fails_with_celldems_exit(celldem, tmp_path):
     1; a run folder that is a file is refused before the run, exit 2 (DeckError)."""
     deck = tiny_deck()
     for test in deck["tests"]:
-        test["axes"]["x2"] = {"stress": 1.0e12}
+        test["axes"]["x2"] = {"stress": 1.0e8}  # (1e12 Pa overlaps the spheres by 1000 diameters: refused, exit 2)
         test["end"]["strain"] = 0.006
     with pytest.raises(api.RunFailed, match="x2") as caught:
         api.run_deck(deck, tmp_path / "fails", threads=1, celldem=celldem)
