@@ -747,7 +747,10 @@ ProbeVerdict judge_probe_point(const ProbeDef& def, const ProbeEvidence& e) {
     v.reason.append(check).append(": ").append(why);
   };
   const double drift_ratio = e.drift / e.smallest_response;
-  if (std::isfinite(e.drift) && std::isfinite(e.smallest_response) && !(drift_ratio <= def.drift_limit))
+  if (std::isfinite(e.smallest_response) && !(e.smallest_response > 0.0))  // no ratio to print: say what it means
+    fail(kProbeCheckNames[0], "the smallest response is " + fmt10(e.smallest_response) +
+                                  ": the probe moved nothing it can be judged on (magnitudes too small to measure)");
+  else if (std::isfinite(e.drift) && std::isfinite(e.smallest_response) && !(drift_ratio <= def.drift_limit))
     fail(kProbeCheckNames[0], "the reference drifts " + fmt10(e.drift) + " over a probe, " + fmt10(drift_ratio) +
                                   " of the smallest response " + fmt10(e.smallest_response) + " (limit " +
                                   fmt10(def.drift_limit) + ")");

@@ -166,6 +166,15 @@ TEST(ProbeJudgement, EachFailedCheckIsNamed) {
   EXPECT_EQ(v.failed[0], "not at rest");
 
   e = good_evidence();
+  e.drift = 0.0;
+  e.smallest_response = 0.0;  // a probe too small to move anything: named as such, never a ratio of -nan
+  v = judge_probe_point(def, e);
+  ASSERT_EQ(v.failed.size(), 1u);
+  EXPECT_EQ(v.failed[0], "drifting");
+  EXPECT_NE(v.reason.find("too small to measure"), std::string::npos) << v.reason;
+  EXPECT_EQ(v.reason.find("nan"), std::string::npos) << v.reason;
+
+  e = good_evidence();
   e.elastic_min_eigenvalue = -2.8e7;  // the review's negative diagonal at e1 = 3 %
   e.elastic_asymmetry = 0.98;
   v = judge_probe_point(def, e);
