@@ -7,8 +7,8 @@ pkgs=(build-essential cmake ninja-build libeigen3-dev nlohmann-json3-dev libgtes
       python3-venv python3-pip python3-mypy)
 if [[ "${1:-}" == "--with-crosscheck" ]]; then
   # The test suite's extras: the codes of the cross-checks, and clang with its sanitizer runtimes and libomp
-  # for the fuzzers (tools/fuzz.sh).
-  pkgs+=(lammps liggghts openmpi-bin clang libclang-rt-14-dev libomp-dev)
+  # for the fuzzers (tools/fuzz.sh), clang-format for the check of changed lines (tools/check_format.sh).
+  pkgs+=(lammps liggghts openmpi-bin clang libclang-rt-14-dev libomp-dev clang-format)
 fi
 missing=()
 for p in "${pkgs[@]}"; do
