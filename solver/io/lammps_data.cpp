@@ -135,26 +135,92 @@ struct AtomLine {
   int line;
 };
 
+// Lines, with comments split off. The first line is the title.
+std::vector<Line> data_lines(const std::string& text) {
+  std::vector<Line> lines;
+  std::istringstream in(text);
+  std::string raw;
+  for (int number = 1; std::getline(in, raw); ++number) {
+    if (number == 1) continue;
+    const std::size_t hash = raw.find('#');
+    Line line;
+    line.number = number;
+    line.words = split_words(raw.substr(0, hash));
+    if (hash != std::string::npos) line.comment = split_words(raw.substr(hash + 1));
+    if (!line.words.empty()) lines.push_back(std::move(line));
+  }
+  return lines;
+}
+
+// Atoms: id type diameter density x y z [ix iy iz], in ascending id order (a duplicate id fails).
+std::vector<AtomLine> read_atoms(const Reporter& report, const Section& atoms, const Header& header) {
+  std::vector<AtomLine> atom_lines;
+  for (const Line& line : atoms.lines) {
+    const std::size_t columns = line.words.size();
+    if (columns != 7 && columns != 10)
+      report.fail(line.number, "Atoms: expected 7 or 10 columns (id type diameter density x y z [ix iy iz]), found " +
+                                   std::to_string(columns));
+    AtomLine a;
+    a.line = line.number;
+    a.id = parse_integer(report, line, 0, "atom id");
+    if (a.id < 1) report.fail(line.number, "atom id " + std::to_string(a.id) + ": ids must be positive");
+    const std::int64_t type = parse_integer(report, line, 1, "atom type");
+    if (type < 1 || type > header.atom_types)
+      report.fail(line.number, "atom type " + std::to_string(type) + " is outside 1.." + std::to_string(header.atom_types));
+    a.type = static_cast<int>(type);
+    a.diameter = parse_real(report, line, 2, "diameter");
+    if (!(a.diameter > 0.0)) report.fail(line.number, "diameter " + line.words[2] + ": must be positive");
+    a.density = parse_real(report, line, 3, "density");
+    if (!(a.density > 0.0)) report.fail(line.number, "density " + line.words[3] + ": must be positive");
+    for (int k = 0; k < 3; ++k) a.x[k] = parse_real(report, line, 4 + k, "position");
+    a.image = Vec3::Zero();
+    if (columns == 10)
+      for (int k = 0; k < 3; ++k) a.image[k] = static_cast<double>(parse_integer(report, line, 7 + k, "image flag"));
+    atom_lines.push_back(a);
+  }
+  std::sort(atom_lines.begin(), atom_lines.end(), [](const AtomLine& a, const AtomLine& b) { return a.id < b.id; });
+  for (std::size_t k = 1; k < atom_lines.size(); ++k)
+    if (atom_lines[k].id == atom_lines[k - 1].id)
+      report.fail(std::max(atom_lines[k].line, atom_lines[k - 1].line),
+                  "duplicate atom id " + std::to_string(atom_lines[k].id) + " (also on line " +
+                      std::to_string(std::min(atom_lines[k].line, atom_lines[k - 1].line)) + ")");
+  return atom_lines;
+}
+
+// Velocities: id vx vy vz wx wy wz, one line for every atom.
+void read_velocities(const Reporter& report, const Section& velocities,
+                     const std::map<std::int64_t, std::size_t>& index_of_id, LammpsData& out) {
+  State& s = out.state;
+  const std::size_t n = out.ids.size();
+  out.has_velocities = true;
+  std::vector<int> seen_on(n, 0);
+  for (const Line& line : velocities.lines) {
+    if (line.words.size() != 7)
+      report.fail(line.number, "Velocities: expected 7 columns (id vx vy vz wx wy wz), found " +
+                                   std::to_string(line.words.size()));
+    const std::int64_t id = parse_integer(report, line, 0, "atom id");
+    const auto found = index_of_id.find(id);
+    if (found == index_of_id.end())
+      report.fail(line.number, "Velocities: atom id " + std::to_string(id) + " is not in the Atoms section");
+    const std::size_t i = found->second;
+    if (seen_on[i] != 0)
+      report.fail(line.number, "Velocities: duplicate atom id " + std::to_string(id) + " (also on line " +
+                                   std::to_string(seen_on[i]) + ")");
+    seen_on[i] = line.number;
+    for (int k = 0; k < 3; ++k) s.particles.velocity[i][k] = parse_real(report, line, 1 + k, "velocity");
+    for (int k = 0; k < 3; ++k) s.particles.spin[i][k] = parse_real(report, line, 4 + k, "angular velocity");
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (seen_on[i] == 0)
+      report.fail(velocities.header_line,
+                  "Velocities: no line for atom id " + std::to_string(out.ids[i]) + " (every atom needs one)");
+}
+
 }  // namespace
 
 LammpsData parse_lammps_data(const std::string& text, const std::string& source) {
   const Reporter report(source);
-
-  // Lines, with comments split off. The first line is the title.
-  std::vector<Line> lines;
-  {
-    std::istringstream in(text);
-    std::string raw;
-    for (int number = 1; std::getline(in, raw); ++number) {
-      if (number == 1) continue;
-      const std::size_t hash = raw.find('#');
-      Line line;
-      line.number = number;
-      line.words = split_words(raw.substr(0, hash));
-      if (hash != std::string::npos) line.comment = split_words(raw.substr(hash + 1));
-      if (!line.words.empty()) lines.push_back(std::move(line));
-    }
-  }
+  const std::vector<Line> lines = data_lines(text);
 
   // The header runs up to the first section keyword (a line starting with a letter; header lines start
   // with a number).
@@ -199,37 +265,7 @@ LammpsData parse_lammps_data(const std::string& text, const std::string& source)
     report.fail(atoms->header_line, "the Atoms section has " + std::to_string(atoms->lines.size()) +
                                         " lines, but the header says " + std::to_string(header.atoms) + " atoms");
 
-  // Atoms: id type diameter density x y z [ix iy iz].
-  std::vector<AtomLine> atom_lines;
-  for (const Line& line : atoms->lines) {
-    const std::size_t columns = line.words.size();
-    if (columns != 7 && columns != 10)
-      report.fail(line.number, "Atoms: expected 7 or 10 columns (id type diameter density x y z [ix iy iz]), found " +
-                                   std::to_string(columns));
-    AtomLine a;
-    a.line = line.number;
-    a.id = parse_integer(report, line, 0, "atom id");
-    if (a.id < 1) report.fail(line.number, "atom id " + std::to_string(a.id) + ": ids must be positive");
-    const std::int64_t type = parse_integer(report, line, 1, "atom type");
-    if (type < 1 || type > header.atom_types)
-      report.fail(line.number, "atom type " + std::to_string(type) + " is outside 1.." + std::to_string(header.atom_types));
-    a.type = static_cast<int>(type);
-    a.diameter = parse_real(report, line, 2, "diameter");
-    if (!(a.diameter > 0.0)) report.fail(line.number, "diameter " + line.words[2] + ": must be positive");
-    a.density = parse_real(report, line, 3, "density");
-    if (!(a.density > 0.0)) report.fail(line.number, "density " + line.words[3] + ": must be positive");
-    for (int k = 0; k < 3; ++k) a.x[k] = parse_real(report, line, 4 + k, "position");
-    a.image = Vec3::Zero();
-    if (columns == 10)
-      for (int k = 0; k < 3; ++k) a.image[k] = static_cast<double>(parse_integer(report, line, 7 + k, "image flag"));
-    atom_lines.push_back(a);
-  }
-  std::sort(atom_lines.begin(), atom_lines.end(), [](const AtomLine& a, const AtomLine& b) { return a.id < b.id; });
-  for (std::size_t k = 1; k < atom_lines.size(); ++k)
-    if (atom_lines[k].id == atom_lines[k - 1].id)
-      report.fail(std::max(atom_lines[k].line, atom_lines[k - 1].line),
-                  "duplicate atom id " + std::to_string(atom_lines[k].id) + " (also on line " +
-                      std::to_string(std::min(atom_lines[k].line, atom_lines[k - 1].line)) + ")");
+  const std::vector<AtomLine> atom_lines = read_atoms(report, *atoms, header);
 
   // The state: particles in ascending id order.
   LammpsData out;
@@ -256,31 +292,7 @@ LammpsData parse_lammps_data(const std::string& text, const std::string& source)
   if (n > 0 && std::all_of(out.density.begin(), out.density.end(), [&](double d) { return d == out.density[0]; }))
     out.common_density = out.density[0];
 
-  // Velocities: id vx vy vz wx wy wz, one line for every atom.
-  if (velocities) {
-    out.has_velocities = true;
-    std::vector<int> seen_on(n, 0);
-    for (const Line& line : velocities->lines) {
-      if (line.words.size() != 7)
-        report.fail(line.number, "Velocities: expected 7 columns (id vx vy vz wx wy wz), found " +
-                                     std::to_string(line.words.size()));
-      const std::int64_t id = parse_integer(report, line, 0, "atom id");
-      const auto found = index_of_id.find(id);
-      if (found == index_of_id.end())
-        report.fail(line.number, "Velocities: atom id " + std::to_string(id) + " is not in the Atoms section");
-      const std::size_t i = found->second;
-      if (seen_on[i] != 0)
-        report.fail(line.number, "Velocities: duplicate atom id " + std::to_string(id) + " (also on line " +
-                                     std::to_string(seen_on[i]) + ")");
-      seen_on[i] = line.number;
-      for (int k = 0; k < 3; ++k) s.particles.velocity[i][k] = parse_real(report, line, 1 + k, "velocity");
-      for (int k = 0; k < 3; ++k) s.particles.spin[i][k] = parse_real(report, line, 4 + k, "angular velocity");
-    }
-    for (std::size_t i = 0; i < n; ++i)
-      if (seen_on[i] == 0)
-        report.fail(velocities->header_line,
-                    "Velocities: no line for atom id " + std::to_string(out.ids[i]) + " (every atom needs one)");
-  }
+  if (velocities) read_velocities(report, *velocities, index_of_id, out);
 
   // A new sample's control memory: the cell as it is is the reference.
   s.control.reference.head<3>() = length;

@@ -139,6 +139,8 @@ class ProgramWriter {
   void fail(const std::string& condition, const std::string& message);
   std::string leg_name(int j) const;
   void controls(int j);
+  void tilt_deform(int j, bool by_erate, std::string& deform, bool& units_box);
+  void control_comments(double modulus, bool coupled, bool volume);
   void from_strain(int j);
   void halt(int j);
   void chunks(int j);

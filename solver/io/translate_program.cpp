@@ -347,10 +347,33 @@ void ProgramWriter::controls(int j) {
         break;
     }
   }
-  // Strain-driven shear axes: fix deform's tilt (the box made triclinic after read_data). celldem's tilt is
-  // h_ij = h_ij(test start) - L_j(test start) g_ij, LAMMPS's erate T = T0 + L0 erate t with L0 the perpendicular
-  // length at the run's start: erate = -dg/dt in a first leg of known length (its run starts at the test start),
+  tilt_deform(j, by_erate, deform, units_box);
+  control_comments(servo.modulus, coupled, volume);
+  if (coupled && !ramp)
+    o_ << "# b / mean_stress targets from this step's contact stresses, as celldem's stress_targets()\n";
+  if (ramp)
+    o_ << "# stress_ramp targets: from + rate dt (steps since the leg start), as celldem's stress_targets()\n";
+  if (!lmp_ || !vars.empty()) o_ << vars;
+  if (!deform.empty()) {
+    o_ << pad("fix") << "dfm all deform 1" << deform << " remap x" << (units_box ? " units box" : "") << "\n";
+    fixes_.push_back("dfm");
+  }
+  if (!baro.empty()) {
+    o_ << "# per step L *= (1 - dt/pdamp (target - s)/modulus)^(1/3): celldem's proportional gain "
+       << num(deck_.servo.gain) << " at stiffness " << num(servo.modulus) << " Pa\n"
+       << pad("fix") << "srv all press/berendsen" << baro << " couple none modulus " << num(servo.modulus)
+       << " dilate all\n"
+       << pad("fix_modify") << "srv press P\n";
+    fixes_.push_back("srv");
+  }
+}
+
+// Strain-driven shear axes: fix deform's tilt (the box made triclinic after read_data), added to `deform`.
+void ProgramWriter::tilt_deform(int j, bool by_erate, std::string& deform, bool& units_box) {
+  // celldem's tilt is h_ij = h_ij(test start) - L_j(test start) g_ij, LAMMPS's erate T = T0 + L0 erate t with L0
+  // the perpendicular length at the run's start: erate = -dg/dt in a first leg of known length (its run starts at the test start),
   // else vel V = -L_j(test start) dg/dt, which adds the same per step from the tilt at the leg start.
+  const Leg& leg = p_.legs[j];
   for (int a = 0; a < 3; ++a) {
     const double per_step = leg.strain_per_step(3 + a, p_.time_step);
     if (per_step == 0.0) continue;
@@ -368,6 +391,10 @@ void ProgramWriter::controls(int j) {
                       "length (its fix deform has no variable style for a tilt)");
     }
   }
+}
+
+// What the control lines of a one-leg test say they do (the scripts of one-leg tests, as they were before programs).
+void ProgramWriter::control_comments(double modulus, bool coupled, bool volume) {
   if (p_.one_leg() && !coupled && !volume) {  // the scripts of one-leg tests, as they were before programs
     if (lmp_) {
       o_ << "\n# control: strain axes by fix deform (remap x: positions follow the box affinely, v is the non-affine\n"
@@ -375,7 +402,7 @@ void ProgramWriter::controls(int j) {
     } else {
       o_ << "\n# control: strain axes by fix deform erate (remap x); stress axes by the press/berendsen law written as a\n"
          << "# fix deform variable (L = L_start + d): L *= (1 - dt/pdamp (target - s)/modulus)^(1/3) per step,\n"
-         << "# celldem's proportional gain " << num(deck_.servo.gain) << " at stiffness " << num(servo.modulus)
+         << "# celldem's proportional gain " << num(deck_.servo.gain) << " at stiffness " << num(modulus)
          << " Pa\n";
     }
   } else if (p_.one_leg()) {
@@ -384,23 +411,6 @@ void ProgramWriter::controls(int j) {
        << (lmp_ ? "fix press/berendsen for a stress axis beside no\n# constant-volume axis, otherwise "
                 : "")
        << "as a fix deform variable (L = L_start + d);\n# constant-volume axes by fix deform volume\n";
-  }
-  if (coupled && !ramp)
-    o_ << "# b / mean_stress targets from this step's contact stresses, as celldem's stress_targets()\n";
-  if (ramp)
-    o_ << "# stress_ramp targets: from + rate dt (steps since the leg start), as celldem's stress_targets()\n";
-  if (!lmp_ || !vars.empty()) o_ << vars;
-  if (!deform.empty()) {
-    o_ << pad("fix") << "dfm all deform 1" << deform << " remap x" << (units_box ? " units box" : "") << "\n";
-    fixes_.push_back("dfm");
-  }
-  if (!baro.empty()) {
-    o_ << "# per step L *= (1 - dt/pdamp (target - s)/modulus)^(1/3): celldem's proportional gain "
-       << num(deck_.servo.gain) << " at stiffness " << num(servo.modulus) << " Pa\n"
-       << pad("fix") << "srv all press/berendsen" << baro << " couple none modulus " << num(servo.modulus)
-       << " dilate all\n"
-       << pad("fix_modify") << "srv press P\n";
-    fixes_.push_back("srv");
   }
 }
 
