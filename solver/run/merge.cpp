@@ -47,7 +47,11 @@ bool same_bytes(const fs::path& a, const fs::path& b) { return read_file(a) == r
 constexpr const char* kPartialSuffix = ".merge-partial";
 const std::vector<std::string> kNotCopied = {kLockName};  // a lock is its own folder's
 
-fs::path partial_of(const fs::path& to) { return to.parent_path() / ("." + to.filename().string() + kPartialSuffix); }
+fs::path partial_of(const fs::path& to) {
+  std::string name(1, '.');  // (built by appending: GCC 12 warns falsely on "." + string)
+  name.append(to.filename().string()).append(kPartialSuffix);
+  return to.parent_path() / name;
+}
 
 void copy_committed(const fs::path& from, const fs::path& to) {
   const fs::path tmp = partial_of(to);

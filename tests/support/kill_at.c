@@ -41,9 +41,10 @@ static void event(const char* what, const char* path) {
   if (kill_at > 0 && n == kill_at) raise(SIGKILL);
 }
 
-#define REAL(name, type) \
-  static type real_##name; \
-  if (!real_##name) real_##name = (type)dlsym(RTLD_NEXT, #name)
+/* The next definition of `name` (libc's), looked up once. */
+#define REAL(name)                            \
+  static __typeof__(name)* real_##name;       \
+  if (!real_##name) real_##name = (__typeof__(name)*)dlsym(RTLD_NEXT, #name)
 
 static int writes(int flags) { return (flags & (O_WRONLY | O_RDWR | O_CREAT | O_TRUNC)) != 0; }
 
@@ -56,7 +57,7 @@ int open(const char* path, int flags, ...) {
   va_start(args, flags);
   const mode_t mode = mode_of(flags, args);
   va_end(args);
-  REAL(open, int (*)(const char*, int, ...));
+  REAL(open);
   if (writes(flags)) event("open", path);
   return real_open(path, flags, mode);
 }
@@ -66,7 +67,7 @@ int open64(const char* path, int flags, ...) {
   va_start(args, flags);
   const mode_t mode = mode_of(flags, args);
   va_end(args);
-  REAL(open64, int (*)(const char*, int, ...));
+  REAL(open64);
   if (writes(flags)) event("open", path);
   return real_open64(path, flags, mode);
 }
@@ -76,7 +77,7 @@ int openat(int dir, const char* path, int flags, ...) {
   va_start(args, flags);
   const mode_t mode = mode_of(flags, args);
   va_end(args);
-  REAL(openat, int (*)(int, const char*, int, ...));
+  REAL(openat);
   if (writes(flags)) event("open", path);
   return real_openat(dir, path, flags, mode);
 }
@@ -86,67 +87,67 @@ int openat64(int dir, const char* path, int flags, ...) {
   va_start(args, flags);
   const mode_t mode = mode_of(flags, args);
   va_end(args);
-  REAL(openat64, int (*)(int, const char*, int, ...));
+  REAL(openat64);
   if (writes(flags)) event("open", path);
   return real_openat64(dir, path, flags, mode);
 }
 
 int creat(const char* path, mode_t mode) {
-  REAL(creat, int (*)(const char*, mode_t));
+  REAL(creat);
   event("open", path);
   return real_creat(path, mode);
 }
 
 int rename(const char* from, const char* to) {
-  REAL(rename, int (*)(const char*, const char*));
+  REAL(rename);
   event("rename", to);
   return real_rename(from, to);
 }
 
 int renameat(int from_dir, const char* from, int to_dir, const char* to) {
-  REAL(renameat, int (*)(int, const char*, int, const char*));
+  REAL(renameat);
   event("rename", to);
   return real_renameat(from_dir, from, to_dir, to);
 }
 
 int renameat2(int from_dir, const char* from, int to_dir, const char* to, unsigned flags) {
-  REAL(renameat2, int (*)(int, const char*, int, const char*, unsigned));
+  REAL(renameat2);
   event("rename", to);
   return real_renameat2(from_dir, from, to_dir, to, flags);
 }
 
 int unlink(const char* path) {
-  REAL(unlink, int (*)(const char*));
+  REAL(unlink);
   event("unlink", path);
   return real_unlink(path);
 }
 
 int unlinkat(int dir, const char* path, int flags) {
-  REAL(unlinkat, int (*)(int, const char*, int));
+  REAL(unlinkat);
   event("unlink", path);
   return real_unlinkat(dir, path, flags);
 }
 
 int remove(const char* path) {
-  REAL(remove, int (*)(const char*));
+  REAL(remove);
   event("unlink", path);
   return real_remove(path);
 }
 
 int rmdir(const char* path) {
-  REAL(rmdir, int (*)(const char*));
+  REAL(rmdir);
   event("rmdir", path);
   return real_rmdir(path);
 }
 
 int mkdir(const char* path, mode_t mode) {
-  REAL(mkdir, int (*)(const char*, mode_t));
+  REAL(mkdir);
   event("mkdir", path);
   return real_mkdir(path, mode);
 }
 
 int mkdirat(int dir, const char* path, mode_t mode) {
-  REAL(mkdirat, int (*)(int, const char*, mode_t));
+  REAL(mkdirat);
   event("mkdir", path);
   return real_mkdirat(dir, path, mode);
 }
