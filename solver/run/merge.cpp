@@ -1,9 +1,8 @@
 #include "run/merge.hpp"
 
-#include <cstdio>
-
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "io/deck_reader.hpp"
@@ -53,20 +52,45 @@ fs::path partial_of(const fs::path& to) {
   return to.parent_path() / name;
 }
 
-void copy_committed(const fs::path& from, const fs::path& to) {
+// Copies `from` to the temporary beside `to`, read back against `from`; returns the temporary (removed on failure).
+fs::path copy_aside(const fs::path& from, const fs::path& to) {
   const fs::path tmp = partial_of(to);
   try {
     fs::remove_all(tmp);
     copy_tree(from, tmp, kNotCopied);
     if (const std::string d = tree_difference(from, tmp, kNotCopied); !d.empty())
       throw IoError((tmp / d).string() + ": the copy read back differs from " + (from / d).string());
-    if (::rename(tmp.c_str(), to.c_str()) != 0) throw_io_error(to, "cannot rename " + tmp.string() + " to", errno);
-    sync_folder(to.parent_path());
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(tmp, ignored);  // (also frees the space of a full disk)
     throw;
   }
+  return tmp;
+}
+
+void commit(const fs::path& tmp, const fs::path& to) {
+  if (::rename(tmp.c_str(), to.c_str()) != 0) {
+    const int error = errno;
+    std::error_code ignored;
+    fs::remove_all(tmp, ignored);
+    throw_io_error(to, "cannot rename " + tmp.string() + " to", error);
+  }
+  sync_folder(to.parent_path());
+}
+
+void copy_committed(const fs::path& from, const fs::path& to) { commit(copy_aside(from, to), to); }
+
+// Replaces the folder `to` by a copy of `from`: the old one is moved to a temporary of its own just before the
+// copy is committed (killed in between, the next merge finds neither and copies `to` again), then removed.
+void replace_committed(const fs::path& from, const fs::path& to) {
+  const fs::path tmp = copy_aside(from, to);
+  fs::path stale_name = to;
+  stale_name += ".stale";
+  const fs::path stale = partial_of(stale_name);
+  fs::remove_all(stale);
+  fs::rename(to, stale);
+  commit(tmp, to);
+  fs::remove_all(stale);
 }
 
 // Removes the temporaries a merge stopped part-way left in `dir`.
@@ -172,12 +196,8 @@ void merge_probes(const fs::path& into, const std::vector<fs::path>& from, std::
           if (!e.is_directory() || !fs::exists(e.path() / "result.json") || fs::exists(to / "result.json")) continue;
           // A probe this folder did not finish (its own run stopped, or a copy an earlier version stopped part-way):
           // moved aside whole before the finished one is copied.
-          if (fs::exists(to)) {
-            fs::remove_all(partial_of(to));
-            fs::rename(to, partial_of(to));
-            fs::remove_all(partial_of(to));
-          }
-          copy_committed(e.path(), to);
+          if (fs::exists(to)) replace_committed(e.path(), to);
+          else copy_committed(e.path(), to);
           ++copied;
         }
       }
@@ -240,16 +260,22 @@ void check_seed_shares(const fs::path& into, const std::vector<fs::path>& from) 
   check_origins(seeds_all, seed_kind, "a seed of an ensemble");
 }
 
-// The seeds `into` lacks copied from the shares (each committed whole, by a rename), the probes of a seed both
-// hold gathered, and ensemble.json written over every complete seed.
+// The seeds `into` lacks copied from the shares (each committed whole, by a rename; a seed `into` holds incomplete
+// replaced by a share's complete one: a merge of a share not yet finished, merged again once it is), the probes of a
+// seed both hold gathered, and ensemble.json written over every complete seed.
 void merge_seeds(const fs::path& into, const std::vector<fs::path>& from, bool include_uncontrolled,
                  bool* incomplete, std::vector<std::string>& done) {
   for (const fs::path& other : from)
     for (const std::uint64_t seed : seeds_in(other)) {
       const std::string name = "seed-" + std::to_string(seed);
-      if (!fs::exists(into / name)) {
-        copy_committed(other / name, into / name);
+      const fs::path to = into / name, theirs = other / name;
+      if (!fs::exists(to)) {
+        copy_committed(theirs, to);
         done.push_back(into.string() + ": " + name + " copied from " + other.string());
+      } else if (!fs::equivalent(to, theirs) && !run_complete(to) && run_complete(theirs)) {
+        const FolderLock lock(to);  // no run of the seed alone at the same time
+        replace_committed(theirs, to);
+        done.push_back(into.string() + ": " + name + " (not complete) replaced by the complete one of " + other.string());
       }
     }
   std::vector<std::uint64_t> complete;

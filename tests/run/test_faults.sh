@@ -11,6 +11,8 @@
 #   stage_symlink   a stage folder linked into another run: refused naming it, the other run untouched
 #   pid_race        two runs started together on one folder: the one refused names the other's pid
 #   stray_checkpoint  a run killed just after marking a stage done, resumed: no checkpoint.state left
+#   share_resumed   a share merged before it finished (exit 1, left out), resumed, merged again: the files of an
+#                   uninterrupted merge of the finished share
 # Usage: test_faults.sh CELLDEM LIBKILL_AT [SEED=1] [SECONDS=30]
 set -uo pipefail
 celldem="$(realpath "$1")"
@@ -33,7 +35,8 @@ cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
 sed 's/"strain":0.006/"strain":0.05/g' "$work/deck.json" > "$work/long.json"
 declare -A passed failed skipped
-kinds=(merge_kill merge_full readonly_share lock_deleted lock_symlink stage_symlink pid_race stray_checkpoint)
+kinds=(merge_kill merge_full readonly_share lock_deleted lock_symlink stage_symlink pid_race stray_checkpoint
+       share_resumed)
 why=""
 start() { "$celldem" run "$@" --quiet --threads 1 2>/dev/null & pid=$!; }
 # Lists a folder's files (run.lock's content aside: a pid) as "path checksum" lines.
@@ -211,6 +214,25 @@ trial_stray_checkpoint() {
   for f in ttc/series.csv psc/series.csv ttc/final.state psc/final.state; do
     cmp -s "$work/ref/$f" "$d/$f" || { why="$f differs from the uninterrupted run"; return 1; }
   done
+}
+
+trial_share_resumed() {
+  local s4="$work/share4" m="$work/sr" rc
+  rm -rf "$s4" "$m" "$work/merged14"
+  start "$work/deck.json" --seeds 4 --out "$s4"
+  wait_for "$s4/seed-4/ttc/series.csv" || { wait $pid; why="skipped: the share ended first"; return 2; }
+  kill -KILL $pid; wait $pid 2>/dev/null
+  "$celldem" merge "$m" "$work/share1" "$s4" >/dev/null 2>"$work/err"
+  rc=$?
+  # Proof: the share was merged while not complete.
+  ((rc == 1)) && grep -q "not complete" "$work/err" || { why="skipped: the stopped share merged with exit $rc"; return 2; }
+  "$celldem" run "$work/deck.json" --seeds 4 --out "$s4" --resume --quiet --threads 1 >/dev/null 2>"$work/err" ||
+    { why="the share's resume exited $?: $(head -c 300 "$work/err")"; return 1; }
+  "$celldem" merge "$m" "$work/share1" "$s4" >/dev/null 2>"$work/err"
+  rc=$?
+  ((rc == 0)) || { why="merged again once the share finished: exit $rc: $(head -c 300 "$work/err")"; return 1; }
+  "$celldem" merge "$work/merged14" "$work/share1" "$s4" >/dev/null 2>&1 || { why="the reference merge failed"; return 1; }
+  same_tree "$work/merged14" "$m"
 }
 
 # The references: a run (its file events listed, at the folder the stray_checkpoint trial uses), three seed shares
