@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace celldem {
 
@@ -13,7 +14,8 @@ struct IoError : std::runtime_error {
 };
 
 // Writes the whole file under a temporary name beside it, then renames it over `path`: readers see the old
-// file or the new one, whole. On failure the temporary is removed and the old file is left as it was.
+// file or the new one, whole. On failure the temporary is removed and the old file is left as it was. A link at
+// `path` is replaced, never written through (the temporary is created anew, O_EXCL).
 void write_file_atomic(const std::filesystem::path& path, std::string_view bytes);
 
 // Reads a whole file; IoError if it cannot be read.
@@ -21,7 +23,7 @@ std::string read_file(const std::filesystem::path& path);
 
 // A text file written by appending whole records (series rows). Each record goes to the file in one
 // write; if it cannot be written whole, the file is cut back to its previous length, so it never ends in a
-// partial record.
+// partial record. A link at the path is refused (IoError naming it), not written through.
 class AppendFile {
  public:
   AppendFile() = default;
@@ -43,6 +45,21 @@ class AppendFile {
 
 // The FNV-1a 64 hash of `bytes` as 16 hex digits: what a run records of a file it will trust again on --resume.
 std::string fnv1a_hex(std::string_view bytes);
+
+// Copies the folder `from` to `to` (which must not exist): folders and regular files, each file's every write checked
+// and synced (a full disk is named as such, with the file), entries named in `skip` (at any depth) left out. Writes
+// through no link: `to` and every file are created anew (O_EXCL, O_NOFOLLOW); a link or a device in `from` is
+// refused (IoError naming it). On failure what was made of `to` is left for the caller to remove.
+void copy_tree(const std::filesystem::path& from, const std::filesystem::path& to,
+               const std::vector<std::string>& skip = {});
+
+// The relative path of the first file or folder in which the trees `a` and `b` differ (present in one only, a
+// folder in one and a file in the other, other bytes), or "" when they hold the same; `skip` as for copy_tree.
+std::string tree_difference(const std::filesystem::path& a, const std::filesystem::path& b,
+                            const std::vector<std::string>& skip = {});
+
+// Syncs a folder's entries (a rename or a new file in it) to the disk; IoError on failure.
+void sync_folder(const std::filesystem::path& dir);
 
 // "<path>: <what>: <strerror(errno)>"
 [[noreturn]] void throw_io_error(const std::filesystem::path& path, const std::string& what, int error_number);

@@ -25,25 +25,38 @@ inline constexpr const char* kSummaryName = "summary.json";
 // The run folder's owner: an advisory lock (flock) on this file, with the holder's pid in it for the message.
 inline constexpr const char* kLockName = "run.lock";
 
-// One owner per run folder at a time: run, --resume, --force and merge hold an exclusive flock on DIR/run.lock for
-// as long as they write there. A second process is refused (UsageError naming the holder's pid); the kernel drops
-// the lock of a process that dies, so the file a killed run leaves behind is taken over. Creates DIR.
+// Who may use a run folder beside whom: one writer alone, or any number of readers (a merge reading its shares).
+enum class LockMode { exclusive, shared };
+
+// One owner per run folder at a time: run, --resume, --force and merge hold an exclusive flock on the folder itself
+// (DIR, opened as a folder) and on DIR/run.lock for as long as they write there; a merge holds shared locks on the
+// shares it only reads (which may then be read-only). Locking the folder itself makes the lock hold when run.lock is
+// deleted or replaced under a live run; run.lock is kept for the tools that wait on it (tools/celldem/binary.py), is
+// never followed when it is a symbolic link (refused), and is verified after locking to be the file at its path. A
+// second process is refused (UsageError naming the holder's pid, as the kernel tells it: /proc/locks, else the pid
+// the holder wrote into run.lock right after locking); the kernel drops the locks of a process that dies, so the
+// file a killed run leaves behind is taken over. An exclusive lock creates DIR; a shared one requires it.
 class FolderLock {
  public:
   FolderLock() = default;
-  explicit FolderLock(const std::filesystem::path& dir);
+  explicit FolderLock(const std::filesystem::path& dir, LockMode mode = LockMode::exclusive);
   ~FolderLock();
-  FolderLock(FolderLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+  FolderLock(FolderLock&& other) noexcept : dir_fd_(other.dir_fd_), fd_(other.fd_) { other.dir_fd_ = other.fd_ = -1; }
   FolderLock& operator=(FolderLock&& other) noexcept;
   FolderLock(const FolderLock&) = delete;
   FolderLock& operator=(const FolderLock&) = delete;
-  // Writes this process's pid into the lock file (for the message of a process refused): once the holder goes on to
-  // write in the folder (a command refused for another reason leaves the folder's files as they were).
+  // Writes this process's pid into the lock file again (an exclusive lock wrote it when it was taken).
   void claim();
 
  private:
-  int fd_ = -1;
+  void release();
+  int dir_fd_ = -1;  // the folder's own lock (-1 where the file system cannot lock a folder)
+  int fd_ = -1;      // run.lock's
 };
+
+// Refuses (UsageError naming the path and where it leads) a symbolic link at `dir`/`name` or anywhere under it whose
+// target lies outside `dir`: a run writes nothing through a link into another folder (another run's series).
+void refuse_links_out(const std::filesystem::path& dir, const std::string& name);
 
 // The deck's fingerprint: a hash (FNV-1a 64, hex) of its canonical text (progress.json's "deck") without the sample's
 // seed, so that the seeds of one ensemble share it and runs of decks that differ in anything else do not.
@@ -67,8 +80,8 @@ class RunDirectory {
   bool resumes(const std::string& stage) const;
 
   // Order matters for a kill at any moment: the summary first, then the stage marked complete (with the hashes of
-  // its files and summary entry, which --resume checks), then its checkpoint removed. Killed in between, a resume
-  // re-runs the stage's tail from the checkpoint.
+  // its files and summary entry, which --resume checks), then its checkpoint removed. Killed before the stage is
+  // marked, a resume re-runs the stage's tail from the checkpoint; killed after, the resume removes the stray one.
   void mark_done(const std::string& stage);
 
   // Prints a warning and records it in the summary, once: a resumed run reloads the summary it had written.
@@ -85,6 +98,7 @@ class RunDirectory {
   const nlohmann::json& summary_entry(const std::string& stage) const;
   // UsageError naming the file when a finished stage's files or summary entry are not those it recorded.
   void check_finished(const std::string& stage) const;
+  void remove_checkpoint(const std::string& stage);  // its checkpoint state, where it is
 
   std::filesystem::path dir_;
   FolderLock lock_;  // before anything in the folder is read or removed

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -10,6 +12,7 @@
 #include "helpers.hpp"
 #include "io/state_file.hpp"
 #include "measure/series.hpp"
+#include "run/run_directory.hpp"
 #include "run/runner.hpp"
 
 namespace celldem {
@@ -95,6 +98,124 @@ TEST(Runner, RefusesToOverwriteResultsWithoutForce) {
   EXPECT_EQ(read_bytes(out / "summary.json"), "{}");
   options.resume = true;  // nothing to resume either: a usage error too
   EXPECT_THROW(run_deck(read_deck((dir.path() / "deck.json").string()), options), UsageError);
+}
+
+// The message of a refusal, or "" when `f` did not throw UsageError.
+template <class F>
+std::string refusal(F f) {
+  try {
+    f();
+  } catch (const UsageError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(FolderLock, RefusesALinkedLockFileAndWritesNothingThroughIt) {
+  testing::TempDir dir;
+  testing::write_bytes(dir.path() / "victim", "another file\n");
+  fs::create_directories(dir.path() / "run");
+  fs::create_symlink(dir.path() / "victim", dir.path() / "run" / kLockName);
+  const std::string why = refusal([&] { FolderLock lock(dir.path() / "run"); });
+  EXPECT_NE(why.find("is a symbolic link"), std::string::npos) << why;
+  EXPECT_EQ(testing::read_bytes(dir.path() / "victim"), "another file\n");
+}
+
+// The folder itself is locked: deleting or replacing run.lock under its holder lets no one else in, and the one
+// refused is told the holder's pid (this process's: flock locks of two open files conflict within one process).
+TEST(FolderLock, HoldsWhenTheLockFileIsDeletedAndNamesTheHolder) {
+  testing::TempDir dir;
+  const fs::path run = dir.path() / "run";
+  FolderLock held(run);
+  EXPECT_EQ(testing::read_bytes(run / kLockName), std::to_string(::getpid()) + "\n");
+  fs::remove(run / kLockName);
+  std::string why = refusal([&] { FolderLock second(run); });
+  EXPECT_NE(why.find("in use by another celldem process (pid " + std::to_string(::getpid()) + ","), std::string::npos)
+      << why;
+  testing::write_bytes(run / kLockName, "1\n");  // a stale pid there: the kernel's word comes first
+  why = refusal([&] { FolderLock second(run, LockMode::shared); });
+  EXPECT_NE(why.find("(pid " + std::to_string(::getpid()) + ","), std::string::npos) << why;
+}
+
+TEST(FolderLock, ReadersShareAFolderAndExcludeAWriter) {
+  testing::TempDir dir;
+  const fs::path run = dir.path() / "run";
+  fs::create_directories(run);
+  {
+    FolderLock a(run, LockMode::shared), b(run, LockMode::shared);  // no run.lock yet: none made
+    EXPECT_FALSE(fs::exists(run / kLockName));
+    EXPECT_NE(refusal([&] { FolderLock writer(run); }), "");
+  }
+  FolderLock writer(run);
+  EXPECT_NE(refusal([&] { FolderLock reader(run, LockMode::shared); }), "");
+  EXPECT_NE(refusal([&] { FolderLock reader(dir.path() / "none", LockMode::shared); }), "");
+}
+
+RunOptions options_for(const fs::path& out, bool resume) {
+  RunOptions options;
+  options.out_dir = out.string();
+  options.threads = 1;
+  options.quiet = true;
+  options.resume = resume;
+  return options;
+}
+
+// Marking a stage done removes its checkpoint; a run killed between the two (the stage marked, the checkpoint still
+// there) has it removed by its resume. The finished stage's files are proven by their hashes: a resume refuses one
+// that changed, naming it.
+TEST(RunDirectory, AStageMarkedDoneKeepsNoCheckpoint) {
+  testing::TempDir dir;
+  testing::write_bytes(dir.path() / "deck.json", quick_prepare_deck());
+  const Deck deck = read_deck((dir.path() / "deck.json").string());
+  const fs::path out = dir.path() / "out";
+  {
+    RunDirectory run(deck, options_for(out, false));
+    fs::create_directories(run.stage_dir("prepare"));
+    testing::write_bytes(run.checkpoint("prepare"), "state");
+    testing::write_bytes(run.stage_dir("prepare") / "series.csv", "step\n0\n");
+    testing::write_bytes(run.prepared_state(), "prepared");
+    run.update_summary([](nlohmann::json& s) { s["prepared"] = {{"Z", 6.0}}; });
+    run.mark_done("prepare");
+    EXPECT_FALSE(fs::exists(run.checkpoint("prepare")));
+  }
+  testing::write_bytes(out / "prepare" / kCheckpointName, "a stale checkpoint");  // as a kill in between leaves it
+  {
+    RunDirectory resumed(deck, options_for(out, true));
+    EXPECT_TRUE(resumed.completed("prepare"));
+    EXPECT_FALSE(fs::exists(out / "prepare" / kCheckpointName));
+  }
+  testing::write_bytes(out / "prepare" / "series.csv", "step\n0\n1\n");  // a row appended behind the run
+  try {
+    RunDirectory resumed(deck, options_for(out, true));
+    ADD_FAILURE() << "a changed series was accepted";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("prepare/series.csv was changed"), std::string::npos) << e.what();
+  }
+}
+
+// A stage folder linked into another run is refused (fresh, --force and --resume alike), naming it; a link that
+// stays in the run folder is the run's own.
+TEST(RunDirectory, RefusesAStageFolderLinkedOutOfTheRun) {
+  testing::TempDir dir;
+  testing::write_bytes(dir.path() / "deck.json", quick_prepare_deck());
+  const Deck deck = read_deck((dir.path() / "deck.json").string());
+  const fs::path out = dir.path() / "out", other = dir.path() / "other" / "prepare";
+  fs::create_directories(other);
+  testing::write_bytes(other / "series.csv", "another run's series\n");
+  fs::create_directories(out);
+  fs::create_symlink(other, out / "prepare");
+  for (const bool force : {false, true}) {
+    RunOptions options = options_for(out, false);
+    options.force = force;
+    const std::string why = refusal([&] { RunDirectory run(deck, options); });
+    EXPECT_NE(why.find((out / "prepare").string() + " is a symbolic link to " + other.string() +
+                       ", outside the run folder"), std::string::npos) << why;
+  }
+  EXPECT_EQ(testing::read_bytes(other / "series.csv"), "another run's series\n");
+  fs::remove(out / "prepare");
+  fs::create_directories(out / "mine");
+  fs::create_symlink("mine", out / "prepare");
+  EXPECT_NO_THROW(RunDirectory(deck, options_for(out, false)));
 }
 
 }  // namespace

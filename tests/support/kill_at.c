@@ -4,7 +4,8 @@
 // Events, numbered from 1 in the order the process makes them: an open for writing, a write to a regular file,
 // an fsync, a rename, an unlink or remove, a mkdir. Writes to the terminal, pipes and the standard streams are not
 // events (they are not files a resume reads).
-//   CELLDEM_KILL_LOG=FILE   appends "N op path" for each event (to count a run's events, or to see where a kill hit)
+//   CELLDEM_KILL_LOG=FILE   appends "N op path" for each event (to count a run's events), the event a kill lands at
+//                           marked " KILL" (the last line of a killed process's log)
 //   CELLDEM_KILL_AT=N       SIGKILL at event N ...
 //   CELLDEM_KILL_WHEN=when  ... "before" it happens, "after" it (the default), or "torn": a write of half its
 //                           bytes, then the kill (a row or a state cut short, as a full disk or a crash leaves it)
@@ -49,7 +50,7 @@ static long event(const char* op, const char* path) {
   const long n = atomic_fetch_add(&g_events, 1) + 1;
   if (g_log >= 0) {
     char line[4200];
-    const int len = snprintf(line, sizeof line, "%ld %s %s\n", n, op, path ? path : "?");
+    const int len = snprintf(line, sizeof line, "%ld %s %s%s\n", n, op, path ? path : "?", n == g_kill_at ? " KILL" : "");
     if (len > 0) syscall(SYS_write, g_log, line, (size_t)(len < (int)sizeof line ? len : (int)sizeof line - 1));
   }
   if (n == g_kill_at && g_when == kBefore) die();
@@ -76,12 +77,14 @@ static const char* fd_path(int fd, char* buf, size_t size) {
   static __typeof__(name)* real_##name; \
   if (!real_##name) { void* found = dlsym(RTLD_NEXT, #name); memcpy(&real_##name, &found, sizeof found); }
 
+// Whether open's third argument is there: with O_CREAT or O_TMPFILE (whose bits include O_DIRECTORY's).
+static int takes_mode(int flags) { return (flags & O_CREAT) || (flags & O_TMPFILE) == O_TMPFILE; }
 static int writes(int flags) { return (flags & (O_WRONLY | O_RDWR | O_CREAT | O_TRUNC | O_APPEND)) != 0; }
 
 int open(const char* path, int flags, ...) {
   REAL(open);
   mode_t mode = 0;
-  if (flags & (O_CREAT | O_TMPFILE)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
+  if (takes_mode(flags)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
   if (!writes(flags)) return real_open(path, flags, mode);
   const long n = event("open", path);
   const int fd = real_open(path, flags, mode);
@@ -91,7 +94,7 @@ int open(const char* path, int flags, ...) {
 int open64(const char* path, int flags, ...) {
   REAL(open64);
   mode_t mode = 0;
-  if (flags & (O_CREAT | O_TMPFILE)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
+  if (takes_mode(flags)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
   if (!writes(flags)) return real_open64(path, flags, mode);
   const long n = event("open", path);
   const int fd = real_open64(path, flags, mode);
@@ -101,7 +104,7 @@ int open64(const char* path, int flags, ...) {
 int openat(int dir, const char* path, int flags, ...) {
   REAL(openat);
   mode_t mode = 0;
-  if (flags & (O_CREAT | O_TMPFILE)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
+  if (takes_mode(flags)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
   if (!writes(flags)) return real_openat(dir, path, flags, mode);
   const long n = event("open", path);
   const int fd = real_openat(dir, path, flags, mode);
