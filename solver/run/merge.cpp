@@ -221,6 +221,7 @@ namespace {
 std::vector<FolderLock> lock_folders(const fs::path& into, const std::vector<fs::path>& from) {
   std::vector<FolderLock> locks;
   locks.emplace_back(into);
+  locks.back().claim();  // the merge writes there
   std::vector<fs::path> locked = {into};
   for (const fs::path& other : from)
     if (std::none_of(locked.begin(), locked.end(), [&](const fs::path& p) { return fs::equivalent(p, other); })) {

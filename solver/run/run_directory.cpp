@@ -190,7 +190,6 @@ FolderLock::FolderLock(const fs::path& dir, LockMode mode) {
     release();
     throw;
   }
-  if (mode == LockMode::exclusive) claim();
 }
 
 void FolderLock::claim() {
@@ -273,6 +272,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
       // Killed between marking the stage done and removing its checkpoint: the checkpoint is stale, removed.
       remove_checkpoint(stage.get<std::string>());
     }
+    lock_.claim();
     return;
   }
   if (fs::exists(dir_)) {
@@ -286,6 +286,7 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
       for (const fs::path& p : outputs) fs::remove_all(p);  // only the new run's outputs will be there
     }
   }
+  lock_.claim();
   fs::create_directories(dir_);
   const bool share = options.probes.first != ProbeSelection{}.first || options.probes.last != ProbeSelection{}.last;
   const std::string kind = !options.kind.empty() ? options.kind : share ? "probe share" : "single";

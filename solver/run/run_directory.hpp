@@ -34,7 +34,7 @@ enum class LockMode { exclusive, shared };
 // deleted or replaced under a live run; run.lock is kept for the tools that wait on it (tools/celldem/binary.py), is
 // never followed when it is a symbolic link (refused), and is verified after locking to be the file at its path. A
 // second process is refused (UsageError naming the holder's pid, as the kernel tells it: /proc/locks, else the pid
-// the holder wrote into run.lock right after locking); the kernel drops the locks of a process that dies, so the
+// the holder wrote into run.lock once it went on to write: a refused command changes no file); the kernel drops the locks of a process that dies, so the
 // file a killed run leaves behind is taken over. An exclusive lock creates DIR; a shared one requires it.
 class FolderLock {
  public:
@@ -45,7 +45,8 @@ class FolderLock {
   FolderLock& operator=(FolderLock&& other) noexcept;
   FolderLock(const FolderLock&) = delete;
   FolderLock& operator=(const FolderLock&) = delete;
-  // Writes this process's pid into the lock file again (an exclusive lock wrote it when it was taken).
+  // Writes this process's pid into the lock file: once the holder goes on to write in the folder (a command refused
+  // for another reason leaves the folder's files as they were).
   void claim();
 
  private:
