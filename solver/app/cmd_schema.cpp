@@ -10,9 +10,13 @@
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
 #include "io/schema_print.hpp"
+#include "io/state_file.hpp"
 #include "io/tolerance.hpp"
+#include "measure/network_stiffness.hpp"
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
+#include "neighbor/neighbor_list.hpp"
+#include "run/preflight.hpp"
 #include "run/health.hpp"
 #include "run/probes.hpp"
 #include "run/sample.hpp"
@@ -445,11 +449,58 @@ std::string describe_tolerance(const Json& t) {
   return words;
 }
 
+// The stability limit from the contact network of a state (measure/network_stiffness.hpp network_time_step_limit)
+// beside the pair formula's, and the deck's time step against both: `plan`'s "network_time_step", when the deck
+// has an initial_state or `--state` names a state file. A law other than the linear one gives its reason.
+Json network_time_step_json(const Deck& deck, const std::string& state_path) {
+  State state = state_path.empty() ? load_initial_state(deck) : read_state(state_path);
+  state.pairs.skin = skin_length(deck);
+  const Model model = make_model(deck, state.particles.radius);
+  Json out = {{"state", state_path.empty() ? initial_state_path(deck) : state_path}, {"particles", state.particles.size()}};
+  try {
+    rebuild_pairs(model, state);
+    const NetworkTimeStep t = network_time_step_limit(model, state);
+    out.update({{"omega_max", t.omega_max},
+                {"limit", t.limit},
+                {"limit_over_unit", t.limit / t.unit},
+                {"pair_limit", t.pair_limit},
+                {"pair_limit_over_unit", t.pair_limit / t.unit},
+                {"network_over_pair", t.limit / t.pair_limit},
+                {"unit", t.unit},
+                {"gershgorin_limit", t.gershgorin_omega > 0.0 ? Json(2.0 / t.gershgorin_omega) : Json(nullptr)},
+                {"time_step_over_limit", deck.time_step / t.limit},
+                {"contacts", t.contacts},
+                {"unknowns", t.unknowns},
+                {"iterations", t.iterations},
+                {"residual_bound", t.residual_bound},
+                {"seconds", t.seconds}});
+  } catch (const std::invalid_argument& e) {
+    out["error"] = e.what();
+  }
+  return out;
+}
+
+void print_network_time_step(const Json& n) {
+  if (n.contains("error")) {
+    std::printf("  network stability limit of %s: %s\n", n["state"].get<std::string>().c_str(),
+                n["error"].get<std::string>().c_str());
+    return;
+  }
+  std::printf("  network stability limit (2/omega_max of the %lld contacts of %s, sticking, Lanczos %d steps, %.2g s): "
+              "%.3g s = %.3f sqrt(m_min/kn); the pair formula's 2/omega %.3g s = %.3f sqrt(m_min/kn) (network/pair "
+              "%.3f); time step %.3f of the network's limit\n",
+              static_cast<long long>(n["contacts"].get<std::int64_t>()), n["state"].get<std::string>().c_str(),
+              n["iterations"].get<int>(), n["seconds"].get<double>(), n["limit"].get<double>(),
+              n["limit_over_unit"].get<double>(), n["pair_limit"].get<double>(), n["pair_limit_over_unit"].get<double>(),
+              n["network_over_pair"].get<double>(), n["time_step_over_limit"].get<double>());
+}
+
 Command add_plan_command(CLI::App& app) {
   struct Args {
     std::string deck;
     bool json = false;
     std::optional<double> tolerance;
+    std::string state;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("plan", "What a deck implies before it runs: steps and rows per test, "
@@ -459,10 +510,15 @@ Command add_plan_command(CLI::App& app) {
   cmd->add_option("--tolerance", a->tolerance,
                   "The deck rewritten for T noise floors (as `run --tolerance T`): each stage's settings and "
                   "particle-steps against the deck as written");
+  cmd->add_option("--state", a->state,
+                  "A state file (e.g. a run's prepared.state) whose contact network gives the stability limit from "
+                  "its spectrum beside the pair formula's (a deck with initial_state: that state by default)")
+      ->check(CLI::ExistingFile);
   return [cmd, a]() -> int {
     if (!cmd->parsed()) return -1;
     const Deck deck = read_deck(a->deck, a->tolerance);
     Json plan = plan_json(deck);
+    if (!a->state.empty() || deck.initial_state) plan["network_time_step"] = network_time_step_json(deck, a->state);
     if (deck.tolerance) plan["tolerance"] = tolerance_json(read_deck_as_written(a->deck), deck);
     if (a->json) {
       std::printf("%s\n", plan.dump(1).c_str());
@@ -483,6 +539,7 @@ Command add_plan_command(CLI::App& app) {
                   m["stiffness_name"].get<std::string>().c_str(), m["stiffness"].get<double>(),
                   name == plan["limiting_mode"].get<std::string>() ? "  limiting" : "");
     }
+    if (plan.contains("network_time_step")) print_network_time_step(plan["network_time_step"]);
     std::printf("  time step bounds:\n");
     for (const Json& b : plan["time_step_bounds"])
       std::printf("    %-6s %-5s %5g %s = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
