@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -14,8 +13,6 @@
 #include <vector>
 
 #include "contact/contact_law.hpp"
-#include "core/plan.hpp"
-#include "neighbor/neighbor_list.hpp"
 #include "measure/micro.hpp"
 
 namespace celldem {
@@ -461,36 +458,6 @@ NetworkTimeStep network_time_step_limit(const Model& model, const State& state) 
   out.pair_limit = out.pair_omega > 0.0 ? 2.0 / out.pair_omega : std::numeric_limits<double>::infinity();
   out.unit = std::sqrt(m_min / model.contact.kn);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return out;
-}
-
-std::string network_time_step_warning(const Deck& deck, State state) {
-  if (deck.prepare) return "";  // the preparation compresses the state first: its network is not the tests'
-  std::vector<std::pair<std::string, double>> stages;  // the tests' keys and time steps
-  for (std::size_t k = 0; k < deck.tests.size(); ++k)
-    stages.emplace_back(deck.tests[k].time_step ? "tests[" + std::to_string(k) + "].time_step" : "time_step",
-                        deck.stage_time_step(deck.tests[k]));
-  const Model model = make_model(deck, state.particles.radius);
-  try {
-    check_law(model.contact);
-  } catch (const std::invalid_argument&) {
-    return "";
-  }
-  state.pairs.skin = skin_length(deck);
-  rebuild_pairs(model, state);
-  const NetworkTimeStep t = network_time_step_limit(model, state);
-  std::string out;
-  for (const auto& [key, dt] : stages) {
-    if (!(dt > kNetworkTimeStepMargin * t.limit) || out.find(key + " ") != std::string::npos) continue;
-    char buf[512];
-    std::snprintf(buf, sizeof buf,
-                  "%s%s %.3g s is %.3f of the stability limit 2/omega_max = %.3g s of initial_state's contact network "
-                  "(%d contacts, sticking; the pair formula's 2/omega is %.3g s), above %.2f of it: a packing boils "
-                  "near its network's limit (docs/physics.md); `celldem plan` gives both",
-                  out.empty() ? "" : "; ", key.c_str(), dt, dt / t.limit, t.limit, t.contacts, t.pair_limit,
-                  kNetworkTimeStepMargin);
-    out += buf;
-  }
   return out;
 }
 

@@ -44,12 +44,10 @@
 // modes (a free spin) are loaded by no strain, and the solve always exists.
 #pragma once
 #include <array>
-#include <string>
 
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
 
-#include "core/deck.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
 
@@ -125,14 +123,6 @@ NetworkTimeStep network_time_step_limit(const Model& model, const State& state);
 // A = M^-1/2 K M^-1/2 of network_time_step_limit [1/s^2], 6 unknowns per particle (u_x, u_y, u_z, theta_x,
 // theta_y, theta_z of particle p at 6p..6p+5): the matrix whose largest eigenvalue is omega_max^2.
 Eigen::SparseMatrix<double> network_dynamic_matrix(const Model& model, const State& state);
-// The warning `check` and `run` give before a deck's tests start from its initial state (no `prepare`): each test
-// time step above kNetworkTimeStepMargin of the state's network limit (network_time_step_limit, the pair list built
-// here with the deck's skin); empty when none is, with `prepare` (which compresses the state first), and for a law
-// other than the linear one. The margin: the packings of docs/physics.md's sweep boil from about 0.95 of their
-// network limit.
-inline constexpr double kNetworkTimeStepMargin = 0.9;
-std::string network_time_step_warning(const Deck& deck, State state);
-
 // The largest eigenvalue of a symmetric positive semidefinite matrix by Lanczos iteration from a fixed start,
 // to the residual bound `tolerance` (relative); iterations and the bound reached through the pointers.
 double largest_eigenvalue(const Eigen::SparseMatrix<double>& a, double tolerance, int* iterations = nullptr,

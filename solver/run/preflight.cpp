@@ -15,7 +15,6 @@
 #include "io/lammps_data.hpp"
 #include "io/state_file.hpp"
 #include "measure/micro.hpp"
-#include "measure/network_stiffness.hpp"
 #include "measure/quasi_static.hpp"
 #include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
@@ -164,7 +163,6 @@ void check_state(const Deck& deck, const std::string& path, std::vector<std::str
                     "largest diameter and the skin (it must exceed " + fmt(needed) + " m)");
   const Overlaps o = check_overlaps(deck, state, atom_ids, path);
   if (!deck.prepare) warn_loose_start(deck, state, o, path, warnings);
-  if (std::string w = network_time_step_warning(deck, state); !w.empty()) warnings.push_back(std::move(w));
 }
 
 // The largest axis-1 strain a test reaches at the ends of its legs; NaN unless every leg drives axis 1 by
