@@ -495,6 +495,51 @@ void print_network_time_step(const Json& n) {
               n["network_over_pair"].get<double>(), n["time_step_over_limit"].get<double>());
 }
 
+// The time step against the pair formula's limit per mode, the network's (with a state) and the bounds.
+void print_time_steps(const std::string& deck_path, const Json& plan) {
+  std::printf("%s: time step %.3g s = %.3f of the stability limit %.3g s (%s mode); skin %.3g m\n",
+              deck_path.c_str(), plan["time_step"].get<double>(), plan["time_step_ratio"].get<double>(),
+              plan["critical_time_step"].get<double>(), plan["limiting_mode"].get<std::string>().c_str(),
+              plan["skin"].get<double>());
+  std::printf("  stability limit per mode (sqrt(2)/omega, two smallest spheres sticking):\n");
+  for (const char* name : {"normal", "tangential-rotational", "rolling", "twisting"}) {
+    const Json& m = plan["time_step_limits"][name];
+    if (m["time_step"].is_null()) {
+      std::printf("    %-22s none (the law has no such spring)\n", name);
+      continue;
+    }
+    std::printf("    %-22s %.3g s  (%s = %.3g)%s\n", name, m["time_step"].get<double>(),
+                m["stiffness_name"].get<std::string>().c_str(), m["stiffness"].get<double>(),
+                name == plan["limiting_mode"].get<std::string>() ? "  limiting" : "");
+  }
+  if (plan.contains("network_time_step")) print_network_time_step(plan["network_time_step"]);
+  std::printf("  time step bounds:\n");
+  for (const Json& b : plan["time_step_bounds"])
+    std::printf("    %-6s %-5s %5g %s = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
+                b["when"].get<std::string>().c_str(), b["fraction"].get<double>(),
+                b["of"] == "normal_time_step" ? "t_c(normal)" : "t_c", b["time_step"].get<double>(),
+                b["name"].get<std::string>().c_str());
+}
+
+// A grading's percent passing per sieve, asked and realised (nothing without a grading).
+void print_grading(const Json& g, std::uint64_t seed) {
+  if (g.is_null()) return;
+  const bool realised = !g["realised_percent"].is_null();
+  std::printf("  grading by %s, percent passing each sieve: asked, and realised by the %s\n",
+              g["by"].get<std::string>().c_str(),
+              realised ? (std::to_string(g["spheres"].get<std::size_t>()) + " spheres that seed " +
+                          std::to_string(seed) + " draws").c_str()
+                       : "initial_state's spheres (in the run's summary.json)");
+  std::printf("    %12s %8s %9s\n", "size [m]", "asked", realised ? "realised" : "");
+  for (std::size_t k = 0; k < g["sizes_m"].size(); ++k) {
+    std::printf("    %12.4g %8.2f", g["sizes_m"][k].get<double>(), g["asked_percent"][k].get<double>());
+    if (realised) std::printf(" %9.2f", g["realised_percent"][k].get<double>());
+    std::printf("\n");
+  }
+  if (realised)
+    std::printf("    largest deviation %.2f percentage points\n", g["largest_deviation_percent"].get<double>());
+}
+
 Command add_plan_command(CLI::App& app) {
   struct Args {
     std::string deck;
@@ -524,44 +569,8 @@ Command add_plan_command(CLI::App& app) {
       std::printf("%s\n", plan.dump(1).c_str());
       return 0;
     }
-    std::printf("%s: time step %.3g s = %.3f of the stability limit %.3g s (%s mode); skin %.3g m\n",
-                a->deck.c_str(), plan["time_step"].get<double>(), plan["time_step_ratio"].get<double>(),
-                plan["critical_time_step"].get<double>(), plan["limiting_mode"].get<std::string>().c_str(),
-                plan["skin"].get<double>());
-    std::printf("  stability limit per mode (sqrt(2)/omega, two smallest spheres sticking):\n");
-    for (const char* name : {"normal", "tangential-rotational", "rolling", "twisting"}) {
-      const Json& m = plan["time_step_limits"][name];
-      if (m["time_step"].is_null()) {
-        std::printf("    %-22s none (the law has no such spring)\n", name);
-        continue;
-      }
-      std::printf("    %-22s %.3g s  (%s = %.3g)%s\n", name, m["time_step"].get<double>(),
-                  m["stiffness_name"].get<std::string>().c_str(), m["stiffness"].get<double>(),
-                  name == plan["limiting_mode"].get<std::string>() ? "  limiting" : "");
-    }
-    if (plan.contains("network_time_step")) print_network_time_step(plan["network_time_step"]);
-    std::printf("  time step bounds:\n");
-    for (const Json& b : plan["time_step_bounds"])
-      std::printf("    %-6s %-5s %5g %s = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
-                  b["when"].get<std::string>().c_str(), b["fraction"].get<double>(),
-                  b["of"] == "normal_time_step" ? "t_c(normal)" : "t_c", b["time_step"].get<double>(),
-                  b["name"].get<std::string>().c_str());
-    if (const Json& g = plan["sample"]["grading"]; !g.is_null()) {
-      const bool realised = !g["realised_percent"].is_null();
-      std::printf("  grading by %s, percent passing each sieve: asked, and realised by the %s\n",
-                  g["by"].get<std::string>().c_str(),
-                  realised ? (std::to_string(g["spheres"].get<std::size_t>()) + " spheres that seed " +
-                              std::to_string(deck.sample.seed) + " draws").c_str()
-                           : "initial_state's spheres (in the run's summary.json)");
-      std::printf("    %12s %8s %9s\n", "size [m]", "asked", realised ? "realised" : "");
-      for (std::size_t k = 0; k < g["sizes_m"].size(); ++k) {
-        std::printf("    %12.4g %8.2f", g["sizes_m"][k].get<double>(), g["asked_percent"][k].get<double>());
-        if (realised) std::printf(" %9.2f", g["realised_percent"][k].get<double>());
-        std::printf("\n");
-      }
-      if (realised)
-        std::printf("    largest deviation %.2f percentage points\n", g["largest_deviation_percent"].get<double>());
-    }
+    print_time_steps(a->deck, plan);
+    print_grading(plan["sample"]["grading"], deck.sample.seed);
     // A stage and its legs, the preparation's as a test's: steps, rows, each leg's end, driving and servo cap.
     const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
     const auto range = [&](const Json& r) {
