@@ -10,9 +10,13 @@
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
 #include "io/schema_print.hpp"
+#include "io/state_file.hpp"
 #include "io/tolerance.hpp"
+#include "measure/network_stiffness.hpp"
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
+#include "neighbor/neighbor_list.hpp"
+#include "run/preflight.hpp"
 #include "run/health.hpp"
 #include "run/probes.hpp"
 #include "run/sample.hpp"
@@ -445,11 +449,103 @@ std::string describe_tolerance(const Json& t) {
   return words;
 }
 
+// The stability limit from the contact network of a state (measure/network_stiffness.hpp network_time_step_limit)
+// beside the pair formula's, and the deck's time step against both: `plan`'s "network_time_step", when the deck
+// has an initial_state or `--state` names a state file. A law other than the linear one gives its reason.
+Json network_time_step_json(const Deck& deck, const std::string& state_path) {
+  State state = state_path.empty() ? load_initial_state(deck) : read_state(state_path);
+  state.pairs.skin = skin_length(deck);
+  const Model model = make_model(deck, state.particles.radius);
+  Json out = {{"state", state_path.empty() ? initial_state_path(deck) : state_path}, {"particles", state.particles.size()}};
+  try {
+    rebuild_pairs(model, state);
+    const NetworkTimeStep t = network_time_step_limit(model, state);
+    out.update({{"omega_max", t.omega_max},
+                {"limit", t.limit},
+                {"limit_over_unit", t.limit / t.unit},
+                {"pair_limit", t.pair_limit},
+                {"pair_limit_over_unit", t.pair_limit / t.unit},
+                {"network_over_pair", t.limit / t.pair_limit},
+                {"unit", t.unit},
+                {"gershgorin_limit", t.gershgorin_omega > 0.0 ? Json(2.0 / t.gershgorin_omega) : Json(nullptr)},
+                {"time_step_over_limit", deck.time_step / t.limit},
+                {"contacts", t.contacts},
+                {"unknowns", t.unknowns},
+                {"iterations", t.iterations},
+                {"residual_bound", t.residual_bound},
+                {"seconds", t.seconds}});
+  } catch (const std::invalid_argument& e) {
+    out["error"] = e.what();
+  }
+  return out;
+}
+
+void print_network_time_step(const Json& n) {
+  if (n.contains("error")) {
+    std::printf("  network stability limit of %s: %s\n", n["state"].get<std::string>().c_str(),
+                n["error"].get<std::string>().c_str());
+    return;
+  }
+  std::printf("  network stability limit (2/omega_max of the %lld contacts of %s, sticking, Lanczos %d steps, %.2g s): "
+              "%.3g s = %.3f sqrt(m_min/kn); the pair formula's 2/omega %.3g s = %.3f sqrt(m_min/kn) (network/pair "
+              "%.3f); time step %.3f of the network's limit\n",
+              static_cast<long long>(n["contacts"].get<std::int64_t>()), n["state"].get<std::string>().c_str(),
+              n["iterations"].get<int>(), n["seconds"].get<double>(), n["limit"].get<double>(),
+              n["limit_over_unit"].get<double>(), n["pair_limit"].get<double>(), n["pair_limit_over_unit"].get<double>(),
+              n["network_over_pair"].get<double>(), n["time_step_over_limit"].get<double>());
+}
+
+// The time step against the pair formula's limit per mode, the network's (with a state) and the bounds.
+void print_time_steps(const std::string& deck_path, const Json& plan) {
+  std::printf("%s: time step %.3g s = %.3f of the stability limit %.3g s (%s mode); skin %.3g m\n",
+              deck_path.c_str(), plan["time_step"].get<double>(), plan["time_step_ratio"].get<double>(),
+              plan["critical_time_step"].get<double>(), plan["limiting_mode"].get<std::string>().c_str(),
+              plan["skin"].get<double>());
+  std::printf("  stability limit per mode (sqrt(2)/omega, two smallest spheres sticking):\n");
+  for (const char* name : {"normal", "tangential-rotational", "rolling", "twisting"}) {
+    const Json& m = plan["time_step_limits"][name];
+    if (m["time_step"].is_null()) {
+      std::printf("    %-22s none (the law has no such spring)\n", name);
+      continue;
+    }
+    std::printf("    %-22s %.3g s  (%s = %.3g)%s\n", name, m["time_step"].get<double>(),
+                m["stiffness_name"].get<std::string>().c_str(), m["stiffness"].get<double>(),
+                name == plan["limiting_mode"].get<std::string>() ? "  limiting" : "");
+  }
+  if (plan.contains("network_time_step")) print_network_time_step(plan["network_time_step"]);
+  std::printf("  time step bounds:\n");
+  for (const Json& b : plan["time_step_bounds"])
+    std::printf("    %-6s %-5s %5g %s = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
+                b["when"].get<std::string>().c_str(), b["fraction"].get<double>(),
+                b["of"] == "normal_time_step" ? "t_c(normal)" : "t_c", b["time_step"].get<double>(),
+                b["name"].get<std::string>().c_str());
+}
+
+// A grading's percent passing per sieve, asked and realised (nothing without a grading).
+void print_grading(const Json& g, std::uint64_t seed) {
+  if (g.is_null()) return;
+  const bool realised = !g["realised_percent"].is_null();
+  std::printf("  grading by %s, percent passing each sieve: asked, and realised by the %s\n",
+              g["by"].get<std::string>().c_str(),
+              realised ? (std::to_string(g["spheres"].get<std::size_t>()) + " spheres that seed " +
+                          std::to_string(seed) + " draws").c_str()
+                       : "initial_state's spheres (in the run's summary.json)");
+  std::printf("    %12s %8s %9s\n", "size [m]", "asked", realised ? "realised" : "");
+  for (std::size_t k = 0; k < g["sizes_m"].size(); ++k) {
+    std::printf("    %12.4g %8.2f", g["sizes_m"][k].get<double>(), g["asked_percent"][k].get<double>());
+    if (realised) std::printf(" %9.2f", g["realised_percent"][k].get<double>());
+    std::printf("\n");
+  }
+  if (realised)
+    std::printf("    largest deviation %.2f percentage points\n", g["largest_deviation_percent"].get<double>());
+}
+
 Command add_plan_command(CLI::App& app) {
   struct Args {
     std::string deck;
     bool json = false;
     std::optional<double> tolerance;
+    std::string state;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("plan", "What a deck implies before it runs: steps and rows per test, "
@@ -459,52 +555,22 @@ Command add_plan_command(CLI::App& app) {
   cmd->add_option("--tolerance", a->tolerance,
                   "The deck rewritten for T noise floors (as `run --tolerance T`): each stage's settings and "
                   "particle-steps against the deck as written");
+  cmd->add_option("--state", a->state,
+                  "A state file (e.g. a run's prepared.state) whose contact network gives the stability limit from "
+                  "its spectrum beside the pair formula's (a deck with initial_state: that state by default)")
+      ->check(CLI::ExistingFile);
   return [cmd, a]() -> int {
     if (!cmd->parsed()) return -1;
     const Deck deck = read_deck(a->deck, a->tolerance);
     Json plan = plan_json(deck);
+    if (!a->state.empty() || deck.initial_state) plan["network_time_step"] = network_time_step_json(deck, a->state);
     if (deck.tolerance) plan["tolerance"] = tolerance_json(read_deck_as_written(a->deck), deck);
     if (a->json) {
       std::printf("%s\n", plan.dump(1).c_str());
       return 0;
     }
-    std::printf("%s: time step %.3g s = %.3f of the stability limit %.3g s (%s mode); skin %.3g m\n",
-                a->deck.c_str(), plan["time_step"].get<double>(), plan["time_step_ratio"].get<double>(),
-                plan["critical_time_step"].get<double>(), plan["limiting_mode"].get<std::string>().c_str(),
-                plan["skin"].get<double>());
-    std::printf("  stability limit per mode (sqrt(2)/omega, two smallest spheres sticking):\n");
-    for (const char* name : {"normal", "tangential-rotational", "rolling", "twisting"}) {
-      const Json& m = plan["time_step_limits"][name];
-      if (m["time_step"].is_null()) {
-        std::printf("    %-22s none (the law has no such spring)\n", name);
-        continue;
-      }
-      std::printf("    %-22s %.3g s  (%s = %.3g)%s\n", name, m["time_step"].get<double>(),
-                  m["stiffness_name"].get<std::string>().c_str(), m["stiffness"].get<double>(),
-                  name == plan["limiting_mode"].get<std::string>() ? "  limiting" : "");
-    }
-    std::printf("  time step bounds:\n");
-    for (const Json& b : plan["time_step_bounds"])
-      std::printf("    %-6s %-5s %5g %s = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
-                  b["when"].get<std::string>().c_str(), b["fraction"].get<double>(),
-                  b["of"] == "normal_time_step" ? "t_c(normal)" : "t_c", b["time_step"].get<double>(),
-                  b["name"].get<std::string>().c_str());
-    if (const Json& g = plan["sample"]["grading"]; !g.is_null()) {
-      const bool realised = !g["realised_percent"].is_null();
-      std::printf("  grading by %s, percent passing each sieve: asked, and realised by the %s\n",
-                  g["by"].get<std::string>().c_str(),
-                  realised ? (std::to_string(g["spheres"].get<std::size_t>()) + " spheres that seed " +
-                              std::to_string(deck.sample.seed) + " draws").c_str()
-                           : "initial_state's spheres (in the run's summary.json)");
-      std::printf("    %12s %8s %9s\n", "size [m]", "asked", realised ? "realised" : "");
-      for (std::size_t k = 0; k < g["sizes_m"].size(); ++k) {
-        std::printf("    %12.4g %8.2f", g["sizes_m"][k].get<double>(), g["asked_percent"][k].get<double>());
-        if (realised) std::printf(" %9.2f", g["realised_percent"][k].get<double>());
-        std::printf("\n");
-      }
-      if (realised)
-        std::printf("    largest deviation %.2f percentage points\n", g["largest_deviation_percent"].get<double>());
-    }
+    print_time_steps(a->deck, plan);
+    print_grading(plan["sample"]["grading"], deck.sample.seed);
     // A stage and its legs, the preparation's as a test's: steps, rows, each leg's end, driving and servo cap.
     const auto count = [](const Json& n) { return n.is_null() ? std::string("?") : std::to_string(n.get<std::int64_t>()); };
     const auto range = [&](const Json& r) {

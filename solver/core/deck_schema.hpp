@@ -382,9 +382,10 @@ inline constexpr KeySpec adaptive_kinetic_to_elastic{.path = "tests[].adaptive_r
     .meaning = "target of the kinetic over the elastic energy of the contacts (series `kinetic_to_elastic`)"};
 inline constexpr KeySpec adaptive_inertial_number{.path = "tests[].adaptive_rate.inertial_number",
     .kind = KeyKind::Number, .max = 1.0, .positive = true, .required = false, .fallback = 5e-4,
-    .meaning = "ceiling on the inertial number rate d_mean sqrt(rho / p) (rate the deviatoric strain-rate scale of "
-               "the leg's driven axes, |e1-dot| for an axial test, docs/physics.md; p the mean stress; the default is "
-               "half the quasi-static limit 1e-3)"};
+    .meaning = "ceiling on the inertial number gamma_dot d_mean sqrt(rho / p) of the cell's actual deformation "
+               "(series `inertial_number`: gamma_dot = sqrt(2 D':D') of the cell's velocity gradient, servo-held axes "
+               "included, docs/physics.md; p the mean stress), measured at each check and scaled with the factor; "
+               "the default is half the quasi-static limit 1e-3"};
 inline constexpr KeySpec adaptive_check_interval{.path = "tests[].adaptive_rate.check_interval",
     .kind = KeyKind::Integer, .min = 1, .max = kMaxCount, .required = false, .fallback = 200,
     .meaning = "steps between the rate's checks"};

@@ -3,6 +3,9 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -356,6 +359,105 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
     out.relaxed.col(s) = voigt_of_stress(stress_change(contacts, unknowns, q, eps, stress, kn, kt,
                                                        prestress, affine_tangential, volume, kept));
   }
+  return out;
+}
+
+Eigen::SparseMatrix<double> network_dynamic_matrix(const Model& model, const State& state) {
+  check_law(model.contact);
+  const std::size_t n = state.particles.size();
+  if (state.pairs.first.size() != n + 1 || state.pairs.tangential.size() != state.pairs.size())
+    throw std::logic_error("network_dynamic_matrix: the pair list is not built (rebuild_pairs first)");
+  // M^-1/2 per unknown: 1/sqrt(m) for the translations, 1/sqrt(2/5 m r^2) for the spins.
+  std::vector<double> weight(6 * n);
+  for (std::size_t p = 0; p < n; ++p) {
+    const double r = state.particles.radius[p], m = model.mass_of(r);
+    for (int a = 0; a < 3; ++a) weight[6 * p + a] = 1.0 / std::sqrt(m), weight[6 * p + 3 + a] = 1.0 / std::sqrt(0.4 * m * r * r);
+  }
+  const std::vector<NetworkContact> contacts = network_contacts(model, state, true);
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(contacts.size() * 144);
+  for (const NetworkContact& c : contacts) {
+    const ContactMatrices m = matrices_of(c, model.contact.kn, model.contact.kt, false);
+    const Local local = m.branch_jacobian.transpose() * m.normal_stiffness * m.branch_jacobian +
+                        m.contact_jacobian.transpose() * m.tangential_projector * m.contact_jacobian;
+    std::array<Index, 12> index;  // z = (u_i, u_j, theta_i, theta_j)
+    for (int a = 0; a < 3; ++a)
+      index[a] = 6 * c.i + a, index[3 + a] = 6 * c.j + a, index[6 + a] = 6 * c.i + 3 + a, index[9 + a] = 6 * c.j + 3 + a;
+    for (int a = 0; a < 12; ++a)
+      for (int b = 0; b < 12; ++b)
+        if (local(a, b) != 0.0)
+          triplets.emplace_back(index[a], index[b], weight[index[a]] * local(a, b) * weight[index[b]]);
+  }
+  Eigen::SparseMatrix<double> a(static_cast<Eigen::Index>(6 * n), static_cast<Eigen::Index>(6 * n));
+  a.setFromTriplets(triplets.begin(), triplets.end());
+  return a;
+}
+
+double largest_eigenvalue(const Eigen::SparseMatrix<double>& a, double tolerance, int* iterations, double* bound) {
+  const Eigen::Index n = a.rows();
+  if (n == 0) return 0.0;
+  // A fixed start with a share of every unknown (no eigenvector of a symmetric packing is orthogonal to it by
+  // accident): entries in [0.5, 1.5) from a Weyl sequence.
+  Eigen::VectorXd v(n), previous = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index k = 0; k < n; ++k) v[k] = 0.5 + std::fmod(static_cast<double>(k) * 0.6180339887498949, 1.0);
+  v.normalize();
+  std::vector<double> alpha, beta;
+  const int max_steps = static_cast<int>(std::min<Eigen::Index>(n, 2000));
+  double theta = 0.0, residual = std::numeric_limits<double>::infinity();
+  int k = 0;
+  while (k < max_steps) {
+    Eigen::VectorXd w = a * v;
+    alpha.push_back(v.dot(w));
+    w -= alpha.back() * v + (beta.empty() ? 0.0 : beta.back()) * previous;
+    const double b = w.norm();
+    ++k;
+    // The tridiagonal T_k's largest Ritz value and its residual bound b |last entry of its eigenvector|
+    // (every step at first, then every 10th: the eigenvectors of T_k cost k^3).
+    if (k > 30 && k % 10 != 0 && k < max_steps && b > 1e-300) {
+      beta.push_back(b);
+      previous = v;
+      v = w / b;
+      continue;
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ritz;
+    const Eigen::VectorXd diagonal = Eigen::Map<const Eigen::VectorXd>(alpha.data(), k);
+    const Eigen::VectorXd sub = beta.empty() ? Eigen::VectorXd() : Eigen::Map<const Eigen::VectorXd>(beta.data(), k - 1);
+    ritz.computeFromTridiagonal(diagonal, sub, Eigen::ComputeEigenvectors);
+    theta = ritz.eigenvalues()[k - 1];
+    residual = b * std::abs(ritz.eigenvectors()(k - 1, k - 1));
+    if (theta > 0.0 && residual <= tolerance * theta) break;
+    if (!(b > 1e-300)) break;  // an invariant subspace: T_k's spectrum is A's on it
+    beta.push_back(b);
+    previous = v;
+    v = w / b;
+  }
+  if (iterations) *iterations = k;
+  if (bound) *bound = theta > 0.0 ? residual / theta : 0.0;
+  return theta;
+}
+
+NetworkTimeStep network_time_step_limit(const Model& model, const State& state) {
+  const auto start = std::chrono::steady_clock::now();
+  NetworkTimeStep out;
+  const Eigen::SparseMatrix<double> a = network_dynamic_matrix(model, state);
+  out.unknowns = static_cast<int>(a.rows());
+  out.contacts = static_cast<int>(network_contacts(model, state, true).size());
+  double gershgorin = 0.0;
+  for (Eigen::Index col = 0; col < a.outerSize(); ++col) {  // symmetric: a column's sum is its row's
+    double sum = 0.0;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(a, col); it; ++it) sum += std::abs(it.value());
+    gershgorin = std::max(gershgorin, sum);
+  }
+  out.gershgorin_omega = std::sqrt(gershgorin);
+  out.omega_max = out.contacts > 0 ? std::sqrt(largest_eigenvalue(a, kLanczosTolerance, &out.iterations, &out.residual_bound)) : 0.0;
+  out.limit = out.omega_max > 0.0 ? 2.0 / out.omega_max : std::numeric_limits<double>::infinity();
+  double r_min = std::numeric_limits<double>::infinity();
+  for (const double r : state.particles.radius) r_min = std::min(r_min, r);
+  const double m_min = state.particles.size() ? model.mass_of(r_min) : 0.0;
+  out.pair_omega = m_min > 0.0 ? std::sqrt(std::max(2.0 * model.contact.kn, 7.0 * model.contact.kt) / m_min) : 0.0;
+  out.pair_limit = out.pair_omega > 0.0 ? 2.0 / out.pair_omega : std::numeric_limits<double>::infinity();
+  out.unit = std::sqrt(m_min / model.contact.kn);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }
 

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "measure/micro.hpp"
 
@@ -42,6 +43,19 @@ EquilibriumCheck check_equilibrium(const Model& model, const State& state, const
 EquilibriumCheck check_equilibrium(const State& state, const ContactMeasures& contacts, const EquilibriumDef& criterion,
                                    const Vec3& targets) {
   return equilibrium(state, [&] { return contacts.unbalanced_force; }, criterion, targets);
+}
+
+double deviatoric_shear_rate(const Mat3& velocity_gradient) {
+  const Mat3 d = 0.5 * (velocity_gradient + velocity_gradient.transpose());
+  const Mat3 deviator = d - (d.trace() / 3.0) * Mat3::Identity();
+  return std::sqrt(2.0 * deviator.squaredNorm());  // squaredNorm: D':D', the sum of the squared entries
+}
+
+double cell_inertial_number(const State& state, double density, double mean_stress) {
+  if (state.control.stage_steps == 0) return 0.0;
+  if (!(mean_stress > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return inertial_number(deviatoric_shear_rate(state.cell.velocity_gradient), mean_particle_diameter(state.particles),
+                         density, mean_stress);
 }
 
 }  // namespace celldem

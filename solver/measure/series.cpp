@@ -88,10 +88,15 @@ const std::array kColumns = std::to_array<SeriesColumn>({
     {"strain_rate", &R::strain_rate, kReal, "1/s",
      "the fastest strain-driven axis's strain rate in the steps up to the row (0 before the first step)", false},
     {"inertial_number", &R::inertial_number, kReal, "-",
-     "rate d_mean sqrt(rho / p), rate the deviatoric strain-rate scale of the driven axes (strain_rate for an axial "
-     "test; docs/physics.md), d_mean the particles' mean diameter (quasi-static below about 1e-3)", false},
+     "gamma_dot d_mean sqrt(rho / p) of the cell's actual deformation in the row's step: gamma_dot = sqrt(2 D':D'), "
+     "D the symmetric part of the cell's velocity gradient, all six components, servo-held axes included "
+     "(docs/physics.md), d_mean the particles' mean diameter (quasi-static below about 1e-3; 0 at step 0)", false},
     {"kinetic_to_elastic", &R::kinetic_to_elastic, kReal, "-",
      "kinetic_energy over the elastic energy stored in the contact springs (nan without contacts)", false},
+    {"imposed_inertial_number", &R::imposed_inertial_number, kReal, "-",
+     "rate d_mean sqrt(rho / p) of the imposed rates alone: rate the deviatoric scale sqrt(3/2 e':e') of the driven "
+     "components, servo-held ones counted 0 (strain_rate for an axial test; the planned figure of the adaptive "
+     "rate's ceiling and the time-to-answer rules)", false},
 });
 // clang-format on
 
@@ -189,10 +194,11 @@ SeriesRow series_row(const Model& model, const State& state, const ContactMeasur
   r.ratio_principal = ratio(r.sigma1, r.sigma3);
   r.rate_factor = state.driving_factor;
   r.strain_rate = state.driving_rate;
-  r.inertial_number = state.inertial_rate == 0.0 ? 0.0
-                      : inv.p > 0.0 ? inertial_number(state.inertial_rate, mean_particle_diameter(state.particles),
-                                                      model.density, inv.p)
-                                    : std::numeric_limits<double>::quiet_NaN();
+  r.inertial_number = cell_inertial_number(state, model.density, inv.p);
+  r.imposed_inertial_number = state.inertial_rate == 0.0 ? 0.0
+                              : inv.p > 0.0 ? inertial_number(state.inertial_rate, mean_particle_diameter(state.particles),
+                                                              model.density, inv.p)
+                                            : std::numeric_limits<double>::quiet_NaN();
   r.kinetic_to_elastic = ratio(m.kinetic_energy, m.elastic_energy);
   r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /
                                                   (std::sqrt(3.0) * (r.sigma1 - r.sigma3))) * 180.0 / M_PI

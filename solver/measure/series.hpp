@@ -30,7 +30,8 @@ struct SeriesRow {
   double Zm_frictionless = 0;                       // Zm with the frictionless rattler rule (< 4 contacts)
   double g12 = 0, g13 = 0, g23 = 0;                 // engineering shear strains (cell/control.hpp's convention)
   double rate_factor = 0, strain_rate = 0;          // the loading rate (an adaptive leg's factor) in the last steps
-  double inertial_number = 0, kinetic_to_elastic = 0;  // quasi-static indicators
+  double inertial_number = 0, kinetic_to_elastic = 0;  // quasi-static indicators (I of the cell's own rate)
+  double imposed_inertial_number = 0;               // I of the imposed (driven) rates alone, as planned
 
   // Strain of component k (0-based, kComponentNames: e1 e2 e3 g12 g13 g23), compression positive.
   double strain(int k) const {

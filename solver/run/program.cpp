@@ -243,9 +243,13 @@ class LegRun {
     if (c.leg_progress >= static_cast<double>(checks_.settle) && c.leg_steps % rule.check_interval == 0) {
       if (!contacts) contacts = measure_contacts(model_, state_);
       const double p = state_.mean_stress();
+      // The inertial number at factor 1: the cell's own (its last step's velocity gradient, servo axes included)
+      // over the present factor, the rate of every component following the driving one.
       RateIndicators now{contacts->unbalanced_force, contacts->kinetic_energy / contacts->elastic_energy,
                          kControlShareOfTolerance * present_over_tolerance(errors_),
-                         p > 0.0 ? inertial_number(inertial_rate_, mean_diameter_, model_.density, p) : 0.0};
+                         p > 0.0 ? inertial_number(deviatoric_shear_rate(state_.cell.velocity_gradient), mean_diameter_,
+                                                   model_.density, p) / c.rate_factor
+                                 : 0.0};
       if (model_.servo.max_strain_increment_given)  // a fixed cap: the factor the servo's components can follow
         now.servo_ceiling = model_.servo.max_strain_increment / (kMinServoCapRatio * leg_driving_increment(leg_, model_.dt));
       factor = adapted_rate_factor(rule, factor, now);

@@ -256,20 +256,30 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
   const ControlErrorMaxima worst = control_error_maxima(errors);
-  double inertia = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density, mean_p);
+  // The inertial number: the rows' own (the cell's actual rate, series `inertial_number`), their mean over the
+  // rows after the start; the imposed rates' planned figure beside it (series `imposed_inertial_number`).
+  double imposed = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density, mean_p);
+  double inertia = 0.0;
+  std::size_t measured = 0;
+  for (std::size_t k = 1; k < rows.size(); ++k)
+    if (std::isfinite(rows[k].inertial_number)) inertia += rows[k].inertial_number, ++measured;
+  inertia = measured ? inertia / static_cast<double>(measured) : imposed;
   // An adaptive rate: the rates it ran at, from the series (the rows' factors and inertial numbers), against the
   // steps the deck's rate would take.
   const bool adaptive = std::any_of(test.legs.begin(), test.legs.end(), [](const Leg& leg) { return leg.adaptive.has_value(); });
   Json adaptive_record;
   if (adaptive && rows.size() > 1) {
     double low = std::numeric_limits<double>::quiet_NaN(), high = low, fastest = 0.0;  // (NaN: null, no row chose one)
+    double fastest_imposed = 0.0;
     for (std::size_t k = 1; k < rows.size(); ++k) {
       fastest = std::max(fastest, rows[k].inertial_number);
+      fastest_imposed = std::max(fastest_imposed, rows[k].imposed_inertial_number);
       // (a leg's end row ran the step cut to land on its end strain: not a factor the rule chose)
       if (k + 1 < rows.size() && rows[k + 1].leg == rows[k].leg)
         low = std::fmin(low, rows[k].rate_factor), high = std::fmax(high, rows[k].rate_factor);
     }
     inertia = fastest;
+    imposed = fastest_imposed;
     std::int64_t at_deck_rate = 0;
     for (const std::int64_t n : program_leg_steps(test.legs, deck.stage_time_step(test)))
       at_deck_rate = n < 0 || at_deck_rate < 0 ? -1 : at_deck_rate + n;
@@ -298,6 +308,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
               {"volume_max_error", number_or_null(worst.volume)},
               {"control_error_over_tolerance", number_or_null(worst.over_tolerance)},
               {"inertial_number", inertia},
+              {"imposed_inertial_number", imposed},
               {"legs", summarize_legs(deck, test, rows, errors)},
               {"steps", steps},
               {"wall_s", wall},

@@ -12,6 +12,7 @@
 #include "io/state_file.hpp"
 #include "measure/micro.hpp"
 #include "measure/network_stiffness.hpp"
+#include "core/plan.hpp"
 #include "run/runner.hpp"
 
 namespace celldem {
@@ -129,6 +130,61 @@ TEST(NetworkStiffness, AnUnstableNetworkIsAnError) {
   const NetworkStiffness held = network_stiffness(model, state, true);
   EXPECT_EQ(held.rattlers, 0);
   EXPECT_GT(held.relaxed(3, 3), 0.0);
+}
+
+// ---- the time step from the network's spectrum ----
+
+// Two equal spheres in contact (mass m): the network's modes are the pair's, normal omega^2 = 2 kn / m and
+// tangential-rotational 7 kt / m (lever arm r: the contact point's slip du + r n x (theta_i + theta_j) against
+// the reduced mass m/2 and the inertia 2/5 m r^2 of each), so the network's leapfrog limit 2 / omega_max is
+// core/plan's pair formula, whose t_c is sqrt(2) / omega of the limiting mode: 2 / omega_max = sqrt(2) t_c.
+void expect_pair(double kn, double kt, MomentArm arm) {
+  Deck deck = model_deck(kn, kt, 1e-4);
+  deck.contact.moment_arm = arm;
+  const double radius = 0.5;  // diameter 1: mass 1 kg at the unit density
+  const Vec3 normal = Vec3(1.0, 2.0, -0.5).normalized();
+  State state = testing::make_state(Mat3::Identity() * 10.0, {radius, radius},
+                                    {Vec3(5.0, 5.0, 5.0), Vec3(5.0, 5.0, 5.0) + normal * (2 * radius * (1 - 1e-3))}, 0.05);
+  const Model model = make_model(deck, state.particles.radius);
+  rebuild_pairs(model, state);
+  const NetworkTimeStep t = network_time_step_limit(model, state);
+  const double omega = std::sqrt(std::max(2.0 * kn, 7.0 * kt) / 1.0);
+  EXPECT_EQ(t.contacts, 1);
+  EXPECT_EQ(t.unknowns, 12);
+  EXPECT_NEAR(t.omega_max, omega, 1e-9 * omega);
+  EXPECT_NEAR(t.limit, std::sqrt(2.0) * critical_time_steps(deck.sample, deck.contact).value(), 1e-9 * t.limit);
+  EXPECT_NEAR(t.pair_limit, t.limit, 1e-9 * t.limit);
+  EXPECT_NEAR(t.unit, std::sqrt(1.0 / kn), 1e-12);
+  EXPECT_GE(t.gershgorin_omega, t.omega_max * (1 - 1e-12));
+  EXPECT_LE(t.residual_bound, kLanczosTolerance);
+}
+
+TEST(NetworkTimeStep, TwoSpheresGiveThePairFormulaNormalMode) { expect_pair(1e4, 1e3, MomentArm::ContactPoint); }
+TEST(NetworkTimeStep, TwoSpheresGiveThePairFormulaTangentialMode) { expect_pair(1e4, 1e4, MomentArm::Radius); }
+
+// A jostled lattice of 64 spheres (each with about six contacts at different overlaps and directions): the
+// Lanczos iteration's omega_max^2 is the largest eigenvalue of the same matrix by Eigen's dense solver, the
+// Gershgorin bound lies above it, and the network is stiffer than a pair (a sphere pressed by several).
+TEST(NetworkTimeStep, LanczosAgreesWithTheDenseSolver) {
+  State state = testing::jostled_lattice(4, 17, 0.01, 0.0, 0.0);
+  const Model model = make_model(model_deck(1e4, 1e3, 1e-4), std::vector<double>(state.particles.size(), 0.5));
+  rebuild_pairs(model, state);
+  const Eigen::SparseMatrix<double> a = network_dynamic_matrix(model, state);
+  ASSERT_EQ(a.rows(), 6 * 64);
+  const Eigen::MatrixXd dense(a);
+  EXPECT_NEAR((dense - dense.transpose()).cwiseAbs().maxCoeff(), 0.0, 1e-12 * dense.cwiseAbs().maxCoeff());
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(dense, Eigen::EigenvaluesOnly);
+  const double largest = eigen.eigenvalues().maxCoeff();
+  EXPECT_GT(eigen.eigenvalues().minCoeff(), -1e-9 * largest);  // positive semidefinite
+  int iterations = 0;
+  double bound = 0.0;
+  EXPECT_NEAR(largest_eigenvalue(a, kLanczosTolerance, &iterations, &bound), largest, 1e-9 * largest);
+  EXPECT_LT(iterations, 6 * 64);
+  const NetworkTimeStep t = network_time_step_limit(model, state);
+  EXPECT_NEAR(t.omega_max, std::sqrt(largest), 1e-9 * std::sqrt(largest));
+  EXPECT_GE(t.gershgorin_omega * t.gershgorin_omega, largest * (1 - 1e-12));
+  EXPECT_GT(t.contacts, 150);
+  EXPECT_LT(t.limit, t.pair_limit);
 }
 
 }  // namespace

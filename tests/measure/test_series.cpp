@@ -7,6 +7,7 @@
 
 #include "contact/contact_forces.hpp"
 #include "helpers.hpp"
+#include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
 #include "neighbor/neighbor_list.hpp"
 
@@ -61,7 +62,7 @@ TEST(SeriesRow, HeaderIsTheDocumentedColumnList) {
             "sliding_fraction,n_contacts,n_strong,H11,H22,H33,H12,H13,H23,Hs11,Hs22,Hs33,Hw11,Hw22,Hw33,H11_H33,"
             "Hs11_Hs33,Hw11_Hw33,kinetic_energy,unbalanced_force,leg,sigma1,sigma2,sigma3,b_principal,"
             "ratio_principal,lode_angle,Zm_frictionless,g12,g13,g23,rate_factor,strain_rate,inertial_number,"
-            "kinetic_to_elastic\n");
+            "kinetic_to_elastic,imposed_inertial_number\n");
   for (const SeriesColumn& c : series_columns()) {
     EXPECT_FALSE(c.unit.empty()) << c.name;
     EXPECT_FALSE(c.meaning.empty()) << c.name;
@@ -129,6 +130,38 @@ TEST(SeriesRow, LatticeRowHasKnownValues) {
   EXPECT_NEAR(row.void_ratio, a * a * a / (4.0 / 3.0 * M_PI * R * R * R) - 1.0, 1e-12);
   EXPECT_EQ(row.sliding_fraction, 0.0);
   EXPECT_EQ(row.kinetic_energy, 0.0);
+}
+
+// The inertial number of the cell's own velocity gradient, against its analytic value I = gamma_dot d sqrt(rho/p),
+// gamma_dot = sqrt(2 D':D'): an axial rate e with the two other axes at -e/2 (isochoric) gives sqrt(3) |e|, and
+// adding an isotropic rate and a spin changes nothing; a simple shear L = g e1 e2^T gives |g|. The imposed column
+// keeps the planned scale of the driven axes (state.inertial_rate); at a stage's step 0 the actual one is 0.
+TEST(SeriesRow, InertialNumberOfTheCellsVelocityGradient) {
+  const int n = 4;
+  const double R = 0.5, a = 0.98, kn = 1e4, dt = 1e-4, rho = testing::kUnitMassDensity;
+  const Model model = make_model(testing::model_deck(kn, kn, dt), std::vector<double>(n * n * n, R));
+  State s = testing::lattice_state(n, R, Vec3(a, a, a), 0.05);
+  rebuild_pairs(model, s);
+  compute_contact_forces(model, 0.5, s);
+  const double p = kn * (2 * R - a) / (a * a), d = 2 * R, e = 3e-2;
+  Mat3 spin;
+  spin << 0.0, 0.7, -0.2, -0.7, 0.0, 0.4, 0.2, -0.4, 0.0;
+  s.cell.velocity_gradient = Vec3(-e, 0.5 * e, 0.5 * e).asDiagonal();
+  s.cell.velocity_gradient += 0.11 * Mat3::Identity() + spin;
+  s.inertial_rate = e;  // the planned scale: one driven axis at e
+  EXPECT_NEAR(deviatoric_shear_rate(s.cell.velocity_gradient), std::sqrt(3.0) * e, 1e-15);
+  s.control.stage_steps = 0;
+  EXPECT_EQ(measure_series_row(model, s).inertial_number, 0.0);  // no step of the stage yet
+  s.control.stage_steps = 10;
+  SeriesRow row = measure_series_row(model, s);
+  EXPECT_NEAR(row.inertial_number, std::sqrt(3.0) * e * d * std::sqrt(rho / p), 1e-12 * row.inertial_number);
+  EXPECT_NEAR(row.imposed_inertial_number, e * d * std::sqrt(rho / p), 1e-12 * row.imposed_inertial_number);
+  s.cell.velocity_gradient = Mat3::Zero();
+  s.cell.velocity_gradient(0, 1) = -2 * e;  // simple shear: gamma_dot = |L12|
+  row = measure_series_row(model, s);
+  EXPECT_NEAR(row.inertial_number, 2 * e * d * std::sqrt(rho / p), 1e-12 * row.inertial_number);
+  EXPECT_NEAR(cell_inertial_number(s, rho, p), row.inertial_number, 1e-15);
+  EXPECT_TRUE(std::isnan(cell_inertial_number(s, rho, 0.0)));
 }
 
 // An anisotropic packing where every column is known by hand: a simple lattice with spacings ax < ay < az

@@ -61,9 +61,13 @@ TEST_F(FailureDetection, QuasiStaticLoadingRaisesNoWarning) {
       "x2": {"stress": 1e5}, "x3": {"stress": 1e5}}, "end": {"strain": 0.0004}, "output_interval": 100})"),
       "slow");
   const auto s = summary("slow");
-  // I = (2e-7 / 3e-6 s) * 3.75 mm * sqrt(2650 / 1e5), mean diameter of the four sizes 3..4.5 mm.
+  // The imposed rate's I = (2e-7 / 3e-6 s) * 3.75 mm * sqrt(2650 / 1e5), mean diameter of the four sizes 3..4.5 mm.
+  // The cell's own rate is larger: the servo-held axes expand too (elastically at first, at about Poisson's ratio
+  // nu times e1-dot: gamma_dot = 2 (1 + nu) / sqrt(3) e1-dot, about 1.4 e1-dot).
   const double expected = 2e-7 / 3e-6 * 3.75e-3 * std::sqrt(2650 / 1e5);
-  EXPECT_NEAR(s["tests"]["slow"]["inertial_number"].get<double>(), expected, 0.2 * expected);
+  EXPECT_NEAR(s["tests"]["slow"]["imposed_inertial_number"].get<double>(), expected, 0.2 * expected);
+  EXPECT_GT(s["tests"]["slow"]["inertial_number"].get<double>(), 1.1 * expected);
+  EXPECT_LT(s["tests"]["slow"]["inertial_number"].get<double>(), 3.0 * expected);
   EXPECT_FALSE(s.contains("warnings")) << s.dump(2);
   // 2000 steps of 2e-7: shorter than the first 0.2 % of driving strain, so no control error was measured.
   EXPECT_TRUE(s["tests"]["slow"]["servo_max_error"].is_null()) << s["tests"]["slow"].dump(1);
