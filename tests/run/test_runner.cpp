@@ -127,6 +127,8 @@ TEST(FolderLock, HoldsWhenTheLockFileIsDeletedAndNamesTheHolder) {
   testing::TempDir dir;
   const fs::path run = dir.path() / "run";
   FolderLock held(run);
+  EXPECT_EQ(testing::read_bytes(run / kLockName), "");  // the pid only once the holder writes (claim)
+  held.claim();
   EXPECT_EQ(testing::read_bytes(run / kLockName), std::to_string(::getpid()) + "\n");
   fs::remove(run / kLockName);
   std::string why = refusal([&] { FolderLock second(run); });
