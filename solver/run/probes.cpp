@@ -29,7 +29,7 @@
 #include "run/progress.hpp"
 #include "run/run_directory.hpp"
 #include "run/errors.hpp"
-#include "run/stage_output.hpp"
+#include "run/stage_runner.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -123,7 +123,7 @@ std::vector<std::string> probe_point_names(const ProbeDef& def) {
   return names;
 }
 
-ProbePoints::ProbePoints(const ProbeDef& def) : def_(def) {
+ProbePoints::ProbePoints(const ProbeDef& def, TestMeasure measure) : def_(def), peak_tracker_(measure) {
   const std::vector<std::string> names = probe_point_names(def);
   for (std::size_t k = 0; k < def.at_e1.size(); ++k) {
     Point p;
@@ -151,10 +151,9 @@ void ProbePoints::on_row(const State& state, const SeriesRow& row) {
     }
   }
   const bool wants_peak = std::find(def_.at.begin(), def_.at.end(), "peak") != def_.at.end();
-  if (row.ratio13 > best_ratio_) {  // the summary's peak: the first row of the largest s11/s33 (after a resume,
-    best_ratio_ = row.ratio13;      // above every row read back too: the state is this run's own)
-    if (wants_peak) keep(peak_), peak_unsaved_ = true;
-  }
+  // The summary's peak: the first row of the largest value of the test's measure (after a resume, above every row
+  // read back too: the state is this run's own).
+  if (peak_tracker_.offer(row) && wants_peak) keep(peak_), peak_unsaved_ = true;
 }
 
 void ProbePoints::keep_in(const fs::path& dir, const std::string& label, const std::string& physics) {
@@ -192,15 +191,15 @@ void ProbePoints::resume(const std::vector<SeriesRow>& rows) {
     p.missing.clear();
     return true;
   };
-  for (const SeriesRow& row : rows) best_ratio_ = std::max(best_ratio_, row.ratio13);
+  peak_tracker_.seen(rows);
   for (std::size_t k = 0; k < e1_.size(); ++k) {
     const double target = def_.at_e1[k];
     const auto first = std::find_if(rows.begin(), rows.end(), [&](const SeriesRow& r) { return reaches(r, target); });
     if (first == rows.end()) continue;
     if (!kept(e1_[k]) || e1_[k].row.step != first->step) e1_[k] = Point{e1_[k].name, nullptr, {}, lost, true};
   }
-  // The peak: the first row of the largest s11/s33 among those read back.
-  const auto peak = std::find_if(rows.begin(), rows.end(), [&](const SeriesRow& r) { return r.ratio13 == best_ratio_; });
+  // The peak: the first row of the largest value of the measure among those read back.
+  const auto peak = rows.empty() ? rows.end() : rows.begin() + static_cast<std::ptrdiff_t>(peak_row(peak_tracker_.measure(), rows));
   const bool wants_peak = std::find(def_.at.begin(), def_.at.end(), "peak") != def_.at.end();
   if (!wants_peak || peak == rows.end() || !kept(peak_) || peak_.row.step != peak->step)
     peak_ = Point{"peak", nullptr, {}, lost, false};
@@ -217,7 +216,8 @@ std::vector<ProbePoints::Point> ProbePoints::points(bool peak_reached) const {
     Point p = name == "peak" ? peak_ : end_;
     if (name == "peak" && !peak_reached) {
       p.state.reset();
-      p.missing = "no peak reached: s11/s33 is largest at the end of the test (summary.json peak_reached)";
+      p.missing = "no peak reached: " + measure_name(peak_tracker_.measure()) +
+                  " is largest at the end of the test (summary.json peak_reached)";
     }
     out.push_back(p);
   }
@@ -353,30 +353,30 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
   const std::int64_t from_step = state.control.stage_steps;
   const std::int64_t total = 2 * (def.steps + def.hold_steps);
   const std::int64_t interval = std::max<std::int64_t>(1, def.steps / 10);
-  RunOptions quiet = options;
-  quiet.progress = ProgressMode::Off;  // one line for the whole set (run_test_probes)
   // A folder a stopped run left (half-written, or whole) is run again: its old result goes first, so that a stop
   // now never leaves it beside a new, partial series.
   fs::remove(run.stage_dir(stage) / kProbeResultName);
   try {
-    StageOutput out(run, deck, quiet, model, stage, interval, /*loading_test=*/true);
-    out.set_branch();
-    out.open(state, /*resumed=*/false);
-    Program program{legs, test.stage_friction(), &test.equilibrium, from_step + total};
-    program.adaptive_threads = false;
-    program.kind = StageKind::Test;
-    program.stage = stage;
-    program.control_failure = ControlFailure::Warn;  // recorded with the probe, not a stop of the run
-    program.print_control_warnings = false;
-    std::vector<ControlErrors> errors;
-    run_program(model, program, state, out, errors);
-    out.finish(state);
+    const StageResult result = run_stage(
+        {run, deck, options}, model,
+        {.name = stage,
+         .legs = legs,
+         .friction = test.stage_friction(),
+         .equilibrium = &test.equilibrium,
+         .planned_steps = from_step + total,
+         .output_interval = interval,
+         .branch = true,
+         .adaptive_threads = false,
+         .progress_line = false,  // one line for the whole set (run_test_probes)
+         .control_failure = ControlFailure::Warn,  // recorded with the probe, not a stop of the run
+         .print_control_warnings = false},
+        std::move(state));
     ran = true;
-    for (const ControlErrors& e : errors) {
+    for (const ControlErrors& e : result.control_errors) {
       controlled &= std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
       control_errors.push_back(to_json(e));
     }
-    steps = state.control.stage_steps - from_step;
+    steps = result.state.control.stage_steps - from_step;
   } catch (const RunError& e) {
     error = e.what();
   }
@@ -387,6 +387,42 @@ void run_probe(RunDirectory& run, const Deck& deck, const RunOptions& options, c
   write_file_atomic(dir / kProbeResultName, Json{{"ran", ran}, {"controlled", controlled}, {"error", error},
                                                  {"steps", steps}, {"control_errors", control_errors}}.dump(1));
 }
+
+// A point's rest, window by window (one leg each): the strain crept in each, and the rest ended at its goal or when
+// the creep grows from window to window (twice running), which does not lead to rest: a state at its limit.
+class RestWindows : public StageObserver {
+ public:
+  RestWindows(double goal, std::int64_t from_step) : goal_(goal), last_step_(from_step) {}
+  void on_start(const State& state) override { before_ = component_strains(state); }
+  // (the steps a rest that failed took: up to its last step's row)
+  void on_row(const State& state, const SeriesRow&) override { last_step_ = state.control.stage_steps; }
+  void on_step(const State& state) override { last_step_ = state.control.stage_steps; }
+  bool on_leg_end(const State& state) override {
+    const Vec6 now = component_strains(state);
+    const double crept = (now - before_).norm();
+    before_ = now;
+    creep_.push_back(crept);
+    if (crept < goal_) return reached_ = true;
+    const std::size_t n = creep_.size();
+    if (n >= 3 && crept > creep_[n - 2].get<double>() && creep_[n - 2].get<double>() > creep_[n - 3].get<double>()) {
+      gave_up_ = "the creep grew in two windows running: the state flows at its stresses";
+      return true;
+    }
+    return false;
+  }
+  bool reached() const { return reached_; }
+  const Json& creep() const { return creep_; }
+  const std::string& gave_up() const { return gave_up_; }
+  std::int64_t last_step() const { return last_step_; }
+
+ private:
+  double goal_;
+  std::int64_t last_step_;
+  Vec6 before_ = Vec6::Zero();
+  Json creep_ = Json::array();
+  bool reached_ = false;
+  std::string gave_up_;
+};
 
 // The point's rest before its probes (run/probes.hpp): from point.state, the normal stresses held at the point's
 // and the tilts held, in windows of one probe's steps, until the strain crept in a window is below rest_fraction x
@@ -404,61 +440,43 @@ void rest_point(RunDirectory& run, const Deck& deck, const RunOptions& options, 
   const std::int64_t window = 2 * (def.steps + def.hold_steps);
   const std::int64_t windows = (def.rest_max_steps + window - 1) / window;
   const double goal = def.rest_fraction * def.target_strain;
-  Json creep = Json::array();
-  bool reached = false, controlled = true;
-  std::string gave_up;
+  bool controlled = true;
   std::string error;
   const std::int64_t from_step = state.control.stage_steps;
+  RestWindows rest(goal, from_step);
   if (windows > 0) {
     Leg hold;
     hold.end.kind = LegEndKind::Steps;
     hold.end.steps = window;
     const Vec3 s = state.normal_stress();
     for (int k = 0; k < 3; ++k) hold.axes[static_cast<std::size_t>(k)] = AxisControl{AxisMode::Stress, s[k]};
-    const std::vector<Leg> legs(static_cast<std::size_t>(windows), hold);
-    RunOptions quiet = options;
-    quiet.progress = ProgressMode::Off;
     try {
-      StageOutput out(run, deck, quiet, model, stage, std::max<std::int64_t>(1, window / 4), /*loading_test=*/true);
-      out.set_branch();
-      out.open(state, /*resumed=*/false);
-      std::vector<ControlErrors> errors;
-      begin_leg(state, 0);
-      for (std::int64_t j = 0; j < windows; ++j) {  // a window a leg, run one by one: the rest ends at its goal
-        if (j > 0) {
-          out.end_leg(state);
-          begin_leg(state, static_cast<int>(j));
-        }
-        const Vec6 before = component_strains(state);
-        const std::vector<Leg> upto(legs.begin(), legs.begin() + j + 1);
-        Program program{upto, test.stage_friction(), &test.equilibrium, from_step + windows * window};
-        program.adaptive_threads = false;
-        program.kind = StageKind::Test;
-        program.stage = stage;
-        program.control_failure = ControlFailure::Warn;
-        program.print_control_warnings = false;
-        run_program(model, program, state, out, errors);
-        const double crept = (component_strains(state) - before).norm();
-        creep.push_back(crept);
-        if (crept < goal) {
-          reached = true;
-          break;
-        }
-        // Creep that grows from window to window (twice running) does not lead to rest: a state at its limit.
-        const std::size_t n = creep.size();
-        if (n >= 3 && crept > creep[n - 2].get<double>() && creep[n - 2].get<double>() > creep[n - 3].get<double>()) {
-          gave_up = "the creep grew in two windows running: the state flows at its stresses";
-          break;
-        }
-      }
-      out.finish(state);
-      for (const ControlErrors& e : errors)
+      StageResult result = run_stage(
+          {run, deck, options}, model,
+          {.name = stage,
+           .legs = std::vector<Leg>(static_cast<std::size_t>(windows), hold),  // a window a leg: it ends at its goal
+           .friction = test.stage_friction(),
+           .equilibrium = &test.equilibrium,
+           .planned_steps = from_step + windows * window,
+           .output_interval = std::max<std::int64_t>(1, window / 4),
+           .branch = true,
+           .adaptive_threads = false,
+           .progress_line = false,
+           .control_failure = ControlFailure::Warn,
+           .print_control_warnings = false,
+           .restart_legs = true},  // its first row: the point as the test took it
+          state, {&rest});
+      for (const ControlErrors& e : result.control_errors)
         controlled &= std::none_of(e.failed.begin(), e.failed.end(), [](bool f) { return f; });
+      state = std::move(result.state);
     } catch (const RunError& e) {
       error = e.what();
     }
   }
-  const std::int64_t rested_steps = state.control.stage_steps - from_step;
+  const bool reached = rest.reached();
+  const Json& creep = rest.creep();
+  const std::string& gave_up = rest.gave_up();
+  const std::int64_t rested_steps = rest.last_step() - from_step;
   // A rest that did not reach its goal leaves the point as the test took it: probed as it stands, its drift judged.
   if (!reached) state = read_state((point_dir / "point.state").string());
   state.control.leg = point_leg;  // the probes' servo cap is the test's leg's at the point (probe_model)

@@ -32,6 +32,7 @@
 #include "core/deck.hpp"
 #include "core/state.hpp"
 #include "measure/series.hpp"
+#include "run/driven_measure.hpp"
 
 namespace celldem {
 
@@ -66,9 +67,10 @@ std::vector<std::string> probe_point_names(const ProbeDef& def);
 // The states a test's probes start from, taken at its rows.
 class ProbePoints {
  public:
-  explicit ProbePoints(const ProbeDef& def);
+  // `measure`: the test's (driven_measure), whose peak is the `peak` point.
+  ProbePoints(const ProbeDef& def, TestMeasure measure);
   // After each row of the test: keeps a copy of the state at the first row reaching each e1 point, and at each new
-  // largest s11/s33 (the peak so far).
+  // largest value of the test's measure (the peak so far, PeakTracker).
   void on_row(const State& state, const SeriesRow& row);
   // Keeps each point's state in `dir`/<point>/point.state (the test's probes folder), so that a stopped run's points
   // survive: an e1 point's when it is taken, the peak so far's with each checkpoint (save). `physics`: state_physics.
@@ -89,7 +91,7 @@ class ProbePoints {
     std::string missing;
     bool lost = false;                   // passed before a resume: its state went with the stopped run
   };
-  // In order: the e1 points, then the named ones as the deck lists them.
+  // In order: the e1 points, then the named ones as the deck lists them (without a peak reached, no `peak`).
   std::vector<Point> points(bool peak_reached) const;
 
  private:
@@ -98,7 +100,7 @@ class ProbePoints {
   const ProbeDef& def_;
   std::vector<Point> e1_;
   Point peak_, end_;
-  double best_ratio_ = -1.0;
+  PeakTracker peak_tracker_;
   std::filesystem::path dir_;  // empty: in memory only
   std::string label_, physics_;
   bool peak_unsaved_ = false;

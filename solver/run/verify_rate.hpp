@@ -25,6 +25,7 @@ namespace celldem {
 
 class RunDirectory;
 struct RunOptions;
+struct TestSummary;
 
 // What a rate check asks for: the command line's (--verify-rate and its options) or a test's verify_rate key.
 // The defaults are the key table's (core/deck_schema.hpp).
@@ -112,7 +113,7 @@ TestDef slowed_test(const TestDef& test, double factor);
 // quantity the test's, the slower run's and the twin's values, the difference in floors and its verdict, and the
 // test's verdict. A run that fails is recorded as such (its error), not thrown.
 nlohmann::json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                                const VerifyRateOptions& check, const State& start, const nlohmann::json& summary);
+                                const VerifyRateOptions& check, const State& start, const TestSummary& summary);
 
 // The check across an ensemble's seeds (ensemble.json "verify_rate"): per test and quantity the seeds' differences
 // in floors, their mean and its one-sided 95 % bounds (Student's t, n - 1), and the TOST verdict within the
