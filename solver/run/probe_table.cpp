@@ -185,13 +185,11 @@ std::optional<RestRecord> read_rest(const fs::path& point_dir) {
 
 }  // namespace
 
-Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& test) {
-  const ProbeDef& def = *test.probes;
-  const std::vector<ProbeDirection> directions = probe_directions(def);
-  const fs::path probes_dir = run_dir / test.name / "probes";
-  const bool stress_set = def.kind == ProbeKind::Stress;
-  // probes.csv: each probe's response net of its point's reference, at the loaded and the unloaded ends; beside it
-  // the reference's own drift over the probe, and (stress sets) the elastic prediction and the loading cone.
+namespace {
+
+// probes.csv's header: each probe's response net of its point's reference, at the loaded and the unloaded ends;
+// beside it the reference's own drift over the probe, and (stress sets) the elastic prediction and the loading cone.
+std::string probes_csv_header() {
   std::string csv = "point,point_step,point_e1,kind,probe,magnitude,angle_deg,d11,d22,d33,d12,d13,d23";
   const auto add_columns = [&](const std::array<const char*, 6>& names, const char* suffix) {
     for (const char* name : names) csv.append(",d").append(name).append(suffix);
@@ -202,6 +200,12 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
   add_columns(kStrainNames, "_elastic");
   add_columns(kStressNames, "_residual");
   csv += ",response,reference_drift,elastic_predicted,elastic_factor,cone,controlled,status\n";
+  return csv;
+}
+
+// summary.json's probes of a test before its points: the set's settings and rules.
+Json set_summary(const ProbeDef& def, const TestDef& test) {
+  const bool stress_set = def.kind == ProbeKind::Stress;
   Json summary = {{"kind", std::string(name_of(def.kind, kProbeKindNames))}, {"steps", def.steps},
                   {"hold_steps", def.hold_steps}, {"magnitudes", def.magnitudes}, {"points", Json::object()},
                   {"table", (fs::path(test.name) / "probes" / "probes.csv").string()},
@@ -214,292 +218,359 @@ Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& t
     summary["magnitude_factors"] = def.magnitudes;
   }
   if (stress_set) summary["plane"] = std::string(name_of(def.plane, kProbePlaneNames));
-  Json stiffness = {{"voigt_order", {"11", "22", "33", "12", "13", "23"}},
-                    {"units", "Pa per unit strain; engineering shear strains g_ij; compression +"},
-                    {"points", Json::object()}};
-  for (const std::string& name : probe_point_names(def)) {
-    const fs::path point_dir = probes_dir / name;
-    if (!fs::exists(point_dir / kPointRecordName))
-      throw RunError(point_dir.string() + ": no " + kPointRecordName + " (not a probed run folder)");
-    const Json record = Json::parse(read_file((point_dir / kPointRecordName).string()));
-    const double point_step = record.at("step").get<double>(), point_e1 = record.at("e1").get<double>();
-    Json entry = {{"step", point_step}, {"e1", point_e1}};
-    // A point that ends here: its status and why, in the summary.
-    const auto settle = [&](const char* status, const std::string& reason) {
-      entry["status"] = status;
-      entry["reason"] = reason;
-      summary["points"][name] = entry;
-    };
-    const auto left_to_other_jobs = [&] {
-      entry["missing"] = static_cast<std::int64_t>(directions.size()) - 1;
-      settle("not run here", "its probes were left to other jobs (--probes); `celldem merge` gathers them");
-    };
-    if (!record.at("reached").get<bool>()) {
-      settle("not run", record.at("reason").get<std::string>());
+  return summary;
+}
+
+// One point of the table as it is being made: its folder, its row of the test, its summary entry, the evidence of
+// its judgement, and the probes' size.
+struct PointTable {
+  std::string name;
+  fs::path dir;
+  double step = 0.0, e1 = 0.0;
+  Json entry;
+  ProbeEvidence evidence;
+  ElasticCheck check;  // stress sets
+  double scale = 1.0;  // given magnitudes as they are
+};
+
+// A stress set's elastic check into the point's entry and evidence, and the probes' size where it is scaled. False
+// when the point ends here (no stiffness to size its probes by: they were not run).
+bool tabulate_elastic_check(const fs::path& run_dir, const TestDef& test, PointTable& t) {
+  const ProbeDef& def = *test.probes;
+  t.check = read_elastic_check(t.dir, def);
+  const ElasticCheck& check = t.check;
+  Json e = {{"target_strain", def.target_strain}, {"whole", check.whole}};
+  if (!check.whole) e["reason"] = check.reason;
+  e["elastic"] = matrix_json(check.elastic);
+  e["tangent"] = matrix_json(check.tangent);
+  const double asymmetry_of_elastic = asymmetry(check.elastic);
+  const double min_eigenvalue_of_elastic = min_symmetric_eigenvalue(check.elastic);
+  e["elastic_asymmetry"] = asymmetry_of_elastic;
+  e["elastic_min_eigenvalue"] = min_eigenvalue_of_elastic;
+  e["reference_drift_stress"] = check.drift;
+  t.entry["elastic_check"] = e;
+  if (!check.whole) t.evidence.elastic_check_missing = check.reason;
+  if (check.whole) {
+    t.evidence.elastic_asymmetry = asymmetry_of_elastic;
+    t.evidence.elastic_min_eigenvalue = min_eigenvalue_of_elastic;
+  }
+  if (!def.scaled) return true;
+  std::string scale_from = "given";
+  std::tie(t.scale, scale_from) = probe_scale(def, check, path_tangent(run_dir, test, t.step));
+  Json m = Json::array();
+  for (double f : def.magnitudes) m.push_back(f * t.scale);
+  t.entry["magnitudes"] = m;
+  t.entry["magnitude_from"] = scale_from;
+  if (std::isfinite(t.scale)) return true;
+  // Its probes were not run (run_test_probes).
+  const ProbeVerdict v = judge_probe_point(def, t.evidence);
+  t.entry["checks_failed"] = v.failed;
+  t.entry["status"] = "failed";
+  t.entry["reason"] = "no stiffness to size the probes by: the elastic check's tangent and elastic stiffness "
+                      "are both not positive definite (elastic_check)" + (v.reason.empty() ? "" : "; " + v.reason);
+  return false;
+}
+
+// What a point's probes gave, net of its reference: counts, the smallest response and the elastic agreement, and
+// per magnitude the strain set's stiffness columns or the stress set's responses, cones and plastic increments.
+struct ProbeRows {
+  int ran = 0, controlled = 0, failed = 0, missing = 0;
+  double drift = 0.0;  // the reference's largest drift over a probe
+  double smallest = INFINITY, worst_factor = 0.0;
+  std::string worst_probe;
+  std::vector<double> factors;
+  std::vector<Eigen::Matrix<double, 6, 6>> tangent, elastic;  // strain probes: per magnitude
+  std::vector<std::vector<double>> response;                  // stress probes: |de| per direction and magnitude
+  std::vector<std::vector<int>> cones;
+  std::vector<std::vector<PlanePoint>> plastic;               // stress probes in a plane
+};
+
+// One probe's row of probes.csv (appended to `csv`) and what it adds to `rows`.
+void tabulate_probe(const ProbeDef& def, const PointTable& t, const ProbeDirection& d, const ProbeResult& r,
+                    const ProbeResult& reference, ProbeRows& rows, std::string& csv) {
+  const bool stress_set = def.kind == ProbeKind::Stress;
+  const ElasticCheck& check = t.check;
+  const Vec3 s{reference.start.s11, reference.start.s22, reference.start.s33};
+  const std::size_t m = static_cast<std::size_t>(std::find(def.magnitudes.begin(), def.magnitudes.end(), d.magnitude) - def.magnitudes.begin());
+  const double magnitude = stress_set ? d.magnitude * t.scale : d.magnitude;
+  csv.append(t.name).append(",").append(fmt10(t.step)).append(",").append(fmt10(t.e1));
+  csv.append(",").append(name_of(def.kind, kProbeKindNames)).append(",").append(d.name);
+  csv.append(",").append(fmt10(magnitude)).append(",").append(fmt10(d.angle_deg));
+  for (double x : d.direction) csv.append(",").append(fmt10(x));
+  if (!r.ran) {
+    ++rows.failed;
+    for (int c = 0; c < 35; ++c) csv += ",";
+    std::string why = r.error;
+    std::replace(why.begin(), why.end(), ',', ';');
+    std::replace(why.begin(), why.end(), '\n', ' ');
+    csv.append(",false,failed: ").append(why).append("\n");
+    return;
+  }
+  ++rows.ran;
+  rows.controlled += r.controlled;
+  const Row6 ds = minus(stresses(r.loaded), stresses(reference.loaded));
+  const Row6 de = minus(strains(r.loaded), strains(reference.loaded));
+  const Row6 de_plastic = minus(strains(r.unloaded), strains(reference.unloaded));
+  const Row6 ds_residual = minus(stresses(r.unloaded), stresses(reference.unloaded));
+  const Row6 de_elastic = minus(de, de_plastic);
+  for (const Row6* v : {&ds, &de, &de_plastic, &de_elastic, &ds_residual})
+    for (double x : *v) csv.append(",").append(fmt10(x));
+  const double size = stress_set ? norm(de) : norm(ds);
+  rows.smallest = std::min(rows.smallest, size);
+  double predicted = NAN, factor = NAN;
+  int cone = 0;
+  if (stress_set) {
+    cone = probe_cone(d.direction, s);
+    if (check.whole) {  // C_elastic^-1 of the recovered stress increment
+      Eigen::Matrix<double, 6, 1> recovered;
+      for (int i = 0; i < 6; ++i) recovered(i) = ds[static_cast<std::size_t>(i)] - ds_residual[static_cast<std::size_t>(i)];
+      const Eigen::Matrix<double, 6, 1> p = check.elastic.fullPivLu().solve(recovered);
+      Row6 prediction;
+      for (int i = 0; i < 6; ++i) prediction[static_cast<std::size_t>(i)] = p(i);
+      predicted = norm(prediction);
+      factor = elastic_agreement(de_elastic, prediction);
+      rows.factors.push_back(factor);
+      if (!(factor <= rows.worst_factor)) rows.worst_probe = d.name;
+      rows.worst_factor = std::max(rows.worst_factor, factor);
+    }
+  }
+  csv.append(",").append(fmt10(size)).append(",").append(fmt10(rows.drift)).append(",").append(fmt10(predicted));
+  csv.append(",").append(fmt10(factor)).append(",").append(stress_set ? (cone > 0 ? "loading" : cone < 0 ? "unloading" : "neutral") : "");
+  csv.append(r.controlled ? ",true,ok\n" : ",false,ok\n");
+  if (!stress_set) {
+    const int column = static_cast<int>(std::max_element(d.direction.begin(), d.direction.end()) - d.direction.begin());
+    for (int i = 0; i < 6; ++i) {
+      rows.tangent[m](i, column) = ds[static_cast<std::size_t>(i)] / d.magnitude;
+      rows.elastic[m](i, column) = (ds[static_cast<std::size_t>(i)] - ds_residual[static_cast<std::size_t>(i)]) / d.magnitude;
+    }
+  } else {
+    rows.response[m].push_back(norm(de));
+    rows.cones[m].push_back(cone);
+    if (def.plane != ProbePlane::List) {
+      const auto [u1, u2] = plane_basis(def.plane);
+      double p1 = 0.0, p2 = 0.0;
+      for (int c = 0; c < 3; ++c) p1 += u1[c] * de_plastic[c], p2 += u2[c] * de_plastic[c];
+      rows.plastic[m].push_back({d.angle_deg * kPi / 180.0, p1, p2});
+    }
+  }
+}
+
+// Every probe of a point (those another job ran and no merge brought counted as missing).
+ProbeRows tabulate_probe_rows(const ProbeDef& def, const PointTable& t, const ProbeResult& reference, std::string& csv) {
+  const bool stress_set = def.kind == ProbeKind::Stress;
+  ProbeRows rows;
+  rows.tangent.assign(def.magnitudes.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  rows.elastic = rows.tangent;
+  rows.response.resize(def.magnitudes.size());
+  rows.cones.resize(def.magnitudes.size());
+  rows.plastic.resize(def.magnitudes.size());
+  // The reference's drift over a probe: its strains (stress sets: it holds the stresses) or its stresses (strain
+  // sets: it holds the strains) from its start to the ends of the loaded and the unloaded holds.
+  rows.drift = stress_set ? std::max(norm(minus(strains(reference.loaded), strains(reference.start))),
+                                     norm(minus(strains(reference.unloaded), strains(reference.start))))
+                          : std::max(norm(minus(stresses(reference.loaded), stresses(reference.start))),
+                                     norm(minus(stresses(reference.unloaded), stresses(reference.start))));
+  const std::vector<ProbeDirection> directions = probe_directions(def);
+  for (std::size_t k = 1; k < directions.size(); ++k) {
+    const std::optional<ProbeResult> record = read_probe_result(t.dir / directions[k].name);
+    if (!record) {  // another job's (--probes), not merged
+      ++rows.missing;
       continue;
     }
-    entry["state"] = (fs::path(test.name) / "probes" / name / "point.state").string();
-    const std::optional<ProbeResult> reference_record = read_probe_result(point_dir / "reference");
-    const std::optional<RestRecord> rest = read_rest(point_dir);
-    if (!rest) {
-      left_to_other_jobs();
-      continue;
+    tabulate_probe(def, t, directions[k], *record, reference, rows, csv);
+  }
+  return rows;
+}
+
+// The status, counts, drift and elastic agreement of a point's probes into its entry and evidence; whether the set is
+// whole (every probe ran here and held its controls).
+bool tabulate_set(const TestDef& test, const ProbeRows& rows, PointTable& t) {
+  const ProbeDef& def = *test.probes;
+  Json& entry = t.entry;
+  // What the set says (stiffness, linearity, the plastic reading) only from a whole set that held its controls:
+  // a probe whose stress or strain left its target did not probe the direction it names.
+  const bool whole = rows.failed == 0 && rows.missing == 0 && rows.controlled == rows.ran;
+  entry["status"] = rows.missing > 0 ? "partly run" : rows.failed > 0 ? "ran with failures" : whole ? "ran" : "ran with uncontrolled probes";
+  if (entry["status"] == "ran with uncontrolled probes")
+    entry["reason"] = std::to_string(rows.ran - rows.controlled) + " probes lost their control (result.json control_errors): "
+                      "the set's stiffness, linearity and plastic reading are not given";
+  entry["probes"] = rows.ran + rows.failed;
+  entry["failed"] = rows.failed;
+  if (rows.missing > 0) {
+    entry["missing"] = rows.missing;
+    entry["reason"] = std::to_string(rows.missing) + " probes were left to other jobs (--probes); `celldem merge` gathers them";
+  }
+  entry["controlled"] = rows.controlled;
+  entry["folder"] = (fs::path(test.name) / "probes" / t.name).string();
+  if (rows.ran > 0) {
+    t.evidence.drift = rows.drift;
+    t.evidence.smallest_response = rows.smallest;
+    entry["drift"] = {{"reference", rows.drift}, {"smallest_response", rows.smallest}, {"ratio", rows.drift / rows.smallest},
+                      {"unit", def.kind == ProbeKind::Stress ? "strain |de|" : "stress |ds| [Pa]"}};
+  }
+  if (!rows.factors.empty()) {
+    t.evidence.elastic_factor = rows.worst_factor;
+    t.evidence.elastic_worst_probe = rows.worst_probe;
+    std::vector<double> sorted = rows.factors;
+    std::sort(sorted.begin(), sorted.end());
+    const std::vector<double>& factors = rows.factors;
+    entry["elastic_check"]["agreement"] = {
+        {"worst_factor", rows.worst_factor},  // null when a probe's is infinite (turned)
+        {"worst_probe", rows.worst_probe},
+        {"turned", std::count_if(factors.begin(), factors.end(), [](double f) { return std::isinf(f); })},
+        {"median_factor", sorted[sorted.size() / 2]},
+        {"within_limit", std::count_if(factors.begin(), factors.end(), [&](double f) { return f <= def.elastic_factor; })},
+        {"probes", factors.size()},
+        {"meaning", "per probe, its recovered strain against C_elastic^-1 ds (elastic_agreement): the ratio of "
+                    "lengths taken >= 1, infinite where they are more than 60 deg apart"}};
+  }
+  return whole;
+}
+
+// A whole strain set's stiffness per magnitude (stiffness.json's point), with the contact network's estimate.
+Json strain_set_stiffness(const Deck& deck, const TestDef& test, const ProbeRows& rows, PointTable& t) {
+  const ProbeDef& def = *test.probes;
+  Json per_magnitude = Json::array();
+  for (std::size_t m = 0; m < def.magnitudes.size(); ++m)
+    per_magnitude.push_back({{"magnitude", def.magnitudes[m]}, {"tangent", matrix_json(rows.tangent[m])},
+                             {"elastic", matrix_json(rows.elastic[m])}, {"elastic_asymmetry", asymmetry(rows.elastic[m])},
+                             {"elastic_min_eigenvalue", min_symmetric_eigenvalue(rows.elastic[m])},
+                             {"tangent_asymmetry", asymmetry(rows.tangent[m])}});
+  Json point = {{"step", t.step}, {"e1", t.e1}, {"magnitudes", per_magnitude}};
+  t.entry["elastic_asymmetry"] = per_magnitude[0]["elastic_asymmetry"];
+  t.entry["elastic_min_eigenvalue"] = per_magnitude[0]["elastic_min_eigenvalue"];
+  t.evidence.elastic_asymmetry = asymmetry(rows.elastic.front());
+  t.evidence.elastic_min_eigenvalue = min_symmetric_eigenvalue(rows.elastic.front());
+  const Json network = network_estimate(deck, test, read_state((t.dir / "point.state").string()), rows.elastic.front());
+  point["network"] = network;
+  if (network.contains("elastic_vs_network")) t.entry["elastic_vs_network"] = network["elastic_vs_network"];
+  return point;
+}
+
+// A stress set's linearity across magnitudes: per direction |de(M_last)| / |de(M_first)| / (M_last / M_first), 1 in
+// the linear range; given per cone (loading: the probe raises s11/s33), whose responses differ. Null: none.
+Json linearity(const ProbeDef& def, const ProbeRows& rows) {
+  const std::size_t last = def.magnitudes.size() - 1;
+  std::vector<double> all;
+  std::vector<double> by_cone[2];
+  for (std::size_t i = 0; i < rows.response[0].size() && i < rows.response[last].size(); ++i) {
+    const double ratio = rows.response[last][i] / rows.response[0][i] / (def.magnitudes[last] / def.magnitudes[0]);
+    all.push_back(ratio);
+    if (rows.cones[0][i] != 0) by_cone[rows.cones[0][i] > 0 ? 0 : 1].push_back(ratio);
+  }
+  const auto describe = [](std::vector<double> r) {
+    if (r.empty()) return Json();
+    std::sort(r.begin(), r.end());
+    return Json{{"directions", r.size()}, {"median_ratio", r[r.size() / 2]}, {"min_ratio", r.front()},
+                {"max_ratio", r.back()}};
+  };
+  if (all.empty()) return Json();
+  Json out = describe(all);
+  out["loading"] = describe(by_cone[0]);
+  out["unloading"] = describe(by_cone[1]);
+  out["meaning"] = "per direction |de| at the largest magnitude over |de| at the smallest, divided by the "
+                   "magnitudes' ratio (1 where the response is linear): over all directions, and per cone "
+                   "(loading: the probe raises s11/s33; unloading: it lowers it)";
+  return out;
+}
+
+// The point's judgement (judge_probe_point): a status naming the first check failed, every failed check with its
+// numbers, and the readings that rest on them (linearity, the plastic reading) withheld.
+void judge_point(const ProbeDef& def, const ProbeRows& rows, bool whole, PointTable& t) {
+  Json& entry = t.entry;
+  const bool stress_set = def.kind == ProbeKind::Stress;
+  const ProbeVerdict verdict = judge_probe_point(def, t.evidence);
+  entry["checks_failed"] = verdict.failed;
+  const bool trusted = verdict.failed.empty();
+  if (whole && !trusted) {
+    entry["status"] = verdict.failed.front();
+    entry["reason"] = verdict.reason;
+  } else if (!trusted) {
+    entry["checks_reason"] = verdict.reason;
+  }
+  const std::string withheld = "withheld: " + verdict.reason;
+  if (stress_set && def.magnitudes.size() > 1 && whole) {
+    const Json line = linearity(def, rows);
+    if (!line.is_null()) {
+      const bool drifting = std::find(verdict.failed.begin(), verdict.failed.end(), kProbeCheckNames[0]) != verdict.failed.end();
+      if (drifting) {
+        entry["linearity"] = nullptr;
+        entry["linearity_withheld"] = withheld;
+      } else {
+        entry["linearity"] = line;
+      }
     }
-    entry["rest"] = {{"reached", rest->reached}, {"steps", rest->steps}, {"goal", rest->goal},
+  }
+  if (stress_set && def.plane != ProbePlane::List && whole) {
+    if (trusted) {
+      entry["plastic"] = plastic_response(rows.plastic.back(), def.magnitudes.back() * t.scale);
+    } else {  // the split into elastic and plastic parts, and so flow, normal and concentration, rests on the checks
+      entry["plastic"] = nullptr;
+      entry["plastic_withheld"] = withheld;
+    }
+  }
+}
+
+// One point of the table: its entry of summary.json's probes (its rows appended to `csv`, a strain set's stiffness
+// added to `stiffness`).
+Json tabulate_point(const fs::path& run_dir, const Deck& deck, const TestDef& test, const std::string& name,
+                    std::string& csv, Json& stiffness) {
+  const ProbeDef& def = *test.probes;
+  PointTable t;
+  t.name = name;
+  t.dir = run_dir / test.name / "probes" / name;
+  if (!fs::exists(t.dir / kPointRecordName))
+    throw RunError(t.dir.string() + ": no " + kPointRecordName + " (not a probed run folder)");
+  const Json record = Json::parse(read_file((t.dir / kPointRecordName).string()));
+  t.step = record.at("step").get<double>(), t.e1 = record.at("e1").get<double>();
+  t.entry = {{"step", t.step}, {"e1", t.e1}};
+  // A point that ends here: its status and why.
+  const auto settle = [&](const char* status, const std::string& reason) {
+    t.entry["status"] = status;
+    t.entry["reason"] = reason;
+    return t.entry;
+  };
+  const auto left_to_other_jobs = [&] {
+    t.entry["missing"] = static_cast<std::int64_t>(probe_directions(def).size()) - 1;
+    return settle("not run here", "its probes were left to other jobs (--probes); `celldem merge` gathers them");
+  };
+  if (!record.at("reached").get<bool>()) return settle("not run", record.at("reason").get<std::string>());
+  t.entry["state"] = (fs::path(test.name) / "probes" / name / "point.state").string();
+  const std::optional<ProbeResult> reference_record = read_probe_result(t.dir / "reference");
+  const std::optional<RestRecord> rest = read_rest(t.dir);
+  if (!rest) return left_to_other_jobs();
+  t.entry["rest"] = {{"reached", rest->reached}, {"steps", rest->steps}, {"goal", rest->goal},
                      {"last_window_creep", rest->last_creep}, {"window_steps", rest->json.at("window_steps")},
                      {"controlled", rest->controlled}, {"probed_from", rest->reached ? "rest" : "point"},
                      {"folder", (fs::path(test.name) / "probes" / name / kRestName).string()}};
-    if (!rest->gave_up.empty()) entry["rest"]["gave_up"] = rest->gave_up;
-    if (!rest->error.empty()) {
-      settle("failed", "the rest before the probes failed: " + rest->error);
-      continue;
-    }
-    ProbeEvidence evidence;
-    evidence.rest_reached = rest->reached;
-    evidence.rest_creep = rest->last_creep;
-    evidence.rest_gave_up = rest->gave_up;
-    // A stress set's elastic check: C_elastic at the same rested state, and the probes' size where it is scaled.
-    ElasticCheck check;
-    double scale = 1.0;
-    std::string scale_from = "given";
-    if (stress_set) {
-      check = read_elastic_check(point_dir, def);
-      Json e = {{"target_strain", def.target_strain}, {"whole", check.whole}};
-      if (!check.whole) e["reason"] = check.reason;
-      e["elastic"] = matrix_json(check.elastic);
-      e["tangent"] = matrix_json(check.tangent);
-      const double asymmetry_of_elastic = asymmetry(check.elastic);
-      const double min_eigenvalue_of_elastic = min_symmetric_eigenvalue(check.elastic);
-      e["elastic_asymmetry"] = asymmetry_of_elastic;
-      e["elastic_min_eigenvalue"] = min_eigenvalue_of_elastic;
-      e["reference_drift_stress"] = check.drift;
-      entry["elastic_check"] = e;
-      if (!check.whole) evidence.elastic_check_missing = check.reason;
-      if (check.whole) {
-        evidence.elastic_asymmetry = asymmetry_of_elastic;
-        evidence.elastic_min_eigenvalue = min_eigenvalue_of_elastic;
-      }
-      if (def.scaled) {
-        std::tie(scale, scale_from) = probe_scale(def, check, path_tangent(run_dir, test, point_step));
-        Json m = Json::array();
-        for (double f : def.magnitudes) m.push_back(f * scale);
-        entry["magnitudes"] = m;
-        entry["magnitude_from"] = scale_from;
-        if (!std::isfinite(scale)) {  // its probes were not run (run_test_probes)
-          const ProbeVerdict v = judge_probe_point(def, evidence);
-          entry["checks_failed"] = v.failed;
-          settle("failed", "no stiffness to size the probes by: the elastic check's tangent and elastic stiffness "
-                           "are both not positive definite (elastic_check)" + (v.reason.empty() ? "" : "; " + v.reason));
-          continue;
-        }
-      }
-    }
-    if (!reference_record) {
-      left_to_other_jobs();
-      continue;
-    }
-    const ProbeResult& reference = *reference_record;
-    if (!reference.ran) {
-      settle("failed", "the reference probe failed: " + reference.error);
-      continue;
-    }
-    const Vec3 s{reference.start.s11, reference.start.s22, reference.start.s33};
-    int ran = 0, controlled = 0, failed = 0;
-    // Strain probes: per magnitude, the columns of the tangent and elastic stiffness.
-    std::vector<Eigen::Matrix<double, 6, 6>> tangent(def.magnitudes.size(), Eigen::Matrix<double, 6, 6>::Zero()),
-        elastic = tangent;
-    // Stress probes: the strain response's length per direction and magnitude (linearity across magnitudes).
-    std::vector<std::vector<double>> response(def.magnitudes.size());
-    std::vector<std::vector<int>> cones(def.magnitudes.size());
-    std::vector<std::vector<PlanePoint>> plastic(def.magnitudes.size());  // stress probes in a plane
-    // The reference's drift over a probe: its strains (stress sets: it holds the stresses) or its stresses (strain
-    // sets: it holds the strains) from its start to the ends of the loaded and the unloaded holds.
-    const double drift = stress_set ? std::max(norm(minus(strains(reference.loaded), strains(reference.start))),
-                                               norm(minus(strains(reference.unloaded), strains(reference.start))))
-                                    : std::max(norm(minus(stresses(reference.loaded), stresses(reference.start))),
-                                               norm(minus(stresses(reference.unloaded), stresses(reference.start))));
-    double smallest = INFINITY, worst_factor = 0.0;
-    std::string worst_probe;
-    std::vector<double> factors;
-    int missing = 0;
-    for (std::size_t k = 1; k < directions.size(); ++k) {
-      const ProbeDirection& d = directions[k];
-      const std::optional<ProbeResult> record = read_probe_result(point_dir / d.name);
-      if (!record) {  // another job's (--probes), not merged
-        ++missing;
-        continue;
-      }
-      const ProbeResult& r = *record;
-      const std::size_t m = static_cast<std::size_t>(std::find(def.magnitudes.begin(), def.magnitudes.end(), d.magnitude) - def.magnitudes.begin());
-      const double magnitude = stress_set ? d.magnitude * scale : d.magnitude;
-      csv.append(name).append(",").append(fmt10(point_step)).append(",").append(fmt10(point_e1));
-      csv.append(",").append(name_of(def.kind, kProbeKindNames)).append(",").append(d.name);
-      csv.append(",").append(fmt10(magnitude)).append(",").append(fmt10(d.angle_deg));
-      for (double x : d.direction) csv.append(",").append(fmt10(x));
-      if (!r.ran) {
-        ++failed;
-        for (int c = 0; c < 35; ++c) csv += ",";
-        std::string why = r.error;
-        std::replace(why.begin(), why.end(), ',', ';');
-        std::replace(why.begin(), why.end(), '\n', ' ');
-        csv.append(",false,failed: ").append(why).append("\n");
-        continue;
-      }
-      ++ran;
-      controlled += r.controlled;
-      const Row6 ds = minus(stresses(r.loaded), stresses(reference.loaded));
-      const Row6 de = minus(strains(r.loaded), strains(reference.loaded));
-      const Row6 de_plastic = minus(strains(r.unloaded), strains(reference.unloaded));
-      const Row6 ds_residual = minus(stresses(r.unloaded), stresses(reference.unloaded));
-      const Row6 de_elastic = minus(de, de_plastic);
-      for (const Row6* v : {&ds, &de, &de_plastic, &de_elastic, &ds_residual})
-        for (double x : *v) csv.append(",").append(fmt10(x));
-      const double size = stress_set ? norm(de) : norm(ds);
-      smallest = std::min(smallest, size);
-      double predicted = NAN, factor = NAN;
-      int cone = 0;
-      if (stress_set) {
-        cone = probe_cone(d.direction, s);
-        if (check.whole) {  // C_elastic^-1 of the recovered stress increment
-          Eigen::Matrix<double, 6, 1> recovered;
-          for (int i = 0; i < 6; ++i) recovered(i) = ds[static_cast<std::size_t>(i)] - ds_residual[static_cast<std::size_t>(i)];
-          const Eigen::Matrix<double, 6, 1> p = check.elastic.fullPivLu().solve(recovered);
-          Row6 prediction;
-          for (int i = 0; i < 6; ++i) prediction[static_cast<std::size_t>(i)] = p(i);
-          predicted = norm(prediction);
-          factor = elastic_agreement(de_elastic, prediction);
-          factors.push_back(factor);
-          if (!(factor <= worst_factor)) worst_probe = d.name;
-          worst_factor = std::max(worst_factor, factor);
-        }
-      }
-      csv.append(",").append(fmt10(size)).append(",").append(fmt10(drift)).append(",").append(fmt10(predicted));
-      csv.append(",").append(fmt10(factor)).append(",").append(stress_set ? (cone > 0 ? "loading" : cone < 0 ? "unloading" : "neutral") : "");
-      csv.append(r.controlled ? ",true,ok\n" : ",false,ok\n");
-      if (!stress_set) {
-        const int column = static_cast<int>(std::max_element(d.direction.begin(), d.direction.end()) - d.direction.begin());
-        for (int i = 0; i < 6; ++i) {
-          tangent[m](i, column) = ds[static_cast<std::size_t>(i)] / d.magnitude;
-          elastic[m](i, column) = (ds[static_cast<std::size_t>(i)] - ds_residual[static_cast<std::size_t>(i)]) / d.magnitude;
-        }
-      } else {
-        response[m].push_back(norm(de));
-        cones[m].push_back(cone);
-        if (def.plane != ProbePlane::List) {
-          const auto [u1, u2] = plane_basis(def.plane);
-          double p1 = 0.0, p2 = 0.0;
-          for (int c = 0; c < 3; ++c) p1 += u1[c] * de_plastic[c], p2 += u2[c] * de_plastic[c];
-          plastic[m].push_back({d.angle_deg * kPi / 180.0, p1, p2});
-        }
-      }
-    }
-    // What the set says (stiffness, linearity, the plastic reading) only from a whole set that held its controls:
-    // a probe whose stress or strain left its target did not probe the direction it names.
-    const bool whole = failed == 0 && missing == 0 && controlled == ran;
-    entry["status"] = missing > 0 ? "partly run" : failed > 0 ? "ran with failures" : whole ? "ran" : "ran with uncontrolled probes";
-    if (entry["status"] == "ran with uncontrolled probes")
-      entry["reason"] = std::to_string(ran - controlled) + " probes lost their control (result.json control_errors): "
-                        "the set's stiffness, linearity and plastic reading are not given";
-    entry["probes"] = ran + failed;
-    entry["failed"] = failed;
-    if (missing > 0) {
-      entry["missing"] = missing;
-      entry["reason"] = std::to_string(missing) + " probes were left to other jobs (--probes); `celldem merge` gathers them";
-    }
-    entry["controlled"] = controlled;
-    entry["folder"] = (fs::path(test.name) / "probes" / name).string();
-    if (ran > 0) {
-      evidence.drift = drift;
-      evidence.smallest_response = smallest;
-      entry["drift"] = {{"reference", drift}, {"smallest_response", smallest}, {"ratio", drift / smallest},
-                        {"unit", stress_set ? "strain |de|" : "stress |ds| [Pa]"}};
-    }
-    if (!factors.empty()) {
-      evidence.elastic_factor = worst_factor;
-      evidence.elastic_worst_probe = worst_probe;
-      std::vector<double> sorted = factors;
-      std::sort(sorted.begin(), sorted.end());
-      entry["elastic_check"]["agreement"] = {
-          {"worst_factor", worst_factor},  // null when a probe's is infinite (turned)
-          {"worst_probe", worst_probe},
-          {"turned", std::count_if(factors.begin(), factors.end(), [](double f) { return std::isinf(f); })},
-          {"median_factor", sorted[sorted.size() / 2]},
-          {"within_limit", std::count_if(factors.begin(), factors.end(), [&](double f) { return f <= def.elastic_factor; })},
-          {"probes", factors.size()},
-          {"meaning", "per probe, its recovered strain against C_elastic^-1 ds (elastic_agreement): the ratio of "
-                      "lengths taken >= 1, infinite where they are more than 60 deg apart"}};
-    }
-    if (def.kind == ProbeKind::Strain && whole) {
-      Json per_magnitude = Json::array();
-      for (std::size_t m = 0; m < def.magnitudes.size(); ++m)
-        per_magnitude.push_back({{"magnitude", def.magnitudes[m]}, {"tangent", matrix_json(tangent[m])},
-                                 {"elastic", matrix_json(elastic[m])}, {"elastic_asymmetry", asymmetry(elastic[m])},
-                                 {"elastic_min_eigenvalue", min_symmetric_eigenvalue(elastic[m])},
-                                 {"tangent_asymmetry", asymmetry(tangent[m])}});
-      stiffness["points"][name] = {{"step", point_step}, {"e1", point_e1}, {"magnitudes", per_magnitude}};
-      entry["elastic_asymmetry"] = per_magnitude[0]["elastic_asymmetry"];
-      entry["elastic_min_eigenvalue"] = per_magnitude[0]["elastic_min_eigenvalue"];
-      evidence.elastic_asymmetry = asymmetry(elastic.front());
-      evidence.elastic_min_eigenvalue = min_symmetric_eigenvalue(elastic.front());
-      const Json network = network_estimate(deck, test, read_state((point_dir / "point.state").string()), elastic.front());
-      stiffness["points"][name]["network"] = network;
-      if (network.contains("elastic_vs_network")) entry["elastic_vs_network"] = network["elastic_vs_network"];
-    }
-    // The point's judgement (judge_probe_point): a status naming the first check failed, every failed check with
-    // its numbers, and the readings that rest on them withheld.
-    const ProbeVerdict verdict = judge_probe_point(def, evidence);
-    entry["checks_failed"] = verdict.failed;
-    const bool trusted = verdict.failed.empty();
-    if (whole && !trusted) {
-      entry["status"] = verdict.failed.front();
-      entry["reason"] = verdict.reason;
-    } else if (!trusted) {
-      entry["checks_reason"] = verdict.reason;
-    }
-    const std::string withheld = "withheld: " + verdict.reason;
-    if (stress_set && def.magnitudes.size() > 1 && whole) {
-      // Linear response scales with the magnitude: per direction |de(M_last)| / |de(M_first)| / (M_last / M_first)
-      // is 1 in the linear range; given per cone (loading: the probe raises s11/s33), whose responses differ.
-      const std::size_t last = def.magnitudes.size() - 1;
-      std::vector<double> all;
-      std::vector<double> by_cone[2];
-      for (std::size_t i = 0; i < response[0].size() && i < response[last].size(); ++i) {
-        const double ratio = response[last][i] / response[0][i] / (def.magnitudes[last] / def.magnitudes[0]);
-        all.push_back(ratio);
-        if (cones[0][i] != 0) by_cone[cones[0][i] > 0 ? 0 : 1].push_back(ratio);
-      }
-      const auto describe = [](std::vector<double> r) {
-        if (r.empty()) return Json();
-        std::sort(r.begin(), r.end());
-        return Json{{"directions", r.size()}, {"median_ratio", r[r.size() / 2]}, {"min_ratio", r.front()},
-                    {"max_ratio", r.back()}};
-      };
-      if (!all.empty()) {
-        Json linearity = describe(all);
-        linearity["loading"] = describe(by_cone[0]);
-        linearity["unloading"] = describe(by_cone[1]);
-        linearity["meaning"] = "per direction |de| at the largest magnitude over |de| at the smallest, divided by the "
-                               "magnitudes' ratio (1 where the response is linear): over all directions, and per cone "
-                               "(loading: the probe raises s11/s33; unloading: it lowers it)";
-        const bool drifting = std::find(verdict.failed.begin(), verdict.failed.end(), kProbeCheckNames[0]) != verdict.failed.end();
-        if (drifting) {
-          entry["linearity"] = nullptr;
-          entry["linearity_withheld"] = withheld;
-        } else {
-          entry["linearity"] = linearity;
-        }
-      }
-    }
-    if (stress_set && def.plane != ProbePlane::List && whole) {
-      if (trusted) {
-        entry["plastic"] = plastic_response(plastic.back(), def.magnitudes.back() * scale);
-      } else {  // the split into elastic and plastic parts, and so flow, normal and concentration, rests on the checks
-        entry["plastic"] = nullptr;
-        entry["plastic_withheld"] = withheld;
-      }
-    }
-    summary["points"][name] = entry;
-  }
+  if (!rest->gave_up.empty()) t.entry["rest"]["gave_up"] = rest->gave_up;
+  if (!rest->error.empty()) return settle("failed", "the rest before the probes failed: " + rest->error);
+  t.evidence.rest_reached = rest->reached;
+  t.evidence.rest_creep = rest->last_creep;
+  t.evidence.rest_gave_up = rest->gave_up;
+  // A stress set's elastic check: C_elastic at the same rested state, and the probes' size where it is scaled.
+  if (def.kind == ProbeKind::Stress && !tabulate_elastic_check(run_dir, test, t)) return t.entry;
+  if (!reference_record) return left_to_other_jobs();
+  if (!reference_record->ran) return settle("failed", "the reference probe failed: " + reference_record->error);
+  const ProbeRows rows = tabulate_probe_rows(def, t, *reference_record, csv);
+  const bool whole = tabulate_set(test, rows, t);
+  if (def.kind == ProbeKind::Strain && whole) stiffness["points"][name] = strain_set_stiffness(deck, test, rows, t);
+  judge_point(def, rows, whole, t);
+  return t.entry;
+}
+
+}  // namespace
+
+Json tabulate_probes(const fs::path& run_dir, const Deck& deck, const TestDef& test) {
+  const ProbeDef& def = *test.probes;
+  const fs::path probes_dir = run_dir / test.name / "probes";
+  std::string csv = probes_csv_header();
+  Json summary = set_summary(def, test);
+  Json stiffness = {{"voigt_order", {"11", "22", "33", "12", "13", "23"}},
+                    {"units", "Pa per unit strain; engineering shear strains g_ij; compression +"},
+                    {"points", Json::object()}};
+  for (const std::string& name : probe_point_names(def))
+    summary["points"][name] = tabulate_point(run_dir, deck, test, name, csv, stiffness);
   write_file_atomic(probes_dir / "probes.csv", csv);
   if (def.kind == ProbeKind::Strain) {
     write_file_atomic(probes_dir / "stiffness.json", stiffness.dump(1));
