@@ -129,7 +129,7 @@ PeakJudgement judge_peak(const TestMeasure& measure, const std::vector<SeriesRow
   return j;
 }
 
-Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
+Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis, ComparedValues* values) {
   // The peak of s11/s33 (its first row, judge_peak): the test's measure when it drives the first axis in compression;
   // summarize_driven_measure adds another measure's.
   const PeakJudgement judged = judge_peak(TestMeasure{}, rows);
@@ -150,6 +150,11 @@ Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
 
   const Json robust = robust_peak(rows);
   const bool peak_reached = judged.reached;
+  if (values) {  // (as the JSON holds them: null, not a number, is NaN)
+    const auto finite = [](double x) { return std::isfinite(x) ? x : std::numeric_limits<double>::quiet_NaN(); };
+    const auto number = [](const Json& j) { return j.is_number() ? j.get<double>() : std::numeric_limits<double>::quiet_NaN(); };
+    *values = {finite(at_peak.ratio13), number(robust["ratio13"]), finite(ev_end / in_window), finite(z_end / in_window)};
+  }
 
   return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
           {"peak_reached", peak_reached},
@@ -259,7 +264,7 @@ Json summarize_driven_measure(const TestDef& test, const std::vector<SeriesRow>&
 
 Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
                     const std::vector<ControlErrors>& errors, double wall, std::int64_t steps, std::size_t particles,
-                    std::vector<std::string>& warnings) {
+                    std::vector<std::string>& warnings, ComparedValues* values) {
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
   const ControlErrorMaxima worst = control_error_maxima(errors);
@@ -293,7 +298,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
                         {"target", number_or_null(f.target)}, {"reached", number_or_null(f.reached)}});
 
   const int end_axis = test.legs.back().end.kind == LegEndKind::Strain ? test.legs.back().end.axis : 0;
-  Json out = summarize_series(rows, end_axis);
+  Json out = summarize_series(rows, end_axis, values);
   out.update(summarize_driven_measure(test, rows, deck.stage_time_step(test)));
   // A rotation or a stress-controlled test drives no measure to a peak: not "no peak reached".
   if (const TestMeasure::Kind kind = driven_measure(test).kind; kind == TestMeasure::Kind::Rotation || kind == TestMeasure::Kind::Stress)
@@ -318,7 +323,8 @@ TestSummary summarize_finished_test(const Deck& deck, const TestDef& test, const
   TestSummary t;
   const std::int64_t steps = stage.state.control.stage_steps;
   const std::size_t particles = stage.state.particles.size();
-  t.json = summarize_test(deck, test, stage.rows, stage.control_errors, stage.elapsed, steps, particles, warnings);
+  t.json = summarize_test(deck, test, stage.rows, stage.control_errors, stage.elapsed, steps, particles, warnings,
+                          &t.compared);
   t.measure = driven_measure(test);
   t.peak = judge_peak(t.measure, stage.rows);
   t.peak_reached = !t.measure.has_peak() || t.peak.reached;

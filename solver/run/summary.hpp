@@ -1,5 +1,6 @@
 // The scalars of summary.json. C++ owns every one of them: the tools read them and never recompute them.
 #pragma once
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -29,7 +30,16 @@ inline constexpr double kPeakSmoothing = 0.005;
 // b and the principal values there), the robust peak, whether a peak was reached (not the last row, and the
 // robust plateau ends before the last row), the last row and the end-window means over the last
 // kEndWindowStrain of `end_axis` (0-based). Non-finite values are null.
-nlohmann::json summarize_series(const std::vector<SeriesRow>& rows, int end_axis);
+// The quantities a rate check compares (run/verify_rate.hpp kRateCheckQuantities), typed as summarize_series gives
+// them: NaN where summary.json has null.
+struct ComparedValues {
+  double peak_ratio13 = NAN;         // summary.json peak_ratio13
+  double peak_robust_ratio13 = NAN;  // peak_robust.ratio13
+  double end_window_ev = NAN;        // end_window.ev
+  double end_window_Z = NAN;         // end_window.Z
+};
+// `values`, when given, receives those of the JSON's values a rate check compares.
+nlohmann::json summarize_series(const std::vector<SeriesRow>& rows, int end_axis, ComparedValues* values = nullptr);
 
 // Whether a test's measure (driven_measure) reached its peak, and the evidence it was judged on: s11/s33 (and the
 // tests with no peak to reach, followed on it) by its smoothed curve (the robust peak's plateau must end before the
@@ -54,7 +64,8 @@ nlohmann::json summarize_driven_measure(const TestDef& test, const std::vector<S
 // strain), and the worst errors of its controls.
 nlohmann::json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
                               const std::vector<ControlErrors>& errors, double wall_seconds, std::int64_t steps,
-                              std::size_t particles, std::vector<std::string>& warnings);
+                              std::size_t particles, std::vector<std::string>& warnings,
+                              ComparedValues* values = nullptr);
 
 // A finished test's summary: summary.json's tests.<test> (summarize_test), and what the run reads of it, typed.
 struct TestSummary {
@@ -63,6 +74,7 @@ struct TestSummary {
   PeakJudgement peak;            // of the measure (followed on s11/s33 for a test with no peak to reach)
   bool peak_reached = true;      // the peak reached, or none to reach (json's peak_reached, absent then)
   bool controlled = true;        // no control failed
+  ComparedValues compared;       // what a rate check compares
   double wall_s = 0.0;
   double particle_steps_per_s = 0.0;
 };

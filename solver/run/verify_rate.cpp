@@ -57,21 +57,6 @@ double ensemble_std(const Json& tests, const std::string& test, const std::strin
 }
 
 
-// A summary value by its dotted path ("end_window.ev"); NaN when missing or not a number.
-double at_path(const Json& j, const std::string& path) {
-  const Json* p = &j;
-  std::size_t from = 0;
-  while (true) {
-    const std::size_t dot = path.find('.', from);
-    const std::string key = path.substr(from, dot == std::string::npos ? std::string::npos : dot - from);
-    if (!p->is_object() || !p->contains(key)) return kNaN;
-    p = &(*p)[key];
-    if (dot == std::string::npos) break;
-    from = dot + 1;
-  }
-  return p->is_number() ? p->get<double>() : kNaN;
-}
-
 double floor_of(const NoiseFloors& f, const std::string& name) {
   return name == "ratio13" ? f.ratio13 : name == "ev" ? f.ev : f.Z;
 }
@@ -308,7 +293,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   int twin_n = 0;
   for (const ComparedQuantity& q : kRateCheckQuantities) {
     const bool compared = twin_ok && !(q.peak && !(test_peak && twin_peak));
-    const double t = compared ? (at_path(summary.json, q.path) - at_path(twin.summary.json, q.path)) / floor_of(floors, q.floor)
+    const double t = compared ? (summary.compared.*q.value - twin.summary.compared.*q.value) / floor_of(floors, q.floor)
                               : kNaN;
     twin_floors[q.path] = t;
     if (std::isfinite(t)) twin_sum += t * t, ++twin_n;
@@ -332,10 +317,10 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   bool any_unresolved = false, any_not_converged = false;
   for (const ComparedQuantity& q : kRateCheckQuantities) {
     const double floor = floor_of(floors, q.floor);
-    const double a = at_path(summary.json, q.path), b = at_path(slow.summary.json, q.path);
+    const double a = summary.compared.*q.value, b = slow.summary.compared.*q.value;
     Json c = {{"test", number_or_null(a)}, {"slow", number_or_null(b)}, {"floor", floor}};
     if (twin_ok && !(q.peak && !(test_peak && twin_peak))) {  // the differences pair_chaos is given
-      c["twin"] = number_or_null(at_path(twin.summary.json, q.path));
+      c["twin"] = number_or_null(twin.summary.compared.*q.value);
       c["twin_floors"] = number_or_null(twin_floors[q.path]);
     }
     if (q.peak && !(test_peak && slow_peak)) {

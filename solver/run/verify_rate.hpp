@@ -20,12 +20,12 @@
 
 #include "core/deck.hpp"
 #include "core/state.hpp"
+#include "run/summary.hpp"
 
 namespace celldem {
 
 class RunDirectory;
 struct RunOptions;
-struct TestSummary;
 
 // What a rate check asks for: the command line's (--verify-rate and its options) or a test's verify_rate key.
 // The defaults are the key table's (core/deck_schema.hpp).
@@ -63,15 +63,16 @@ NoiseFloors noise_floors(const std::string& path, const std::string& test, int p
 // that measures it: the whole-test peaks of s11/s33 (the first row of the largest, and the robust peak) and the
 // end-window means of ev and Z.
 struct ComparedQuantity {
-  const char* path;
+  const char* path;   // its place in summary.json (comparisons.<path>)
   const char* floor;  // "ratio13", "ev" or "Z"
   bool peak;          // a peak quantity: compared only when both runs reached their peak
+  double ComparedValues::*value;  // the test summary's (TestSummary::compared)
 };
 inline constexpr ComparedQuantity kRateCheckQuantities[] = {
-    {"peak_ratio13", "ratio13", true},
-    {"peak_robust.ratio13", "ratio13", true},
-    {"end_window.ev", "ev", false},
-    {"end_window.Z", "Z", false},
+    {"peak_ratio13", "ratio13", true, &ComparedValues::peak_ratio13},
+    {"peak_robust.ratio13", "ratio13", true, &ComparedValues::peak_robust_ratio13},
+    {"end_window.ev", "ev", false, &ComparedValues::end_window_ev},
+    {"end_window.Z", "Z", false, &ComparedValues::end_window_Z},
 };
 
 // The 95 % half-width [floors] of the chaos of one pair of runs from the same state, for one quantity: the smaller
