@@ -97,11 +97,16 @@ PeakJudgement judge_peak(const TestMeasure& measure, const std::vector<SeriesRow
   j.value = driven_value(measure, rows[j.row]);
   j.strain = driven_strain(measure, rows[j.row]);
   const std::string name = measure_name(measure), strain = strain_name(measure);
-  char buf[400];
-  if (j.row + 1 >= rows.size()) {
+  char buf[640];
+  const bool at_last_row = j.row + 1 >= rows.size();
+  std::string last_row;  // the raw measure's largest on the last row: no peak whatever else says
+  if (at_last_row) {
     std::snprintf(buf, sizeof buf, "%s is largest (%.4f) at the last row, %s %.4f", name.c_str(), j.value,
-                  strain.c_str(), driven_strain(measure, rows[j.row]));
-    j.evidence = buf;
+                  strain.c_str(), j.strain);
+    last_row = buf;
+  }
+  if (at_last_row && (measure.kind == TestMeasure::Kind::Extension || measure.kind == TestMeasure::Kind::Shear)) {
+    j.evidence = last_row;
     return j;
   }
   if (measure.kind == TestMeasure::Kind::Extension || measure.kind == TestMeasure::Kind::Shear) {
@@ -110,21 +115,21 @@ PeakJudgement judge_peak(const TestMeasure& measure, const std::vector<SeriesRow
     j.reached = false;
     for (std::size_t r = j.row + 1; r < rows.size(); ++r)
       j.reached |= driven_value(measure, rows[r]) < (1.0 - kPeakPlateau) * j.value;
-    std::snprintf(buf, sizeof buf, "%s falls after its largest %.4f (at %s %.4f) to %.4f at least, %s than the %g %% a peak "
-                  "needs", name.c_str(), j.value, strain.c_str(), driven_strain(measure, rows[j.row]), lowest,
+    std::snprintf(buf, sizeof buf, "%s falls after its largest %.4f (at %s %.4f) to as low as %.4f: %s than the %g %% a "
+                  "peak needs", name.c_str(), j.value, strain.c_str(), j.strain, lowest,
                   j.reached ? "more" : "no more", 100.0 * kPeakPlateau);
     j.evidence = buf;
     return j;
   }
   std::size_t plateau_end = 0;
   const Json robust = robust_peak(rows, &plateau_end);
-  j.reached = plateau_end + 1 < rows.size();
+  j.reached = !at_last_row && plateau_end + 1 < rows.size();
   const Json& plateau = robust["plateau_e1"];
-  std::snprintf(buf, sizeof buf, "s11/s33 smoothed over %g %% of e1 peaks at %.4f, and stays within %g %% of it over e1 "
-                "%.4f to %.4f, %s", 100.0 * kPeakSmoothing, robust["ratio13"].is_null() ? NAN : robust["ratio13"].get<double>(),
-                100.0 * kPeakPlateau, plateau[0].is_null() ? NAN : plateau[0].get<double>(),
+  std::snprintf(buf, sizeof buf, "%s%ss11/s33 smoothed over %g %% of e1 peaks at %.4f, and stays within %g %% of it over "
+                "e1 %.4f to %.4f, %s", last_row.c_str(), at_last_row ? "; " : "", 100.0 * kPeakSmoothing,
+                robust["ratio13"].is_null() ? NAN : robust["ratio13"].get<double>(), 100.0 * kPeakPlateau, plateau[0].is_null() ? NAN : plateau[0].get<double>(),
                 plateau[1].is_null() ? NAN : plateau[1].get<double>(),
-                j.reached ? "ending before the test's last row" : "to the test's last row");
+                plateau_end + 1 < rows.size() ? "ending before the test's last row" : "to the test's last row");
   j.evidence = buf;
   return j;
 }
