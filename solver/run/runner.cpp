@@ -94,10 +94,16 @@ Json started_from(const Deck& deck, const PreparationStart& start, int skipped) 
   return j;
 }
 
+// A finished test: its summary and its observers' results.
+struct TestOutcome {
+  TestSummary summary;
+  std::vector<ObserverReport> reports;
+};
+
 // A loading test from the prepared state, or the initial state without a preparation (or from its own checkpoint),
 // with its observers (observers_for: snapshots, the peak contacts, probes, the rate check), each of whose results
 // after the test goes into its summary.
-TestSummary run_test(const RunContext& context, const TestDef& test, const fs::path& prepared, bool resumed) {
+TestOutcome run_test(const RunContext& context, const TestDef& test, const fs::path& prepared, bool resumed) {
   const Deck& deck = context.deck;
   RunDirectory& run = context.run;
   // With prepare, from the run's prepared state (also when the preparation started from initial_state).
@@ -126,35 +132,22 @@ TestSummary run_test(const RunContext& context, const TestDef& test, const fs::p
        .final_state = FinalStateFile{(run.stage_dir(test.name) / "final.state").string(), "test:" + test.name}},
       std::move(state), observers.list());
   std::vector<std::string> warnings;
-  const TestSummary summary = summarize_finished_test(deck, test, result, warnings);
-  run.update_summary([&](Json& s) { s["tests"][test.name] = summary.json; });
+  TestOutcome done{summarize_finished_test(deck, test, result, warnings), {}};
+  run.update_summary([&](Json& s) { s["tests"][test.name] = done.summary.json; });
   for (const std::string& w : warnings) run.add_warning(w);
   for (StageObserver* o : observers.list())
-    if (const std::optional<ObserverReport> report = o->after_test({test, result, summary})) {
+    if (std::optional<ObserverReport> report = o->after_test({test, result, done.summary})) {
       run.update_summary([&](Json& s) { s["tests"][test.name][report->key] = report->value; });
       for (const std::string& w : report->warnings) run.add_warning(w);
+      done.reports.push_back(std::move(*report));
     }
-  return summary;
-}
-
-// A rate check's verdict on the console: per quantity its error in floors and verdict, then the test's.
-void print_rate_check(const std::string& name, const Json& v) {
-  std::printf("%s: rate check at %g x the rate, tolerance %g floors (95 %%)\n", name.c_str(), v.value("rate_factor", 0.0),
-              v.value("tolerance_floors", 0.0));
-  if (v.contains("comparisons"))
-    for (const auto& [q, c] : v["comparisons"].items()) {
-      const bool has = c.contains("error_floors") && c["error_floors"].is_number();
-      std::printf("%s:   %-20s error %+7.2f -+ %.2f floors (chaos: %s): %s\n", name.c_str(), q.c_str(),
-                  has ? c["error_floors"].get<double>() : NAN, c.value("chaos_half_width_floors", NAN),
-                  c.value("chaos_from", std::string("-")).c_str(), c.value("verdict", std::string()).c_str());
-    }
-  std::printf("%s: rate check: %s: %s\n", name.c_str(), v.value("verdict", std::string()).c_str(),
-              v.value("reason", std::string()).c_str());
+  return done;
 }
 
 // A finished test on the console: its time and speed, the peak of its driven measure (or why none was reached),
-// whether its controls held, then its observers' results (the rate check, probe points that did not all run).
-void print_test_done(const RunDirectory& run, const TestDef& test, const TestSummary& t) {
+// whether its controls held, then what its observers say of their results (the probes, the rate check).
+void print_test_done(const TestDef& test, const TestOutcome& done) {
+  const TestSummary& t = done.summary;
   const char* name = test.name.c_str();
   const TestMeasure& m = t.measure;
   std::printf("%s: done in %.1f s (%.3g particle-steps/s)", name, t.wall_s, t.particle_steps_per_s);
@@ -167,13 +160,8 @@ void print_test_done(const RunDirectory& run, const TestDef& test, const TestSum
                 t.peak.evidence.c_str());
   if (!t.controlled)
     std::printf("%s: uncontrolled: a control failed (summary.json control_failures; control_failure \"warn\")\n", name);
-  const Json s = run.summary()["tests"][test.name];
-  if (s.contains("verify_rate")) print_rate_check(test.name, s["verify_rate"]);
-  if (s.contains("probes"))  // a point whose probes did not all run and hold their controls is named with its reason
-    for (const auto& [point, p] : s["probes"]["points"].items())
-      if (p.value("status", "") != "ran")
-        std::printf("%s: probes at %s: %s%s%s\n", name, point.c_str(), p.value("status", "").c_str(),
-                    p.contains("reason") ? ": " : "", p.value("reason", "").c_str());
+  for (const ObserverReport& report : done.reports)
+    for (const std::string& line : report.console) std::printf("%s: %s\n", name, line.c_str());
 }
 
 }  // namespace
@@ -251,9 +239,9 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     if (!options.quiet)
       std::printf("%s: %s (%d thread%s)\n", test.name.c_str(), resumed ? "resuming" : "starting", test_threads,
                   test_threads > 1 ? "s" : "");
-    const TestSummary summary = run_test({run, deck, options}, test, prepared, resumed);
+    const TestOutcome done = run_test({run, deck, options}, test, prepared, resumed);
     run.mark_done(test.name);
-    if (!options.quiet) print_test_done(run, test, summary);
+    if (!options.quiet) print_test_done(test, done);
   };
   for (std::size_t first = 0; first < pending.size(); first += side_by_side) {
     const std::size_t group = std::min(side_by_side, pending.size() - first);

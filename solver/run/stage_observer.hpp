@@ -43,11 +43,13 @@ struct FinishedTest {
   const TestSummary& summary;
 };
 
-// What an observer adds to its test's summary: summary.json's tests.<test>.<key>, and warnings for the run.
+// What an observer adds to its test's summary: summary.json's tests.<test>.<key>, warnings for the run, and lines
+// for the console once the test is done (each printed after "<test>: ").
 struct ObserverReport {
   std::string key;
   nlohmann::json value;
   std::vector<std::string> warnings;
+  std::vector<std::string> console;
 };
 
 class StageObserver {

@@ -141,10 +141,14 @@ class Probes : public StageObserver {
   void on_finish(const State& state, const std::vector<SeriesRow>& rows) override { points_.finish(state, rows.back()); }
   std::optional<ObserverReport> after_test(const FinishedTest& done) override {
     ObserverReport report{"probes", run_test_probes(context_.run, context_.deck, context_.options, test_, points_,
-                                                    done.summary.peak_reached), {}};
-    for (const auto& [point, p] : report.value["points"].items())  // a point that could not be probed is a warning
-      if (p.value("status", "") == "not run")
+                                                    done.summary.peak_reached), {}, {}};
+    for (const auto& [point, p] : report.value["points"].items()) {
+      if (p.value("status", "") == "not run")  // a point that could not be probed is a warning
         report.warnings.push_back(test_.name + ": the probes at " + point + " were not run: " + p.value("reason", ""));
+      if (p.value("status", "") != "ran")  // named with its reason
+        report.console.push_back("probes at " + point + ": " + p.value("status", "") + (p.contains("reason") ? ": " : "") +
+                                 p.value("reason", ""));
+    }
     return report;
   }
 
@@ -153,6 +157,25 @@ class Probes : public StageObserver {
   const TestDef& test_;
   ProbePoints points_;
 };
+
+// A rate check's verdict for the console: per quantity its error in floors and verdict, then the test's.
+std::vector<std::string> rate_check_lines(const Json& v) {
+  std::vector<std::string> lines;
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "rate check at %g x the rate, tolerance %g floors (95 %%)", v.value("rate_factor", 0.0),
+                v.value("tolerance_floors", 0.0));
+  lines.push_back(buf);
+  if (v.contains("comparisons"))
+    for (const auto& [q, c] : v["comparisons"].items()) {
+      const bool has = c.contains("error_floors") && c["error_floors"].is_number();
+      std::snprintf(buf, sizeof buf, "  %-20s error %+7.2f -+ %.2f floors (chaos: %s): %s", q.c_str(),
+                    has ? c["error_floors"].get<double>() : NAN, c.value("chaos_half_width_floors", NAN),
+                    c.value("chaos_from", std::string("-")).c_str(), c.value("verdict", std::string()).c_str());
+      lines.push_back(buf);
+    }
+  lines.push_back("rate check: " + v.value("verdict", std::string()) + ": " + v.value("reason", std::string()));
+  return lines;
+}
 
 // The rate check (run/verify_rate.hpp): after the test, the same test from its own start at a slower rate and a twin.
 class RateCheck : public StageObserver {
@@ -183,8 +206,10 @@ std::optional<ObserverReport> RateCheck::after_test(const FinishedTest& done) {
   begin_stage(state);
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   evaluate_forces(start_.model, test_.stage_friction(), state);
-  return ObserverReport{"verify_rate", verify_test_rate(context_.run, deck, context_.options, test_, check_, state,
-                                                        done.summary), {}};
+  ObserverReport report{"verify_rate", verify_test_rate(context_.run, deck, context_.options, test_, check_, state,
+                                                        done.summary), {}, {}};
+  report.console = rate_check_lines(report.value);
+  return report;
 }
 
 }  // namespace
