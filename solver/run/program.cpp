@@ -308,7 +308,8 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     const bool leg_over = leg.run(rebuild);
     const bool known_ahead = program.kind == StageKind::Test && std::isfinite(planned_from[static_cast<std::size_t>(c.leg)]);
     if (const std::string cut = strain_leg_cut_short(program, model, state, known_ahead); !cut.empty()) out.warn(cut);
-    if (static_cast<std::size_t>(c.leg) + 1 == program.legs.size()) return;
+    const bool observer_ends = out.leg_ends_stage(state);  // (every observer asked at every leg's end)
+    if (static_cast<std::size_t>(c.leg) + 1 == program.legs.size() || observer_ends) return;
     if (!leg_over) rebuild = out.after_step(state, -1.0, leg.status());  // an equilibrium leg that is not the last
     out.end_leg(state);  // the leg's end is a row
     begin_leg(state, c.leg + 1);

@@ -33,7 +33,8 @@ struct Program {
   bool print_control_warnings = true;  // with control_failure warn: print a failed control (probes record it only)
 };
 
-// Runs the program from the state's current leg (state.control.leg) to its end. `errors` holds one entry
+// Runs the program from the state's current leg (state.control.leg) to its end, or to the end of a leg at which one
+// of the stage's observers ends it (StageOutput::leg_ends_stage). `errors` holds one entry
 // per leg (kept across a resume by the stage's checkpoints). Each leg's end is a row of the series. Throws
 // RunError for a leg that ends after no step, and (control_failure stop) for a control that fails, naming
 // the stage, leg, component, its target, what it reached and what to change.

@@ -14,12 +14,11 @@
 #include "measure/quasi_static.hpp"
 #include "run/health.hpp"
 #include "run/preflight.hpp"
-#include "run/probes.hpp"
-#include "run/program.hpp"
 #include "run/run_directory.hpp"
 #include "run/sample.hpp"
-#include "run/stage_output.hpp"
+#include "run/stage_runner.hpp"
 #include "run/summary.hpp"
+#include "run/test_observers.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -43,24 +42,31 @@ std::string loaded_overlap_cause(const Deck& deck, const State& state) {
 
 // The preparation: its load program (by default fast compression, then the servo to equilibrium), from a
 // generated sample or (initial_state) from a loaded one, whose program may leave the fast leg out.
-void run_preparation(RunDirectory& run, const Deck& deck, const RunOptions& options, State& state, bool resumed,
-                     const std::vector<Leg>& legs) {
+void run_preparation(const RunContext& context, State state, bool resumed, const std::vector<Leg>& legs) {
+  const Deck& deck = context.deck;
   const PrepareDef& prep = *deck.prepare;
   Model stage_model = make_model(deck, state.particles.radius, deck.stage_time_step(prep));
   stage_model.servo = deck.stage_servo(prep);
   const Model& model = stage_model;
   if (!resumed) evaluate_forces(model, prep.stage_friction(), state);
-  StageOutput out(run, deck, options, model, "prepare", prep.output_interval, /*loading_test=*/false, prep.snapshots);
-  if (!resumed && deck.initial_state) out.set_start_cause(loaded_overlap_cause(deck, state));
-  out.open(state, resumed);
-  Program program{legs, prep.stage_friction(), &prep.equilibrium};
-  program.adaptive_threads = !options.fixed_threads;
-  program.control_failure = deck.control_failure;
-  run_program(model, program, state, out, out.control_errors());
-  out.finish(state);
-  write_state(run.prepared_state().string(), state, "prepared", state_physics(deck));
-  const Json prepared = summarize_preparation(model, state, prep, out.elapsed());
-  run.update_summary([&](Json& s) {
+  const StageObservers observers = preparation_observers(context, prep, model);
+  const StageResult result = run_stage(
+      context, model,
+      {.name = "prepare",
+       .kind = StageKind::Preparation,
+       .legs = legs,
+       .friction = prep.stage_friction(),
+       .equilibrium = &prep.equilibrium,
+       .equilibrium_key = "prepare.equilibrium",
+       .output_interval = prep.output_interval,
+       .resumed = resumed,
+       .adaptive_threads = !context.options.fixed_threads,
+       .control_failure = deck.control_failure,
+       .start_cause = !resumed && deck.initial_state ? loaded_overlap_cause(deck, state) : "",
+       .final_state = FinalStateFile{context.run.prepared_state().string(), "prepared"}},
+      std::move(state), observers.list());
+  const Json prepared = summarize_preparation(model, result.state, prep, result.elapsed);
+  context.run.update_summary([&](Json& s) {
     const Json from = s.value("prepared", Json::object()).value("started_from", Json());
     s["prepared"] = prepared;
     if (!from.is_null()) s["prepared"]["started_from"] = from;
@@ -88,19 +94,18 @@ Json started_from(const Deck& deck, const PreparationStart& start, int skipped) 
   return j;
 }
 
-// The state a test starts from: the prepared state (or the initial state without a preparation), its stage
-// begun, the deck's skin, its forces evaluated (the first row: the state as loaded).
-State test_start_state(const Deck& deck, const TestDef& test, const fs::path& prepared, const Model& model) {
-  State state = deck.initial_state && !deck.prepare ? load_initial_state(deck) : read_state(prepared.string());
-  begin_stage(state);
-  state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
-  evaluate_forces(model, test.stage_friction(), state);
-  return state;
-}
+// A finished test: its summary and its observers' results.
+struct TestOutcome {
+  TestSummary summary;
+  std::vector<ObserverReport> reports;
+};
 
-// A loading test from the prepared state, or the initial state without a preparation (or from its own checkpoint).
-void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-              const fs::path& prepared, bool resumed) {
+// A loading test from the prepared state, or the initial state without a preparation (or from its own checkpoint),
+// with its observers (observers_for: snapshots, the peak contacts, probes, the rate check), each of whose results
+// after the test goes into its summary.
+TestOutcome run_test(const RunContext& context, const TestDef& test, const fs::path& prepared, bool resumed) {
+  const Deck& deck = context.deck;
+  RunDirectory& run = context.run;
   // With prepare, from the run's prepared state (also when the preparation started from initial_state).
   State state = resumed                              ? read_state(run.checkpoint(test.name).string())
                 : deck.initial_state && !deck.prepare ? load_initial_state(deck)
@@ -109,94 +114,54 @@ void run_test(RunDirectory& run, const Deck& deck, const RunOptions& options, co
   const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(test));
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   if (!resumed) evaluate_forces(model, test.stage_friction(), state);  // the first row: the state as loaded
-  StageOutput out(run, deck, options, model, test.name, test.output_interval, /*loading_test=*/true, test.snapshots);
-  if (!resumed && deck.initial_state && !deck.prepare)
-    out.set_start_cause(loaded_overlap_cause(deck, state) + fast_loading_cause(deck, test));
-  else
-    out.set_start_cause(fast_loading_cause(deck, test));
-  out.open(state, resumed);
-  const std::optional<VerifyRateOptions> check = verify_rate_for(options.verify_rate, test);
-  if (check && !options.quiet)  // its cost, before anything runs
-    std::printf("%s: rate check after the test: %s\n", test.name.c_str(),
-                rate_check_cost(deck, test, *check, 0.0).words().c_str());
-  const ProbeDef no_probes;
-  ProbePoints probe_points(test.probes ? *test.probes : no_probes);
-  if (test.probes) {
-    probe_points.keep_in(out.dir() / "probes", test.name, state_physics(deck));
-    if (resumed) probe_points.resume(out.rows());
-    else probe_points.on_row(state, out.rows().front());
-    out.set_checkpoint_observer([&](const State& s) { probe_points.save(s); });
-  }
-  if (test.probes) out.set_row_observer([&](const State& s, const SeriesRow& row) { probe_points.on_row(s, row); });
-  Program program{test.legs, test.stage_friction(), &test.equilibrium, plan_test(deck, test).steps};
-  program.equilibrium_key = "tests[].equilibrium";
-  program.adaptive_threads = !options.fixed_threads;
-  program.kind = StageKind::Test;
-  program.stage = test.name;
-  program.control_failure = deck.control_failure;
-  run_program(model, program, state, out, out.control_errors());
-  out.finish(state);
-  write_state((out.dir() / "final.state").string(), state, "test:" + test.name, state_physics(deck));
+  const bool loaded = !resumed && deck.initial_state && !deck.prepare;
+  const std::string start_cause = (loaded ? loaded_overlap_cause(deck, state) : "") + fast_loading_cause(deck, test);
+  const StageObservers observers = observers_for(context, test, {model, prepared, resumed});
+  const StageResult result = run_stage(
+      context, model,
+      {.name = test.name,
+       .legs = test.legs,
+       .friction = test.stage_friction(),
+       .equilibrium = &test.equilibrium,
+       .planned_steps = plan_test(deck, test).steps,
+       .output_interval = test.output_interval,
+       .resumed = resumed,
+       .adaptive_threads = !context.options.fixed_threads,
+       .control_failure = deck.control_failure,
+       .start_cause = start_cause,
+       .final_state = FinalStateFile{(run.stage_dir(test.name) / "final.state").string(), "test:" + test.name}},
+      std::move(state), observers.list());
   std::vector<std::string> warnings;
-  const Json result = summarize_test(deck, test, out.rows(), out.control_errors(), out.elapsed(),
-                                     state.control.stage_steps, state.particles.size(), warnings);
-  run.update_summary([&](Json& s) { s["tests"][test.name] = result; });
+  TestOutcome done{summarize_finished_test(deck, test, result, warnings), {}};
+  run.update_summary([&](Json& s) { s["tests"][test.name] = done.summary.json; });
   for (const std::string& w : warnings) run.add_warning(w);
-  if (test.probes) {
-    probe_points.finish(state, out.rows().back());
-    const Json probes = run_test_probes(run, deck, options, test, probe_points, result.value("peak_reached", true));
-    run.update_summary([&](Json& s) { s["tests"][test.name]["probes"] = probes; });
-    for (const auto& [point, p] : probes["points"].items())  // a point that could not be probed is a warning
-      if (p.value("status", "") == "not run")
-        run.add_warning(test.name + ": the probes at " + point + " were not run: " + p.value("reason", ""));
-  }
-  if (check) {
-    if (!options.quiet)
-      std::printf("%s: rate check: %s\n", test.name.c_str(),
-                  rate_check_cost(deck, test, *check, result.value("particle_steps_per_s", 0.0)).words().c_str());
-    const State start = test_start_state(deck, test, prepared, model);  // the test's own start, resumed or not
-    const Json verified = verify_test_rate(run, deck, options, test, *check, start, result);
-    run.update_summary([&](Json& s) { s["tests"][test.name]["verify_rate"] = verified; });
-  }
-}
-
-// A rate check's verdict on the console: per quantity its error in floors and verdict, then the test's.
-void print_rate_check(const std::string& name, const Json& v) {
-  std::printf("%s: rate check at %g x the rate, tolerance %g floors (95 %%)\n", name.c_str(), v.value("rate_factor", 0.0),
-              v.value("tolerance_floors", 0.0));
-  if (v.contains("comparisons"))
-    for (const auto& [q, c] : v["comparisons"].items()) {
-      const bool has = c.contains("error_floors") && c["error_floors"].is_number();
-      std::printf("%s:   %-20s error %+7.2f -+ %.2f floors (chaos: %s): %s\n", name.c_str(), q.c_str(),
-                  has ? c["error_floors"].get<double>() : NAN, c.value("chaos_half_width_floors", NAN),
-                  c.value("chaos_from", std::string("-")).c_str(), c.value("verdict", std::string()).c_str());
+  for (StageObserver* o : observers.list())
+    if (std::optional<ObserverReport> report = o->after_test({test, result, done.summary})) {
+      run.update_summary([&](Json& s) { s["tests"][test.name][report->key] = report->value; });
+      for (const std::string& w : report->warnings) run.add_warning(w);
+      done.reports.push_back(std::move(*report));
     }
-  std::printf("%s: rate check: %s: %s\n", name.c_str(), v.value("verdict", std::string()).c_str(),
-              v.value("reason", std::string()).c_str());
+  return done;
 }
 
-void print_test_done(const RunDirectory& run, const std::string& name) {
-  const Json s = run.summary()["tests"][name];
-  auto value = [&](const char* key) { return s[key].is_null() ? NAN : s[key].get<double>(); };
-  std::printf("%s: done in %.1f s (%.3g particle-steps/s): peak s1/s3 %.4f at e1 %.4f\n", name.c_str(),
-              value("wall_s"), value("particle_steps_per_s"), value("peak_ratio13"), value("e1_at_peak"));
-  if (!s.value("peak_reached", true))
-    std::printf("%s: no peak reached: %s is largest at the end of the test (its peak quantities are left "
-                "out of ensemble statistics and fits)\n", name.c_str(), s.value("driven_measure", std::string("s11/s33")).c_str());
-  if (s.contains("shear"))
-    std::printf("%s: peak %s %.4f at %s %.4f\n", name.c_str(), s["shear"]["measure"].get<std::string>().c_str(),
-                s["shear"]["peak_tau_over_sigma_n"].is_null() ? NAN : s["shear"]["peak_tau_over_sigma_n"].get<double>(),
-                ("g" + s["shear"]["component"].get<std::string>().substr(1)).c_str(),
-                s["shear"]["g_at_peak"].is_null() ? NAN : s["shear"]["g_at_peak"].get<double>());
-  if (!s.value("controlled", true))
-    std::printf("%s: uncontrolled: a control failed (summary.json control_failures; control_failure \"warn\")\n",
-                name.c_str());
-  if (s.contains("verify_rate")) print_rate_check(name, s["verify_rate"]);
-  if (s.contains("probes"))  // a point whose probes did not all run and hold their controls is named with its reason
-    for (const auto& [point, p] : s["probes"]["points"].items())
-      if (p.value("status", "") != "ran")
-        std::printf("%s: probes at %s: %s%s%s\n", name.c_str(), point.c_str(), p.value("status", "").c_str(),
-                    p.contains("reason") ? ": " : "", p.value("reason", "").c_str());
+// A finished test on the console: its time and speed, the peak of its driven measure (or why none was reached),
+// whether its controls held, then what its observers say of their results (the probes, the rate check).
+void print_test_done(const TestDef& test, const TestOutcome& done) {
+  const TestSummary& t = done.summary;
+  const char* name = test.name.c_str();
+  const TestMeasure& m = t.measure;
+  std::printf("%s: done in %.1f s (%.3g particle-steps/s)", name, t.wall_s, t.particle_steps_per_s);
+  if (m.kind == TestMeasure::Kind::Shear || m.kind == TestMeasure::Kind::Extension)
+    std::printf(": peak %s %.4f at %s %.4f\n", measure_name(m).c_str(), t.peak.value, strain_name(m).c_str(), t.peak.strain);
+  else  // s11/s33 (also followed by a test with no peak to reach)
+    std::printf(": peak s1/s3 %.4f at e1 %.4f\n", t.peak.value, t.peak.strain);
+  if (!t.peak_reached)
+    std::printf("%s: no peak reached: %s (its peak quantities are left out of ensemble statistics and fits)\n", name,
+                t.peak.evidence.c_str());
+  if (!t.controlled)
+    std::printf("%s: uncontrolled: a control failed (summary.json control_failures; control_failure \"warn\")\n", name);
+  for (const ObserverReport& report : done.reports)
+    for (const std::string& line : report.console) std::printf("%s: %s\n", name, line.c_str());
 }
 
 }  // namespace
@@ -246,7 +211,7 @@ void run_deck(const Deck& deck, const RunOptions& options) {
       if (!options.quiet)
         std::printf("prepare: %d spheres, isotropic compression to %g Pa\n", deck.sample.count,
                     deck.prepare->target_pressure);
-      run_preparation(run, deck, options, state, resumed, legs);
+      run_preparation({run, deck, options}, std::move(state), resumed, legs);
       run.mark_done("prepare");
       if (!options.quiet) {
         const Json p = run.summary()["prepared"];
@@ -274,9 +239,9 @@ void run_deck(const Deck& deck, const RunOptions& options) {
     if (!options.quiet)
       std::printf("%s: %s (%d thread%s)\n", test.name.c_str(), resumed ? "resuming" : "starting", test_threads,
                   test_threads > 1 ? "s" : "");
-    run_test(run, deck, options, test, prepared, resumed);
+    const TestOutcome done = run_test({run, deck, options}, test, prepared, resumed);
     run.mark_done(test.name);
-    if (!options.quiet) print_test_done(run, test.name);
+    if (!options.quiet) print_test_done(test, done);
   };
   for (std::size_t first = 0; first < pending.size(); first += side_by_side) {
     const std::size_t group = std::min(side_by_side, pending.size() - first);

@@ -44,14 +44,12 @@ std::string quasi_static_cause(const Deck& deck, const std::string& stage, bool 
 }  // namespace
 
 StageOutput::StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& options, const Model& model,
-                         std::string stage, std::int64_t output_interval, bool loading_test,
-                         const SnapshotDef& snapshots)
+                         std::string stage, std::int64_t output_interval, bool loading_test, bool branch,
+                         std::vector<StageObserver*> observers)
     : run_(run), deck_(deck), options_(options), model_(model), stage_(std::move(stage)), dir_(run.stage_dir(stage_)),
       output_interval_(output_interval), monitor_(stage_, loading_test, quasi_static_cause(deck, stage_, loading_test)),
       progress_(stage_, options.progress, options.progress_interval), start_(std::chrono::steady_clock::now()),
-      loading_test_(loading_test), snapshot_plan_(snapshots) {
-  if (snapshot_plan_.any()) snapshots_ = std::make_unique<SnapshotWriter>(dir_ / "snapshots", stage_, snapshot_plan_.format);
-}
+      branch_(branch), observers_(std::move(observers)) {}
 
 void StageOutput::open(const State& state, bool resumed) {
   fs::create_directories(dir_);
@@ -90,55 +88,12 @@ void StageOutput::open(const State& state, bool resumed) {
     series_hash_ = kFnvOffset;
     append_series(series_header());
   }
-  for (const SeriesRow& row : rows_) best_ratio_ = std::max(best_ratio_, row.ratio13);
-  // Strain snapshots already passed at the checkpoint are not repeated: judged on the checkpoint's own strain (as
-  // snapshot_if_due judges it), not on its last row's, which may lie before the snapshot's step.
-  const double e1 = 1.0 - state.cell.h(0, 0) / state.control.reference[0];
-  while (resumed && next_e1_snapshot_ < snapshot_plan_.e1.size() && snapshot_plan_.e1[next_e1_snapshot_] <= e1)
-    ++next_e1_snapshot_;
-  if (!resumed) {
+  if (resumed) {
+    for (StageObserver* o : observers_) o->on_resume(state, rows_);
+  } else {
     write_row(state);
-    snapshot_if_due(state, /*force=*/true);
+    for (StageObserver* o : observers_) o->on_start(state);
   }
-}
-
-void StageOutput::snapshot_if_due(const State& state, bool force) {
-  if (!snapshots_) return;
-  const std::int64_t s = state.control.stage_steps;
-  bool due = force || (snapshot_plan_.interval > 0 && s % snapshot_plan_.interval == 0);
-  const double e1 = 1.0 - state.cell.h(0, 0) / state.control.reference[0];
-  while (next_e1_snapshot_ < snapshot_plan_.e1.size() && e1 >= snapshot_plan_.e1[next_e1_snapshot_])
-    ++next_e1_snapshot_, due = true;
-  if (due) snapshots_->write(state, s, static_cast<double>(s) * model_.dt);
-}
-
-void StageOutput::keep_peak_contacts(const State& state, const SeriesRow& row) {
-  PeakContacts peak;
-  for (const ContactSnapshot& c : touching_contacts(state)) {
-    const Vec3 a = wrapped_position(state.cell, state.particles.scaled[c.i]), b = a + c.branch;
-    peak.rows.push_back({a[0], a[1], a[2], b[0], b[1], b[2], c.normal_force});
-    peak.sliding.push_back(c.sliding ? 1 : 0);
-  }
-  const Mat3& h = state.cell.h;
-  peak.meta = {{"step", state.control.stage_steps}, {"e1", row.e1}, {"ratio13", row.ratio13},
-               {"cell", {{h(0, 0), h(0, 1), h(0, 2)}, {h(1, 0), h(1, 1), h(1, 2)}, {h(2, 0), h(2, 1), h(2, 2)}}},
-               {"columns", "contact from the wrapped centre of i to the image of j; normal force [N]"}};
-  unwritten_peak_ = std::move(peak);
-}
-
-void StageOutput::write_peak_contacts() {
-  if (!unwritten_peak_) return;
-  std::string text = "x_i,y_i,z_i,x_j,y_j,z_j,normal_force,sliding\n";
-  char buf[256];
-  for (std::size_t k = 0; k < unwritten_peak_->rows.size(); ++k) {
-    const std::array<double, 7>& r = unwritten_peak_->rows[k];
-    std::snprintf(buf, sizeof buf, "%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%d\n", r[0], r[1], r[2], r[3], r[4], r[5],
-                  r[6], unwritten_peak_->sliding[k]);
-    text += buf;
-  }
-  write_file_atomic(dir_ / "peak_contacts.csv", text);
-  write_file_atomic(dir_ / "peak_contacts.json", unwritten_peak_->meta.dump(1));
-  unwritten_peak_.reset();
 }
 
 bool StageOutput::after_step(const State& state, double fraction, const std::string& status,
@@ -148,7 +103,7 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
     throw RunError("non-finite stress or cell in stage '" + stage_ + "' at step " + std::to_string(s) +
                    " (time step too large or loading too fast?); the last checkpoint holds the last good state");
   if (row_due(state)) write_row(state, contacts);
-  snapshot_if_due(state, false);
+  for (StageObserver* o : observers_) o->on_step(state);
   progress_.update(s, fraction, status);
   if (stop_requested() && branch_) {  // a rate check or a probe is run again whole, with the tail of its test
     progress_.finish();
@@ -178,10 +133,15 @@ void StageOutput::end_leg(const State& state) {
   if (rows_.empty() || rows_.back().step != static_cast<double>(state.control.stage_steps)) write_row(state);
 }
 
+bool StageOutput::leg_ends_stage(const State& state) {
+  bool ends = false;
+  for (StageObserver* o : observers_) ends = o->on_leg_end(state) || ends;
+  return ends;
+}
+
 void StageOutput::finish(const State& state) {
   end_leg(state);
-  write_peak_contacts();
-  if (snapshots_) snapshots_->write(state, state.control.stage_steps, state.control.stage_steps * model_.dt);
+  for (StageObserver* o : observers_) o->on_finish(state, rows_);
   // The centred dilatancy index needs every row: now the series is rewritten whole with it (atomically:
   // the file holds the rows with or without DI, never a mix).
   fill_dilatancy(rows_);
@@ -219,11 +179,7 @@ void StageOutput::write_row(const State& state, const ContactMeasures* measured)
   check_row_finite(row, stage_, state.control.stage_steps);
   append_series(format_series_row(row));
   rows_.push_back(as_printed(row));
-  if (loading_test_ && !branch_ && rows_.back().ratio13 > best_ratio_) {
-    best_ratio_ = rows_.back().ratio13;
-    keep_peak_contacts(state, rows_.back());
-  }
-  if (row_observer_) row_observer_(state, rows_.back());
+  for (StageObserver* o : observers_) o->on_row(state, rows_.back());
 }
 
 nlohmann::json StageOutput::read_checkpoint_record() const {
@@ -279,8 +235,8 @@ std::string StageOutput::proven_series(const State& state, const nlohmann::json&
 }
 
 void StageOutput::checkpoint(const State& state) {
-  write_peak_contacts();  // (before the state: a resumed run's peak file is never older than its checkpoint)
-  if (checkpoint_observer_) checkpoint_observer_(state);
+  // (before the state: what an observer keeps, e.g. the peak contacts, is never older than its checkpoint)
+  for (StageObserver* o : observers_) o->on_checkpoint(state);
   // The state and all a resume needs besides it, in one file written by one rename (io/state_file, format 8): the
   // series' proof, the controls' errors (the control verdict's memory), this stage's warnings, its elapsed time.
   last_proof_ = {{"step", state.control.stage_steps}, {"rows", rows_.size()},

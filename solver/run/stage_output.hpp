@@ -1,7 +1,6 @@
 // One stage's outputs and bookkeeping while it runs: series rows (and the units sidecar), the runaway
-// checks at each row, checkpoints, stop requests, the progress line, snapshots when the deck asks for
-// them, and for a loading test the contact network of its peak row (peak_contacts.csv, rewritten at each
-// new largest s11/s33, for the report's force-chain picture).
+// checks at each row, checkpoints, stop requests, the progress line; and the calls of the stage's observers
+// (run/stage_observer.hpp: snapshots, the peak contact network, probe points) at each of them.
 #pragma once
 #include <array>
 #include <chrono>
@@ -16,21 +15,23 @@
 #include "core/model.hpp"
 #include "core/state.hpp"
 #include "io/files.hpp"
-#include "io/snapshot.hpp"
 #include "measure/micro.hpp"
 #include "measure/series.hpp"
 #include "run/health.hpp"
 #include "run/program.hpp"
 #include "run/progress.hpp"
 #include "run/run_directory.hpp"
+#include "run/stage_observer.hpp"
 
 namespace celldem {
 
 class StageOutput {
  public:
-  // loading_test: a test (checks kinetic energy), not the preparation.
+  // loading_test: a test (checks kinetic energy), not the preparation. branch: a branch of a test (a rate check's
+  // run, a probe, a probe point's rest): a short stage with no checkpoints, run again whole after a stop.
+  // `observers` are called in their order (none owned).
   StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& options, const Model& model, std::string stage,
-              std::int64_t output_interval, bool loading_test, const SnapshotDef& snapshots = {});
+              std::int64_t output_interval, bool loading_test, bool branch, std::vector<StageObserver*> observers);
 
   // Fresh stage: a new series with its first row. Resumed: the rows up to the checkpoint are kept (a row cut
   // short, or written after the checkpoint, is dropped) and read back.
@@ -60,15 +61,8 @@ class StageOutput {
   std::vector<ControlErrors>& control_errors() { return control_errors_; }
   // What the stage started from that a runaway would most likely come from (RunawayMonitor::set_start_cause).
   void set_start_cause(std::string cause) { monitor_.set_start_cause(std::move(cause)); }
-  // Called with the state just before each checkpoint is written (probe points keep their states with it).
-  void set_checkpoint_observer(std::function<void(const State&)> observer) { checkpoint_observer_ = std::move(observer); }
-  // Called with the state and the row (as printed) after each row is written (--verify-rate keeps states).
-  void set_row_observer(std::function<void(const State&, const SeriesRow&)> observer) {
-    row_observer_ = std::move(observer);
-  }
-  // A branch of a test (--verify-rate): a short stage with no checkpoints (it is run again whole) and no
-  // peak contact network.
-  void set_branch() { branch_ = true; }
+  // A leg has ended: whether an observer ends the stage there (StageObserver::on_leg_end; each is asked).
+  bool leg_ends_stage(const State& state);
 
  private:
   void write_row(const State& state, const ContactMeasures* contacts = nullptr);
@@ -81,13 +75,6 @@ class StageOutput {
   // is missing or unreadable.
   nlohmann::json read_checkpoint_record() const;
   void append_series(const std::string& text);
-  void snapshot_if_due(const State& state, bool force);
-  // The contacts of the row with the largest s11/s33 so far are kept in memory and written (peak_contacts.csv
-  // and .json) at the next checkpoint or when the stage ends: a test's rising part makes a new peak at every
-  // row, and formatting each one's contacts cost about a tenth of a short run's time.
-  void keep_peak_contacts(const State& state, const SeriesRow& row);
-  void write_peak_contacts();
-
   RunDirectory& run_;
   const Deck& deck_;
   const RunOptions& options_;
@@ -105,20 +92,8 @@ class StageOutput {
   std::vector<SeriesRow> rows_;
   std::vector<ControlErrors> control_errors_;
   std::vector<std::string> warnings_;  // this stage's own (warn), for the checkpoints
-  bool loading_test_;
-  SnapshotDef snapshot_plan_;
-  std::unique_ptr<SnapshotWriter> snapshots_;
-  std::size_t next_e1_snapshot_ = 0;
-  double best_ratio_ = -1.0;  // the largest s11/s33 of a row so far (its contacts: peak_contacts.csv)
-  struct PeakContacts {
-    std::vector<std::array<double, 7>> rows;  // x_i, y_i, z_i, x_j, y_j, z_j, normal force
-    std::vector<char> sliding;
-    nlohmann::json meta;
-  };
-  std::optional<PeakContacts> unwritten_peak_;  // kept since the last write
-  std::function<void(const State&, const SeriesRow&)> row_observer_;
-  std::function<void(const State&)> checkpoint_observer_;
-  bool branch_ = false;
+  bool branch_;
+  std::vector<StageObserver*> observers_;
 };
 
 }  // namespace celldem

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "core/number_text.hpp"
@@ -90,10 +91,54 @@ Json summarize_legs(const Deck& deck, const TestDef& test, const std::vector<Ser
   return legs;
 }
 
-Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
-  std::size_t peak = 0;  // the first row of the largest s11/s33
-  for (std::size_t r = 0; r < rows.size(); ++r)
-    if (rows[r].ratio13 > rows[peak].ratio13) peak = r;
+PeakJudgement judge_peak(const TestMeasure& measure, const std::vector<SeriesRow>& rows) {
+  PeakJudgement j;
+  j.row = peak_row(measure, rows);
+  j.value = driven_value(measure, rows[j.row]);
+  j.strain = driven_strain(measure, rows[j.row]);
+  const std::string name = measure_name(measure), strain = strain_name(measure);
+  char buf[640];
+  const bool at_last_row = j.row + 1 >= rows.size();
+  std::string last_row;  // the raw measure's largest on the last row: no peak whatever else says
+  if (at_last_row) {
+    std::snprintf(buf, sizeof buf, "%s is largest (%.4f) at the last row, %s %.4f", name.c_str(), j.value,
+                  strain.c_str(), j.strain);
+    last_row = buf;
+  }
+  if (at_last_row && (measure.kind == TestMeasure::Kind::Extension || measure.kind == TestMeasure::Kind::Shear)) {
+    j.evidence = last_row;
+    return j;
+  }
+  if (measure.kind == TestMeasure::Kind::Extension || measure.kind == TestMeasure::Kind::Shear) {
+    double lowest = j.value;
+    for (std::size_t r = j.row + 1; r < rows.size(); ++r) lowest = std::min(lowest, driven_value(measure, rows[r]));
+    j.reached = false;
+    for (std::size_t r = j.row + 1; r < rows.size(); ++r)
+      j.reached |= driven_value(measure, rows[r]) < (1.0 - kPeakPlateau) * j.value;
+    std::snprintf(buf, sizeof buf, "%s falls after its largest %.4f (at %s %.4f) to as low as %.4f: %s than the %g %% a "
+                  "peak needs", name.c_str(), j.value, strain.c_str(), j.strain, lowest,
+                  j.reached ? "more" : "no more", 100.0 * kPeakPlateau);
+    j.evidence = buf;
+    return j;
+  }
+  std::size_t plateau_end = 0;
+  const Json robust = robust_peak(rows, &plateau_end);
+  j.reached = !at_last_row && plateau_end + 1 < rows.size();
+  const Json& plateau = robust["plateau_e1"];
+  std::snprintf(buf, sizeof buf, "%s%ss11/s33 smoothed over %g %% of e1 peaks at %.4f, and stays within %g %% of it over "
+                "e1 %.4f to %.4f, %s", last_row.c_str(), at_last_row ? "; " : "", 100.0 * kPeakSmoothing,
+                robust["ratio13"].is_null() ? NAN : robust["ratio13"].get<double>(), 100.0 * kPeakPlateau, plateau[0].is_null() ? NAN : plateau[0].get<double>(),
+                plateau[1].is_null() ? NAN : plateau[1].get<double>(),
+                plateau_end + 1 < rows.size() ? "ending before the test's last row" : "to the test's last row");
+  j.evidence = buf;
+  return j;
+}
+
+Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis, ComparedValues* values) {
+  // The peak of s11/s33 (its first row, judge_peak): the test's measure when it drives the first axis in compression;
+  // summarize_driven_measure adds another measure's.
+  const PeakJudgement judged = judge_peak(TestMeasure{}, rows);
+  const std::size_t peak = judged.row;
   const SeriesRow& at_peak = rows[peak];
   const SeriesRow& last = rows.back();
 
@@ -108,10 +153,13 @@ Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
   for (const SeriesRow& r : rows)
     if (std::abs(r.strain(end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
 
-  // No peak: the largest s11/s33 is the last row, or the robust peak's plateau runs to the end.
-  std::size_t plateau_end = 0;
-  const Json robust = robust_peak(rows, &plateau_end);
-  const bool peak_reached = peak + 1 < rows.size() && plateau_end + 1 < rows.size();
+  const Json robust = robust_peak(rows);
+  const bool peak_reached = judged.reached;
+  if (values) {  // (as the JSON holds them: null, not a number, is NaN)
+    const auto finite = [](double x) { return std::isfinite(x) ? x : std::numeric_limits<double>::quiet_NaN(); };
+    const auto number = [](const Json& j) { return j.is_number() ? j.get<double>() : std::numeric_limits<double>::quiet_NaN(); };
+    *values = {finite(at_peak.ratio13), number(robust["ratio13"]), finite(ev_end / in_window), finite(z_end / in_window)};
+  }
 
   return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
           {"peak_reached", peak_reached},
@@ -138,56 +186,24 @@ Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis) {
 
 namespace {
 
-// The measure a test drives: that of its first leg that drives something, by its fastest strain-driven component
-// (a shear component: its tau/sigma_n = |s_ij| / s_jj; a normal axis: s11/s33, or s33/s11 when it extends), a
-// principal-axis rotation's tracking, or none (stresses held or ramped).
-TestMeasure driven_measure(const TestDef& test) {
-  for (const Leg& leg : test.legs) {
-    if (leg.rotation) return {TestMeasure::Kind::Rotation, -1};
-    int fastest = -1;
-    for (int k = 0; k < kComponents; ++k)
-      if (std::abs(leg.strain_per_step(k, 1.0)) > (fastest < 0 ? 0.0 : std::abs(leg.strain_per_step(fastest, 1.0)))) fastest = k;
-    if (fastest < 0) continue;
-    if (is_shear_component(fastest)) return {TestMeasure::Kind::Shear, fastest};
-    return {leg.strain_per_step(fastest, 1.0) < 0.0 ? TestMeasure::Kind::Extension : TestMeasure::Kind::Axial, fastest};
-  }
-  return {TestMeasure::Kind::Stress, -1};
-}
-
-// An extension test's peak of s33/s11: whether it was reached (not the last row, and the ratio falls by more than
-// kPeakPlateau after it).
-bool extension_peak_reached(const std::vector<SeriesRow>& rows) {
-  std::size_t peak = 0;
-  const auto ratio = [](const SeriesRow& r) { return r.s33 / r.s11; };
-  for (std::size_t r = 0; r < rows.size(); ++r)
-    if (ratio(rows[r]) > ratio(rows[peak])) peak = r;
-  bool falls = false;
-  for (std::size_t r = peak + 1; r < rows.size(); ++r) falls |= ratio(rows[r]) < (1.0 - kPeakPlateau) * ratio(rows[peak]);
-  return peak + 1 < rows.size() && falls;
-}
-
 // A shear test's peak of |s_ij| / s_jj (its first row), g_ij there, whether a peak was reached (not the last
 // row, and the ratio falls by more than kPeakPlateau after it), the residual ratio over the end window of g_ij,
 // and the volumetric strain (dilation, compression +) at the peak and at the end.
 Json summarize_shear(const std::vector<SeriesRow>& rows, int k) {
-  const int j = kComponentEntries[static_cast<std::size_t>(k)][1];
-  const auto ratio = [&](const SeriesRow& r) { return std::abs(r.stress(k)) / r.stress(j); };
-  std::size_t peak = 0;
-  for (std::size_t r = 0; r < rows.size(); ++r)
-    if (ratio(rows[r]) > ratio(rows[peak]) || !std::isfinite(ratio(rows[peak]))) peak = r;
-  bool falls = false;
-  for (std::size_t r = peak + 1; r < rows.size(); ++r) falls |= ratio(rows[r]) < (1.0 - kPeakPlateau) * ratio(rows[peak]);
+  const TestMeasure measure{TestMeasure::Kind::Shear, k};
+  const auto ratio = [&](const SeriesRow& r) { return driven_value(measure, r); };
+  const PeakJudgement judged = judge_peak(measure, rows);
+  const std::size_t peak = judged.row;
   const double g_end = rows.back().strain(k);
   double residual = 0.0;
   int in_window = 0;
   for (const SeriesRow& r : rows)
     if (std::abs(r.strain(k) - g_end) <= kEndWindowStrain) residual += ratio(r), ++in_window;
-  const std::string n = component_name(k).substr(1);
   return {{"component", component_name(k)},
-          {"measure", "|s" + n + "|/s" + std::to_string(j + 1) + std::to_string(j + 1)},
+          {"measure", measure_name(measure)},
           {"peak_tau_over_sigma_n", number_or_null(ratio(rows[peak]))},
           {"g_at_peak", number_or_null(rows[peak].strain(k))},
-          {"peak_reached", peak + 1 < rows.size() && falls},
+          {"peak_reached", judged.reached},
           {"residual_tau_over_sigma_n", number_or_null(in_window ? residual / in_window : NAN)},
           {"ev_at_peak", number_or_null(rows[peak].ev)},
           {"ev_final", number_or_null(rows.back().ev)},
@@ -242,17 +258,18 @@ Json summarize_driven_measure(const TestDef& test, const std::vector<SeriesRow>&
       return {{"driven_measure", shear["measure"]}, {"peak_reached", shear["peak_reached"]}, {"shear", shear}};
     }
     case TestMeasure::Kind::Rotation: {  // no peak to reach: the tracking of the rotation is the result
-      return {{"driven_measure", "principal-axis rotation"}, {"rotation", summarize_rotation(test, rows, dt)}};
+      return {{"driven_measure", driven_measure_words(m)}, {"rotation", summarize_rotation(test, rows, dt)}};
     }
-    case TestMeasure::Kind::Stress: return {{"driven_measure", "none (stress-controlled)"}};
-    case TestMeasure::Kind::Extension: return {{"driven_measure", "s33/s11"}, {"peak_reached", extension_peak_reached(rows)}};
-    default: return {{"driven_measure", "s11/s33"}};
+    case TestMeasure::Kind::Stress: return {{"driven_measure", driven_measure_words(m)}};
+    case TestMeasure::Kind::Extension:
+      return {{"driven_measure", driven_measure_words(m)}, {"peak_reached", judge_peak(m, rows).reached}};
+    default: return {{"driven_measure", driven_measure_words(m)}};
   }
 }
 
 Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
                     const std::vector<ControlErrors>& errors, double wall, std::int64_t steps, std::size_t particles,
-                    std::vector<std::string>& warnings) {
+                    std::vector<std::string>& warnings, ComparedValues* values) {
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
   const ControlErrorMaxima worst = control_error_maxima(errors);
@@ -296,7 +313,7 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
                         {"target", number_or_null(f.target)}, {"reached", number_or_null(f.reached)}});
 
   const int end_axis = test.legs.back().end.kind == LegEndKind::Strain ? test.legs.back().end.axis : 0;
-  Json out = summarize_series(rows, end_axis);
+  Json out = summarize_series(rows, end_axis, values);
   out.update(summarize_driven_measure(test, rows, deck.stage_time_step(test)));
   // A rotation or a stress-controlled test drives no measure to a peak: not "no peak reached".
   if (const TestMeasure::Kind kind = driven_measure(test).kind; kind == TestMeasure::Kind::Rotation || kind == TestMeasure::Kind::Stress)
@@ -315,6 +332,22 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
               {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}});
   if (!adaptive_record.is_null()) out["adaptive_rate"] = adaptive_record;
   return out;
+}
+
+TestSummary summarize_finished_test(const Deck& deck, const TestDef& test, const StageResult& stage,
+                                    std::vector<std::string>& warnings) {
+  TestSummary t;
+  const std::int64_t steps = stage.state.control.stage_steps;
+  const std::size_t particles = stage.state.particles.size();
+  t.json = summarize_test(deck, test, stage.rows, stage.control_errors, stage.elapsed, steps, particles, warnings,
+                          &t.compared);
+  t.measure = driven_measure(test);
+  t.peak = judge_peak(t.measure, stage.rows);
+  t.peak_reached = !t.measure.has_peak() || t.peak.reached;
+  t.controlled = control_failures(stage.control_errors).empty();
+  t.wall_s = stage.elapsed;
+  t.particle_steps_per_s = stage.elapsed > 0 ? static_cast<double>(particles) * steps / stage.elapsed : 0.0;
+  return t;
 }
 
 Json summarize_preparation(const Model& model, const State& state, const PrepareDef& prep, double wall) {

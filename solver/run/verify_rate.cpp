@@ -17,7 +17,7 @@
 #include "run/reference_floors.hpp"
 #include "run/run_directory.hpp"
 #include "run/errors.hpp"
-#include "run/stage_output.hpp"
+#include "run/stage_runner.hpp"
 #include "run/summary.hpp"
 #include "step.hpp"
 
@@ -56,21 +56,6 @@ double ensemble_std(const Json& tests, const std::string& test, const std::strin
   return positive_number(tests[test][quantity], "std", where);
 }
 
-
-// A summary value by its dotted path ("end_window.ev"); NaN when missing or not a number.
-double at_path(const Json& j, const std::string& path) {
-  const Json* p = &j;
-  std::size_t from = 0;
-  while (true) {
-    const std::size_t dot = path.find('.', from);
-    const std::string key = path.substr(from, dot == std::string::npos ? std::string::npos : dot - from);
-    if (!p->is_object() || !p->contains(key)) return kNaN;
-    p = &(*p)[key];
-    if (dot == std::string::npos) break;
-    from = dot + 1;
-  }
-  return p->is_number() ? p->get<double>() : kNaN;
-}
 
 double floor_of(const NoiseFloors& f, const std::string& name) {
   return name == "ratio13" ? f.ratio13 : name == "ev" ? f.ev : f.Z;
@@ -227,7 +212,8 @@ namespace {
 // One run of the check: the test (slowed, or as it is for the twin) from `state`, into <test>/verify/<name>/; its
 // summary, or its error.
 struct CheckRun {
-  Json summary;
+  TestSummary summary;
+  std::string series;  // its series.csv, relative to the run folder
   std::string error;
 };
 CheckRun run_check(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& t,
@@ -237,21 +223,21 @@ CheckRun run_check(RunDirectory& run, const Deck& deck, const RunOptions& option
   const std::string stage = t.name + "/verify/" + name;
   try {
     evaluate_forces(model, t.stage_friction(), state);
-    StageOutput out(run, deck, options, model, stage, t.output_interval, /*loading_test=*/true);
-    out.set_branch();
-    out.open(state, /*resumed=*/false);
-    Program program{t.legs, t.stage_friction(), &t.equilibrium, plan_test(deck, t).steps};
-    program.adaptive_threads = !options.fixed_threads;
-    program.kind = StageKind::Test;
-    program.stage = stage;
-    program.control_failure = ControlFailure::Warn;  // recorded with the run, not a stop of the test's run
-    std::vector<ControlErrors> errors;
-    run_program(model, program, state, out, errors);
-    out.finish(state);
+    const StageResult result = run_stage({run, deck, options}, model,
+                                         {.name = stage,
+                                          .legs = t.legs,
+                                          .friction = t.stage_friction(),
+                                          .equilibrium = &t.equilibrium,
+                                          .planned_steps = plan_test(deck, t).steps,
+                                          .output_interval = t.output_interval,
+                                          .branch = true,
+                                          .adaptive_threads = !options.fixed_threads,
+                                          // recorded with the run, not a stop of the test's run
+                                          .control_failure = ControlFailure::Warn},
+                                         std::move(state));
     std::vector<std::string> warnings;
-    r.summary = summarize_test(deck, t, out.rows(), errors, out.elapsed(), state.control.stage_steps,
-                               state.particles.size(), warnings);
-    r.summary["series"] = (fs::path(t.name) / "verify" / name / "series.csv").string();
+    r.summary = summarize_finished_test(deck, t, result, warnings);
+    r.series = (fs::path(t.name) / "verify" / name / "series.csv").string();
   } catch (const RunError& e) {
     r.error = e.what();
   }
@@ -260,19 +246,19 @@ CheckRun run_check(RunDirectory& run, const Deck& deck, const RunOptions& option
 
 Json run_record(const CheckRun& r) {
   if (!r.error.empty()) return {{"failed", r.error}};
-  return {{"series", r.summary["series"]}, {"steps", r.summary["steps"]}, {"wall_s", r.summary["wall_s"]},
-          {"controlled", r.summary.value("controlled", true)}, {"peak_reached", r.summary.value("peak_reached", true)},
-          {"inertial_number", r.summary["inertial_number"]}};
+  return {{"series", r.series}, {"steps", r.summary.json["steps"]}, {"wall_s", r.summary.wall_s},
+          {"controlled", r.summary.controlled}, {"peak_reached", r.summary.peak_reached},
+          {"inertial_number", r.summary.json["inertial_number"]}};
 }
 
 }  // namespace
 
 Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                      const VerifyRateOptions& given, const State& start, const Json& summary) {
+                      const VerifyRateOptions& given, const State& start, const TestSummary& summary) {
   VerifyRateOptions o = given;
   if (deck.tolerance) o.tolerance = *deck.tolerance;  // a run asked for a tolerance is checked against it
   const NoiseFloors floors = noise_floors(o.floors_path, test.name, deck.sample.count);
-  const double speed = summary.value("particle_steps_per_s", 0.0);
+  const double speed = summary.particle_steps_per_s;
   const RateCheckCost cost = rate_check_cost(deck, test, o, speed);
   // The effect of the rate on the test: d = test - slower, and the test's own error extrapolated to the
   // quasi-static limit at first order in the rate, d / (1 - f).
@@ -297,9 +283,9 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
     result["reason"] = "the slower run failed: " + slow.error;
     return result;
   }
-  const bool test_peak = summary.value("peak_reached", true), slow_peak = slow.summary.value("peak_reached", true);
+  const bool test_peak = summary.peak_reached, slow_peak = slow.summary.peak_reached;
   const bool twin_ok = o.twin && twin.error.empty();
-  const bool twin_peak = twin_ok && twin.summary.value("peak_reached", true);
+  const bool twin_peak = twin_ok && twin.summary.peak_reached;
   // Each quantity's test - twin in floors (NaN where the twin says nothing of it: no twin, or a peak not reached by
   // both). The twin parted from the test when these are not all within kTwinParted floors.
   std::map<std::string, double> twin_floors;
@@ -307,7 +293,7 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   int twin_n = 0;
   for (const ComparedQuantity& q : kRateCheckQuantities) {
     const bool compared = twin_ok && !(q.peak && !(test_peak && twin_peak));
-    const double t = compared ? (at_path(summary, q.path) - at_path(twin.summary, q.path)) / floor_of(floors, q.floor)
+    const double t = compared ? (summary.compared.*q.value - twin.summary.compared.*q.value) / floor_of(floors, q.floor)
                               : kNaN;
     twin_floors[q.path] = t;
     if (std::isfinite(t)) twin_sum += t * t, ++twin_n;
@@ -331,10 +317,10 @@ Json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& opt
   bool any_unresolved = false, any_not_converged = false;
   for (const ComparedQuantity& q : kRateCheckQuantities) {
     const double floor = floor_of(floors, q.floor);
-    const double a = at_path(summary, q.path), b = at_path(slow.summary, q.path);
+    const double a = summary.compared.*q.value, b = slow.summary.compared.*q.value;
     Json c = {{"test", number_or_null(a)}, {"slow", number_or_null(b)}, {"floor", floor}};
     if (twin_ok && !(q.peak && !(test_peak && twin_peak))) {  // the differences pair_chaos is given
-      c["twin"] = number_or_null(at_path(twin.summary, q.path));
+      c["twin"] = number_or_null(twin.summary.compared.*q.value);
       c["twin_floors"] = number_or_null(twin_floors[q.path]);
     }
     if (q.peak && !(test_peak && slow_peak)) {

@@ -20,6 +20,7 @@
 
 #include "core/deck.hpp"
 #include "core/state.hpp"
+#include "run/summary.hpp"
 
 namespace celldem {
 
@@ -62,15 +63,16 @@ NoiseFloors noise_floors(const std::string& path, const std::string& test, int p
 // that measures it: the whole-test peaks of s11/s33 (the first row of the largest, and the robust peak) and the
 // end-window means of ev and Z.
 struct ComparedQuantity {
-  const char* path;
+  const char* path;   // its place in summary.json (comparisons.<path>)
   const char* floor;  // "ratio13", "ev" or "Z"
   bool peak;          // a peak quantity: compared only when both runs reached their peak
+  double ComparedValues::*value;  // the test summary's (TestSummary::compared)
 };
 inline constexpr ComparedQuantity kRateCheckQuantities[] = {
-    {"peak_ratio13", "ratio13", true},
-    {"peak_robust.ratio13", "ratio13", true},
-    {"end_window.ev", "ev", false},
-    {"end_window.Z", "Z", false},
+    {"peak_ratio13", "ratio13", true, &ComparedValues::peak_ratio13},
+    {"peak_robust.ratio13", "ratio13", true, &ComparedValues::peak_robust_ratio13},
+    {"end_window.ev", "ev", false, &ComparedValues::end_window_ev},
+    {"end_window.Z", "Z", false, &ComparedValues::end_window_Z},
 };
 
 // The 95 % half-width [floors] of the chaos of one pair of runs from the same state, for one quantity: the smaller
@@ -112,7 +114,7 @@ TestDef slowed_test(const TestDef& test, double factor);
 // quantity the test's, the slower run's and the twin's values, the difference in floors and its verdict, and the
 // test's verdict. A run that fails is recorded as such (its error), not thrown.
 nlohmann::json verify_test_rate(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                                const VerifyRateOptions& check, const State& start, const nlohmann::json& summary);
+                                const VerifyRateOptions& check, const State& start, const TestSummary& summary);
 
 // The check across an ensemble's seeds (ensemble.json "verify_rate"): per test and quantity the seeds' differences
 // in floors, their mean and its one-sided 95 % bounds (Student's t, n - 1), and the TOST verdict within the

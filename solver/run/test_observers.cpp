@@ -1,0 +1,236 @@
+#include "run/test_observers.hpp"
+
+#include <array>
+#include <cstdio>
+
+#include "cell/control.hpp"
+#include "core/plan.hpp"
+#include "io/files.hpp"
+#include "io/snapshot.hpp"
+#include "io/state_file.hpp"
+#include "measure/micro.hpp"
+#include "run/driven_measure.hpp"
+#include "run/preflight.hpp"
+#include "run/probes.hpp"
+#include "run/run_directory.hpp"
+#include "run/run_options.hpp"
+#include "run/summary.hpp"
+#include "run/verify_rate.hpp"
+#include "step.hpp"
+
+namespace celldem {
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+std::vector<StageObserver*> StageObservers::list() const {
+  std::vector<StageObserver*> out;
+  for (const std::unique_ptr<StageObserver>& o : owned_) out.push_back(o.get());
+  return out;
+}
+
+namespace {
+
+// Snapshots at the stage's start, every `interval` steps, at each strain e1 of the list (the first step reaching
+// it) and at its end.
+class Snapshots : public StageObserver {
+ public:
+  Snapshots(const fs::path& stage_dir, const std::string& stage, const SnapshotDef& plan, double dt)
+      : plan_(plan), dt_(dt), writer_(stage_dir / "snapshots", stage, plan.format) {}
+  void on_start(const State& state) override { write_if_due(state, /*force=*/true); }
+  // Strain snapshots already passed at the checkpoint are not repeated: judged on the checkpoint's own strain (as
+  // write_if_due judges it), not on its last row's, which may lie before the snapshot's step.
+  void on_resume(const State& state, const std::vector<SeriesRow>&) override {
+    const double e1 = strain1(state);
+    while (next_e1_ < plan_.e1.size() && plan_.e1[next_e1_] <= e1) ++next_e1_;
+  }
+  void on_step(const State& state) override { write_if_due(state, false); }
+  void on_finish(const State& state, const std::vector<SeriesRow>&) override {
+    writer_.write(state, state.control.stage_steps, state.control.stage_steps * dt_);
+  }
+
+ private:
+  static double strain1(const State& state) { return 1.0 - state.cell.h(0, 0) / state.control.reference[0]; }
+  void write_if_due(const State& state, bool force) {
+    const std::int64_t s = state.control.stage_steps;
+    bool due = force || (plan_.interval > 0 && s % plan_.interval == 0);
+    const double e1 = strain1(state);
+    while (next_e1_ < plan_.e1.size() && e1 >= plan_.e1[next_e1_]) ++next_e1_, due = true;
+    if (due) writer_.write(state, s, static_cast<double>(s) * dt_);
+  }
+
+  SnapshotDef plan_;
+  double dt_;
+  SnapshotWriter writer_;
+  std::size_t next_e1_ = 0;
+};
+
+// The contact network of the row with the largest value of the test's driven measure so far (the peak so far), for
+// the report's force-chain picture: kept in memory and written (peak_contacts.csv and .json) at the next checkpoint
+// or when the stage ends: a test's rising part makes a new peak at every row, and formatting each one's contacts
+// cost about a tenth of a short run's time.
+class PeakContacts : public StageObserver {
+ public:
+  PeakContacts(const fs::path& stage_dir, TestMeasure measure) : dir_(stage_dir), peak_(measure) {}
+  void on_resume(const State&, const std::vector<SeriesRow>& rows) override { peak_.seen(rows); }
+  void on_row(const State& state, const SeriesRow& row) override {
+    if (peak_.offer(row)) keep(state, row);
+  }
+  void on_checkpoint(const State&) override { write(); }
+  void on_finish(const State&, const std::vector<SeriesRow>&) override { write(); }
+
+ private:
+  struct Network {
+    std::vector<std::array<double, 7>> rows;  // x_i, y_i, z_i, x_j, y_j, z_j, normal force
+    std::vector<char> sliding;
+    Json meta;
+  };
+  void keep(const State& state, const SeriesRow& row);
+  void write();
+
+  fs::path dir_;
+  PeakTracker peak_;
+  std::optional<Network> unwritten_;  // kept since the last write
+};
+
+void PeakContacts::keep(const State& state, const SeriesRow& row) {
+  Network peak;
+  for (const ContactSnapshot& c : touching_contacts(state)) {
+    const Vec3 a = wrapped_position(state.cell, state.particles.scaled[c.i]), b = a + c.branch;
+    peak.rows.push_back({a[0], a[1], a[2], b[0], b[1], b[2], c.normal_force});
+    peak.sliding.push_back(c.sliding ? 1 : 0);
+  }
+  const Mat3& h = state.cell.h;
+  peak.meta = {{"step", state.control.stage_steps}, {"e1", row.e1}, {"ratio13", row.ratio13},
+               {"cell", {{h(0, 0), h(0, 1), h(0, 2)}, {h(1, 0), h(1, 1), h(1, 2)}, {h(2, 0), h(2, 1), h(2, 2)}}},
+               {"columns", "contact from the wrapped centre of i to the image of j; normal force [N]"}};
+  const TestMeasure& m = peak_.measure();
+  if (m.kind == TestMeasure::Kind::Extension || m.kind == TestMeasure::Kind::Shear) {  // (s11/s33: ratio13 says it)
+    peak.meta["measure"] = measure_name(m);
+    peak.meta["value"] = driven_value(m, row);
+    peak.meta[strain_name(m)] = driven_strain(m, row);
+  }
+  unwritten_ = std::move(peak);
+}
+
+void PeakContacts::write() {
+  if (!unwritten_) return;
+  std::string text = "x_i,y_i,z_i,x_j,y_j,z_j,normal_force,sliding\n";
+  char buf[256];
+  for (std::size_t k = 0; k < unwritten_->rows.size(); ++k) {
+    const std::array<double, 7>& r = unwritten_->rows[k];
+    std::snprintf(buf, sizeof buf, "%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%.10g,%d\n", r[0], r[1], r[2], r[3], r[4], r[5],
+                  r[6], unwritten_->sliding[k]);
+    text += buf;
+  }
+  write_file_atomic(dir_ / "peak_contacts.csv", text);
+  write_file_atomic(dir_ / "peak_contacts.json", unwritten_->meta.dump(1));
+  unwritten_.reset();
+}
+
+// A test's probes (run/probes.hpp): its points' states kept as it runs (ProbePoints), then after the test each point
+// rested and probed; the result is summary.json's probes of the test, a point that could not be probed a warning.
+class Probes : public StageObserver {
+ public:
+  Probes(const RunContext& context, const TestDef& test)
+      : context_(context), test_(test), points_(*test.probes, driven_measure(test)) {
+    points_.keep_in(context.run.stage_dir(test.name) / "probes", test.name, state_physics(context.deck));
+  }
+  void on_resume(const State&, const std::vector<SeriesRow>& rows) override { points_.resume(rows); }
+  void on_row(const State& state, const SeriesRow& row) override { points_.on_row(state, row); }
+  void on_checkpoint(const State& state) override { points_.save(state); }
+  void on_finish(const State& state, const std::vector<SeriesRow>& rows) override { points_.finish(state, rows.back()); }
+  std::optional<ObserverReport> after_test(const FinishedTest& done) override {
+    ObserverReport report{"probes", run_test_probes(context_.run, context_.deck, context_.options, test_, points_,
+                                                    done.summary.peak_reached), {}, {}};
+    for (const auto& [point, p] : report.value["points"].items()) {
+      if (p.value("status", "") == "not run")  // a point that could not be probed is a warning
+        report.warnings.push_back(test_.name + ": the probes at " + point + " were not run: " + p.value("reason", ""));
+      if (p.value("status", "") != "ran")  // named with its reason
+        report.console.push_back("probes at " + point + ": " + p.value("status", "") + (p.contains("reason") ? ": " : "") +
+                                 p.value("reason", ""));
+    }
+    return report;
+  }
+
+ private:
+  RunContext context_;
+  const TestDef& test_;
+  ProbePoints points_;
+};
+
+// A rate check's verdict for the console: per quantity its error in floors and verdict, then the test's.
+std::vector<std::string> rate_check_lines(const Json& v) {
+  std::vector<std::string> lines;
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "rate check at %g x the rate, tolerance %g floors (95 %%)", v.value("rate_factor", 0.0),
+                v.value("tolerance_floors", 0.0));
+  lines.push_back(buf);
+  if (v.contains("comparisons"))
+    for (const auto& [q, c] : v["comparisons"].items()) {
+      const bool has = c.contains("error_floors") && c["error_floors"].is_number();
+      std::snprintf(buf, sizeof buf, "  %-20s error %+7.2f -+ %.2f floors (chaos: %s): %s", q.c_str(),
+                    has ? c["error_floors"].get<double>() : NAN, c.value("chaos_half_width_floors", NAN),
+                    c.value("chaos_from", std::string("-")).c_str(), c.value("verdict", std::string()).c_str());
+      lines.push_back(buf);
+    }
+  lines.push_back("rate check: " + v.value("verdict", std::string()) + ": " + v.value("reason", std::string()));
+  return lines;
+}
+
+// The rate check (run/verify_rate.hpp): after the test, the same test from its own start at a slower rate and a twin.
+class RateCheck : public StageObserver {
+ public:
+  RateCheck(const RunContext& context, const TestDef& test, const TestStart& start, const VerifyRateOptions& check)
+      : context_(context), test_(test), start_(start), check_(check) {
+    if (!context.options.quiet)  // its cost, before anything runs
+      std::printf("%s: rate check after the test: %s\n", test.name.c_str(),
+                  rate_check_cost(context.deck, test, check, 0.0).words().c_str());
+  }
+  std::optional<ObserverReport> after_test(const FinishedTest& done) override;
+
+ private:
+  RunContext context_;
+  const TestDef& test_;
+  TestStart start_;
+  VerifyRateOptions check_;
+};
+
+std::optional<ObserverReport> RateCheck::after_test(const FinishedTest& done) {
+  const Deck& deck = context_.deck;
+  if (!context_.options.quiet)
+    std::printf("%s: rate check: %s\n", test_.name.c_str(),
+                rate_check_cost(deck, test_, check_, done.summary.particle_steps_per_s).words().c_str());
+  // The test's own start, resumed or not: the prepared state (or the initial state without a preparation), its
+  // stage begun, the deck's skin, its forces evaluated (the first row: the state as loaded).
+  State state = deck.initial_state && !deck.prepare ? load_initial_state(deck) : read_state(start_.prepared.string());
+  begin_stage(state);
+  state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
+  evaluate_forces(start_.model, test_.stage_friction(), state);
+  ObserverReport report{"verify_rate", verify_test_rate(context_.run, deck, context_.options, test_, check_, state,
+                                                        done.summary), {}, {}};
+  report.console = rate_check_lines(report.value);
+  return report;
+}
+
+}  // namespace
+
+StageObservers observers_for(const RunContext& context, const TestDef& test, const TestStart& start) {
+  StageObservers observers;
+  const fs::path dir = context.run.stage_dir(test.name);
+  observers.add(std::make_unique<PeakContacts>(dir, driven_measure(test)));
+  if (test.snapshots.any())
+    observers.add(std::make_unique<Snapshots>(dir, test.name, test.snapshots, start.model.dt));
+  if (test.probes) observers.add(std::make_unique<Probes>(context, test));
+  if (const std::optional<VerifyRateOptions> check = verify_rate_for(context.options.verify_rate, test))
+    observers.add(std::make_unique<RateCheck>(context, test, start, *check));
+  return observers;
+}
+
+StageObservers preparation_observers(const RunContext& context, const PrepareDef& prepare, const Model& model) {
+  StageObservers observers;
+  if (prepare.snapshots.any())
+    observers.add(std::make_unique<Snapshots>(context.run.stage_dir("prepare"), "prepare", prepare.snapshots, model.dt));
+  return observers;
+}
+
+}  // namespace celldem
