@@ -163,6 +163,101 @@ Json legs_json(const std::vector<Leg>& legs, const std::vector<LegPlan>& plans) 
   return out;
 }
 
+// The mean contact at the deck's confining stress (null when the deck names no stress): core/plan's definitions.
+Json mean_contact_json(const Deck& deck) {
+  const ContactDef& c = deck.contact;
+  const std::optional<MeanContact> m = mean_contact(deck);
+  if (!m) return nullptr;
+  return {
+      {"confining_stress", m->confining_stress},
+      {"z_phi", kMeanContactZPhi},
+      {"mean_diameter", m->mean_diameter},
+      {"effective_radius", m->effective_radius},
+      {"force", m->force},
+      {"overlap", m->overlap},
+      {"secant_normal_stiffness", m->secant_normal_stiffness},
+      {"contact_radius", m->contact_radius},
+      {"mindlin_tangential_stiffness", has_material_moduli(c) ? Json(m->mindlin_tangential_stiffness) : Json(nullptr)},
+      {"units",
+       {{"confining_stress", "Pa"},
+        {"mean_diameter", "m"},
+        {"effective_radius", "m"},
+        {"force", "N"},
+        {"overlap", "m"},
+        {"secant_normal_stiffness", "N/m"},
+        {"contact_radius", "m"},
+        {"mindlin_tangential_stiffness", "N/m"}}},
+      {"definitions",
+       {{"confining_stress",
+         "p: the deck's largest stress (preparation target, stress and mean_stress axes, "
+         "stress ends)"},
+        {"force",
+         "F = pi d^2 p / (Z phi): p = Z N <f l> / (6 V) (N_c = Z N / 2 contacts) with l = d, "
+         "N = phi V / (pi d^3 / 6)"},
+        {"effective_radius", "R* = d / 4 (two spheres of the mean diameter d)"},
+        {"overlap", "delta under F by the normal law: F / kn, or hertz (3 F / (4 E* sqrt(R*)))^(2/3)"},
+        {"secant_normal_stiffness", "F / delta"},
+        {"contact_radius", "a = sqrt(R* delta)"},
+        {"mindlin_tangential_stiffness", "8 G* a"}}}};
+}
+
+// One test's entry of `plan --json`: its steps, legs, rows, inertial number, time step, probes and equilibrium.
+Json test_plan_json(const Deck& deck, const TestDef& t, double dt_crit) {
+  const TestPlan p = plan_test(deck, t);
+  const Leg& first = t.legs.front();
+  const double stress = first_leg_stress(t);
+  const Json inertia =
+      std::isnan(stress)
+          ? Json(nullptr)
+          : Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample), deck.sample.density, stress));
+  Json legs = legs_json(t.legs, p.legs);
+  for (std::size_t k = 0; k < t.legs.size(); ++k) {
+    // Only for the new kinds of leg, so that every other deck's plan stays as it was.
+    const Leg& leg = t.legs[k];
+    if (const std::int64_t n = ramp_target_steps(leg, deck.stage_time_step(t)); n >= 0)
+      legs[k]["ramp_target_steps"] = n;
+    if (leg.end.kind == LegEndKind::Equilibrium)  // the leg's own end.max_steps, else the criterion's
+      legs[k]["equilibrium_max_steps"] = leg.end.max_steps > 0 ? leg.end.max_steps : t.equilibrium.max_steps;
+  }
+  const bool holds =
+      std::any_of(t.legs.begin(), t.legs.end(), [](const Leg& leg) { return leg.end.kind == LegEndKind::Equilibrium; });
+  Json out = {{"name", t.name},
+              {"friction", t.friction},
+              {"steps", known(p.steps)},
+              {"end_axis", kAxisNames[first.end.axis]},
+              {"end_strain", first.end.value},
+              {"strain_per_step", p.strain_per_step},
+              {"strain_rate", p.strain_rate},
+              {"output_interval", t.output_interval},
+              {"rows", known(p.rows)},
+              {"axes", axes_json(first)},
+              {"legs", legs},
+              {"inertial_number", inertia},
+              {"time_step", deck.stage_time_step(t)},
+              {"time_step_ratio", deck.stage_time_step(t) / dt_crit}};
+  if (t.probes) {
+    const ProbePlan probes = plan_probes(t);
+    const std::int64_t first = probe_number_offset(deck, t) + 1;  // --probes numbers, one numbering over the deck
+    out["probes"] = {{"points", probes.points},
+                     {"probes_per_point", probes.probes_per_point},
+                     {"steps_per_probe", probes.steps_per_probe},
+                     {"check_probes_per_point", probes.check_probes_per_point},
+                     {"rest_steps_per_point", probes.rest_steps_per_point},
+                     {"steps", probes.steps()},
+                     {"numbers", {first, first + probes.points * (probes.probes_per_point - 1) - 1}}};
+  }
+  if (holds) {
+    const EquilibriumDef& e = t.equilibrium;
+    out["equilibrium"] = {{"pressure_tolerance", e.pressure_tolerance},
+                          {"stress_tolerance", e.stress_tolerance},
+                          {"unbalanced_force_ratio", e.unbalanced_force_ratio},
+                          {"min_steps", e.min_steps},
+                          {"check_interval", e.check_interval},
+                          {"max_steps", e.max_steps}};
+  }
+  return out;
+}
+
 Json plan_json(const Deck& deck) {
   Json types = Json::array();
   std::vector<double> seen;
@@ -210,33 +305,7 @@ Json plan_json(const Deck& deck) {
                     {"units", {{"effective_modulus", "Pa"}, {"effective_shear_modulus", "Pa"}}},
                     {"definitions", {{"effective_modulus", "E* = E / (2 (1 - nu^2))"},
                                      {"effective_shear_modulus", "G* = E / (4 (2 - nu) (1 + nu))"}}}};
-  out["mean_contact"] = nullptr;
-  if (const std::optional<MeanContact> m = mean_contact(deck)) {
-    out["mean_contact"] = {
-        {"confining_stress", m->confining_stress},
-        {"z_phi", kMeanContactZPhi},
-        {"mean_diameter", m->mean_diameter},
-        {"effective_radius", m->effective_radius},
-        {"force", m->force},
-        {"overlap", m->overlap},
-        {"secant_normal_stiffness", m->secant_normal_stiffness},
-        {"contact_radius", m->contact_radius},
-        {"mindlin_tangential_stiffness",
-         has_material_moduli(c) ? Json(m->mindlin_tangential_stiffness) : Json(nullptr)},
-        {"units", {{"confining_stress", "Pa"}, {"mean_diameter", "m"}, {"effective_radius", "m"}, {"force", "N"},
-                   {"overlap", "m"}, {"secant_normal_stiffness", "N/m"}, {"contact_radius", "m"},
-                   {"mindlin_tangential_stiffness", "N/m"}}},
-        {"definitions",
-         {{"confining_stress", "p: the deck's largest stress (preparation target, stress and mean_stress axes, "
-                               "stress ends)"},
-          {"force", "F = pi d^2 p / (Z phi): p = Z N <f l> / (6 V) (N_c = Z N / 2 contacts) with l = d, "
-                    "N = phi V / (pi d^3 / 6)"},
-          {"effective_radius", "R* = d / 4 (two spheres of the mean diameter d)"},
-          {"overlap", "delta under F by the normal law: F / kn, or hertz (3 F / (4 E* sqrt(R*)))^(2/3)"},
-          {"secant_normal_stiffness", "F / delta"},
-          {"contact_radius", "a = sqrt(R* delta)"},
-          {"mindlin_tangential_stiffness", "8 G* a"}}}};
-  }
+  out["mean_contact"] = mean_contact_json(deck);
   if (const std::optional<GradingDef>& g = deck.sample.grading) {
     // The sample the seed draws; an initial_state's spheres are the run's (summary.json's "grading").
     Json grading = grading_json(*g, deck.initial_state ? std::vector<double>{} : graded_sample_diameters(deck.sample));
@@ -276,46 +345,7 @@ Json plan_json(const Deck& deck) {
                      {"test_steps", steps(estimate.tests)}, {"particle_steps_low", estimate.particle_steps_low},
                      {"particle_steps_high", estimate.particle_steps_high < 0 ? Json() : Json(estimate.particle_steps_high)},
                      {"particle_steps_per_core_second", kParticleStepsPerCoreSecond}};
-  for (const TestDef& t : deck.tests) {
-    const TestPlan p = plan_test(deck, t);
-    const Leg& first = t.legs.front();
-    const double stress = first_leg_stress(t);
-    const Json inertia = std::isnan(stress) ? Json(nullptr)
-                                            : Json(inertial_number(loading_rate(deck, t), mean_diameter(deck.sample),
-                                                                   deck.sample.density, stress));
-    Json legs = legs_json(t.legs, p.legs);
-    for (std::size_t k = 0; k < t.legs.size(); ++k) {
-      // Only for the new kinds of leg, so that every other deck's plan stays as it was.
-      const Leg& leg = t.legs[k];
-      if (const std::int64_t n = ramp_target_steps(leg, deck.stage_time_step(t)); n >= 0) legs[k]["ramp_target_steps"] = n;
-      if (leg.end.kind == LegEndKind::Equilibrium)  // the leg's own end.max_steps, else the criterion's
-        legs[k]["equilibrium_max_steps"] = leg.end.max_steps > 0 ? leg.end.max_steps : t.equilibrium.max_steps;
-    }
-    const bool holds = std::any_of(t.legs.begin(), t.legs.end(),
-                                   [](const Leg& leg) { return leg.end.kind == LegEndKind::Equilibrium; });
-    out["tests"].push_back({{"name", t.name}, {"friction", t.friction}, {"steps", known(p.steps)},
-                            {"end_axis", kAxisNames[first.end.axis]}, {"end_strain", first.end.value},
-                            {"strain_per_step", p.strain_per_step}, {"strain_rate", p.strain_rate},
-                            {"output_interval", t.output_interval}, {"rows", known(p.rows)},
-                            {"axes", axes_json(first)}, {"legs", legs}, {"inertial_number", inertia},
-                            {"time_step", deck.stage_time_step(t)},
-                            {"time_step_ratio", deck.stage_time_step(t) / dt_crit}});
-    if (t.probes) {
-      const ProbePlan probes = plan_probes(t);
-      const std::int64_t first = probe_number_offset(deck, t) + 1;  // --probes numbers, one numbering over the deck
-      out["tests"].back()["probes"] = {{"points", probes.points}, {"probes_per_point", probes.probes_per_point},
-                                       {"steps_per_probe", probes.steps_per_probe}, {"check_probes_per_point", probes.check_probes_per_point},
-                                       {"rest_steps_per_point", probes.rest_steps_per_point}, {"steps", probes.steps()},
-                                       {"numbers", {first, first + probes.points * (probes.probes_per_point - 1) - 1}}};
-    }
-    if (holds) {
-      const EquilibriumDef& e = t.equilibrium;
-      out["tests"].back()["equilibrium"] = {
-          {"pressure_tolerance", e.pressure_tolerance}, {"stress_tolerance", e.stress_tolerance},
-          {"unbalanced_force_ratio", e.unbalanced_force_ratio}, {"min_steps", e.min_steps},
-          {"check_interval", e.check_interval}, {"max_steps", e.max_steps}};
-    }
-  }
+  for (const TestDef& t : deck.tests) out["tests"].push_back(test_plan_json(deck, t, dt_crit));
   return out;
 }
 
