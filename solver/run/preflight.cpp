@@ -19,6 +19,7 @@
 #include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
 #include "run/sample.hpp"
+#include "run/verify_rate.hpp"
 
 namespace celldem {
 namespace {
@@ -426,8 +427,10 @@ std::vector<std::string> preflight(const Deck& deck) {
   warn_unreached_snapshots(deck, warnings);
   warn_capped_strain_legs(deck, warnings);
   warn_probe_reach(deck, warnings);
-  for (const TestDef& t : deck.tests)
+  for (const TestDef& t : deck.tests) {
     if (const std::string fast = fast_loading(deck, t); !fast.empty()) warnings.push_back(fast);
+    (void)verify_rate_for(VerifyRateOptions{}, t);  // a test's own verify_rate key: refused where run refuses it
+  }
   return warnings;
 }
 

@@ -198,6 +198,15 @@ TestDef slowed_test(const TestDef& test, double factor) {
 
 std::optional<VerifyRateOptions> verify_rate_for(const VerifyRateOptions& command_line, const TestDef& test) {
   if (!command_line.enabled && !test.verify_rate) return std::nullopt;
+  // The check extrapolates from a run at rate_factor times the test's rate. An adaptive leg sets its own rate from
+  // what it measures, so the slower run's driven rate is not rate_factor times the test's over the path (it climbs
+  // back) and the extrapolated error would be false: the pair is refused, not judged.
+  if (std::any_of(test.legs.begin(), test.legs.end(), [](const Leg& leg) { return leg.adaptive.has_value(); }))
+    throw UsageError("test '" + test.name + "': " +
+                     (command_line.enabled ? std::string("--verify-rate") : std::string("tests[].verify_rate")) +
+                     " with tests[].adaptive_rate: the slower run adapts its own rate, so it does not run at the "
+                     "rate factor times the test's and the check's extrapolation would be false; check the test "
+                     "without adaptive_rate");
   VerifyRateOptions o = command_line;
   o.enabled = true;
   if (test.verify_rate) {

@@ -74,4 +74,19 @@ for cmd in check run; do
   refused "$cmd: an end the servo keeps the leg from" "$second: end.stress: the leg holds axis x2 at 100000 Pa" \
     "${args[@]}" "$work/servo.json"
 done
+# The rate check beside an adaptive rate: the slower run would set its own rate, so the pair is refused (on the
+# command line by run, as a test's verify_rate key by check and run alike), naming adaptive_rate.
+/usr/bin/python3 - "$deck" "$work" <<'EOF'
+import json, sys
+d = json.load(open(sys.argv[1]))
+d["tests"][0]["adaptive_rate"] = {}
+json.dump(d, open(sys.argv[2] + "/adaptive.json", "w"))
+d["tests"][0]["verify_rate"] = {}
+json.dump(d, open(sys.argv[2] + "/adaptive_key.json", "w"))
+EOF
+"$celldem" check "$work/adaptive.json" > "$work/out" 2> "$work/err" || { cat "$work/err"; fail "an adaptive test is refused"; }
+refused "run --verify-rate beside an adaptive rate" "--verify-rate with tests[].adaptive_rate" \
+  run "$work/adaptive.json" --out "$work/run" --quiet --threads 1 --verify-rate
+refused "check: a test's verify_rate beside its adaptive rate" "tests[].verify_rate with tests[].adaptive_rate" \
+  check "$work/adaptive_key.json"
 echo "all bad input refused"
