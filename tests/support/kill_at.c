@@ -60,6 +60,23 @@ static void after(long n) {
   if (n == g_kill_at) die();
 }
 
+// `call` as event `op` on `path`: numbered (and killed before, when asked) ahead of it, killed after it when asked.
+#define AROUND(op, path, call)       \
+  __extension__({                    \
+    const long n_ = event(op, path); \
+    __typeof__(call) r_ = call;      \
+    after(n_);                       \
+    r_;                              \
+  })
+// open's third argument, there only with O_CREAT or O_TMPFILE (whose bits include O_DIRECTORY's).
+#define MODE_ARG(flags, mode)                                  \
+  if ((flags & O_CREAT) || (flags & O_TMPFILE) == O_TMPFILE) { \
+    va_list ap;                                                \
+    va_start(ap, flags);                                       \
+    mode = va_arg(ap, mode_t);                                 \
+    va_end(ap);                                                \
+  }
+
 static int regular_file(int fd) {
   struct stat st;
   return fd > 2 && syscall(SYS_fstat, fd, &st) == 0 && S_ISREG(st.st_mode);
@@ -77,55 +94,38 @@ static const char* fd_path(int fd, char* buf, size_t size) {
   static __typeof__(name)* real_##name; \
   if (!real_##name) { void* found = dlsym(RTLD_NEXT, #name); memcpy(&real_##name, &found, sizeof found); }
 
-// Whether open's third argument is there: with O_CREAT or O_TMPFILE (whose bits include O_DIRECTORY's).
-static int takes_mode(int flags) { return (flags & O_CREAT) || (flags & O_TMPFILE) == O_TMPFILE; }
 static int writes(int flags) { return (flags & (O_WRONLY | O_RDWR | O_CREAT | O_TRUNC | O_APPEND)) != 0; }
 
 int open(const char* path, int flags, ...) {
   REAL(open);
   mode_t mode = 0;
-  if (takes_mode(flags)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
+  MODE_ARG(flags, mode);
   if (!writes(flags)) return real_open(path, flags, mode);
-  const long n = event("open", path);
-  const int fd = real_open(path, flags, mode);
-  after(n);
-  return fd;
+  return AROUND("open", path, real_open(path, flags, mode));
 }
 int open64(const char* path, int flags, ...) {
   REAL(open64);
   mode_t mode = 0;
-  if (takes_mode(flags)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
+  MODE_ARG(flags, mode);
   if (!writes(flags)) return real_open64(path, flags, mode);
-  const long n = event("open", path);
-  const int fd = real_open64(path, flags, mode);
-  after(n);
-  return fd;
+  return AROUND("open", path, real_open64(path, flags, mode));
 }
 int openat(int dir, const char* path, int flags, ...) {
   REAL(openat);
   mode_t mode = 0;
-  if (takes_mode(flags)) { va_list ap; va_start(ap, flags); mode = va_arg(ap, mode_t); va_end(ap); }
+  MODE_ARG(flags, mode);
   if (!writes(flags)) return real_openat(dir, path, flags, mode);
-  const long n = event("open", path);
-  const int fd = real_openat(dir, path, flags, mode);
-  after(n);
-  return fd;
+  return AROUND("open", path, real_openat(dir, path, flags, mode));
 }
 FILE* fopen(const char* path, const char* how) {
   REAL(fopen);
   if (!strpbrk(how, "wa+")) return real_fopen(path, how);
-  const long n = event("open", path);
-  FILE* f = real_fopen(path, how);
-  after(n);
-  return f;
+  return AROUND("open", path, real_fopen(path, how));
 }
 FILE* fopen64(const char* path, const char* how) {
   REAL(fopen64);
   if (!strpbrk(how, "wa+")) return real_fopen64(path, how);
-  const long n = event("open", path);
-  FILE* f = real_fopen64(path, how);
-  after(n);
-  return f;
+  return AROUND("open", path, real_fopen64(path, how));
 }
 
 ssize_t write(int fd, const void* bytes, size_t count) {
@@ -145,59 +145,35 @@ ssize_t write(int fd, const void* bytes, size_t count) {
 int fsync(int fd) {
   REAL(fsync);
   char path[4096];
-  const long n = event("fsync", fd_path(fd, path, sizeof path));
-  const int rc = real_fsync(fd);
-  after(n);
-  return rc;
+  return AROUND("fsync", fd_path(fd, path, sizeof path), real_fsync(fd));
 }
 
 int rename(const char* from, const char* to) {
   REAL(rename);
-  const long n = event("rename", to);
-  const int rc = real_rename(from, to);
-  after(n);
-  return rc;
+  return AROUND("rename", to, real_rename(from, to));
 }
 int renameat(int fd_from, const char* from, int fd_to, const char* to) {
   REAL(renameat);
-  const long n = event("rename", to);
-  const int rc = real_renameat(fd_from, from, fd_to, to);
-  after(n);
-  return rc;
+  return AROUND("rename", to, real_renameat(fd_from, from, fd_to, to));
 }
 
 int unlink(const char* path) {
   REAL(unlink);
-  const long n = event("unlink", path);
-  const int rc = real_unlink(path);
-  after(n);
-  return rc;
+  return AROUND("unlink", path, real_unlink(path));
 }
 int unlinkat(int dir, const char* path, int flags) {
   REAL(unlinkat);
-  const long n = event("unlink", path);
-  const int rc = real_unlinkat(dir, path, flags);
-  after(n);
-  return rc;
+  return AROUND("unlink", path, real_unlinkat(dir, path, flags));
 }
 int remove(const char* path) {
   REAL(remove);
-  const long n = event("unlink", path);
-  const int rc = real_remove(path);
-  after(n);
-  return rc;
+  return AROUND("unlink", path, real_remove(path));
 }
 int rmdir(const char* path) {
   REAL(rmdir);
-  const long n = event("unlink", path);
-  const int rc = real_rmdir(path);
-  after(n);
-  return rc;
+  return AROUND("unlink", path, real_rmdir(path));
 }
 int mkdir(const char* path, mode_t mode) {
   REAL(mkdir);
-  const long n = event("mkdir", path);
-  const int rc = real_mkdir(path, mode);
-  after(n);
-  return rc;
+  return AROUND("mkdir", path, real_mkdir(path, mode));
 }
