@@ -6,7 +6,7 @@
 #   merge_full      a merge onto a full disk (a 64 KiB tmpfs, root only): exit 1 naming "No space left on device",
 #                   no half-copied folder; the disk grown, merged again: the files of an uninterrupted merge
 #   readonly_share  a share on a read-only mount (root) or read-only files (others): merged as any other
-#   lock_deleted    run.lock deleted under a live run: --resume, --force and merge are still refused, naming its pid
+#   (run.lock deleted under a live run: test_trials.sh's lock_deleted)
 #   lock_symlink    run.lock a symbolic link: refused, the file it names untouched
 #   stage_symlink   a stage folder linked into another run: refused naming it, the other run untouched
 #   pid_race        two runs started together on a folder a killed run left: the one refused names the other's pid
@@ -35,7 +35,7 @@ cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
 sed 's/"strain":0.006/"strain":0.05/g' "$work/deck.json" > "$work/long.json"
 declare -A passed failed skipped
-kinds=(merge_kill merge_full readonly_share lock_deleted lock_symlink stage_symlink pid_race stray_checkpoint
+kinds=(merge_kill merge_full readonly_share lock_symlink stage_symlink pid_race stray_checkpoint
        share_resumed)
 # CELLDEM_FAULT_KINDS="merge_kill pid_race": only these kinds.
 [[ -n ${CELLDEM_FAULT_KINDS:-} ]] && read -ra kinds <<< "$CELLDEM_FAULT_KINDS"
@@ -123,25 +123,6 @@ trial_readonly_share() {
   rc=$?
   ((rc == 0)) || { why="a read-only share: exit $rc: $(head -c 300 "$work/err")"; return 1; }
   same_tree "$work/merged" "$m"
-}
-
-trial_lock_deleted() {
-  local d="$work/ld" rc what
-  rm -rf "$d"
-  start "$work/long.json" --out "$d"
-  wait_for "$d/prepare/series.csv" || { wait $pid; why="skipped: the run ended first"; return 2; }
-  rm -f "$d/run.lock"
-  case $((RANDOM % 3)) in
-    0) what="--resume"; timeout 30 "$celldem" run "$work/long.json" --out "$d" --resume --quiet 2>"$work/err" ;;
-    1) what="--force"; timeout 30 "$celldem" run "$work/long.json" --out "$d" --force --quiet 2>"$work/err" ;;
-    2) what="merge"; timeout 30 "$celldem" merge "$d" 2>"$work/err" ;;
-  esac
-  rc=$?
-  kill -0 $pid 2>/dev/null || { wait $pid; why="skipped: the run ended first"; return 2; }
-  [[ -f $d/progress.json && -f $d/prepare/series.csv ]] || { kill -9 $pid; why="$what deleted the live run's files"; return 1; }
-  kill -TERM $pid; wait $pid
-  ((rc == 2)) || { why="run.lock deleted: $what exited $rc, expected 2: $(head -c 300 "$work/err")"; return 1; }
-  grep -q "pid $pid" "$work/err" || { why="$what: the refusal does not name the holder (pid $pid): $(cat "$work/err")"; return 1; }
 }
 
 trial_lock_symlink() {

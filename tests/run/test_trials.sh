@@ -17,7 +17,7 @@ here="$(dirname "$0")"
 cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
 declare -A passed failed skipped
-kinds=(continue_command kill_resume series_extra series_tampered finished_tampered two_processes branch_resumed probe_stop probe_shares foreign_share)
+kinds=(continue_command kill_resume series_extra series_tampered finished_tampered two_processes lock_deleted branch_resumed probe_stop probe_shares foreign_share)
 why=""
 run_quiet() { "$celldem" run "$@" --quiet --threads 1; }
 # Starts a run in the background: $pid is celldem's own (a function run with & would be a subshell's).
@@ -133,10 +133,11 @@ trial_continue_command() {  # SIGINT under --tolerance and --seeds: the printed 
 }
 
 trial_two_processes() {  # a second process on a live folder: refused with exit 2 naming the holder, nothing deleted
-  local d="$work/tp" pid rc what
+  local d="$work/tp" pid rc what lock_gone="${1:-0}"
   rm -rf "$d"
   start "$work/long.json" --out "$d"
   for ((k = 0; k < 500; ++k)); do [[ -f $d/prepare/series.csv ]] && break; sleep 0.02; done
+  ((lock_gone)) && rm -f "$d/run.lock"  # the folder itself stays locked
   case $((RANDOM % 4)) in
     0) what="--resume"; timeout 30 "$celldem" run "$work/long.json" --out "$d" --resume --quiet 2>"$work/err" ;;
     1) what="--force"; timeout 30 "$celldem" run "$work/long.json" --out "$d" --force --quiet 2>"$work/err" ;;
@@ -147,10 +148,12 @@ trial_two_processes() {  # a second process on a live folder: refused with exit 
   kill -0 $pid 2>/dev/null || { wait $pid; why="skipped: the first run ended first"; return 2; }
   [[ -f $d/progress.json && -f $d/prepare/series.csv ]] || { kill -9 $pid; why="$what deleted the live run's files"; return 1; }
   kill -TERM $pid; wait $pid
-  ((rc == 2)) || { why="$what on a live folder exited $rc, expected 2"; return 1; }
+  ((rc == 2)) || { why="$what on a live folder exited $rc, expected 2 (run.lock deleted: $lock_gone)"; return 1; }
   grep -q "pid $pid" "$work/err" || { why="$what: the refusal does not name the holder (pid $pid): $(cat "$work/err")"; return 1; }
   return 0
 }
+
+trial_lock_deleted() { trial_two_processes 1; }  # the same, with run.lock deleted under the live run
 
 trial_branch_resumed() {  # a rate check whose test was resumed: the slower run and the twin start from a state with forces
   local d="$work/br" f
