@@ -15,6 +15,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from celldem.commands import compare_binaries
@@ -88,12 +89,29 @@ def write_summary(path, k, peak, ev, z, controlled=True, b_final=None):
         json.dump({"settings": {"particles": 100}, "tests": {"ttc": test}}, f)
 
 
+def write_prepared(path, k):
+    """Seed k's preparation: its summary's prepared e and Z (the same for both binaries unless edited)."""
+    os.makedirs(path, exist_ok=True)
+    with open(os.path.join(path, "summary.json"), "w") as f:
+        json.dump({"settings": {"particles": 100}, "prepared": {"void_ratio": 0.5 + 0.0625 * (k % 5),
+                                                                 "Z": 4.0 + 0.125 * (k % 3)}}, f)
+
+
+VALUES = [(3.0, -0.010, 4.1), (3.2, -0.012, 4.3), (2.9, -0.008, 4.0), (3.1, -0.011, 4.2), (3.05, -0.009, 4.15),
+          (2.95, -0.0105, 4.05)]
+REFERENCE = list(range(11, 17))
+
+
 def synthetic(out, shift=1e-4, alternate=True, **other):
-    """Six seeds; OTHER = BASE + a shift of the peak (by default far inside the margin: a few 1e-4 floors, of
-    alternating sign; alternate False: the same sign on every seed), the rest as `other` says."""
-    values = [(3.0, -0.010, 4.1), (3.2, -0.012, 4.3), (2.9, -0.008, 4.0), (3.1, -0.011, 4.2), (3.05, -0.009, 4.15),
-              (2.95, -0.0105, 4.05)]
-    for k, (peak, ev, z) in enumerate(values, start=1):
+    """Six judged seeds and six reference seeds (11-16, OLD alone, with the judged seeds' spread); OTHER = BASE + a
+    shift of the peak (by default far inside the margin: a few 1e-4 floors, of alternating sign; alternate False:
+    the same sign on every seed), the rest as `other` says."""
+    for k, (peak, ev, z) in zip(REFERENCE, reversed(VALUES)):
+        write_prepared(equivalence.run_dir(out, "prepare", k), k)
+        write_summary(equivalence.run_dir(out, "old", k), k, peak, ev, z, b_final=0.125 * k)
+    for k, (peak, ev, z) in enumerate(VALUES, start=1):
+        write_prepared(equivalence.run_dir(out, "prepare", k), k)
+        write_prepared(equivalence.run_dir(out, "prepare_new", k), k)
         write_summary(equivalence.run_dir(out, "old", k), k, peak, ev, z, b_final=0.125 * k)
         jitter = shift * ((1 if k % 2 else -0.5) if alternate else (1 + 0.1 * (k % 2)))
         changes = {"b_final": 0.125 * k, **{key: (v(k) if callable(v) else v) for key, v in other.items()}}
@@ -101,38 +119,79 @@ def synthetic(out, shift=1e-4, alternate=True, **other):
     return list(range(1, 7))
 
 
+def judge(out, seeds, **options):
+    return equivalence.judge(out, seeds, reference=equivalence.side(out, "old", REFERENCE), **options)
+
+
+def rows_of(result):
+    return {q["label"]: q for q in result["quantities"]}
+
+
 def test_small_differences_are_equivalent_and_identical_values_say_so(tmp_path):
     seeds = synthetic(str(tmp_path))
-    r = equivalence.judge(str(tmp_path), seeds)
-    verdicts = {q["label"]: q["verdict"] for q in r["comparison"]["quantities"]}
+    r = judge(str(tmp_path), seeds)
+    verdicts = {label: q["verdict"] for label, q in rows_of(r).items()}
     assert r["verdict"] == "equivalent" and r["exit"] == 0, r["text"]
     assert verdicts["ttc peak σ1/σ3"] == "equivalent"
     # Z, ε1 and b the same numbers in both: no TOST on zeros (celldem.stats would give p = 0 from no spread)
     assert verdicts["ttc Z at the end"] == "identical on every seed"
-    assert r["not_compared"] == ["prepared e", "prepared Z"]  # not in the summaries of runs from a state
-    assert "±0.5 floors on every quantity (TOST, 5 % per quantity)" in r["text"]
+    # each binary prepares its own sample: the preparation's quantities are compared too
+    assert verdicts["prepared e"] == verdicts["prepared Z"] == "identical on every seed"
+    assert "TOST within ±0.5 reference floors" in r["text"] and "6 reference seeds" in r["text"]
+    # the floor is the reference seeds' standard deviation, not the judged seeds'
+    peak = rows_of(r)["ttc peak σ1/σ3"]
+    assert peak["floor"] == pytest.approx(float(np.std([v[0] for v in VALUES], ddof=1)), rel=1e-12)
+    assert peak["margin"] == pytest.approx(0.5 * peak["floor"]) and peak["margin_from"] == "floors"
 
 
-def test_a_failed_control_an_untested_quantity_or_a_constant_offset_is_never_equivalent(tmp_path):
+def test_the_floor_comes_from_the_reference_not_from_the_judged_seeds(tmp_path):
+    out = str(tmp_path)
+    seeds = synthetic(out)
+    wide = judge(out, seeds)
+    # the reference's peak twice as spread: the margin doubles; the judged seeds are the same
+    for k, (peak, ev, z) in zip(REFERENCE, reversed(VALUES)):
+        write_summary(equivalence.run_dir(out, "old", k), k, 3.0 + 2 * (peak - 3.0), ev, z, b_final=0.125 * k)
+    wider = judge(out, seeds)
+    a, b = rows_of(wide)["ttc peak σ1/σ3"], rows_of(wider)["ttc peak σ1/σ3"]
+    assert b["margin"] == pytest.approx(2 * a["margin"]) and a["differences"] == b["differences"]
+    # a reference of another deck is refused
+    write_summary(equivalence.run_dir(out, "old", REFERENCE[0]), REFERENCE[0], 3.0, -0.01, 4.0, b_final=0.0)
+    path = os.path.join(equivalence.run_dir(out, "old", REFERENCE[0]), "summary.json")
+    summary = json.load(open(path))
+    summary["settings"]["particles"] = 101
+    json.dump(summary, open(path, "w"))
+    with pytest.raises(equivalence.study_compare.CompareError, match="settings differ .* particles"):
+        judge(out, seeds)
+    with pytest.raises(equivalence.study_compare.CompareError, match="at least 3"):
+        equivalence.judge(out, seeds, reference=equivalence.side(out, "old", REFERENCE[:2]))
+
+
+def test_a_failed_control_an_untested_quantity_or_a_constant_offset(tmp_path):
     failed = str(tmp_path / "failed")
     seeds = synthetic(failed, controlled=lambda k: k != 3)
-    r = equivalence.judge(failed, seeds)
+    r = judge(failed, seeds)
     assert r["verdict"] == "not shown equivalent" and r["exit"] == 1
     assert r["control_failures"] == [{"seed": 3, "binary": "NEW", "test": "ttc", "failures": []}]
     assert "control failed: seed 3 NEW ttc" in r["text"]
 
     missing = str(tmp_path / "missing")
     seeds = synthetic(missing, b_final=lambda k: None)  # NEW's summaries lack a quantity OLD's have
-    r = equivalence.judge(missing, seeds)
+    r = judge(missing, seeds)
     assert r["exit"] == 1 and r["missing"] == ["ttc b at the end"], r["text"]
     assert "ttc b at the end: missing: no value from NEW on seeds 1, 2, 3, 4, 5, 6" in r["text"]
 
-    offset = str(tmp_path / "offset")
-    # the same small difference on every seed (exactly: binary fractions): no spread to test with
-    seeds = synthetic(offset, b_final=lambda k: 0.125 * k + 2.0 ** -20)
-    r = equivalence.judge(offset, seeds)
-    row = next(q for q in r["comparison"]["quantities"] if q["label"] == "ttc b at the end")
-    assert row["verdict"].startswith("undecided at 6 seeds") and r["exit"] == 1
+    # the same difference on every seed (exactly: binary fractions), no spread: inside the margin it is
+    # equivalent, beyond it different (its paired p is 0), never "undecided"
+    small = str(tmp_path / "small")
+    seeds = synthetic(small, b_final=lambda k: 0.125 * k + 2.0 ** -20)
+    row = rows_of(judge(small, seeds))["ttc b at the end"]
+    assert row["verdict"] == "equivalent" and row["p_tost"] == 0, row
+    large = str(tmp_path / "large")
+    seeds = synthetic(large, b_final=lambda k: 0.125 * k + 8.0)  # about 36 floors
+    r = judge(large, seeds)
+    row = rows_of(r)["ttc b at the end"]
+    assert row["verdict"] == "different" and row["p"] == 0 and row["floors"] > 30, row
+    assert r["exit"] == 1 and "different: ttc b at the end" in r["text"]
 
 
 def edit_summary(out, role, seed, change):
@@ -149,7 +208,7 @@ def test_a_nan_or_a_missing_peak_on_one_side_is_never_left_out_silently(tmp_path
     nan = str(tmp_path / "nan")
     seeds = synthetic(nan)
     edit_summary(nan, "new", 2, lambda t: t["end_window"].update(Z=float("nan")))
-    r = equivalence.judge(nan, seeds)
+    r = judge(nan, seeds)
     assert r["exit"] == 1 and r["missing"] == ["ttc Z at the end"], r["text"]
     assert "no value from NEW on seeds 2" in r["text"]
 
@@ -159,9 +218,9 @@ def test_a_nan_or_a_missing_peak_on_one_side_is_never_left_out_silently(tmp_path
     seeds = synthetic(peak)
     for k in (2, 5):
         edit_summary(peak, "new", k, lambda t: t.update(peak_reached=False))
-    r = equivalence.judge(peak, seeds)
-    rows = {q["label"]: q for q in r["comparison"]["quantities"]}
-    assert rows["ttc peak reached (1/0)"]["verdict"].startswith("untested (no floor"), r["text"]
+    r = judge(peak, seeds)
+    rows = rows_of(r)
+    assert rows["ttc peak reached (1/0)"]["verdict"].startswith("untested (no margin"), r["text"]
     assert rows["ttc peak reached (1/0)"]["differences"] == [0, -1, 0, 0, -1, 0]
     assert rows["ttc peak σ1/σ3"]["n"] == 4 and r["exit"] == 1
 
@@ -170,20 +229,84 @@ def test_a_nan_or_a_missing_peak_on_one_side_is_never_left_out_silently(tmp_path
     seeds = synthetic(few)
     for k in (1, 2, 3, 4):
         edit_summary(few, "old", k, lambda t: t.update(peak_reached=False))
-    r = equivalence.judge(few, seeds)
-    rows = {q["label"]: q for q in r["comparison"]["quantities"]}
+    r = judge(few, seeds)
+    rows = rows_of(r)
     assert rows["ttc peak σ1/σ3"]["verdict"] == "untested (paired on 2 seeds, fewer than 3)", r["text"]
     assert "ttc peak σ1/σ3" in r["untested"] and r["exit"] == 1
 
 
 def test_a_shift_of_a_floor_is_not_equivalent_and_a_steady_shift_is_different(tmp_path):
     seeds = synthetic(str(tmp_path / "scattered"), shift=0.5)  # 0.5 and -0.25 by turns: 1.2 floors on the mean
-    r = equivalence.judge(str(tmp_path / "scattered"), seeds)
+    r = judge(str(tmp_path / "scattered"), seeds)
     assert r["exit"] == 1 and r["undecided"] == ["ttc peak σ1/σ3"], r["text"]
     seeds = synthetic(str(tmp_path / "steady"), shift=0.3, alternate=False)  # about 3 floors on every seed
-    r = equivalence.judge(str(tmp_path / "steady"), seeds)
+    r = judge(str(tmp_path / "steady"), seeds)
     assert r["exit"] == 1 and r["different"] == ["ttc peak σ1/σ3"], r["text"]
     assert "different: ttc peak σ1/σ3" in r["text"]
+
+
+def servo_held(test, s11_end, sustained=(0.001, 0.002), ratio_over=0.4):
+    """A TTC's legs as summary.json gives them: x1 driven, x2 and x3 held at 1e5 by stress servos whose worst
+    sustained error is ratio_over of the tolerance (so the tolerance is max(sustained) / ratio_over)."""
+    axes = [{"name": "x1", "kind": "strain", "sustained": None},
+            {"name": "x2", "kind": "stress", "sustained": sustained[0], "last_target": 1e5},
+            {"name": "x3", "kind": "stress", "sustained": sustained[1], "last_target": 1e5}]
+    test["legs"] = [{"control_errors": {"axes": axes}, "end": {"s11": s11_end, "s33": 1e5}}]
+    test["control_error_over_tolerance"] = ratio_over
+
+
+def test_b_held_by_the_servos_is_judged_against_their_tolerance(tmp_path):
+    # b at the end scatters by 1e-5 between the binaries (the servos' noise): far beyond 0.5 floors of b's own
+    # reference spread (2e-6), far inside what two servos at 0.5 % promise: ±0.005 (1e5 + 1e5) / (3e5 - 1e5).
+    out = str(tmp_path)
+    seeds = synthetic(out, b_final=lambda k: 0.125 * k + 1e-5 * (1 if k % 2 else -1))
+    for k in seeds + REFERENCE:
+        for role in ("old", "new") if k in seeds else ("old",):
+            def change(t, k=k, role=role):
+                servo_held(t, 3e5)
+                if role == "old" or k in REFERENCE:
+                    t["b_final"] = 1e-6 * (k % 3)
+                else:
+                    t["b_final"] = 1e-6 * (k % 3) + 1e-5 * (1 if k % 2 else -1)
+            edit_summary(out, role, k, change)
+    row = rows_of(judge(out, seeds))["ttc b at the end"]
+    assert row["margin_from"] == "control" and row["margin"] == pytest.approx(0.005 * 2e5 / 2e5), row
+    assert row["margin"] > 100 * row["floor"] and row["verdict"] == "equivalent", row
+    assert tuple(equivalence.control_tolerances({"legs": [{"control_errors": {"axes": [
+        {"name": "x2", "kind": "stress", "sustained": 0.002}]}}], "control_error_over_tolerance": 0.4}).items()) == \
+        (("stress", pytest.approx(0.005)),)
+    # the same b, without the servos' record (an unheld axis): judged in floors, and not shown equivalent
+    plain = str(tmp_path / "plain")
+    seeds = synthetic(plain)
+    for k in seeds + REFERENCE:
+        for role in ("old", "new") if k in seeds else ("old",):
+            edit_summary(plain, role, k, lambda t, k=k, role=role: t.update(
+                b_final=1e-6 * (k % 3) + (1e-5 * (1 if k % 2 else -1) if role == "new" and k in seeds else 0)))
+    row = rows_of(judge(plain, seeds))["ttc b at the end"]
+    assert row["margin_from"] == "floors" and row["verdict"] != "equivalent", row
+
+
+def test_a_new_with_twice_the_chaos_fails_on_its_spread(tmp_path):
+    # 40 seeds; NEW's own chaos twice OLD's (model of equivalence_sim, rho 0.5) on the peak, the rest unchanged
+    rng = np.random.default_rng(7)
+    n = 40
+    common, own_old, own_new = rng.standard_normal((3, n))
+    out = str(tmp_path)
+    for k in range(1, n + 1):
+        write_prepared(equivalence.run_dir(out, "prepare", k), k)
+        write_prepared(equivalence.run_dir(out, "prepare_new", k), k)
+        old = 3.0 + 0.1 * (np.sqrt(0.5) * common[k - 1] + np.sqrt(0.5) * own_old[k - 1])
+        new = 3.0 + 0.1 * (np.sqrt(0.5) * common[k - 1] + 2 * np.sqrt(0.5) * own_new[k - 1])
+        write_summary(equivalence.run_dir(out, "old", k), k, float(old), -0.01, 4.0, b_final=0.125 * k)
+        write_summary(equivalence.run_dir(out, "new", k), k, float(new), -0.01, 4.0, b_final=0.125 * k)
+    for k, value in zip(range(101, 121), 3.0 + 0.1 * rng.standard_normal(20)):
+        write_prepared(equivalence.run_dir(out, "prepare", k), k)
+        write_summary(equivalence.run_dir(out, "old", k), k, float(value), -0.01, 4.0, b_final=0.125 * k)
+    r = equivalence.judge(out, list(range(1, n + 1)), reference=equivalence.side(out, "old", range(101, 121)))
+    row = rows_of(r)["ttc peak σ1/σ3"]
+    assert row["spread"]["ratio"] > 1.5 and row["spread_verdict"].startswith("different spread"), row
+    assert r["different_spread"] == ["ttc peak σ1/σ3"] and r["exit"] == 1
+    assert "different spread: ttc peak σ1/σ3" in r["text"] and "Pitman–Morgan" in r["text"]
 
 
 # ---- the tool on a tiny deck ---------------------------------------------------------------------------------------
@@ -205,7 +328,7 @@ def same(tmp_path_factory, celldem, deck):
 def test_a_binary_against_itself_gives_identical_bits(same, celldem):
     out, verdict, r = same
     assert r.returncode == 0, r.stderr
-    assert verdict["verdict"] == "identical bits" and verdict["comparison"] is None
+    assert verdict["verdict"] == "identical bits" and verdict["quantities"] is None
     assert "identical bits" in r.stdout and verdict["seeds"] == [1, 2, 3]
     for k in (1, 2, 3):
         for folder, result in (("samples", "prepared.state"), ("base", "summary.json"), ("other", "summary.json")):
@@ -213,6 +336,9 @@ def test_a_binary_against_itself_gives_identical_bits(same, celldem):
     recorded = json.load(open(os.path.join(out, "equivalence.json")))
     assert recorded["old"]["sha256"] == equivalence.sha256_of(celldem) and recorded["margin_floors"] == 0.5
     assert "3 of 3" in r.stderr and "ETA" in r.stderr  # progress on stderr
+    assert not os.path.exists(equivalence.run_dir(out, "old", 1001))  # identical bits need no reference seeds
+    for k in (1, 2, 3):  # each binary prepared the sample
+        assert os.path.isfile(os.path.join(out, "other-samples", f"seed-{k}", "prepared.state"))
     assert os.path.isfile(os.path.join(out, "equivalence.md"))
 
 
@@ -248,8 +374,10 @@ def test_a_second_call_runs_nothing_again(same, celldem, deck):
 def test_a_round_off_change_is_not_called_different(tmp_path, celldem, deck):
     new = wrapper(tmp_path / "roundoff", celldem, 'deck["time_step"] *= 1 + 1e-12')
     out = str(tmp_path / "study")
-    r = equivalence_tool(celldem, new, deck, out, "--seeds", "4", "--json", tmp_path / "v.json")
+    r = equivalence_tool(celldem, new, deck, out, "--seeds", "4", "--reference-seeds", "101-104", "--json",
+                         tmp_path / "v.json")
     assert r.returncode in (0, 1), r.stderr
+    assert "all 4 reference seeds" in r.stderr or "running 4 (OLD prepares each sample" in r.stderr
     v = json.loads((tmp_path / "v.json").read_text())
     assert v["verdict"] != "identical bits" and all(v["differing_outputs"][str(k)] for k in (1, 2, 3, 4))
     # The runs are chaotic: the change sends each down another path, and the summaries differ. What is guaranteed
@@ -261,12 +389,13 @@ def test_a_round_off_change_is_not_called_different(tmp_path, celldem, deck):
 
 
 def test_half_the_friction_is_not_equivalent(tmp_path, celldem, deck):
-    new = wrapper(tmp_path / "friction", celldem, 'for t in deck["tests"]: t["friction"] *= 0.5')
+    new = wrapper(tmp_path / "friction", celldem, 'for t in deck.get("tests", []): t["friction"] *= 0.5')
     out = str(tmp_path / "study")
-    r = equivalence_tool(celldem, new, deck, out, "--seeds", "4", "--json", tmp_path / "v.json")
+    r = equivalence_tool(celldem, new, deck, out, "--seeds", "4", "--reference-seeds", "101-104", "--json",
+                         tmp_path / "v.json")
     v = json.loads((tmp_path / "v.json").read_text())
     assert r.returncode == 1 and v["verdict"] == "not shown equivalent", v["text"]
-    largest = max(abs(q["floors"]) for q in v["comparison"]["quantities"] if q["floors"] is not None)
+    largest = max(abs(q["floors"]) for q in v["quantities"] if q["floors"] is not None)
     assert largest > 2, v["text"]  # half the friction moves the peak and Z by several floors
     assert "not shown equivalent" in r.stdout
 
@@ -428,6 +557,13 @@ def test_bad_options_are_refused(tmp_path, celldem, deck, capsys):
         ([celldem, celldem, "--deck", started], "--deck:"),
         ([celldem, celldem, "--deck", deck, "--rounds", "3"], "--rounds does not apply with --equivalence"),
         ([celldem, celldem, "--deck", deck, "--out", str(foreign)], "not an equivalence folder"),
+        ([celldem, celldem, "--deck", deck, "--seeds", "1-5", "--reference-seeds", "4-10"],
+         "--reference-seeds 4-10 shares seeds 4..5"),
+        ([celldem, celldem, "--deck", deck, "--reference-seeds", "1001-1002"], "--reference-seeds must give at least"),
+        ([celldem, celldem, "--deck", deck, "--reference", str(tmp_path / "none")], "--reference: no folder"),
+        ([celldem, celldem, "--deck", deck, "--reference", str(foreign)], "--reference:"),
+        ([celldem, celldem, "--deck", deck, "--reference", str(foreign), "--reference-seeds", "11-13"],
+         "exclude each other"),
     ]
     for args, message in cases:
         argv = args[:2] + ["--equivalence"] + args[2:] + ([] if "--out" in args else ["--out", out])
@@ -437,4 +573,6 @@ def test_bad_options_are_refused(tmp_path, celldem, deck, capsys):
     assert not os.path.exists(out)  # nothing written on bad input
     assert compare_binaries.main([celldem, celldem, "--seeds", "3"]) == 2  # an --equivalence option without it
     assert "--seeds does not apply without --equivalence" in capsys.readouterr().err
+    assert compare_binaries.main([celldem, celldem, "--reference-seeds", "11-13"]) == 2
+    assert "--reference-seeds does not apply without --equivalence" in capsys.readouterr().err
     assert os.listdir(foreign) == ["notes.txt"]

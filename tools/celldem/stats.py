@@ -14,6 +14,9 @@ The tests, each two-sided at level alpha unless said otherwise:
 - tost: equivalence within +-margin by two one-sided t-tests (Schuirmann); its p is the larger of the two.
 - holm: Holm's step-down adjustment of a family of p-values, which keeps the family-wise error rate (the chance
   of any false verdict in the family) at alpha.
+- pitman_morgan: equal variances of two paired samples (X_i, Y_i on the same unit): the correlation of D = Y - X
+  and S = Y + X, whose covariance is var Y - var X, tested by Pearson's t with n - 2 dof (exact for bivariate
+  normal pairs; Levene's and the F test assume independent samples, and lose their stated rate on paired ones).
 - fisher_z: a correlation r as Fisher's z = artanh(r), nearly normal with a scale that does not depend on r: a
   correlation over the seeds is tested as the one-sample t of the seeds' z (never r itself, bounded and skewed
   near 1) against artanh(r0).
@@ -111,6 +114,22 @@ def tost(stat: Optional[Stat], margin: float) -> Optional[Dict[str, Any]]:
     p_upper = float(_st.t.cdf((mean - margin) / sem, n - 1))  # H0: mean >= +margin
     half = t_quantile(0.95, n - 1) * sem
     return {"p": max(p_lower, p_upper), "p_lower": p_lower, "p_upper": p_upper, "interval": [mean - half, mean + half]}
+
+
+def pitman_morgan(x: Sequence[float], y: Sequence[float]) -> Optional[Dict[str, Any]]:
+    """Pitman-Morgan test of var(Y) = var(X) for paired values (x_i, y_i): {"ratio": the sample variance ratio
+    var(y) / var(x), "r": corr(y - x, y + x), "p": its two-sided p (scipy.stats.pearsonr, n - 2 dof)}. None with
+    fewer than 4 pairs, or where either variance, or the spread of the differences or of the sums, is 0 (nothing
+    to test)."""
+    a, b = _np.asarray(x, dtype=float), _np.asarray(y, dtype=float)
+    if a.size != b.size or a.size < 4:
+        return None
+    d, s = b - a, b + a
+    va, vb = float(_np.var(a, ddof=1)), float(_np.var(b, ddof=1))
+    if va == 0 or vb == 0 or float(_np.ptp(d)) == 0 or float(_np.ptp(s)) == 0:
+        return None
+    r, p = _st.pearsonr(d, s)
+    return {"ratio": vb / va, "r": float(r), "p": float(p)}
 
 
 # |r| is held below 1 by this much so that a perfect correlation has a finite z (artanh(1 - 1e-12) = 14.2)

@@ -2,14 +2,16 @@
 both at once, each pinned to a core of its own, then with the cores swapped, in each round; the verdict on new
 over old with its test and interval (method: tools/celldem/performance/paired.py). With --whole-process, whole
 `celldem run DECK` processes (one thread, start-up and every write included) instead, timed by the wall clock.
-With --equivalence, their results instead of their speed: paired seeds (OLD prepares each seed's sample, both run
-the tests from it) judged by TOST within ±0.5 noise floor on every summary quantity, or "identical bits"
+With --equivalence, their results instead of their speed: paired seeds (each binary prepares each seed's sample and
+runs the tests from it) judged by TOST on every summary quantity within ±0.5 noise floor of a reference ensemble
+(OLD on seeds not judged), or a holding control's tolerance, with a check of the spreads, or "identical bits"
 (method: tools/celldem/performance/equivalence.py).
 
 Usage: /usr/bin/python3 tools/compare_binaries.py OLD NEW [--rounds 8] [--steps 4000] [--warmup 1000]
                                                   [--deck inputs/paper.json] [--state results/paper/prepared.state]
                                                   [--whole-process] [--bar 1.05] [--json FILE]
        /usr/bin/python3 tools/compare_binaries.py OLD NEW --equivalence [--seeds 30 | --seeds 1-30] [--margin 0.5]
+                                                  [--reference-seeds 1001-1020 | --reference DIR]
                                                   [--deck DECK] [--out DIR] [--jobs 2] [--force] [--json FILE]
 
 Timing needs two cores and nothing else running: each round takes both. Exit 0 with the verdict printed (and
@@ -30,7 +32,8 @@ TIMING_DEFAULTS = {"rounds": 8, "steps": 4000, "warmup": 1000,
                    "state": os.path.join(binary.REPO, "results", "paper", "prepared.state"),
                    "whole_process": False, "bar": paired.BAR}
 EQUIVALENCE_DEFAULTS = {"seeds": str(equivalence.DEFAULT_SEEDS), "margin": equivalence.MARGIN_FLOORS, "out": None,
-                        "jobs": equivalence.DEFAULT_JOBS, "force": False}
+                        "jobs": equivalence.DEFAULT_JOBS, "force": False, "reference_seeds": None,
+                        "reference": None}
 
 
 def fail(message):
@@ -61,7 +64,14 @@ def main(argv=None):
                         help=f"--equivalence: N (seeds 1-N) or A-B, at least {equivalence.MIN_SEEDS} "
                              f"(default {equivalence.DEFAULT_SEEDS})")
     parser.add_argument("--margin", type=float, default=None,
-                        help=f"--equivalence: the margin in noise floors (default {equivalence.MARGIN_FLOORS})")
+                        help="--equivalence: the margin in noise floors of the reference ensemble (default "
+                             f"{equivalence.MARGIN_FLOORS}); a quantity a control holds: at least its tolerance")
+    parser.add_argument("--reference-seeds", default=None,
+                        help="--equivalence: the seeds OLD alone runs for the floors, N or A-B, none of them judged "
+                             f"(default {equivalence.DEFAULT_REFERENCE_SEEDS}; run only when the bits differ)")
+    parser.add_argument("--reference", default=None,
+                        help="--equivalence: a `celldem run DECK --seeds` folder of the same deck (OLD's) to take the "
+                             "floors from instead of --reference-seeds")
     parser.add_argument("--out", default=None, help="--equivalence: the study's folder (default "
                                                     "results/equivalence/<old>-vs-<new>[-<deck>])")
     parser.add_argument("--jobs", type=int, default=None,
@@ -137,6 +147,13 @@ def equivalence_main(args):
         new = equivalence.check_binary("new", args.new)
         seeds = equivalence.parse_seeds(args.seeds)
         margin = equivalence.check_margin(args.margin)
+        if args.reference is not None and args.reference_seeds is not None:
+            raise equivalence.EquivalenceError("--reference and --reference-seeds exclude each other: the floors come "
+                                               "from a stored ensemble or from seeds run here")
+        stored = (equivalence.stored_reference(os.path.abspath(args.reference), seeds)
+                  if args.reference is not None else None)
+        reference_seeds = ([] if stored is not None else equivalence.parse_reference_seeds(
+            args.reference_seeds or equivalence.DEFAULT_REFERENCE_SEEDS, seeds))
         cpus = len(os.sched_getaffinity(0))
         if not 1 <= args.jobs <= cpus:
             raise equivalence.EquivalenceError(f"--jobs must be from 1 to the {cpus} CPUs this process may use (each "
@@ -152,7 +169,14 @@ def equivalence_main(args):
             missing = [s for s in seeds if not equivalence.seed_complete(out, s)]
             if missing:
                 return fail(f"seeds {missing} are not complete in {out} (run the same command again)")
-            result = equivalence.judge(out, seeds, margin)
+            reference = stored
+            if stored is None and any(equivalence.seed_differences(out, s) for s in seeds):
+                more = equivalence.run_seeds(out, scene, old, new, reference_seeds, args.jobs, reference=True)
+                ran = {"ran": ran["ran"] + more["ran"], "wall_s": ran["wall_s"] + more["wall_s"]}
+                reference = equivalence.side(out, "old", reference_seeds)
+            result = equivalence.judge(out, seeds, margin, reference=reference)
+            result["reference"] = (f"stored: {os.path.abspath(args.reference)}" if stored is not None
+                                   else "run here by OLD")
         except equivalence.RunFailed as e:
             return fail(str(e))
         except equivalence.Stopped as e:
@@ -174,7 +198,7 @@ def equivalence_main(args):
 
 
 def run_walls(out, seeds):
-    """{role: [wall seconds of each seed's run]} from the runs' done.json (earlier calls' included)."""
+    """{role: [wall seconds of each judged seed's run]} from the runs' done.json (earlier calls' included)."""
     walls = {}
     for role in equivalence.ROLES:
         done = [read_json(os.path.join(equivalence.run_dir(out, role, s), equivalence.DONE))
