@@ -99,7 +99,7 @@ LOG = "celldem.log"
 # summary.json keys that record how long a run took, not what it computed (at any depth), and the top-level ones
 # that name the deck file or the build
 RUN_TIME_KEYS = frozenset({"wall_s", "particle_steps_per_s"})
-UNCOMPARED_TOP_KEYS = frozenset({"celldem_version", "deck"})
+UNCOMPARED_TOP_KEYS = frozenset({"celldem_version", "deck", "initial_state"})  # (the states: compared as files)
 EQUIVALENT_VERDICTS = ("equivalent", "identical on every seed")
 
 
@@ -682,10 +682,10 @@ def control_margin(reference: Dict[int, Dict[str, Any]], key) -> Optional[Dict[s
         return None
     found = [b_tolerance(s["tests"][test], path == "b_at_peak") for s in reference.values()
              if isinstance((s.get("tests") or {}).get(test), dict) and s["tests"][test].get("controlled") is not False]
-    found = [f for f in found if f is not None]
-    if not found:
+    held = [f for f in found if f is not None]
+    if not held:
         return None
-    return {"tolerance": sum(f["tolerance"] for f in found) / len(found), "why": found[0]["why"]}
+    return {"tolerance": sum(f["tolerance"] for f in held) / len(held), "why": held[0]["why"]}
 
 
 # ---- one quantity ------------------------------------------------------------------------------------------------
