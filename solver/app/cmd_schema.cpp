@@ -67,9 +67,13 @@ std::string summary_schema_json() {
 
 std::string summary_schema_markdown() {
   std::string text = "| key | type | unit | meaning |\n| --- | --- | --- | --- |\n";
-  const auto cell = [](std::string s) {  // a | of the text ends no cell
-    for (std::size_t at = 0; (at = s.find('|', at)) != std::string::npos; at += 2) s.insert(at, "\\");
-    return s;
+  const auto cell = [](const std::string& s) {  // a | of the text ends no cell
+    std::string out;
+    for (const char c : s) {
+      if (c == '|') out += '\\';
+      out += c;
+    }
+    return out;
   };
   for (const SchemaEntry& e : summary_schema())
     text += "| `" + e.path + "` | " + cell(e.type) + " | " + e.unit + " | " + cell(e.doc) + " |\n";
