@@ -16,11 +16,12 @@
 #include "measure/quasi_static.hpp"
 #include "measure/series.hpp"
 #include "neighbor/neighbor_list.hpp"
-#include "run/preflight.hpp"
 #include "run/health.hpp"
+#include "run/preflight.hpp"
 #include "run/probes.hpp"
 #include "run/sample.hpp"
 #include "run/summary.hpp"
+#include "run/summary_schema.hpp"
 
 namespace celldem::app {
 namespace fs = std::filesystem;
@@ -56,16 +57,40 @@ Json constants_json() {
           {"mean_stress_tolerance",
            {{"value", kMeanStressTolerance}, {"meaning", "the largest relative error of a controlled mean stress"}}}};
 }
+// summary.json's keys (run/summary_schema.hpp), as JSON [{key, type, unit, meaning}] or a Markdown table.
+std::string summary_schema_json() {
+  Json out = Json::array();
+  for (const SchemaEntry& e : summary_schema())
+    out.push_back({{"key", e.path}, {"type", e.type}, {"unit", e.unit}, {"meaning", e.doc}});
+  return out.dump(1) + "\n";
+}
+
+std::string summary_schema_markdown() {
+  std::string text = "| key | type | unit | meaning |\n| --- | --- | --- | --- |\n";
+  const auto cell = [](const std::string& s) {  // a | of the text ends no cell
+    std::string out;
+    for (const char c : s) {
+      if (c == '|') out += '\\';
+      out += c;
+    }
+    return out;
+  };
+  for (const SchemaEntry& e : summary_schema())
+    text += "| `" + e.path + "` | " + cell(e.type) + " | " + e.unit + " | " + cell(e.doc) + " |\n";
+  return text;
+}
 }  // namespace
 
 Command add_schema_command(CLI::App& app) {
   struct Args {
-    bool markdown = false, json = false, series = false, constants = false;
+    bool markdown = false, json = false, series = false, constants = false, summary = false;
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("schema", "Print the deck keys (type, unit, default, range, meaning) or the "
                                                "series columns");
   cmd->add_flag("--series", a->series, "The series.csv columns instead of the deck keys");
+  cmd->add_flag("--summary", a->summary, "The summary.json keys (path, type, unit, meaning) instead of the deck keys")
+      ->excludes("--series");
   cmd->add_flag("--markdown", a->markdown, "A Markdown table (default)");
   cmd->add_flag("--json", a->json, "JSON");
   cmd->add_flag("--constants", a->constants,
@@ -78,8 +103,9 @@ Command add_schema_command(CLI::App& app) {
       std::fputs((constants_json().dump(1) + "\n").c_str(), stdout);
       return 0;
     }
-    const std::string text = a->series ? (a->json ? series_columns_json() : series_columns_markdown())
-                                       : (a->json ? deck_schema_json() : deck_schema_markdown());
+    const std::string text = a->summary  ? (a->json ? summary_schema_json() : summary_schema_markdown())
+                             : a->series ? (a->json ? series_columns_json() : series_columns_markdown())
+                                         : (a->json ? deck_schema_json() : deck_schema_markdown());
     std::fputs(text.c_str(), stdout);
     return 0;
   };

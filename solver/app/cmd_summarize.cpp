@@ -33,7 +33,7 @@ Command add_summarize_command(CLI::App& app) {
     } catch (const SeriesFileError& e) {
       throw UsageError(e.what());
     }
-    std::printf("%s\n", summarize_series(rows, a->end_axis[1] - '1').dump(1).c_str());
+    std::printf("%s\n", nlohmann::json(summarize_series(rows, a->end_axis[1] - '1')).dump(1).c_str());
     return 0;
   };
 }

@@ -29,8 +29,8 @@
 namespace celldem {
 
 // Evaluates all pairs at the current positions with the half-step velocities, stores per-pair forces and
-// moments and the new history, and sets state.normal_stress, state.axis_stiffness, state.shear_stress,
-// state.stress, state.stiffness and state.touching.
+// moments and the new history, and sets state.stress and state.stiffness (the six components: s11 s22 s33 s12
+// s13 s23; the shear ones zero unless shear_sums) and state.touching.
 // With advance_slip = false no slip is added (the forces of the state as it stands, e.g. at a stage start).
 void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip = true);
 

@@ -42,7 +42,7 @@ std::string loaded_overlap_cause(const Deck& deck, const State& state) {
 
 // The preparation: its load program (by default fast compression, then the servo to equilibrium), from a
 // generated sample or (initial_state) from a loaded one, whose program may leave the fast leg out.
-void run_preparation(const RunContext& context, State state, bool resumed, const std::vector<Leg>& legs) {
+PreparationSummary run_preparation(const RunContext& context, State state, bool resumed, const std::vector<Leg>& legs) {
   const Deck& deck = context.deck;
   const PrepareDef& prep = *deck.prepare;
   Model stage_model = make_model(deck, state.particles.radius, deck.stage_time_step(prep));
@@ -65,12 +65,14 @@ void run_preparation(const RunContext& context, State state, bool resumed, const
        .start_cause = !resumed && deck.initial_state ? loaded_overlap_cause(deck, state) : "",
        .final_state = FinalStateFile{context.run.prepared_state().string(), "prepared"}},
       std::move(state), observers.list());
-  const Json prepared = summarize_preparation(model, result.state, prep, result.elapsed);
-  context.run.update_summary([&](Json& s) {
-    const Json from = s.value("prepared", Json::object()).value("started_from", Json());
-    s["prepared"] = prepared;
-    if (!from.is_null()) s["prepared"]["started_from"] = from;
+  const PreparationSummary prepared = summarize_preparation(model, result.state, prep, result.elapsed);
+  context.run.update_summary([&](Json& s) {  // (a preparation from initial_state: its started_from kept beside)
+    Json written = prepared;
+    if (s.contains("prepared") && s["prepared"].contains("started_from"))
+      written["started_from"] = s["prepared"]["started_from"];
+    s["prepared"] = written;
   });
+  return prepared;
 }
 
 Json overlaps_json(const Overlaps& o, const std::vector<std::int64_t>& atom_ids) {
@@ -133,7 +135,7 @@ TestOutcome run_test(const RunContext& context, const TestDef& test, const fs::p
       std::move(state), observers.list());
   std::vector<std::string> warnings;
   TestOutcome done{summarize_finished_test(deck, test, result, warnings), {}};
-  run.update_summary([&](Json& s) { s["tests"][test.name] = done.summary.json; });
+  run.update_summary([&](Json& s) { s["tests"][test.name] = done.summary; });
   for (const std::string& w : warnings) run.add_warning(w);
   for (StageObserver* o : observers.list())
     if (std::optional<ObserverReport> report = o->after_test({test, result, done.summary})) {
@@ -211,14 +213,11 @@ void run_deck(const Deck& deck, const RunOptions& options) {
       if (!options.quiet)
         std::printf("prepare: %d spheres, isotropic compression to %g Pa\n", deck.sample.count,
                     deck.prepare->target_pressure);
-      run_preparation({run, deck, options}, std::move(state), resumed, legs);
+      const PreparationSummary p = run_preparation({run, deck, options}, std::move(state), resumed, legs);
       run.mark_done("prepare");
-      if (!options.quiet) {
-        const Json p = run.summary()["prepared"];
-        std::printf("prepare: done in %lld steps, %.1f s: void ratio %.4f, Z %.3f\n",
-                    static_cast<long long>(p["steps"].get<std::int64_t>()), p["wall_s"].get<double>(),
-                    p["void_ratio"].get<double>(), p["Z"].get<double>());
-      }
+      if (!options.quiet)
+        std::printf("prepare: done in %lld steps, %.1f s: void ratio %.4f, Z %.3f\n", static_cast<long long>(p.steps),
+                    p.wall_s, p.void_ratio, p.Z);
     }
   } else {
     prepared = initial_state_path(deck);

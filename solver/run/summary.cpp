@@ -17,8 +17,40 @@
 namespace celldem {
 using Json = nlohmann::json;
 
+// The keys of each component's entry of a leg's control_errors.axes.
+const std::array<FieldDoc, 13> kControlAxisKeys = {
+    FieldDoc{"name", "", "the component (x1 .. x23)"},
+    FieldDoc{"kind", "", "its control (stress, shear_stress, b, mean_stress, volume, strain, held)"},
+    FieldDoc{"error", "1", "its worst single-step error"},
+    FieldDoc{"sustained", "1", "its worst sustained error (the verdict's)"},
+    FieldDoc{"average", "1", "the running average of its error at the leg's end"},
+    FieldDoc{"saturated_steps", "steps", "steps its servo sat at its cap"},
+    FieldDoc{"over_steps", "steps", "steps its sustained error was over its tolerance"},
+    FieldDoc{"over_saturated", "steps", "of those, the steps at the cap"},
+    FieldDoc{"failed", "", "whether it failed"},
+    FieldDoc{"target_at_failure", "Pa or 1", "its target when it failed"},
+    FieldDoc{"reached_at_failure", "Pa or 1", "what it reached then"},
+    FieldDoc{"last_target", "Pa or 1", "its target at the leg's end"},
+    FieldDoc{"last_reached", "Pa or 1", "what it reached there"}};
+
+const std::array<FieldDoc, 9> kControlErrorKeys = {
+    FieldDoc{"stress", "1", "the worst relative error of a stress-controlled axis"},
+    FieldDoc{"shear_stress", "1", "the worst error of a shear stress, over the mean stress"},
+    FieldDoc{"b", "1", "the worst error of a b-controlled axis's b"},
+    FieldDoc{"mean_stress", "1", "the worst relative error of a controlled mean stress"},
+    FieldDoc{"volume", "1", "the worst volumetric strain of a constant-volume leg"},
+    FieldDoc{"steps", "steps", "the steps the errors were taken over"},
+    FieldDoc{"span_weight", "1", "the sustained error's running weight (its memory)"},
+    FieldDoc{"span_decay", "1", "its per-step decay"},
+    FieldDoc{"axes", "",
+             "per component x1 .. x23: name, kind, error, sustained, average, saturated_steps, over_steps, "
+             "over_saturated, failed, target_at_failure, reached_at_failure, last_target, last_reached",
+             kControlAxisKeys}};
+
+namespace {
+
 // plateau_end: the last row of the smoothed peak's plateau.
-Json robust_peak(const std::vector<SeriesRow>& rows, std::size_t* plateau_end = nullptr) {
+RobustPeak robust_peak(const std::vector<SeriesRow>& rows, std::size_t* plateau_end = nullptr) {
   const std::size_t n = rows.size();
   std::vector<double> smooth(n, std::numeric_limits<double>::quiet_NaN());
   for (std::size_t k = 0; k < n; ++k) {
@@ -46,50 +78,49 @@ Json robust_peak(const std::vector<SeriesRow>& rows, std::size_t* plateau_end = 
     const double var = count > 1 ? (sq - count * mean * mean) / (count - 1) : 0.0;
     return std::make_pair(mean, std::sqrt(std::max(0.0, var)));
   };
-  const auto [b, b_std] = mean_std(&SeriesRow::b);
-  const auto [bp, bp_std] = mean_std(&SeriesRow::b_principal);
-  return {{"smoother", "centred moving average of s11/s33 over 0.5 % of e1"},
-          {"ratio13", number_or_null(smooth[peak])},
-          {"e1", number_or_null(rows[peak].e1)},
-          {"plateau_e1", {number_or_null(std::min(rows[lo].e1, rows[hi].e1)),
-                          number_or_null(std::max(rows[lo].e1, rows[hi].e1))}},
-          {"plateau_rows", hi - lo + 1},
-          {"b_mean", number_or_null(b)},
-          {"b_std", number_or_null(b_std)},
-          {"b_principal_mean", number_or_null(bp)},
-          {"b_principal_std", number_or_null(bp_std)}};
+  RobustPeak r;
+  r.ratio13 = smooth[peak];
+  r.e1 = rows[peak].e1;
+  r.plateau_e1 = {std::min(rows[lo].e1, rows[hi].e1), std::max(rows[lo].e1, rows[hi].e1)};
+  r.plateau_rows = hi - lo + 1;
+  std::tie(r.b_mean, r.b_std) = mean_std(&SeriesRow::b);
+  std::tie(r.b_principal_mean, r.b_principal_std) = mean_std(&SeriesRow::b_principal);
+  return r;
 }
 
-Json summarize_legs(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
-                    const std::vector<ControlErrors>& errors) {
-  Json legs = Json::array();
+std::vector<LegSummary> summarize_legs(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
+                                       const std::vector<ControlErrors>& errors) {
+  std::vector<LegSummary> legs;
   for (std::size_t k = 0; k < test.legs.size(); ++k) {
     const SeriesRow* peak = nullptr;
+    const SeriesRow* end = nullptr;  // the leg's last row: its end (run_program writes it)
     std::int64_t count = 0;
     for (const SeriesRow& r : rows)
       if (r.leg == static_cast<double>(k)) {
         ++count;
         if (!peak || r.ratio13 > peak->ratio13) peak = &r;
+        if (!end || r.step > end->step) end = &r;
       }
     // The servo's cap on this leg as the run used it (the deck's, or the default that follows the leg's rate).
-    Json leg = {{"leg", k}, {"rows", count}, {"servo_cap", servo_cap(deck.servo, test.legs[k], deck.stage_time_step(test))}};
-    const SeriesRow* end = nullptr;  // the leg's last row: its end (run_program writes it)
-    for (const SeriesRow& r : rows)
-      if (r.leg == static_cast<double>(k) && (!end || r.step > end->step)) end = &r;
+    LegSummary leg;
+    leg.leg = k;
+    leg.rows = count;
+    leg.servo_cap = servo_cap(deck.servo, test.legs[k], deck.stage_time_step(test));
     if (end)
-      leg["end"] = {{"step", end->step}, {"e1", end->e1}, {"e2", end->e2}, {"e3", end->e3}, {"s11", end->s11},
-                    {"s22", end->s22}, {"s33", end->s33}, {"p", end->p}, {"q", end->q},
-                    {"b", number_or_null(end->b)}, {"ev", end->ev}};
-    if (peak)
-      leg["peak"] = {{"ratio13", number_or_null(peak->ratio13)}, {"e1", number_or_null(peak->e1)},
-                     {"b", number_or_null(peak->b)}, {"b_principal", number_or_null(peak->b_principal)},
-                     {"p", number_or_null(peak->p)}, {"ev", number_or_null(peak->ev)},
-                     {"sin_phi", number_or_null(peak->sin_phi)}};
-    if (k < errors.size()) leg["control_errors"] = to_json(errors[k]);
-    legs.push_back(leg);
+      leg.end = LegEndRow{end->step, end->e1, end->e2, end->e3, end->s11, end->s22,
+                          end->s33,  end->p,  end->q,  end->b,  end->ev};
+    if (peak) leg.peak = LegPeak{peak->ratio13, peak->e1, peak->b, peak->b_principal, peak->p, peak->ev, peak->sin_phi};
+    if (k < errors.size()) leg.control_errors = to_json(errors[k]);
+    legs.push_back(std::move(leg));
   }
   return legs;
 }
+
+PeakState peak_state_of(const SeriesRow& r) {
+  return {r.sigma1, r.sigma2, r.sigma3, r.p, r.q, r.sin_phi, r.b, r.b_principal, r.lode_angle, r.ev};
+}
+
+}  // namespace
 
 PeakJudgement judge_peak(const TestMeasure& measure, const std::vector<SeriesRow>& rows) {
   PeakJudgement j;
@@ -122,24 +153,23 @@ PeakJudgement judge_peak(const TestMeasure& measure, const std::vector<SeriesRow
     return j;
   }
   std::size_t plateau_end = 0;
-  const Json robust = robust_peak(rows, &plateau_end);
+  const RobustPeak robust = robust_peak(rows, &plateau_end);
   j.reached = !at_last_row && plateau_end + 1 < rows.size();
-  const Json& plateau = robust["plateau_e1"];
-  std::snprintf(buf, sizeof buf, "%s%ss11/s33 smoothed over %g %% of e1 peaks at %.4f, and stays within %g %% of it over "
-                "e1 %.4f to %.4f, %s", last_row.c_str(), at_last_row ? "; " : "", 100.0 * kPeakSmoothing,
-                robust["ratio13"].is_null() ? NAN : robust["ratio13"].get<double>(), 100.0 * kPeakPlateau, plateau[0].is_null() ? NAN : plateau[0].get<double>(),
-                plateau[1].is_null() ? NAN : plateau[1].get<double>(),
+  std::snprintf(buf, sizeof buf,
+                "%s%ss11/s33 smoothed over %g %% of e1 peaks at %.4f, and stays within %g %% of it over "
+                "e1 %.4f to %.4f, %s",
+                last_row.c_str(), at_last_row ? "; " : "", 100.0 * kPeakSmoothing, robust.ratio13, 100.0 * kPeakPlateau,
+                robust.plateau_e1[0], robust.plateau_e1[1],
                 plateau_end + 1 < rows.size() ? "ending before the test's last row" : "to the test's last row");
   j.evidence = buf;
   return j;
 }
 
-Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis, ComparedValues* values) {
+SeriesSummary summarize_series(const std::vector<SeriesRow>& rows, int end_axis, ComparedValues* values) {
   // The peak of s11/s33 (its first row, judge_peak): the test's measure when it drives the first axis in compression;
-  // summarize_driven_measure adds another measure's.
+  // summarize_test moves the peak keys to another driven measure's row.
   const PeakJudgement judged = judge_peak(TestMeasure{}, rows);
-  const std::size_t peak = judged.row;
-  const SeriesRow& at_peak = rows[peak];
+  const SeriesRow& at_peak = rows[judged.row];
   const SeriesRow& last = rows.back();
 
   // The plateau around the peak: the peak row is one row of a noisy plateau, its range is what is sure.
@@ -153,43 +183,38 @@ Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis, Compared
   for (const SeriesRow& r : rows)
     if (std::abs(r.strain(end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
 
-  const Json robust = robust_peak(rows);
-  const bool peak_reached = judged.reached;
-  if (values) {  // (as the JSON holds them: null, not a number, is NaN)
+  SeriesSummary s;
+  s.peak_ratio13 = at_peak.ratio13;
+  s.peak_reached = judged.reached;
+  s.e1_at_peak = at_peak.e1;
+  s.e1_peak_range.value = {lo, hi};
+  s.e1_at_peak_centre = 0.5 * (lo + hi);
+  s.b_at_peak = at_peak.b;
+  s.b_principal_at_peak = at_peak.b_principal;
+  s.ratio_principal_at_peak = at_peak.ratio_principal;
+  s.peak_robust.value = robust_peak(rows);
+  s.peak_state = peak_state_of(at_peak);
+  s.b_final = last.b;
+  s.final_e1 = last.e1;
+  s.ev_final = last.ev;
+  s.Z_final = last.Z;
+  s.end_window = {kEndWindowStrain, ev_end / in_window, z_end / in_window};
+  if (values) {  // (as summary.json holds them: null, not a number, is NaN)
     const auto finite = [](double x) { return std::isfinite(x) ? x : std::numeric_limits<double>::quiet_NaN(); };
-    const auto number = [](const Json& j) { return j.is_number() ? j.get<double>() : std::numeric_limits<double>::quiet_NaN(); };
-    *values = {finite(at_peak.ratio13), number(robust["ratio13"]), finite(ev_end / in_window), finite(z_end / in_window)};
+    *values = {finite(s.peak_ratio13), finite(s.peak_robust.value->ratio13), finite(s.end_window.ev),
+               finite(s.end_window.Z)};
   }
-
-  return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
-          {"peak_reached", peak_reached},
-          {"e1_at_peak", number_or_null(at_peak.e1)},
-          {"e1_peak_range", {number_or_null(lo), number_or_null(hi)}},
-          {"e1_at_peak_centre", number_or_null(0.5 * (lo + hi))},
-          {"b_at_peak", number_or_null(at_peak.b)},
-          {"b_principal_at_peak", number_or_null(at_peak.b_principal)},
-          {"ratio_principal_at_peak", number_or_null(at_peak.ratio_principal)},
-          {"peak_robust", robust},
-          {"peak_state", {{"sigma1", number_or_null(at_peak.sigma1)}, {"sigma2", number_or_null(at_peak.sigma2)},
-                          {"sigma3", number_or_null(at_peak.sigma3)}, {"p", number_or_null(at_peak.p)},
-                          {"q", number_or_null(at_peak.q)}, {"sin_phi", number_or_null(at_peak.sin_phi)},
-                          {"b", number_or_null(at_peak.b)}, {"b_principal", number_or_null(at_peak.b_principal)},
-                          {"lode_angle", number_or_null(at_peak.lode_angle)}, {"ev", number_or_null(at_peak.ev)}}},
-          {"b_final", number_or_null(last.b)},
-          {"final_e1", number_or_null(last.e1)},
-          {"ev_final", number_or_null(last.ev)},
-          {"Z_final", number_or_null(last.Z)},
-          {"end_window", {{"strain", kEndWindowStrain},
-                          {"ev", number_or_null(ev_end / in_window)},
-                          {"Z", number_or_null(z_end / in_window)}}}};
+  return s;
 }
 
 namespace {
 
-// A shear test's peak of |s_ij| / s_jj (its first row), g_ij there, whether a peak was reached (not the last
-// row, and the ratio falls by more than kPeakPlateau after it), the residual ratio over the end window of g_ij,
-// and the volumetric strain (dilation, compression +) at the peak and at the end.
-Json summarize_shear(const std::vector<SeriesRow>& rows, int k) {
+// A shear-driven test's measure, tau/sigma_n = |s_ij| / s_jj of its driven component k (the shear stress over
+// the normal stress of the axis the shear acts on: s_jj for g_ij with i < j): its peak (its first largest row,
+// judge_peak), g at the peak and whether a peak was reached (it falls by more than kPeakPlateau after it), the
+// residual ratio over the end window of g_ij, and the volumetric strain (dilation, compression +) at the peak
+// and at the end.
+ShearRecord summarize_shear(const std::vector<SeriesRow>& rows, int k) {
   const TestMeasure measure{TestMeasure::Kind::Shear, k};
   const auto ratio = [&](const SeriesRow& r) { return driven_value(measure, r); };
   const PeakJudgement judged = judge_peak(measure, rows);
@@ -199,21 +224,33 @@ Json summarize_shear(const std::vector<SeriesRow>& rows, int k) {
   int in_window = 0;
   for (const SeriesRow& r : rows)
     if (std::abs(r.strain(k) - g_end) <= kEndWindowStrain) residual += ratio(r), ++in_window;
-  return {{"component", component_name(k)},
-          {"measure", measure_name(measure)},
-          {"peak_tau_over_sigma_n", number_or_null(ratio(rows[peak]))},
-          {"g_at_peak", number_or_null(rows[peak].strain(k))},
-          {"peak_reached", judged.reached},
-          {"residual_tau_over_sigma_n", number_or_null(in_window ? residual / in_window : NAN)},
-          {"ev_at_peak", number_or_null(rows[peak].ev)},
-          {"ev_final", number_or_null(rows.back().ev)},
-          {"g_final", number_or_null(g_end)}};
+  return {.component = component_name(k),
+          .measure = measure_name(measure),
+          .peak_tau_over_sigma_n = ratio(rows[peak]),
+          .g_at_peak = rows[peak].strain(k),
+          .peak_reached = judged.reached,
+          .residual_tau_over_sigma_n = in_window ? residual / in_window : NAN,
+          .ev_at_peak = rows[peak].ev,
+          .ev_final = rows.back().ev,
+          .g_final = g_end};
+}
+
+// An extension test's measure s33/s11: its peak (judge_peak), e1 there, whether it was reached, the volumetric
+// strain at the peak and at the end.
+ExtensionRecord summarize_extension(const TestMeasure& measure, const std::vector<SeriesRow>& rows) {
+  const PeakJudgement judged = judge_peak(measure, rows);
+  return {.measure = measure_name(measure),
+          .peak_ratio31 = judged.value,
+          .e1_at_peak = rows[judged.row].e1,
+          .peak_reached = judged.reached,
+          .ev_at_peak = rows[judged.row].ev,
+          .ev_final = rows.back().ev};
 }
 
 // A principal-axis rotation leg's tracking over its rows: the in-plane principal values m +- r of s_ii, s_jj,
 // s_ij against sigma1 and sigma3, and their direction (theta = atan2(2 s_ij, s_ii - s_jj) / 2) against the
 // leg's angle at each row's time.
-Json summarize_rotation(const TestDef& test, const std::vector<SeriesRow>& rows, double dt) {
+RotationRecord summarize_rotation(const TestDef& test, const std::vector<SeriesRow>& rows, double dt) {
   const std::size_t leg = test.legs.size() - 1;
   const PrincipalRotation& rot = *test.legs[leg].rotation;
   const auto [i, j] = kShearAxisEntries[static_cast<std::size_t>(rot.plane)];
@@ -240,39 +277,81 @@ Json summarize_rotation(const TestDef& test, const std::vector<SeriesRow>& rows,
     worst(out_of_plane, shear_out);
     turned = (rot.angle(t, dt) - rot.from) * 180.0 / M_PI;
   }
-  return {{"plane", std::string(kPlaneNames[static_cast<std::size_t>(rot.plane)])},
-          {"sigma1_error_max", number_or_null(s1_err)},
-          {"sigma3_error_max", number_or_null(s3_err)},
-          {"angle_error_max_deg", number_or_null(angle_err)},
-          {"angle_turned_deg", turned},
-          {"out_of_plane_shear_max", number_or_null(out_of_plane)}};
+  return {.plane = std::string(kPlaneNames[static_cast<std::size_t>(rot.plane)]),
+          .sigma1_error_max = s1_err,
+          .sigma3_error_max = s3_err,
+          .angle_error_max_deg = angle_err,
+          .angle_turned_deg = turned,
+          .out_of_plane_shear_max = out_of_plane};
 }
 
 }  // namespace
 
-Json summarize_driven_measure(const TestDef& test, const std::vector<SeriesRow>& rows, double dt) {
+DrivenMeasureSummary summarize_driven_measure(const TestDef& test, const std::vector<SeriesRow>& rows, double dt) {
   const TestMeasure m = driven_measure(test);
+  DrivenMeasureSummary d;
+  d.driven_measure = driven_measure_words(m);
   switch (m.kind) {
-    case TestMeasure::Kind::Shear: {
-      Json shear = summarize_shear(rows, m.component);
-      return {{"driven_measure", shear["measure"]}, {"peak_reached", shear["peak_reached"]}, {"shear", shear}};
-    }
-    case TestMeasure::Kind::Rotation: {  // no peak to reach: the tracking of the rotation is the result
-      return {{"driven_measure", driven_measure_words(m)}, {"rotation", summarize_rotation(test, rows, dt)}};
-    }
-    case TestMeasure::Kind::Stress: return {{"driven_measure", driven_measure_words(m)}};
+    case TestMeasure::Kind::Shear:
+      d.shear = summarize_shear(rows, m.component);
+      d.peak_reached = d.shear->peak_reached;
+      break;
     case TestMeasure::Kind::Extension:
-      return {{"driven_measure", driven_measure_words(m)}, {"peak_reached", judge_peak(m, rows).reached}};
-    default: return {{"driven_measure", driven_measure_words(m)}};
+      d.extension = summarize_extension(m, rows);
+      d.peak_reached = d.extension->peak_reached;
+      break;
+    case TestMeasure::Kind::Rotation:  // no peak to reach: the tracking of the rotation is the result
+      d.rotation = summarize_rotation(test, rows, dt);
+      break;
+    case TestMeasure::Kind::Axial: d.peak_reached = judge_peak(m, rows).reached; break;
+    case TestMeasure::Kind::Stress: break;  // no peak to reach
   }
+  return d;
 }
 
-Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
-                    const std::vector<ControlErrors>& errors, double wall, std::int64_t steps, std::size_t particles,
-                    std::vector<std::string>& warnings, ComparedValues* values) {
+namespace {
+
+// The control errors' part of a test's summary: failures, worst errors; the health checks' warnings.
+void summarize_controls(const std::vector<ControlErrors>& errors, TestSummary& t) {
+  const ControlErrorMaxima worst = control_error_maxima(errors);
+  for (const ControlFailureRecord& f : control_failures(errors))
+    t.control_failures.push_back(
+        {f.leg, component_name(f.component), f.kind, f.error, f.tolerance, f.target, f.reached});
+  t.controlled = t.control_failures.empty();
+  t.servo_max_error = worst.servo;
+  t.b_max_error = worst.b;
+  t.volume_max_error = worst.volume;
+  t.control_error_over_tolerance = worst.over_tolerance;
+}
+
+// A test that drives another measure than s11/s33 (shear, extension): the summary's s11/s33 peak keys are null and
+// its "at peak" keys are on the driven measure's peak row; its own record carries the peak. The rate check compares
+// the driven measure's peak as peak_ratio13 (no robust peak is defined for it).
+void place_peak_on_driven_measure(const std::vector<SeriesRow>& rows, TestSummary& t) {
+  if (t.measure.kind != TestMeasure::Kind::Shear && t.measure.kind != TestMeasure::Kind::Extension) return;
+  SeriesSummary& s = t.series;
+  const SeriesRow& at = rows[t.peak.row];
+  s.peak_ratio13 = NAN;
+  s.e1_peak_range.value.reset();
+  s.e1_at_peak_centre = NAN;
+  s.peak_robust.value.reset();
+  s.e1_at_peak = at.e1;
+  s.b_at_peak = at.b;
+  s.b_principal_at_peak = at.b_principal;
+  s.ratio_principal_at_peak = at.ratio_principal;
+  s.peak_state = peak_state_of(at);
+  t.compared.peak_ratio13 = std::isfinite(t.peak.value) ? t.peak.value : NAN;
+  t.compared.peak_robust_ratio13 = NAN;
+}
+
+}  // namespace
+
+TestSummary summarize_test(const Deck& deck, const TestDef& test, const std::vector<SeriesRow>& rows,
+                           const std::vector<ControlErrors>& errors, double wall, std::int64_t steps,
+                           std::size_t particles, std::vector<std::string>& warnings) {
+  TestSummary t;
   double mean_p = 0.0;
   for (const SeriesRow& r : rows) mean_p += r.p / rows.size();
-  const ControlErrorMaxima worst = control_error_maxima(errors);
   // The inertial number: the rows' own (the cell's actual rate, series `inertial_number`), their mean over the
   // rows after the start; the imposed rates' planned figure beside it (series `imposed_inertial_number`).
   double imposed = inertial_number(loading_rate(deck, test), mean_diameter(deck.sample), deck.sample.density, mean_p);
@@ -283,8 +362,8 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
   inertia = measured ? inertia / static_cast<double>(measured) : imposed;
   // An adaptive rate: the rates it ran at, from the series (the rows' factors and inertial numbers), against the
   // steps the deck's rate would take.
-  const bool adaptive = std::any_of(test.legs.begin(), test.legs.end(), [](const Leg& leg) { return leg.adaptive.has_value(); });
-  Json adaptive_record;
+  const bool adaptive =
+      std::any_of(test.legs.begin(), test.legs.end(), [](const Leg& leg) { return leg.adaptive.has_value(); });
   if (adaptive && rows.size() > 1) {
     double low = std::numeric_limits<double>::quiet_NaN(), high = low, fastest = 0.0;  // (NaN: null, no row chose one)
     double fastest_imposed = 0.0;
@@ -300,78 +379,64 @@ Json summarize_test(const Deck& deck, const TestDef& test, const std::vector<Ser
     std::int64_t at_deck_rate = 0;
     for (const std::int64_t n : program_leg_steps(test.legs, deck.stage_time_step(test)))
       at_deck_rate = n < 0 || at_deck_rate < 0 ? -1 : at_deck_rate + n;
-    adaptive_record = {{"factor_min", number_or_null(low)}, {"factor_max", number_or_null(high)}, {"inertial_number_max", fastest},
-                       {"steps_at_deck_rate", at_deck_rate >= 0 ? Json(at_deck_rate) : Json(nullptr)},
-                       {"step_ratio", at_deck_rate > 0 && steps > 0 ? Json(static_cast<double>(at_deck_rate) / steps) : Json(nullptr)}};
+    AdaptiveRateRecord a;
+    a.factor_min = low, a.factor_max = high, a.inertial_number_max = fastest;
+    if (at_deck_rate >= 0) a.steps_at_deck_rate.value = at_deck_rate;
+    if (at_deck_rate > 0 && steps > 0) a.step_ratio = static_cast<double>(at_deck_rate) / steps;
+    t.adaptive_rate = a;
   }
   for (const std::string& w : test_warnings(test, inertia)) warnings.push_back(w);
   for (const std::string& w : control_warnings(test.name, errors)) warnings.push_back(w);
-  Json failures = Json::array();
-  for (const ControlFailureRecord& f : control_failures(errors))
-    failures.push_back({{"leg", f.leg}, {"axis", component_name(f.component)}, {"kind", f.kind},
-                        {"error", number_or_null(f.error)}, {"tolerance", f.tolerance},
-                        {"target", number_or_null(f.target)}, {"reached", number_or_null(f.reached)}});
 
   const int end_axis = test.legs.back().end.kind == LegEndKind::Strain ? test.legs.back().end.axis : 0;
-  Json out = summarize_series(rows, end_axis, values);
-  out.update(summarize_driven_measure(test, rows, deck.stage_time_step(test)));
+  t.series = summarize_series(rows, end_axis, &t.compared);
+  t.driven = summarize_driven_measure(test, rows, deck.stage_time_step(test));
   // A rotation or a stress-controlled test drives no measure to a peak: not "no peak reached".
-  if (const TestMeasure::Kind kind = driven_measure(test).kind; kind == TestMeasure::Kind::Rotation || kind == TestMeasure::Kind::Stress)
-    out.erase("peak_reached");
-  out.update({{"controlled", failures.empty()},
-              {"control_failures", failures},
-              {"servo_max_error", number_or_null(worst.servo)},
-              {"b_max_error", number_or_null(worst.b)},
-              {"volume_max_error", number_or_null(worst.volume)},
-              {"control_error_over_tolerance", number_or_null(worst.over_tolerance)},
-              {"inertial_number", inertia},
-              {"imposed_inertial_number", imposed},
-              {"legs", summarize_legs(deck, test, rows, errors)},
-              {"steps", steps},
-              {"wall_s", wall},
-              {"particle_steps_per_s", wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0}});
-  if (!adaptive_record.is_null()) out["adaptive_rate"] = adaptive_record;
-  return out;
+  t.series.peak_reached = t.driven.peak_reached;
+  t.measure = driven_measure(test);
+  t.peak = judge_peak(t.measure, rows);
+  t.peak_reached = !t.measure.has_peak() || t.peak.reached;
+  place_peak_on_driven_measure(rows, t);
+  summarize_controls(errors, t);
+  t.inertial_number = inertia;
+  t.imposed_inertial_number = imposed;
+  t.legs = summarize_legs(deck, test, rows, errors);
+  t.steps = steps;
+  t.wall_s = wall;
+  t.particle_steps_per_s = wall > 0 ? static_cast<double>(particles) * steps / wall : 0.0;
+  return t;
 }
 
 TestSummary summarize_finished_test(const Deck& deck, const TestDef& test, const StageResult& stage,
                                     std::vector<std::string>& warnings) {
-  TestSummary t;
-  const std::int64_t steps = stage.state.control.stage_steps;
-  const std::size_t particles = stage.state.particles.size();
-  t.json = summarize_test(deck, test, stage.rows, stage.control_errors, stage.elapsed, steps, particles, warnings,
-                          &t.compared);
-  t.measure = driven_measure(test);
-  t.peak = judge_peak(t.measure, stage.rows);
-  t.peak_reached = !t.measure.has_peak() || t.peak.reached;
-  t.controlled = control_failures(stage.control_errors).empty();
-  t.wall_s = stage.elapsed;
-  t.particle_steps_per_s = stage.elapsed > 0 ? static_cast<double>(particles) * steps / stage.elapsed : 0.0;
+  TestSummary t = summarize_test(deck, test, stage.rows, stage.control_errors, stage.elapsed,
+                                 stage.state.control.stage_steps, stage.state.particles.size(), warnings);
+  t.json = t;
   return t;
 }
 
-Json summarize_preparation(const Model& model, const State& state, const PrepareDef& prep, double wall) {
+PreparationSummary summarize_preparation(const Model& model, const State& state, const PrepareDef& prep, double wall) {
   const ContactMeasures contacts = measure_contacts(model, state);
   const Coordination& z = contacts.coordination;
   const EquilibriumDef& eq = prep.equilibrium;
   const std::int64_t steps = state.control.stage_steps;
-  return {{"void_ratio", void_ratio(model, state)},
-          {"Z", z.z},
-          {"Zm", z.z_mechanical},
-          {"rattlers", z.rattlers},
-          {"p", state.mean_stress()},
-          {"s11", state.stress[0]},
-          {"s22", state.stress[1]},
-          {"s33", state.stress[2]},
-          {"unbalanced_force", contacts.unbalanced_force},
-          {"steps", steps},
-          {"wall_s", wall},
-          {"particle_steps_per_s", wall > 0 ? static_cast<double>(state.particles.size()) * steps / wall : 0.0},
-          {"equilibrium_criterion",
-           "every " + std::to_string(eq.check_interval) + " servo steps after at least " +
-               std::to_string(eq.min_steps) + ": |p - target|/target <= " + std::to_string(eq.pressure_tolerance) +
-               ", each |s_kk - target|/target <= " + std::to_string(eq.stress_tolerance) +
-               ", mean |net contact force| / mean normal force <= " + std::to_string(eq.unbalanced_force_ratio)}};
+  return {.void_ratio = void_ratio(model, state),
+          .Z = z.z,
+          .Zm = z.z_mechanical,
+          .rattlers = z.rattlers,
+          .p = state.mean_stress(),
+          .s11 = state.stress[0],
+          .s22 = state.stress[1],
+          .s33 = state.stress[2],
+          .unbalanced_force = contacts.unbalanced_force,
+          .steps = steps,
+          .wall_s = wall,
+          .particle_steps_per_s = wall > 0 ? static_cast<double>(state.particles.size()) * steps / wall : 0.0,
+          .equilibrium_criterion =
+              "every " + std::to_string(eq.check_interval) + " servo steps after at least " +
+              std::to_string(eq.min_steps) + ": |p - target|/target <= " + std::to_string(eq.pressure_tolerance) +
+              ", each |s_kk - target|/target <= " + std::to_string(eq.stress_tolerance) +
+              ", mean |net contact force| / mean normal force <= " + std::to_string(eq.unbalanced_force_ratio)};
 }
 
 Json run_settings(const Deck& deck, int threads) {

@@ -104,7 +104,7 @@ TEST(JudgePeak, AnAxialOneOnTheSmoothedPlateauAsTheSummary) {
   const PeakJudgement j = judge_peak(TestMeasure{}, rows);
   EXPECT_FALSE(j.reached);
   EXPECT_EQ(j.row, 10u);
-  EXPECT_EQ(summarize_series(rows, 0)["peak_reached"].get<bool>(), j.reached);
+  EXPECT_EQ(summarize_series(rows, 0).peak_reached.value(), j.reached);
   EXPECT_NE(j.evidence.find("smoothed"), std::string::npos) << j.evidence;
   EXPECT_NE(j.evidence.find("to the test's last row"), std::string::npos) << j.evidence;
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "run/summary.hpp"
+#include "run/summary_schema.hpp"
 
 namespace celldem {
 namespace {
@@ -52,7 +53,55 @@ TEST(SummarizeSeries, APeakOnTheLastRowIsNoPeak) {
 TEST(SummarizeSeries, NaNIsNull) {
   std::vector<SeriesRow> rows = hand_rows();
   for (SeriesRow& r : rows) r.b = std::nan("");
-  EXPECT_TRUE(summarize_series(rows, 0)["b_at_peak"].is_null());
+  EXPECT_FALSE(std::isfinite(summarize_series(rows, 0).b_at_peak));
+}
+
+// Every key path of a JSON value, array indices dropped.
+void key_paths(const nlohmann::json& j, const std::string& prefix, std::vector<std::string>& out) {
+  if (j.is_object())
+    for (const auto& [k, v] : j.items()) {
+      const std::string p = prefix.empty() ? k : prefix + "." + k;
+      out.push_back(p);
+      key_paths(v, p, out);
+    }
+  else if (j.is_array())
+    for (const nlohmann::json& v : j) key_paths(v, prefix, out);
+}
+
+// A test's summary with every optional record filled: each key its field tables write is in the schema (the
+// tables write and list from one list), and a key made up is not.
+TEST(SummarySchema, ListsEveryKeyATestSummaryWrites) {
+  TestSummary t;
+  t.series = summarize_series(hand_rows(), 0);
+  t.driven.shear = ShearRecord{};
+  t.driven.extension = ExtensionRecord{};
+  t.driven.rotation = RotationRecord{};
+  t.adaptive_rate = AdaptiveRateRecord{};
+  t.control_failures.push_back({});
+  LegSummary leg;
+  leg.end = LegEndRow{};
+  leg.peak = LegPeak{};
+  leg.control_errors = to_json(ControlErrors{});
+  t.legs.push_back(leg);
+  const nlohmann::json written = t;
+  std::vector<std::string> paths;
+  key_paths(written, "tests.ttc", paths);
+  EXPECT_GT(paths.size(), 100u);
+  const std::vector<SchemaEntry> schema = summary_schema();
+  for (const std::string& p : paths) EXPECT_TRUE(summary_schema_lists(schema, p)) << p;
+  EXPECT_FALSE(summary_schema_lists(schema, "tests.ttc.no_such_key"));
+  EXPECT_FALSE(summary_schema_lists(schema, "no_such_key"));
+  for (const SchemaEntry& e : schema) EXPECT_FALSE(e.doc.empty()) << e.path;
+}
+
+// A record with its optional left empty writes no key for it (absent, not null); a Nullable writes null.
+TEST(SummarySchema, EmptyOptionalsAreAbsentNullablesNull) {
+  SeriesSummary s;
+  const nlohmann::json j = s;
+  EXPECT_FALSE(j.contains("peak_reached"));
+  EXPECT_TRUE(j["peak_robust"].is_null());
+  EXPECT_TRUE(j["e1_peak_range"].is_null());
+  EXPECT_TRUE(j["peak_ratio13"].is_null());
 }
 
 }  // namespace

@@ -263,3 +263,11 @@ def test_force_chain_slab():
         "contact with i in the slab not drawn from i"
     assert np.allclose(start[1], [0.005, 0.0049, 0.006]) and np.allclose(end[1] - start[1], -branch[1]), \
         f"contact across the boundary not drawn from j's wrapped centre: {start[1]} -> {end[1]}"
+
+
+def test_force_chain_title_names_the_driven_measure():
+    """A shear test's peak network is titled with its own measure and strain (peak_contacts.json), not s1/s3."""
+    shear = {"measure": "|s12|/s22", "value": 0.41, "g12": 0.113, "e1": 0.0, "ratio13": 1.42, "step": 5, "cell": []}
+    assert force_chains.peak_words(shear) == "peak |s12|/s22 0.41 at g12 = 11.30 %"
+    axial = {"e1": 0.0186, "ratio13": 2.9368, "step": 5, "cell": []}
+    assert force_chains.peak_words(axial) == "peak σ1/σ3 2.94 at ε1 = 1.86 %"

@@ -2,7 +2,8 @@
 normal to axis 2, each strong contact drawn as a line between the two centres, its width proportional to the
 normal force; every test side by side on the same length and force scales.
 
-celldem writes the contact network of the row of the largest s11/s33 into <test>/peak_contacts.csv (one line
+celldem writes the contact network of the row of the driven measure's peak (s11/s33, s33/s11 or |s_ij|/s_jj:
+summary.json driven_measure) into <test>/peak_contacts.csv (one line
 per contact: the wrapped centre of i, x_i y_i z_i, the centre of the image of j it touches, x_j y_j z_j, so that
 j - i is the branch vector; the normal force [N]; 1 when sliding) and the cell matrix into peak_contacts.json
 ("cell": rows of h, whose columns are the cell vectors).
@@ -17,6 +18,18 @@ from ..results import RunError, read_json
 SLAB_DIAMETERS = 1.5   # slab thickness in mean diameters
 MAX_WIDTH = 3.0        # line width (points) of the largest force of all the tests drawn
 
+
+
+def peak_words(meta):
+    """The peak the network was taken at, in the driven measure's own name (peak_contacts.json "measure", "value" and
+    its strain, e.g. g12, for a shear or extension test; s11/s33 and e1 otherwise)."""
+    if "measure" in meta:
+        strain = next((k for k in meta if k not in ("measure", "value", "e1", "ratio13", "step", "cell", "columns")),
+                      "e1")
+        return (f"peak {meta['measure']} {meta.get('value', float('nan')):.2f} at {strain} = "
+                f"{100 * meta.get(strain, float('nan')):.2f} %")
+    return (f"peak σ1/σ3 {meta.get('ratio13', float('nan')):.2f} at ε1 = "
+            f"{100 * meta.get('e1', float('nan')):.2f} %")
 
 def tests_with_contacts(run):
     """The tests of a run with a peak_contacts.csv, in the run's order."""
@@ -89,8 +102,7 @@ def draw(plt, run, tests=None, label=""):
         ax.set_xlabel(r"$x_3$ (mm)")
         ax.set_ylabel(r"$x_1$ (mm, loading axis)")
         mean_f = all_forces.mean() if all_forces.size else float("nan")
-        ax.set_title(f"{test}: peak σ1/σ3 {meta.get('ratio13', float('nan')):.2f} at ε1 = "
-                     f"{100 * meta.get('e1', float('nan')):.2f} %\n{force.size} strong contacts in the slab "
+        ax.set_title(f"{test}: {peak_words(meta)}\n{force.size} strong contacts in the slab "
                      f"(mean |fn| {mean_f:.3g} N)", fontsize=9)
     fig.suptitle(f"Strong force chains at the peak{label}: |fn| > mean, width ∝ |fn| (widest {f_max:.3g} N)\n"
                  f"slab {SLAB_DIAMETERS:g} mean diameters thick through the centre, normal to x2", fontsize=9)

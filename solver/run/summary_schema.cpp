@@ -1,0 +1,323 @@
+#include "run/summary_schema.hpp"
+
+#include "core/deck.hpp"
+#include "run/summary.hpp"
+
+namespace celldem {
+namespace {
+
+using F = FieldDoc;
+
+// settings (run_settings).
+constexpr F kContactLaw[] = {
+    {"normal", "", "the normal law (contact.normal)"},
+    {"tangential", "", "the tangential law (contact.tangential)"},
+    {"rolling", "", "the rolling resistance (contact.rolling)"},
+    {"twisting", "", "the twisting resistance (contact.twisting)"},
+    {"reference_normal_stiffness", "N/m",
+     "the normal stiffness of a contact of two mean spheres (kn, or Hertz's at "
+     "the reference overlap)"},
+    {"reference_tangential_stiffness", "N/m", "the tangential stiffness likewise"},
+    {"*", "deck's unit",
+     "every other number the law's choices use, by its deck key (contact.<key>, `celldem schema`)"}};
+constexpr F kStepRange[] = {{"low", "particle-steps", "the fewest"},
+                            {"high", "particle-steps", "the most (null: an end with no bound)"}};
+constexpr F kToleranceEquilibrium[] = {{"min_steps", "steps", "the resolved equilibrium's min_steps"},
+                                       {"min_steps_written", "steps", "the deck's"},
+                                       {"check_interval", "steps", "the resolved check_interval"},
+                                       {"check_interval_written", "steps", "the deck's"}};
+constexpr F kToleranceLeg[] = {
+    {"strain_driven", "", "whether a strain drives the leg"},
+    {"driving_increment", "1", "the resolved strain per step of its fastest driven component"},
+    {"driving_increment_written", "1", "the deck's"},
+    {"strain_rate", "1/s", "the resolved strain rate"},
+    {"strain_rate_written", "1/s", "the deck's"},
+    {"inertial_number", "1", "the inertial number the resolved rate gives"},
+    {"inertial_number_written", "1", "the deck's"},
+    {"confining_stress", "Pa", "the stress the inertial number is taken at"}};
+constexpr F kToleranceStage[] = {
+    {"stage", "", "prepare or the test's name"},
+    {"time_step", "s", "the resolved time step"},
+    {"time_step_written", "s", "the deck's"},
+    {"time_step_fraction", "1", "the resolved time step over the stability limit"},
+    {"time_step_fraction_written", "1", "the deck's"},
+    {"output_interval", "steps", "the resolved output interval"},
+    {"output_interval_written", "steps", "the deck's"},
+    {"fast_strain_increment", "1", "the preparation's resolved fast compression per step"},
+    {"fast_strain_increment_written", "1", "the deck's"},
+    {"servo_max_strain_increment", "1", "the resolved servo cap"},
+    {"servo_max_strain_increment_written", "1", "the deck's"},
+    {"equilibrium", "", "the resolved equilibrium check", kToleranceEquilibrium},
+    {"legs", "", "per leg", kToleranceLeg},
+    {"particle_steps", "", "the predicted cost at the resolved settings (summary.json tolerance only)", kStepRange},
+    {"particle_steps_written", "", "the same as written", kStepRange},
+    {"ratio_low", "1", "written over resolved, the fewest particle-steps each"}};
+constexpr F kCalibration[] = {{"model", "", "how a tolerance at this sample's size maps onto the rules' calibration"},
+                              {"particles", "particles", "this deck's spheres"},
+                              {"calibration_particles", "particles", "the rules' scene's"},
+                              {"tolerance", "noise floors", "the tolerance asked"},
+                              {"tolerance_at_calibration", "noise floors", "the same at the calibration's size"}};
+constexpr F kRules[] = {{"time_step_fraction", "1", "the rules' time step over the stability limit"},
+                        {"prepare_time_step_fraction", "1", "the same for the preparation"},
+                        {"inertial_number", "1", "the rules' largest inertial number of a loading leg"},
+                        {"fast_strain_increment_scale", "1", "the factor on the fast compression"},
+                        {"damping_scale", "1", "the factor on the damping"}};
+constexpr F kDampingPair[] = {{"translational", "1", "the resolved translational damping"},
+                              {"rotational", "1", "the resolved rotational damping"}};
+constexpr F kTotal[] = {{"particle_steps", "", "the run's predicted cost, resolved", kStepRange},
+                        {"particle_steps_written", "", "the same as written", kStepRange},
+                        {"ratio_low", "1", "written over resolved"}};
+// What --tolerance did (io/tolerance): summary.json's tolerance (with the cost) and settings.resolved.
+constexpr F kTolerance[] = {
+    {"tolerance", "noise floors", "the tolerance asked (--tolerance or the deck's)"},
+    {"as_written", "", "true when the rules promise no faster setting: the deck ran as written"},
+    {"reason", "", "why it ran as written"},
+    {"calibration", "", "the rules' calibration", kCalibration},
+    {"rules", "", "the rules' settings interpolated at the tolerance", kRules},
+    {"stability_limit", "s", "the time step's stability limit the fractions are of"},
+    {"damping", "", "the resolved damping", kDampingPair},
+    {"stages", "", "per stage, what the rules resolved", kToleranceStage},
+    {"total", "", "the whole run's predicted cost (summary.json tolerance only)", kTotal}};
+constexpr F kSettings[] = {
+    {"deck", "", "the deck file"},
+    {"particles", "particles", "the sample's spheres"},
+    {"diameters_m", "m", "the sample's diameter classes"},
+    {"mean_diameter_m", "m", "their mean"},
+    {"density", "kg/m3", "the particle density"},
+    {"seed", "", "the sample's seed"},
+    {"time_step", "s", "the deck's time step"},
+    {"kn", "N/m", "the deck's normal stiffness"},
+    {"kt", "N/m", "the deck's tangential stiffness"},
+    {"contact_law", "", "the contact law the run used", kContactLaw},
+    {"tangential_rotation", "", "how stored tangential springs follow the contact's rotation"},
+    {"moment_arm", "", "the moment arm of the tangential force"},
+    {"kinematics", "", "the cell's kinematics"},
+    {"damping_translational", "1", "the translational damping"},
+    {"damping_rotational", "1", "the rotational damping"},
+    {"servo_gain", "1", "the servo's proportional gain"},
+    {"servo_integral_gain", "1", "its integral gain"},
+    {"servo_max_strain_increment", "1", "the deck's servo cap (null: each leg's follows its rate, legs[].servo_cap)"},
+    {"threads", "", "the threads the run used"},
+    {"stage_time_steps", "", "the stages with their own time step", {}},
+    {"stage_time_steps.*", "s", "a stage's time step"},
+    {"tolerance", "noise floors", "the tolerance a rewritten deck was resolved for"},
+    {"resolved", "", "what --tolerance resolved (as summary.json tolerance, without the cost)", kTolerance}};
+
+// grading (grading_json).
+constexpr F kGrading[] = {{"by", "", "the grading's basis (mass or number)"},
+                          {"sizes_m", "m", "the sieve sizes"},
+                          {"asked_percent", "%", "the percent passing each size, asked"},
+                          {"realised_percent", "%", "the percent passing each size, realised by the sample"},
+                          {"largest_deviation_percent", "percentage points", "the largest difference"},
+                          {"spheres", "particles", "the sample's spheres"}};
+
+// prepared.started_from (runner.cpp started_from).
+constexpr F kOverlaps[] = {{"touching_pairs", "pairs", "pairs that overlap"},
+                           {"deep_pairs", "pairs",
+                            "pairs overlapping by more than the note's fraction of the smaller "
+                            "radius"},
+                           {"worst", "1", "the deepest overlap over the smaller radius"},
+                           {"worst_pair", "", "its two atom ids"}};
+constexpr F kRelax[] = {{"max_overlap", "1", "prepare.relax_overlaps: the overlap it dilates to"},
+                        {"dilation", "1", "the factor the positions and the cell were scaled by"},
+                        {"overlaps_after", "", "the overlaps after it", kOverlaps}};
+constexpr F kStartedFrom[] = {{"initial_state", "", "the file the preparation started from"},
+                              {"solid_fraction", "1", "its solid fraction as the preparation starts"},
+                              {"overlaps", "", "its overlaps", kOverlaps},
+                              {"relax_overlaps", "", "their relaxation", kRelax},
+                              {"skipped", "", "the fast leg left out, and why"}};
+
+// A test's probes (run/probe_table.cpp, docs/probes.md).
+constexpr F kProbeRules[] = {{"rest_fraction", "1", "the rest's creep limit"},
+                             {"rest_max_steps", "steps", "the rest's longest"},
+                             {"drift_limit", "1", "the drift a point may have"},
+                             {"asymmetry_limit", "1", "the asymmetry an elastic tensor may have"},
+                             {"elastic_factor", "1", "the stress probes' elastic check's factor"}};
+constexpr F kProbeDrift[] = {{"ratio", "1", "the drift over the smallest response"},
+                             {"reference", "", "what it was measured against"},
+                             {"smallest_response", "Pa or 1", "the smallest probe's response"},
+                             {"unit", "", "their unit"}};
+constexpr F kProbeRest[] = {{"controlled", "", "the rest's controls held"},
+                            {"folder", "", "its folder"},
+                            {"gave_up", "", "it stopped at its longest without coming to rest"},
+                            {"goal", "1", "its creep goal"},
+                            {"last_window_creep", "1", "the creep over its last window"},
+                            {"probed_from", "", "the state the probes started from"},
+                            {"reached", "", "it came to rest"},
+                            {"steps", "steps", "its steps"},
+                            {"window_steps", "steps", "its creep window"}};
+constexpr F kAgreement[] = {{"meaning", "", "what the agreement says"},
+                            {"median_factor", "1", "the median elastic-check factor"},
+                            {"probes", "", "the probes compared"},
+                            {"turned", "", "the probes whose response turned"},
+                            {"within_limit", "", "whether every factor is within the limit"},
+                            {"worst_factor", "1", "the worst factor"},
+                            {"worst_probe", "", "the probe with it"}};
+constexpr F kElasticCheck[] = {{"agreement", "", "the elastic check's verdict", kAgreement},
+                               {"elastic", "Pa", "the elastic tensor (Voigt)"},
+                               {"elastic_asymmetry", "1", "its asymmetry"},
+                               {"elastic_min_eigenvalue", "Pa", "its smallest eigenvalue"},
+                               {"reference_drift_stress", "Pa", "the drift the check is against"},
+                               {"tangent", "Pa", "the tangent tensor"},
+                               {"target_strain", "1", "the probes' strain"},
+                               {"whole", "", "whether the check covers every direction"}};
+constexpr F kPlastic[] = {{"fit_explains", "1", "the share of the plastic response the fit explains"},
+                          {"flow_concentration", "1", "how concentrated the flow direction is"},
+                          {"flow_direction_deg", "deg", "the plastic flow's direction in the probe plane"},
+                          {"loading_normal_deg", "deg", "the loading surface's normal"},
+                          {"magnitude", "Pa", "the probes' magnitude"},
+                          {"meaning", "", "what the fit says"},
+                          {"non_associativity_deg", "deg", "the angle between flow and normal"},
+                          {"plastic_per_magnitude", "1", "the plastic strain per unit magnitude"}};
+constexpr F kProbePoint[] = {{"status", "", "ran, not run, or failed"},
+                             {"reason", "", "why not run or failed"},
+                             {"step", "steps", "the test's step at the point"},
+                             {"e1", "1", "e1 there"},
+                             {"state", "", "the point's state file"},
+                             {"folder", "", "its folder"},
+                             {"controlled", "", "the probes' controls held"},
+                             {"probes", "", "the probes run"},
+                             {"failed", "", "the probes that failed"},
+                             {"checks_failed", "", "the checks the point failed"},
+                             {"checks_reason", "", "why"},
+                             {"drift", "", "the rest's drift against the response", kProbeDrift},
+                             {"rest", "", "the rest before the probes", kProbeRest},
+                             {"elastic_asymmetry", "1", "the elastic tensor's asymmetry"},
+                             {"elastic_min_eigenvalue", "Pa", "its smallest eigenvalue"},
+                             {"elastic_vs_network", "1", "the elastic tensor against the contact network's"},
+                             {"elastic_check", "", "the stress probes' elastic check", kElasticCheck},
+                             {"plastic", "", "the stress probes' plastic response", kPlastic},
+                             {"plastic_withheld", "", "why the plastic response is withheld"},
+                             {"linearity", "", "the strain probes' linearity over their magnitudes"},
+                             {"linearity_withheld", "", "why it is withheld"},
+                             {"magnitudes", "", "the probes' magnitudes at this point"},
+                             {"magnitude_from", "", "what the magnitudes scale"}};
+constexpr F kProbes[] = {{"kind", "", "strain or stress probes"},
+                         {"steps", "steps", "each probe's steps"},
+                         {"hold_steps", "steps", "each probe's hold"},
+                         {"target_strain", "1", "the strain probes' strain"},
+                         {"rules", "", "the set's rules", kProbeRules},
+                         {"magnitudes", "", "per point, the stress probes' magnitudes"},
+                         {"magnitude_factors", "1", "the deck's magnitude factors"},
+                         {"plane", "", "the stress probes' plane"},
+                         {"points", "", "per point"},
+                         {"points.*", "", "a point (peak, e1 values, named points)", kProbePoint},
+                         {"table", "", "probes.csv"},
+                         {"stiffness", "", "stiffness.json"}};
+
+// A test's rate check (run/verify_rate.cpp, docs/outputs.md).
+constexpr F kRateFloors[] = {{"ratio13", "1", "the noise floor of the peak ratios"},
+                             {"ev", "1", "of the volumetric strain"},
+                             {"Z", "1", "of the coordination number"},
+                             {"source", "", "where the floors came from"}};
+constexpr F kRateCost[] = {{"slow_steps", "steps", "the slower run's"},
+                           {"twin_steps", "steps", "the twin's"},
+                           {"particle_steps", "particle-steps", "both"},
+                           {"estimated_s", "s", "at the test's speed"}};
+constexpr F kRateRun[] = {{"series", "", "its series.csv"},
+                          {"steps", "steps", "its steps"},
+                          {"wall_s", "s", "its wall time"},
+                          {"controlled", "", "its controls held"},
+                          {"peak_reached", "", "its driven measure reached its peak"},
+                          {"inertial_number", "1", "its inertial number"},
+                          {"failed", "", "its error, when it failed"}};
+constexpr F kRateRuns[] = {{"slow", "", "the slower run", kRateRun}, {"twin", "", "the twin", kRateRun}};
+constexpr F kRateChaos[] = {{"rule", "", "how the chaos's half-width is taken"},
+                            {"twin_quantile", "1", "Student's t at 97.5 %, 1 degree of freedom"},
+                            {"bound_half_width_floors", "noise floors", "the bound's half-width"},
+                            {"twin_parted", "", "the twin parted from the test"},
+                            {"twin_failed", "", "the twin's error"},
+                            {"note", "", "the twin did not part: the bound alone"}};
+constexpr F kRateComparison[] = {{"test", "quantity's", "the test's value"},
+                                 {"slow", "quantity's", "the slower run's"},
+                                 {"twin", "quantity's", "the twin's"},
+                                 {"twin_floors", "noise floors", "test - twin"},
+                                 {"floor", "quantity's", "its noise floor"},
+                                 {"difference", "quantity's", "test - slower"},
+                                 {"floors", "noise floors", "the difference in floors"},
+                                 {"error_floors", "noise floors", "extrapolated to the quasi-static limit"},
+                                 {"chaos_half_width_floors", "noise floors", "the chaos's 95 % half-width"},
+                                 {"chaos_from", "", "the twin or the bound"},
+                                 {"verdict", "", "converged, not converged, unresolved or not compared"},
+                                 {"reason", "", "why not compared"}};
+constexpr F kRateLargest[] = {{"quantity", "", "the quantity of the largest error"},
+                              {"error_floors", "noise floors", "its error"}};
+constexpr F kRateCheck[] = {{"rate_factor", "1", "the slower run's rate over the test's"},
+                            {"tolerance_floors", "noise floors", "the tolerance"},
+                            {"confidence", "1", "the verdict's confidence"},
+                            {"extrapolation", "", "how the error is extrapolated"},
+                            {"floors", "", "the noise floors", kRateFloors},
+                            {"cost", "", "the check's cost", kRateCost},
+                            {"runs", "", "the check's runs", kRateRuns},
+                            {"chaos", "", "the chaos of a pair", kRateChaos},
+                            {"comparisons", "", "per compared quantity"},
+                            {"comparisons.*", "",
+                             "a quantity (peak_ratio13, peak_robust.ratio13, end_window.ev, "
+                             "end_window.Z)",
+                             kRateComparison},
+                            {"largest", "", "the largest error", kRateLargest},
+                            {"not_compared", "", "the quantities not compared"},
+                            {"verdict", "", "converged, not converged, unresolved or run failed"},
+                            {"reason", "", "the verdict's reason"}};
+
+// The run's top level (runner.cpp run_deck).
+constexpr F kTop[] = {{"celldem_version", "", "the binary's version"},
+                      {"deck", "", "the deck file"},
+                      {"settings", "", "the physics and threads the run used", kSettings},
+                      {"tolerance", "", "what --tolerance resolved and what it saves", kTolerance},
+                      {"grading", "", "the sample's grading, asked and realised", kGrading},
+                      {"initial_state", "", "the state the tests started from (no preparation)"},
+                      {"warnings", "", "the run's warnings"}};
+
+}  // namespace
+
+void append_doc_keys(std::vector<SchemaEntry>& out, const std::string& path, std::span<const FieldDoc> keys) {
+  for (const FieldDoc& f : keys) {
+    const std::string p = path + "." + std::string(f.key);
+    out.push_back({p, f.keys.empty() ? "json" : "object", std::string(f.unit), std::string(f.doc)});
+    append_doc_keys(out, p, f.keys);
+  }
+}
+
+std::vector<SchemaEntry> summary_schema() {
+  std::vector<SchemaEntry> out;
+  for (const FieldDoc& f : kTop) {
+    out.push_back({std::string(f.key), f.keys.empty() ? "json" : "object", std::string(f.unit), std::string(f.doc)});
+    append_doc_keys(out, std::string(f.key), f.keys);
+  }
+  out.push_back({"prepared", "object", "", "the prepared sample (a run with a preparation)"});
+  append_record_schema<PreparationSummary>(out, "prepared");
+  out.push_back({"prepared.started_from", "object", "", "a preparation from initial_state: where it started"});
+  append_doc_keys(out, "prepared.started_from", kStartedFrom);
+  out.push_back({"tests", "object", "", "per test, by its name"});
+  out.push_back({"tests.*", "object", "", "a loading test's summary"});
+  append_record_schema<TestSummary>(out, "tests.*");
+  out.push_back({"tests.*.probes", "object", "", "the test's probes (docs/probes.md)"});
+  append_doc_keys(out, "tests.*.probes", kProbes);
+  out.push_back({"tests.*.verify_rate", "object", "", "the test's rate check (--verify-rate)"});
+  append_doc_keys(out, "tests.*.verify_rate", kRateCheck);
+  return out;
+}
+
+bool summary_schema_lists(const std::vector<SchemaEntry>& schema, const std::string& path) {
+  // Array marks say nothing of the key: a.b[].c is a.b.c. `*` in a listed path matches any one key.
+  const auto split = [](std::string s) {
+    for (std::size_t at; (at = s.find("[]")) != std::string::npos;) s.erase(at, 2);
+    std::vector<std::string> parts;
+    std::size_t from = 0;
+    for (std::size_t at; (at = s.find('.', from)) != std::string::npos; from = at + 1)
+      parts.push_back(s.substr(from, at - from));
+    parts.push_back(s.substr(from));
+    return parts;
+  };
+  const std::vector<std::string> asked = split(path);
+  for (const SchemaEntry& e : schema) {
+    const std::vector<std::string> listed = split(e.path);
+    bool match = listed.size() == asked.size();
+    for (std::size_t k = 0; k < listed.size() && match; ++k) match = listed[k] == "*" || listed[k] == asked[k];
+    if (match) return true;
+  }
+  return false;
+}
+
+}  // namespace celldem
