@@ -71,9 +71,11 @@ def run(celldem, deck, folder, name, *extra):
 
 
 def key_paths(x, prefix=""):
-    """Every object key's path, array indices dropped."""
+    """Every object key's path, array indices dropped. A dot inside a key (a probe point e1_0.001, a compared
+    quantity end_window.Z) is written as "·", so that the key stays one part of the path, which `*` matches."""
     if isinstance(x, dict):
         for k, v in x.items():
+            k = k.replace(".", "·")
             p = f"{prefix}.{k}" if prefix else k
             yield p
             yield from key_paths(v, p)
@@ -108,6 +110,7 @@ def summaries(celldem, tmp_path_factory):
     found["every_kind"] = os.path.join(first, "summary.json")
     # A preparation from the first run's prepared sample under --tolerance (started_from, tolerance, resolved).
     deck = small_deck()
+    deck["sample"]["diameters"] = every_kind()["sample"]["diameters"]  # the sample's own grading
     deck["initial_state"] = os.path.join(first, "prepared.state")
     deck["prepare"]["relax_overlaps"] = 0.01
     deck["tests"] = [axial("ttc")]
