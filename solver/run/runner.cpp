@@ -65,7 +65,8 @@ void run_preparation(const RunContext& context, State state, bool resumed, const
        .start_cause = !resumed && deck.initial_state ? loaded_overlap_cause(deck, state) : "",
        .final_state = FinalStateFile{context.run.prepared_state().string(), "prepared"}},
       std::move(state), observers.list());
-  const Json prepared = summarize_preparation(model, result.state, prep, result.elapsed);
+  Json prepared = summarize_preparation(model, result.state, prep, result.elapsed);
+  prepared["network_time_step"] = result.network_time_step;
   context.run.update_summary([&](Json& s) {
     const Json from = s.value("prepared", Json::object()).value("started_from", Json());
     s["prepared"] = prepared;
@@ -133,6 +134,7 @@ TestOutcome run_test(const RunContext& context, const TestDef& test, const fs::p
       std::move(state), observers.list());
   std::vector<std::string> warnings;
   TestOutcome done{summarize_finished_test(deck, test, result, warnings), {}};
+  done.summary.json["network_time_step"] = result.network_time_step;
   run.update_summary([&](Json& s) { s["tests"][test.name] = done.summary.json; });
   for (const std::string& w : warnings) run.add_warning(w);
   for (StageObserver* o : observers.list())

@@ -34,6 +34,7 @@ struct StageResult {
   std::vector<ControlErrors> control_errors;  // one per leg (restored on a resume)
   double elapsed = 0.0;                       // [s] including the time before a resume
   State state;                                // as the stage ended
+  nlohmann::json network_time_step;           // the time step against the contact network (run/time_step_check)
 };
 
 // A finished loading test, as its observers see it after its summary is written.
