@@ -24,10 +24,6 @@ std::string time_step_key(const Deck& deck, const std::string& stage) {
 
 namespace {
 
-bool pairs_built(const State& state) {
-  return state.pairs.first.size() == state.particles.size() + 1 && state.pairs.tangential.size() == state.pairs.size();
-}
-
 // What the network's limit depends on: the cell, the spheres' sizes and places, the law's springs, the masses.
 std::uint64_t fingerprint(const Model& model, const State& state, NetworkSprings springs) {
   std::uint64_t hash = 14695981039346656037ull;  // FNV-1a 64 over the bytes
@@ -51,7 +47,7 @@ std::uint64_t fingerprint(const Model& model, const State& state, NetworkSprings
 
 // Stages that start from one state (a probe point's probes all start from its rested state, side by side on
 // threads) share its judgement: the last few networks measured, by fingerprint.
-NetworkTimeStep network_of(const Model& model, const State& state, NetworkSprings springs) {
+NetworkTimeStep network_of(const Model& model, const State& state, NetworkSprings springs, bool listed) {
   static std::mutex mutex;
   static std::vector<std::pair<std::uint64_t, NetworkTimeStep>> recent;  // (at most kRecent, oldest first)
   constexpr std::size_t kRecent = 16;
@@ -66,10 +62,10 @@ NetworkTimeStep network_of(const Model& model, const State& state, NetworkSpring
       }
   }
   NetworkTimeStep n;
-  if (pairs_built(state)) {
+  if (listed) {
     n = network_time_step_limit(model, state, springs);
   } else {
-    State copy = state;  // a state read back whose pair list is not built yet
+    State copy = state;
     rebuild_pairs(model, copy);
     n = network_time_step_limit(model, copy, springs);
   }
@@ -87,11 +83,11 @@ std::string springs_text(NetworkSprings s) {
 }  // namespace
 
 NetworkStepJudgement judge_network_time_step(const Model& model, const State& state, const Friction& friction,
-                                             const std::string& where, const std::string& key) {
+                                             const std::string& where, const std::string& key, bool listed) {
   NetworkStepJudgement j;
   j.time_step = model.dt;
   if (state.particles.size() == 0) return j;
-  j.network = network_of(model, state, network_springs(friction));
+  j.network = network_of(model, state, network_springs(friction), listed);
   if (!(j.network.omega_max > 0.0)) return j;  // no contact: nothing oscillates
   j.ratio = j.time_step / j.network.limit;
   if (!(j.ratio > kNetworkWarnFraction)) return j;
@@ -163,7 +159,7 @@ void NetworkTimeStepWatch::on_step(const State& state) {
   const std::int64_t step = state.control.stage_steps;
   if (step <= 0 || step % interval_ != 0) return;
   const NetworkStepJudgement j =
-      judge_network_time_step(model_, state, friction_, stage_ + " at step " + std::to_string(step), key_);
+      judge_network_time_step(model_, state, friction_, stage_ + " at step " + std::to_string(step), key_, true);
   if (j.ratio > largest_ratio_) largest_step_ = step;
   judge(j);
 }

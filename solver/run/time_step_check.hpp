@@ -36,11 +36,12 @@ struct NetworkStepJudgement {
 // else "time_step". stage: "prepare", a test's name or a branch of it ("ttc/verify/slow").
 std::string time_step_key(const Deck& deck, const std::string& stage);
 
-// The stage's time step against the network of `state` (its pair list built, or rebuilt here on a copy). `where`:
-// "test 'ttc' as it starts", "the preparation at step 20000"; `key` from time_step_key. A law or a state the measure
-// cannot take (no particles) is Ok with no message.
+// The stage's time step against the network of `state`: every pair that overlaps in its geometry, from a pair list
+// rebuilt on a copy (a state read back lists only the pairs it stored), or with `listed` from the state's own list
+// (a running stage's, which holds every pair within the skin). `where`: "test 'ttc' as it starts", "the preparation
+// at step 20000"; `key` from time_step_key. A state without particles or contacts is Ok with no message.
 NetworkStepJudgement judge_network_time_step(const Model& model, const State& state, const Friction& friction,
-                                             const std::string& where, const std::string& key);
+                                             const std::string& where, const std::string& key, bool listed = false);
 
 // The judgement as summary.json and plan --json record it.
 nlohmann::json to_json(const NetworkStepJudgement& j);

@@ -242,6 +242,7 @@ TEST(NetworkTimeStep, HertzChainUsesTheTangentStiffnessAtItsOverlap) {
   deck.contact.youngs_modulus = 1e6;
   deck.contact.poisson_ratio = 0.25;
   deck.contact.reference_overlap = 1e-3;
+  deck.contact.moment_arm = MomentArm::Radius;
   const double a = std::sqrt(0.25 * 1e-3);  // R* = r / 2 = 0.25
   const double kn = 2.0 * deck.contact.effective_modulus() * a;
   const double omega = chain_omega(deck, NetworkSprings{.tangential = false, .rolling = false});

@@ -70,7 +70,7 @@ expect_refused() {
   for n in "${needles[@]}"; do
     grep -qF -- "$n" "$work/err" || { cat "$work/err"; fail "$what: the message does not name '$n'"; }
   done
-  echo "ok: $what -> $(grep -m1 -o 'time step.*of the contact network.s stability limit [^ ]* s' "$work/err")"
+  echo "ok: $what -> $(grep -m1 -o 'is [0-9.]* of the contact network[^=]*= [^ ]* s' "$work/err")"
 }
 
 # From initial_state: check and run refuse before anything runs.

@@ -171,8 +171,8 @@ TEST(StageRunner, TimeStepAboveTheNetworksLimitIsRefusedOrWarned) {
   EXPECT_EQ(result.network_time_step["at_start"]["verdict"], "warn");
   EXPECT_GT(result.network_time_step["largest_time_step_over_limit"].get<double>(), 0.9);
   int warned = 0;
-  for (const auto& w : run.summary()["warnings"])
-    warned += w.get<std::string>().find("the margin 0.9") != std::string::npos;
+  const nlohmann::json summary = run.summary();  // (a copy: the loop must not run over a temporary's member)
+  for (const auto& w : summary["warnings"]) warned += w.get<std::string>().find("the margin 0.9") != std::string::npos;
   EXPECT_EQ(warned, 1);  // once for the margin, not at every check
 }
 
