@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/commands.hpp"
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "io/deck_reader.hpp"
 #include "io/schema_print.hpp"
@@ -22,6 +23,7 @@
 #include "run/sample.hpp"
 #include "run/summary.hpp"
 #include "run/summary_schema.hpp"
+#include "run/time_step_check.hpp"
 
 namespace celldem::app {
 namespace fs = std::filesystem;
@@ -417,6 +419,11 @@ void print_tolerance(const Json& t) {
                 static_cast<long long>(s["output_interval"].get<std::int64_t>()),
                 static_cast<long long>(s["output_interval_written"].get<std::int64_t>()), steps(s["particle_steps"]).c_str(),
                 steps(s["particle_steps_written"]).c_str(), ratio(s["ratio_low"]).c_str());
+    if (s.value("network_capped", false))
+      std::printf(
+          "    time step capped at %.3g of the contact network's limit, estimated at %.3g s before the packing "
+          "exists (the rules' %.3g s would exceed it; docs/physics.md)\n",
+          kNetworkWarnFraction, s["network_time_step_estimate"].get<double>(), s["time_step_rules"].get<double>());
     if (s.contains("fast_strain_increment"))
       std::printf("    fast compression %.3g per step (written %.3g)\n", s["fast_strain_increment"].get<double>(),
                   s["fast_strain_increment_written"].get<double>());
@@ -501,13 +508,21 @@ std::string describe_tolerance(const Json& t) {
                   total["particle_steps_written"]["low"].get<double>(), ratio, t["tolerance"].get<double>());
   }
   std::string words = buf;
+  std::string capped;
+  for (const Json& s : t["stages"])
+    if (s.value("network_capped", false)) capped += (capped.empty() ? "" : ", ") + s["stage"].get<std::string>();
+  if (!capped.empty())
+    words += "; time step capped at " + fmt3(kNetworkWarnFraction) + " of the contact network's estimated limit in " +
+             capped;
   if (const std::string c = describe_calibration(t); !c.empty()) words += "; " + c;
   return words;
 }
 
 // The stability limit from the contact network of a state (measure/network_stiffness.hpp network_time_step_limit)
 // beside the pair formula's, and the deck's time step against both: `plan`'s "network_time_step", when the deck
-// has an initial_state or `--state` names a state file. A law other than the linear one gives its reason.
+// has an initial_state or `--state` names a state file. Then each stage that would start from that state (the tests;
+// the preparation too when the state is initial_state) judged as run_stage judges it (run/time_step_check: the
+// stage's time step and friction), and the cost of the run's checks.
 Json network_time_step_json(const Deck& deck, const std::string& state_path) {
   State state = state_path.empty() ? load_initial_state(deck) : read_state(state_path);
   state.pairs.skin = skin_length(deck);
@@ -530,6 +545,21 @@ Json network_time_step_json(const Deck& deck, const std::string& state_path) {
                 {"iterations", t.iterations},
                 {"residual_bound", t.residual_bound},
                 {"seconds", t.seconds}});
+    Json stages = Json::array();
+    const auto judge = [&](const std::string& stage, double dt, const Friction& friction) {
+      const Model stage_model = make_model(deck, state.particles.radius, dt);
+      const std::string key = time_step_key(deck, stage);
+      const NetworkStepJudgement j =
+          judge_network_time_step(stage_model, state, friction, "stage '" + stage + "'", key);
+      Json e = to_json(j);
+      e.update({{"stage", stage}, {"key", key}, {"message", j.message}});
+      stages.push_back(std::move(e));
+    };
+    if (deck.prepare && state_path.empty())
+      judge("prepare", deck.stage_time_step(*deck.prepare), deck.prepare->stage_friction());
+    for (const TestDef& test : deck.tests) judge(test.name, deck.stage_time_step(test), test.stage_friction());
+    out["stages"] = std::move(stages);
+    out["check_interval"] = deck.checkpoint_interval;
   } catch (const std::invalid_argument& e) {
     out["error"] = e.what();
   }
@@ -549,6 +579,18 @@ void print_network_time_step(const Json& n) {
               n["iterations"].get<int>(), n["seconds"].get<double>(), n["limit"].get<double>(),
               n["limit_over_unit"].get<double>(), n["pair_limit"].get<double>(), n["pair_limit_over_unit"].get<double>(),
               n["network_over_pair"].get<double>(), n["time_step_over_limit"].get<double>());
+  for (const Json& s : n["stages"])
+    std::printf(
+        "    %-12s time step %.3g s = %.3f of its network's limit %.3g s (%s; warned above %.3g, refused above "
+        "%.3g): %s\n",
+        s["stage"].get<std::string>().c_str(), s["time_step"].get<double>(), s["time_step_over_limit"].get<double>(),
+        s["limit"].is_null() ? 0.0 : s["limit"].get<double>(),
+        s["tangential_springs"].get<bool>() ? "sticking" : "normal springs only, no friction",
+        s["warn_above"].get<double>(), s["refuse_above"].get<double>(), s["verdict"].get<std::string>().c_str());
+  std::printf(
+      "  run-time checks of the network's limit: at each stage's start and every %lld steps (checkpoint_interval), "
+      "each about %.2g s on this state (docs/physics.md has their cost per step)\n",
+      static_cast<long long>(n["check_interval"].get<std::int64_t>()), n["seconds"].get<double>());
 }
 
 // The time step against the pair formula's limit per mode, the network's (with a state) and the bounds.
@@ -569,6 +611,13 @@ void print_time_steps(const std::string& deck_path, const Json& plan) {
                 name == plan["limiting_mode"].get<std::string>() ? "  limiting" : "");
   }
   if (plan.contains("network_time_step")) print_network_time_step(plan["network_time_step"]);
+  else
+    std::printf(
+        "  network stability limit: known once a packing exists (`plan --state FILE`, or the deck's "
+        "initial_state); the run judges it at each stage's start and every %lld steps (checkpoint_interval): "
+        "warned above %.3g of it, refused above %.3g (docs/physics.md has a check's cost)\n",
+        static_cast<long long>(plan["checkpoint_interval"].get<std::int64_t>()), kNetworkWarnFraction,
+        kNetworkRefuseFraction);
   std::printf("  time step bounds:\n");
   for (const Json& b : plan["time_step_bounds"])
     std::printf("    %-6s %-5s %5g %s = %.3g s  (%s)\n", b["action"].get<std::string>().c_str(),
@@ -619,6 +668,7 @@ Command add_plan_command(CLI::App& app) {
     if (!cmd->parsed()) return -1;
     const Deck deck = read_deck(a->deck, a->tolerance);
     Json plan = plan_json(deck);
+    plan["checkpoint_interval"] = deck.checkpoint_interval;
     if (!a->state.empty() || deck.initial_state) plan["network_time_step"] = network_time_step_json(deck, a->state);
     if (deck.tolerance) plan["tolerance"] = tolerance_json(read_deck_as_written(a->deck), deck);
     if (a->json) {

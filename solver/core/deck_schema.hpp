@@ -181,7 +181,9 @@ inline constexpr KeySpec kinematics{.path = "kinematics", .kind = KeyKind::Choic
 inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number, .positive = true, .unit = "s",
     .meaning = "refused above the stability limit t_c (the smallest over the contact's normal, tangential-rotational, "
                "rolling and twisting modes: `celldem plan`), above 0.9 t_c(normal) (the normal mode's own limit "
-               "sqrt(m/kn), where packings boil) and below 1e-3 t_c; warned about above 0.93 t_c and below 0.02 t_c"};
+               "sqrt(m/kn), where packings boil) and below 1e-3 t_c; warned about above 0.93 t_c and below 0.02 t_c; against the "
+               "contact network's own limit 2/omega_max (each stage's starting state, and initial_state before a run): "
+               "warned about above 0.9 of it, refused above 1.1"};
 
 inline constexpr KeySpec tolerance{.path = "tolerance", .kind = KeyKind::Number, .positive = true, .required = false,
     .default_text = "none (the deck as written)", .unit = "noise floors",

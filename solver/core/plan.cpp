@@ -316,6 +316,14 @@ CriticalTimeStep critical_time_steps(const SampleDef& sample, const ContactDef& 
   return c;
 }
 
+double network_time_step_estimate(const SampleDef& sample, const ContactDef& contact, const Friction& friction) {
+  const CriticalTimeStep c = critical_time_steps(sample, contact);
+  double pair = c.modes[0].time_step;
+  if (friction.sliding > 0.0) pair = std::min({pair, c.modes[1].time_step, c.modes[3].time_step});
+  if (friction.rolling > 0.0) pair = std::min(pair, c.modes[2].time_step);
+  return kNetworkOverPairEstimate * std::sqrt(2.0) * pair;
+}
+
 double critical_time_step(const SampleDef& sample, const ContactDef& contact) {
   return critical_time_steps(sample, contact).value();
 }

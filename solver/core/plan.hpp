@@ -270,6 +270,23 @@ double bound_base(const TimeStepBound& bound, const CriticalTimeStep& limit);
 // The largest time step the refusals suggest: under the warning close to t_c and under the normal mode's bound.
 double suggested_time_step(const CriticalTimeStep& limit);
 
+// The time step against the contact network's own limit 2/omega_max (measure/network_stiffness.hpp; judged by
+// run/time_step_check on each stage's state, and on initial_state before a run; docs/physics.md). Warned above
+// kNetworkWarnFraction of it: the margin kept as the fabric changes (the limit moved by up to 7 % within a test) and
+// below where packings boil when the normal mode limits (about 1.0 of it). Refused above kNetworkRefuseFraction:
+// every packing measured drifts or boils there (the paper's law, kt = kn, from 1.08 on 1000 spheres); between 1.0
+// and it the sticking network is unstable and only its sliding contacts hold it.
+inline constexpr double kNetworkWarnFraction = 0.9;
+inline constexpr double kNetworkRefuseFraction = 1.1;
+// Before a packing exists (--tolerance without a state), its network limit is estimated as this fraction of the pair
+// formula's leapfrog limit 2/omega = sqrt(2) t_c (the modes a stage's friction keeps): the smallest ratio measured
+// (the paper's prepared 8000 spheres with kt = kn: 0.454 / 0.756 = 0.600; kt = kn/10: 0.641; the suite's 300 spheres
+// 0.606; normal springs only, a frictionless stage: see docs/physics.md).
+inline constexpr double kNetworkOverPairEstimate = 0.600;
+// That estimate [s] for a stage with `friction` (no tangential or twisting modes without sliding friction, no rolling
+// mode without rolling friction).
+double network_time_step_estimate(const SampleDef& sample, const ContactDef& contact, const Friction& friction);
+
 // The neighbour-list skin in metres: neighbor_skin times the largest diameter.
 double skin_length(const Deck& deck);
 

@@ -163,6 +163,23 @@ struct Resolver {
     object["check_interval"] = scaled_count(e.check_interval, time_factor, 1);
   }
 
+  // The rules' step of a stage with `friction`, capped (rounded down as stage_time_step) at kNetworkWarnFraction of
+  // its contact network's limit, estimated before the packing exists (core/plan network_time_step_estimate): the
+  // rules were measured on 1000 spheres, whose network limit is above a larger packing's. The report says so.
+  double network_capped(double dt, const Friction& friction, Json& report) const {
+    const double network = network_time_step_estimate(written.sample, written.contact, friction);
+    const double cap = kNetworkWarnFraction * network;
+    report["network_time_step_estimate"] = network;
+    report["network_cap"] = cap;
+    report["network_capped"] = dt > cap;
+    if (!(dt > cap)) return dt;
+    const double capped = stage_time_step(cap / limit, limit);
+    report["time_step_rules"] = dt;
+    report["time_step"] = capped;
+    report["time_step_fraction"] = capped / limit;
+    return capped;
+  }
+
   static Json stage_time(double dt_written, double dt, double limit) {
     return {{"time_step_written", dt_written}, {"time_step", dt}, {"time_step_fraction_written", dt_written / limit},
             {"time_step_fraction", dt / limit}};
@@ -170,10 +187,11 @@ struct Resolver {
 
   Json preparation(Json& j) {
     const PrepareDef& p = *written.prepare;
-    const double dt_written = written.stage_time_step(p), dt = stage_time_step(level.prepare_time_step_fraction, limit);
+    const double dt_written = written.stage_time_step(p);
+    Json report = stage_time(dt_written, stage_time_step(level.prepare_time_step_fraction, limit), limit);
+    const double dt = network_capped(report["time_step"].get<double>(), p.stage_friction(), report);
     const double time_factor = dt_written / dt;
     j["time_step"] = dt;
-    Json report = stage_time(dt_written, dt, limit);
     report["stage"] = "prepare";
     report["legs"] = Json::array();
     if (j.contains("legs")) {
@@ -209,10 +227,11 @@ struct Resolver {
   }
 
   Json test(Json& j, const TestDef& t) {
-    const double dt_written = written.stage_time_step(t), dt = stage_time_step(level.time_step_fraction, limit);
+    const double dt_written = written.stage_time_step(t);
+    Json report = stage_time(dt_written, stage_time_step(level.time_step_fraction, limit), limit);
+    const double dt = network_capped(report["time_step"].get<double>(), t.stage_friction(), report);
     const double time_factor = dt_written / dt;
     j["time_step"] = dt;
-    Json report = stage_time(dt_written, dt, limit);
     report["stage"] = t.name;
     report["legs"] = Json::array();
     const double stress = first_leg_stress(t);

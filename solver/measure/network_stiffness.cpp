@@ -362,8 +362,52 @@ NetworkStiffness network_stiffness(const Model& model, const State& state, bool 
   return out;
 }
 
-Eigen::SparseMatrix<double> network_dynamic_matrix(const Model& model, const State& state) {
-  check_law(model.contact);
+NetworkSprings network_springs(const Friction& friction) {
+  return {.tangential = friction.sliding > 0.0, .rolling = friction.rolling > 0.0};
+}
+
+namespace {
+
+// The law's tangent stiffnesses of one contact at its overlap (contact/contact_law.hpp), those `springs` keeps.
+struct TangentSprings {
+  double normal = 0.0;      // [N/m] d fn / d overlap
+  double tangential = 0.0;  // [N/m] on the contact point's slip
+  double rolling = 0.0;     // [N m/rad] k_roll R*^2 on the relative spin across n
+  double twisting = 0.0;    // [N m/rad] 1/2 kt a^2 on the relative spin about n
+};
+
+TangentSprings tangent_springs(const ContactDef& law, NetworkSprings springs, double ri, double rj, double overlap) {
+  const double r_eff = ri * rj / (ri + rj);
+  const double a = std::sqrt(r_eff * std::max(overlap, 0.0));  // the contact radius
+  TangentSprings k;
+  k.normal = law.normal == NormalModel::Linear ? law.kn : 2.0 * law.effective_modulus() * a;
+  const double kt = law.tangential == TangentialModel::LinearHistory ? law.kt : 8.0 * law.effective_shear_modulus() * a;
+  if (springs.tangential) k.tangential = kt;
+  if (springs.rolling && law.rolling == RollingModel::Sds) k.rolling = law.rolling_stiffness * r_eff * r_eff;
+  if (springs.tangential && law.twisting == TwistingModel::Marshall) k.twisting = 0.5 * kt * a * a;
+  return k;
+}
+
+// The 12 x 12 stiffness of one contact over z = (u_i, u_j, theta_i, theta_j): the normal and tangential springs of
+// matrices_of, and the rotational springs on the relative spin dtheta = theta_j - theta_i (rolling: its part across
+// n, |R* dtheta x n| = R* |P dtheta|; twisting: its part along n).
+Local contact_stiffness(const NetworkContact& c, const TangentSprings& k) {
+  const ContactMatrices m = matrices_of(c, k.normal, k.tangential, false);
+  Local local = m.branch_jacobian.transpose() * m.normal_stiffness * m.branch_jacobian +
+                m.contact_jacobian.transpose() * m.tangential_projector * m.contact_jacobian;
+  if (k.rolling > 0.0 || k.twisting > 0.0) {
+    const Mat3 nn = c.normal * c.normal.transpose();
+    const Mat3 spring = k.rolling * (Mat3::Identity() - nn) + k.twisting * nn;
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)  // dtheta = -theta_i + theta_j
+        local.block<3, 3>(6 + 3 * a, 6 + 3 * b) += (a == b ? 1.0 : -1.0) * spring;
+  }
+  return local;
+}
+
+}  // namespace
+
+Eigen::SparseMatrix<double> network_dynamic_matrix(const Model& model, const State& state, NetworkSprings springs) {
   const std::size_t n = state.particles.size();
   if (state.pairs.first.size() != n + 1 || state.pairs.tangential.size() != state.pairs.size())
     throw std::logic_error("network_dynamic_matrix: the pair list is not built (rebuild_pairs first)");
@@ -376,10 +420,11 @@ Eigen::SparseMatrix<double> network_dynamic_matrix(const Model& model, const Sta
   const std::vector<NetworkContact> contacts = network_contacts(model, state, true);
   std::vector<Eigen::Triplet<double>> triplets;
   triplets.reserve(contacts.size() * 144);
+  const std::vector<double>& radius = state.particles.radius;
   for (const NetworkContact& c : contacts) {
-    const ContactMatrices m = matrices_of(c, model.contact.kn, model.contact.kt, false);
-    const Local local = m.branch_jacobian.transpose() * m.normal_stiffness * m.branch_jacobian +
-                        m.contact_jacobian.transpose() * m.tangential_projector * m.contact_jacobian;
+    const double overlap = radius[c.i] + radius[c.j] - c.distance;
+    const Local local =
+        contact_stiffness(c, tangent_springs(model.contact, springs, radius[c.i], radius[c.j], overlap));
     std::array<Index, 12> index;  // z = (u_i, u_j, theta_i, theta_j)
     for (int a = 0; a < 3; ++a)
       index[a] = 6 * c.i + a, index[3 + a] = 6 * c.j + a, index[6 + a] = 6 * c.i + 3 + a, index[9 + a] = 6 * c.j + 3 + a;
@@ -436,10 +481,11 @@ double largest_eigenvalue(const Eigen::SparseMatrix<double>& a, double tolerance
   return theta;
 }
 
-NetworkTimeStep network_time_step_limit(const Model& model, const State& state) {
+NetworkTimeStep network_time_step_limit(const Model& model, const State& state, NetworkSprings springs) {
   const auto start = std::chrono::steady_clock::now();
   NetworkTimeStep out;
-  const Eigen::SparseMatrix<double> a = network_dynamic_matrix(model, state);
+  out.springs = springs;
+  const Eigen::SparseMatrix<double> a = network_dynamic_matrix(model, state, springs);
   out.unknowns = static_cast<int>(a.rows());
   out.contacts = static_cast<int>(network_contacts(model, state, true).size());
   double gershgorin = 0.0;
@@ -451,12 +497,20 @@ NetworkTimeStep network_time_step_limit(const Model& model, const State& state) 
   out.gershgorin_omega = std::sqrt(gershgorin);
   out.omega_max = out.contacts > 0 ? std::sqrt(largest_eigenvalue(a, kLanczosTolerance, &out.iterations, &out.residual_bound)) : 0.0;
   out.limit = out.omega_max > 0.0 ? 2.0 / out.omega_max : std::numeric_limits<double>::infinity();
-  double r_min = std::numeric_limits<double>::infinity();
-  for (const double r : state.particles.radius) r_min = std::min(r_min, r);
+  double r_min = std::numeric_limits<double>::infinity(), r_max = 0.0;
+  for (const double r : state.particles.radius) r_min = std::min(r_min, r), r_max = std::max(r_max, r);
   const double m_min = state.particles.size() ? model.mass_of(r_min) : 0.0;
-  out.pair_omega = m_min > 0.0 ? std::sqrt(std::max(2.0 * model.contact.kn, 7.0 * model.contact.kt) / m_min) : 0.0;
+  // The pair formula's stiffnesses: the law's, at the reference overlap of the two largest spheres (core/plan
+  // reference_stiffness) for the material laws.
+  const ContactDef& law = model.contact;
+  const double a_ref = std::sqrt(0.5 * r_max * law.reference_overlap);
+  const double kn = law.normal == NormalModel::Linear ? law.kn : 2.0 * law.effective_modulus() * a_ref;
+  const double kt = !springs.tangential                                ? 0.0
+                    : law.tangential == TangentialModel::LinearHistory ? law.kt
+                                                                       : 8.0 * law.effective_shear_modulus() * a_ref;
+  out.pair_omega = m_min > 0.0 ? std::sqrt(std::max(2.0 * kn, 7.0 * kt) / m_min) : 0.0;
   out.pair_limit = out.pair_omega > 0.0 ? 2.0 / out.pair_omega : std::numeric_limits<double>::infinity();
-  out.unit = std::sqrt(m_min / model.contact.kn);
+  out.unit = std::sqrt(m_min / kn);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }

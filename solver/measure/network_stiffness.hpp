@@ -48,6 +48,7 @@
 #include <Eigen/Dense>
 #include <Eigen/SparseCore>
 
+#include "core/deck.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
 
@@ -92,19 +93,30 @@ int network_rattler_rule(bool tangential);
 // built (rebuild_pairs); its forces need not be evaluated.
 NetworkStiffness network_stiffness(const Model& model, const State& state, bool tangential);
 
+// Which springs of the law the network has: the tangential (and twisting) springs only where the stage's friction can
+// hold them (mu = 0 caps them at 0, as in the preparation), the rolling springs only where mu_roll > 0.
+struct NetworkSprings {
+  bool tangential = true;
+  bool rolling = true;
+};
+NetworkSprings network_springs(const Friction& friction);
+
 // The stability limit of the time step from the whole network's spectrum (docs/physics.md, "The time step from
-// the contact network"). Every contact that overlaps in the state is a sticking linear contact: K_n = kn n n^T
-// (no prestress term) and kt on the contact point's slip with the law's lever arms, as in network_stiffness with
-// tangential springs; every particle has its 3 translations (mass m) and 3 spins (moment of inertia 2/5 m r^2),
-// none pinned, rattlers kept. omega_max^2 is the largest eigenvalue of the mass-weighted stiffness
-// A = M^-1/2 K M^-1/2 (network_dynamic_matrix), found by Lanczos iteration (no reorthogonalisation: the extreme
-// Ritz value converges first) until the residual bound beta_k |s_k| of its Ritz pair is below kLanczosTolerance of
-// it (an eigenvalue of A lies within that bound); the undamped leapfrog is stable for dt < 2 / omega_max. For
-// comparison, the pair formula of core/plan (critical_time_steps, whose t_c is sqrt(2) / omega): the largest mode
-// of two of the state's smallest spheres in contact, normal omega^2 = 2 kn / m, tangential-rotational 7 kt / m,
-// here as its own leapfrog limit 2 / omega_pair (= sqrt(2) t_c); and Gershgorin's bound max_i sum_j |A_ij| >=
-// omega_max^2, cheap and never below it. The linear law only (std::invalid_argument otherwise, as
-// network_stiffness); the pair list must be built.
+// the contact network"). Every contact that overlaps in the state is a sticking contact with the law's tangent
+// stiffnesses at its overlap: K_n = kn n n^T (no prestress term; kn = 2 E* a for hertz), kt (8 G* a for the
+// mindlin laws) on the contact point's slip with the law's lever arms, as in network_stiffness with tangential
+// springs, k_roll R*^2 on the relative spin across n (rolling sds) and 1/2 kt a^2 on the relative spin about n
+// (twisting marshall), each as `springs` keeps it; every particle has its 3 translations (mass m) and 3 spins
+// (moment of inertia 2/5 m r^2), none pinned, rattlers kept. omega_max^2 is the largest eigenvalue of the
+// mass-weighted stiffness A = M^-1/2 K M^-1/2 (network_dynamic_matrix), found by Lanczos iteration (no
+// reorthogonalisation: the extreme Ritz value converges first) until the residual bound beta_k |s_k| of its Ritz
+// pair is below kLanczosTolerance of it (an eigenvalue of A lies within that bound); the undamped leapfrog is
+// stable for dt < 2 / omega_max. For comparison, the pair formula of core/plan (critical_time_steps, whose t_c is
+// sqrt(2) / omega): the largest mode of two of the state's smallest spheres in contact, normal omega^2 = 2 kn / m,
+// tangential-rotational 7 kt / m (with tangential springs), kn and kt the law's at contact.reference_overlap for
+// the material laws (core/plan reference_stiffness), here as its own leapfrog limit 2 / omega_pair (= sqrt(2)
+// t_c); and Gershgorin's bound max_i sum_j |A_ij| >= omega_max^2, cheap and never below it. The pair list must
+// be built.
 inline constexpr double kLanczosTolerance = 1e-8;
 struct NetworkTimeStep {
   double omega_max = 0.0;         // [rad/s] the network's largest angular frequency (0: no contact)
@@ -112,17 +124,18 @@ struct NetworkTimeStep {
   double pair_omega = 0.0;        // [rad/s] the pair formula's largest mode, two smallest spheres
   double pair_limit = 0.0;        // [s] 2 / pair_omega
   double gershgorin_omega = 0.0;  // [rad/s] sqrt of Gershgorin's bound: never below omega_max
-  double unit = 0.0;              // [s] sqrt(m_min / kn), m_min the smallest sphere's mass
+  double unit = 0.0;              // [s] sqrt(m_min / kn), m_min the smallest sphere's mass (kn: the reference one)
   int iterations = 0;             // Lanczos steps, each one product with A
   double residual_bound = 0.0;    // the Ritz value's residual bound over it (relative, on omega_max^2)
   double seconds = 0.0;           // wall time of assembly and iteration
   int contacts = 0;
   int unknowns = 0;               // 6 per particle
+  NetworkSprings springs;         // the springs it counted
 };
-NetworkTimeStep network_time_step_limit(const Model& model, const State& state);
+NetworkTimeStep network_time_step_limit(const Model& model, const State& state, NetworkSprings springs = {});
 // A = M^-1/2 K M^-1/2 of network_time_step_limit [1/s^2], 6 unknowns per particle (u_x, u_y, u_z, theta_x,
 // theta_y, theta_z of particle p at 6p..6p+5): the matrix whose largest eigenvalue is omega_max^2.
-Eigen::SparseMatrix<double> network_dynamic_matrix(const Model& model, const State& state);
+Eigen::SparseMatrix<double> network_dynamic_matrix(const Model& model, const State& state, NetworkSprings springs = {});
 // The largest eigenvalue of a symmetric positive semidefinite matrix by Lanczos iteration from a fixed start,
 // to the residual bound `tolerance` (relative); iterations and the bound reached through the pointers.
 double largest_eigenvalue(const Eigen::SparseMatrix<double>& a, double tolerance, int* iterations = nullptr,

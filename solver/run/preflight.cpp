@@ -19,6 +19,7 @@
 #include "neighbor/neighbor_list.hpp"
 #include "run/health.hpp"
 #include "run/sample.hpp"
+#include "run/time_step_check.hpp"
 #include "run/verify_rate.hpp"
 
 namespace celldem {
@@ -411,6 +412,23 @@ void warn_probe_reach(const Deck& deck, std::vector<std::string>& warnings) {
   }
 }
 
+// Tests that start from initial_state as it is (no preparation): each one's time step against that state's contact
+// network with the test's friction (run/time_step_check), refused or warned as the run would at the test's start.
+// With a preparation the tests' network is known only once prepared: run_stage judges it then.
+void check_network_time_steps(const Deck& deck, std::vector<std::string>& warnings) {
+  if (!deck.initial_state || deck.prepare || deck.tests.empty()) return;
+  State state = load_initial_state(deck);
+  state.pairs.skin = skin_length(deck);
+  for (const TestDef& t : deck.tests) {
+    const Model model = make_model(deck, state.particles.radius, deck.stage_time_step(t));
+    const NetworkStepJudgement j = judge_network_time_step(
+        model, state, t.stage_friction(), "test '" + t.name + "' from initial_state " + initial_state_path(deck),
+        time_step_key(deck, t.name));
+    if (j.verdict == NetworkStepVerdict::Refuse) throw DeckError(j.message);
+    if (j.verdict == NetworkStepVerdict::Warn) warnings.push_back(j.message);
+  }
+}
+
 std::vector<std::string> preflight(const Deck& deck) {
   check_servo_caps(deck);
   check_moving_targets(deck);
@@ -424,6 +442,7 @@ std::vector<std::string> preflight(const Deck& deck) {
   }
   std::vector<std::string> warnings = deck_warnings(deck);
   if (deck.initial_state) check_state(deck, initial_state_path(deck), warnings);
+  check_network_time_steps(deck, warnings);
   warn_unreached_snapshots(deck, warnings);
   warn_capped_strain_legs(deck, warnings);
   warn_probe_reach(deck, warnings);

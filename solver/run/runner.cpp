@@ -68,6 +68,7 @@ PreparationSummary run_preparation(const RunContext& context, State state, bool 
   const PreparationSummary prepared = summarize_preparation(model, result.state, prep, result.elapsed);
   context.run.update_summary([&](Json& s) {  // (a preparation from initial_state: its started_from kept beside)
     Json written = prepared;
+    written["network_time_step"] = result.network_time_step;
     if (s.contains("prepared") && s["prepared"].contains("started_from"))
       written["started_from"] = s["prepared"]["started_from"];
     s["prepared"] = written;
@@ -135,7 +136,11 @@ TestOutcome run_test(const RunContext& context, const TestDef& test, const fs::p
       std::move(state), observers.list());
   std::vector<std::string> warnings;
   TestOutcome done{summarize_finished_test(deck, test, result, warnings), {}};
-  run.update_summary([&](Json& s) { s["tests"][test.name] = done.summary; });
+  run.update_summary([&](Json& s) {  // (the network's judgement beside the typed summary: run_stage's own)
+    Json written = done.summary;
+    written["network_time_step"] = result.network_time_step;
+    s["tests"][test.name] = written;
+  });
   for (const std::string& w : warnings) run.add_warning(w);
   for (StageObserver* o : observers.list())
     if (std::optional<ObserverReport> report = o->after_test({test, result, done.summary})) {

@@ -34,6 +34,7 @@ struct StageResult {
   std::vector<ControlErrors> control_errors;  // one per leg (restored on a resume)
   double elapsed = 0.0;                       // [s] including the time before a resume
   State state;                                // as the stage ended
+  nlohmann::json network_time_step;           // the time step against the contact network (run/time_step_check)
 };
 
 // A finished loading test, as its observers see it after its summary is written.
@@ -65,6 +66,10 @@ class StageObserver {
   virtual void on_step(const State&) {}
   // Just before each checkpoint is written: what a resume needs must be on disk by then.
   virtual void on_checkpoint(const State&) {}
+  // What the observer must remember across a resume, written into the checkpoint's record (memory.<its key>) by
+  // the same rename as the state, and handed back to restore() before on_resume.
+  virtual void save(nlohmann::json& /*memory*/) const {}
+  virtual void restore(const nlohmann::json& /*memory*/) {}
   // At each leg's end, the last leg's included: true ends the stage there.
   virtual bool on_leg_end(const State&) { return false; }
   // The stage's last row is written: its state and every row.

@@ -60,6 +60,8 @@ void StageOutput::open(const State& state, bool resumed) {
     elapsed_before_ = record.at("elapsed_s").get<double>();
     for (const auto& e : record.at("control_errors")) control_errors_.push_back(control_errors_from_json(e));
     for (const auto& w : record.at("warnings")) warn(w.get<std::string>());
+    const nlohmann::json memory = record.value("observers", nlohmann::json::object());  // (none before it existed)
+    for (StageObserver* o : observers_) o->restore(memory);
     std::istringstream in(proven_series(state, record.at("series_proofs")));
     std::string line;
     std::vector<std::string> header;
@@ -238,14 +240,20 @@ void StageOutput::checkpoint(const State& state) {
   // (before the state: what an observer keeps, e.g. the peak contacts, is never older than its checkpoint)
   for (StageObserver* o : observers_) o->on_checkpoint(state);
   // The state and all a resume needs besides it, in one file written by one rename (io/state_file, format 8): the
-  // series' proof, the controls' errors (the control verdict's memory), this stage's warnings, its elapsed time.
+  // series' proof, the controls' errors (the control verdict's memory), this stage's warnings, its elapsed time and
+  // what each observer remembers (StageObserver::save).
   last_proof_ = {{"step", state.control.stage_steps}, {"rows", rows_.size()},
                  {"last_step", rows_.empty() ? 0.0 : rows_.back().step}, {"bytes", series_bytes_},
                  {"fnv1a64", hex(series_hash_)}};
   nlohmann::json errors = nlohmann::json::array();
   for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));
-  const nlohmann::json record = {{"elapsed_s", elapsed()}, {"control_errors", errors}, {"warnings", warnings_},
-                                 {"series_proofs", nlohmann::json::array({last_proof_})}};
+  nlohmann::json memory = nlohmann::json::object();
+  for (const StageObserver* o : observers_) o->save(memory);
+  const nlohmann::json record = {{"elapsed_s", elapsed()},
+                                 {"control_errors", errors},
+                                 {"warnings", warnings_},
+                                 {"series_proofs", nlohmann::json::array({last_proof_})},
+                                 {"observers", memory}};
   write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_), record.dump());
 }
 

@@ -5,6 +5,7 @@
 #include "run/preflight.hpp"
 #include "run/run_options.hpp"
 #include "run/stage_output.hpp"
+#include "run/time_step_check.hpp"
 
 namespace celldem {
 
@@ -12,10 +13,25 @@ StageResult run_stage(const RunContext& context, const Model& model, const Stage
                       const std::vector<StageObserver*>& observers) {
   RunOptions options = context.options;  // (the stage's output keeps a reference: it lives as long)
   if (!spec.progress_line) options.progress = ProgressMode::Off;
+  // The time step against the network the stage starts from (refused before any output), then every checkpoint
+  // interval as its fabric evolves: the stage's own first observer.
+  const std::string key = time_step_key(context.deck, spec.name);
+  const std::string where = (spec.kind == StageKind::Preparation ? "the preparation" : "stage '" + spec.name + "'");
+  const NetworkStepJudgement at_start = judge_network_time_step(
+      model, state, spec.friction, where + (spec.resumed ? " as it resumes" : " as it starts"), key);
+  // (A resumed stage is judged as it went on: its checkpoint holds the start's judgement, and a later one only warns.)
+  if (at_start.verdict == NetworkStepVerdict::Refuse && !spec.resumed) throw DeckError(at_start.message);
+  StageOutput* output = nullptr;
+  NetworkTimeStepWatch watch(model, spec.friction, where, key, context.deck.checkpoint_interval,
+                             [&output](const std::string& warning) { output->warn(warning); });
+  std::vector<StageObserver*> all{&watch};
+  all.insert(all.end(), observers.begin(), observers.end());
   StageOutput out(context.run, context.deck, options, model, spec.name, spec.output_interval,
-                  spec.kind == StageKind::Test, spec.branch, observers);
+                  spec.kind == StageKind::Test, spec.branch, all);
+  output = &out;
   out.set_start_cause(spec.start_cause);
   out.open(state, spec.resumed);
+  if (!watch.restored()) watch.start(at_start);
   if (spec.restart_legs) begin_leg(state, 0);
   const Program program{.legs = spec.legs,
                         .friction = spec.friction,
@@ -31,7 +47,7 @@ StageResult run_stage(const RunContext& context, const Model& model, const Stage
   out.finish(state);
   if (spec.final_state)
     write_state(spec.final_state->path, state, spec.final_state->label, state_physics(context.deck));
-  return {out.rows(), out.control_errors(), out.elapsed(), std::move(state)};
+  return {out.rows(), out.control_errors(), out.elapsed(), std::move(state), watch.record()};
 }
 
 }  // namespace celldem

@@ -111,6 +111,29 @@ constexpr F kGrading[] = {{"by", "", "the grading's basis (mass or number)"},
                           {"largest_deviation_percent", "percentage points", "the largest difference"},
                           {"spheres", "particles", "the sample's spheres"}};
 
+// prepared.network_time_step and tests.*.network_time_step (run/time_step_check.cpp: the judgement and the watch's
+// record).
+constexpr F kNetworkJudgement[] = {
+    {"time_step", "s", "the stage's time step"},
+    {"limit", "s", "the contact network's leapfrog limit 2/omega_max"},
+    {"limit_over_unit", "1", "the limit in sqrt(m_min/kn)"},
+    {"pair_limit", "s", "the one-pair formula's limit, for comparison"},
+    {"time_step_over_limit", "1", "the time step over the network limit"},
+    {"verdict", "", "ok, warn or refuse"},
+    {"warn_above", "1", "the fraction of the limit above which the run warns"},
+    {"refuse_above", "1", "the fraction above which a stage is refused"},
+    {"contacts", "pairs", "the contacts in the network judged"},
+    {"tangential_springs", "", "whether sticking tangential springs counted (the stage has friction)"},
+    {"iterations", "", "the Lanczos iterations"},
+    {"seconds", "s", "the time the judgement took"}};
+constexpr F kNetworkTimeStep[] = {
+    {"at_start", "", "the judgement of the state the stage started from", kNetworkJudgement},
+    {"largest_time_step_over_limit", "1", "the largest ratio of any check in the stage"},
+    {"largest_at_step", "steps", "the stage step of that check"},
+    {"checks", "", "the checks made (start, every check_interval steps, the end)"},
+    {"check_interval", "steps", "the steps between checks (checkpoint_interval)"},
+    {"seconds", "s", "the checks' time in all"}};
+
 // prepared.started_from (runner.cpp started_from).
 constexpr F kOverlaps[] = {{"touching_pairs", "pairs", "pairs that overlap"},
                            {"deep_pairs", "pairs",
@@ -289,9 +312,13 @@ std::vector<SchemaEntry> summary_schema() {
   append_record_schema<PreparationSummary>(out, "prepared");
   out.push_back({"prepared.started_from", "object", "", "a preparation from initial_state: where it started"});
   append_doc_keys(out, "prepared.started_from", kStartedFrom);
+  out.push_back({"prepared.network_time_step", "object", "", "the time step against the contact network"});
+  append_doc_keys(out, "prepared.network_time_step", kNetworkTimeStep);
   out.push_back({"tests", "object", "", "per test, by its name"});
   out.push_back({"tests.*", "object", "", "a loading test's summary"});
   append_record_schema<TestSummary>(out, "tests.*");
+  out.push_back({"tests.*.network_time_step", "object", "", "the time step against the contact network"});
+  append_doc_keys(out, "tests.*.network_time_step", kNetworkTimeStep);
   out.push_back({"tests.*.probes", "object", "", "the test's probes (docs/probes.md)"});
   append_doc_keys(out, "tests.*.probes", kProbes);
   out.push_back({"tests.*.verify_rate", "object", "", "the test's rate check (--verify-rate)"});

@@ -6,6 +6,7 @@
 // the rules' scene gets T sqrt(calibration / N) of the scene's floors, and below the lowest level runs as written.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -206,11 +207,21 @@ TEST(Tolerance, ResolvedDeckMeetsTheRules) {
     const Deck d = resolve_tolerance(written, text, t);
     ASSERT_TRUE(d.tolerance.has_value());
     EXPECT_EQ(*d.tolerance, t);
-    // Time steps: the level's fraction of the limit, rounded down to three significant digits.
+    // Time steps: the level's fraction of the limit, rounded down to three significant digits, and never above 0.9
+    // of the contact network's limit estimated as 0.600 of the pair's leapfrog limit 2/omega: with friction (the
+    // tests) the tangential-rotational mode's omega^2 = 7 kt / m_min; without (the preparation) the normal 2 kn /
+    // m_min.
+    const double m_min = rho * std::acos(-1.0) / 6.0 * std::pow(3.0e-3, 3);
+    const double tests_cap = 0.9 * 0.600 * 2.0 / std::sqrt(7.0 * 1.0e6 / m_min);
+    const double prep_cap = 0.9 * 0.600 * 2.0 / std::sqrt(2.0 * 1.0e6 / m_min);
+    const double expected = std::min(level.time_step_fraction * limit, tests_cap);
     const double dt = d.stage_time_step(d.tests[0]);
-    EXPECT_LE(dt, level.time_step_fraction * limit);
-    EXPECT_GT(dt, 0.99 * level.time_step_fraction * limit);
-    EXPECT_LE(d.stage_time_step(*d.prepare), level.prepare_time_step_fraction * limit);
+    EXPECT_LE(dt, expected);
+    EXPECT_GT(dt, 0.99 * expected);
+    EXPECT_LE(d.stage_time_step(*d.prepare), std::min(level.prepare_time_step_fraction * limit, prep_cap));
+    const Json stage_settings = Json::parse(d.tolerance_settings);
+    EXPECT_EQ(stage_settings["stages"][1]["network_capped"].get<bool>(), level.time_step_fraction * limit > tests_cap);
+    EXPECT_FALSE(stage_settings["stages"][0]["network_capped"].get<bool>());  // the preparation: normal springs alone
     // Strain-driven legs: the level's inertial number at the leg's confining stress (the mean of its targets).
     const double ttc_stress = 1.5e5;
     EXPECT_NEAR(inertial_number(plan_test(d, d.tests[0]).strain_rate, d_mean, rho, ttc_stress), level.inertial_number,

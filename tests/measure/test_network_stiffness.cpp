@@ -187,5 +187,104 @@ TEST(NetworkTimeStep, LanczosAgreesWithTheDenseSolver) {
   EXPECT_LT(t.limit, t.pair_limit);
 }
 
+// ---- analytic chains and pairs: every spring of the spectrum ----
+
+// A periodic chain of N (even) equal spheres of mass m along x, each touching its two neighbours at the same overlap
+// (lever arm r: moment_arm radius). Normal springs: the zone-boundary mode (neighbours in antiphase) has
+// omega^2 = 4 kn / m. Tangential springs on the slip du_y - r (theta_k + theta_k+1) (and likewise in z): a Bloch wave
+// of wavenumber q loads them through the vector (e^iq - 1, -r (1 + e^iq)) alone, so its one non-zero omega^2 is
+// kt (|e^iq - 1|^2 / m + r^2 |1 + e^iq|^2 / I) = (kt / m)(7 + 3 cos q) with I = 2/5 m r^2: largest, 10 kt / m, for
+// all spins turning together (q = 0) - stiffer than a pair's 7 kt / m.
+State periodic_chain(int n, double radius, double overlap) {
+  const double d = 2.0 * radius - overlap;
+  std::vector<double> r(static_cast<std::size_t>(n), radius);
+  std::vector<Vec3> x;
+  for (int k = 0; k < n; ++k) x.emplace_back(d * (k + 0.5), 5.0 * radius, 5.0 * radius);
+  Mat3 h = Mat3::Identity() * 10.0 * radius;
+  h(0, 0) = n * d;
+  return testing::make_state(h, r, x, 0.05);
+}
+
+double chain_omega(const Deck& deck, NetworkSprings springs, int* contacts = nullptr) {
+  State state = periodic_chain(8, 0.5, 1e-3);
+  const Model model = make_model(deck, state.particles.radius);
+  rebuild_pairs(model, state);
+  const NetworkTimeStep t = network_time_step_limit(model, state, springs);
+  if (contacts) *contacts = t.contacts;
+  EXPECT_NEAR(t.limit, 2.0 / t.omega_max, 1e-12 * t.limit);
+  return t.omega_max;
+}
+
+TEST(NetworkTimeStep, PeriodicChainNormalModeIsTwiceThePairs) {
+  const double kn = 1e4;
+  Deck deck = model_deck(kn, kn, 1e-4);  // mass 1 kg
+  deck.contact.moment_arm = MomentArm::Radius;
+  int contacts = 0;
+  // Without friction only the normal springs count: omega^2 = 4 kn / m (a pair's 2 kn / m).
+  const double omega = chain_omega(deck, NetworkSprings{.tangential = false, .rolling = false}, &contacts);
+  EXPECT_EQ(contacts, 8);
+  EXPECT_NEAR(omega * omega, 4.0 * kn, 1e-8 * 4.0 * kn);
+}
+
+TEST(NetworkTimeStep, PeriodicChainTangentialModeTurnsEverySpin) {
+  const double kn = 1e4, kt = 0.6 * kn;  // 10 kt > 4 kn: the spins' mode limits
+  Deck deck = model_deck(kn, kt, 1e-4);
+  deck.contact.moment_arm = MomentArm::Radius;
+  const double omega = chain_omega(deck, NetworkSprings{});
+  EXPECT_NEAR(omega * omega, 10.0 * kt, 1e-8 * 10.0 * kt);
+}
+
+// Hertz: the chain's normal springs are the law's tangent stiffness 2 E* a at the overlap, a = sqrt(R* overlap).
+TEST(NetworkTimeStep, HertzChainUsesTheTangentStiffnessAtItsOverlap) {
+  Deck deck = model_deck(0.0, 0.0, 1e-4);
+  deck.contact.normal = NormalModel::Hertz;
+  deck.contact.tangential = TangentialModel::Mindlin;
+  deck.contact.youngs_modulus = 1e6;
+  deck.contact.poisson_ratio = 0.25;
+  deck.contact.reference_overlap = 1e-3;
+  deck.contact.moment_arm = MomentArm::Radius;
+  const double a = std::sqrt(0.25 * 1e-3);  // R* = r / 2 = 0.25
+  const double kn = 2.0 * deck.contact.effective_modulus() * a;
+  const double omega = chain_omega(deck, NetworkSprings{.tangential = false, .rolling = false});
+  EXPECT_NEAR(omega * omega, 4.0 * kn, 1e-8 * 4.0 * kn);
+  // With Mindlin's 8 G* a sticking: the spins' mode 10 kt / m where it exceeds 4 kn / m.
+  const double kt = 8.0 * deck.contact.effective_shear_modulus() * a;
+  const double sticking = chain_omega(deck, NetworkSprings{});
+  EXPECT_NEAR(sticking * sticking, std::max(4.0 * kn, 10.0 * kt), 1e-8 * std::max(4.0 * kn, 10.0 * kt));
+}
+
+// Two spheres with rolling (sds) and twisting (marshall) springs: spins of equal size and opposite sign (no slip at
+// the contact point, equal lever arms) are eigenvectors of A, across n with omega^2 = 2 k_roll R*^2 / I and along n
+// with 2 k_tw / I, k_tw = kt a^2 / 2 (I = 2/5 m r^2).
+TEST(NetworkTimeStep, RollingAndTwistingSpringsAddTheirModes) {
+  const double kn = 1e4, kt = 1e3, radius = 0.5, overlap = 1e-3;
+  Deck deck = model_deck(kn, kt, 1e-4);
+  deck.contact.rolling = RollingModel::Sds;
+  deck.contact.rolling_stiffness = 2e3;
+  deck.contact.twisting = TwistingModel::Marshall;
+  const Vec3 n = Vec3(1.0, 2.0, -0.5).normalized();
+  State state = testing::make_state(Mat3::Identity() * 10.0, {radius, radius},
+                                    {Vec3(5.0, 5.0, 5.0), Vec3(5.0, 5.0, 5.0) + n * (2 * radius - overlap)}, 0.05);
+  const Model model = make_model(deck, state.particles.radius);
+  rebuild_pairs(model, state);
+  const Eigen::MatrixXd a(network_dynamic_matrix(model, state));
+  const double inertia = 0.4 * 1.0 * radius * radius, r_eff = 0.5 * radius;
+  const Vec3 across = n.cross(Vec3::UnitX()).normalized();
+  const auto opposite_spins = [&](const Vec3& axis) {
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(12);
+    v.segment<3>(3) = -axis, v.segment<3>(9) = axis;
+    return v;
+  };
+  const Eigen::VectorXd roll = opposite_spins(across), twist = opposite_spins(n);
+  const double roll_expected = 2.0 * deck.contact.rolling_stiffness * r_eff * r_eff / inertia;
+  const double twist_expected = 2.0 * 0.5 * kt * r_eff * overlap / inertia;  // a^2 = R* overlap
+  EXPECT_NEAR((a * roll - roll_expected * roll).norm(), 0.0, 1e-9 * roll_expected);
+  EXPECT_NEAR((a * twist - twist_expected * twist).norm(), 0.0, 1e-9 * twist_expected);
+  // Without rolling friction the rolling spring holds nothing; without sliding friction neither does the twist.
+  const Eigen::MatrixXd free(
+      network_dynamic_matrix(model, state, NetworkSprings{.tangential = false, .rolling = false}));
+  EXPECT_NEAR((free * roll).norm() + (free * twist).norm(), 0.0, 1e-12 * roll_expected);
+}
+
 }  // namespace
 }  // namespace celldem

@@ -13,6 +13,7 @@
 #include "run/run_options.hpp"
 #include "run/runner.hpp"
 #include "run/stage_runner.hpp"
+#include "run/time_step_check.hpp"
 #include "step.hpp"
 
 namespace celldem {
@@ -45,35 +46,45 @@ class Recorder : public StageObserver {
   int end_at_;
 };
 
-TEST(StageRunner, ObserversSeeEveryHookAndMayEndTheStageAtALegsEnd) {
-  testing::TempDir dir;
-  // A quick preparation gives a packed state to hold.
+// A quick preparation (150 spheres, loose equilibrium) in `dir`: its deck, and prepared.state in dir/prep.
+Deck prepare_packing(const fs::path& dir, RunOptions& options) {
   std::string deck_text = testing::small_deck_json(150, "[]", 5);
   const std::string loose = R"("equilibrium": {"pressure_tolerance": 0.9, "stress_tolerance": 0.9, "unbalanced_force_ratio": 1.0,
                                  "min_steps": 200, "check_interval": 200, "max_steps": 100000})";
   const auto at = deck_text.find("\"equilibrium\"");
   deck_text.replace(at, deck_text.find('}', at) + 1 - at, loose);
-  testing::write_bytes(dir.path() / "deck.json", deck_text);
-  const Deck deck = read_deck((dir.path() / "deck.json").string());
-  RunOptions options;
-  options.out_dir = (dir.path() / "prep").string();
+  testing::write_bytes(dir / "deck.json", deck_text);
+  const Deck deck = read_deck((dir / "deck.json").string());
+  options.out_dir = (dir / "prep").string();
   options.threads = 1;
   options.quiet = true;
   const int saved = omp_get_max_threads();
   run_deck(deck, options);
   omp_set_num_threads(saved);
+  return deck;
+}
 
+// A hold of the packing's stresses, ending after `steps`.
+Leg hold_leg(const State& state, std::int64_t steps) {
+  Leg hold;
+  hold.end.kind = LegEndKind::Steps;
+  hold.end.steps = steps;
+  const Vec3 s = state.normal_stress();
+  for (int k = 0; k < 3; ++k) hold.axes[static_cast<std::size_t>(k)] = AxisControl{AxisMode::Stress, s[k]};
+  return hold;
+}
+
+TEST(StageRunner, ObserversSeeEveryHookAndMayEndTheStageAtALegsEnd) {
+  testing::TempDir dir;
+  RunOptions options;
+  const Deck deck = prepare_packing(dir.path(), options);
   options.out_dir = (dir.path() / "run").string();
   RunDirectory run(deck, options);
   State state = read_state((dir.path() / "prep" / "prepared.state").string());
   begin_stage(state);
   const Model model = make_model(deck, state.particles.radius, deck.time_step);
   evaluate_forces(model, Friction{}, state);
-  Leg hold;
-  hold.end.kind = LegEndKind::Steps;
-  hold.end.steps = 40;
-  const Vec3 s = state.normal_stress();
-  for (int k = 0; k < 3; ++k) hold.axes[static_cast<std::size_t>(k)] = AxisControl{AxisMode::Stress, s[k]};
+  const Leg hold = hold_leg(state, 40);
   Recorder recorder(/*end_at=*/1);
   const StageResult result = run_stage({run, deck, options}, model,
                                        {.name = "hold",
@@ -97,6 +108,72 @@ TEST(StageRunner, ObserversSeeEveryHookAndMayEndTheStageAtALegsEnd) {
   EXPECT_EQ(recorder.finished_rows, 6u);
   EXPECT_EQ(result.control_errors.size(), 3u);
   EXPECT_TRUE(fs::exists(run.stage_dir("hold") / "series.csv"));
+}
+
+// The time step against the contact network (run/time_step_check): run_stage refuses a stage above the refusal margin
+// of its starting state's network before it writes anything, runs one above the warning margin with a warning that
+// names the margin, and judges the state again every checkpoint_interval steps as the stage goes on.
+TEST(StageRunner, TimeStepAboveTheNetworksLimitIsRefusedOrWarned) {
+  testing::TempDir dir;
+  RunOptions options;
+  Deck deck = prepare_packing(dir.path(), options);
+  deck.checkpoint_interval = 20;
+  State state = read_state((dir.path() / "prep" / "prepared.state").string());
+  begin_stage(state);
+  const Friction friction{0.5};
+  const Model base = make_model(deck, state.particles.radius, deck.time_step);
+  evaluate_forces(base, friction, state);
+  const double limit = judge_network_time_step(base, state, friction, "x", "time_step").network.limit;
+  ASSERT_GT(limit, 0.0);
+  const auto judged = [&](double fraction) {
+    return judge_network_time_step(make_model(deck, state.particles.radius, fraction * limit), state, friction,
+                                   "stage 'hold' as it starts", "tests[0].time_step");
+  };
+  EXPECT_EQ(judged(0.85).verdict, NetworkStepVerdict::Ok);
+  EXPECT_TRUE(judged(0.85).message.empty());
+  for (const double f : {0.95, 1.05}) {
+    const NetworkStepJudgement j = judged(f);
+    EXPECT_EQ(j.verdict, NetworkStepVerdict::Warn) << f;
+    EXPECT_NEAR(j.ratio, f, 1e-9);
+    for (const char* word : {"stage 'hold' as it starts", "tests[0].time_step", "the margin 0.9", "refused above 1.1"})
+      EXPECT_NE(j.message.find(word), std::string::npos) << word << " in " << j.message;
+  }
+  const NetworkStepJudgement refused = judged(1.2);
+  EXPECT_EQ(refused.verdict, NetworkStepVerdict::Refuse);
+  EXPECT_NE(refused.message.find("the refusal margin 1.1"), std::string::npos) << refused.message;
+  // Without friction the tangential springs hold nothing: the network's limit is the normal springs' alone, longer.
+  EXPECT_GT(judge_network_time_step(base, state, Friction{}, "x", "time_step").network.limit, limit);
+
+  options.out_dir = (dir.path() / "run").string();
+  RunDirectory run(deck, options);
+  const auto spec = [&](const std::string& name) {
+    return StageSpec{.name = name,
+                     .legs = {hold_leg(state, 40)},
+                     .friction = friction,
+                     .output_interval = 20,
+                     .branch = true,
+                     .adaptive_threads = false,
+                     .progress_line = false};
+  };
+  const Model fast = make_model(deck, state.particles.radius, 1.2 * limit);
+  try {
+    (void)run_stage({run, deck, options}, fast, spec("refused"), state);
+    ADD_FAILURE() << "a time step 1.2 times the network's limit ran";
+  } catch (const DeckError& e) {
+    EXPECT_NE(std::string(e.what()).find("time_step"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(run.stage_dir("refused") / "series.csv"));
+
+  const Model close = make_model(deck, state.particles.radius, 0.95 * limit);
+  const StageResult result = run_stage({run, deck, options}, close, spec("warned"), state);
+  EXPECT_EQ(result.state.control.stage_steps, 40);
+  EXPECT_EQ(result.network_time_step["checks"], 3);  // the start, step 20, step 40
+  EXPECT_EQ(result.network_time_step["at_start"]["verdict"], "warn");
+  EXPECT_GT(result.network_time_step["largest_time_step_over_limit"].get<double>(), 0.9);
+  int warned = 0;
+  const nlohmann::json summary = run.summary();  // (a copy: the loop must not run over a temporary's member)
+  for (const auto& w : summary["warnings"]) warned += w.get<std::string>().find("the margin 0.9") != std::string::npos;
+  EXPECT_EQ(warned, 1);  // once for the margin, not at every check
 }
 
 }  // namespace
