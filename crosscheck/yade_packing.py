@@ -49,7 +49,11 @@ def compare(run, yade_json):
         ("stored (end - start)", f(last, "energy_normal", "energy_tangential") - f(first, "energy_normal", "energy_tangential"),
          ye.get("elastPotential", 0.0) - ys.get("elastPotential", 0.0)),
         ("friction", f(last, "energy_friction") - f(first, "energy_friction"),
-         ye.get("plastDissip", 0.0) - ys.get("plastDissip", 0.0)),
+         ye.get("plastDissip", float("nan")) - ys.get("plastDissip", 0.0)),
+        ("work - stored - kinetic", f(last, "energy_boundary_work") - f(first, "energy_boundary_work")
+         - (f(last, "energy_normal", "energy_tangential", "energy_kinetic_translation", "energy_kinetic_rotation")
+            - f(first, "energy_normal", "energy_tangential", "energy_kinetic_translation", "energy_kinetic_rotation")),
+         y["boundary_work"] - (ye["elastPotential"] - ys["elastPotential"]) - (ye["kinetic"] - ys["kinetic"])),
         ("kinetic at the end", f(last, "energy_kinetic_translation", "energy_kinetic_rotation"),
          y["kinetic_fluctuating"] + y["kinetic_rotation"]),
     ]
