@@ -161,7 +161,7 @@ CELLDEM_ISA_CLONES void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double
                                        double* __restrict twist, double* __restrict radius, double* __restrict force,
                                        double* __restrict torque_i, double* __restrict torque_j,
                                        ChunkOut& __restrict o) {
-  const auto pair = [&](int k) __attribute__((always_inline)) {
+  for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
     if constexpr (K == Kinematics::Affine) dv = dv + apply<Diagonal>(L, branch);  // images move apart with the cell
@@ -205,14 +205,6 @@ CELLDEM_ISA_CLONES void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double
       o.dissipation[2][k] = r.dashpot_work;
     }
     o.flags[k] = (r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0);
-  };
-  // The budget's sums tip the compiler's cost model against SIMD lanes (3.5 times slower measured), so that loop
-  // asks for them; the others vectorize as they always did.
-  if constexpr (Energy) {
-    CELLDEM_SIMD()
-    for (int k = 0; k < m; ++k) pair(k);
-  } else {
-    for (int k = 0; k < m; ++k) pair(k);
   }
 }
 
