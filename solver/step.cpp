@@ -11,6 +11,7 @@
 #include "core/check.hpp"
 #include "core/parallel.hpp"
 #include "integrate/leapfrog.hpp"
+#include "measure/energy.hpp"
 #include "neighbor/neighbor_list.hpp"
 
 namespace celldem {
@@ -27,6 +28,9 @@ struct StepShared {
   bool rebuilt = false;                          // whether this step rebuilt the neighbour list
   bool go_on = true;                             // after_step's answer
   std::int64_t steps = 0;
+  // The energy budget (Model::energy_budget): what the body damping dissipated in each force block's kick this
+  // step, added to the budget in block order (the same sum for any thread count).
+  std::vector<KickDamping> damping;
   // For the checking build (core/check.hpp) only: each thread's force blocks as last dealt, and how many
   // threads have done their share of this step's pair loop.
   std::vector<std::vector<std::size_t>> dealt;
@@ -37,11 +41,18 @@ struct StepShared {
 // on one thread while the others wait (Team::Member::serial). A stage that returns false ends the region.
 class StepThread {
  public:
-  StepThread(const Model& model, const Loading& loading, State& state, bool& force_rebuild,
-             const AfterStep& after_step, StepShared& shared, Team::Member team)
-      : model_(model), loading_(loading), state_(state), force_rebuild_(force_rebuild), after_step_(after_step),
-        shared_(shared), team_(team), kick_blocks_([&model, &state](std::size_t begin, std::size_t end) {
-          gather_and_kick_range(model, state, begin, end);
+  StepThread(const Model& model, const Loading& loading, State& state, bool& force_rebuild, const AfterStep& after_step,
+             StepShared& shared, Team::Member team)
+      : model_(model),
+        loading_(loading),
+        state_(state),
+        force_rebuild_(force_rebuild),
+        after_step_(after_step),
+        shared_(shared),
+        team_(team),
+        kick_blocks_([&model, &state, &shared](std::size_t begin, std::size_t end) {
+          gather_and_kick_range(model, state, begin, end,
+                                model.energy_budget ? &shared.damping[begin / kForceBlock] : nullptr);
         }) {
     deal_force_blocks();
   }
@@ -111,7 +122,8 @@ class StepThread {
   void kick() {
     CELLDEM_ASSERT(shared_.pair_loop_shares_done.load(std::memory_order_relaxed) == team_.size(),
                    "every thread has done its share of the step's pair loop before any thread kicks");
-    if (team_.size() > 1) gather_and_kick_share(model_, state_, blocks_);
+    if (team_.size() > 1)
+      gather_and_kick_share(model_, state_, blocks_, model_.energy_budget ? &shared_.damping : nullptr);
     team_.wait();
   }
 
@@ -119,6 +131,7 @@ class StepThread {
   bool end_step() {
     return team_.serial([&] {
       shared_.forces->finish();
+      if (model_.energy_budget) add_damping_to_energy_budget(shared_.damping, state_.energy);
       state_.time += model_.dt;
       ++state_.steps_since_creation;
       ++state_.control.stage_steps;  // (leg_steps: advance_cell)
@@ -151,12 +164,20 @@ class StepThread {
 
 }  // namespace
 
+void add_damping_to_energy_budget(const std::vector<KickDamping>& damping, EnergyLedger& energy) {
+  for (const KickDamping& block : damping) {
+    energy.damping_translation += block.translation;
+    energy.damping_rotation += block.rotation;
+  }
+}
+
 std::int64_t advance_steps(const Model& model, const Loading& loading, State& state, bool& force_rebuild,
                            const AfterStep& after_step, int threads) {
   const int team_size = threads > 0 ? threads : omp_get_max_threads();
   StepShared shared;
   shared.moved.assign(team_size, 0.0);  // (a smaller team leaves the rest at zero)
   shared.dealt.resize(static_cast<std::size_t>(team_size));  // (and its deal empty)
+  if (model.energy_budget) shared.damping.resize((state.particles.size() + kForceBlock - 1) / kForceBlock);
   Team team;
 #pragma omp parallel num_threads(team_size)
   {
@@ -172,6 +193,7 @@ void evaluate_forces(const Model& model, const Friction& friction, State& state)
   rebuild_pairs(model, state);
   compute_contact_forces(model, friction, state, /*advance_slip=*/false);
   gather_forces(state);
+  if (model.energy_budget) open_energy_budget(model, state);
 }
 
 }  // namespace celldem

@@ -6,6 +6,7 @@
 #include "cell/control.hpp"
 #include "core/model.hpp"
 #include "core/state.hpp"
+#include "integrate/leapfrog.hpp"
 
 namespace celldem {
 
@@ -23,11 +24,15 @@ using AfterStep = std::function<bool(bool rebuilt)>;
 // that a resumed run repeats the same arithmetic as an uninterrupted one); it is cleared when used. The
 // arithmetic does not depend on the thread count. An exception from a step or from after_step ends the
 // region and is rethrown. threads: the team size (0: OpenMP's default). Returns the number of steps done.
+// The body damping's share of a step's energy budget: each force block's kick (KickDamping), added in block order.
+void add_damping_to_energy_budget(const std::vector<KickDamping>& damping, EnergyLedger& energy);
+
 std::int64_t advance_steps(const Model& model, const Loading& loading, State& state, bool& force_rebuild,
                            const AfterStep& after_step, int threads = 0);
 
 // The forces of a state as it stands, nothing advanced (a stage's first row): a fresh neighbour list, the
-// contact forces with this friction and no slip added, the net force and moment of every particle.
+// contact forces with this friction and no slip added, the net force and moment of every particle; with the
+// model's energy budget, the budget opened at this state (measure/energy.hpp open_energy_budget).
 void evaluate_forces(const Model& model, const Friction& friction, State& state);
 
 }  // namespace celldem

@@ -41,6 +41,10 @@ struct ChunkOut {
   alignas(64) double shear[3][kChunk];      // (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23
   alignas(64) double shear_stiffness[3][kChunk];  // kn (n_i l_j)^2, ij = 12, 13, 23
   alignas(64) std::int64_t flags[kChunk];   // PairFlag bits
+  // The energy budget's (Energy): (force_i branch_j - force_j branch_i) / 2, ij = 12, 13, 23, and each pair's
+  // dissipation (PairContact::slip_work, rotational_slip_work, dashpot_work).
+  alignas(64) double spin[3][kChunk];
+  alignas(64) double dissipation[3][kChunk];
 };
 
 // m v with the sums left to right (as Eigen's product), skipping the zero terms of a diagonal m.
@@ -151,12 +155,12 @@ std::atomic<bool> portable_gather{false};
 // The law for every pair of the chunk, one SIMD lane each. tangential and force are the chunk's slices of
 // the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
 // knows no store in the loop changes the parameters or the cell.
-template <class Law, Kinematics K, bool Diagonal, bool Shear>
-CELLDEM_ISA_CLONES
-void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
-                    double* __restrict tangential, double* __restrict rolling, double* __restrict twist,
-                    double* __restrict radius, double* __restrict force, double* __restrict torque_i,
-                    double* __restrict torque_j, ChunkOut& __restrict o) {
+template <class Law, Kinematics K, bool Diagonal, bool Shear, bool Energy>
+CELLDEM_ISA_CLONES void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
+                                       double* __restrict tangential, double* __restrict rolling,
+                                       double* __restrict twist, double* __restrict radius, double* __restrict force,
+                                       double* __restrict torque_i, double* __restrict torque_j,
+                                       ChunkOut& __restrict o) {
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
     Real3 dv{c.dv[0][k], c.dv[1][k], c.dv[2][k]};
@@ -193,6 +197,13 @@ void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const C
       o.shear_stiffness[0][k] = kn * (nt.x * nt.x), o.shear_stiffness[1][k] = kn * (nt.y * nt.y);
       o.shear_stiffness[2][k] = kn * (nt.z * nt.z);
     }
+    if constexpr (Energy) {
+      o.spin[0][k] = 0.5 * (r.force.x * branch.y - r.force.y * branch.x);
+      o.spin[1][k] = 0.5 * (r.force.x * branch.z - r.force.z * branch.x);
+      o.spin[2][k] = 0.5 * (r.force.y * branch.z - r.force.z * branch.y);
+      o.dissipation[0][k] = r.slip_work, o.dissipation[1][k] = r.rotational_slip_work;
+      o.dissipation[2][k] = r.dashpot_work;
+    }
     o.flags[k] = (r.touching ? kTouching : 0) | (r.sliding ? kSliding : 0);
   }
 }
@@ -203,12 +214,14 @@ struct RunningSums {
   double stiffness[3] = {};  // sum of kn (n_k l_k)^2 [N m]
   double shear[3] = {};      // sum of (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23 [N m]
   double shear_stiffness[3] = {};  // sum of kn (n_i l_j)^2 [N m]
+  double spin[3] = {};             // sum of (force_i branch_j - force_j branch_i) / 2 [N m] (Energy)
+  double dissipation[3] = {};      // [J] slip, rotational slip, dashpot (Energy)
   std::int64_t touching = 0;
 };
 
 // Stores the chunk's flags and adds its pairs, in pair order, to the reduction block's sums. Pairs apart add
 // zeros, so they change no sum: nothing depends on whether a pair touches.
-template <bool Shear>
+template <bool Shear, bool Energy>
 void sum_chunk(const ChunkOut& c, Index q0, int m, std::uint8_t* __restrict flags, RunningSums& block) {
   RunningSums s = block;
   for (int k = 0; k < m; ++k) {
@@ -217,6 +230,10 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, std::uint8_t* __restrict flag
     if constexpr (Shear) {
       for (int a = 0; a < 3; ++a) s.shear[a] += c.shear[a][k];
       for (int a = 0; a < 3; ++a) s.shear_stiffness[a] += c.shear_stiffness[a][k];
+    }
+    if constexpr (Energy) {
+      for (int a = 0; a < 3; ++a) s.spin[a] += c.spin[a][k];
+      for (int a = 0; a < 3; ++a) s.dissipation[a] += c.dissipation[a][k];
     }
     s.touching += c.flags[k] & kTouching;
   }
@@ -230,7 +247,7 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, std::uint8_t* __restrict flag
 // (principal-axis loading, the common case); the products with h and L then skip their zero terms, which
 // gives the same numbers bit for bit. Shear: the shear stresses and stiffnesses are summed too (a shear servo
 // reads them; 7 % of the linear law's pair loop, so only loadings that need them pay for them).
-template <class Law, Kinematics K, bool Diagonal, bool Shear>
+template <class Law, Kinematics K, bool Diagonal, bool Shear, bool Energy>
 void evaluate_share(const ContactParams& law, State& state, double dt, std::vector<ReductionSums>& reduction_sums,
                     const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done) {
   Particles& p = state.particles;
@@ -261,17 +278,19 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
         const int m = std::min<Index>(kChunk, end - q0);
         chunk_owners(pl.first.data(), q0, m, owner, in.owner);
         gather(p, pl, q0, m, in);
-        evaluate_chunk<Law, K, Diagonal, Shear>(law, h, L, dt, m, in, pl.tangential[q0].data(),
-                                         rolling ? rolling + 3 * q0 : nullptr, twist ? twist + q0 : nullptr,
-                                         radius ? radius + q0 : nullptr, pl.force[q0].data(),
-                                         pl.torque_i[q0].data(), pl.torque_j[q0].data(), out);
-        sum_chunk<Shear>(out, q0, m, pl.flags.data(), sums);
+        evaluate_chunk<Law, K, Diagonal, Shear, Energy>(
+            law, h, L, dt, m, in, pl.tangential[q0].data(), rolling ? rolling + 3 * q0 : nullptr,
+            twist ? twist + q0 : nullptr, radius ? radius + q0 : nullptr, pl.force[q0].data(), pl.torque_i[q0].data(),
+            pl.torque_j[q0].data(), out);
+        sum_chunk<Shear, Energy>(out, q0, m, pl.flags.data(), sums);
       }
       ReductionSums& part = reduction_sums[first_owner / kReductionBlock];
       part.normal_sum = Vec3(sums.normal[0], sums.normal[1], sums.normal[2]);
       part.stiffness_sum = Vec3(sums.stiffness[0], sums.stiffness[1], sums.stiffness[2]);
       part.shear_sum = Vec3(sums.shear[0], sums.shear[1], sums.shear[2]);
       part.shear_stiffness_sum = Vec3(sums.shear_stiffness[0], sums.shear_stiffness[1], sums.shear_stiffness[2]);
+      part.spin_sum = Vec3(sums.spin[0], sums.spin[1], sums.spin[2]);
+      part.dissipation = Vec3(sums.dissipation[0], sums.dissipation[1], sums.dissipation[2]);
       part.touching = sums.touching;
     }
     if (blocks_done) blocks_done(block_begin, block_end);
@@ -281,10 +300,12 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
 // The law's share function for the deck's law and the cell's shape: the one run-time choice of the loop.
 // A loading with a shear servo takes the general cell (its tilts move; on a diagonal cell the general products
 // give the same bits), so the shear sums cost one instantiation per law, not two.
+// The energy budget needs the whole sum of force (x) branch: the general cell and the shear sums too.
 template <class Law, Kinematics K>
-ContactForceEvaluation::ShareFn share_for(bool diagonal, bool shear) {
-  if (shear) return &evaluate_share<Law, K, false, true>;
-  return diagonal ? &evaluate_share<Law, K, true, false> : &evaluate_share<Law, K, false, false>;
+ContactForceEvaluation::ShareFn share_for(bool diagonal, bool shear, bool energy) {
+  if (energy) return &evaluate_share<Law, K, false, true, true>;
+  if (shear) return &evaluate_share<Law, K, false, true, false>;
+  return diagonal ? &evaluate_share<Law, K, true, false, false> : &evaluate_share<Law, K, false, false, false>;
 }
 
 }  // namespace
@@ -314,6 +335,7 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
     : params_(contact_params(model.contact, friction)),
       state_(state),
       dt_(advance_slip ? model.dt : 0.0),
+      energy_(model.energy_budget),
       reduction_sums_((state.particles.size() + kReductionBlock - 1) / kReductionBlock) {
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
@@ -323,8 +345,8 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
     throw std::logic_error("compute_contact_forces: the pair list has no contact radii (rebuild it first)");
   share_ = with_law(model.contact, [&](auto law) {
     using Law = decltype(law);
-    return model.kinematics == Kinematics::Affine ? share_for<Law, Kinematics::Affine>(diagonal, shear_sums)
-                                                  : share_for<Law, Kinematics::Lammps>(diagonal, shear_sums);
+    return model.kinematics == Kinematics::Affine ? share_for<Law, Kinematics::Affine>(diagonal, shear_sums, energy_)
+                                                  : share_for<Law, Kinematics::Lammps>(diagonal, shear_sums, energy_);
   });
 }
 
@@ -339,12 +361,37 @@ void ContactForceEvaluation::finish() {
     total.stiffness_sum += part.stiffness_sum;
     total.shear_sum += part.shear_sum;
     total.shear_stiffness_sum += part.shear_stiffness_sum;
+    total.spin_sum += part.spin_sum;
+    total.dissipation += part.dissipation;
     total.touching += part.touching;
   }
   const double volume = state_.cell.volume();
   state_.stress << total.normal_sum / volume, total.shear_sum / volume;  // (shear: zero when not summed)
   state_.stiffness << total.stiffness_sum / volume, total.shear_stiffness_sum / volume;
   state_.touching = total.touching;
+  if (energy_) add_to_energy_budget(total);
+}
+
+// The step's share of the energy budget (measure/energy.hpp): the cell's work on the contacts over the step by the
+// trapezoid, -dt L : (M_old + M_new) / 2 with M = sum f (x) l, and what the contacts dissipated. At a stage's
+// first evaluation (dt 0: nothing advanced) only M is kept.
+void ContactForceEvaluation::add_to_energy_budget(const ReductionSums& total) {
+  const Vec3& d = total.normal_sum;
+  const Vec3& sym = total.shear_sum;
+  const Vec3& anti = total.spin_sum;
+  Mat3 moment;
+  moment << d[0], sym[0] + anti[0], sym[1] + anti[1],  //
+      sym[0] - anti[0], d[1], sym[2] + anti[2],        //
+      sym[1] - anti[1], sym[2] - anti[2], d[2];
+  EnergyLedger& e = state_.energy;
+  if (e.open && dt_ > 0.0) {
+    const Mat3 mean = 0.5 * (e.last_moment + moment);
+    e.boundary_work -= dt_ * state_.cell.velocity_gradient.cwiseProduct(mean).sum();
+  }
+  e.friction += total.dissipation[0];
+  e.rotational_friction += total.dissipation[1];
+  e.contact_damping += total.dissipation[2];
+  e.last_moment = moment;
 }
 
 void compute_contact_forces(const Model& model, const Friction& friction, State& state, bool advance_slip) {

@@ -52,6 +52,8 @@ struct ReductionSums {                // one reduction block's sums over its own
   Vec3 stiffness_sum = Vec3::Zero();  // sum of kn (n_k l_k)^2 [N m]
   Vec3 shear_sum = Vec3::Zero();      // sum of (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23 [N m]
   Vec3 shear_stiffness_sum = Vec3::Zero();  // sum of kn (n_i l_j)^2 [N m] (cell/control.hpp: why)
+  Vec3 spin_sum = Vec3::Zero();     // sum of (force_i branch_j - force_j branch_i) / 2, ij = 12, 13, 23 [N m] (energy)
+  Vec3 dissipation = Vec3::Zero();  // [J] at the Coulomb caps, the rolling and twisting caps, the dashpot (energy)
   std::int64_t touching = 0;
 };
 class ContactForceEvaluation {
@@ -61,7 +63,9 @@ class ContactForceEvaluation {
   ContactForceEvaluation(const Model& model, const Friction& friction, State& state, bool advance_slip = true,
                          bool shear_sums = true);
   void evaluate_share(const std::vector<std::size_t>& blocks, const BlocksDone& blocks_done = {});
-  void finish();  // the reductions, summed block by block in order: the same for any thread count
+  // The reductions, summed block by block in order: the same for any thread count. With the model's energy
+  // budget (Model::energy_budget), the step's terms are added to state.energy too.
+  void finish();
 
   using ShareFn = void (*)(const ContactParams&, State&, double, std::vector<ReductionSums>&,
                            const std::vector<std::size_t>&, const BlocksDone&);
@@ -69,7 +73,9 @@ class ContactForceEvaluation {
  private:
   ContactParams params_;
   State& state_;
+  void add_to_energy_budget(const ReductionSums& total);
   double dt_;
+  bool energy_;
   std::vector<ReductionSums> reduction_sums_;  // (reduction blocks)
   ShareFn share_;
 };

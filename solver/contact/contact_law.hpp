@@ -133,6 +133,12 @@ struct PairContact {
   double normal_stiffness;  // [N/m] d fn / d overlap (0 when apart): the servo's axis stiffness
   bool touching;
   bool sliding;      // the trial tangential force reached the Coulomb limit
+  // What the step dissipated at this contact (the energy budget, measure/energy.hpp; the pair loop sums them
+  // only when asked, and the compiler drops them otherwise): the Coulomb cap's force times the slip it made,
+  // the same at the rolling and twisting caps, and the rolling dashpot's force times the rolling motion.
+  double slip_work = 0.0;             // [J]
+  double rotational_slip_work = 0.0;  // [J]
+  double dashpot_work = 0.0;          // [J]
 };
 
 // ---- sub-models: plain functions ----
@@ -243,6 +249,8 @@ template <class L>
   const double cap = sliding ? ft_max / std::sqrt(ft2) : 1.0;
   ft = cap * ft;
   s = cap * s;
+  // The slip the cap made, (|ft_trial| - ft_max) / kt, at the force ft_max.
+  const double slip_work = sliding ? ft_max * ((std::sqrt(ft2) - ft_max) / kt) : 0.0;
 
   const Real3 zero{0.0, 0.0, 0.0};
   const Real3 nxft = cross(n, ft);
@@ -256,6 +264,14 @@ template <class L>
     torque_i = torque_i - moment;
     torque_j = torque_j + moment;
     out.history.rolling = select(touching, roll.displacement, zero);
+    const Real3 roll_slip = xi - roll.displacement;  // (zero unless the slider slid)
+    const double roll_cap =
+        roll.sliding
+            ? p.mu_roll * fn /
+                  std::sqrt(dot(-p.k_roll * xi - p.gamma_roll * v_roll, -p.k_roll * xi - p.gamma_roll * v_roll))
+            : 1.0;
+    out.rotational_slip_work = touching ? std::sqrt(dot(roll.force, roll.force) * dot(roll_slip, roll_slip)) : 0.0;
+    out.dashpot_work = touching ? roll_cap * p.gamma_roll * dot(v_roll, v_roll) * dt : 0.0;
   }
   if constexpr (L::twisting == TwistingModel::Marshall) {
     const double rate = dot(wj - wi, n);
@@ -264,6 +280,8 @@ template <class L>
     torque_i = torque_i - twist.moment * n;
     torque_j = torque_j + twist.moment * n;
     out.history.twist = touching && k_twist > 0.0 ? twist.angle : 0.0;
+    const double twist_slip = h.twist + dt * rate - twist.angle;  // (zero unless the slider slid)
+    out.rotational_slip_work += touching && k_twist > 0.0 ? std::abs(twist.moment * twist_slip) : 0.0;
   }
 
   out.force = select(touching, fn * n + ft, zero);
@@ -276,6 +294,7 @@ template <class L>
   out.normal_stiffness = touching ? normal.stiffness : 0.0;
   out.touching = touching;
   out.sliding = touching && sliding;
+  out.slip_work = touching ? slip_work : 0.0;
   return out;
 }
 
@@ -297,6 +316,7 @@ struct ContactResult {
   double normal_stiffness = 0.0;
   bool touching = false;
   bool sliding = false;
+  double slip_work = 0.0, rotational_slip_work = 0.0, dashpot_work = 0.0;  // [J] (PairContact)
 };
 
 template <class L>
@@ -317,6 +337,7 @@ ContactResult evaluate_contact(const ContactParams& p, const Vec3& branch, doubl
   r.normal_stiffness = c.normal_stiffness;
   r.touching = true;
   r.sliding = c.sliding;
+  r.slip_work = c.slip_work, r.rotational_slip_work = c.rotational_slip_work, r.dashpot_work = c.dashpot_work;
   return r;
 }
 

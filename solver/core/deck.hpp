@@ -287,6 +287,7 @@ struct Deck {
   ControlFailure control_failure = ControlFailure::Stop;
   std::int64_t checkpoint_interval = static_cast<std::int64_t>(keys::checkpoint_interval.fallback);
   double neighbor_skin = keys::neighbor_skin.fallback;  // fraction of the largest diameter
+  bool energy_budget = false;                           // keep the energy budget in every stage (docs/energy.md)
   std::optional<PrepareDef> prepare;        // at least one of prepare / initial_state
   std::optional<std::string> initial_state; // path, relative to the deck's folder; with prepare: its start
   bool override_state_physics = false;      // run a state made with other physics (differences are warned)

@@ -19,6 +19,7 @@ Model make_model(const Deck& deck, const std::vector<double>& radius, double tim
   m.contact = deck.contact;
   m.kinematics = deck.kinematics;
   m.servo = deck.servo;
+  m.energy_budget = deck.energy_budget;
   const ContactStiffness stiffness = reference_stiffness(deck.contact, deck.sample);
   const std::size_t n = radius.size();
   m.velocity_keep.resize(n);

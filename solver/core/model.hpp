@@ -14,6 +14,7 @@ struct Model {
   ContactDef contact;              // kn, kt and the tangential-history choices
   Kinematics kinematics = Kinematics::Affine;
   ServoDef servo;
+  bool energy_budget = false;      // keep the energy budget (State::energy; the deck's `energy_budget`)
   double max_radius = 0.0;         // [m]
   double solid_volume = 0.0;       // [m^3] sum of sphere volumes
   // Per particle (N). Leapfrog with implicit body damping:

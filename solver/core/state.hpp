@@ -155,6 +155,24 @@ struct ControlState {
   double reference_length(int k) const { return reference[k]; }
 };
 
+// The energy budget's running totals over the current stage (measure/energy.hpp has the definitions): what
+// each step adds, kept only when the deck asks (Model::energy_budget; `open` false otherwise). Carried by the
+// checkpoint's record, so a resumed stage adds to the same totals.
+struct EnergyLedger {
+  bool open = false;                 // opened at the stage's first force evaluation (open_energy_budget)
+  Mat3 last_moment = Mat3::Zero();   // [N m] sum f (x) l of the last force evaluation (the trapezoid's start)
+  double start_energy = 0.0;         // [J] stored + kinetic when the stage opened it
+  double boundary_work = 0.0;        // [J] work of the cell on the contacts
+  double friction = 0.0;             // [J] dissipated at the Coulomb cap
+  double rotational_friction = 0.0;  // [J] at the rolling and twisting caps
+  double contact_damping = 0.0;      // [J] by the rolling dashpot
+  double damping_translation = 0.0;  // [J] by the body damping of the fluctuating velocities
+  double damping_rotation = 0.0;     // [J] and of the spins
+  double dissipated() const {
+    return friction + rotational_friction + contact_damping + damping_translation + damping_rotation;
+  }
+};
+
 struct State {
   Cell cell;
   Particles particles;
@@ -182,6 +200,7 @@ struct State {
   // [1/s] the inertial number's strain-rate scale in those steps (core/plan leg_inertial_rate, the adaptive factor
   // included; series `inertial_number`); 0 outside a load program.
   double inertial_rate = 0.0;
+  EnergyLedger energy;  // the energy budget's totals (open only when Model::energy_budget)
 };
 
 }  // namespace celldem

@@ -1088,6 +1088,7 @@ Deck parse_deck(const std::string& json_text, const std::string& source) {
   d.control_failure = r.choice_of<ControlFailure>(keys::control_failure);
   d.neighbor_skin = r.number(keys::neighbor_skin);
   d.checkpoint_interval = r.integer(keys::checkpoint_interval);
+  d.energy_budget = r.boolean(keys::energy_budget);
 
   const bool has_prepare = r.has(keys::prepare);
   const bool has_state = r.has(keys::initial_state);

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "cell/control.hpp"
+#include "measure/energy.hpp"
 #include "measure/micro.hpp"
 #include "measure/quasi_static.hpp"
 
@@ -97,6 +98,30 @@ const std::array kColumns = std::to_array<SeriesColumn>({
      "rate d_mean sqrt(rho / p) of the imposed rates alone: rate the deviatoric scale sqrt(3/2 e':e') of the driven "
      "components, servo-held ones counted 0 (strain_rate for an axial test; the planned figure of the adaptive "
      "rate's ceiling and the time-to-answer rules)", false},
+    {"energy_boundary_work", &R::energy_boundary_work, kReal, "J",
+     "work of the cell on the contacts since the stage started, sum of -dt L : V sigma over the steps (trapezoid of "
+     "the stress at each step's ends; nan unless the deck sets energy_budget, as every energy_ column)", false},
+    {"energy_normal", &R::energy_normal, kReal, "J", "energy stored in the normal springs", false},
+    {"energy_tangential", &R::energy_tangential, kReal, "J", "energy stored in the tangential springs", false},
+    {"energy_rotational_springs", &R::energy_rotational_springs, kReal, "J",
+     "energy stored in the rolling and twisting springs", false},
+    {"energy_kinetic_translation", &R::energy_kinetic_translation, kReal, "J",
+     "the leapfrog's kinetic energy of the fluctuating translation, 1/2 m v(t - dt/2).v(t + dt/2)", false},
+    {"energy_kinetic_rotation", &R::energy_kinetic_rotation, kReal, "J",
+     "the leapfrog's kinetic energy of rotation, 1/2 I w(t - dt/2).w(t + dt/2)", false},
+    {"energy_friction", &R::energy_friction, kReal, "J",
+     "dissipated at the Coulomb caps since the stage started (capped force times slip)", false},
+    {"energy_rotational_friction", &R::energy_rotational_friction, kReal, "J",
+     "dissipated at the rolling and twisting caps since the stage started", false},
+    {"energy_body_damping", &R::energy_body_damping, kReal, "J",
+     "dissipated by the body damping (translation and rotation) since the stage started", false},
+    {"energy_contact_damping", &R::energy_contact_damping, kReal, "J",
+     "dissipated by the rolling dashpot since the stage started", false},
+    {"energy_closure", &R::energy_closure, kReal, "J",
+     "closure error: boundary work - (change of stored + kinetic energy since the stage started) - dissipated",
+     false},
+    {"energy_closure_relative", &R::energy_closure_relative, kReal, "-",
+     "energy_closure / energy_boundary_work (nan while the boundary work is 0)", false},
 });
 // clang-format on
 
@@ -111,6 +136,30 @@ double printed(double x, ColumnFormat format) {
   char buf[40];
   print_value(buf, sizeof buf, x, format);
   return std::strtod(buf, nullptr);
+}
+
+// The energy budget's columns: NaN unless the model keeps the budget (its walk of the pairs costs a row as
+// much again).
+void set_energy_columns(const Model& model, const State& state, SeriesRow& r) {
+  if (!model.energy_budget) {
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    for (double R::*f : {&R::energy_boundary_work, &R::energy_normal, &R::energy_tangential,
+                         &R::energy_rotational_springs, &R::energy_kinetic_translation, &R::energy_kinetic_rotation,
+                         &R::energy_friction, &R::energy_rotational_friction, &R::energy_body_damping,
+                         &R::energy_contact_damping, &R::energy_closure, &R::energy_closure_relative})
+      r.*f = nan;
+    return;
+  }
+  const EnergyBudget b = energy_budget(model, state);
+  r.energy_boundary_work = b.totals.boundary_work;
+  r.energy_normal = b.partition.normal, r.energy_tangential = b.partition.tangential;
+  r.energy_rotational_springs = b.partition.rotational_springs;
+  r.energy_kinetic_translation = b.partition.kinetic_translation;
+  r.energy_kinetic_rotation = b.partition.kinetic_rotation;
+  r.energy_friction = b.totals.friction, r.energy_rotational_friction = b.totals.rotational_friction;
+  r.energy_body_damping = b.totals.damping_translation + b.totals.damping_rotation;
+  r.energy_contact_damping = b.totals.contact_damping;
+  r.energy_closure = b.closure, r.energy_closure_relative = b.closure_relative;
 }
 
 }  // namespace
@@ -200,6 +249,7 @@ SeriesRow series_row(const Model& model, const State& state, const ContactMeasur
                                                               model.density, inv.p)
                                             : std::numeric_limits<double>::quiet_NaN();
   r.kinetic_to_elastic = ratio(m.kinetic_energy, m.elastic_energy);
+  set_energy_columns(model, state, r);
   r.lode_angle = r.sigma1 != r.sigma3 ? std::atan((2.0 * r.sigma2 - r.sigma1 - r.sigma3) /
                                                   (std::sqrt(3.0) * (r.sigma1 - r.sigma3))) * 180.0 / M_PI
                                       : std::numeric_limits<double>::quiet_NaN();

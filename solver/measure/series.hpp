@@ -32,6 +32,11 @@ struct SeriesRow {
   double rate_factor = 0, strain_rate = 0;          // the loading rate (an adaptive leg's factor) in the last steps
   double inertial_number = 0, kinetic_to_elastic = 0;  // quasi-static indicators (I of the cell's own rate)
   double imposed_inertial_number = 0;               // I of the imposed (driven) rates alone, as planned
+  // The energy budget since the stage started (measure/energy.hpp; NaN unless the deck keeps it).
+  double energy_boundary_work = 0, energy_normal = 0, energy_tangential = 0, energy_rotational_springs = 0;
+  double energy_kinetic_translation = 0, energy_kinetic_rotation = 0, energy_friction = 0;
+  double energy_rotational_friction = 0, energy_body_damping = 0, energy_contact_damping = 0;
+  double energy_closure = 0, energy_closure_relative = 0;
 
   // Strain of component k (0-based, kComponentNames: e1 e2 e3 g12 g13 g23), compression positive.
   double strain(int k) const {

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <csignal>
 #include <sstream>
+#include <stdexcept>
 #include <string_view>
+#include <vector>
 
 #include "io/state_file.hpp"
 #include "run/preflight.hpp"
@@ -51,7 +53,39 @@ StageOutput::StageOutput(RunDirectory& run, const Deck& deck, const RunOptions& 
       progress_(stage_, options.progress, options.progress_interval), start_(std::chrono::steady_clock::now()),
       branch_(branch), observers_(std::move(observers)) {}
 
-void StageOutput::open(const State& state, bool resumed) {
+namespace {
+// The energy budget's totals in a checkpoint's record (doubles as JSON numbers: they read back to the bit).
+nlohmann::json energy_to_json(const EnergyLedger& e) {
+  std::vector<double> moment(e.last_moment.data(), e.last_moment.data() + 9);
+  return {{"open", e.open},
+          {"last_moment", moment},
+          {"start_energy", e.start_energy},
+          {"boundary_work", e.boundary_work},
+          {"friction", e.friction},
+          {"rotational_friction", e.rotational_friction},
+          {"contact_damping", e.contact_damping},
+          {"damping_translation", e.damping_translation},
+          {"damping_rotation", e.damping_rotation}};
+}
+
+EnergyLedger energy_from_json(const nlohmann::json& j) {
+  EnergyLedger e;
+  e.open = j.at("open").get<bool>();
+  const std::vector<double> moment = j.at("last_moment").get<std::vector<double>>();
+  if (moment.size() != 9) throw std::runtime_error("last_moment: 9 numbers expected");
+  for (int k = 0; k < 9; ++k) e.last_moment.data()[k] = moment[static_cast<std::size_t>(k)];
+  e.start_energy = j.at("start_energy").get<double>();
+  e.boundary_work = j.at("boundary_work").get<double>();
+  e.friction = j.at("friction").get<double>();
+  e.rotational_friction = j.at("rotational_friction").get<double>();
+  e.contact_damping = j.at("contact_damping").get<double>();
+  e.damping_translation = j.at("damping_translation").get<double>();
+  e.damping_rotation = j.at("damping_rotation").get<double>();
+  return e;
+}
+}  // namespace
+
+void StageOutput::open(State& state, bool resumed) {
   fs::create_directories(dir_);
   const fs::path path = dir_ / "series.csv";
   write_file_atomic(dir_ / "series.columns.json", series_columns_json());
@@ -62,6 +96,18 @@ void StageOutput::open(const State& state, bool resumed) {
     for (const auto& w : record.at("warnings")) warn(w.get<std::string>());
     const nlohmann::json memory = record.value("observers", nlohmann::json::object());  // (none before it existed)
     for (StageObserver* o : observers_) o->restore(memory);
+    if (model_.energy_budget) {
+      if (!record.contains("energy"))
+        throw UsageError(run_.checkpoint(stage_).string() +
+                         ": the checkpoint has no energy budget (the run was started "
+                         "without energy_budget); run again with --force");
+      try {
+        state.energy = energy_from_json(record.at("energy"));
+      } catch (const std::exception& e) {
+        throw UsageError(run_.checkpoint(stage_).string() + ": the checkpoint's energy budget is not readable (" +
+                         e.what() + "); run again with --force");
+      }
+    }
     std::istringstream in(proven_series(state, record.at("series_proofs")));
     std::string line;
     std::vector<std::string> header;
@@ -249,11 +295,12 @@ void StageOutput::checkpoint(const State& state) {
   for (const ControlErrors& e : control_errors_) errors.push_back(to_json(e));
   nlohmann::json memory = nlohmann::json::object();
   for (const StageObserver* o : observers_) o->save(memory);
-  const nlohmann::json record = {{"elapsed_s", elapsed()},
-                                 {"control_errors", errors},
-                                 {"warnings", warnings_},
-                                 {"series_proofs", nlohmann::json::array({last_proof_})},
-                                 {"observers", memory}};
+  nlohmann::json record = {{"elapsed_s", elapsed()},
+                           {"control_errors", errors},
+                           {"warnings", warnings_},
+                           {"series_proofs", nlohmann::json::array({last_proof_})},
+                           {"observers", memory}};
+  if (model_.energy_budget) record["energy"] = energy_to_json(state.energy);
   write_state(run_.checkpoint(stage_).string(), state, "stage:" + stage_, state_physics(deck_), record.dump());
 }
 

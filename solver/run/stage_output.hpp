@@ -34,8 +34,9 @@ class StageOutput {
               std::int64_t output_interval, bool loading_test, bool branch, std::vector<StageObserver*> observers);
 
   // Fresh stage: a new series with its first row. Resumed: the rows up to the checkpoint are kept (a row cut
-  // short, or written after the checkpoint, is dropped) and read back.
-  void open(const State& state, bool resumed);
+  // short, or written after the checkpoint, is dropped) and read back, and the energy budget's totals
+  // (State::energy) restored from the checkpoint's record.
+  void open(State& state, bool resumed);
 
   // After every step. Returns true when the next step must rebuild the neighbour list (after a checkpoint,
   // so that a resumed run does the same). Throws Interrupted after a stop request, once checkpointed.

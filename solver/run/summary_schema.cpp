@@ -134,6 +134,31 @@ constexpr F kNetworkTimeStep[] = {
     {"check_interval", "steps", "the steps between checks (checkpoint_interval)"},
     {"seconds", "s", "the checks' time in all"}};
 
+// tests.*.energy (run/energy_report.cpp; docs/energy.md): a span's budget, the test's and each leg's.
+#define CELLDEM_ENERGY_SPAN                                                                                           \
+  {"boundary_work", "J", "the work the cell did on the sample, the integral of V sigma:d(epsilon)"},                 \
+      {"stored_change", "J", "the change of the energy stored in the springs"},                                     \
+      {"kinetic_change", "J", "the change of the fluctuating kinetic energy (translation and rotation)"},           \
+      {"friction", "J", "dissipated by sliding at the Coulomb cap"},                                                \
+      {"rotational_friction", "J", "dissipated at the rolling and twisting caps"},                                  \
+      {"body_damping", "J", "dissipated by the body damping"},                                                      \
+      {"contact_damping", "J", "dissipated by the contact dashpots"},                                               \
+      {"dissipated", "J", "all dissipation"},                                                                       \
+      {"damping_share", "1", "damping's share of the dissipation (null when nothing was dissipated)"},              \
+      {"closure", "J", "boundary work - (stored change + kinetic change + dissipated)"},                            \
+      {"closure_relative", "1", "the closure over the boundary work (null when no work was done)"}
+constexpr F kEnergyLeg[] = {CELLDEM_ENERGY_SPAN, {"leg", "", "the leg's index in the load program"}};
+constexpr F kEnergy[] = {CELLDEM_ENERGY_SPAN,
+                         {"legs", "", "the same per leg of the load program", kEnergyLeg},
+                         {"worst_closure_relative", "1", "the largest relative closure error of any row"},
+                         {"worst_closure_step", "steps", "its stage step"},
+                         {"worst_closure_leg", "", "its leg"},
+                         {"closure_bound", "1", "the relative closure error above which the test is flagged"},
+                         {"damping_share_bound", "1", "the damping share above which the test is damping-dominated"},
+                         {"closure_within_bound", "", "the worst closure error is within its bound"},
+                         {"damping_dominated", "", "damping took more than its bound of the dissipation"}};
+#undef CELLDEM_ENERGY_SPAN
+
 // prepared.started_from (runner.cpp started_from).
 constexpr F kOverlaps[] = {{"touching_pairs", "pairs", "pairs that overlap"},
                            {"deep_pairs", "pairs",
@@ -317,6 +342,8 @@ std::vector<SchemaEntry> summary_schema() {
   out.push_back({"tests", "object", "", "per test, by its name"});
   out.push_back({"tests.*", "object", "", "a loading test's summary"});
   append_record_schema<TestSummary>(out, "tests.*");
+  out.push_back({"tests.*.energy", "object", "", "the test's energy budget (deck key energy_budget; docs/energy.md)"});
+  append_doc_keys(out, "tests.*.energy", kEnergy);
   out.push_back({"tests.*.network_time_step", "object", "", "the time step against the contact network"});
   append_doc_keys(out, "tests.*.network_time_step", kNetworkTimeStep);
   out.push_back({"tests.*.probes", "object", "", "the test's probes (docs/probes.md)"});

@@ -10,6 +10,7 @@
 #include "io/state_file.hpp"
 #include "measure/micro.hpp"
 #include "run/driven_measure.hpp"
+#include "run/energy_report.hpp"
 #include "run/preflight.hpp"
 #include "run/probes.hpp"
 #include "run/run_directory.hpp"
@@ -214,6 +215,24 @@ std::optional<ObserverReport> RateCheck::after_test(const FinishedTest& done) {
 
 }  // namespace
 
+namespace {
+// The test's energy budget (the deck's energy_budget): its totals, per leg, the worst closure error and damping's
+// share, from the rows once the test is done (run/energy_report.hpp). The step keeps the totals (State::energy).
+class EnergyBudgetReport : public StageObserver {
+ public:
+  EnergyBudgetReport(std::string test, double dt) : test_(std::move(test)), dt_(dt) {}
+  std::optional<ObserverReport> after_test(const FinishedTest& done) override {
+    EnergyReport r = energy_report(test_, done.stage.rows, dt_);
+    if (r.json.is_null()) return std::nullopt;
+    return ObserverReport{"energy", std::move(r.json), std::move(r.warnings), std::move(r.console)};
+  }
+
+ private:
+  std::string test_;
+  double dt_;
+};
+}  // namespace
+
 StageObservers observers_for(const RunContext& context, const TestDef& test, const TestStart& start) {
   StageObservers observers;
   const fs::path dir = context.run.stage_dir(test.name);
@@ -223,6 +242,7 @@ StageObservers observers_for(const RunContext& context, const TestDef& test, con
   if (test.probes) observers.add(std::make_unique<Probes>(context, test));
   if (const std::optional<VerifyRateOptions> check = verify_rate_for(context.options.verify_rate, test))
     observers.add(std::make_unique<RateCheck>(context, test, start, *check));
+  if (context.deck.energy_budget) observers.add(std::make_unique<EnergyBudgetReport>(test.name, start.model.dt));
   return observers;
 }
 

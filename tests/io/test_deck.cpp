@@ -186,6 +186,17 @@ TEST(DeckErrors, GradingNamesTheKey) {
   expect_error(j, "sample.diameters.grading", "object");
 }
 
+TEST(Deck, EnergyBudgetIsOffUnlessAskedAndOnlyABoolean) {
+  EXPECT_FALSE(parse_deck(minimal_deck().dump()).energy_budget);
+  Json j = minimal_deck();
+  j["energy_budget"] = true;
+  EXPECT_TRUE(parse_deck(j.dump()).energy_budget);
+  for (const Json& bad : {Json(1), Json("true")}) {  // (null: as every optional key, left out)
+    j["energy_budget"] = bad;
+    expect_error(j, "energy_budget", "true or false");
+  }
+}
+
 TEST(Deck, CriticalTimeStepIsSqrtOfLightestMassOverKn) {
   SampleDef s;
   s.density = 2650;

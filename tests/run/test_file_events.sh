@@ -8,7 +8,8 @@
 # as skipped, never as passed.
 # Usage: test_file_events.sh CELLDEM KILL_AT_LIBRARY [SEED=1] [SECONDS=120] [MIN_TRIALS=20] [PATTERN]
 # PATTERN (grep -E over the event log's "N op path" lines) draws only among matching events, e.g.
-# 'rename .*checkpoint' for the windows after each checkpoint's commit.
+# 'rename .*checkpoint' for the windows after each checkpoint's commit. ENERGY_BUDGET=1 in the environment runs the
+# deck with "energy_budget": true (its totals then travel in each checkpoint's record).
 set -uo pipefail
 celldem="$1"
 interposer="$2"
@@ -26,6 +27,7 @@ grep -q '"output_interval":250}' "$here/small_run.json" || fail "small_run.json 
 sed -e 's/"strain":0.006/"strain":0.004/g' \
     -e 's/"output_interval":250}/"output_interval":250,"snapshots":{"e1":[0.001,0.003]},"probes":{"at_e1":[0.002],"at":["peak"],"kind":"stress","plane":"rendulic","directions":2,"magnitudes":[2000],"steps":200,"hold_steps":50}}/g' \
     "$here/small_run.json" > "$work/deck.json"
+if [[ "${ENERGY_BUDGET:-0}" == 1 ]]; then sed -i 's/^{"format":1,/{"format":1,"energy_budget":true,/' "$work/deck.json"; fi
 args=(--verify-rate --quiet --threads 1)
 
 # The files a finished run leaves, compared byte for byte (summary.json: by value, without times and speeds).

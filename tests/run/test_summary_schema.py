@@ -118,6 +118,7 @@ def summaries(celldem, tmp_path_factory):
     # Seeds: each seed's own summary.
     deck = small_deck()
     deck["tests"] = [axial("ttc")]
+    deck["energy_budget"] = True  # (its record)
     seeds = run(celldem, deck, folder, "seeds", "--seeds", "2")
     for sub in sorted(os.listdir(seeds)):
         if os.path.isfile(os.path.join(seeds, sub, "summary.json")):

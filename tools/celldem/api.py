@@ -78,6 +78,22 @@ class Stage:
             self._series = frame
         return self._series
 
+    ENERGY_COLUMNS = ("energy_boundary_work", "energy_normal", "energy_tangential", "energy_rotational_springs",
+                      "energy_kinetic_translation", "energy_kinetic_rotation", "energy_friction",
+                      "energy_rotational_friction", "energy_body_damping", "energy_contact_damping",
+                      "energy_closure", "energy_closure_relative")
+
+    @property
+    def energy(self) -> Optional[pd.DataFrame]:
+        """The energy budget's series (the deck's `energy_budget`, docs/energy.md): e1 and the energy_ columns,
+        each row since the stage started, [J]; None when the run kept no budget (the columns are NaN or
+        absent). The test's totals, per leg, worst closure and damping share are in summary["energy"]."""
+        frame = self.series
+        if "energy_boundary_work" not in frame.columns or frame["energy_boundary_work"].isna().all():
+            return None
+        keep = [c for c in ("step", "e1", "leg") + self.ENERGY_COLUMNS if c in frame.columns]
+        return frame[keep]
+
     def __repr__(self) -> str:
         damaged = f", damaged={self.damaged!r}" if self.damaged is not None else ""
         return f"Stage({self.name!r}, {self.path!r}{damaged})"
@@ -120,6 +136,12 @@ class Run:
         if os.path.isfile(os.path.join(prepare, "series.csv")):
             self.stages[PREPARE] = Stage(PREPARE, prepare, self.summary.get("prepared") or {})
         self.stages.update(self.tests)
+
+    @property
+    def energy(self) -> Dict[str, Dict[str, Any]]:
+        """{test: summary.json's tests.<test>.energy} for the tests that kept an energy budget: totals over the
+        test and per leg ("legs"), the worst closure error, damping's share and the verdicts (docs/energy.md)."""
+        return {n: t.summary["energy"] for n, t in self.tests.items() if isinstance(t.summary.get("energy"), dict)}
 
     def __repr__(self) -> str:
         damaged = f", damaged={list(self.damaged)}" if self.damaged else ""

@@ -192,6 +192,42 @@ def draw_balance(ax, run):
     finish(ax, n, e1_label(run), "unbalanced force ratio " + unit(run, "unbalanced_force"), "Extra  Quasi-static check")
 
 
+def draw_energy(ax, run):
+    """The energy budget's partition stacked against ε1, per test (its first seed): the change of stored and
+    kinetic energy, friction's and damping's dissipation, filled one on the other, with the boundary work as
+    a line above them (the gap between the stack's top and the line is the closure error; docs/energy.md)."""
+    plotted = 0
+    layers = (("stored", "/"), ("kinetic", "."), ("friction", None), ("damping", "x"))
+    for test in run.test_names:
+        work = with_data(run.curves(test, "energy_boundary_work"))
+        if not work:
+            continue
+        x = run.curves(test, "energy_boundary_work")[0][0]
+
+        def col(name):
+            curves = run.curves(test, name)
+            return np.nan_to_num(curves[0][1]) if curves else np.zeros_like(x)
+
+        parts = {
+            "stored": sum(col(c) for c in ("energy_normal", "energy_tangential", "energy_rotational_springs")),
+            "kinetic": col("energy_kinetic_translation") + col("energy_kinetic_rotation"),
+            "friction": col("energy_friction") + col("energy_rotational_friction"),
+            "damping": col("energy_body_damping") + col("energy_contact_damping"),
+        }
+        parts["stored"] = parts["stored"] - parts["stored"][0]
+        parts["kinetic"] = parts["kinetic"] - parts["kinetic"][0]
+        color = test_color(run, test)
+        base = np.zeros_like(x)
+        for name, hatch in layers:
+            top = base + parts[name]
+            ax.fill_between(x * PERCENT, base, top, color=color, alpha=0.15 if hatch else 0.35, hatch=hatch, lw=0,
+                            label=f"{test}: {name}")
+            base = top
+        ax.plot(x * PERCENT, col("energy_boundary_work"), color=color, linewidth=1.2, label=f"{test}: boundary work")
+        plotted += 1
+    finish(ax, plotted, e1_label(run), "energy since the test started (J)", "Extra  Energy budget")
+
+
 # The overlaid figures: (file stem, paper figure number or None, caption, columns it needs, drawing function);
 # the order is the overview's panel order. The drawing functions title their axes as the paper numbers them.
 FIGURES = (
@@ -214,6 +250,8 @@ FIGURES = (
      ("s11", "s22", "s33"), draw_stresses),
     ("extra_balance", None, "unbalanced force ratio vs ε1 (checks the loading is quasi-static)",
      ("unbalanced_force",), draw_balance),
+    ("extra_energy", None, "energy budget vs ε1: stored, kinetic, friction and damping stacked under the boundary "
+     "work (the deck's energy_budget)", ("energy_boundary_work",), draw_energy),
 )
 OVERVIEW = "overview"
 FORCE_CHAINS = "force_chains"

@@ -303,6 +303,34 @@ def timing_section(run):
     return md_table(("Stage", "Steps", "Wall time (s)", "Particle-steps per second"), rows)
 
 
+def energy_section(run):
+    """The energy budget of each test that kept one (the deck's energy_budget; docs/energy.md): totals, the
+    worst closure error against its bound, and damping's share of the dissipation, flagged above its bound."""
+    rows = []
+    for name, info in (run.summary.get("tests") or {}).items():
+        energy = info.get("energy") if isinstance(info, dict) else None
+        if not isinstance(energy, dict):
+            continue
+        share = energy.get("damping_share")
+        flags = []
+        if energy.get("closure_within_bound") is False:
+            flags.append(f"closure above {fmt(100 * energy.get('closure_bound', 0), 2)} % at step "
+                         f"{fmt(energy.get('worst_closure_step'))}")
+        if energy.get("damping_dominated"):
+            flags.append("damping-dominated")
+        rows.append((name, fmt(energy.get("boundary_work"), 4), fmt(energy.get("stored_change"), 4),
+                     fmt(energy.get("friction"), 4), fmt(energy.get("body_damping"), 4),
+                     fmt(None if share is None else 100 * share, 3),
+                     fmt(None if energy.get("closure_relative") is None else 100 * energy["closure_relative"], 3),
+                     fmt(None if energy.get("worst_closure_relative") is None
+                         else 100 * energy["worst_closure_relative"], 3),
+                     "; ".join(flags) or "ok"))
+    if not rows:
+        return None
+    return md_table(("Test", "Boundary work (J)", "Δ stored (J)", "Friction (J)", "Body damping (J)",
+                     "Damping share (%)", "Closure (% of work)", "Worst closure (%)", "Verdict"), rows)
+
+
 def phi_degrees(sin_phi):
     return None if sin_phi is None or not -1 <= sin_phi <= 1 else math.degrees(math.asin(sin_phi))
 
@@ -739,6 +767,7 @@ def build_report(run, paper, planned):
                 f"means are celldem's (summary.json; {end_window_text(run)}); maxima, start values and the final "
                 "σ1/σ3 are read from each series.csv.", "",
                 peaks_section(run), ""]
+    out += section("Energy budget", energy_section(run))
     out += section("Grading", grading_section(run))
     out += section("Preparation", prepared_section(run))
     out += section("Force chains", force_chain_section(planned))
