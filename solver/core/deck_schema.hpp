@@ -185,11 +185,12 @@ inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number,
 
 inline constexpr KeySpec tolerance{.path = "tolerance", .kind = KeyKind::Number, .positive = true, .required = false,
     .default_text = "none (the deck as written)", .unit = "noise floors",
-    .meaning = "ask for an answer within this many seed-to-seed noise floors of the deck as written, in fewer steps: "
-               "the time steps, strain rates, preparation schedule and output intervals are rewritten by "
-               "the study's rules (io/time_to_answer_rules.json, levels 0.5 to 3 floors of their 1000-sphere scene; a "
-               "deck of N > 1000 spheres asks T sqrt(1000/N) of them, and below the lowest level runs as written; "
-               "`celldem plan --tolerance`); `run --tolerance` overrides it"};
+    .meaning = "ask for a mean over seeds within this many seed-to-seed noise floors of this deck's size of the "
+               "quasi-static answer (I -> 0), whatever rate the deck is written at: the strain-driven legs run at the "
+               "inertial number where the fitted rate bias laws (at their 95 % upper bound) reach T floors, slowed or "
+               "sped up from the deck's; time steps, preparation schedule and output intervals follow the rules "
+               "(io/time_to_answer_rules.json; one run adds its own seed-to-seed scatter; `celldem plan --tolerance` "
+               "shows the distance of the deck as written and the cost); `run --tolerance` overrides it"};
 
 inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
     .default_text = "defaults", .meaning = "the stress servo (docs/physics.md: Mixed control)"};
@@ -475,19 +476,28 @@ inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind
     "force and kinetic energy stay high (not quasi-static) stops the run, naming the likely cause"};
 inline constexpr KeySpec test_verify_rate{.path = "tests[].verify_rate", .kind = KeyKind::Object, .required = false,
     .default_text = "none (`celldem run --verify-rate` checks every test)",
-    .meaning = "the test checks its own convergence: it runs again from the same starting state over its whole path "
-               "at `rate_factor` times its rate (and, with `twin`, once more at 1.001 times its rate to measure the chaos "
-               "of a pair) and judges each summary quantity's difference in noise floors at 95 % "
-               "(summary.json `verify_rate`, `<test>/verify/slow/`, `<test>/verify/twin/`; docs/outputs.md); the "
-               "command line's `--verify-*` values, when given, replace these"};
+    .meaning = "the test checks its own convergence by a ladder of rates: it runs again from the same starting state "
+               "over its whole path at each rung's rate, and at 1.001, 1.002 ... times its rate (the twins, whose spread "
+               "is the chaos of one run); each quantity is fitted as Q0 + C r^p over the rates (the order p fitted) and "
+               "its distance C from I -> 0 is judged in noise floors at 95 % (summary.json `verify_rate`, "
+               "`<test>/verify/rung-<k>/`, `<test>/verify/twin-<k>/`; docs/outputs.md); the command line's "
+               "`--verify-*` values, when given, replace these"};
+inline constexpr KeySpec verify_rate_rungs{.path = "tests[].verify_rate.rungs", .kind = KeyKind::Array,
+    .required = false, .default_text = "[0.5, 0.25]",
+    .meaning = "the slower rungs' driving rates over the test's (at least two, each in [0.001, 0.999], no two equal): "
+               "strain increments and rates of the strain-driven axes, stress ramps' and rotations' rates (step ends "
+               "and the output interval follow); a rung at f costs 1/f times the test's steps"};
 inline constexpr KeySpec verify_rate_rate_factor{.path = "tests[].verify_rate.rate_factor", .kind = KeyKind::Number,
-    .min = 1e-3, .max = 0.999, .required = false, .fallback = 0.5,
-    .meaning = "the slower run's driving rate over the test's: strain increments and rates of the strain-driven "
-               "axes, stress ramps' and rotations' rates (step ends and the output interval follow)"};
+    .min = 1e-3, .max = 0.999, .required = false, .fallback = 0.5, .default_text = "none",
+    .meaning = "shorthand for `rungs` [f, f^2] (not with `rungs`; f^2 at least 0.001)"};
+inline constexpr KeySpec verify_rate_twins{.path = "tests[].verify_rate.twins", .kind = KeyKind::Integer,
+    .min = 2, .max = 8, .required = false, .fallback = 2,
+    .meaning = "the twins (the test again at 1.001, 1.002 ... times its rate), whose spread with the test is one run's "
+               "chaos, with as many degrees of freedom (not with `twin`)"};
 inline constexpr KeySpec verify_rate_twin{.path = "tests[].verify_rate.twin", .kind = KeyKind::Boolean,
     .required = false, .default_text = "true",
-    .meaning = "also run the twin (the test once more at 1.001 times its rate), whose differences "
-               "calibrate the chaos of a pair; `false`: the chaos is taken at its bound, sqrt 2 floors"};
+    .meaning = "`false`: no twins; one run's chaos is then unknown and a single run's check is unresolved (the seeds "
+               "of an ensemble judge the mean: ensemble.json `verify_rate`)"};
 inline constexpr KeySpec test_probes{.path = "tests[].probes", .kind = KeyKind::Object, .required = false,
     .default_text = "none",
     .meaning = "incremental response probes: from the exact state at each point of the test, small stress or strain "
@@ -560,34 +570,147 @@ inline constexpr KeySpec probes_hold_steps{.path = "tests[].probes.hold_steps", 
 // clang-format on
 
 // Every key in table order (the order of docs/deck.md's table).
-inline constexpr auto kAll = std::to_array<const KeySpec*>({
-    &format, &description, &sample, &sample_count, &sample_diameters, &sample_diameters_list,
-    &sample_diameters_min, &sample_diameters_max, &sample_diameters_count,
-    &sample_diameters_grading, &sample_diameters_grading_by, &sample_diameters_grading_sizes,
-    &sample_diameters_grading_passing, &sample_density, &sample_seed,
-    &sample_grid_spacing, &contact, &contact_normal, &contact_tangential, &contact_rolling, &contact_twisting, &contact_kn, &contact_kt,
-    &contact_youngs_modulus, &contact_poisson_ratio, &contact_rolling_stiffness, &contact_rolling_damping,
-    &contact_rolling_friction, &contact_reference_overlap, &contact_tangential_rotation, &contact_moment_arm,
-    &damping, &damping_translational, &damping_rotational, &kinematics, &time_step, &tolerance, &servo, &servo_gain,
-    &servo_integral_gain, &servo_max_strain_increment, &control_failure, &neighbor_skin, &checkpoint_interval, &prepare,
-    &prepare_friction, &prepare_rolling_friction, &prepare_target_pressure, &prepare_fast_solid_fraction, &prepare_fast_strain_increment,
-    &prepare_relax_overlaps, &prepare_time_step, &prepare_servo_max_strain_increment, &prepare_output_interval, &prepare_equilibrium, &equilibrium_pressure_tolerance, &equilibrium_stress_tolerance,
-    &equilibrium_unbalanced_force_ratio, &equilibrium_min_steps, &equilibrium_check_interval,
-    &equilibrium_max_steps, &prepare_legs, &end_solid_fraction, &end_equilibrium, &initial_state, &override_state_physics, &tests,
-    &test_name, &test_friction, &test_rolling_friction, &test_legs, &leg_repeat, &test_axes, &axis_strain_increment, &axis_strain_rate,
-    &axis_stress, &axis_b, &axis_mean_stress, &axis_constant_volume, &axis_stress_ramp, &axis_stress_ramp_from,
-    &axis_stress_ramp_rate, &shear_axis_strain_increment, &shear_axis_strain_rate, &shear_axis_stress,
-    &test_zero_shear_stress, &test_adaptive_rate, &adaptive_min_factor, &adaptive_max_factor,
-    &adaptive_unbalanced_force_ratio, &adaptive_kinetic_to_elastic, &adaptive_inertial_number,
-    &adaptive_check_interval, &test_simple_shear, &simple_shear_gamma_increment, &simple_shear_gamma_rate,
-    &simple_shear_normal_stress, &test_rotate_principal_axes, &rotation_plane, &rotation_sigma1, &rotation_sigma3,
-    &rotation_from, &rotation_rate, &rotation_angle_increment, &test_end, &test_end_axis, &test_end_strain, &test_end_ratio, &test_end_stress,
-    &test_end_steps, &test_end_equilibrium, &test_end_max_steps, &test_equilibrium, &snapshots, &snapshots_interval,
-    &snapshots_e1, &snapshots_format, &test_time_step, &test_output_interval, &test_dynamic, &test_verify_rate,
-    &verify_rate_rate_factor, &verify_rate_twin, &test_probes, &probes_at, &probes_at_e1,
-    &probes_kind, &probes_plane, &probes_directions, &probes_list, &probes_magnitudes, &probes_steps,
-    &probes_hold_steps, &probes_target_strain, &probes_rest_fraction, &probes_rest_max_steps, &probes_drift_limit,
-    &probes_elastic_factor, &probes_asymmetry_limit});
+inline constexpr auto kAll = std::to_array<const KeySpec*>({&format,
+                                                            &description,
+                                                            &sample,
+                                                            &sample_count,
+                                                            &sample_diameters,
+                                                            &sample_diameters_list,
+                                                            &sample_diameters_min,
+                                                            &sample_diameters_max,
+                                                            &sample_diameters_count,
+                                                            &sample_diameters_grading,
+                                                            &sample_diameters_grading_by,
+                                                            &sample_diameters_grading_sizes,
+                                                            &sample_diameters_grading_passing,
+                                                            &sample_density,
+                                                            &sample_seed,
+                                                            &sample_grid_spacing,
+                                                            &contact,
+                                                            &contact_normal,
+                                                            &contact_tangential,
+                                                            &contact_rolling,
+                                                            &contact_twisting,
+                                                            &contact_kn,
+                                                            &contact_kt,
+                                                            &contact_youngs_modulus,
+                                                            &contact_poisson_ratio,
+                                                            &contact_rolling_stiffness,
+                                                            &contact_rolling_damping,
+                                                            &contact_rolling_friction,
+                                                            &contact_reference_overlap,
+                                                            &contact_tangential_rotation,
+                                                            &contact_moment_arm,
+                                                            &damping,
+                                                            &damping_translational,
+                                                            &damping_rotational,
+                                                            &kinematics,
+                                                            &time_step,
+                                                            &tolerance,
+                                                            &servo,
+                                                            &servo_gain,
+                                                            &servo_integral_gain,
+                                                            &servo_max_strain_increment,
+                                                            &control_failure,
+                                                            &neighbor_skin,
+                                                            &checkpoint_interval,
+                                                            &prepare,
+                                                            &prepare_friction,
+                                                            &prepare_rolling_friction,
+                                                            &prepare_target_pressure,
+                                                            &prepare_fast_solid_fraction,
+                                                            &prepare_fast_strain_increment,
+                                                            &prepare_relax_overlaps,
+                                                            &prepare_time_step,
+                                                            &prepare_servo_max_strain_increment,
+                                                            &prepare_output_interval,
+                                                            &prepare_equilibrium,
+                                                            &equilibrium_pressure_tolerance,
+                                                            &equilibrium_stress_tolerance,
+                                                            &equilibrium_unbalanced_force_ratio,
+                                                            &equilibrium_min_steps,
+                                                            &equilibrium_check_interval,
+                                                            &equilibrium_max_steps,
+                                                            &prepare_legs,
+                                                            &end_solid_fraction,
+                                                            &end_equilibrium,
+                                                            &initial_state,
+                                                            &override_state_physics,
+                                                            &tests,
+                                                            &test_name,
+                                                            &test_friction,
+                                                            &test_rolling_friction,
+                                                            &test_legs,
+                                                            &leg_repeat,
+                                                            &test_axes,
+                                                            &axis_strain_increment,
+                                                            &axis_strain_rate,
+                                                            &axis_stress,
+                                                            &axis_b,
+                                                            &axis_mean_stress,
+                                                            &axis_constant_volume,
+                                                            &axis_stress_ramp,
+                                                            &axis_stress_ramp_from,
+                                                            &axis_stress_ramp_rate,
+                                                            &shear_axis_strain_increment,
+                                                            &shear_axis_strain_rate,
+                                                            &shear_axis_stress,
+                                                            &test_zero_shear_stress,
+                                                            &test_adaptive_rate,
+                                                            &adaptive_min_factor,
+                                                            &adaptive_max_factor,
+                                                            &adaptive_unbalanced_force_ratio,
+                                                            &adaptive_kinetic_to_elastic,
+                                                            &adaptive_inertial_number,
+                                                            &adaptive_check_interval,
+                                                            &test_simple_shear,
+                                                            &simple_shear_gamma_increment,
+                                                            &simple_shear_gamma_rate,
+                                                            &simple_shear_normal_stress,
+                                                            &test_rotate_principal_axes,
+                                                            &rotation_plane,
+                                                            &rotation_sigma1,
+                                                            &rotation_sigma3,
+                                                            &rotation_from,
+                                                            &rotation_rate,
+                                                            &rotation_angle_increment,
+                                                            &test_end,
+                                                            &test_end_axis,
+                                                            &test_end_strain,
+                                                            &test_end_ratio,
+                                                            &test_end_stress,
+                                                            &test_end_steps,
+                                                            &test_end_equilibrium,
+                                                            &test_end_max_steps,
+                                                            &test_equilibrium,
+                                                            &snapshots,
+                                                            &snapshots_interval,
+                                                            &snapshots_e1,
+                                                            &snapshots_format,
+                                                            &test_time_step,
+                                                            &test_output_interval,
+                                                            &test_dynamic,
+                                                            &test_verify_rate,
+                                                            &verify_rate_rungs,
+                                                            &verify_rate_rate_factor,
+                                                            &verify_rate_twins,
+                                                            &verify_rate_twin,
+                                                            &test_probes,
+                                                            &probes_at,
+                                                            &probes_at_e1,
+                                                            &probes_kind,
+                                                            &probes_plane,
+                                                            &probes_directions,
+                                                            &probes_list,
+                                                            &probes_magnitudes,
+                                                            &probes_steps,
+                                                            &probes_hold_steps,
+                                                            &probes_target_strain,
+                                                            &probes_rest_fraction,
+                                                            &probes_rest_max_steps,
+                                                            &probes_drift_limit,
+                                                            &probes_elastic_factor,
+                                                            &probes_asymmetry_limit});
 
 // The keys that choose the contact sub-models; a SubModelSelection names each one's choice in this order.
 inline constexpr auto kSubModels = std::to_array<const KeySpec*>({&contact_normal, &contact_tangential,

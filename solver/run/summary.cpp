@@ -152,13 +152,18 @@ Json summarize_series(const std::vector<SeriesRow>& rows, int end_axis, Compared
   const double end_strain = last.strain(end_axis);
   for (const SeriesRow& r : rows)
     if (std::abs(r.strain(end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
+  double ev_span = 0.0, z_span = 0.0;
+  int in_span = 0;
+  for (const SeriesRow& r : rows)
+    if (std::abs(r.strain(end_axis) - end_strain) <= kRateCheckWindow) ev_span += r.ev, z_span += r.Z, ++in_span;
 
   const Json robust = robust_peak(rows);
   const bool peak_reached = judged.reached;
   if (values) {  // (as the JSON holds them: null, not a number, is NaN)
     const auto finite = [](double x) { return std::isfinite(x) ? x : std::numeric_limits<double>::quiet_NaN(); };
     const auto number = [](const Json& j) { return j.is_number() ? j.get<double>() : std::numeric_limits<double>::quiet_NaN(); };
-    *values = {finite(at_peak.ratio13), number(robust["ratio13"]), finite(ev_end / in_window), finite(z_end / in_window)};
+    *values = {finite(at_peak.ratio13),   number(robust["ratio13"]), finite(ev_end / in_window),
+               finite(z_end / in_window), finite(ev_span / in_span), finite(z_span / in_span)};
   }
 
   return {{"peak_ratio13", number_or_null(at_peak.ratio13)},
