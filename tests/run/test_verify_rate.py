@@ -314,27 +314,30 @@ def test_the_deck_key_asks_for_one_test_and_bad_values_are_refused(celldem, work
         f"a floors file without floors: exit 2 naming the key, got {bad.returncode}: {bad.stderr}"
 
 
-def test_a_tolerance_run_prints_its_tolerance_saving_and_verdicts(celldem, work):
-    """`--tolerance 1 --verify-rate`: the run prints the tolerance it applied, the predicted saving and what T floors
-    of this deck are in the rules' 1000-sphere scene before it starts, and each rate-check verdict after
-    each test; summary.json holds the same (its tolerance block as `celldem plan --tolerance 1 --json` gives it)."""
+def test_a_tolerance_run_prints_its_tolerance_cost_distance_and_verdicts(celldem, work):
+    """`--tolerance 3 --verify-rate`: the run prints the tolerance it applied, what it costs against the deck as
+    written, the inertial number the rate bias laws allow and how far the written deck is from I -> 0 before it
+    starts, and each rate-check verdict after each test; summary.json holds the same (its tolerance block as
+    `celldem plan --tolerance 3 --json` gives it)."""
     deck = deck_at(paper_increment(), work, "tolerance")
-    summary, stdout = run(celldem, deck, os.path.join(work, "tolerance"), "--tolerance", "1", "--verify-rate",
+    summary, stdout = run(celldem, deck, os.path.join(work, "tolerance"), "--tolerance", "3", "--verify-rate",
                           "--no-verify-twin", "--threads", "1", quiet=False)
-    plan = json.loads(subprocess.run([celldem, "plan", deck, "--tolerance", "1", "--json"], capture_output=True,
+    plan = json.loads(subprocess.run([celldem, "plan", deck, "--tolerance", "3", "--json"], capture_output=True,
                                      text=True, check=True).stdout)["tolerance"]
     t = summary["tolerance"]
-    assert t["total"] == plan["total"] and t["tolerance"] == 1
-    ratio = t["total"]["ratio_low"]
+    assert t["total"] == plan["total"] and t["tolerance"] == 3 and t["rate"] == plan["rate"]
+    cost = 1 / t["total"]["ratio_low"]
     first = stdout.splitlines()[0]
-    assert first.startswith("tolerance 1 noise floors") and f"{ratio:.2f}x fewer" in first, first
-    c = t["calibration"]
-    # 150 spheres, fewer than the rules' 1000: the deck keeps T (its wider floors are not spent).
-    assert c["calibration_particles"] == 1000 and c["particles"] == 150 and c["tolerance_at_calibration"] == 1
-    assert "1 floors of these 150 spheres are 1 floors of the rules' 1000-sphere scene" in first, first
+    assert first.startswith("tolerance 3 noise floors from I -> 0") and f"{cost:.3g}x the deck's cost" in first, first
+    rate = t["rate"]
+    assert f"strain-driven legs at inertial number {rate['inertial_number']:.3g}" in stdout
+    for w in rate["written"]:
+        assert f"{w['stage']} as written: I {w['inertial_number']:.3g}, " in stdout
+        assert w["slowed"] == (w["inertial_number"] > rate["inertial_number"])
+    assert "promise: the mean over seeds" in stdout and "one run adds" in rate["promise"]
     for test, s in summary["tests"].items():
         v = s["verify_rate"]
-        assert v["tolerance_floors"] == 1
+        assert v["tolerance_floors"] == 3
         assert f"{test}: rate check: {v['verdict']}: " in stdout
         for q, c in v["comparisons"].items():
             assert f"{test}:   {q:<20s} " in stdout and c["verdict"] in stdout
