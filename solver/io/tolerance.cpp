@@ -293,6 +293,9 @@ RateBiasModel parse_rate_bias(const Json& j) {
 
 }  // namespace
 
+// The smallest inertial number a tolerance is resolved to (below it a test would take 1e5 times the paper's steps).
+constexpr double kMinInertialNumber = 1e-9;
+
 double rate_bias_floors(const RateBiasModel& model, const RateBiasLaw& law, double inertial_number, double particles,
                         bool upper) {
   const double L = std::log(inertial_number / model.reference_inertial_number);
@@ -313,8 +316,9 @@ RateForTolerance inertial_number_for_tolerance(const RateBiasModel& model, doubl
   RateForTolerance out{model.max_inertial_number, ""};
   for (const RateBiasLaw& law : model.laws) {
     // the upper bias grows with I over the range sought (the laws' orders are positive): bisection in log I
-    double lo = std::log(1e-9), hi = std::log(model.max_inertial_number);
+    double lo = std::log(kMinInertialNumber), hi = std::log(model.max_inertial_number);
     if (rate_bias_floors(model, law, std::exp(hi), particles, true) <= tolerance) continue;
+    if (rate_bias_floors(model, law, std::exp(lo), particles, true) > tolerance) return {0.0, law.quantity};
     for (int k = 0; k < 100; ++k) {
       const double mid = 0.5 * (lo + hi);
       (rate_bias_floors(model, law, std::exp(mid), particles, true) <= tolerance ? lo : hi) = mid;
@@ -441,7 +445,7 @@ Json rate_json(const RateBiasModel& model, const RateForTolerance& rate, double 
                                               rate_bias_floors(model, law, I, particles, true)};
       written.push_back(d);
     }
-  char buf[700];
+  char buf[1200];
   std::snprintf(
       buf, sizeof buf,
       "the mean over seeds of each quantity the laws cover is within %g floors of this deck's size (%g spheres) "
@@ -482,6 +486,12 @@ Deck resolve_tolerance(const Deck& written, const std::string& json_text, double
   Json calibration = calibration_json(rules, tolerance, particles, at_calibration, at_table);
   // The strain-driven legs' inertial number: T floors of this deck from I -> 0 by the rate bias laws.
   const RateForTolerance rate = inertial_number_for_tolerance(rules.rate_bias, tolerance, particles);
+  if (!(rate.inertial_number > 0.0))
+    throw DeckError(key_path + ": " + fmt(tolerance) + " noise floors of " + fmt(particles) +
+                    " spheres cannot be "
+                    "promised for " +
+                    rate.limiting + " at any inertial number down to " + fmt(kMinInertialNumber) +
+                    " by the rate bias laws (io/time_to_answer_rules.json rate_bias): ask for a larger tolerance");
   ToleranceLevel level = interpolate_rules(rules, at_table, key_path);
   level.inertial_number = rate.inertial_number;
   Resolver r{written, level};

@@ -45,7 +45,7 @@ struct RateBiasModel {
 double rate_bias_floors(const RateBiasModel& model, const RateBiasLaw& law, double inertial_number, double particles,
                         bool upper);
 // The largest inertial number whose upper bias is at most `tolerance` floors for every law (capped at the model's
-// measured top), and the law that limits it.
+// measured top), and the law that limits it; 0 when a law exceeds it even at 1e-9 (resolve_tolerance refuses).
 struct RateForTolerance {
   double inertial_number = 0.0;
   std::string limiting;  // the quantity that sets it ("" where the cap does)

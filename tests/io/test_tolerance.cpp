@@ -291,15 +291,16 @@ TEST(Tolerance, LargerDecksCarryTheirTightFloorsToTheTable) {
   const Json rules_at = Json::parse(faster.tolerance_settings)["rules"];
   EXPECT_NEAR(rules_at["time_step_fraction"].get<double>(),
               interpolate_rules(rules, 2.0 * std::sqrt(0.125), "t").time_step_fraction, 1e-15);
-  for (const double t : {0.01, 1.0, 100.0, 1e300}) EXPECT_NO_THROW(resolve_tolerance(written, text, t)) << t;
+  for (const double t : {0.5, 1.0, 100.0, 1e300}) EXPECT_NO_THROW(resolve_tolerance(written, text, t)) << t;
   EXPECT_THROW(resolve_tolerance(written, text, 0.0), DeckError);
+  EXPECT_THROW(resolve_tolerance(written, text, 1e-6), DeckError);  // no inertial number down to 1e-9 promises it
 }
 
 // The rate bias laws against their own definition: the upper bias at the inertial number T allows is T floors for
 // the limiting law and at most T for the others; floors narrow with N as the conservative exponent says.
 TEST(ToleranceRateBias, TheRateForTIsTFloorsOfTheLimitingLaw) {
   const RateBiasModel& m = time_to_answer_rules().rate_bias;
-  ASSERT_GE(m.laws.size(), 3u);
+  ASSERT_GE(m.laws.size(), 2u);
   for (const double n : {150.0, 1000.0, 8000.0})
     for (const double t : {0.5, 1.0, 2.0}) {
       const RateForTolerance r = inertial_number_for_tolerance(m, t, n);
@@ -339,7 +340,7 @@ TEST(ToleranceRateBias, ATighterTNeverRunsFaster) {
       const std::string text = j.dump();
       const Deck written = parse_deck(text, "deck.json");
       double last_steps = std::numeric_limits<double>::infinity(), last_I = 0.0;
-      for (double t = 0.05; t < 50.0; t *= 1.25) {
+      for (double t = 0.5; t < 50.0; t *= 1.25) {
         const Deck d = resolve_tolerance(written, text, t);
         double steps = static_cast<double>(preparation_steps(d).low);
         for (const TestDef& test : d.tests) steps += static_cast<double>(test_steps(d, test).low);

@@ -283,11 +283,11 @@ TEST(EndToEnd, ToleranceRunRecordsItsDeckWhichRunsAgainAsWritten) {
   const std::string written_step = "\"time_step\": 3.0e-6";
   text.replace(text.find(written_step), written_step.size(), "\"time_step\": 1.0e-6");
   testing::write_bytes(deck, text);
-  Result r = celldem(dir, run_args(deck, out, "--quiet --tolerance 1"));
+  Result r = celldem(dir, run_args(deck, out, "--quiet --tolerance 3"));
   ASSERT_EQ(r.code, 0) << r.err;
   const auto summary = nlohmann::json::parse(read_bytes(out / "summary.json"));
   const auto& settings = summary["settings"];
-  EXPECT_EQ(settings["tolerance"], 1.0);
+  EXPECT_EQ(settings["tolerance"], 3.0);
   ASSERT_EQ(settings["resolved"]["stages"].size(), 2u);
   const double dt = settings["resolved"]["stages"][1]["time_step"].get<double>();
   EXPECT_EQ(settings["stage_time_steps"]["ttc"].get<double>(), dt);
@@ -302,7 +302,7 @@ TEST(EndToEnd, ToleranceRunRecordsItsDeckWhichRunsAgainAsWritten) {
   // Resuming at another tolerance, or none, is refused before anything runs.
   r = celldem(dir, run_args(deck, out, "--quiet --resume --tolerance 2"));
   EXPECT_EQ(r.code, 2) << r.err;
-  EXPECT_NE(r.err.find("started with --tolerance 1 and is resumed with --tolerance 2"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("started with --tolerance 3 and is resumed with --tolerance 2"), std::string::npos) << r.err;
   r = celldem(dir, run_args(deck, out, "--quiet --resume"));
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("and is resumed without --tolerance"), std::string::npos) << r.err;
@@ -311,7 +311,7 @@ TEST(EndToEnd, ToleranceRunRecordsItsDeckWhichRunsAgainAsWritten) {
   ASSERT_EQ(r.code, 0) << r.err;
   const auto written_plan = nlohmann::json::parse(r.out);
   EXPECT_FALSE(written_plan.contains("tolerance"));
-  r = celldem(dir, "plan '" + deck.string() + "' --json --tolerance 1");
+  r = celldem(dir, "plan '" + deck.string() + "' --json --tolerance 3");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto plan = nlohmann::json::parse(r.out);
   const auto& ttc = plan["tolerance"]["stages"][1];
