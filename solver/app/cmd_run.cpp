@@ -1,6 +1,9 @@
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <optional>
+#include <stdexcept>
+#include <string>
 
 #include "app/commands.hpp"
 #include "core/plan.hpp"
@@ -74,6 +77,8 @@ Command add_run_command(CLI::App& app) {
     RunOptions options;
     bool include_uncontrolled = false;
     bool no_twin = false;  // --no-verify-twin
+    std::string rungs;     // --verify-rate-rungs
+    double rate_factor = 0.5;  // --verify-rate-factor
     std::optional<double> tolerance;
   };
   auto args = std::make_shared<Args>();
@@ -86,9 +91,13 @@ Command add_run_command(CLI::App& app) {
                 "Keep the thread count: no trials of one thread (by default a stage times one thread against its "
                 "count now and then and keeps the faster: same results, faster under contention)");
   cmd->add_option("--tolerance", args->tolerance,
-                  "Answer within T seed-to-seed noise floors of the deck at its written settings, in fewer steps: "
-                  "time steps, strain rates, the preparation's schedule and output intervals rewritten by the "
-                  "study's rules (`celldem plan --tolerance T` shows them; overrides the deck's `tolerance`)");
+                  "A mean over seeds within T seed-to-seed noise floors (of this deck's size) of the quasi-static "
+                  "answer (I -> 0), whatever rate the deck is written at: strain-driven legs at the inertial number "
+                  "where the rate bias laws fitted on a rate ladder reach T floors at their 95 % upper bound (a deck "
+                  "written faster is slowed, and says so); time steps, the preparation's schedule and output "
+                  "intervals by the rules (io/time_to_answer_rules.json). One run adds its own scatter, one floor "
+                  "(a standard deviation). `celldem plan --tolerance T` shows how far the deck as written is from "
+                  "I -> 0 and what T costs; overrides the deck's `tolerance`");
   cmd->add_flag("--force", args->options.force, "Overwrite results already in the run directory");
   cmd->add_flag("--resume", args->options.resume, "Continue an interrupted run from its last checkpoint");
   cmd->add_flag("--quiet", args->options.quiet, "No progress or stage messages");
@@ -100,17 +109,25 @@ Command add_run_command(CLI::App& app) {
                 "With --seeds: keep tests whose control failed in the ensemble statistics (left out by default)");
   VerifyRateOptions& verify = args->options.verify_rate;  // NOLINT: lives as long as args
   cmd->add_flag("--verify-rate", verify.enabled,
-                "Each test checks its own convergence: it runs again from the same starting state over its whole path "
-                "at a fraction of its rate, and once more as a twin at 1.001 times its rate (the chaos of a pair), and judges each summary quantity's difference in noise floors at 95 % (summary.json "
-                "verify_rate; <test>/verify/slow/, <test>/verify/twin/; its cost is printed before it runs)");
-  cmd->add_option("--verify-rate-factor", verify.rate_factor,
-                  "With --verify-rate: the slower run's driving rate over the test's (strain increments and rates, "
-                  "stress ramps, rotations)")
-      ->check(CLI::Range(1e-3, 0.999))
-      ->capture_default_str();
+                "Each test checks its own convergence by a ladder of rates: it runs again from the same starting "
+                "state over its whole path at each slower rung (--verify-rate-rungs) and as twins at 1.001, 1.002 ... "
+                "times its rate (the chaos of one run); each summary quantity is fitted as Q0 + C r^p over the rates "
+                "(the order p fitted) and its distance C from I -> 0 is judged in noise floors at 95 % (summary.json "
+                "verify_rate; <test>/verify/rung-<k>/, <test>/verify/twin-<k>/; each run's cost is printed before "
+                "it runs)");
+  cmd->add_option("--verify-rate-rungs", args->rungs,
+                  "With --verify-rate: the slower rungs' rates over the test's, e.g. 0.5,0.25 (the default; at least "
+                  "two, each in [0.001, 0.999]); a rung at f costs 1/f times the test's steps")
+      ->type_name("LIST");
+  cmd->add_option("--verify-rate-factor", args->rate_factor,
+                  "With --verify-rate: shorthand for --verify-rate-rungs f,f^2")
+      ->check(CLI::Range(std::sqrt(kMinRung), kMaxRung));
+  cmd->add_option("--verify-twins", verify.twins,
+                  "With --verify-rate: the twins (2 by default), whose spread with the test is one run's chaos")
+      ->check(CLI::Range(2, kMaxTwins));
   cmd->add_flag("--no-verify-twin", args->no_twin,
-                "With --verify-rate: no twin (a third less cost); the chaos of a pair is then taken at its "
-                "bound, sqrt 2 floors, and a single run's check seldom resolves a tolerance of 1 floor");
+                "With --verify-rate: no twins (a third less cost at the default rungs); one run's chaos is then "
+                "unknown and a single run's check is unresolved: the seeds of an ensemble judge the mean");
   cmd->add_option("--floors", verify.floors_path,
                   "With --verify-rate: the noise floors, an ensemble.json of this deck or a JSON of seed-to-seed stds "
                   "{\"ratio13\", \"ev\", \"Z\"} (optionally under tests.<name>); default: the reference ensemble's, "
@@ -129,14 +146,25 @@ Command add_run_command(CLI::App& app) {
       throw CLI::ValidationError("--force and --resume exclude each other");
     const Deck deck = read_deck(args->deck, args->tolerance);
     VerifyRateOptions& verify = args->options.verify_rate;
-    verify.factor_given = cmd->count("--verify-rate-factor") > 0;
-    verify.twin_given = args->no_twin;
-    if (args->no_twin) verify.twin = false;
+    const bool rungs = cmd->count("--verify-rate-rungs") > 0, factor = cmd->count("--verify-rate-factor") > 0;
+    const bool twins = cmd->count("--verify-twins") > 0;
+    if (rungs && factor) throw CLI::ValidationError("--verify-rate-rungs and --verify-rate-factor exclude each other");
+    if (twins && args->no_twin) throw CLI::ValidationError("--verify-twins and --no-verify-twin exclude each other");
+    try {
+      if (rungs) verify.rungs = parse_rungs(args->rungs);
+    } catch (const std::invalid_argument& e) {
+      throw CLI::ValidationError(std::string("--verify-rate-rungs: ") + e.what());
+    }
+    if (factor) verify.rungs = rungs_of_factor(args->rate_factor);
+    verify.rungs_given = rungs || factor;
+    verify.twins_given = twins || args->no_twin;
+    if (args->no_twin) verify.twins = 0;
     const bool checked = verify.enabled || std::any_of(deck.tests.begin(), deck.tests.end(),
                                                        [](const TestDef& t) { return t.verify_rate.has_value(); });
-    if ((verify.factor_given || verify.twin_given || !verify.floors_path.empty()) && !checked)
-      throw CLI::ValidationError("--verify-rate-factor, --no-verify-twin and --floors need --verify-rate "
-                                 "(or a test's verify_rate key)");
+    if ((verify.rungs_given || verify.twins_given || !verify.floors_path.empty()) && !checked)
+      throw CLI::ValidationError(
+          "--verify-rate-rungs, --verify-rate-factor, --verify-twins, --no-verify-twin and "
+          "--floors need --verify-rate (or a test's verify_rate key)");
     for (const TestDef& test : deck.tests)  // a floors file that cannot serve is refused before any work
       if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
     if (!args->probes.empty()) {

@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "app/commands.hpp"
 #include "core/number_text.hpp"
@@ -382,11 +384,38 @@ std::string describe_calibration(const Json& t) {
   if (!t.contains("calibration") || !t["calibration"].contains("calibration_particles")) return "";
   const Json& c = t["calibration"];
   char buf[320];
-  std::snprintf(buf, sizeof buf, "%g floors of these %.0f spheres are %.3g floors of the rules' %d-sphere scene "
-                "(floors as 1/sqrt(N), a rate's bias not; a smaller deck keeps T)", c["tolerance"].get<double>(),
-                c["particles"].get<double>(), c["tolerance_at_calibration"].get<double>(),
-                c["calibration_particles"].get<int>());
+  std::snprintf(buf, sizeof buf,
+                "time steps from the rules' level at %.3g floors of their %d-sphere scene (%g floors of "
+                "these %.0f spheres, floors as 1/sqrt(N))",
+                c["table_tolerance"].get<double>(), c["calibration_particles"].get<int>(), c["tolerance"].get<double>(),
+                c["particles"].get<double>());
   return buf;
+}
+
+// Where the rate bias laws put the deck: the inertial number T allows, and each written leg's distance from I -> 0.
+std::vector<std::string> describe_rate(const Json& t) {
+  std::vector<std::string> lines;
+  if (!t.contains("rate")) return lines;
+  const Json& r = t["rate"];
+  char buf[400];
+  std::snprintf(buf, sizeof buf, "strain-driven legs at inertial number %.3g (set by %s)",
+                r["inertial_number"].get<double>(), r["limiting"].get<std::string>().c_str());
+  lines.push_back(buf);
+  for (const Json& w : r["written"]) {
+    std::string d;
+    for (const auto& [q, v] : w["distance_floors"].items()) {
+      std::snprintf(buf, sizeof buf, "%s%s %.2f (up to %.2f)", d.empty() ? "" : ", ", q.c_str(), v[0].get<double>(),
+                    v[1].get<double>());
+      d += buf;
+    }
+    const double f = w["rate_factor"].get<double>();
+    std::snprintf(buf, sizeof buf, "%s as written: I %.3g, %s floors from I -> 0; %s %.3gx",
+                  w["stage"].get<std::string>().c_str(), w["inertial_number"].get<double>(), d.c_str(),
+                  w["slowed"].get<bool>() ? "slowed" : "sped up", w["slowed"].get<bool>() ? 1.0 / f : f);
+    lines.push_back(buf);
+  }
+  lines.push_back("promise: " + r["promise"].get<std::string>());
+  return lines;
 }
 
 // The tolerance block of `plan` in words: per stage its time step, each leg's driving and inertial number,
@@ -400,17 +429,15 @@ void print_tolerance(const Json& t) {
     return std::string(buf);
   };
   const auto ratio = [](const Json& r) { return r.is_null() ? std::string("?") : std::to_string(r.get<double>()).substr(0, 5); };
-  if (t.value("as_written", false)) {
-    std::printf("%s\n", t["reason"].get<std::string>().c_str());
-  } else {
-    const Json& rules = t["rules"];
-    std::printf("tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the stability limit %.3g s "
-                "(preparation %.3f), inertial number %.3g, damping translational %.3g rotational %.3g\n",
-                t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(), t["stability_limit"].get<double>(),
-                rules["prepare_time_step_fraction"].get<double>(), rules["inertial_number"].get<double>(),
-                t["damping"]["translational"].get<double>(), t["damping"]["rotational"].get<double>());
-  }
+  const Json& rules = t["rules"];
+  std::printf(
+      "tolerance %g noise floors from I -> 0 (io/time_to_answer_rules.json): time step %.3f of the stability "
+      "limit %.3g s (preparation %.3f), inertial number %.3g, damping translational %.3g rotational %.3g\n",
+      t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(), t["stability_limit"].get<double>(),
+      rules["prepare_time_step_fraction"].get<double>(), rules["inertial_number"].get<double>(),
+      t["damping"]["translational"].get<double>(), t["damping"]["rotational"].get<double>());
   if (const std::string c = describe_calibration(t); !c.empty()) std::printf("  %s\n", c.c_str());
+  for (const std::string& line : describe_rate(t)) std::printf("  %s\n", line.c_str());
   for (const Json& s : t["stages"]) {
     std::printf("  %-12s dt %.3g s = %.3f of the limit (written %.3g s = %.3f); output every %lld steps (written %lld); "
                 "%s particle-steps (written %s: %sx)\n",
@@ -495,18 +522,15 @@ std::string describe_tolerance(const Json& t) {
   const Json& total = t["total"];
   const double ratio = total["ratio_low"].is_null() ? NAN : total["ratio_low"].get<double>();
   char buf[512];
-  if (t.value("as_written", false)) {
-    std::snprintf(buf, sizeof buf, "tolerance %g noise floors: the deck runs as written (%.2fx): the rules promise no "
-                  "faster setting within it", t["tolerance"].get<double>(), ratio);
-  } else {
-    const Json& rules = t["rules"];
-    std::snprintf(buf, sizeof buf, "tolerance %g noise floors (io/time_to_answer_rules.json): time step %.3f of the "
-                  "stability limit, inertial number %.3g; predicted %.3g particle-steps against %.3g as written: %.2fx "
-                  "fewer (each equilibrium at its min_steps; `celldem plan --tolerance %g` has every setting)",
-                  t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(),
-                  rules["inertial_number"].get<double>(), total["particle_steps"]["low"].get<double>(),
-                  total["particle_steps_written"]["low"].get<double>(), ratio, t["tolerance"].get<double>());
-  }
+  const Json& rules = t["rules"];
+  std::snprintf(buf, sizeof buf,
+                "tolerance %g noise floors from I -> 0 (io/time_to_answer_rules.json): time step %.3f "
+                "of the stability limit, inertial number %.3g; predicted %.3g particle-steps against %.3g as written: "
+                "%.3gx the deck's cost (each equilibrium at its min_steps; `celldem plan --tolerance %g` has every "
+                "setting)",
+                t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(),
+                rules["inertial_number"].get<double>(), total["particle_steps"]["low"].get<double>(),
+                total["particle_steps_written"]["low"].get<double>(), 1.0 / ratio, t["tolerance"].get<double>());
   std::string words = buf;
   std::string capped;
   for (const Json& s : t["stages"])
@@ -515,6 +539,7 @@ std::string describe_tolerance(const Json& t) {
     words += "; time step capped at " + fmt3(kNetworkWarnFraction) + " of the contact network's estimated limit in " +
              capped;
   if (const std::string c = describe_calibration(t); !c.empty()) words += "; " + c;
+  for (const std::string& line : describe_rate(t)) words += "\n  " + line;
   return words;
 }
 
@@ -658,8 +683,8 @@ Command add_plan_command(CLI::App& app) {
   cmd->add_option("deck", a->deck, "Deck file (JSON)")->required()->check(CLI::ExistingFile);
   cmd->add_flag("--json", a->json, "Print JSON (for tools)");
   cmd->add_option("--tolerance", a->tolerance,
-                  "The deck rewritten for T noise floors (as `run --tolerance T`): each stage's settings and "
-                  "particle-steps against the deck as written");
+                  "The deck rewritten for T noise floors from I -> 0 (as `run --tolerance T`): how far the deck as "
+                  "written is from I -> 0, each stage's settings and particle-steps against the deck as written");
   cmd->add_option("--state", a->state,
                   "A state file (e.g. a run's prepared.state) whose contact network gives the stability limit from "
                   "its spectrum beside the pair formula's (a deck with initial_state: that state by default)")

@@ -234,8 +234,8 @@ struct PrepareDef {
 
 // A test's own rate check (tests[].verify_rate; run/verify_rate.hpp runs it).
 struct VerifyRateDef {
-  double rate_factor = keys::verify_rate_rate_factor.fallback;  // the slower run's rate over the test's
-  bool twin = true;                                             // run the twin (1.001 times the rate)
+  std::vector<double> rungs = {0.5, 0.25};  // the slower rungs' rates over the test's, descending
+  int twins = 2;                            // runs at 1.001, 1.002 ... times the rate (0: none)
 };
 
 // A test's incremental response probes (tests[].probes; run/probes.hpp runs them).

@@ -187,11 +187,12 @@ inline constexpr KeySpec time_step{.path = "time_step", .kind = KeyKind::Number,
 
 inline constexpr KeySpec tolerance{.path = "tolerance", .kind = KeyKind::Number, .positive = true, .required = false,
     .default_text = "none (the deck as written)", .unit = "noise floors",
-    .meaning = "ask for an answer within this many seed-to-seed noise floors of the deck as written, in fewer steps: "
-               "the time steps, strain rates, preparation schedule and output intervals are rewritten by "
-               "the study's rules (io/time_to_answer_rules.json, levels 0.5 to 3 floors of their 1000-sphere scene; a "
-               "deck of N > 1000 spheres asks T sqrt(1000/N) of them, and below the lowest level runs as written; "
-               "`celldem plan --tolerance`); `run --tolerance` overrides it"};
+    .meaning = "ask for a mean over seeds within this many seed-to-seed noise floors of this deck's size of the "
+               "quasi-static answer (I -> 0), whatever rate the deck is written at: the strain-driven legs run at the "
+               "inertial number where the fitted rate bias laws (at their 95 % upper bound) reach T floors, slowed or "
+               "sped up from the deck's; time steps, preparation schedule and output intervals follow the rules "
+               "(io/time_to_answer_rules.json; one run adds its own seed-to-seed scatter; `celldem plan --tolerance` "
+               "shows the distance of the deck as written and the cost); `run --tolerance` overrides it"};
 
 inline constexpr KeySpec servo{.path = "servo", .kind = KeyKind::Object, .required = false,
     .default_text = "defaults", .meaning = "the stress servo (docs/physics.md: Mixed control)"};
@@ -483,19 +484,28 @@ inline constexpr KeySpec test_dynamic{.path = "tests[].dynamic", .kind = KeyKind
     "force and kinetic energy stay high (not quasi-static) stops the run, naming the likely cause"};
 inline constexpr KeySpec test_verify_rate{.path = "tests[].verify_rate", .kind = KeyKind::Object, .required = false,
     .default_text = "none (`celldem run --verify-rate` checks every test)",
-    .meaning = "the test checks its own convergence: it runs again from the same starting state over its whole path "
-               "at `rate_factor` times its rate (and, with `twin`, once more at 1.001 times its rate to measure the chaos "
-               "of a pair) and judges each summary quantity's difference in noise floors at 95 % "
-               "(summary.json `verify_rate`, `<test>/verify/slow/`, `<test>/verify/twin/`; docs/outputs.md); the "
-               "command line's `--verify-*` values, when given, replace these"};
+    .meaning = "the test checks its own convergence by a ladder of rates: it runs again from the same starting state "
+               "over its whole path at each rung's rate, and at 1.001, 1.002 ... times its rate (the twins, whose spread "
+               "is the chaos of one run); each quantity is fitted as Q0 + C r^p over the rates (the order p fitted) and "
+               "its distance C from I -> 0 is judged in noise floors at 95 % (summary.json `verify_rate`, "
+               "`<test>/verify/rung-<k>/`, `<test>/verify/twin-<k>/`; docs/outputs.md); the command line's "
+               "`--verify-*` values, when given, replace these"};
+inline constexpr KeySpec verify_rate_rungs{.path = "tests[].verify_rate.rungs", .kind = KeyKind::Array,
+    .required = false, .default_text = "[0.5, 0.25]",
+    .meaning = "the slower rungs' driving rates over the test's (at least two, each in [0.001, 0.999], no two equal): "
+               "strain increments and rates of the strain-driven axes, stress ramps' and rotations' rates (step ends "
+               "and the output interval follow); a rung at f costs 1/f times the test's steps"};
 inline constexpr KeySpec verify_rate_rate_factor{.path = "tests[].verify_rate.rate_factor", .kind = KeyKind::Number,
-    .min = 1e-3, .max = 0.999, .required = false, .fallback = 0.5,
-    .meaning = "the slower run's driving rate over the test's: strain increments and rates of the strain-driven "
-               "axes, stress ramps' and rotations' rates (step ends and the output interval follow)"};
+    .min = 1e-3, .max = 0.999, .required = false, .fallback = 0.5, .default_text = "none",
+    .meaning = "shorthand for `rungs` [f, f^2] (not with `rungs`; f^2 at least 0.001)"};
+inline constexpr KeySpec verify_rate_twins{.path = "tests[].verify_rate.twins", .kind = KeyKind::Integer,
+    .min = 2, .max = 8, .required = false, .fallback = 2,
+    .meaning = "the twins (the test again at 1.001, 1.002 ... times its rate), whose spread with the test is one run's "
+               "chaos, with as many degrees of freedom (not with `twin`)"};
 inline constexpr KeySpec verify_rate_twin{.path = "tests[].verify_rate.twin", .kind = KeyKind::Boolean,
     .required = false, .default_text = "true",
-    .meaning = "also run the twin (the test once more at 1.001 times its rate), whose differences "
-               "calibrate the chaos of a pair; `false`: the chaos is taken at its bound, sqrt 2 floors"};
+    .meaning = "`false`: no twins; one run's chaos is then unknown and a single run's check is unresolved (the seeds "
+               "of an ensemble judge the mean: ensemble.json `verify_rate`)"};
 inline constexpr KeySpec test_probes{.path = "tests[].probes", .kind = KeyKind::Object, .required = false,
     .default_text = "none",
     .meaning = "incremental response probes: from the exact state at each point of the test, small stress or strain "
@@ -690,7 +700,9 @@ inline constexpr auto kAll = std::to_array<const KeySpec*>({&format,
                                                             &test_output_interval,
                                                             &test_dynamic,
                                                             &test_verify_rate,
+                                                            &verify_rate_rungs,
                                                             &verify_rate_rate_factor,
+                                                            &verify_rate_twins,
                                                             &verify_rate_twin,
                                                             &test_probes,
                                                             &probes_at,

@@ -701,8 +701,30 @@ std::vector<std::string> read_point_names(ObjectReader& r, const KeySpec& key, b
 
 VerifyRateDef read_verify_rate(ObjectReader r) {
   VerifyRateDef v;
-  v.rate_factor = r.number(keys::verify_rate_rate_factor);
-  if (r.has(keys::verify_rate_twin)) v.twin = r.boolean(keys::verify_rate_twin);
+  if (r.has(keys::verify_rate_rungs) && r.has(keys::verify_rate_rate_factor))
+    fail(r.at(keys::verify_rate_rate_factor), "not with `rungs` (rate_factor f stands for the rungs [f, f^2])");
+  if (r.has(keys::verify_rate_twins) && r.has(keys::verify_rate_twin))
+    fail(r.at(keys::verify_rate_twin), "not with `twins`");
+  if (r.has(keys::verify_rate_rate_factor)) {
+    const double f = r.number(keys::verify_rate_rate_factor);
+    if (f * f < keys::verify_rate_rate_factor.min)
+      fail(r.at(keys::verify_rate_rate_factor), "its second rung f^2 is below 0.001");
+    v.rungs = {f, f * f};
+  }
+  if (r.has(keys::verify_rate_rungs)) {
+    v.rungs = read_numbers(r, keys::verify_rate_rungs);
+    if (v.rungs.size() < 2)
+      fail(r.at(keys::verify_rate_rungs), "at least two rungs (with the test, three rates fit the order)");
+    for (std::size_t i = 0; i < v.rungs.size(); ++i)
+      if (!(v.rungs[i] >= 1e-3 && v.rungs[i] <= 0.999))
+        fail(r.at(keys::verify_rate_rungs) + "[" + std::to_string(i) + "]",
+             "expected a rate over the test's in [0.001, 0.999]");
+    std::sort(v.rungs.begin(), v.rungs.end(), std::greater<>());
+    if (std::adjacent_find(v.rungs.begin(), v.rungs.end()) != v.rungs.end())
+      fail(r.at(keys::verify_rate_rungs), "a rung given twice");
+  }
+  if (r.has(keys::verify_rate_twins)) v.twins = static_cast<int>(r.integer(keys::verify_rate_twins));
+  if (r.has(keys::verify_rate_twin) && !r.boolean(keys::verify_rate_twin)) v.twins = 0;
   r.finish();
   return v;
 }

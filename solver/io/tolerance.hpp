@@ -1,7 +1,9 @@
-// `--tolerance T`: a deck's cost knobs rewritten by the time-to-answer rules, a table of data calibrated by the
-// speed-accuracy study (io/time_to_answer_rules.json, compiled into the binary; tools/study.py analyse
-// --write-rules writes it) instead of constants in code. T is in noise floors: the error the study measures,
-// the mean over seeds of a setting's paired difference from the paper's settings over the seed-to-seed spread.
+// `--tolerance T`: a deck's cost knobs rewritten by the time-to-answer rules, data calibrated by the speed-accuracy
+// study and the rate ladder (io/time_to_answer_rules.json, compiled into the binary) instead of constants in code.
+// T is in noise floors of the deck's own size, measured from the quasi-static answer (I -> 0): the strain-driven
+// legs run at the inertial number whose rate bias, by the fitted laws b(I) = C I^p of each quantity at their 95 %
+// upper bound, is T floors (the floor model at the conservative end of its exponent's interval), whatever rate
+// the deck is written at; the time steps and the preparation's knobs come from the table's levels.
 #pragma once
 #include <string>
 #include <vector>
@@ -20,8 +22,39 @@ struct ToleranceLevel {
   double damping_scale = 1.0;                // body damping x this
 };
 
+// One quantity's rate bias: |Q(I) - Q(0)| = exp(log_coefficient) (I / reference)^order, fitted on the rate ladder,
+// with the covariance of (log_coefficient, order) that carries the fit's uncertainty into the promise.
+struct RateBiasLaw {
+  std::string quantity;  // e.g. "ttc end_span.Z"
+  double floor = 0.0;    // the seed-to-seed std of the quantity at the model's particle count
+  double log_coefficient = 0.0, order = 1.0;
+  double var_log_coefficient = 0.0, covariance = 0.0, var_order = 0.0;
+};
+struct RateBiasModel {
+  double reference_inertial_number =
+      1e-4;              // I of the laws' coefficient (the imposed scale: core/plan inertial_strain_rate)
+  int particles = 1000;  // the ladder's, where the floors were measured
+  double floor_exponent = -0.5, floor_exponent_low = -0.5, floor_exponent_high = -0.5;  // floors as N^b
+  double confidence = 0.95;           // of each law's one-sided upper bound
+  double max_inertial_number = 1e-3;  // the top of the measured range: I is never set above it
+  std::vector<RateBiasLaw> laws;
+};
+// A quantity's bias at inertial number I in floors of a deck of `particles` spheres: the laws' central value in the
+// central floor model, or (`upper`) its one-sided upper bound at the model's confidence in the floors of the
+// interval's end that makes them narrowest at this size.
+double rate_bias_floors(const RateBiasModel& model, const RateBiasLaw& law, double inertial_number, double particles,
+                        bool upper);
+// The largest inertial number whose upper bias is at most `tolerance` floors for every law (capped at the model's
+// measured top), and the law that limits it; 0 when a law exceeds it even at 1e-9 (resolve_tolerance refuses).
+struct RateForTolerance {
+  double inertial_number = 0.0;
+  std::string limiting;  // the quantity that sets it ("" where the cap does)
+};
+RateForTolerance inertial_number_for_tolerance(const RateBiasModel& model, double tolerance, double particles);
+
 struct ToleranceRules {
   std::vector<ToleranceLevel> levels;  // ascending tolerance, at least one
+  RateBiasModel rate_bias;             // the strain-driven legs' inertial number (levels' inertial_number unused)
   // The particle count of the scene the levels were measured on ("particles"; 0: not given). Its floors are
   // sqrt(N / particles) times a deck of N spheres' (floors as 1/sqrt(N): tools/study.py floors, docs/study.md),
   // and a rate's bias does not shrink with N.
@@ -43,11 +76,10 @@ ToleranceRules parse_tolerance_rules(const std::string& json_text);
 // the table's range a DeckError names `key_path` ("tolerance" or "--tolerance") and the range.
 ToleranceLevel interpolate_rules(const ToleranceRules& rules, double tolerance, const std::string& key_path);
 
-// The deck (as written, and its JSON text) rewritten for `tolerance` floors of its own (calibration_tolerance
-// carries it to the rules' scene; below their lowest level the deck runs as written, above their largest the
-// tolerance is refused) and read again: every stage gets its own
-// time step at the level's fraction of the stability limit; each strain-driven test leg the strain rate of the
-// level's inertial number at the leg's confining stress (its stress targets, else the test's, else the deck's
+// The deck (as written, and its JSON text) rewritten for `tolerance` floors of its own and read again: every stage
+// gets its own time step at the fraction of the stability limit of the table's level at calibration_tolerance
+// (clamped to the table's range); each strain-driven test leg the strain rate of inertial_number_for_tolerance at
+// the leg's confining stress (its stress targets, else the test's, else the deck's
 // largest), its strain-driven axes scaled together and its step ends kept at their strain; the preparation's
 // fast legs their strain per step x the scale; legs without a strain-driven axis keep the physical time of their
 // step ends; equilibrium min_steps and check_interval and the preparation's output interval their physical time;

@@ -182,6 +182,10 @@ SeriesSummary summarize_series(const std::vector<SeriesRow>& rows, int end_axis,
   const double end_strain = last.strain(end_axis);
   for (const SeriesRow& r : rows)
     if (std::abs(r.strain(end_axis) - end_strain) <= kEndWindowStrain) ev_end += r.ev, z_end += r.Z, ++in_window;
+  double ev_span = 0.0, z_span = 0.0;
+  int in_span = 0;
+  for (const SeriesRow& r : rows)
+    if (std::abs(r.strain(end_axis) - end_strain) <= kRateCheckWindow) ev_span += r.ev, z_span += r.Z, ++in_span;
 
   SeriesSummary s;
   s.peak_ratio13 = at_peak.ratio13;
@@ -201,8 +205,8 @@ SeriesSummary summarize_series(const std::vector<SeriesRow>& rows, int end_axis,
   s.end_window = {kEndWindowStrain, ev_end / in_window, z_end / in_window};
   if (values) {  // (as summary.json holds them: null, not a number, is NaN)
     const auto finite = [](double x) { return std::isfinite(x) ? x : std::numeric_limits<double>::quiet_NaN(); };
-    *values = {finite(s.peak_ratio13), finite(s.peak_robust.value->ratio13), finite(s.end_window.ev),
-               finite(s.end_window.Z)};
+    *values = {finite(s.peak_ratio13),  finite(s.peak_robust.value->ratio13), finite(s.end_window.ev),
+               finite(s.end_window.Z), finite(ev_span / in_span),                   finite(z_span / in_span)};
   }
   return s;
 }

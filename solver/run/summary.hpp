@@ -22,6 +22,9 @@ namespace celldem {
 // εv and Z "at the end" of a test: their means over the rows whose end-axis strain lies within this of the
 // last row's (a single row of Z jumps by a few hundredths as contacts open and close).
 inline constexpr double kEndWindowStrain = 0.005;
+// The rate check's end span: εv and Z over this much of the end-axis strain (a few percent, the end state with
+// little row-to-row noise; run/verify_rate.hpp).
+inline constexpr double kRateCheckWindow = 0.02;
 // "ε1 at peak" as a range: the rows whose σ11/σ33 stays within this fraction of the peak.
 inline constexpr double kPeakPlateau = 0.01;
 // The robust peak: σ11/σ33 smoothed by a centred moving average over this much ε1 (rows within half of it
@@ -42,6 +45,8 @@ struct ComparedValues {
   double peak_robust_ratio13 = NAN;  // peak_robust.ratio13
   double end_window_ev = NAN;        // end_window.ev
   double end_window_Z = NAN;         // end_window.Z
+  double end_span_ev = NAN;          // the mean of ev over the last kRateCheckWindow (not in summary.json)
+  double end_span_Z = NAN;           // of Z
 };
 
 // The records below are summary.json's, each with its field table (run/summary_fields.hpp): the table writes the

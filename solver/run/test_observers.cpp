@@ -1,9 +1,12 @@
 #include "run/test_observers.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
+#include <thread>
 
 #include "cell/control.hpp"
+#include "core/number_text.hpp"
 #include "core/plan.hpp"
 #include "io/files.hpp"
 #include "io/snapshot.hpp"
@@ -159,22 +162,27 @@ class Probes : public StageObserver {
   ProbePoints points_;
 };
 
-// A rate check's verdict for the console: per quantity its error in floors and verdict, then the test's.
-std::vector<std::string> rate_check_lines(const Json& v) {
+// A rate check's verdict for the console: per quantity its distance from I -> 0 in floors with its bounds, the
+// fitted order, and its verdict; then the test's.
+std::vector<std::string> rate_check_lines(const RateCheckResult& r) {
   std::vector<std::string> lines;
   char buf[512];
-  std::snprintf(buf, sizeof buf, "rate check at %g x the rate, tolerance %g floors (95 %%)", v.value("rate_factor", 0.0),
-                v.value("tolerance_floors", 0.0));
+  std::string rungs;
+  for (const double f : r.rungs) rungs += (rungs.empty() ? "" : ", ") + fmt3(f);
+  std::snprintf(buf, sizeof buf, "rate check by a ladder (rungs %s x the rate, %d twins), tolerance %g floors (95 %%)",
+                rungs.c_str(), r.twins, r.tolerance);
   lines.push_back(buf);
-  if (v.contains("comparisons"))
-    for (const auto& [q, c] : v["comparisons"].items()) {
-      const bool has = c.contains("error_floors") && c["error_floors"].is_number();
-      std::snprintf(buf, sizeof buf, "  %-20s error %+7.2f -+ %.2f floors (chaos: %s): %s", q.c_str(),
-                    has ? c["error_floors"].get<double>() : NAN, c.value("chaos_half_width_floors", NAN),
-                    c.value("chaos_from", std::string("-")).c_str(), c.value("verdict", std::string()).c_str());
-      lines.push_back(buf);
+  for (const QuantityLadder& l : r.quantities) {
+    if (l.verdict == "not compared") {
+      lines.push_back("  " + l.path + ": not compared (" + l.reason + ")");
+      continue;
     }
-  lines.push_back("rate check: " + v.value("verdict", std::string()) + ": " + v.value("reason", std::string()));
+    std::snprintf(
+        buf, sizeof buf, "  %-20s distance from I -> 0 %+7.2f floors [%+.2f, %+.2f], order %.2f [%.2f, %.2f]: %s",
+        l.path.c_str(), l.error_floors, l.lo_floors, l.hi_floors, l.order, l.order_lo, l.order_hi, l.verdict.c_str());
+    lines.push_back(buf);
+  }
+  lines.push_back("rate check: " + r.verdict + ": " + r.reason);
   return lines;
 }
 
@@ -183,9 +191,16 @@ class RateCheck : public StageObserver {
  public:
   RateCheck(const RunContext& context, const TestDef& test, const TestStart& start, const VerifyRateOptions& check)
       : context_(context), test_(test), start_(start), check_(check) {
-    if (!context.options.quiet)  // its cost, before anything runs
-      std::printf("%s: rate check after the test: %s\n", test.name.c_str(),
-                  rate_check_cost(context.deck, test, check, 0.0).words().c_str());
+    if (!context.options.quiet) {  // its cost, before anything runs, at the plan's speed on the run's threads
+      const int threads = context.options.threads > 0
+                              ? context.options.threads
+                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+      const double speed = kParticleStepsPerCoreSecond * threads;
+      std::printf("%s: rate check after the test, by a ladder of rates (estimated at %.3g particle-steps/s):\n",
+                  test.name.c_str(), speed);
+      for (const std::string& line : rate_check_cost(context.deck, test, check, speed).lines())
+        std::printf("%s\n", line.c_str());
+    }
   }
   std::optional<ObserverReport> after_test(const FinishedTest& done) override;
 
@@ -198,18 +213,21 @@ class RateCheck : public StageObserver {
 
 std::optional<ObserverReport> RateCheck::after_test(const FinishedTest& done) {
   const Deck& deck = context_.deck;
-  if (!context_.options.quiet)
-    std::printf("%s: rate check: %s\n", test_.name.c_str(),
-                rate_check_cost(deck, test_, check_, done.summary.particle_steps_per_s).words().c_str());
+  if (!context_.options.quiet) {  // again at the test's own speed
+    std::printf("%s: rate check, at the test's speed:\n", test_.name.c_str());
+    for (const std::string& line : rate_check_cost(deck, test_, check_, done.summary.particle_steps_per_s).lines())
+      std::printf("%s\n", line.c_str());
+  }
   // The test's own start, resumed or not: the prepared state (or the initial state without a preparation), its
   // stage begun, the deck's skin, its forces evaluated (the first row: the state as loaded).
   State state = deck.initial_state && !deck.prepare ? load_initial_state(deck) : read_state(start_.prepared.string());
   begin_stage(state);
   state.pairs.skin = skin_length(deck);  // the deck's, not the preparing run's
   evaluate_forces(start_.model, test_.stage_friction(), state);
-  ObserverReport report{"verify_rate", verify_test_rate(context_.run, deck, context_.options, test_, check_, state,
-                                                        done.summary), {}, {}};
-  report.console = rate_check_lines(report.value);
+  const RateCheckResult result =
+      verify_test_rate(context_.run, deck, context_.options, test_, check_, state, done.summary);
+  ObserverReport report{"verify_rate", result.to_json(), {}, {}};
+  report.console = rate_check_lines(result);
   return report;
 }
 

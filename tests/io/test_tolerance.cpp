@@ -2,14 +2,17 @@
 // time step reaches its model and plan and is held to the deck key's bounds; the time-to-answer rules embedded in
 // the binary parse, interpolate log-linearly and refuse a tolerance outside them; a resolved deck meets the
 // rules it was resolved by (time step fraction, inertial number from its definition, rows per unit strain,
-// equilibrium and output in physical time) and leaves a deck without a tolerance as it was; a deck larger than
-// the rules' scene gets T sqrt(calibration / N) of the scene's floors, and below the lowest level runs as written.
+// equilibrium and output in physical time) and leaves a deck without a tolerance as it was; the strain-driven legs'
+// inertial number comes from the rate bias laws: T floors of the deck's own size from I -> 0 whatever rate the deck
+// is written at, a tighter T never cheaper than a looser one, a deck written too fast slowed and saying so.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "core/model.hpp"
 #include "core/plan.hpp"
@@ -203,7 +206,8 @@ TEST(Tolerance, ResolvedDeckMeetsTheRules) {
   const double d_mean = mean_diameter(written.sample), rho = written.sample.density;
   for (const double t : {0.7, 1.0, 2.5}) {
     SCOPED_TRACE(t);
-    const ToleranceLevel level = interpolate_rules(time_to_answer_rules(), t, "tolerance");
+    ToleranceLevel level = interpolate_rules(time_to_answer_rules(), t, "tolerance");  // 100 spheres keep T
+    level.inertial_number = inertial_number_for_tolerance(time_to_answer_rules().rate_bias, t, 100).inertial_number;
     const Deck d = resolve_tolerance(written, text, t);
     ASSERT_TRUE(d.tolerance.has_value());
     EXPECT_EQ(*d.tolerance, t);
@@ -278,61 +282,117 @@ TEST(Tolerance, DeckKeyAndArgumentResolveAlikeAndNoneLeavesTheDeck) {
   Json a = Json::parse(by_key.canonical), b = Json::parse(by_argument.canonical);
   a.erase("description"), b.erase("description");
   EXPECT_EQ(a, b);
-  j["tolerance"] = 42.0;  // outside the table
-  EXPECT_THROW(resolve_tolerance(parse_deck(j.dump()), j.dump(), 42.0), DeckError);
+  j["tolerance"] = -1.0;
+  EXPECT_THROW(resolve_tolerance(parse_deck(j.dump()), j.dump(), -1.0), DeckError);
 }
 
-// The floor model: T floors of N spheres are T sqrt(1000 / N) floors of the rules' 1000-sphere scene (floors as
-// 1/sqrt(N), a rate's bias not); a smaller deck keeps T. Below the lowest level the deck runs as written, every
-// stage reported at its written step; above the largest, the refusal names the deck's own bound.
-TEST(Tolerance, LargerDecksCarryTheirTightFloorsToTheRules) {
+// The floor model carries T to the table's scene for the time steps (T sqrt(1000 / N) for a larger deck, T for a
+// smaller one), clamped to the table's range: no T is refused and none runs the deck as written by default.
+TEST(Tolerance, LargerDecksCarryTheirTightFloorsToTheTable) {
   const ToleranceRules& rules = time_to_answer_rules();
   ASSERT_EQ(rules.particles, 1000);
   EXPECT_DOUBLE_EQ(calibration_tolerance(rules, 1.0, 8000.0), std::sqrt(1000.0 / 8000.0));
   EXPECT_DOUBLE_EQ(calibration_tolerance(rules, 2.0, 4000.0), 1.0);
   EXPECT_EQ(calibration_tolerance(rules, 1.0, 150.0), 1.0);
-  EXPECT_EQ(calibration_tolerance(ToleranceRules{rules.levels, 0}, 1.0, 8000.0), 1.0);
-
   Json j = deck_json();
   j["sample"]["count"] = 8000;
   const std::string text = j.dump();
   const Deck written = parse_deck(text, "deck.json");
-  // T = 1 at 8000 spheres: 0.354 floors of the scene, below its lowest level (0.5): the deck as written.
-  const Deck same = resolve_tolerance(written, text, 1.0);
-  ASSERT_TRUE(same.tolerance.has_value());
-  Json a = Json::parse(same.canonical), b = Json::parse(written.canonical);
-  a.erase("description"), b.erase("description");
-  EXPECT_EQ(a, b);
-  const Json settings = Json::parse(same.tolerance_settings);
-  EXPECT_TRUE(settings["as_written"].get<bool>());
-  EXPECT_NEAR(settings["calibration"]["tolerance_at_calibration"].get<double>(), std::sqrt(0.125), 1e-15);
-  ASSERT_EQ(settings["stages"].size(), 3u);
-  for (const Json& s : settings["stages"]) EXPECT_EQ(s["time_step"], s["time_step_written"]);
-  // T = 2: 0.707 floors of the scene, the rules interpolated there (not at 2).
   const Deck faster = resolve_tolerance(written, text, 2.0);
   const Json rules_at = Json::parse(faster.tolerance_settings)["rules"];
   EXPECT_NEAR(rules_at["time_step_fraction"].get<double>(),
               interpolate_rules(rules, 2.0 * std::sqrt(0.125), "t").time_step_fraction, 1e-15);
-  EXPECT_LT(rules_at["time_step_fraction"].get<double>(), interpolate_rules(rules, 2.0, "t").time_step_fraction);
-  // Above the largest level in this deck's floors (3 sqrt(8) = 8.49): refused, naming the bound.
-  try {
-    resolve_tolerance(written, text, 9.0, "--tolerance");
-    ADD_FAILURE() << "a tolerance above the rules at 8000 spheres was accepted";
-  } catch (const DeckError& e) {
-    EXPECT_NE(std::string(e.what()).find("--tolerance: 9 is outside the time-to-answer rules' range: at most 8.48528"),
-              std::string::npos) << e.what();
-  }
-  // A tolerance near the largest double names the same bound (T / T_at_calibration overflowed: "at most inf").
-  try {
-    resolve_tolerance(written, text, 1e308, "--tolerance");
-    ADD_FAILURE() << "--tolerance 1e308 was accepted";
-  } catch (const DeckError& e) {
-    EXPECT_NE(std::string(e.what()).find("--tolerance: 1e+308 is outside the time-to-answer rules' range: at most "
-                                         "8.48528"),
-              std::string::npos) << e.what();
-  }
-  EXPECT_NO_THROW(resolve_tolerance(written, text, 8.4));
+  for (const double t : {0.5, 1.0, 100.0, 1e300}) EXPECT_NO_THROW(resolve_tolerance(written, text, t)) << t;
   EXPECT_THROW(resolve_tolerance(written, text, 0.0), DeckError);
+  EXPECT_THROW(resolve_tolerance(written, text, 1e-6), DeckError);  // no inertial number down to 1e-9 promises it
+}
+
+// The rate bias laws against their own definition: the upper bias at the inertial number T allows is T floors for
+// the limiting law and at most T for the others; floors narrow with N as the conservative exponent says.
+TEST(ToleranceRateBias, TheRateForTIsTFloorsOfTheLimitingLaw) {
+  const RateBiasModel& m = time_to_answer_rules().rate_bias;
+  ASSERT_GE(m.laws.size(), 2u);
+  for (const double n : {150.0, 1000.0, 8000.0})
+    for (const double t : {0.5, 1.0, 2.0}) {
+      const RateForTolerance r = inertial_number_for_tolerance(m, t, n);
+      ASSERT_GT(r.inertial_number, 0.0);
+      if (r.limiting.empty()) {  // capped at the measured top: every law within T there
+        EXPECT_EQ(r.inertial_number, m.max_inertial_number);
+        continue;
+      }
+      for (const RateBiasLaw& law : m.laws) {
+        const double b = rate_bias_floors(m, law, r.inertial_number, n, true);
+        if (law.quantity == r.limiting)
+          EXPECT_NEAR(b, t, 1e-9 * t) << law.quantity;
+        else
+          EXPECT_LE(b, t * (1.0 + 1e-9)) << law.quantity;
+      }
+    }
+  const RateBiasLaw& law = m.laws.front();
+  // central: C (I / I_ref)^p / (floor (N / N0)^b)
+  EXPECT_NEAR(rate_bias_floors(m, law, 2e-4, 4000.0, false),
+              std::exp(law.log_coefficient) * std::pow(2.0, law.order) / (law.floor * std::pow(4.0, m.floor_exponent)),
+              1e-12);
+  // upper: larger than central; at 8000 spheres with the steep exponent, at 150 with the shallow one
+  EXPECT_GT(rate_bias_floors(m, law, 2e-4, 8000.0, true), rate_bias_floors(m, law, 2e-4, 8000.0, false));
+  EXPECT_GT(rate_bias_floors(m, law, 2e-4, 150.0, true), rate_bias_floors(m, law, 2e-4, 150.0, false));
+}
+
+// Monotone: over a sweep of T, the predicted particle-steps of a deck (and its inertial number's inverse) never
+// grow as T grows, for decks written at a quarter, once and eight times the paper's rate and at 1000 and 8000
+// spheres; the deck as written does not change what T costs, only how far it is said to be from I -> 0.
+TEST(ToleranceRateBias, ATighterTNeverRunsFaster) {
+  for (const int count : {1000, 8000})
+    for (const double speed : {0.25, 1.0, 8.0}) {
+      SCOPED_TRACE(std::to_string(count) + " spheres at " + std::to_string(speed) + "x");
+      Json j = deck_json();
+      j["sample"]["count"] = count;
+      j["tests"][0]["axes"]["x1"]["strain_increment"] = 2.0e-7 * speed;
+      const std::string text = j.dump();
+      const Deck written = parse_deck(text, "deck.json");
+      double last_steps = std::numeric_limits<double>::infinity(), last_I = 0.0;
+      for (double t = 0.5; t < 50.0; t *= 1.25) {
+        const Deck d = resolve_tolerance(written, text, t);
+        double steps = static_cast<double>(preparation_steps(d).low);
+        for (const TestDef& test : d.tests) steps += static_cast<double>(test_steps(d, test).low);
+        EXPECT_LE(steps, last_steps) << "T " << t;
+        const double I = Json::parse(d.tolerance_settings)["rate"]["inertial_number"].get<double>();
+        EXPECT_GE(I, last_I) << "T " << t;
+        last_steps = steps, last_I = I;
+      }
+    }
+}
+
+// Honest on decks written at 1/4, 1 and 8 times the paper's rate: the same T gives the same rate whatever the
+// deck's, a deck written faster than T allows is slowed and says so, and its distance from I -> 0 is reported.
+TEST(ToleranceRateBias, AFastDeckIsSlowedAndSaysHowFarItWas) {
+  std::vector<double> rates;
+  for (const double speed : {0.25, 1.0, 8.0}) {
+    Json j = deck_json();
+    j["sample"]["count"] = 1000;
+    j["tests"][0]["axes"]["x1"]["strain_increment"] = 2.0e-7 * speed;
+    const std::string text = j.dump();
+    const Deck d = resolve_tolerance(parse_deck(text, "deck.json"), text, 1.0);
+    const Json rate = Json::parse(d.tolerance_settings)["rate"];
+    rates.push_back(plan_test(d, d.tests[0]).strain_rate);
+    ASSERT_FALSE(rate["written"].empty());
+    const Json& w = rate["written"][0];
+    EXPECT_EQ(w["stage"], "ttc");
+    const double I_written = w["inertial_number"].get<double>(), I = rate["inertial_number"].get<double>();
+    EXPECT_EQ(w["slowed"].get<bool>(), I_written > I) << speed;
+    // the written deck's distance: each law's central and upper bias at its inertial number
+    const RateBiasModel& m = time_to_answer_rules().rate_bias;
+    for (const RateBiasLaw& law : m.laws) {
+      EXPECT_NEAR(w["distance_floors"][law.quantity][0].get<double>(), rate_bias_floors(m, law, I_written, 1000, false),
+                  1e-12);
+      EXPECT_NEAR(w["distance_floors"][law.quantity][1].get<double>(), rate_bias_floors(m, law, I_written, 1000, true),
+                  1e-12);
+    }
+    EXPECT_NE(Json::parse(d.tolerance_settings)["rate"]["promise"].get<std::string>().find("mean over seeds"),
+              std::string::npos);
+  }
+  EXPECT_NEAR(rates[0], rates[1], 1e-12 * rates[1]);  // the written rate does not matter
+  EXPECT_NEAR(rates[2], rates[1], 1e-12 * rates[1]);
 }
 
 }  // namespace

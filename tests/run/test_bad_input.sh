@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Hostile command lines and decks are refused before any work: exit 2 and a message naming the option or the
 # key, no run folder. NaN, inf and overflowing numbers, empty values (a batch script's unset variable), a
-# tolerance above the rules (the real bound printed), and `check` refusing what `run` refuses in a program's legs.
+# tolerance that is not a positive number of floors, bad rungs of the rate ladder, and `check` refusing what `run`
+# refuses in a program's legs.
 # Usage: test_bad_input.sh CELLDEM
 set -uo pipefail
 celldem="$1"
@@ -37,7 +38,7 @@ done
 for option in --tolerance --seeds --probes; do
   refused "$option ''" "$option: an empty value" "${run[@]}" --verify-rate "$option" ""
 done
-for option in --verify-rate-factor --progress-interval; do
+for option in --verify-rate-factor --verify-rate-rungs --verify-twins --progress-interval; do
   refused "$option ''" "$option: " "${run[@]}" --verify-rate "$option" ""
 done
 refused "--threads ''" "--threads:" run "$deck" --out "$work/run" --quiet --threads ""
@@ -45,10 +46,15 @@ refused "--floors ''" "--floors:" "${run[@]}" --verify-rate --floors ""
 refused "--out ''" "--out: an empty value" run "$deck" --out "" --quiet
 refused "--tolerance=" "--tolerance: " "${run[@]}" --tolerance=
 refused "plan --tolerance ''" "--tolerance: an empty value" plan "$deck" --tolerance ""
-# The real bound (the rules' largest level: 3 floors at 150 spheres), not "at most inf".
-refused "--tolerance 1e308" "at most 3 noise floors" "${run[@]}" --tolerance 1e308
-"$celldem" run "$deck" --out "$work/run" --tolerance 1e308 --quiet 2>&1 | grep -q "at most inf" &&
-  fail "--tolerance 1e308 still prints an infinite bound"
+# Not a positive number of floors (any positive T is a rate from the bias laws: no upper bound).
+refused "--tolerance 0" "--tolerance: 0: expected a positive number of noise floors" "${run[@]}" --tolerance 0
+# The ladder's rungs: a list of at least two rates in [0.001, 0.999]; twins at least 2.
+for bad in 0.5 0.5,abc 0.5,0.5 0.5,1 ,; do
+  refused "--verify-rate-rungs $bad" "--verify-rate-rungs: " "${run[@]}" --verify-rate --verify-rate-rungs "$bad"
+done
+refused "--verify-twins 1" "--verify-twins: " "${run[@]}" --verify-rate --verify-twins 1
+refused "--verify-rate-rungs with --verify-rate-factor" "exclude each other" "${run[@]}" --verify-rate \
+  --verify-rate-rungs 0.5,0.25 --verify-rate-factor 0.5
 
 # `check` refuses what `run` refuses in a program's legs: a leg driven away from its end strain, a stress end
 # that the leg's own servo keeps it from.

@@ -164,8 +164,9 @@ def test_report_quotes_summary(alike, tmp_path):
 
 def test_report_shows_the_rate_check(alike, tmp_path):
     """A run with --verify-rate: the report's Rate check section quotes summary.json's verify_rate (each quantity's
-    value in the test and in the slower run, its error in floors with the chaos's half-width and verdict, the test's
-    verdict and its reason, the floors with their source); a run without it has no such section."""
+    value in the test and at the rungs, its distance from I -> 0 in floors with its bounds, the fitted order and the
+    verdict, the test's verdict and its reason, the floors with their source); a run without it has no such
+    section."""
     edited = str(tmp_path / "verified")
     shutil.copytree(alike, edited)
     tool("report", edited)
@@ -173,22 +174,22 @@ def test_report_shows_the_rate_check(alike, tmp_path):
     path = os.path.join(edited, "summary.json")
     s = json.load(open(path))
     s["tests"]["ttc"]["verify_rate"] = {
-        "rate_factor": 0.5, "tolerance_floors": 1.0, "verdict": "unresolved", "reason": "REASON-TEST",
+        "rungs": [0.5, 0.25], "twins": 2, "tolerance_floors": 1.0, "verdict": "unresolved", "reason": "REASON-TEST",
         "floors": {"ratio13": 0.1, "ev": 0.002, "Z": 0.05, "source": "FLOORS-SOURCE"},
-        "chaos": {"rule": "RULE", "twin_parted": True},
-        "comparisons": {"peak_ratio13": {"test": 3.9, "slow": 3.75, "floors": 1.5, "error_floors": 3.0,
-                                         "chaos_half_width_floors": 1.25, "chaos_from": "twin",
+        "comparisons": {"peak_ratio13": {"test": 3.9, "rungs": [3.75, 3.7], "error_floors": 3.0,
+                                         "bounds95_floors": [1.25, 4.5], "order": 0.6, "order_interval90": [0.3, 1.1],
                                          "verdict": "not converged"},
-                        "end_window.Z": {"test": 4.5, "slow": 4.5, "floors": 0.0, "error_floors": 0.0,
-                                         "verdict": "converged"}}}
+                        "end_span.Z": {"test": 4.5, "rungs": [4.5, 4.5], "error_floors": 0.0,
+                                       "bounds95_floors": [-0.5, 0.5], "order": 1.0,
+                                       "order_interval90": [0.25, 3.0], "verdict": "converged"}}}
     with open(path, "w") as f:
         json.dump(s, f)
     tool("report", edited)
     r = read_text(os.path.join(edited, "report.md"))
-    assert "## Rate check" in r and "FLOORS-SOURCE" in r and "0.500 times its rate" in r
-    assert "| ttc | peak_ratio13 | 3.900 → 3.750 | +3.00 ± 1.25 (twin) | not converged |" in r, \
-        r[r.index("## Rate check"):][:1500]
-    assert "| ttc | **the test** |  |  | **unresolved**: REASON-TEST |" in r, r[r.index("## Rate check"):][:1500]
+    assert "## Rate check" in r and "FLOORS-SOURCE" in r and "0.500, 0.250 times its rate" in r
+    assert "| ttc | peak_ratio13 | 3.900 → 3.750 → 3.700 | +3.00 [+1.25, +4.50] | 0.60 [0.30, 1.10] | not converged |" \
+        in r, r[r.index("## Rate check"):][:1500]
+    assert "| ttc | **the test** |  |  |  | **unresolved**: REASON-TEST |" in r, r[r.index("## Rate check"):][:1500]
 
 
 def test_diverging_run_figures(diverging):

@@ -418,6 +418,7 @@ def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, se
              force: bool = False, resume: bool = False, quiet: bool = True, fixed_threads: bool = False,
              tolerance: Optional[float] = None, include_uncontrolled: bool = False, verify_rate: bool = False,
              verify_rate_factor: Optional[float] = None, no_verify_twin: bool = False,
+             verify_rate_rungs: Optional[str] = None, verify_twins: Optional[int] = None,
              floors: Optional[PathLike] = None,
              probes: Optional[str] = None, progress_interval: Optional[float] = None,
              celldem: Optional[PathLike] = None) -> Union[Run, Ensemble]:
@@ -446,8 +447,9 @@ def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, se
         `--include-uncontrolled` (with seeds): keep uncontrolled tests in the ensemble statistics.
     verify_rate : bool
         `--verify-rate`: each test checks its own convergence.
-    verify_rate_factor, no_verify_twin, floors : optional
-        `--verify-rate-factor`, `--no-verify-twin`, `--floors` (with verify_rate).
+    verify_rate_factor, verify_rate_rungs, verify_twins, no_verify_twin, floors : optional
+        `--verify-rate-factor`, `--verify-rate-rungs` (e.g. "0.5,0.25"), `--verify-twins`, `--no-verify-twin`,
+        `--floors` (with verify_rate).
     probes : str, optional
         `--probes K-L`: only these probes (a job array's share).
     progress_interval : float, optional
@@ -485,6 +487,7 @@ def run_deck(deck: DeckLike, out: PathLike, *, threads: Optional[int] = None, se
                                  fixed_threads=fixed_threads, tolerance=tolerance,
                                  include_uncontrolled=include_uncontrolled, verify_rate=verify_rate,
                                  verify_rate_factor=verify_rate_factor, no_verify_twin=no_verify_twin,
+                                 verify_rate_rungs=verify_rate_rungs, verify_twins=verify_twins,
                                  floors=floors, probes=probes,
                                  progress_interval=progress_interval)
         proc = binary.start(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,

@@ -166,13 +166,15 @@ def run_command(deck_path: PathLike, out: PathLike, threads: Optional[int] = Non
                 *, fixed_threads: bool = False, tolerance: Optional[float] = None,
                 include_uncontrolled: bool = False, verify_rate: bool = False,
                 verify_rate_factor: Optional[float] = None, no_verify_twin: bool = False,
+                verify_rate_rungs: Optional[str] = None, verify_twins: Optional[int] = None,
                 floors: Optional[PathLike] = None,
                 probes: Optional[str] = None, progress_interval: Optional[float] = None) -> List[str]:
     """The command line of `celldem run DECK --out OUT` with the given options, the binary first (find(binary)).
     Each keyword is the option of the same name (`celldem run --help`); None or False leaves it out."""
     if force and resume:
         raise ValueError("force and resume exclude each other")
-    verify_options = {"verify_rate_factor": verify_rate_factor, "floors": floors,
+    verify_options = {"verify_rate_factor": verify_rate_factor, "verify_rate_rungs": verify_rate_rungs,
+                      "verify_twins": verify_twins, "floors": floors,
                       "no_verify_twin": True if no_verify_twin else None}
     if not verify_rate and any(v is not None for v in verify_options.values()):
         raise ValueError(f"{', '.join(k for k, v in verify_options.items() if v is not None)} need verify_rate=True")
@@ -180,7 +182,8 @@ def run_command(deck_path: PathLike, out: PathLike, threads: Optional[int] = Non
         raise ValueError("include_uncontrolled needs seeds")
     cmd = [find(binary), "run", str(deck_path), "--out", str(out)]
     valued = [("--threads", threads), ("--seeds", seeds), ("--tolerance", tolerance),
-              ("--verify-rate-factor", verify_rate_factor),
+              ("--verify-rate-factor", verify_rate_factor), ("--verify-rate-rungs", verify_rate_rungs),
+              ("--verify-twins", verify_twins),
               ("--floors", floors), ("--probes", probes), ("--progress-interval", progress_interval)]
     for flag, value in valued:
         if value is not None:

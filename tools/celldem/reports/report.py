@@ -568,34 +568,40 @@ def uncontrolled_note(run):
 
 
 def verify_rate_section(run):
-    """`celldem run --verify-rate`: per test and summary quantity, its value in the test and in the same test run at
-    a fraction of the rate from the same state over the whole path, the error in noise floors (the difference
-    extrapolated to the quasi-static limit), and the verdict at 95 % with the pair chaos it used (summary.json
+    """`celldem run --verify-rate`: per test and summary quantity, its value in the test and at the ladder's slower
+    rungs (the same test from the same state over the whole path), its distance from I → 0 in noise floors by the
+    fitted law Q0 + C r^p with its one-sided 95 % bounds, the fitted order, and the verdict (summary.json
     verify_rate); None when no test was checked."""
     rows, notes = [], []
+    rungs = None
     for test in run.test_names:
         check = run.test_summary(test).get("verify_rate")
         if not isinstance(check, dict):
             continue
+        rungs = rungs or check.get("rungs")
         notes.append(f"{test}: floors {check.get('floors', {}).get('source', 'n/a')}")
         for q, c in (check.get("comparisons") or {}).items():
-            rows.append((test, q, f"{fmt(c.get('test'))} → {fmt(c.get('slow'))}",
-                         f"{fmt_spec(c.get('error_floors'), '+.2f')} ± {fmt_spec(c.get('chaos_half_width_floors'), '.2f')} "
-                         f"({c.get('chaos_from', 'n/a')})", c.get("verdict", "n/a")))
-        rows.append((test, "**the test**", "", "", f"**{check.get('verdict', 'n/a')}**: {check.get('reason', '')}"))
+            values = " → ".join(fmt(v) for v in [c.get("test")] + list(c.get("rungs") or []))
+            bounds = c.get("bounds95_floors") or [None, None]
+            order = c.get("order_interval90") or [None, None]
+            rows.append((test, q, values,
+                         f"{fmt_spec(c.get('error_floors'), '+.2f')} [{fmt_spec(bounds[0], '+.2f')}, "
+                         f"{fmt_spec(bounds[1], '+.2f')}]",
+                         f"{fmt_spec(c.get('order'), '.2f')} [{fmt_spec(order[0], '.2f')}, {fmt_spec(order[1], '.2f')}]",
+                         c.get("verdict", "n/a")))
+        rows.append((test, "**the test**", "", "", "", f"**{check.get('verdict', 'n/a')}**: {check.get('reason', '')}"))
     if not rows:
         return None
-    factor = next((run.test_summary(t)["verify_rate"].get("rate_factor") for t in run.test_names
-                   if isinstance(run.test_summary(t).get("verify_rate"), dict)), None)
-    intro = (f"Each test was run again from the same starting state over its whole path at {fmt(factor)} times its "
-             "rate (`--verify-rate`), and once more at 1.001 times its rate (the twin, whose "
-             "differences measure the chaos of one pair of runs). Error: (test − slower) / (1 − factor) in noise "
-             "floors, the test's distance from the quasi-static limit at first order, ± the 95 % half-width of one "
-             "pair's chaos (from the twin, t with 1 degree of freedom, or the bound √2 floors, the smaller). "
-             "Converged: the error is within the tolerance at 95 %; not converged: beyond it at 95 %; unresolved: "
-             "the rest. "
+    intro = ("Each test was run again from the same starting state over its whole path at the ladder's slower rungs "
+             f"({', '.join(fmt(r) for r in rungs or [])} times its rate; `--verify-rate`) and as twins at 1.001, "
+             "1.002 ... times its rate (their spread with the test is one run's chaos). Each quantity is fitted as "
+             "Q0 + C r^p over the rates (the order p fitted); distance: C in noise floors, the test's distance from "
+             "the quasi-static answer Q0 (I → 0), with its one-sided 95 % bounds from the chaos propagated through "
+             "the fit. Converged: the bounds within ± the tolerance; not converged: beyond it at the family's level "
+             "(Bonferroni); unresolved: the rest. "
              + "; ".join(notes) + ".")
-    return intro + "\n\n" + md_table(("Test", "Quantity", "Test → slower", "Error ± chaos (floors)", "Verdict"), rows)
+    return intro + "\n\n" + md_table(("Test", "Quantity", "Test → rungs", "Distance from I → 0 (floors) [95 %]",
+                                       "Order [90 %]", "Verdict"), rows)
 
 
 PROBES_INTRO = (

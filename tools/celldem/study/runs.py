@@ -578,6 +578,13 @@ def write_rules(study, path=RULES_PATH):
         },
         "levels": levels,
     }
+    # The rate bias laws (the strain-driven legs' rate, from the rate ladder: docs/study.md) are not the study's to
+    # write: kept from the table being replaced.
+    if os.path.exists(path):
+        with open(path, encoding="utf-8") as f:
+            old = json.load(f)
+        if "rate_bias" in old:
+            table["rate_bias"] = old["rate_bias"]
     tmp = path + ".tmp"  # whole or not at all: the build embeds it
     with open(tmp, "w", encoding="utf-8") as f:
         f.write(json.dumps(table, indent=2) + "\n")
