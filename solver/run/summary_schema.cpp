@@ -125,14 +125,14 @@ constexpr F kNetworkJudgement[] = {
     {"contacts", "pairs", "the contacts in the network judged"},
     {"tangential_springs", "", "whether sticking tangential springs counted (the stage has friction)"},
     {"iterations", "", "the Lanczos iterations"},
-    {"seconds", "s", "the time the judgement took"}};
+    {"wall_s", "s", "the time the judgement took"}};
 constexpr F kNetworkTimeStep[] = {
     {"at_start", "", "the judgement of the state the stage started from", kNetworkJudgement},
     {"largest_time_step_over_limit", "1", "the largest ratio of any check in the stage"},
     {"largest_at_step", "steps", "the stage step of that check"},
     {"checks", "", "the checks made (start, every check_interval steps, the end)"},
     {"check_interval", "steps", "the steps between checks (checkpoint_interval)"},
-    {"seconds", "s", "the checks' time in all"}};
+    {"wall_s", "s", "the checks' time in all"}};
 
 // tests.*.energy (run/energy_report.cpp; docs/energy.md): a span's budget, the test's and each leg's.
 #define CELLDEM_ENERGY_SPAN                                                                                           \

@@ -127,7 +127,7 @@ nlohmann::json to_json(const NetworkStepJudgement& j) {
           {"contacts", n.contacts},
           {"tangential_springs", n.springs.tangential},
           {"iterations", n.iterations},
-          {"seconds", n.seconds}};
+          {"wall_s", n.seconds}};
 }
 
 NetworkTimeStepWatch::NetworkTimeStepWatch(const Model& model, const Friction& friction, std::string stage,
@@ -185,7 +185,7 @@ void NetworkTimeStepWatch::restore(const nlohmann::json& memory) {
   largest_ratio_ = r.at("largest_time_step_over_limit").get<double>();
   largest_step_ = r.at("largest_at_step").get<std::int64_t>();
   checks_ = r.at("checks").get<int>();
-  seconds_ = r.at("seconds").get<double>();
+  seconds_ = r.at("wall_s").get<double>();
   warned_ = static_cast<NetworkStepVerdict>(m.at("warned").get<int>());
   restored_ = true;
 }
@@ -196,7 +196,7 @@ nlohmann::json NetworkTimeStepWatch::record() const {
           {"largest_at_step", largest_step_},
           {"checks", checks_},
           {"check_interval", interval_},
-          {"seconds", seconds_}};
+          {"wall_s", seconds_}};
 }
 
 }  // namespace celldem

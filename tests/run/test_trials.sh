@@ -155,13 +155,13 @@ trial_two_processes() {  # a second process on a live folder: refused with exit 
 
 trial_lock_deleted() { trial_two_processes 1; }  # the same, with run.lock deleted under the live run
 
-trial_branch_resumed() {  # a rate check whose test was resumed: the slower run and the twin start from a state with forces
+trial_branch_resumed() {  # a rate check whose test was resumed: its rungs and twins start from a state with forces
   local d="$work/br" f
   # Stopped late in ttc, so that the test resumes from a checkpoint before its check runs.
   stop_when "$d" TERM "$d/ttc/series.csv:11" "$work/deck.json" --verify-rate ||
     { why="skipped: finished first"; return 2; }
   resume_to_end "$work/deck.json" --verify-rate --out "$d" || { why="resume exited $?: $(tail -1 "$work/err")"; return 1; }
-  ls "$d"/*/verify/slow/series.csv >/dev/null 2>&1 || { why="no verify/slow/series.csv after the resume"; return 1; }
+  ls "$d"/*/verify/rung-1/series.csv >/dev/null 2>&1 || { why="no verify/rung-1/series.csv after the resume"; return 1; }
   # Each starts where its test started: its first row's stresses are the test's (b at an isotropic start is nan).
   for f in "$d"/*/verify/*/series.csv; do
     [[ -f $f ]] || continue
