@@ -402,15 +402,15 @@ def reference(ctx, deck, args, cwd):
 
 def interrupted(ctx, deck, out, args, sig, delay, started, cwd=None):
     """Starts the run, waits until `started` finds files (or the run ends), then sends sig after delay s; returns
-    (exit code, stderr, whether `started` found files when the signal was sent)."""
+    (exit code, stderr, whether `started` had found files)."""
     p = subprocess.Popen([ctx["binary"], "run", deck, "--out", out, "--force", "--quiet", *args], cwd=cwd,
                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=ENV)
     for _ in range(6000):
         if started(out) or p.poll() is not None:
             break
         time.sleep(0.01)
+    was = bool(started(out))  # (a finished stage removes its checkpoint: a later kill still tests the resume)
     time.sleep(delay)
-    was = bool(started(out))
     if p.poll() is None:
         p.send_signal(sig)
     _, err = p.communicate(timeout=600)
