@@ -2,7 +2,7 @@
 legs (and refused beside an adaptive rate), an interrupt under --tolerance and --seeds continued as printed, and
 snapshots by e1 killed and resumed, each judged by its invariant against an uninterrupted or independent run.
 
-CELLDEM_ORACLE_DRAWS (default 4, one trial of each kind) sets how many trials; CELLDEM_ORACLE_SEED (default 53) their
+CELLDEM_ORACLE_DRAWS (default 8, two trials of each kind) sets how many trials; CELLDEM_ORACLE_SEED (default 53) their
 seed. A trial that did not set up what it tests (a kill before the test started or after the run ended) is skipped.
 The longer run: `combinations.py --draws N --seed S --binary build/celldem`.
 """
@@ -16,7 +16,7 @@ import pytest
 import combinations
 
 SEED = int(os.environ.get("CELLDEM_ORACLE_SEED", "53"))
-DRAWS = int(os.environ.get("CELLDEM_ORACLE_DRAWS", "4"))
+DRAWS = int(os.environ.get("CELLDEM_ORACLE_DRAWS", "8"))
 
 
 @pytest.fixture(scope="session")
