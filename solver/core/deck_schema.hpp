@@ -468,7 +468,8 @@ inline constexpr KeySpec snapshots_interval{.path = "tests[].snapshots.interval"
     .max = kMaxCount, .required = false, .fallback = 0, .default_text = "none",
     .meaning = "a snapshot every this many steps (and at the stage's start and end)"};
 inline constexpr KeySpec snapshots_e1{.path = "tests[].snapshots.e1", .kind = KeyKind::Array, .required = false,
-    .default_text = "none", .meaning = "a snapshot at the first step whose e1 reaches each of these strains"};
+    .default_text = "none", .meaning = "a snapshot at the first step whose e1 reaches each of these strains (e1 >= a strain >= 0, e1 <= "
+               "a negative one)"};
 inline constexpr KeySpec snapshots_format{.path = "tests[].snapshots.format", .kind = KeyKind::Choice, .required = false,
     .choices = kSnapshotFormatNames,
     .meaning = "how the `.vtu`/`.vtp` arrays are stored: `binary` (raw, appended after the XML), `zlib` (the same, "
@@ -514,7 +515,9 @@ inline constexpr KeySpec test_probes{.path = "tests[].probes", .kind = KeyKind::
                "the test's own series are untouched"};
 inline constexpr KeySpec probes_at{.path = "tests[].probes.at", .kind = KeyKind::Array, .required = false,
     .default_text = "[]", .choices = kProbePointNames,
-    .meaning = "named points: `peak` (the first row of the largest s11/s33) and `end` (the last row)"};
+    .meaning = "named points: `peak` (the first row of the largest driven measure, summary.json `driven_measure`: "
+               "s11/s33, s33/s11 of an extension, abs(s_ij)/s_jj of a shear; not run where no peak was reached) and "
+               "`end` (the last row)"};
 inline constexpr KeySpec probes_at_e1{.path = "tests[].probes.at_e1", .kind = KeyKind::Array, .required = false,
     .default_text = "[]", .meaning = "points at the first row whose e1 reaches each of these strains (at least one "
                                      "point in `at` or `at_e1`)"};

@@ -192,14 +192,13 @@ void ProbePoints::finish(const State& state, const SeriesRow& row) {
   end_.row = row;
 }
 
-std::vector<ProbePoints::Point> ProbePoints::points(bool peak_reached) const {
+std::vector<ProbePoints::Point> ProbePoints::points(bool peak_reached, const std::string& peak_evidence) const {
   std::vector<Point> out = e1_;
   for (const std::string& name : def_.at) {
     Point p = name == "peak" ? peak_ : end_;
     if (name == "peak" && !peak_reached) {
       p.state.reset();
-      p.missing = "no peak reached: " + measure_name(peak_tracker_.measure()) +
-                  " is largest at the end of the test (summary.json peak_reached)";
+      p.missing = "no peak reached: " + peak_evidence + " (summary.json peak_reached)";
     }
     out.push_back(p);
   }

@@ -73,8 +73,9 @@ class ProbePoints {
     std::string missing;
     bool lost = false;                   // passed before a resume: its state went with the stopped run
   };
-  // In order: the e1 points, then the named ones as the deck lists them (without a peak reached, no `peak`).
-  std::vector<Point> points(bool peak_reached) const;
+  // In order: the e1 points, then the named ones as the deck lists them (without a peak reached, no `peak`: its
+  // reason is the summary's evidence, the words judge_peak gave).
+  std::vector<Point> points(bool peak_reached, const std::string& peak_evidence) const;
 
  private:
   void write_point(const Point& p) const;

@@ -225,9 +225,9 @@ void rest_point(RunDirectory& run, const Deck& deck, const RunOptions& options, 
 }  // namespace
 
 Json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                     const ProbePoints& probe_points, bool peak_reached) {
+                     const ProbePoints& probe_points, bool peak_reached, const std::string& peak_evidence) {
   const ProbeDef& def = *test.probes;
-  const std::vector<ProbePoints::Point> points = probe_points.points(peak_reached);
+  const std::vector<ProbePoints::Point> points = probe_points.points(peak_reached, peak_evidence);
   const std::vector<ProbeDirection> directions = probe_directions(def);
   const fs::path probes_dir = run.stage_dir(test.name) / "probes";
   // Each point's record and state, for the table (here or after a merge) and for probes run again elsewhere.

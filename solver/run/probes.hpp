@@ -39,6 +39,6 @@ struct RunOptions;
 // across magnitudes or (strain probes) the elastic stiffness's symmetry. A probe that fails is recorded (its
 // error), not thrown; a stop request stops the run (probes are run again whole on --resume).
 nlohmann::json run_test_probes(RunDirectory& run, const Deck& deck, const RunOptions& options, const TestDef& test,
-                               const ProbePoints& points, bool peak_reached);
+                               const ProbePoints& points, bool peak_reached, const std::string& peak_evidence);
 
 }  // namespace celldem

@@ -35,17 +35,17 @@ std::vector<StageObserver*> StageObservers::list() const {
 namespace {
 
 // Snapshots at the stage's start, every `interval` steps, at each strain e1 of the list (the first step reaching
-// it) and at its end.
+// it: e1 >= a strain >= 0, e1 <= a negative one, as the probes' at_e1 points) and at its end.
 class Snapshots : public StageObserver {
  public:
   Snapshots(const fs::path& stage_dir, const std::string& stage, const SnapshotDef& plan, double dt)
-      : plan_(plan), dt_(dt), writer_(stage_dir / "snapshots", stage, plan.format) {}
+      : plan_(plan), dt_(dt), writer_(stage_dir / "snapshots", stage, plan.format), taken_(plan.e1.size(), false) {}
   void on_start(const State& state) override { write_if_due(state, /*force=*/true); }
   // Strain snapshots already passed at the checkpoint are not repeated: judged on the checkpoint's own strain (as
-  // write_if_due judges it), not on its last row's, which may lie before the snapshot's step.
-  void on_resume(const State& state, const std::vector<SeriesRow>&) override {
-    const double e1 = strain1(state);
-    while (next_e1_ < plan_.e1.size() && plan_.e1[next_e1_] <= e1) ++next_e1_;
+  // write_if_due judges it) and on its rows', not on its last row's alone, which may lie before the snapshot's step.
+  void on_resume(const State& state, const std::vector<SeriesRow>& rows) override {
+    take_reached(strain1(state));
+    for (const SeriesRow& row : rows) take_reached(row.e1);
   }
   void on_step(const State& state) override { write_if_due(state, false); }
   void on_finish(const State& state, const std::vector<SeriesRow>&) override {
@@ -54,18 +54,26 @@ class Snapshots : public StageObserver {
 
  private:
   static double strain1(const State& state) { return 1.0 - state.cell.h(0, 0) / state.control.reference[0]; }
+  // Marks the strains e1 reaches that were not yet taken; whether there was one.
+  bool take_reached(double e1) {
+    bool any = false;
+    for (std::size_t k = 0; k < plan_.e1.size(); ++k) {
+      const double target = plan_.e1[k];
+      if (!taken_[k] && (target >= 0.0 ? e1 >= target : e1 <= target)) taken_[k] = true, any = true;
+    }
+    return any;
+  }
   void write_if_due(const State& state, bool force) {
     const std::int64_t s = state.control.stage_steps;
     bool due = force || (plan_.interval > 0 && s % plan_.interval == 0);
-    const double e1 = strain1(state);
-    while (next_e1_ < plan_.e1.size() && e1 >= plan_.e1[next_e1_]) ++next_e1_, due = true;
+    if (take_reached(strain1(state))) due = true;
     if (due) writer_.write(state, s, static_cast<double>(s) * dt_);
   }
 
   SnapshotDef plan_;
   double dt_;
   SnapshotWriter writer_;
-  std::size_t next_e1_ = 0;
+  std::vector<bool> taken_;  // per strain of plan_.e1: its snapshot was written
 };
 
 // The contact network of the row with the largest value of the test's driven measure so far (the peak so far), for
@@ -144,8 +152,11 @@ class Probes : public StageObserver {
   void on_checkpoint(const State& state) override { points_.save(state); }
   void on_finish(const State& state, const std::vector<SeriesRow>& rows) override { points_.finish(state, rows.back()); }
   std::optional<ObserverReport> after_test(const FinishedTest& done) override {
-    ObserverReport report{"probes", run_test_probes(context_.run, context_.deck, context_.options, test_, points_,
-                                                    done.summary.peak_reached), {}, {}};
+    ObserverReport report{"probes",
+                          run_test_probes(context_.run, context_.deck, context_.options, test_, points_,
+                                          done.summary.peak_reached, done.summary.peak.evidence),
+                          {},
+                          {}};
     for (const auto& [point, p] : report.value["points"].items()) {
       if (p.value("status", "") == "not run")  // a point that could not be probed is a warning
         report.warnings.push_back(test_.name + ": the probes at " + point + " were not run: " + p.value("reason", ""));

@@ -173,6 +173,10 @@ def test_an_end_not_reached(tmp_path):
 
 
 def test_simple_shear_peak_is_tau_over_sigma_n(tmp_path):
+    simple_shear_run(tmp_path)
+
+
+def simple_shear_run(tmp_path):
     """A simple shear's driven measure is |s12|/s22: "no peak reached" is false when it peaks mid-test, whatever
     s11/s33 does (here it rises to the end)."""
     rows = triaxial_rows()
@@ -195,5 +199,55 @@ def test_simple_shear_peak_is_tau_over_sigma_n(tmp_path):
     t.update(servo_max_error=0.0, control_error_over_tolerance=0.0, peak_reached=False)
     problems = oracle.check_run(write_run(tmp_path, rows, summary, deck))
     assert len(problems) == 1 and "|s12|/s22" in problems[0] and "no peak" in problems[0], problems
-    t["shear"] = {"peak_reached": True, "peak_tau_over_sigma_n": max(abs(r["s12"]) / r["s22"] for r in rows)}
+    top = max(range(len(rows)), key=lambda i: abs(rows[i]["s12"]) / rows[i]["s22"])
+    t["shear"] = {"peak_reached": True, "peak_tau_over_sigma_n": abs(rows[top]["s12"]) / rows[top]["s22"],
+                  "g_at_peak": rows[top]["g12"]}
+    t.update(peak_ratio13=None, e1_at_peak=rows[top]["e1"], peak_state={"p": rows[top]["p"], "ev": rows[top]["ev"]},
+             driven_measure="|s12|/s22")
     assert oracle.check_run(write_run(tmp_path, rows, summary, deck)) == []
+    return rows, summary, deck
+
+
+@pytest.mark.parametrize("kind", ["top_level_peak", "record_value", "record_at", "e1_at_peak", "peak_state"])
+def test_shear_peak_keys_on_the_measures_row(tmp_path, kind):
+    """A shear test's peak is its driven measure's: the top-level peak_ratio13 is null, and the record's peak value,
+    its g_at_peak and the test's e1_at_peak and peak_state are the row of the largest |s12|/s22."""
+    rows, summary, deck = simple_shear_run(tmp_path)
+    t = summary["tests"]["t"]
+    words = {"top_level_peak": "top-level peak_ratio13", "record_value": "shear.peak_tau_over_sigma_n",
+             "record_at": "shear.g_at_peak", "e1_at_peak": "e1_at_peak", "peak_state": "peak_state.p"}[kind]
+    if kind == "top_level_peak":
+        t["peak_ratio13"] = max(r["ratio13"] for r in rows)  # the largest s11/s33: not the shear's peak
+    elif kind == "record_value":
+        t["shear"]["peak_tau_over_sigma_n"] *= 1.001
+    elif kind == "record_at":
+        t["shear"]["g_at_peak"] += 1e-4
+    elif kind == "e1_at_peak":
+        t["e1_at_peak"] = max(r["e1"] for r in rows) + 1e-3
+    else:
+        t["peak_state"]["p"] = rows[-1]["p"]  # the last row's
+    problems = oracle.check_run(write_run(tmp_path, rows, summary, deck))
+    assert len(problems) == 1 and words in problems[0], problems
+
+
+def test_extension_peak_is_s33_over_s11(tmp_path):
+    """An extension's peak is s33/s11's, in its `extension` record; a null top-level peak_ratio13 is right."""
+    rows = triaxial_rows()
+    for i, r in enumerate(rows):
+        r["e1"], r["e2"], r["e3"] = -r["e1"], -r["e2"], -r["e3"]
+        r["s11"] = 1e5 * (1 - 0.6 * math.sin(math.pi * i / (len(rows) - 1) * 0.75))
+        r["ratio13"] = r["s11"] / r["s33"]
+        r["p"] = (r["s11"] + r["s22"] + r["s33"]) / 3
+    deck = copy.deepcopy(DECK)
+    deck["tests"][0]["axes"]["x1"]["strain_increment"] = -1e-5
+    deck["tests"][0]["end"]["strain"] = -0.03
+    summary = true_summary(rows)
+    t = summary["tests"]["t"]
+    top = max(range(len(rows)), key=lambda i: rows[i]["s33"] / rows[i]["s11"])
+    t.update(peak_ratio13=None, peak_reached=True, e1_at_peak=rows[top]["e1"], driven_measure="s33/s11",
+             extension={"peak_reached": True, "peak_ratio31": rows[top]["s33"] / rows[top]["s11"],
+                        "e1_at_peak": rows[top]["e1"]})
+    assert oracle.check_run(write_run(tmp_path, rows, summary, deck)) == []
+    t["extension"]["e1_at_peak"] = rows[-1]["e1"]
+    problems = oracle.check_run(write_run(tmp_path, rows, summary, deck))
+    assert len(problems) == 1 and "extension.e1_at_peak" in problems[0], problems
