@@ -51,12 +51,17 @@ constexpr F kToleranceStage[] = {
     {"legs", "", "per leg", kToleranceLeg},
     {"particle_steps", "", "the predicted cost at the resolved settings (summary.json tolerance only)", kStepRange},
     {"particle_steps_written", "", "the same as written", kStepRange},
-    {"ratio_low", "1", "written over resolved, the fewest particle-steps each"}};
+    {"ratio_low", "1", "written over resolved, the fewest particle-steps each"},
+    {"network_time_step_estimate", "s", "the contact network's limit, estimated before a packing exists"},
+    {"network_cap", "s", "the largest time step allowed: 0.9 of that estimate"},
+    {"network_capped", "", "the rules' time step was above the cap and was lowered to it"},
+    {"time_step_rules", "s", "the rules' time step before the cap"}};
 constexpr F kCalibration[] = {{"model", "", "how a tolerance at this sample's size maps onto the rules' calibration"},
                               {"particles", "particles", "this deck's spheres"},
                               {"calibration_particles", "particles", "the rules' scene's"},
                               {"tolerance", "noise floors", "the tolerance asked"},
-                              {"tolerance_at_calibration", "noise floors", "the same at the calibration's size"}};
+                              {"tolerance_at_calibration", "noise floors", "the same at the calibration's size"},
+                              {"table_tolerance", "noise floors", "the level the rules' table is read at (clamped)"}};
 constexpr F kRules[] = {{"time_step_fraction", "1", "the rules' time step over the stability limit"},
                         {"prepare_time_step_fraction", "1", "the same for the preparation"},
                         {"inertial_number", "1", "the rules' largest inertial number of a loading leg"},
@@ -67,6 +72,26 @@ constexpr F kDampingPair[] = {{"translational", "1", "the resolved translational
 constexpr F kTotal[] = {{"particle_steps", "", "the run's predicted cost, resolved", kStepRange},
                         {"particle_steps_written", "", "the same as written", kStepRange},
                         {"ratio_low", "1", "written over resolved"}};
+// The rate --tolerance chose from the rate bias laws (io/tolerance.cpp rate_json).
+constexpr F kRateLaw[] = {
+    {"quantity", "", "the quantity the law covers (test and summary key)"},
+    {"bias_floors", "noise floors", "its bias at the chosen inertial number, in this deck's floors"},
+    {"bias_floors_upper", "noise floors", "the same at the law's one-sided upper bound"},
+    {"order", "1", "the law's order p in b(I) = C I^p"},
+    {"floor_at_calibration", "quantity's", "the quantity's floor in the laws' scene"}};
+constexpr F kRateWritten[] = {{"stage", "", "the test"},
+                              {"inertial_number", "1", "a written leg's inertial number"},
+                              {"slowed", "", "the leg was slowed to the chosen inertial number"},
+                              {"rate_factor", "1", "the chosen rate over the written"},
+                              {"distance_floors", "", "per law, the written leg's distance from I -> 0"},
+                              {"distance_floors.*", "noise floors", "central and upper bound"}};
+constexpr F kToleranceRate[] = {{"inertial_number", "1", "the inertial number the strain-driven legs run at"},
+                                {"limiting", "", "the law that set it"},
+                                {"inertial_number_definition", "", "which inertial number the laws use"},
+                                {"promise", "", "what the tolerance promises, in words"},
+                                {"laws", "", "per rate bias law", kRateLaw},
+                                {"written", "", "per written strain-driven leg", kRateWritten}};
+
 // What --tolerance did (io/tolerance): summary.json's tolerance (with the cost) and settings.resolved.
 constexpr F kTolerance[] = {
     {"tolerance", "noise floors", "the tolerance asked (--tolerance or the deck's)"},
@@ -77,7 +102,8 @@ constexpr F kTolerance[] = {
     {"stability_limit", "s", "the time step's stability limit the fractions are of"},
     {"damping", "", "the resolved damping", kDampingPair},
     {"stages", "", "per stage, what the rules resolved", kToleranceStage},
-    {"total", "", "the whole run's predicted cost (summary.json tolerance only)", kTotal}};
+    {"total", "", "the whole run's predicted cost (summary.json tolerance only)", kTotal},
+    {"rate", "", "the rate chosen from the distance to I -> 0", kToleranceRate}};
 constexpr F kSettings[] = {
     {"deck", "", "the deck file"},
     {"particles", "particles", "the sample's spheres"},
@@ -253,60 +279,68 @@ constexpr F kProbes[] = {{"kind", "", "strain or stress probes"},
                          {"table", "", "probes.csv"},
                          {"stiffness", "", "stiffness.json"}};
 
-// A test's rate check (run/verify_rate.cpp, docs/outputs.md).
+// A test's rate check by a ladder of rates (run/verify_rate.cpp RateCheckResult::to_json, docs/outputs.md).
 constexpr F kRateFloors[] = {{"ratio13", "1", "the noise floor of the peak ratios"},
                              {"ev", "1", "of the volumetric strain"},
                              {"Z", "1", "of the coordination number"},
+                             {"Z_sheared", "", "Z's floor is the sheared end-of-test Z's (else the prepared sample's)"},
                              {"source", "", "where the floors came from"}};
-constexpr F kRateCost[] = {{"slow_steps", "steps", "the slower run's"},
-                           {"twin_steps", "steps", "the twin's"},
-                           {"particle_steps", "particle-steps", "both"},
+constexpr F kRateCostRun[] = {{"run", "", "the run's name (rung-<k>, twin-<k>)"},
+                              {"steps", "steps", "its steps"},
+                              {"particle_steps", "particle-steps", "its particle-steps"}};
+constexpr F kRateCost[] = {{"runs", "", "per run of the check", kRateCostRun},
+                           {"particle_steps", "particle-steps", "all the check's runs"},
                            {"estimated_s", "s", "at the test's speed"}};
-constexpr F kRateRun[] = {{"series", "", "its series.csv"},
+constexpr F kRateRun[] = {{"factor", "1", "its rate over the test's"},
+                          {"series", "", "its series.csv"},
                           {"steps", "steps", "its steps"},
                           {"wall_s", "s", "its wall time"},
                           {"controlled", "", "its controls held"},
                           {"peak_reached", "", "its driven measure reached its peak"},
                           {"inertial_number", "1", "its inertial number"},
                           {"failed", "", "its error, when it failed"}};
-constexpr F kRateRuns[] = {{"slow", "", "the slower run", kRateRun}, {"twin", "", "the twin", kRateRun}};
-constexpr F kRateChaos[] = {{"rule", "", "how the chaos's half-width is taken"},
-                            {"twin_quantile", "1", "Student's t at 97.5 %, 1 degree of freedom"},
-                            {"bound_half_width_floors", "noise floors", "the bound's half-width"},
-                            {"twin_parted", "", "the twin parted from the test"},
-                            {"twin_failed", "", "the twin's error"},
-                            {"note", "", "the twin did not part: the bound alone"}};
-constexpr F kRateComparison[] = {{"test", "quantity's", "the test's value"},
-                                 {"slow", "quantity's", "the slower run's"},
-                                 {"twin", "quantity's", "the twin's"},
-                                 {"twin_floors", "noise floors", "test - twin"},
-                                 {"floor", "quantity's", "its noise floor"},
-                                 {"difference", "quantity's", "test - slower"},
-                                 {"floors", "noise floors", "the difference in floors"},
-                                 {"error_floors", "noise floors", "extrapolated to the quasi-static limit"},
-                                 {"chaos_half_width_floors", "noise floors", "the chaos's 95 % half-width"},
-                                 {"chaos_from", "", "the twin or the bound"},
-                                 {"verdict", "", "converged, not converged, unresolved or not compared"},
-                                 {"reason", "", "why not compared"}};
-constexpr F kRateLargest[] = {{"quantity", "", "the quantity of the largest error"},
-                              {"error_floors", "noise floors", "its error"}};
-constexpr F kRateCheck[] = {{"rate_factor", "1", "the slower run's rate over the test's"},
-                            {"tolerance_floors", "noise floors", "the tolerance"},
-                            {"confidence", "1", "the verdict's confidence"},
-                            {"extrapolation", "", "how the error is extrapolated"},
-                            {"floors", "", "the noise floors", kRateFloors},
-                            {"cost", "", "the check's cost", kRateCost},
-                            {"runs", "", "the check's runs", kRateRuns},
-                            {"chaos", "", "the chaos of a pair", kRateChaos},
-                            {"comparisons", "", "per compared quantity"},
-                            {"comparisons.*", "",
-                             "a quantity (peak_ratio13, peak_robust.ratio13, end_window.ev, "
-                             "end_window.Z)",
-                             kRateComparison},
-                            {"largest", "", "the largest error", kRateLargest},
-                            {"not_compared", "", "the quantities not compared"},
-                            {"verdict", "", "converged, not converged, unresolved or run failed"},
-                            {"reason", "", "the verdict's reason"}};
+constexpr F kRateChaos[] = {{"rule", "", "how one run's chaos is taken and carried through the fit"}};
+constexpr F kRateFamily[] = {{"quantities", "", "the quantities judged (the family's size m)"},
+                             {"rule", "", "how the family's verdict holds its error rate"}};
+constexpr F kRateComparison[] = {
+    {"test", "quantity's", "the test's value"},
+    {"floor", "quantity's", "its noise floor"},
+    {"floor_of", "", "the floor's quantity"},
+    {"rungs", "quantity's", "each rung's value, in the rungs' order"},
+    {"twins", "quantity's", "each twin's value"},
+    {"chaos_sd", "quantity's", "one run's chaos: the sample std of the test and its twins"},
+    {"chaos_dof", "", "its degrees of freedom"},
+    {"chaos_sd_floors", "noise floors", "the same in floors"},
+    {"quasi_static", "quantity's", "the fit's Q0, the answer at I -> 0"},
+    {"order", "1", "the fitted order p of Q(r) = Q0 + C r^p"},
+    {"order_interval90", "1", "its 90 % interval"},
+    {"order_at_bound", "", "the fitted order sits at a bound of its search range"},
+    {"error_floors", "noise floors", "the test's distance from I -> 0, C / floor"},
+    {"bounds95_floors", "noise floors", "its one-sided 95 % bounds"},
+    {"family_bounds_floors", "noise floors", "its bounds at 0.05 / m (Bonferroni over the family)"},
+    {"linear_error_floors", "noise floors", "the first-order extrapolation from the first rung, for comparison"},
+    {"verdict", "", "converged, not converged, unresolved or not compared"},
+    {"reason", "", "why unresolved or not compared"}};
+constexpr F kRateLargest[] = {{"quantity", "", "the quantity of the largest distance"},
+                              {"error_floors", "noise floors", "its distance"}};
+constexpr F kRateCheck[] = {
+    {"rungs", "1", "the rungs' rates over the test's"},
+    {"twins", "", "the twins run"},
+    {"tolerance_floors", "noise floors", "the tolerance"},
+    {"confidence", "1", "the verdict's confidence"},
+    {"window_strain", "1", "the end span's strain (end_span.ev, end_span.Z)"},
+    {"extrapolation", "", "how the distance is extrapolated"},
+    {"chaos", "", "one run's chaos", kRateChaos},
+    {"family", "", "the family of quantities judged", kRateFamily},
+    {"floors", "", "the noise floors", kRateFloors},
+    {"cost", "", "the check's cost", kRateCost},
+    {"runs", "", "the check's runs"},
+    {"runs.*", "", "a run (rung-<k>, twin-<k>)", kRateRun},
+    {"comparisons", "", "per compared quantity"},
+    {"comparisons.*", "", "a quantity (peak_ratio13, peak_robust.ratio13, end_span.ev, end_span.Z)", kRateComparison},
+    {"largest", "", "the largest distance", kRateLargest},
+    {"verdict", "", "converged, not converged, unresolved or run failed"},
+    {"reason", "", "the verdict's reason"}};
 
 // The run's top level (runner.cpp run_deck).
 constexpr F kTop[] = {{"celldem_version", "", "the binary's version"},

@@ -62,7 +62,10 @@ TEST(SeriesRow, HeaderIsTheDocumentedColumnList) {
             "sliding_fraction,n_contacts,n_strong,H11,H22,H33,H12,H13,H23,Hs11,Hs22,Hs33,Hw11,Hw22,Hw33,H11_H33,"
             "Hs11_Hs33,Hw11_Hw33,kinetic_energy,unbalanced_force,leg,sigma1,sigma2,sigma3,b_principal,"
             "ratio_principal,lode_angle,Zm_frictionless,g12,g13,g23,rate_factor,strain_rate,inertial_number,"
-            "kinetic_to_elastic,imposed_inertial_number\n");
+            "kinetic_to_elastic,imposed_inertial_number,energy_boundary_work,energy_normal,energy_tangential,"
+            "energy_rotational_springs,energy_kinetic_translation,energy_kinetic_rotation,energy_friction,"
+            "energy_rotational_friction,energy_body_damping,energy_contact_damping,energy_closure,"
+            "energy_closure_relative\n");
   for (const SeriesColumn& c : series_columns()) {
     EXPECT_FALSE(c.unit.empty()) << c.name;
     EXPECT_FALSE(c.meaning.empty()) << c.name;

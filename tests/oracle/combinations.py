@@ -301,14 +301,14 @@ def trial_rate(rng, ctx, tag):
     with open(os.path.join(out, "summary.json")) as f:
         s = json.load(f)["tests"]["t"]
     rows = read_rows(os.path.join(out, "t", "series.csv"))
-    slow = read_rows(os.path.join(out, "t", "verify", "slow", "series.csv"))
+    slow = read_rows(os.path.join(out, "t", "verify", "rung-1", "series.csv"))  # (rate_factor f: rungs f and f²)
     legs = t.get("legs") or [t]
     a, b = leg_spans(rows), leg_spans(slow)
     bad = oracle.check_run(out)
     if len(a) != len(legs) or len(b) != len(legs):
         return "failed", f"{what}: legs in the series: test {len(a)}, slower run {len(b)}, deck {len(legs)}"
     runs = (s.get("verify_rate") or {}).get("runs", {})
-    held = s.get("controlled") is True and (runs.get("slow") or {}).get("controlled") is True
+    held = s.get("controlled") is True and (runs.get("rung-1") or {}).get("controlled") is True
     checked = 0
     for k, leg in enumerate(legs):
         strain = any("strain_increment" in x and x["strain_increment"] for x in (leg.get("axes") or {}).values())
@@ -330,16 +330,17 @@ def trial_rate(rng, ctx, tag):
     if kind in ("extension", "ramp") and comp.get("test") is not None and not close(comp["test"], max(m), 1e-7):
         bad.append(f"verify_rate.comparisons.peak_ratio13.test {comp['test']}, the test's largest "
                    f"{s.get('driven_measure')} {max(m):.10g}")
-    if kind in ("extension", "ramp") and comp.get("slow") is not None:
+    first_rung = (comp.get("rungs") or [None])[0]
+    if kind in ("extension", "ramp") and first_rung is not None:
         _, ms = measure_of(s, legs[0], slow)
-        if not close(comp["slow"], max(ms), 1e-7):
-            bad.append(f"verify_rate.comparisons.peak_ratio13.slow {comp['slow']}, the slower run's largest "
+        if not close(first_rung, max(ms), 1e-7):
+            bad.append(f"verify_rate.comparisons.peak_ratio13.rungs[0] {first_rung}, the slower run's largest "
                        f"{s.get('driven_measure')} {max(ms):.10g}")
     if bad:
         return "failed", f"{what}: " + "; ".join(bad)
     if not checked:
         return "skipped", f"{what}: uncontrolled (test {s.get('controlled')}, slower run " \
-                          f"{(runs.get('slow') or {}).get('controlled')}): no driven rate measured"
+                          f"{(runs.get('rung-1') or {}).get('controlled')}): no driven rate measured"
     return "passed", f"{what}: {checked} of {len(legs)} leg(s)"
 
 
