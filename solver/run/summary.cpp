@@ -413,10 +413,8 @@ TestSummary summarize_test(const Deck& deck, const TestDef& test, const std::vec
 
 TestSummary summarize_finished_test(const Deck& deck, const TestDef& test, const StageResult& stage,
                                     std::vector<std::string>& warnings) {
-  TestSummary t = summarize_test(deck, test, stage.rows, stage.control_errors, stage.elapsed,
-                                 stage.state.control.stage_steps, stage.state.particles.size(), warnings);
-  t.json = t;
-  return t;
+  return summarize_test(deck, test, stage.rows, stage.control_errors, stage.elapsed, stage.state.control.stage_steps,
+                        stage.state.particles.size(), warnings);
 }
 
 PreparationSummary summarize_preparation(const Model& model, const State& state, const PrepareDef& prep, double wall) {

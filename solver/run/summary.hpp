@@ -354,9 +354,6 @@ struct TestSummary {
   PeakJudgement peak;        // of the measure (followed on s11/s33 for a test with no peak to reach)
   bool peak_reached = true;  // the peak reached, or none to reach
   ComparedValues compared;   // what a rate check compares
-  // The written form (to_json of this), kept for the rate check's run records until they read steps and
-  // inertial_number from the members above.
-  nlohmann::json json;
 };
 template <class V>
 void visit_fields(const TestSummary& t, V&& v) {

@@ -291,11 +291,11 @@ RateCheckRun run_record(const std::string& name, double factor, const CheckRun& 
   out.error = r.error;
   if (!r.error.empty()) return out;
   out.series = r.series;
-  out.steps = r.summary.json.value("steps", std::int64_t{0});
+  out.steps = r.summary.steps;
   out.wall_s = r.summary.wall_s;
   out.controlled = r.summary.controlled;
   out.peak_reached = r.summary.peak_reached;
-  out.inertial_number = r.summary.json.value("inertial_number", Json());
+  out.inertial_number = number_or_null(r.summary.inertial_number);
   out.compared = r.summary.compared;
   return out;
 }
