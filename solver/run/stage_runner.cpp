@@ -1,5 +1,7 @@
 #include "run/stage_runner.hpp"
 
+#include <optional>
+
 #include "cell/control.hpp"
 #include "io/state_file.hpp"
 #include "run/preflight.hpp"
@@ -17,10 +19,17 @@ StageResult run_stage(const RunContext& context, const Model& model, const Stage
   // interval as its fabric evolves: the stage's own first observer.
   const std::string key = time_step_key(context.deck, spec.name);
   const std::string where = (spec.kind == StageKind::Preparation ? "the preparation" : "stage '" + spec.name + "'");
-  const NetworkStepJudgement at_start = judge_network_time_step(
-      model, state, spec.friction, where + (spec.resumed ? " as it resumes" : " as it starts"), key);
-  // (A resumed stage is judged as it went on: its checkpoint holds the start's judgement, and a later one only warns.)
-  if (at_start.verdict == NetworkStepVerdict::Refuse && !spec.resumed) throw DeckError(at_start.message);
+  const auto judge_start = [&](const State& s) {
+    return judge_network_time_step(model, s, spec.friction, where + (spec.resumed ? " as it resumes" : " as it starts"),
+                                   key);
+  };
+  // A fresh stage is judged before any output. A resumed one is judged as it went on: its checkpoint holds the
+  // start's judgement (judged again only where an older checkpoint lacks it), and a later check only warns.
+  std::optional<NetworkStepJudgement> at_start;
+  if (!spec.resumed) {
+    at_start = judge_start(state);
+    if (at_start->verdict == NetworkStepVerdict::Refuse) throw DeckError(at_start->message);
+  }
   StageOutput* output = nullptr;
   NetworkTimeStepWatch watch(model, spec.friction, where, key, context.deck.checkpoint_interval,
                              [&output](const std::string& warning) { output->warn(warning); });
@@ -31,7 +40,7 @@ StageResult run_stage(const RunContext& context, const Model& model, const Stage
   output = &out;
   out.set_start_cause(spec.start_cause);
   out.open(state, spec.resumed);
-  if (!watch.restored()) watch.start(at_start);
+  if (!watch.restored()) watch.start(at_start ? *at_start : judge_start(state));
   if (spec.restart_legs) begin_leg(state, 0);
   const Program program{.legs = spec.legs,
                         .friction = spec.friction,
