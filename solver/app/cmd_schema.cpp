@@ -478,9 +478,15 @@ void print_tolerance(const Json& t) {
       std::printf("\n");
     }
   }
-  std::printf("  total        %s particle-steps (written %s: %sx fewer, counting each equilibrium at its min_steps)\n",
+  // ratio_low is written over resolved: above 1 the tolerance saves steps, below 1 (a deck slowed toward I -> 0) it
+  // costs more, which the line says as such rather than as a fraction "fewer".
+  const Json& low = t["total"]["ratio_low"];
+  const std::string cost = low.is_number() && low.get<double>() > 0.0 && low.get<double>() < 1.0
+                               ? ratio(1.0 / low.get<double>()) + "x more"
+                               : ratio(low) + "x fewer";
+  std::printf("  total        %s particle-steps (written %s: %s, counting each equilibrium at its min_steps)\n",
               steps(t["total"]["particle_steps"]).c_str(), steps(t["total"]["particle_steps_written"]).c_str(),
-              ratio(t["total"]["ratio_low"]).c_str());
+              cost.c_str());
 }
 
 }  // namespace
