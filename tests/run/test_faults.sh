@@ -189,7 +189,7 @@ trial_stray_checkpoint() {
   # The event at which the run removes ttc's checkpoint when the stage is marked done.
   n=$(grep "unlink $d/ttc/checkpoint.state\$" "$work/run.log" | tail -1 | cut -d' ' -f1)
   [[ -n $n ]] || { why="skipped: no removal of ttc's checkpoint listed"; return 2; }
-  { CELLDEM_KILL_AT=$n CELLDEM_KILL_LOG="$work/sc.log" LD_PRELOAD="$kill_at" \
+  { CELLDEM_KILL_AT=$n CELLDEM_KILL_WHEN=before CELLDEM_KILL_LOG="$work/sc.log" LD_PRELOAD="$kill_at" \
       "$celldem" run "$work/deck.json" --out "$d" --quiet --threads 1 2>/dev/null &
     wait $!; } 2>/dev/null
   rc=$?
