@@ -80,7 +80,7 @@ run_case() {
   # The step of the checkpoint the resume goes on from: its row, or the last before it, is the killed series' last.
   at=$(tail -1 "$r/ttc/series.csv" | cut -d, -f1)
   if [[ ! -f $r/ttc/checkpoint.state || -e $r/ttc/final.state || -e $r/ttc/snapshots/ttc_$step.dump ]] ||
-    [[ $c == leg_end ]] && ((at >= step)); then
+    { [[ $c == leg_end ]] && ((at >= step)); }; then
     why="skipped: the killed run had no checkpoint of ttc, or had written the outputs of step $step"; return 2
   fi
   [[ $c == stage_end ]] && ((at >= step)) && note="its checkpoint is at the test's last step $step"
