@@ -134,7 +134,8 @@ namespace {
 //   track_controls     every controlled component measured and judged (run/control_verdict.hpp);
 //   check_equilibrium  an equilibrium leg's criterion (it ends the leg, or stops a leg that never gets there);
 //   adapt_rate         an adaptive leg's next rate factor;
-//   progress           the step's row, snapshot and progress line (StageOutput::after_step).
+//   progress           the step's row, snapshot and progress line (StageOutput::record_step);
+//   the leg's end      then the checkpoint, unless the leg ends at this step (StageOutput::checkpoint_step).
 class LegRun {
  public:
   LegRun(const Model& model, const Program& program, State& state, StageOutput& out, ControlErrors& errors,
@@ -183,8 +184,9 @@ class LegRun {
       return false;
     }
     const bool rate_changed = leg_.adaptive && !leg_done_ && adapt_rate(contacts);
-    rebuild = progress(contacts);
+    progress(contacts);
     leg_over_ = leg_done_ = watch_.ended(model_, state_);  // for the next step
+    rebuild = out_.checkpoint_step(state_, leg_over_);     // (none where the leg ends)
     return !leg_over_ && !threads_changed && !rate_changed;
   }
 
@@ -260,8 +262,8 @@ class LegRun {
     return changed;
   }
 
-  // The step's row and progress line; returns whether the next step rebuilds the neighbour list.
-  bool progress(const std::optional<ContactMeasures>& contacts) {
+  // The step's row and progress line.
+  void progress(const std::optional<ContactMeasures>& contacts) {
     const ControlState& c = state_.control;
     // (an adaptive leg's steps are known only by running it: its share of the strain to go stands in)
     const double share = watch_.done_share(state_);
@@ -269,7 +271,7 @@ class LegRun {
                                 ? static_cast<double>(c.stage_steps) / static_cast<double>(program_.planned_steps)
                             : std::isfinite(share) ? (c.leg + share) / static_cast<double>(program_.legs.size())
                                                    : -1.0;
-    return out_.after_step(state_, fraction, status_, contacts ? &*contacts : nullptr);
+    out_.record_step(state_, fraction, status_, contacts ? &*contacts : nullptr);
   }
 
   const Model& model_;
@@ -310,7 +312,10 @@ void run_program(const Model& model, const Program& program, State& state, Stage
     if (const std::string cut = strain_leg_cut_short(program, model, state, known_ahead); !cut.empty()) out.warn(cut);
     const bool observer_ends = out.leg_ends_stage(state);  // (every observer asked at every leg's end)
     if (static_cast<std::size_t>(c.leg) + 1 == program.legs.size() || observer_ends) return;
-    if (!leg_over) rebuild = out.after_step(state, -1.0, leg.status());  // an equilibrium leg that is not the last
+    if (!leg_over) {  // an equilibrium leg that is not the last: its last step's row (no checkpoint at a leg's end)
+      out.record_step(state, -1.0, leg.status());
+      rebuild = out.checkpoint_step(state, /*leg_ends=*/true);
+    }
     out.end_leg(state);  // the leg's end is a row
     begin_leg(state, c.leg + 1);
   }

@@ -144,8 +144,8 @@ void StageOutput::open(State& state, bool resumed) {
   }
 }
 
-bool StageOutput::after_step(const State& state, double fraction, const std::string& status,
-                             const ContactMeasures* contacts) {
+void StageOutput::record_step(const State& state, double fraction, const std::string& status,
+                              const ContactMeasures* contacts) {
   const std::int64_t s = state.control.stage_steps;
   if (!std::isfinite(state.stress.sum()) || !std::isfinite(state.cell.h.sum()))  // cheap, every step
     throw RunError("non-finite stress or cell in stage '" + stage_ + "' at step " + std::to_string(s) +
@@ -159,17 +159,20 @@ bool StageOutput::after_step(const State& state, double fraction, const std::str
                       "; the test's last checkpoint is kept. Continue with: " + continue_command() + " (the test goes on from that checkpoint; its rate check runs again whole, its "
                       "probes from the points' kept states)");
   }
-  if (stop_requested()) {
+}
+
+bool StageOutput::checkpoint_step(const State& state, bool leg_ends) {
+  const std::int64_t s = state.control.stage_steps;
+  if (branch_) return false;
+  if (stop_requested() && !leg_ends) {
     checkpoint(state);
     progress_.finish();
     throw Interrupted("stopped by a signal in stage '" + stage_ + "' at step " + std::to_string(s) +
                       "; a checkpoint was written. Continue with: " + continue_command());
   }
-  if (!branch_ && s % deck_.checkpoint_interval == 0) {
-    checkpoint(state);
-    return true;
-  }
-  return false;
+  const bool due = s % deck_.checkpoint_interval == 0;
+  if (due && !leg_ends) checkpoint(state);
+  return due;
 }
 
 std::string StageOutput::continue_command() const {

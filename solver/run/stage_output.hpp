@@ -38,12 +38,19 @@ class StageOutput {
   // (State::energy) restored from the checkpoint's record.
   void open(State& state, bool resumed);
 
-  // After every step. Returns true when the next step must rebuild the neighbour list (after a checkpoint,
-  // so that a resumed run does the same). Throws Interrupted after a stop request, once checkpointed.
+  // After every step, in two calls with the leg's end decided between them. First the step's row (when due),
+  // the observers' on_step and the progress line; a branch throws Interrupted here after a stop request.
   // `contacts`: the state's contacts if the caller has measured them this step (measure_contacts), for the row.
-  bool after_step(const State& state, double fraction, const std::string& status = "",
-                  const ContactMeasures* contacts = nullptr);
-  // Whether after_step writes a row at this step.
+  void record_step(const State& state, double fraction, const std::string& status = "",
+                   const ContactMeasures* contacts = nullptr);
+  // Then the checkpoint every checkpoint_interval steps, and after a stop request a checkpoint and Interrupted;
+  // none at a step where a leg ends (`leg_ends`): a state file holds no per-pair forces, so a stage resumed there
+  // would end its leg, or the stage, with no step taken and write its leg-end row, end snapshot and summary from
+  // zero forces (and an equilibrium leg would not know it had ended). A stop there waits for the next step, or
+  // the next stage's; the stage's end outputs supersede its checkpoints. Returns true when the next step must
+  // rebuild the neighbour list: every checkpoint_interval steps, written or not, so that a resumed run does the same.
+  bool checkpoint_step(const State& state, bool leg_ends);
+  // Whether record_step writes a row at this step.
   bool row_due(const State& state) const { return state.control.stage_steps % output_interval_ == 0; }
 
   // A leg has ended: its last step becomes a row unless the output interval just wrote one.

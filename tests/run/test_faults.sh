@@ -34,7 +34,9 @@ here="$(dirname "$0")"
 cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
 sed 's/"strain":0.006/"strain":0.05/g' "$work/deck.json" > "$work/long.json"
-declare -A passed failed skipped
+source "$here/trial_tally.sh"
+tally_show_skips=0
+[[ -n ${CELLDEM_VERBOSE:-} ]] && tally_show_skips=1
 kinds=(merge_kill merge_full readonly_share lock_symlink stage_symlink pid_race stray_checkpoint
        share_resumed)
 # CELLDEM_FAULT_KINDS="merge_kill pid_race": only these kinds.
@@ -187,7 +189,7 @@ trial_stray_checkpoint() {
   # The event at which the run removes ttc's checkpoint when the stage is marked done.
   n=$(grep "unlink $d/ttc/checkpoint.state\$" "$work/run.log" | tail -1 | cut -d' ' -f1)
   [[ -n $n ]] || { why="skipped: no removal of ttc's checkpoint listed"; return 2; }
-  { CELLDEM_KILL_AT=$n CELLDEM_KILL_LOG="$work/sc.log" LD_PRELOAD="$kill_at" \
+  { CELLDEM_KILL_AT=$n CELLDEM_KILL_WHEN=before CELLDEM_KILL_LOG="$work/sc.log" LD_PRELOAD="$kill_at" \
       "$celldem" run "$work/deck.json" --out "$d" --quiet --threads 1 2>/dev/null &
     wait $!; } 2>/dev/null
   rc=$?
@@ -237,28 +239,10 @@ merge_events=$(wc -l < "$work/merge.log" 2>/dev/null || echo 0)
 ((merge_events > 0)) || { echo "FAIL: $kill_at listed no file event of the merge"; exit 1; }
 echo "references: a merge of 3 seed shares makes $merge_events file events (seed $seed, budget ${budget}s)"
 
-t0=$SECONDS
-count=0
-while :; do
-  # (after one of each, a merge killed is drawn as often as all the others together: the widest space of moments)
-  if ((count < ${#kinds[@]})); then kind=${kinds[count]}
-  elif ((RANDOM % 2)) && [[ " ${kinds[*]} " == *" merge_kill "* ]]; then kind=merge_kill
+# (after one of each, a merge killed is drawn as often as all the others together: the widest space of moments)
+draw_kind() {
+  if ((RANDOM % 2)) && [[ " ${kinds[*]} " == *" merge_kill "* ]]; then kind=merge_kill
   else kind=${kinds[RANDOM % ${#kinds[@]}]}; fi
-  ((count >= ${#kinds[@]} && SECONDS - t0 >= budget)) && break
-  count=$((count + 1))
-  why=""
-  "trial_$kind"; rc=$?
-  if ((rc == 0)); then passed[$kind]=$((${passed[$kind]:-0} + 1))
-  elif ((rc == 1)); then failed[$kind]=$((${failed[$kind]:-0} + 1)); echo "failed: $kind: $why"
-  else skipped[$kind]=$((${skipped[$kind]:-0} + 1)); [[ -n ${CELLDEM_VERBOSE:-} ]] && echo "$kind: $why"
-  fi
-done
-printf '%-18s %6s %6s %7s\n' kind passed failed skipped
-total_failed=0
-for kind in "${kinds[@]}"; do
-  printf '%-18s %6d %6d %7d\n' "$kind" "${passed[$kind]:-0}" "${failed[$kind]:-0}" "${skipped[$kind]:-0}"
-  total_failed=$((total_failed + ${failed[$kind]:-0}))
-done
-((total_failed == 0)) || { echo "FAIL: $total_failed trials failed"; exit 1; }
-((count > 0)) || { echo "FAIL: no trial ran"; exit 1; }
-echo "PASS"
+}
+run_trials "$budget"
+tally_report 18 "${kinds[@]}"

@@ -1,14 +1,19 @@
 // The one stage runner (run/stage_runner.hpp) and its observers (run/stage_observer.hpp): every hook is called where
 // it says, and an observer that ends the stage at a leg's end leaves the stage there, its last row that leg's end.
+// No checkpoint is written at a step where a leg ends (a resume there would end with no step and no pair forces).
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <csignal>
+#include <cstdlib>
 #include <filesystem>
+#include <iostream>
 
 #include "cell/control.hpp"
 #include "core/model.hpp"
 #include "helpers.hpp"
 #include "io/state_file.hpp"
+#include "run/errors.hpp"
 #include "run/run_directory.hpp"
 #include "run/run_options.hpp"
 #include "run/runner.hpp"
@@ -174,6 +179,121 @@ TEST(StageRunner, TimeStepAboveTheNetworksLimitIsRefusedOrWarned) {
   const nlohmann::json summary = run.summary();  // (a copy: the loop must not run over a temporary's member)
   for (const auto& w : summary["warnings"]) warned += w.get<std::string>().find("the margin 0.9") != std::string::npos;
   EXPECT_EQ(warned, 1);  // once for the margin, not at every check
+}
+
+// Records the steps of the checkpoints; keeps a copy of the checkpoint and series as they stand after step `keep_at`
+// (what a kill then leaves); raises SIGINT after step `stop_at`.
+class CheckpointWatch : public StageObserver {
+ public:
+  CheckpointWatch(fs::path stage_dir, fs::path keep_dir, std::int64_t keep_at, std::int64_t stop_at = -1)
+      : stage_dir_(std::move(stage_dir)), keep_dir_(std::move(keep_dir)), keep_at_(keep_at), stop_at_(stop_at) {}
+  void on_checkpoint(const State& state) override { steps.push_back(state.control.stage_steps); }
+  void on_step(const State& state) override {
+    if (state.control.stage_steps == keep_at_) {
+      fs::create_directories(keep_dir_);
+      for (const char* f : {"checkpoint.state", "series.csv"}) fs::copy_file(stage_dir_ / f, keep_dir_ / f);
+    }
+    if (state.control.stage_steps == stop_at_) std::raise(SIGINT);
+  }
+  std::vector<std::int64_t> steps;
+
+ private:
+  fs::path stage_dir_, keep_dir_;
+  std::int64_t keep_at_, stop_at_;
+};
+
+// Three hold legs of 40 steps, a checkpoint due every 20 steps and a row every 25: the checkpoints due at the legs'
+// ends (40, 80) and at the stage's (120) are not written, so that no resume starts where a leg ends; the steps after
+// them rebuild the neighbour list as after a checkpoint. Killed after step 61 (its checkpoint at 60) and resumed, the
+// stage ends with the same series and state bytes, the leg-end row at 80 and the last at 120 from steps it took.
+TEST(StageRunner, NoCheckpointWhereALegEndsAndAResumeEndsByteIdentical) {
+  testing::TempDir dir;
+  RunOptions options;
+  Deck deck = prepare_packing(dir.path(), options);
+  deck.checkpoint_interval = 20;
+  options.out_dir = (dir.path() / "run").string();
+  RunDirectory run(deck, options);
+  State state = read_state((dir.path() / "prep" / "prepared.state").string());
+  begin_stage(state);
+  const Friction friction{0.5};  // (a time step well inside the network's limit with friction: no warning)
+  const Model model = make_model(deck, state.particles.radius, 0.8 * deck.time_step);
+  evaluate_forces(model, friction, state);
+  const Leg hold = hold_leg(state, 40);
+  const fs::path stage = run.stage_dir("hold"), kept = dir.path() / "kept";
+  const auto spec = [&](bool resumed, const std::string& final_state) {
+    return StageSpec{.name = "hold",
+                     .legs = std::vector<Leg>(3, hold),
+                     .friction = friction,
+                     .output_interval = 25,
+                     .resumed = resumed,
+                     .adaptive_threads = false,
+                     .progress_line = false,
+                     .final_state = FinalStateFile{(dir.path() / final_state).string(), "test:hold"}};
+  };
+  CheckpointWatch watch(stage, kept, /*keep_at=*/61);
+  const StageResult whole = run_stage({run, deck, options}, model, spec(false, "whole.state"), state, {&watch});
+  EXPECT_EQ(whole.state.control.stage_steps, 120);
+  EXPECT_EQ(watch.steps, (std::vector<std::int64_t>{20, 60, 100}));
+  // Rows: 0, 25, 40 (leg 0's end), 50, 75, 80 (leg 1's end), 100, 120 (the end).
+  ASSERT_EQ(whole.rows.size(), 8u);
+  const std::string series = testing::read_bytes(stage / "series.csv");
+
+  // The kill after step 61: its checkpoint (step 60) and the series as they stood then.
+  for (const char* f : {"checkpoint.state", "series.csv"})
+    fs::copy_file(kept / f, stage / f, fs::copy_options::overwrite_existing);
+  State at_checkpoint = read_state((stage / "checkpoint.state").string());
+  ASSERT_EQ(at_checkpoint.control.stage_steps, 60);
+  CheckpointWatch again(stage, dir.path() / "unused", -1);
+  const StageResult resumed =
+      run_stage({run, deck, options}, model, spec(true, "resumed.state"), std::move(at_checkpoint), {&again});
+  EXPECT_EQ(again.steps, (std::vector<std::int64_t>{100}));
+  EXPECT_EQ(testing::read_bytes(stage / "series.csv"), series);
+  EXPECT_EQ(testing::read_bytes(dir.path() / "resumed.state"), testing::read_bytes(dir.path() / "whole.state"));
+}
+
+// A stop requested at a leg's last step waits for the next step: its checkpoint is that step's, inside the next leg.
+// One at the stage's last step lets the stage end (its outputs written; the next stage stops at its first step).
+// (Each in a child process: the stop request cannot be withdrawn.)
+TEST(StageRunner, AStopAtALegsEndCheckpointsTheNextStep) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  testing::TempDir dir;
+  RunOptions options;
+  Deck deck = prepare_packing(dir.path(), options);
+  deck.checkpoint_interval = 20;
+  State state = read_state((dir.path() / "prep" / "prepared.state").string());
+  begin_stage(state);
+  const Friction friction{0.5};  // (a time step well inside the network's limit with friction: no warning)
+  const Model model = make_model(deck, state.particles.radius, 0.8 * deck.time_step);
+  evaluate_forces(model, friction, state);
+  const Leg hold = hold_leg(state, 40);
+  const auto stopped_at = [&](std::int64_t stop_at) {
+    install_stop_handlers();
+    options.out_dir = (dir.path() / ("run" + std::to_string(stop_at))).string();
+    RunDirectory run(deck, options);
+    CheckpointWatch watch(run.stage_dir("hold"), dir.path() / "unused", -1, stop_at);
+    try {
+      const StageResult r = run_stage({run, deck, options}, model,
+                                      {.name = "hold",
+                                       .legs = std::vector<Leg>(2, hold),
+                                       .friction = friction,
+                                       .output_interval = 25,
+                                       .adaptive_threads = false,
+                                       .progress_line = false},
+                                      state, {&watch});
+      std::cerr << "ended at step " << r.state.control.stage_steps << ", checkpoints";
+    } catch (const Interrupted& e) {
+      std::cerr << "interrupted: " << e.what() << "; checkpoint at step "
+                << read_state(run.checkpoint("hold").string()).control.stage_steps << ", checkpoints";
+    }
+    for (const std::int64_t s : watch.steps) std::cerr << " " << s;
+    std::error_code ignored;
+    fs::remove_all(dir.path(), ignored);  // (exit skips the destructors)
+    std::exit(0);
+  };
+  EXPECT_EXIT(
+      stopped_at(40), ::testing::ExitedWithCode(0),
+      "interrupted: stopped by a signal in stage 'hold' at step 41;.* checkpoint at step 41, checkpoints 20 41");
+  EXPECT_EXIT(stopped_at(80), ::testing::ExitedWithCode(0), "ended at step 80, checkpoints 20 60$");
 }
 
 }  // namespace

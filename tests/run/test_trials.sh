@@ -16,7 +16,7 @@ trap 'jobs -p | xargs -r kill -9 2>/dev/null; rm -rf "$work"' EXIT
 here="$(dirname "$0")"
 cp "$here/small_run.json" "$work/deck.json"
 grep -q '"strain":0.006' "$work/deck.json" || { echo "FAIL: small_run.json changed: adapt this test"; exit 1; }
-declare -A passed failed skipped
+source "$here/trial_tally.sh"
 kinds=(continue_command kill_resume series_extra series_tampered finished_tampered two_processes lock_deleted branch_resumed probe_stop probe_shares foreign_share)
 why=""
 run_quiet() { "$celldem" run "$@" --quiet --threads 1; }
@@ -269,24 +269,5 @@ run_quiet "$work/kn.json" --seeds 2 --out "$work/share2_kn" >/dev/null || { echo
 echo "references: ${ref_seconds}s (seed $seed, budget ${budget}s)"
 check_messages
 
-t0=$SECONDS
-count=0
-while :; do
-  if ((count < ${#kinds[@]})); then kind=${kinds[count]}; else kind=${kinds[RANDOM % ${#kinds[@]}]}; fi
-  ((count >= ${#kinds[@]} && SECONDS - t0 >= budget)) && break
-  count=$((count + 1))
-  why=""
-  "trial_$kind"; rc=$?
-  if ((rc == 0)); then passed[$kind]=$((${passed[$kind]:-0} + 1))
-  elif ((rc == 1)); then failed[$kind]=$((${failed[$kind]:-0} + 1)); echo "failed: $kind: $why"
-  else skipped[$kind]=$((${skipped[$kind]:-0} + 1)); echo "skipped: $kind: $why"  # the moment drawn did not set it up
-  fi
-done
-printf '%-16s %6s %6s %7s\n' kind passed failed skipped
-total_failed=0
-for kind in "${kinds[@]}" messages; do
-  printf '%-16s %6d %6d %7d\n' "$kind" "${passed[$kind]:-0}" "${failed[$kind]:-0}" "${skipped[$kind]:-0}"
-  total_failed=$((total_failed + ${failed[$kind]:-0}))
-done
-((total_failed == 0)) || { echo "FAIL: $total_failed trials failed"; exit 1; }
-echo "PASS"
+run_trials "$budget"
+tally_report 16 "${kinds[@]}" messages
