@@ -41,9 +41,6 @@ struct ChunkOut {
   alignas(64) double shear[3][kChunk];      // (force_i branch_j + force_j branch_i) / 2, ij = 12, 13, 23
   alignas(64) double shear_stiffness[3][kChunk];  // kn (n_i l_j)^2, ij = 12, 13, 23
   alignas(64) std::int64_t flags[kChunk];   // PairFlag bits
-  // The moments on i and on j, for accumulate_chunk: one four-lane record a pair (the fourth lanes stay zero).
-  alignas(64) double torque_i[kChunk][4] = {};
-  alignas(64) double torque_j[kChunk][4] = {};
   // The energy budget's (Energy): (force_i branch_j - force_j branch_i) / 2, ij = 12, 13, 23, and each pair's
   // dissipation (PairContact::slip_work, rotational_slip_work, dashpot_work).
   alignas(64) double spin[3][kChunk];
@@ -156,12 +153,13 @@ const bool cpu_has_avx2 = false;
 std::atomic<bool> portable_gather{false};
 
 // The law for every pair of the chunk, one SIMD lane each. tangential and force are the chunk's slices of
-// the pair arrays (three doubles per pair); the moments go to the chunk's lanes (o). Everything else comes by value, so
-// that the compiler knows no store in the loop changes the parameters or the cell.
+// the pair arrays (three doubles per pair). Everything else comes by value, so that the compiler
+// knows no store in the loop changes the parameters or the cell.
 template <class Law, Kinematics K, bool Diagonal, bool Shear, bool Energy>
 CELLDEM_ISA_CLONES void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double dt, int m, const ChunkIn& __restrict c,
                                        double* __restrict tangential, double* __restrict rolling,
                                        double* __restrict twist, double* __restrict radius, double* __restrict force,
+                                       double* __restrict torque_i, double* __restrict torque_j,
                                        ChunkOut& __restrict o) {
   for (int k = 0; k < m; ++k) {
     const Real3 branch = apply<Diagonal>(h, {c.ds[0][k], c.ds[1][k], c.ds[2][k]});
@@ -185,8 +183,8 @@ CELLDEM_ISA_CLONES void evaluate_chunk(ContactParams law, Mat3 h, Mat3 L, double
     }
     if constexpr (Law::radius_history) radius[k] = r.history.contact_radius;
     force[3 * k] = r.force.x, force[3 * k + 1] = r.force.y, force[3 * k + 2] = r.force.z;
-    o.torque_i[k][0] = r.torque_i.x, o.torque_i[k][1] = r.torque_i.y, o.torque_i[k][2] = r.torque_i.z;
-    o.torque_j[k][0] = r.torque_j.x, o.torque_j[k][1] = r.torque_j.y, o.torque_j[k][2] = r.torque_j.z;
+    torque_i[3 * k] = r.torque_i.x, torque_i[3 * k + 1] = r.torque_i.y, torque_i[3 * k + 2] = r.torque_i.z;
+    torque_j[3 * k] = r.torque_j.x, torque_j[3 * k + 1] = r.torque_j.y, torque_j[3 * k + 2] = r.torque_j.z;
     o.normal[0][k] = r.force.x * branch.x, o.normal[1][k] = r.force.y * branch.y, o.normal[2][k] = r.force.z * branch.z;
     const Real3 nl{r.normal.x * branch.x, r.normal.y * branch.y, r.normal.z * branch.z};
     const double kn = r.normal_stiffness;
@@ -243,69 +241,6 @@ void sum_chunk(const ChunkOut& c, Index q0, int m, std::uint8_t* __restrict flag
   block = s;
 }
 
-// Adds the chunk's pairs to both ends' sums (PairList::block_sums), in pair order, as the pair loop goes: j gets
-// +F and its moment, i gets -F and its moment. A pair whose j lies beyond the force block (block_end) is a
-// crossing pair: j's sum takes it after the block's own pairs, so its moment on j is kept (crossing_torque, the
-// pair array; its force is in force already) and added by the kick (integrate/leapfrog.cpp). The pairs that
-// reach into a particle from its own block are owned by lower ids and all come before its own row, so its sum
-// is, term by term, the one the kick made from stored pair forces before. Row by row: the owner's sums stay
-// in registers through its pairs (j > i: no j is the owner).
-void accumulate_chunk(const ChunkOut& c, const Index* __restrict owner, const Index* __restrict neighbor,
-                      const double* __restrict force, Index q0, int m, Index block_end, BlockSum* __restrict sums,
-                      double* __restrict crossing_torque) {
-  for (int k = 0; k < m;) {
-    const Index i = owner[k];
-    double fi[3], ti[3];
-    for (int a = 0; a < 3; ++a) fi[a] = sums[i].force[a], ti[a] = sums[i].torque[a];
-    for (; k < m && owner[k] == i; ++k) {
-      const std::size_t q = static_cast<std::size_t>(q0 + k);
-      const Index j = neighbor[q];
-      const double* const f = force + 3 * q;
-      if (j < block_end) {
-        for (int a = 0; a < 3; ++a) sums[j].force[a] += f[a];
-        for (int a = 0; a < 3; ++a) sums[j].torque[a] += c.torque_j[k][a];
-      } else {
-        for (int a = 0; a < 3; ++a) crossing_torque[3 * q + a] = c.torque_j[k][a];
-      }
-      for (int a = 0; a < 3; ++a) fi[a] -= f[a];
-      for (int a = 0; a < 3; ++a) ti[a] += c.torque_i[k][a];
-    }
-    for (int a = 0; a < 3; ++a) sums[i].force[a] = fi[a], sums[i].torque[a] = ti[a];
-  }
-}
-
-#if defined(__x86_64__)
-// accumulate_chunk in AVX2: each 3-vector in one register (a masked load of the force, the fourth lane zero),
-// so a pair costs two loads and two stores on j's record. Lane by lane the same additions: the same bits.
-[[gnu::target("avx2")]] void accumulate_chunk_avx2(const ChunkOut& c, const Index* __restrict owner,
-                                                   const Index* __restrict neighbor, const double* __restrict force,
-                                                   Index q0, int m, Index block_end, BlockSum* __restrict sums,
-                                                   double* __restrict crossing_torque) {
-  const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
-  for (int k = 0; k < m;) {
-    const Index i = owner[k];
-    __m256d fi = _mm256_load_pd(sums[i].force), ti = _mm256_load_pd(sums[i].torque);
-    for (; k < m && owner[k] == i; ++k) {
-      const std::size_t q = static_cast<std::size_t>(q0 + k);
-      const Index j = neighbor[q];
-      const __m256d f = _mm256_maskload_pd(force + 3 * q, xyz);
-      const __m256d tj = _mm256_load_pd(c.torque_j[k]);
-      if (j < block_end) {
-        BlockSum& s = sums[j];
-        _mm256_store_pd(s.force, _mm256_add_pd(_mm256_load_pd(s.force), f));
-        _mm256_store_pd(s.torque, _mm256_add_pd(_mm256_load_pd(s.torque), tj));
-      } else {
-        _mm256_maskstore_pd(crossing_torque + 3 * q, xyz, tj);
-      }
-      fi = _mm256_sub_pd(fi, f);
-      ti = _mm256_add_pd(ti, _mm256_load_pd(c.torque_i[k]));
-    }
-    _mm256_store_pd(sums[i].force, fi);
-    _mm256_store_pd(sums[i].torque, ti);
-  }
-}
-#endif
-
 // The calling thread's share of the pairs: force blocks with about equal numbers of pairs (thread_blocks),
 // each in reduction blocks (kReductionBlock owners), each in chunks; neither kind of block depends on
 // which thread takes it. Diagonal: the cell and the velocity gradient are diagonal
@@ -327,20 +262,13 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
   ChunkIn in;
   ChunkOut out;
   using GatherFn = void (*)(const Particles&, const PairList&, Index, int, ChunkIn&);
-  using AccumulateFn =
-      void (*)(const ChunkOut&, const Index*, const Index*, const double*, Index, int, Index, BlockSum*, double*);
 #if defined(__x86_64__)
-  const bool avx2 = cpu_has_avx2 && !portable_gather;
-  const GatherFn gather = avx2 ? &gather_chunk_avx2 : &gather_chunk;
-  const AccumulateFn accumulate = avx2 ? &accumulate_chunk_avx2 : &accumulate_chunk;
+  const GatherFn gather = cpu_has_avx2 && !portable_gather ? &gather_chunk_avx2 : &gather_chunk;
 #else
   const GatherFn gather = &gather_chunk;
-  const AccumulateFn accumulate = &accumulate_chunk;
 #endif
-  BlockSum* const block_sums = pl.block_sums.data();
   for (const std::size_t fb : blocks) {
     const std::size_t block_begin = fb * kForceBlock, block_end = std::min(n, (fb + 1) * kForceBlock);
-    std::fill(block_sums + block_begin, block_sums + block_end, BlockSum{});
     for (std::size_t first_owner = block_begin; first_owner < block_end; first_owner += kReductionBlock) {
       const std::size_t last_owner = std::min(block_end, first_owner + kReductionBlock);
       RunningSums sums;
@@ -352,9 +280,8 @@ void evaluate_share(const ContactParams& law, State& state, double dt, std::vect
         gather(p, pl, q0, m, in);
         evaluate_chunk<Law, K, Diagonal, Shear, Energy>(
             law, h, L, dt, m, in, pl.tangential[q0].data(), rolling ? rolling + 3 * q0 : nullptr,
-            twist ? twist + q0 : nullptr, radius ? radius + q0 : nullptr, pl.force[q0].data(), out);
-        accumulate(out, in.owner, pl.neighbor.data(), doubles(pl.force), q0, m, static_cast<Index>(block_end),
-                   block_sums, doubles(pl.torque_j));
+            twist ? twist + q0 : nullptr, radius ? radius + q0 : nullptr, pl.force[q0].data(), pl.torque_i[q0].data(),
+            pl.torque_j[q0].data(), out);
         sum_chunk<Shear, Energy>(out, q0, m, pl.flags.data(), sums);
       }
       ReductionSums& part = reduction_sums[first_owner / kReductionBlock];
@@ -412,7 +339,6 @@ ContactForceEvaluation::ContactForceEvaluation(const Model& model, const Frictio
       reduction_sums_((state.particles.size() + kReductionBlock - 1) / kReductionBlock) {
   const auto off_diagonal = [](const Mat3& m) { return (m - Mat3(m.diagonal().asDiagonal())).cwiseAbs().maxCoeff(); };
   const bool diagonal = off_diagonal(state.cell.h) == 0.0 && off_diagonal(state.cell.velocity_gradient) == 0.0;
-  state.pairs.block_sums.resize(state.particles.size());
   if (model.contact.rotational_history() && state.pairs.rolling.size() != state.pairs.size())
     throw std::logic_error("compute_contact_forces: the pair list has no rotational springs (rebuild it first)");
   if (model.contact.radius_history() && state.pairs.contact_radius.size() != state.pairs.size())

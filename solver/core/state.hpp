@@ -50,14 +50,6 @@ enum PairFlag : std::uint8_t { kTouching = 1, kSliding = 2 };
 // of times (rebuild_pairs refuses more) and keep the pair arrays small.
 using PairImage = std::array<std::int16_t, 3>;
 
-// One particle's net force and moment as the pair loop sums them from the pairs of its own force block
-// (PairList::block_sums), in four-lane records so that a pair adds to them in two vector operations (the fourth
-// lanes stay zero).
-struct alignas(64) BlockSum {
-  double force[4];   // [N]
-  double torque[4];  // [N m]
-};
-
 // Half neighbour list in CSR form, pair p = (i, neighbor[p]) for p in [first[i], first[i+1]), sorted by j,
 // each pair with its periodic image and the history of its contact. Pairs not touching have zero history.
 struct PairList {
@@ -73,15 +65,13 @@ struct PairList {
   std::vector<std::uint8_t> flags;               // (P) PairFlag bits of the last force evaluation
   // Per-pair results of the last force evaluation (zero where the pair does not touch).
   std::vector<Vec3> force;                       // (P) [N] force on j by i
-  std::vector<Vec3> torque_j;                    // (P) [N m] moment on j, of crossing pairs only (below)
-  // Each particle's net force and moment is summed from its pairs in one fixed order for any number of threads:
-  // particles are grouped in fixed blocks of kForceBlock ids, and particle j's sum takes first its incoming pairs
-  // (those where it is the neighbour) whose owner is in its force block, then its own pairs, each in pair order
-  // as the pair loop meets them (contact/contact_forces.cpp), then its incoming pairs whose owner is in an earlier
-  // block (crossing pairs), in pair order, added by the kick (integrate/leapfrog.cpp) from force and torque_j.
-  // The pair loop's sums of the first two kinds, per particle (N; sized by the pair loop):
-  std::vector<BlockSum> block_sums;
-  // The incoming pairs, as a CSR by j in that order:
+  std::vector<Vec3> torque_i;                    // (P) [N m] moment on i
+  std::vector<Vec3> torque_j;                    // (P) [N m] moment on j
+  // Each particle's net force and moment is summed from its pairs after the pair loop, in one fixed order for
+  // any number of threads (integrate/leapfrog.cpp): particles are grouped in fixed blocks of kForceBlock ids,
+  // and particle j's sum takes first its incoming pairs (those where it is the neighbour) whose owner is in its
+  // force block, then its own pairs, then its incoming pairs whose owner is in an earlier block (crossing
+  // pairs), each in pair order. The incoming pairs, as a CSR by j in that order:
   std::vector<Index> incoming_first;             // (N + 1) offsets into incoming_pair
   std::vector<Index> incoming_crossing;          // (N)     where j's crossing pairs start
   std::vector<Index> incoming_pair;              // (P)     pair indices

@@ -12,14 +12,23 @@
 namespace celldem {
 
 namespace {
-// Particle i's net force and moment: the pair loop has summed the pairs of its own force block (its incoming
-// pairs from that block, then its own pairs, each in pair order: contact_forces.cpp accumulate_chunk); the pairs
-// crossing into it from earlier blocks are added here, in pair order (PairList::incoming_pair; j gets +F).
-// Pairs apart hold zero force and moment, so adding them changes nothing (and needs no branch).
-inline void add_crossing_pairs(const PairList& pl, Particles& p, std::size_t i) {
-  const BlockSum& own = pl.block_sums[i];
-  Vec3 f(own.force[0], own.force[1], own.force[2]), t(own.torque[0], own.torque[1], own.torque[2]);
-  for (Index k = pl.incoming_crossing[i]; k < pl.incoming_first[i + 1]; ++k) {
+// Particle i's net force and moment, summed from its pairs in a fixed order (PairList::incoming_pair): the
+// pairs coming into it from its force block, its own pairs, then the pairs crossing into it from earlier
+// blocks, each in pair order (j gets +F, i gets -F). Pairs apart hold zero force and moment, so adding them
+// changes nothing (and needs no branch).
+inline void gather(const PairList& pl, Particles& p, std::size_t i) {
+  Vec3 f = Vec3::Zero(), t = Vec3::Zero();
+  const Index crossing = pl.incoming_crossing[i];
+  for (Index k = pl.incoming_first[i]; k < crossing; ++k) {
+    const Index q = pl.incoming_pair[k];
+    f += pl.force[q];
+    t += pl.torque_j[q];
+  }
+  for (Index q = pl.first[i]; q < pl.first[i + 1]; ++q) {
+    f -= pl.force[q];
+    t += pl.torque_i[q];
+  }
+  for (Index k = crossing; k < pl.incoming_first[i + 1]; ++k) {
     const Index q = pl.incoming_pair[k];
     f += pl.force[q];
     t += pl.torque_j[q];
@@ -41,7 +50,7 @@ void gather_forces(State& state) {
 #pragma omp parallel
   {
     const auto [begin, end] = gather_share(state.pairs, state.particles.size());
-    for (std::size_t i = begin; i < end; ++i) add_crossing_pairs(state.pairs, state.particles, i);
+    for (std::size_t i = begin; i < end; ++i) gather(state.pairs, state.particles, i);
   }
 }
 
@@ -82,7 +91,7 @@ CELLDEM_ISA_CLONES
 void gather_and_kick_range(const Model& model, State& state, std::size_t begin, std::size_t end, KickDamping* damping) {
   Particles& p = state.particles;
   if (begin >= end) return;
-  for (std::size_t i = begin; i < end; ++i) add_crossing_pairs(state.pairs, p, i);
+  for (std::size_t i = begin; i < end; ++i) gather(state.pairs, p, i);
   const std::size_t n = end - begin;
   if (damping) {
     damping->translation = kick_range_measured(&model.velocity_keep[begin], &model.velocity_gain[begin],

@@ -227,8 +227,8 @@ void rebuild_pairs(const Model& model, State& state, PairSearch& search) {
   const bool carry_radius = radius && pl.contact_radius.size() == pl.size();
   next.flags.assign(count, 0);
   next.force.assign(count, Vec3::Zero());
+  next.torque_i.assign(count, Vec3::Zero());
   next.torque_j.assign(count, Vec3::Zero());
-  next.block_sums.assign(n, BlockSum{});
 
   const bool have_old = pl.first.size() == n + 1;
   for (std::size_t i = 0; i < n; ++i) {
@@ -273,7 +273,7 @@ void check_pair_list(const PairList& pl, std::size_t particles) {
   const Index count = pl.first[n];
   const auto holds = [&](const auto& v) { return v.size() == static_cast<std::size_t>(count); };
   require(holds(pl.neighbor) && holds(pl.image) && holds(pl.tangential) && holds(pl.flags) && holds(pl.force) &&
-              holds(pl.torque_j),
+              holds(pl.torque_i) && holds(pl.torque_j),
           "every per-pair array holds first[N] pairs");
   require((pl.rolling.empty() || holds(pl.rolling)) && (pl.twist.empty() || holds(pl.twist)) &&
               (pl.contact_radius.empty() || holds(pl.contact_radius)),
@@ -392,8 +392,8 @@ void set_stored_contacts(State& state, const std::vector<StoredContact>& contact
   pl.flags.resize(contacts.size());
   pl.image.assign(contacts.size(), {0, 0, 0});  // unknown until the next rebuild, which must come first
   pl.force.assign(contacts.size(), Vec3::Zero());
+  pl.torque_i.assign(contacts.size(), Vec3::Zero());
   pl.torque_j.assign(contacts.size(), Vec3::Zero());
-  pl.block_sums.assign(n, BlockSum{});
   std::vector<Index> fill(pl.first.begin(), pl.first.end() - 1);
   for (const auto& c : contacts) {  // contacts arrive sorted by (i, j), so each row stays sorted
     const Index q = fill[c.i]++;

@@ -178,10 +178,9 @@ MemoryPerParticle memory_per_particle(const State& s, const Model& m) {
   out.particles = (bytes(p.radius) + bytes(p.scaled) + bytes(p.velocity) + bytes(p.spin) + bytes(p.force) +
                    bytes(p.torque) + bytes(pl.first) + bytes(pl.incoming_first) + bytes(pl.incoming_crossing) +
                    bytes(pl.scaled_at_build)) / n;
-  out.pairs =
-      (bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) + bytes(pl.twist) +
-       bytes(pl.contact_radius) + bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_j) + bytes(pl.incoming_pair)) /
-      n;
+  out.pairs = (bytes(pl.neighbor) + bytes(pl.image) + bytes(pl.tangential) + bytes(pl.rolling) + bytes(pl.twist) +
+               bytes(pl.contact_radius) +
+               bytes(pl.flags) + bytes(pl.force) + bytes(pl.torque_i) + bytes(pl.torque_j) + bytes(pl.incoming_pair)) / n;
   out.model = (bytes(m.velocity_keep) + bytes(m.velocity_gain) + bytes(m.spin_keep) +
                bytes(m.spin_gain)) / n;
   return out;
