@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The energy budget on a sheared periodic packing (small_run.json: 150 spheres, TTC and PSC with friction and
 # body damping): kept, it changes no bit of the other columns; each test's budget closes within the bound measured
-# for it (docs/energy.md: worst closure below 2e-3 of the boundary work); summary.json reports totals per test and
+# for it (docs/energy.md: end closure below 1e-5, worst row below 2e-3 of the boundary work); summary.json reports totals per test and
 # per leg, and damping's share. Usage: test_energy_budget.sh CELLDEM
 set -euo pipefail
 celldem="$1"
@@ -32,7 +32,8 @@ for test in ("ttc", "psc"):
     work_done = float(last[col["energy_boundary_work"]])
     assert work_done > 0, f"{test}: the cell did work on the sample ({work_done})"
     closure = float(last[col["energy_closure_relative"]])
-    assert abs(closure) < 2e-3, f"{test}: closure {closure} of the boundary work"
+    # The cap credited at the mean of the step's two forces closes to ~6e-7 here; the end force alone gave 1.2e-4.
+    assert abs(closure) < 1e-5, f"{test}: closure {closure} of the boundary work"
     summary = json.load(open(f"{work}/energy/summary.json"))["tests"][test]["energy"]
     assert summary["closure_within_bound"] is True and summary["worst_closure_relative"] < 2e-3, summary
     assert abs(summary["boundary_work"] - (work_done - float(energy[1][col["energy_boundary_work"]]))) <= 1e-9 * work_done
