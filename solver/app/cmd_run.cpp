@@ -71,17 +71,48 @@ std::string continue_command(const CLI::App& cmd) {
   return line.append(" --resume");
 }
 
+namespace {
+// What `celldem run` parses.
+struct RunArgs {
+  std::string deck, seeds, probes;
+  RunOptions options;
+  bool include_uncontrolled = false;
+  bool no_twin = false;      // --no-verify-twin
+  std::string rungs;         // --verify-rate-rungs
+  double rate_factor = 0.5;  // --verify-rate-factor
+  std::optional<double> tolerance;
+};
+
+// The rate check's options, settled against each other and the deck: refused where they exclude each other or
+// where no test is checked, and a floors file that cannot serve refused before any work.
+void settle_verify_rate(const CLI::App& cmd, RunArgs& args, const Deck& deck) {
+  VerifyRateOptions& verify = args.options.verify_rate;
+  const bool rungs = cmd.count("--verify-rate-rungs") > 0, factor = cmd.count("--verify-rate-factor") > 0;
+  const bool twins = cmd.count("--verify-twins") > 0;
+  if (rungs && factor) throw CLI::ValidationError("--verify-rate-rungs and --verify-rate-factor exclude each other");
+  if (twins && args.no_twin) throw CLI::ValidationError("--verify-twins and --no-verify-twin exclude each other");
+  try {
+    if (rungs) verify.rungs = parse_rungs(args.rungs);
+  } catch (const std::invalid_argument& e) {
+    throw CLI::ValidationError(std::string("--verify-rate-rungs: ") + e.what());
+  }
+  if (factor) verify.rungs = rungs_of_factor(args.rate_factor);
+  verify.rungs_given = rungs || factor;
+  verify.twins_given = twins || args.no_twin;
+  if (args.no_twin) verify.twins = 0;
+  const bool checked = verify.enabled || std::any_of(deck.tests.begin(), deck.tests.end(),
+                                                     [](const TestDef& t) { return t.verify_rate.has_value(); });
+  if ((verify.rungs_given || verify.twins_given || !verify.floors_path.empty()) && !checked)
+    throw CLI::ValidationError(
+        "--verify-rate-rungs, --verify-rate-factor, --verify-twins, --no-verify-twin and "
+        "--floors need --verify-rate (or a test's verify_rate key)");
+  for (const TestDef& test : deck.tests)
+    if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
+}
+}  // namespace
+
 Command add_run_command(CLI::App& app) {
-  struct Args {
-    std::string deck, seeds, probes;
-    RunOptions options;
-    bool include_uncontrolled = false;
-    bool no_twin = false;  // --no-verify-twin
-    std::string rungs;     // --verify-rate-rungs
-    double rate_factor = 0.5;  // --verify-rate-factor
-    std::optional<double> tolerance;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<RunArgs>();
   CLI::App* cmd = app.add_subcommand("run", "Run a deck: prepare a sample (or load one) and run its tests");
   cmd->add_option("deck", args->deck, "Deck file (JSON)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--out", args->options.out_dir, "Run directory for results")->required();
@@ -145,28 +176,7 @@ Command add_run_command(CLI::App& app) {
     if (args->options.force && args->options.resume)
       throw CLI::ValidationError("--force and --resume exclude each other");
     const Deck deck = read_deck(args->deck, args->tolerance);
-    VerifyRateOptions& verify = args->options.verify_rate;
-    const bool rungs = cmd->count("--verify-rate-rungs") > 0, factor = cmd->count("--verify-rate-factor") > 0;
-    const bool twins = cmd->count("--verify-twins") > 0;
-    if (rungs && factor) throw CLI::ValidationError("--verify-rate-rungs and --verify-rate-factor exclude each other");
-    if (twins && args->no_twin) throw CLI::ValidationError("--verify-twins and --no-verify-twin exclude each other");
-    try {
-      if (rungs) verify.rungs = parse_rungs(args->rungs);
-    } catch (const std::invalid_argument& e) {
-      throw CLI::ValidationError(std::string("--verify-rate-rungs: ") + e.what());
-    }
-    if (factor) verify.rungs = rungs_of_factor(args->rate_factor);
-    verify.rungs_given = rungs || factor;
-    verify.twins_given = twins || args->no_twin;
-    if (args->no_twin) verify.twins = 0;
-    const bool checked = verify.enabled || std::any_of(deck.tests.begin(), deck.tests.end(),
-                                                       [](const TestDef& t) { return t.verify_rate.has_value(); });
-    if ((verify.rungs_given || verify.twins_given || !verify.floors_path.empty()) && !checked)
-      throw CLI::ValidationError(
-          "--verify-rate-rungs, --verify-rate-factor, --verify-twins, --no-verify-twin and "
-          "--floors need --verify-rate (or a test's verify_rate key)");
-    for (const TestDef& test : deck.tests)  // a floors file that cannot serve is refused before any work
-      if (verify_rate_for(verify, test)) noise_floors(verify.floors_path, test.name, deck.sample.count);
+    settle_verify_rate(*cmd, *args, deck);
     if (!args->probes.empty()) {
       if (std::none_of(deck.tests.begin(), deck.tests.end(), [](const TestDef& t) { return t.probes.has_value(); }))
         throw CLI::ValidationError("--probes: the deck's tests have no probes (tests[].probes)");
