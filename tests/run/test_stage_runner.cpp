@@ -202,6 +202,24 @@ class CheckpointWatch : public StageObserver {
   std::int64_t keep_at_, stop_at_;
 };
 
+// The prepared packing of prepare_packing with checkpoints due every 20 steps, its forces evaluated at 0.8 of the
+// deck's time step (well inside the network's limit with friction: no warning), and a hold leg of 40 steps.
+struct HoldScene {
+  Deck deck;
+  State state;
+  Friction friction{0.5};
+  Model model;
+  Leg hold;
+  HoldScene(const fs::path& dir, RunOptions& options)
+      : deck(prepare_packing(dir, options)), state(read_state((dir / "prep" / "prepared.state").string())) {
+    deck.checkpoint_interval = 20;
+    begin_stage(state);
+    model = make_model(deck, state.particles.radius, 0.8 * deck.time_step);
+    evaluate_forces(model, friction, state);
+    hold = hold_leg(state, 40);
+  }
+};
+
 // Three hold legs of 40 steps, a checkpoint due every 20 steps and a row every 25: the checkpoints due at the legs'
 // ends (40, 80) and at the stage's (120) are not written, so that no resume starts where a leg ends; the steps after
 // them rebuild the neighbour list as after a checkpoint. Killed after step 61 (its checkpoint at 60) and resumed, the
@@ -209,16 +227,10 @@ class CheckpointWatch : public StageObserver {
 TEST(StageRunner, NoCheckpointWhereALegEndsAndAResumeEndsByteIdentical) {
   testing::TempDir dir;
   RunOptions options;
-  Deck deck = prepare_packing(dir.path(), options);
-  deck.checkpoint_interval = 20;
+  HoldScene scene(dir.path(), options);
+  auto& [deck, state, friction, model, hold] = scene;
   options.out_dir = (dir.path() / "run").string();
   RunDirectory run(deck, options);
-  State state = read_state((dir.path() / "prep" / "prepared.state").string());
-  begin_stage(state);
-  const Friction friction{0.5};  // (a time step well inside the network's limit with friction: no warning)
-  const Model model = make_model(deck, state.particles.radius, 0.8 * deck.time_step);
-  evaluate_forces(model, friction, state);
-  const Leg hold = hold_leg(state, 40);
   const fs::path stage = run.stage_dir("hold"), kept = dir.path() / "kept";
   const auto spec = [&](bool resumed, const std::string& final_state) {
     return StageSpec{.name = "hold",
@@ -258,14 +270,8 @@ TEST(StageRunner, AStopAtALegsEndCheckpointsTheNextStep) {
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   testing::TempDir dir;
   RunOptions options;
-  Deck deck = prepare_packing(dir.path(), options);
-  deck.checkpoint_interval = 20;
-  State state = read_state((dir.path() / "prep" / "prepared.state").string());
-  begin_stage(state);
-  const Friction friction{0.5};  // (a time step well inside the network's limit with friction: no warning)
-  const Model model = make_model(deck, state.particles.radius, 0.8 * deck.time_step);
-  evaluate_forces(model, friction, state);
-  const Leg hold = hold_leg(state, 40);
+  HoldScene scene(dir.path(), options);
+  auto& [deck, state, friction, model, hold] = scene;
   const auto stopped_at = [&](std::int64_t stop_at) {
     install_stop_handlers();
     options.out_dir = (dir.path() / ("run" + std::to_string(stop_at))).string();
