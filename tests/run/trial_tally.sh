@@ -36,15 +36,18 @@ run_trials() {
 # Prints the table (a row per kind of $2..., the first column $1 characters wide) and exits 1 when a trial failed or
 # none ran, else prints PASS (and returns: the caller exits 0).
 tally_report() {
-  local width="$1" kind total_failed=0 total=0
+  local width="$1" kind total_failed=0 total=0 total_passed=0
   shift
   printf "%-${width}s %6s %6s %7s\n" kind passed failed skipped
   for kind in "$@"; do
     printf "%-${width}s %6d %6d %7d\n" "$kind" "${passed[$kind]:-0}" "${failed[$kind]:-0}" "${skipped[$kind]:-0}"
     total_failed=$((total_failed + ${failed[$kind]:-0}))
     total=$((total + ${passed[$kind]:-0} + ${failed[$kind]:-0} + ${skipped[$kind]:-0}))
+    total_passed=$((total_passed + ${passed[$kind]:-0}))
   done
   ((total_failed == 0)) || { echo "FAIL: $total_failed trials failed"; exit 1; }
   ((total > 0)) || { echo "FAIL: no trial ran"; exit 1; }
+  # Every trial skipped: nothing was tested, which is not a pass (exit 77: ctest reports the test skipped).
+  ((total_passed > 0)) || { echo "SKIP: all $total trials skipped (none set up what it tests)"; exit 77; }
   echo "PASS"
 }
