@@ -125,7 +125,9 @@ Command add_run_command(CLI::App& app) {
                   "A mean over seeds within T seed-to-seed noise floors (of this deck's size) of the quasi-static "
                   "answer (I -> 0), whatever rate the deck is written at: strain-driven legs at the inertial number "
                   "where the rate bias laws fitted on a rate ladder reach T floors at their 95 % upper bound (a deck "
-                  "written faster is slowed, and says so); time steps, the preparation's schedule and output "
+                  "written faster is slowed, and says so); I is the cell's actual one, predicted from the imposed "
+                  "rates by the leg's path and measured after each test (summary.json tests.<test>.tolerance says "
+                  "whether T was kept); time steps, the preparation's schedule and output "
                   "intervals by the rules (io/time_to_answer_rules.json). One run adds its own scatter, one floor "
                   "(a standard deviation). `celldem plan --tolerance T` shows how far the deck as written is from "
                   "I -> 0 and what T costs; overrides the deck's `tolerance`");

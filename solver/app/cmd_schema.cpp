@@ -398,7 +398,8 @@ std::vector<std::string> describe_rate(const Json& t) {
   if (!t.contains("rate")) return lines;
   const Json& r = t["rate"];
   char buf[400];
-  std::snprintf(buf, sizeof buf, "strain-driven legs at inertial number %.3g (set by %s)",
+  std::snprintf(buf, sizeof buf,
+                "strain-driven legs at actual inertial number %.3g (set by %s; checked after each test)",
                 r["inertial_number"].get<double>(), r["limiting"].get<std::string>().c_str());
   lines.push_back(buf);
   for (const Json& w : r["written"]) {
@@ -432,7 +433,7 @@ void print_tolerance(const Json& t) {
   const Json& rules = t["rules"];
   std::printf(
       "tolerance %g noise floors from I -> 0 (io/time_to_answer_rules.json): time step %.3f of the stability "
-      "limit %.3g s (preparation %.3f), inertial number %.3g, damping translational %.3g rotational %.3g\n",
+      "limit %.3g s (preparation %.3f), actual inertial number %.3g, damping translational %.3g rotational %.3g\n",
       t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(), t["stability_limit"].get<double>(),
       rules["prepare_time_step_fraction"].get<double>(), rules["inertial_number"].get<double>(),
       t["damping"]["translational"].get<double>(), t["damping"]["rotational"].get<double>());
@@ -473,8 +474,14 @@ void print_tolerance(const Json& t) {
                   leg["driving_increment"].get<double>(), leg["strain_rate"].get<double>(),
                   leg["driving_increment_written"].get<double>(), leg["strain_rate_written"].get<double>());
       if (leg.contains("inertial_number"))
-        std::printf(", inertial number %.3g (written %.3g) at %.3g Pa", leg["inertial_number"].get<double>(),
-                    leg["inertial_number_written"].get<double>(), leg["confining_stress"].get<double>());
+        std::printf(", actual inertial number %.3g predicted (written %.3g) at %.3g Pa: imposed %.3g x %.3g (%s path)",
+                    leg["inertial_number"].get<double>(), leg["inertial_number_written"].get<double>(),
+                    leg["confining_stress"].get<double>(), leg["imposed_inertial_number"].get<double>(),
+                    leg["actual_to_imposed"].get<double>(), leg["path"].get<std::string>().c_str());
+      else if (leg.contains("imposed_inertial_number"))
+        std::printf(", imposed inertial number %.3g (written %.3g) at %.3g Pa",
+                    leg["imposed_inertial_number"].get<double>(), leg["imposed_inertial_number_written"].get<double>(),
+                    leg["confining_stress"].get<double>());
       std::printf("\n");
     }
   }
@@ -529,14 +536,15 @@ std::string describe_tolerance(const Json& t) {
   const double ratio = total["ratio_low"].is_null() ? NAN : total["ratio_low"].get<double>();
   char buf[512];
   const Json& rules = t["rules"];
-  std::snprintf(buf, sizeof buf,
-                "tolerance %g noise floors from I -> 0 (io/time_to_answer_rules.json): time step %.3f "
-                "of the stability limit, inertial number %.3g; predicted %.3g particle-steps against %.3g as written: "
-                "%.3gx the deck's cost (each equilibrium at its min_steps; `celldem plan --tolerance %g` has every "
-                "setting)",
-                t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(),
-                rules["inertial_number"].get<double>(), total["particle_steps"]["low"].get<double>(),
-                total["particle_steps_written"]["low"].get<double>(), 1.0 / ratio, t["tolerance"].get<double>());
+  std::snprintf(
+      buf, sizeof buf,
+      "tolerance %g noise floors from I -> 0 (io/time_to_answer_rules.json): time step %.3f "
+      "of the stability limit, actual inertial number %.3g; predicted %.3g particle-steps against %.3g as written: "
+      "%.3gx the deck's cost (each equilibrium at its min_steps; `celldem plan --tolerance %g` has every "
+      "setting)",
+      t["tolerance"].get<double>(), rules["time_step_fraction"].get<double>(), rules["inertial_number"].get<double>(),
+      total["particle_steps"]["low"].get<double>(), total["particle_steps_written"]["low"].get<double>(), 1.0 / ratio,
+      t["tolerance"].get<double>());
   std::string words = buf;
   std::string capped;
   for (const Json& s : t["stages"])

@@ -190,7 +190,8 @@ inline constexpr KeySpec tolerance{.path = "tolerance", .kind = KeyKind::Number,
     .meaning = "ask for a mean over seeds within this many seed-to-seed noise floors of this deck's size of the "
                "quasi-static answer (I -> 0), whatever rate the deck is written at: the strain-driven legs run at the "
                "inertial number where the fitted rate bias laws (at their 95 % upper bound) reach T floors, slowed or "
-               "sped up from the deck's; time steps, preparation schedule and output intervals follow the rules "
+               "sped up from the deck's (the cell's actual I, predicted per path and checked after each test: "
+               "summary.json tests.<test>.tolerance); time steps, preparation schedule and output intervals follow the rules "
                "(io/time_to_answer_rules.json; one run adds its own seed-to-seed scatter; `celldem plan --tolerance` "
                "shows the distance of the deck as written and the cost); `run --tolerance` overrides it"};
 

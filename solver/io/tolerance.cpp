@@ -93,6 +93,7 @@ void for_each_leg(Json& legs, F&& f) {
 
 struct Resolver {
   const Deck& written;
+  const RateBiasModel& model;
   ToleranceLevel level;
   double limit = 0.0;       // [s] the stability limit (core/plan critical_time_step)
   double largest_stress = 0.0;
@@ -119,11 +120,13 @@ struct Resolver {
       if (std::isnan(stress)) stress = stage_stress;
       if (std::isnan(stress) || stress <= 0.0) stress = largest_stress;
       const double d = mean_diameter(written.sample), rho = written.sample.density;
-      // A test leg: the driving rate whose inertial scale gives the level's inertial number (the axes scaled together;
-      // the ratio is exactly 1 with one driven axis).
+      // A test leg: the driving rate whose inertial scale, times its path's actual-to-imposed ratio, gives the
+      // level's (actual) inertial number; the axes scaled together (to_inertial is exactly 1 with one driven axis).
       const double to_inertial = rates.inertial / rate;
-      const double new_rate = preparation ? rate * level.fast_strain_increment_scale * dt_written / dt
-                                          : level.inertial_number / (d * std::sqrt(rho / stress)) / to_inertial;
+      const PathRatio path = actual_to_imposed(model, axes, simple_shear != nullptr);
+      const double new_rate = preparation
+                                  ? rate * level.fast_strain_increment_scale * dt_written / dt
+                                  : level.inertial_number / path.ratio / (d * std::sqrt(rho / stress)) / to_inertial;
       const double rate_factor = new_rate / rate;
       step_factor = rate_factor * dt / dt_written;
       for (auto& [name, axis] : axes.items()) {
@@ -142,8 +145,15 @@ struct Resolver {
       report["driving_increment_written"] = rate * dt_written;
       report["driving_increment"] = new_rate * dt;
       if (stress > 0.0) {
-        report["inertial_number_written"] = inertial_number(rate * to_inertial, d, rho, stress);
-        report["inertial_number"] = inertial_number(new_rate * to_inertial, d, rho, stress);
+        report["imposed_inertial_number_written"] = inertial_number(rate * to_inertial, d, rho, stress);
+        report["imposed_inertial_number"] = inertial_number(new_rate * to_inertial, d, rho, stress);
+      }
+      if (stress > 0.0 && !preparation) {  // the laws' inertial number: the cell's actual one, predicted
+        report["path"] = path.path;
+        report["actual_to_imposed"] = path.ratio;
+        report["actual_to_imposed_basis"] = path.basis;
+        report["inertial_number_written"] = path.ratio * report["imposed_inertial_number_written"].get<double>();
+        report["inertial_number"] = path.ratio * report["imposed_inertial_number"].get<double>();
       }
     }
     // A principal-axis rotation by angle per step keeps its angle per unit time, as its steps keep their time.
@@ -307,6 +317,43 @@ RateBiasModel parse_rate_bias(const Json& j) {
       throw DeckError("time-to-answer rules: " + where + ".covariance: variances must not be negative");
     m.laws.push_back(law);
   }
+  const std::string paths_at = at + ".actual_to_imposed.paths";
+  if (j.contains("actual_to_imposed")) {
+    m.path_margin = positive_number(j["actual_to_imposed"], "margin", at + ".actual_to_imposed");
+    if (m.path_margin < 1.0)
+      throw DeckError("time-to-answer rules: " + at + ".actual_to_imposed.margin: expected at least 1");
+  }
+  if (!j.contains("actual_to_imposed") || !j["actual_to_imposed"].contains("paths") ||
+      !j["actual_to_imposed"]["paths"].is_array() || j["actual_to_imposed"]["paths"].empty())
+    throw DeckError("time-to-answer rules: " + paths_at + ": expected a non-empty array");
+  for (std::size_t i = 0; i < j["actual_to_imposed"]["paths"].size(); ++i) {
+    const Json& p = j["actual_to_imposed"]["paths"][i];
+    const std::string where = paths_at + "[" + std::to_string(i) + "]";
+    if (!p.is_object() || !p.contains("path") || !p["path"].is_string())
+      throw DeckError("time-to-answer rules: " + where + ".path: expected a string");
+    MeasuredPath path;
+    path.path = p["path"].get<std::string>();
+    const auto count = [&](const char* key) {
+      const double n = number_in(p, key, where);
+      if (!(n >= 0.0 && n <= 3.0 && n == std::floor(n)))
+        throw DeckError("time-to-answer rules: " + where + "." + key + ": expected 0 to 3 axes");
+      return static_cast<int>(n);
+    };
+    path.normal_driven = count("normal_driven");
+    path.normal_zero_strain = count("normal_zero_strain");
+    path.normal_held = count("normal_held");
+    path.shear_driven = p.contains("shear_driven") ? count("shear_driven") : 0;
+    path.normal_b = p.contains("normal_b") ? count("normal_b") : 0;
+    if (path.normal_b > 1) throw DeckError("time-to-answer rules: " + where + ".normal_b: at most one b axis");
+    if (path.normal_b == 1) {
+      path.b = number_in(p, "b", where);
+      if (!(path.b >= 0.0 && path.b <= 1.0)) throw DeckError("time-to-answer rules: " + where + ".b: expected [0, 1]");
+    }
+    if (path.normal_driven + path.normal_zero_strain + path.normal_held + path.normal_b != 3)
+      throw DeckError("time-to-answer rules: " + where + ": its normal axes must add up to 3");
+    path.ratio = positive_number(p, "ratio", where);
+    m.paths.push_back(path);
+  }
   return m;
 }
 
@@ -345,6 +392,99 @@ RateForTolerance inertial_number_for_tolerance(const RateBiasModel& model, doubl
     if (std::exp(lo) < out.inertial_number) out = {std::exp(lo), law.quantity};
   }
   return out;
+}
+
+PathRatio actual_to_imposed(const RateBiasModel& model, const Json& axes, bool simple_shear) {
+  // A simple shear drives g12 with x1 and x3 at zero strain and x2 held by its normal stress.
+  int driven = 0, zero = simple_shear ? 2 : 0, held = simple_shear ? 1 : 0, shear_driven = simple_shear ? 1 : 0;
+  int b_axes = 0;
+  double b = kNaN;
+  bool other = false;
+  for (std::size_t k = 0; k < kComponentNames.size() && !simple_shear; ++k) {
+    const std::string name(kComponentNames[k]);
+    const bool normal = k < 3;
+    if (!axes.contains(name)) {  // a shear left out keeps its tilt (a normal axis is always named)
+      if (normal) ++held;
+      continue;
+    }
+    const Json& axis = axes[name];
+    // held by the volume or by a ramp, not by a constant stress: not measured
+    if (axis.contains("constant_volume") || axis.contains("stress_ramp")) other = true;
+    const bool strain = axis.contains("strain_increment") || axis.contains("strain_rate");
+    const double value = strain ? axis.value("strain_increment", axis.value("strain_rate", 0.0)) : 0.0;
+    if (normal && axis.contains("b"))
+      ++b_axes, b = axis["b"].get<double>();
+    else if (normal)
+      (strain ? (value != 0.0 ? driven : zero) : held) += 1;
+    else if (!strain)
+      other = true;  // a shear held by a servo
+    else if (value != 0.0)
+      ++shear_driven;
+  }
+  const double margin = model.path_margin;
+  const double largest =
+      margin * std::max_element(model.paths.begin(), model.paths.end(), [](const auto& a, const auto& b) {
+                 return a.ratio < b.ratio;
+               })->ratio;
+  if (held == 0 && b_axes == 0)
+    return {"strain-driven", 2.0 / std::sqrt(3.0),
+            "every component strain-driven: sqrt(2 D':D') over sqrt(3/2 e':e') of one tensor, exactly 2/sqrt(3)"};
+  // A path of the table: the same axes; with a b axis the measured b at or just below and at or just above its own,
+  // the larger ratio of the two (the ratio grows with b where measured).
+  const MeasuredPath* below = nullptr;
+  const MeasuredPath* above = nullptr;
+  for (const MeasuredPath& p : model.paths) {
+    if (other || p.normal_driven != driven || p.normal_zero_strain != zero || p.normal_held != held ||
+        p.normal_b != b_axes || p.shear_driven != shear_driven)
+      continue;
+    if (b_axes == 0)
+      return {p.path, margin * p.ratio,
+              "measured on its path, times the margin (io/time_to_answer_rules.json rate_bias.actual_to_imposed)"};
+    if (p.b <= b && (!below || p.b > below->b)) below = &p;
+    if (p.b >= b && (!above || p.b < above->b)) above = &p;
+  }
+  if (below && above) {
+    const MeasuredPath& p = below->ratio >= above->ratio ? *below : *above;
+    return {p.path, margin * p.ratio,
+            "measured on its path at b = " + fmt(below->b) + " and " + fmt(above->b) +
+                ", the larger of the two, times the margin"};
+  }
+  return {"unmeasured", largest,
+          "a path with servo-held components not measured: the largest measured path's ratio times the margin; the run "
+          "checks it"};
+}
+
+Json ToleranceCheck::to_json() const {
+  Json d = Json::object();
+  for (const Distance& x : distances) d[x.quantity] = {x.central, x.upper};
+  return {
+      {"tolerance", tolerance},
+      {"inertial_number_allowed", inertial_number_allowed},
+      {"inertial_number", inertial_number},
+      {"imposed_inertial_number", imposed_inertial_number},
+      {"actual_to_imposed", imposed_inertial_number > 0.0 ? Json(inertial_number / imposed_inertial_number) : Json()},
+      {"distance_floors", d},
+      {"kept", kept}};
+}
+
+ToleranceCheck check_tolerance(const RateBiasModel& model, double tolerance, double particles, double inertial_number,
+                               double imposed_inertial_number) {
+  ToleranceCheck c;
+  c.tolerance = tolerance;
+  c.inertial_number_allowed = inertial_number_for_tolerance(model, tolerance, particles).inertial_number;
+  c.inertial_number = inertial_number;
+  c.imposed_inertial_number = imposed_inertial_number;
+  c.kept = inertial_number > 0.0;
+  for (const RateBiasLaw& law : model.laws) {
+    ToleranceCheck::Distance x{law.quantity, 0.0, 0.0};
+    if (inertial_number > 0.0) {
+      x.central = rate_bias_floors(model, law, inertial_number, particles, false);
+      x.upper = rate_bias_floors(model, law, inertial_number, particles, true);
+    }
+    c.kept = c.kept && x.upper <= tolerance * (1.0 + 1e-9);
+    c.distances.push_back(x);
+  }
+  return c;
 }
 
 const std::string& time_to_answer_rules_text() {
@@ -464,14 +604,16 @@ Json rate_json(const RateBiasModel& model, const RateForTolerance& rate, double 
                                               rate_bias_floors(model, law, I, particles, true)};
       written.push_back(d);
     }
-  char buf[1200];
+  char buf[1600];
   std::snprintf(
       buf, sizeof buf,
       "the mean over seeds of each quantity the laws cover is within %g floors of this deck's size (%g spheres) "
       "of its quasi-static value (I -> 0), by each law's one-sided %g %% upper bound and the floor model's "
       "exponent at the end of its interval that narrows the floors here; one run adds its own seed-to-seed "
       "scatter (one floor, a standard deviation): within T + %.2f floors at 95 %%. The laws were measured on "
-      "the TTC of a 1000-sphere scene to e1 = 5 %%; other paths are extrapolated; the time step's own "
+      "the TTC of a 1000-sphere scene to e1 = 5 %%, against the cell's actual inertial number; other paths are "
+      "extrapolated at the same actual inertial number, which each leg's path predicts before the run and the "
+      "run measures (summary.json tests.<test>.tolerance says whether it kept T); the time step's own "
       "effect (0.917 of the limit) is not in the promise (not resolved from chaos by the study)",
       tolerance, particles, 100.0 * model.confidence,
       boost::math::quantile(boost::math::normal_distribution<double>(), 0.975));
@@ -479,8 +621,10 @@ Json rate_json(const RateBiasModel& model, const RateForTolerance& rate, double 
           {"limiting",
            rate.limiting.empty() ? Json("the laws' measured range (I capped at its top)") : Json(rate.limiting)},
           {"inertial_number_definition",
-           "the imposed scale: rate d_mean sqrt(rho / p) of the driven axes (core/plan "
-           "inertial_strain_rate)"},
+           "the cell's actual inertial number, gamma_dot d_mean sqrt(rho / p) with gamma_dot = sqrt(2 D':D') of its "
+           "whole velocity gradient, servo-held axes included (the series' inertial_number), predicted before the "
+           "run as the imposed one (imposed_inertial_number) times its path's ratio (actual_to_imposed) and checked "
+           "after it (summary.json tests.<test>.tolerance)"},
           {"promise", buf},
           {"laws", laws},
           {"written", written}};
@@ -513,7 +657,7 @@ Deck resolve_tolerance(const Deck& written, const std::string& json_text, double
                     " by the rate bias laws (io/time_to_answer_rules.json rate_bias): ask for a larger tolerance");
   ToleranceLevel level = interpolate_rules(rules, at_table, key_path);
   level.inertial_number = rate.inertial_number;
-  Resolver r{written, level};
+  Resolver r{written, rules.rate_bias, level};
   r.limit = limit;
   r.largest_stress = largest_deck_stress(written);
   Json stages = Json::array();

@@ -5,8 +5,11 @@
 // upper bound, is T floors (the floor model at the conservative end of its exponent's interval), whatever rate
 // the deck is written at; the time steps and the preparation's knobs come from the table's levels.
 #pragma once
+#include <limits>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "core/deck.hpp"
 
@@ -30,15 +33,57 @@ struct RateBiasLaw {
   double log_coefficient = 0.0, order = 1.0;
   double var_log_coefficient = 0.0, covariance = 0.0, var_order = 0.0;
 };
+// A path whose servo-held components were measured: the cell's actual inertial number over the imposed one.
+struct MeasuredPath {
+  std::string path;                                                // e.g. "axial"
+  int normal_driven = 0, normal_zero_strain = 0, normal_held = 0;  // its normal axes (held: stress, mean_stress)
+  int normal_b = 0;  // an axis held at b, with its value (NaN without one)
+  double b = std::numeric_limits<double>::quiet_NaN();
+  int shear_driven = 0;  // its shears at a strain rate other than 0 (the rest at zero strain: none servo-held)
+  double ratio = 1.0;
+};
 struct RateBiasModel {
   double reference_inertial_number =
-      1e-4;              // I of the laws' coefficient (the imposed scale: core/plan inertial_strain_rate)
+      2.2e-4;            // I of the laws' coefficient (the cell's actual: measure/quasi_static cell_inertial_number)
   int particles = 1000;  // the ladder's, where the floors were measured
   double floor_exponent = -0.5, floor_exponent_low = -0.5, floor_exponent_high = -0.5;  // floors as N^b
   double confidence = 0.95;           // of each law's one-sided upper bound
   double max_inertial_number = 1e-3;  // the top of the measured range: I is never set above it
   std::vector<RateBiasLaw> laws;
+  std::vector<MeasuredPath> paths;  // actual_to_imposed.paths
+  double path_margin = 1.0;         // actual_to_imposed.margin: each measured ratio is used times this
 };
+
+// How a leg's actual inertial number compares with its imposed one (core/plan inertial_strain_rate), which is all a
+// plan knows: exactly 2/sqrt(3) where every component is strain-driven (the two scales of one tensor), the measured
+// ratio of its path where servos hold some (their response adds to the rate; a b axis: the larger of the two measured
+// b around its own), the largest measured one otherwise.
+struct PathRatio {
+  std::string path;  // "strain-driven", a measured path's name, or "unmeasured"
+  double ratio = 0.0;
+  std::string basis;  // in words
+};
+// `axes`: the leg's deck object (x1..x23); `simple_shear`: the leg is a simple_shear leg (g12 driven, x2 held).
+PathRatio actual_to_imposed(const RateBiasModel& model, const nlohmann::json& axes, bool simple_shear);
+
+// --tolerance's promise against a finished test: the mean actual inertial number of its strain-driven rows (the
+// series' inertial_number, where imposed_inertial_number > 0) against the one the laws allowed, and each law's
+// distance from I -> 0 at it in this deck's floors. kept: every law's upper bound within T.
+struct ToleranceCheck {
+  double tolerance = 0.0;                // [floors]
+  double inertial_number_allowed = 0.0;  // inertial_number_for_tolerance
+  double inertial_number = 0.0;          // measured: the rows' mean actual
+  double imposed_inertial_number = 0.0;  // the same rows' mean imposed
+  struct Distance {
+    std::string quantity;
+    double central = 0.0, upper = 0.0;  // [floors]
+  };
+  std::vector<Distance> distances;
+  bool kept = false;
+  nlohmann::json to_json() const;
+};
+ToleranceCheck check_tolerance(const RateBiasModel& model, double tolerance, double particles, double inertial_number,
+                               double imposed_inertial_number);
 // A quantity's bias at inertial number I in floors of a deck of `particles` spheres: the laws' central value in the
 // central floor model, or (`upper`) its one-sided upper bound at the model's confidence in the floors of the
 // interval's end that makes them narrowest at this size.

@@ -32,8 +32,15 @@ constexpr F kToleranceLeg[] = {
     {"driving_increment_written", "1", "the deck's"},
     {"strain_rate", "1/s", "the resolved strain rate"},
     {"strain_rate_written", "1/s", "the deck's"},
-    {"inertial_number", "1", "the inertial number the resolved rate gives"},
+    {"inertial_number", "1",
+     "a test leg's actual inertial number the resolved rate gives, predicted (the imposed x its path's ratio)"},
     {"inertial_number_written", "1", "the deck's"},
+    {"imposed_inertial_number", "1",
+     "the inertial number of the resolved imposed rates alone (core/plan inertial_strain_rate)"},
+    {"imposed_inertial_number_written", "1", "the deck's"},
+    {"path", "", "a test leg's path: strain-driven, a measured path (axial, plane strain) or unmeasured"},
+    {"actual_to_imposed", "1", "the ratio that predicts its actual inertial number from the imposed"},
+    {"actual_to_imposed_basis", "", "where that ratio comes from"},
     {"confining_stress", "Pa", "the stress the inertial number is taken at"}};
 constexpr F kToleranceStage[] = {
     {"stage", "", "prepare or the test's name"},
@@ -80,7 +87,7 @@ constexpr F kRateLaw[] = {
     {"order", "1", "the law's order p in b(I) = C I^p"},
     {"floor_at_calibration", "quantity's", "the quantity's floor in the laws' scene"}};
 constexpr F kRateWritten[] = {{"stage", "", "the test"},
-                              {"inertial_number", "1", "a written leg's inertial number"},
+                              {"inertial_number", "1", "a written leg's actual inertial number, predicted"},
                               {"slowed", "", "the leg was slowed to the chosen inertial number"},
                               {"rate_factor", "1", "the chosen rate over the written"},
                               {"distance_floors", "", "per law, the written leg's distance from I -> 0"},
@@ -342,6 +349,18 @@ constexpr F kRateCheck[] = {
     {"verdict", "", "converged, not converged, unresolved or run failed"},
     {"reason", "", "the verdict's reason"}};
 
+// tests.*.tolerance (io/tolerance check_tolerance: --tolerance's promise against the run).
+constexpr F kToleranceCheck[] = {
+    {"tolerance", "noise floors", "the tolerance asked"},
+    {"inertial_number_allowed", "1", "the actual inertial number the rate bias laws allow at it"},
+    {"inertial_number", "1", "the mean actual inertial number of the test's strain-driven rows"},
+    {"imposed_inertial_number", "1", "the same rows' mean imposed inertial number"},
+    {"actual_to_imposed", "1", "their ratio, as the test ran"},
+    {"distance_floors", "", "per law, the test's distance from I -> 0 at its actual inertial number"},
+    {"distance_floors.*", "noise floors", "central and upper bound"},
+    {"kept", "", "every law's upper bound within the tolerance (null: no strain-driven rows)"},
+    {"reason", "", "why it was not checked"}};
+
 // The run's top level (runner.cpp run_deck).
 constexpr F kTop[] = {{"celldem_version", "", "the binary's version"},
                       {"deck", "", "the deck file"},
@@ -382,6 +401,8 @@ std::vector<SchemaEntry> summary_schema() {
   append_doc_keys(out, "tests.*.network_time_step", kNetworkTimeStep);
   out.push_back({"tests.*.probes", "object", "", "the test's probes (docs/probes.md)"});
   append_doc_keys(out, "tests.*.probes", kProbes);
+  out.push_back({"tests.*.tolerance", "object", "", "--tolerance's promise against the test's actual inertial number"});
+  append_doc_keys(out, "tests.*.tolerance", kToleranceCheck);
   out.push_back({"tests.*.verify_rate", "object", "", "the test's rate check (--verify-rate)"});
   append_doc_keys(out, "tests.*.verify_rate", kRateCheck);
   return out;

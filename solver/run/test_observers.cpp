@@ -11,6 +11,7 @@
 #include "io/files.hpp"
 #include "io/snapshot.hpp"
 #include "io/state_file.hpp"
+#include "io/tolerance.hpp"
 #include "measure/micro.hpp"
 #include "run/driven_measure.hpp"
 #include "run/energy_report.hpp"
@@ -260,6 +261,51 @@ class EnergyBudgetReport : public StageObserver {
   std::string test_;
   double dt_;
 };
+
+// --tolerance's promise checked against what the test did: the rules chose its rate from an actual inertial number
+// they predicted (io/tolerance actual_to_imposed); the rows measure it (io/tolerance check_tolerance).
+class ToleranceReport : public StageObserver {
+ public:
+  ToleranceReport(std::string test, double tolerance, double particles)
+      : test_(std::move(test)), tolerance_(tolerance), particles_(particles) {}
+  std::optional<ObserverReport> after_test(const FinishedTest& done) override {
+    double actual = 0.0, imposed = 0.0;
+    int n = 0;
+    for (const SeriesRow& r : done.stage.rows)
+      if (r.step > 0 && r.imposed_inertial_number > 0.0)
+        actual += r.inertial_number, imposed += r.imposed_inertial_number, ++n;
+    ObserverReport out{"tolerance", nullptr, {}, {}};
+    if (n == 0) {
+      out.value = {{"tolerance", tolerance_}, {"kept", nullptr}, {"reason", "no strain-driven rows to measure"}};
+      out.console.push_back("tolerance not checked: no strain-driven rows");
+      return out;
+    }
+    const RateBiasModel& model = time_to_answer_rules().rate_bias;
+    const ToleranceCheck c = check_tolerance(model, tolerance_, particles_, actual / n, imposed / n);
+    out.value = c.to_json();
+    const auto worst = std::max_element(c.distances.begin(), c.distances.end(),
+                                        [](const auto& a, const auto& b) { return a.upper < b.upper; });
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "tolerance %g floors %s: the cell's actual inertial number %.3g (the rules allowed %.3g; %.3g times "
+                  "the imposed), %s up to %.3g floors from I -> 0",
+                  tolerance_, c.kept ? "kept" : "NOT kept", c.inertial_number, c.inertial_number_allowed,
+                  c.inertial_number / c.imposed_inertial_number, worst->quantity.c_str(), worst->upper);
+    out.console.push_back(buf);
+    if (!c.kept)
+      out.warnings.push_back(
+          "test '" + test_ + "': " + buf +
+          ": the actual inertial number was above the one the rules predicted for its path (summary.json "
+          "tests." +
+          test_ + ".tolerance)");
+    return out;
+  }
+
+ private:
+  std::string test_;
+  double tolerance_, particles_;
+};
+
 }  // namespace
 
 StageObservers observers_for(const RunContext& context, const TestDef& test, const TestStart& start) {
@@ -272,6 +318,8 @@ StageObservers observers_for(const RunContext& context, const TestDef& test, con
   if (const std::optional<VerifyRateOptions> check = verify_rate_for(context.options.verify_rate, test))
     observers.add(std::make_unique<RateCheck>(context, test, start, *check));
   if (context.deck.energy_budget) observers.add(std::make_unique<EnergyBudgetReport>(test.name, start.model.dt));
+  if (context.deck.tolerance)
+    observers.add(std::make_unique<ToleranceReport>(test.name, *context.deck.tolerance, context.deck.sample.count));
   return observers;
 }
 

@@ -32,7 +32,8 @@ struct TestStart {
 
 // A loading test's observers, in this order: the contact network of its peak row (peak_contacts.csv and .json, the
 // peak of its driven measure), its snapshots (test.snapshots), its probe points and probes (test.probes), its rate
-// check (verify_rate_for: the deck's or the command line's; its cost is printed now, before the test runs).
+// check (verify_rate_for: the deck's or the command line's; its cost is printed now, before the test runs), its energy
+// budget (energy_budget), --tolerance's promise against its actual inertial number (a deck with a tolerance).
 StageObservers observers_for(const RunContext& context, const TestDef& test, const TestStart& start);
 
 // The preparation's: its snapshots (prepare.snapshots).

@@ -226,14 +226,26 @@ TEST(Tolerance, ResolvedDeckMeetsTheRules) {
     const Json stage_settings = Json::parse(d.tolerance_settings);
     EXPECT_EQ(stage_settings["stages"][1]["network_capped"].get<bool>(), level.time_step_fraction * limit > tests_cap);
     EXPECT_FALSE(stage_settings["stages"][0]["network_capped"].get<bool>());  // the preparation: normal springs alone
-    // Strain-driven legs: the level's inertial number at the leg's confining stress (the mean of its targets).
+    // Strain-driven legs: the level's (actual) inertial number at the leg's confining stress (the mean of its
+    // targets) over its path's actual-to-imposed ratio: the TTC's an axial path, measured.
+    const RateBiasModel& model = time_to_answer_rules().rate_bias;
+    const double axial = actual_to_imposed(model, Json::parse(R"({"x1": {"strain_increment": 1e-7},
+        "x2": {"stress": 1e5}, "x3": {"stress": 2e5}})"),
+                                           false)
+                             .ratio;
     const double ttc_stress = 1.5e5;
-    EXPECT_NEAR(inertial_number(plan_test(d, d.tests[0]).strain_rate, d_mean, rho, ttc_stress), level.inertial_number,
-                1e-9 * level.inertial_number);
-    // Two driven axes (x1 and x2 = -x1/2): the inertial number's deviatoric scale of both gives the level's I.
-    const Leg& leg = d.tests[1].legs[0];
-    EXPECT_NEAR(inertial_number(leg_inertial_rate(leg, d.stage_time_step(d.tests[1])), d_mean, rho, 4.0e5),
+    EXPECT_NEAR(axial * inertial_number(plan_test(d, d.tests[0]).strain_rate, d_mean, rho, ttc_stress),
                 level.inertial_number, 1e-9 * level.inertial_number);
+    // Two driven axes (x1 and x2 = -x1/2) beside a mean-stress servo: a path not measured, at the largest ratio;
+    // the inertial number's deviatoric scale of both axes.
+    const double largest =
+        model.path_margin * std::max_element(model.paths.begin(), model.paths.end(), [](const auto& a, const auto& b) {
+                              return a.ratio < b.ratio;
+                            })->ratio;
+    const Leg& leg = d.tests[1].legs[0];
+    EXPECT_NEAR(largest * inertial_number(leg_inertial_rate(leg, d.stage_time_step(d.tests[1])), d_mean, rho, 4.0e5),
+                level.inertial_number, 1e-9 * level.inertial_number);
+    EXPECT_EQ(stage_settings["stages"][2]["legs"][0]["path"], "unmeasured");
     EXPECT_NEAR(leg_inertial_rate(leg, d.stage_time_step(d.tests[1])), std::sqrt(1.75) * std::abs(leg.axes[0].value),
                 1e-12 * std::abs(leg.axes[0].value));
     EXPECT_DOUBLE_EQ(leg.axes[1].value / leg.axes[0].value, -0.5);  // the axes scaled together
@@ -331,7 +343,8 @@ TEST(ToleranceRateBias, TheRateForTIsTFloorsOfTheLimitingLaw) {
   const RateBiasLaw& law = m.laws.front();
   // central: C (I / I_ref)^p / (floor (N / N0)^b)
   EXPECT_NEAR(rate_bias_floors(m, law, 2e-4, 4000.0, false),
-              std::exp(law.log_coefficient) * std::pow(2.0, law.order) / (law.floor * std::pow(4.0, m.floor_exponent)),
+              std::exp(law.log_coefficient) * std::pow(2e-4 / m.reference_inertial_number, law.order) /
+                  (law.floor * std::pow(4.0, m.floor_exponent)),
               1e-12);
   // upper: larger than central; at 8000 spheres with the steep exponent, at 150 with the shallow one
   EXPECT_GT(rate_bias_floors(m, law, 2e-4, 8000.0, true), rate_bias_floors(m, law, 2e-4, 8000.0, false));
@@ -393,6 +406,114 @@ TEST(ToleranceRateBias, AFastDeckIsSlowedAndSaysHowFarItWas) {
   }
   EXPECT_NEAR(rates[0], rates[1], 1e-12 * rates[1]);  // the written rate does not matter
   EXPECT_NEAR(rates[2], rates[1], 1e-12 * rates[1]);
+}
+
+// The laws are in the cell's actual inertial number; a plan knows only the imposed one. Each path's ratio: exactly
+// 2/sqrt(3) with every component strain-driven (the two scales of one tensor, checked on a rate tensor here), the
+// measured ratio of a TTC (axial), PSC (plane strain) or simple shear path, the largest measured for any other path
+// with a servo.
+TEST(ToleranceRateBias, EachPathPredictsItsActualInertialNumberFromTheImposed) {
+  const RateBiasModel& m = time_to_answer_rules().rate_bias;
+  ASSERT_GE(m.paths.size(), 2u);
+  EXPECT_GE(m.path_margin, 1.0);
+  double largest = 0.0;
+  for (const MeasuredPath& p : m.paths) largest = std::max(largest, m.path_margin * p.ratio);
+  const auto ratio_of = [&](const std::string& name) {  // as used: times the margin
+    for (const MeasuredPath& p : m.paths)
+      if (p.path == name) return m.path_margin * p.ratio;
+    ADD_FAILURE() << name;
+    return 0.0;
+  };
+  const auto path = [&](const char* axes, bool shear = false) {
+    return actual_to_imposed(m, Json::parse(axes), shear);
+  };
+  const PathRatio ttc = path(R"({"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5}})");
+  EXPECT_EQ(ttc.path, "axial");
+  EXPECT_EQ(ttc.ratio, ratio_of("axial"));
+  const PathRatio tte = path(R"({"x1": {"stress": 1e5}, "x2": {"mean_stress": 1e5}, "x3": {"strain_rate": -0.1}})");
+  EXPECT_EQ(tte.path, "axial");
+  // a b axis: its measured b, or the larger ratio of the measured b around it (b = 0.5 and 0.75 are measured)
+  const auto at_b = [&](double b) {
+    Json axes = Json::parse(R"({"x1": {"strain_increment": 2e-7}, "x3": {"mean_stress": 1e5}})");
+    axes["x2"] = Json{{"b", b}};
+    return actual_to_imposed(m, axes, false);
+  };
+  EXPECT_EQ(at_b(0.5).ratio, ratio_of("true triaxial, b = 0.5"));
+  EXPECT_EQ(at_b(0.6).ratio, std::max(ratio_of("true triaxial, b = 0.5"), ratio_of("true triaxial, b = 0.75")));
+  EXPECT_EQ(at_b(1.0).ratio, largest);  // b = 1, the largest measured
+  for (double b = 0.0; b < 1.0; b += 0.05) EXPECT_GE(at_b(b + 0.05).ratio, at_b(b).ratio) << b;
+  const PathRatio psc =
+      path(R"({"x1": {"strain_increment": 2e-7}, "x2": {"strain_increment": 0}, "x3": {"stress": 1e5}})");
+  EXPECT_EQ(psc.path, "plane strain");
+  EXPECT_EQ(psc.ratio, ratio_of("plane strain"));
+  // every component strain-driven: sqrt(2 D':D') over core/plan's sqrt(3/2 e':e'), engineering shears (D12 = g12/2)
+  const std::array<double, kComponents> e = {0.3, -0.1, 0.05, 0.2, 0.0, -0.07};
+  const PathRatio strain = path(R"({"x1": {"strain_rate": 0.3}, "x2": {"strain_rate": -0.1},
+      "x3": {"strain_rate": 0.05}, "x12": {"strain_rate": 0.2}, "x23": {"strain_rate": -0.07}})");
+  EXPECT_EQ(strain.path, "strain-driven");
+  const double mean = (e[0] + e[1] + e[2]) / 3.0;
+  double dd = 0.0;
+  for (int k = 0; k < 3; ++k) dd += (e[k] - mean) * (e[k] - mean);
+  for (int k = 3; k < 6; ++k) dd += 2.0 * (0.5 * e[k]) * (0.5 * e[k]);
+  EXPECT_NEAR(strain.ratio * inertial_strain_rate(e), std::sqrt(2.0 * dd), 1e-14);
+  // a servo on a shear, a moving shear beside two servos, a constant volume: not measured
+  for (const char* axes : {R"({"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5},
+                              "x12": {"stress": 1e3}})",
+                           R"({"x1": {"strain_increment": 2e-7}, "x2": {"stress": 1e5}, "x3": {"stress": 1e5},
+                              "x13": {"strain_rate": 0.1}})",
+                           R"({"x1": {"strain_increment": 2e-7}, "x2": {"constant_volume": true},
+                              "x3": {"constant_volume": true}})"}) {
+    const PathRatio other = path(axes);
+    EXPECT_EQ(other.path, "unmeasured") << axes;
+    EXPECT_EQ(other.ratio, largest) << axes;
+  }
+  // a simple shear, by its key or by its axes
+  EXPECT_EQ(path("{}", true).path, "simple shear");
+  EXPECT_EQ(path("{}", true).ratio, ratio_of("simple shear"));
+  EXPECT_EQ(path(R"({"x1": {"strain_increment": 0}, "x2": {"stress": 1e5}, "x3": {"strain_increment": 0},
+      "x12": {"strain_increment": 2e-7}})")
+                .path,
+            "simple shear");
+  // At one T the PSC (the larger ratio) runs at a slower imposed rate than the TTC; both at the same actual I.
+  Json j = deck_json();
+  j["sample"]["count"] = 1000;
+  j["tests"][1] = j["tests"][0];
+  j["tests"][1]["name"] = "psc";
+  j["tests"][1]["axes"]["x2"] = Json{{"strain_increment", 0.0}};
+  j["tests"][1]["axes"]["x3"] = Json{{"stress", 1.5e5}};  // the TTC's confining stress, the mean of its two
+  const Deck d = resolve_tolerance(parse_deck(j.dump(), "deck.json"), j.dump(), 1.0);
+  const Json settings = Json::parse(d.tolerance_settings);
+  const double I = settings["rate"]["inertial_number"].get<double>();
+  for (int k : {1, 2}) {
+    const Json& leg = settings["stages"][k]["legs"][0];
+    EXPECT_NEAR(leg["inertial_number"].get<double>(), I, 1e-12 * I);
+    EXPECT_NEAR(leg["imposed_inertial_number"].get<double>() * leg["actual_to_imposed"].get<double>(), I, 1e-12 * I);
+  }
+  EXPECT_NEAR(plan_test(d, d.tests[1]).strain_rate / plan_test(d, d.tests[0]).strain_rate,
+              ratio_of("axial") / ratio_of("plane strain"), 1e-9);
+}
+
+// The promise checked after a run: at the allowed inertial number every law is within T (the limiting one at T);
+// 1 % above it the limiting law is beyond T; with no inertial number measured nothing is kept.
+TEST(ToleranceRateBias, TheCheckAfterARunKeepsTOnlyAtOrBelowTheAllowedRate) {
+  const RateBiasModel& m = time_to_answer_rules().rate_bias;
+  for (const double n : {1000.0, 8000.0}) {
+    const RateForTolerance r = inertial_number_for_tolerance(m, 1.0, n);
+    ASSERT_FALSE(r.limiting.empty());
+    const ToleranceCheck at = check_tolerance(m, 1.0, n, r.inertial_number, r.inertial_number / 2.2);
+    EXPECT_TRUE(at.kept);
+    EXPECT_EQ(at.inertial_number_allowed, r.inertial_number);
+    ASSERT_EQ(at.distances.size(), m.laws.size());
+    for (const ToleranceCheck::Distance& x : at.distances)
+      if (x.quantity == r.limiting) {
+        EXPECT_NEAR(x.upper, 1.0, 1e-9);
+      }
+    const ToleranceCheck above = check_tolerance(m, 1.0, n, 1.01 * r.inertial_number, r.inertial_number / 2.2);
+    EXPECT_FALSE(above.kept);
+    EXPECT_NEAR(above.to_json()["actual_to_imposed"].get<double>(), 2.2 * 1.01, 1e-12);
+    EXPECT_TRUE(check_tolerance(m, 1.0, n, 0.5 * r.inertial_number, 1e-5).kept);
+    EXPECT_FALSE(check_tolerance(m, 1.0, n, 0.0, 0.0).kept);
+  }
 }
 
 }  // namespace

@@ -336,7 +336,7 @@ TEST(EndToEnd, TolerancePlanSaysHowFarTheDeckIsFromTheQuasiStaticAnswer) {
   Result r = celldem(dir, "plan '" + deck.string() + "' --tolerance 1");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("tolerance 1 noise floors from I -> 0"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("strain-driven legs at inertial number"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("strain-driven legs at actual inertial number"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ttc as written: I "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("floors from I -> 0; "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("promise: the mean over seeds"), std::string::npos) << r.out;

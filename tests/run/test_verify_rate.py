@@ -330,7 +330,7 @@ def test_a_tolerance_run_prints_its_tolerance_cost_distance_and_verdicts(celldem
     first = stdout.splitlines()[0]
     assert first.startswith("tolerance 3 noise floors from I -> 0") and f"{cost:.3g}x the deck's cost" in first, first
     rate = t["rate"]
-    assert f"strain-driven legs at inertial number {rate['inertial_number']:.3g}" in stdout
+    assert f"strain-driven legs at actual inertial number {rate['inertial_number']:.3g}" in stdout
     for w in rate["written"]:
         assert f"{w['stage']} as written: I {w['inertial_number']:.3g}, " in stdout
         assert w["slowed"] == (w["inertial_number"] > rate["inertial_number"])
@@ -342,3 +342,19 @@ def test_a_tolerance_run_prints_its_tolerance_cost_distance_and_verdicts(celldem
         for q, c in v["comparisons"].items():
             line = f"{test}:   {q}: not compared" if c["verdict"] == "not compared" else f"{test}:   {q:<20s} "
             assert line in stdout and c["verdict"] in stdout, (line, stdout[-1500:])
+    # The promise against the run: the mean actual inertial number of each test's strain-driven rows, recomputed
+    # from its series, each law's distance at it, and the verdict on the console.
+    legs = {leg["path"] for stage in t["stages"] for leg in stage["legs"] if "path" in leg}
+    assert legs == {"axial", "plane strain"}, legs
+    for test, s in summary["tests"].items():
+        k = s["tolerance"]
+        with open(os.path.join(work, "tolerance", test, "series.csv")) as f:
+            rows = [r for r in csv.DictReader(f) if float(r["step"]) > 0 and float(r["imposed_inertial_number"]) > 0]
+        actual = np.mean([float(r["inertial_number"]) for r in rows])
+        imposed = np.mean([float(r["imposed_inertial_number"]) for r in rows])
+        assert math.isclose(k["inertial_number"], actual, rel_tol=1e-6), (k, actual)
+        assert math.isclose(k["actual_to_imposed"], actual / imposed, rel_tol=1e-6)
+        assert k["inertial_number_allowed"] == rate["inertial_number"]
+        assert k["kept"] == all(u <= 3 * (1 + 1e-9) for _, u in k["distance_floors"].values())
+        assert set(k["distance_floors"]) == {law["quantity"] for law in rate["laws"]}
+        assert f"{test}: tolerance 3 floors {'kept' if k['kept'] else 'NOT kept'}: " in stdout, stdout[-1500:]
