@@ -148,6 +148,14 @@ struct Resolver {
         report["imposed_inertial_number_written"] = inertial_number(rate * to_inertial, d, rho, stress);
         report["imposed_inertial_number"] = inertial_number(new_rate * to_inertial, d, rho, stress);
       }
+      // An adaptive rate speeds the leg up to its ceiling on the actual inertial number: no higher than T allows.
+      if (!preparation && leg.contains("adaptive_rate") && leg["adaptive_rate"].is_object()) {
+        Json& adaptive = leg["adaptive_rate"];
+        const double ceiling = adaptive.value("inertial_number", keys::adaptive_inertial_number.fallback);
+        adaptive["inertial_number"] = std::min(ceiling, level.inertial_number);
+        report["adaptive_ceiling_written"] = ceiling;
+        report["adaptive_ceiling"] = adaptive["inertial_number"];
+      }
       if (stress > 0.0 && !preparation) {  // the laws' inertial number: the cell's actual one, predicted
         report["path"] = path.path;
         report["actual_to_imposed"] = path.ratio;

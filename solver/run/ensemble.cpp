@@ -152,14 +152,29 @@ Json ensemble_statistics(const std::vector<std::uint64_t>& seeds, const std::vec
   for (const auto& [name, columns] : tests) out["tests"][name] = describe_all(columns);
   // The rate check over the seeds that ran it: TOST on the mean paired error (run/verify_rate.hpp).
   if (Json rate = rate_check_across_seeds(seeds, summaries); !rate.empty()) out["verify_rate"] = rate;
+  // --tolerance's check after each test, per seed (io/tolerance check_tolerance): the seeds that kept T.
+  for (std::size_t k = 0; k < summaries.size(); ++k) {
+    const Json tests_of_seed = summaries[k].value("tests", Json::object());
+    for (const auto& [name, test] : tests_of_seed.items()) {
+      if (!test.contains("tolerance") || !test["tolerance"].is_object()) continue;
+      Json& t = out["tolerance"][name];
+      if (t.is_null()) t = {{"seeds", 0}, {"kept", 0}, {"not_kept", Json::array()}, {"not_checked", Json::array()}};
+      t["seeds"] = t["seeds"].get<int>() + 1;
+      const Json& kept = test["tolerance"].value("kept", Json());
+      if (kept.is_boolean() && kept.get<bool>())
+        t["kept"] = t["kept"].get<int>() + 1;
+      else
+        (kept.is_boolean() ? t["not_kept"] : t["not_checked"]).push_back(seeds[k]);
+    }
+  }
   // Paired differences on the same seeds (the same sample): B - A for every quantity both tests have.
   for (auto a = by_seed.begin(); a != by_seed.end(); ++a)
     for (auto b = std::next(a); b != by_seed.end(); ++b) {
       Columns diff;
       for (const auto& [q, values_a] : a->second) {
-        // verify_rate.* are the rate check's own settings and verdict counts (floors, steps, margins), not results
-        // of the test: their difference between two tests means nothing.
-        if (q.rfind("verify_rate.", 0) == 0) continue;
+        // verify_rate.* and tolerance.* are the checks' own settings and verdicts (floors, steps, margins), not
+        // results of the test: their difference between two tests means nothing.
+        if (q.rfind("verify_rate.", 0) == 0 || q.rfind("tolerance.", 0) == 0) continue;
         const auto it = b->second.find(q);
         if (it == b->second.end()) continue;
         for (const auto& [seed, va] : values_a)
@@ -195,6 +210,11 @@ void write_ensemble(const fs::path& dir, const std::vector<std::uint64_t>& seeds
       std::printf("ensemble: %s: rate check over the seeds (TOST, T = %g floors): %s\n", name.c_str(),
                   t["tolerance_floors"].get<double>(), t["verdict"].get<std::string>().c_str());
     }
+  if (statistics.contains("tolerance"))  // the promise's check over the seeds: a seed that missed it is seen
+    for (const auto& [name, t] : statistics["tolerance"].items())
+      std::printf("ensemble: %s: tolerance kept on %d of %d seeds%s\n", name.c_str(), t["kept"].get<int>(),
+                  t["seeds"].get<int>(),
+                  t["not_kept"].empty() ? "" : (" (not kept: seeds " + t["not_kept"].dump() + ")").c_str());
   if (!quiet) std::printf("wrote %s\n", (dir / "ensemble.json").c_str());
 }
 

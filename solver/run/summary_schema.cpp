@@ -41,6 +41,8 @@ constexpr F kToleranceLeg[] = {
     {"path", "", "a test leg's path: strain-driven, a measured path (axial, plane strain) or unmeasured"},
     {"actual_to_imposed", "1", "the ratio that predicts its actual inertial number from the imposed"},
     {"actual_to_imposed_basis", "", "where that ratio comes from"},
+    {"adaptive_ceiling", "1", "an adaptive leg's ceiling on the actual inertial number, at most the one T allows"},
+    {"adaptive_ceiling_written", "1", "the deck's"},
     {"confining_stress", "Pa", "the stress the inertial number is taken at"}};
 constexpr F kToleranceStage[] = {
     {"stage", "", "prepare or the test's name"},

@@ -295,9 +295,9 @@ class ToleranceReport : public StageObserver {
     if (!c.kept)
       out.warnings.push_back(
           "test '" + test_ + "': " + buf +
-          ": the actual inertial number was above the one the rules predicted for its path (summary.json "
-          "tests." +
-          test_ + ".tolerance)");
+          ": it ran above the inertial number T allows (its path's actual-to-imposed ratio above the rules' "
+          "prediction, or an adaptive rate above its ceiling: summary.json tests." +
+          test_ + ".tolerance, tolerance.stages)");
     return out;
   }
 

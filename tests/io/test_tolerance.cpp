@@ -493,6 +493,23 @@ TEST(ToleranceRateBias, EachPathPredictsItsActualInertialNumberFromTheImposed) {
               ratio_of("axial") / ratio_of("plane strain"), 1e-9);
 }
 
+// An adaptive rate speeds a leg up to its ceiling on the actual inertial number: under --tolerance that ceiling is
+// at most the inertial number T allows (a lower written one kept), so the adaptive rate cannot run past the promise.
+TEST(ToleranceRateBias, AnAdaptiveRatesCeilingIsAtMostWhatTAllows) {
+  for (const double written : {5e-4, 1e-9}) {
+    Json j = deck_json();
+    j["sample"]["count"] = 1000;
+    j["tests"][0]["adaptive_rate"] = Json{{"inertial_number", written}};
+    const Deck d = resolve_tolerance(parse_deck(j.dump(), "deck.json"), j.dump(), 3.0);
+    const double allowed = Json::parse(d.tolerance_settings)["rate"]["inertial_number"].get<double>();
+    ASSERT_LT(allowed, 5e-4);
+    ASSERT_TRUE(d.tests[0].legs[0].adaptive.has_value());
+    EXPECT_EQ(d.tests[0].legs[0].adaptive->inertial_number, std::min(written, allowed)) << written;
+    EXPECT_EQ(Json::parse(d.tolerance_settings)["stages"][1]["legs"][0]["adaptive_ceiling_written"].get<double>(),
+              written);
+  }
+}
+
 // The promise checked after a run: at the allowed inertial number every law is within T (the limiting one at T);
 // 1 % above it the limiting law is beyond T; with no inertial number measured nothing is kept.
 TEST(ToleranceRateBias, TheCheckAfterARunKeepsTOnlyAtOrBelowTheAllowedRate) {

@@ -86,5 +86,24 @@ TEST(Ensemble, QuantitiesAndPairedDifferences) {
   EXPECT_FALSE(e["paired"]["ttc-psc"].contains("verify_rate.tolerance_floors"));
 }
 
+// --tolerance's check after each test, over the seeds: each seed counted as kept, not kept (named) or not checked,
+// and its numbers not differenced between tests.
+TEST(Ensemble, TheToleranceCheckIsCountedOverTheSeeds) {
+  const auto test = [](Json kept) {
+    return Json{{"peak_ratio13", 3.0}, {"tolerance", {{"kept", kept}, {"inertial_number", 1e-4}}}};
+  };
+  const std::vector<Json> summaries = {{{"tests", {{"ttc", test(true)}, {"psc", test(true)}}}},
+                                       {{"tests", {{"ttc", test(false)}, {"psc", test(true)}}}},
+                                       {{"tests", {{"ttc", test(nullptr)}, {"psc", test(true)}}}}};
+  const Json e = ensemble_statistics({4, 5, 6}, summaries);
+  EXPECT_EQ(e["tolerance"]["ttc"]["seeds"], 3);
+  EXPECT_EQ(e["tolerance"]["ttc"]["kept"], 1);
+  EXPECT_EQ(e["tolerance"]["ttc"]["not_kept"], Json::array({5}));
+  EXPECT_EQ(e["tolerance"]["ttc"]["not_checked"], Json::array({6}));
+  EXPECT_EQ(e["tolerance"]["psc"]["kept"], 3);
+  EXPECT_FALSE(e["paired"]["ttc-psc"].contains("tolerance.inertial_number"));
+  EXPECT_FALSE(ensemble_statistics({1}, {{{"tests", {{"ttc", {{"peak_ratio13", 3.0}}}}}}}).contains("tolerance"));
+}
+
 }  // namespace
 }  // namespace celldem
