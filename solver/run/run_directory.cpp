@@ -380,6 +380,14 @@ void RunDirectory::write_summary() {
   write_file_atomic(dir_ / kSummaryName, summary_.dump(2));
 }
 
+void RunDirectory::remove_temporaries() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  for (const char* name : {kSummaryName, kProgressName}) {
+    const fs::path tmp = dir_ / (std::string(name) + ".tmp");
+    if (::unlink(tmp.c_str()) != 0 && errno != ENOENT) throw_io_error(tmp, "cannot remove", errno);
+  }
+}
+
 void RunDirectory::write_progress() { write_file_atomic(dir_ / kProgressName, progress_.dump(2)); }
 
 }  // namespace celldem

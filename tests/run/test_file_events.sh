@@ -9,7 +9,10 @@
 # Usage: test_file_events.sh CELLDEM KILL_AT_LIBRARY [SEED=1] [SECONDS=120] [MIN_TRIALS=20] [PATTERN]
 # PATTERN (grep -E over the event log's "N op path" lines) draws only among matching events, e.g.
 # 'rename .*checkpoint' for the windows after each checkpoint's commit. ENERGY_BUDGET=1 in the environment runs the
-# deck with "energy_budget": true (its totals then travel in each checkpoint's record).
+# deck with "energy_budget": true (its totals then travel in each checkpoint's record). FILE_EVENT_CLASSES=1 draws
+# nothing: it visits every class of event (its op and its path with the numbers in it made N: one series row, one
+# stage's checkpoint commit, one rung's summary ...) at its first and its last event, killed before and after it
+# and, a write, torn (SECONDS and MIN_TRIALS are then ignored).
 set -uo pipefail
 celldem="$1"
 interposer="$2"
@@ -86,16 +89,34 @@ mapfile -t drawn < <(grep -E -- "$pattern" "$work/events.log" | cut -d' ' -f1)
 ((${#drawn[@]} > 0)) || fail "no file event matches '$pattern'"
 echo "reference: $(echo "$(date +%s.%N) - $start" | bc) s, $events file events ($(cut -d' ' -f2 "$work/events.log" | sort | uniq -c | tr '\n' ' ' | tr -s ' '))"
 
+# The class visit: "N when" per trial, each class's first and last event (one event: once) at each moment.
+visits=()
+if [[ "${FILE_EVENT_CLASSES:-0}" == 1 ]]; then
+  mapfile -t visits < <(grep -E -- "$pattern" "$work/events.log" | sed "s|$work/ref/||" | awk '
+    { cls = $2 " " $3; gsub(/[0-9]+/, "N", cls)
+      if (!(cls in first)) { first[cls] = $1; order[++n] = cls; op[cls] = $2 }
+      last[cls] = $1 }
+    END { for (i = 1; i <= n; ++i) { c = order[i]
+            split(first[c] (last[c] != first[c] ? " " last[c] : ""), at, " ")
+            for (k in at) { print at[k], "after"; print at[k], "before"; if (op[c] == "write") print at[k], "torn" } } }')
+  classes=$(grep -E -- "$pattern" "$work/events.log" | sed "s|$work/ref/||" | awk '{ c = $2 " " $3; gsub(/[0-9]+/, "N", c); print c }' | sort -u | wc -l)
+  echo "class visit: $classes classes of event, ${#visits[@]} trials"
+fi
+
 passed=0 failed=0 skipped=0 trials=0
 declare -A failed_at
 t0=$SECONDS
-while ((trials < min_trials || SECONDS - t0 < budget)); do
+while if ((${#visits[@]})); then ((trials < ${#visits[@]})); else ((trials < min_trials || SECONDS - t0 < budget)); fi; do
   trials=$((trials + 1))
   d="$work/t"
   rm -rf "$d"
-  n=${drawn[(RANDOM * 32768 + RANDOM) % ${#drawn[@]}]}
-  when=(after before torn)
-  when=${when[RANDOM % 3]}
+  if ((${#visits[@]})); then
+    read -r n when <<< "${visits[trials - 1]}"
+  else
+    n=${drawn[(RANDOM * 32768 + RANDOM) % ${#drawn[@]}]}
+    when=(after before torn)
+    when=${when[RANDOM % 3]}
+  fi
   what="event $n ($when): $(sed -n "${n}p" "$work/events.log" | cut -d' ' -f2- | sed "s|$work/ref/||")"
   { CELLDEM_KILL_AT=$n CELLDEM_KILL_WHEN=$when LD_PRELOAD="$interposer" \
       "$celldem" run "$work/deck.json" --out "$d" "${args[@]}"; } 2>/dev/null  # (and the shell's "Killed")

@@ -205,6 +205,16 @@ TEST(Reliability, ForceLeavesOnlyTheNewRunsOutputs) {
   EXPECT_EQ(again.code, 0) << again.err;
   EXPECT_NE(again.out.find("complete"), std::string::npos) << again.out;
   EXPECT_EQ(read_bytes(dir / "run" / "summary.json"), before);
+
+  // Killed inside its last summary write (after the open or a write of summary.json.tmp): the resume of the
+  // complete run removes the temporary it left, as the uninterrupted run has none (found by the file-event visit).
+  write_bytes(dir / "run" / "summary.json.tmp", before.substr(0, before.size() / 2));
+  write_bytes(dir / "run" / "progress.json.tmp", "");
+  const Result stray = celldem(dir, run_args(dir / "second.json", dir / "run", "--resume"));
+  EXPECT_EQ(stray.code, 0) << stray.err;
+  EXPECT_FALSE(fs::exists(dir / "run" / "summary.json.tmp"));
+  EXPECT_FALSE(fs::exists(dir / "run" / "progress.json.tmp"));
+  EXPECT_EQ(read_bytes(dir / "run" / "summary.json"), before);
 }
 
 }  // namespace
