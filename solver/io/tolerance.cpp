@@ -430,10 +430,6 @@ PathRatio actual_to_imposed(const RateBiasModel& model, const Json& axes, bool s
       ++shear_driven;
   }
   const double margin = model.path_margin;
-  const double largest =
-      margin * std::max_element(model.paths.begin(), model.paths.end(), [](const auto& a, const auto& b) {
-                 return a.ratio < b.ratio;
-               })->ratio;
   if (held == 0 && b_axes == 0)
     return {"strain-driven", 2.0 / std::sqrt(3.0),
             "every component strain-driven: sqrt(2 D':D') over sqrt(3/2 e':e') of one tensor, exactly 2/sqrt(3)"};
@@ -457,7 +453,9 @@ PathRatio actual_to_imposed(const RateBiasModel& model, const Json& axes, bool s
             "measured on its path at b = " + fmt(below->b) + " and " + fmt(above->b) +
                 ", the larger of the two, times the margin"};
   }
-  return {"unmeasured", largest,
+  const auto largest = std::max_element(model.paths.begin(), model.paths.end(),
+                                        [](const auto& x, const auto& y) { return x.ratio < y.ratio; });
+  return {"unmeasured", margin * largest->ratio,
           "a path with servo-held components not measured: the largest measured path's ratio times the margin; the run "
           "checks it"};
 }

@@ -272,6 +272,12 @@ RunDirectory::RunDirectory(const Deck& deck, const RunOptions& options)
       // Killed between marking the stage done and removing its checkpoint: the checkpoint is stale, removed.
       remove_checkpoint(stage.get<std::string>());
     }
+    // Killed inside a summary or progress write: its temporary is stale (the file it would have replaced is whole,
+    // the rename being the commit), removed even where the run is complete and writes nothing more.
+    for (const char* name : {kSummaryName, kProgressName}) {
+      const fs::path tmp = dir_ / (std::string(name) + ".tmp");
+      if (::unlink(tmp.c_str()) != 0 && errno != ENOENT) throw_io_error(tmp, "cannot remove", errno);
+    }
     lock_.claim();
     return;
   }
@@ -378,14 +384,6 @@ Json RunDirectory::summary() const {
 void RunDirectory::write_summary() {
   const std::lock_guard<std::mutex> lock(mutex_);
   write_file_atomic(dir_ / kSummaryName, summary_.dump(2));
-}
-
-void RunDirectory::remove_temporaries() {
-  const std::lock_guard<std::mutex> lock(mutex_);
-  for (const char* name : {kSummaryName, kProgressName}) {
-    const fs::path tmp = dir_ / (std::string(name) + ".tmp");
-    if (::unlink(tmp.c_str()) != 0 && errno != ENOENT) throw_io_error(tmp, "cannot remove", errno);
-  }
 }
 
 void RunDirectory::write_progress() { write_file_atomic(dir_ / kProgressName, progress_.dump(2)); }

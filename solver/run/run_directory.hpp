@@ -91,9 +91,6 @@ class RunDirectory {
   void update_summary(const std::function<void(nlohmann::json&)>& change);
   nlohmann::json summary() const;
   void write_summary();
-  // A complete run resumed: the temporaries of a last summary or progress write a kill cut short are removed (the
-  // files they would have replaced hold the same content or the run would not be complete).
-  void remove_temporaries();
 
  private:
   void write_progress();

@@ -183,7 +183,6 @@ void run_deck(const Deck& deck, const RunOptions& options) {
   if (deck.prepare) stages.push_back("prepare");
   for (const TestDef& t : deck.tests) stages.push_back(t.name);
   if (options.resume && std::all_of(stages.begin(), stages.end(), [&](const auto& s) { return run.completed(s); })) {
-    run.remove_temporaries();  // killed inside the last summary write: its summary.json is already whole
     std::printf("%s: the run is complete; nothing to resume (use --force to run it again)\n",
                 options.out_dir.c_str());
     return;

@@ -4,8 +4,8 @@
 # LD_PRELOAD); each trial draws an event and a moment (before it, after it, or a write torn in half), kills the run
 # there with SIGKILL, then resumes it (the first resume itself killed at a drawn event half of the time) until it
 # ends. Every finished file must be the uninterrupted run's bytes, and summary.json its values (control errors and
-# verdicts included; only times and speeds differ). A trial whose kill did not land (the run ended first) is counted
-# as skipped, never as passed.
+# verdicts included; only times and speeds differ). A trial whose kill did not land (the run ended first), or landed
+# at another operation or file than the reference run's event of that number, is counted as skipped, never as passed.
 # Usage: test_file_events.sh CELLDEM KILL_AT_LIBRARY [SEED=1] [SECONDS=120] [MIN_TRIALS=20] [PATTERN]
 # PATTERN (grep -E over the event log's "N op path" lines) draws only among matching events, e.g.
 # 'rename .*checkpoint' for the windows after each checkpoint's commit. ENERGY_BUDGET=1 in the environment runs the
@@ -89,7 +89,8 @@ mapfile -t drawn < <(grep -E -- "$pattern" "$work/events.log" | cut -d' ' -f1)
 ((${#drawn[@]} > 0)) || fail "no file event matches '$pattern'"
 echo "reference: $(echo "$(date +%s.%N) - $start" | bc) s, $events file events ($(cut -d' ' -f2 "$work/events.log" | sort | uniq -c | tr '\n' ' ' | tr -s ' '))"
 
-# The class visit: "N when" per trial, each class's first and last event (one event: once) at each moment.
+# The class visit: "N when" per trial, each class's first and last event (one event: once) at each moment; its
+# last line is the count of classes.
 visits=()
 if [[ "${FILE_EVENT_CLASSES:-0}" == 1 ]]; then
   mapfile -t visits < <(grep -E -- "$pattern" "$work/events.log" | sed "s|$work/ref/||" | awk '
@@ -98,8 +99,10 @@ if [[ "${FILE_EVENT_CLASSES:-0}" == 1 ]]; then
       last[cls] = $1 }
     END { for (i = 1; i <= n; ++i) { c = order[i]
             split(first[c] (last[c] != first[c] ? " " last[c] : ""), at, " ")
-            for (k in at) { print at[k], "after"; print at[k], "before"; if (op[c] == "write") print at[k], "torn" } } }')
-  classes=$(grep -E -- "$pattern" "$work/events.log" | sed "s|$work/ref/||" | awk '{ c = $2 " " $3; gsub(/[0-9]+/, "N", c); print c }' | sort -u | wc -l)
+            for (k in at) { print at[k], "after"; print at[k], "before"; if (op[c] == "write") print at[k], "torn" } }
+          print n }')
+  classes=${visits[-1]}
+  unset 'visits[-1]'
   echo "class visit: $classes classes of event, ${#visits[@]} trials"
 fi
 
@@ -118,10 +121,13 @@ while if ((${#visits[@]})); then ((trials < ${#visits[@]})); else ((trials < min
     when=${when[RANDOM % 3]}
   fi
   what="event $n ($when): $(sed -n "${n}p" "$work/events.log" | cut -d' ' -f2- | sed "s|$work/ref/||")"
-  { CELLDEM_KILL_AT=$n CELLDEM_KILL_WHEN=$when LD_PRELOAD="$interposer" \
+  rm -f "$work/kill.log"
+  { CELLDEM_KILL_AT=$n CELLDEM_KILL_WHEN=$when CELLDEM_KILL_LOG="$work/kill.log" LD_PRELOAD="$interposer" \
       "$celldem" run "$work/deck.json" --out "$d" "${args[@]}"; } 2>/dev/null  # (and the shell's "Killed")
   rc=$?
-  if ((rc != 137)); then  # the kill did not land: nothing was tested
+  # The kill landed, and at the reference run's event n (the same operation on the same file): else nothing that
+  # was meant was tested.
+  if ((rc != 137)) || [[ "$(tail -1 "$work/kill.log")" != "$(sed -n "${n}p" "$work/events.log" | sed "s|$work/ref|$d|") KILL" ]]; then
     skipped=$((skipped + 1))
     continue
   fi
@@ -155,7 +161,7 @@ while if ((${#visits[@]})); then ((trials < ${#visits[@]})); else ((trials < min
     echo "failed: $what: $why"
   fi
 done
-echo "file-event trials: $trials drawn, $passed passed, $failed failed, $skipped skipped (the kill did not land)"
+echo "file-event trials: $trials drawn, $passed passed, $failed failed, $skipped skipped (the kill did not land at its event)"
 ((failed == 0)) || fail "$failed trials failed"
 ((passed > 0)) || fail "no trial set up what it meant to test"
 echo "PASS"
